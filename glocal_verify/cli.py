@@ -1,0 +1,159 @@
+"""The ``glocal-verify`` command: a thin layer over the library.
+
+Exit codes: 0 report written; 1 a condition named in ``--require`` fails or is undecided;
+2 bad input or usage (one line on stderr, no traceback).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Callable, Sequence
+
+from .errors import GlocalVerifyError
+from .linalg import Tolerance
+from .model import System
+from .registry import CATALOGUE, implemented_ids, resolve_ids, verify
+from .report import FORMATS, render
+from .results import Status
+from .spec import example_names, example_text, load_example, load_spec
+
+__all__ = ["main", "build_parser"]
+
+PROG = "glocal-verify"
+
+
+class _UsageError(GlocalVerifyError):
+    pass
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # type: ignore[override]
+        raise _UsageError(message)
+
+
+def _ids(text: str | None) -> list[str] | None:
+    if text is None:
+        return None
+    return [t for t in (x.strip() for x in text.split(",")) if t]
+
+
+def _load_system(args: argparse.Namespace) -> System:
+    if args.example and args.spec:
+        raise _UsageError("give either SPEC or --example, not both")
+    if args.example:
+        return System(load_example(args.example))
+    if not args.spec:
+        raise _UsageError("a SPEC file or --example NAME is required")
+    return System(load_spec(args.spec))
+
+
+def _write(text: str, out: str | None) -> None:
+    if out:
+        p = Path(out)
+        try:
+            p.parent.mkdir(parents=True, exist_ok=True)
+            p.write_text(text, encoding="utf-8")
+        except OSError as exc:
+            raise _UsageError(f"--out {out}: cannot write ({exc.strerror})") from None
+    else:
+        sys.stdout.write(text)
+
+
+def cmd_verify(args: argparse.Namespace) -> int:
+    only = _ids(args.only)
+    require = resolve_ids(_ids(args.require) or [])
+    if only is not None:
+        named = [t for t in only if not t.endswith(("*", "."))]
+        only = resolve_ids(only)
+        missing = [c for c in resolve_ids(named) if c not in implemented_ids()]
+        if missing:
+            raise _UsageError(f"--only: no checker implements {', '.join(missing)} yet")
+    try:
+        tol = Tolerance(args.rtol, args.band)
+    except ValueError as exc:
+        raise _UsageError(f"--rtol/--band: {exc}") from None
+    system = _load_system(args)
+    progress: Callable[[str], None] | None = None
+    if sys.stderr.isatty() and not args.quiet:
+        progress = lambda cid: print(f"checking {cid} ...", file=sys.stderr)  # noqa: E731
+    report = verify(system, only, exact=args.exact, tol=tol, progress=progress)
+    _write(render(report, args.format), args.out)
+    bad = []
+    for cid in require:
+        rs = report.results(cid)
+        if not rs:
+            bad.append(f"{cid}: not evaluated")
+        for r in rs:
+            if r.status is not Status.HOLDS:
+                scope = ", ".join(f"{k}={v}" for k, v in r.scope.items()) or "global"
+                bad.append(f"{cid} [{scope}]: {r.status.value}")
+    if bad:
+        for line in bad:
+            print(f"{PROG}: required condition not met: {line}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def cmd_example(args: argparse.Namespace) -> int:
+    if args.list or not args.name:
+        print("\n".join(example_names()))
+        return 0
+    sys.stdout.write(example_text(args.name))
+    return 0
+
+
+def cmd_conditions(args: argparse.Namespace) -> int:
+    impl = set(implemented_ids())
+    for cid, info in CATALOGUE.items():
+        mark = "" if cid in impl else "  (not implemented yet)"
+        print(f"{cid:36s} {info.reference}{mark}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog=PROG, description="Check the conditions of the glocal attack-detection paper on a concrete network.")
+    sub = p.add_subparsers(dest="command", parser_class=_Parser)
+
+    v = sub.add_parser("verify", help="check every condition and write a report")
+    v.add_argument("spec", nargs="?", help="system specification (TOML, format 1)")
+    v.add_argument("--example", metavar="NAME", help=f"use a bundled example ({', '.join(example_names())})")
+    v.add_argument("--format", choices=FORMATS, default="markdown", help="report format (default: markdown)")
+    v.add_argument("--out", metavar="FILE", help="write the report to FILE instead of stdout")
+    v.add_argument("--only", metavar="ID,...", help="check only these condition ids (prefixes like switching.* allowed)")
+    v.add_argument("--exact", action="store_true", help="decide with exact rational arithmetic (python-flint)")
+    v.add_argument("--require", metavar="ID,...", help="exit 1 unless every result of these ids holds")
+    v.add_argument("--rtol", type=float, default=Tolerance().rtol, help="relative tolerance of numeric decisions (default 1e-9)")
+    v.add_argument("--band", type=float, default=Tolerance().band, help="undecided band factor above rtol (default 1e3)")
+    v.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    v.set_defaults(func=cmd_verify)
+
+    e = sub.add_parser("example", help="print a bundled example specification")
+    e.add_argument("name", nargs="?", help="example name (e.g. paper19)")
+    e.add_argument("--list", action="store_true", help="list the bundled examples")
+    e.set_defaults(func=cmd_example)
+
+    c = sub.add_parser("conditions", help="list the condition ids")
+    c.set_defaults(func=cmd_conditions)
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+        if not getattr(args, "func", None):
+            parser.print_help(sys.stderr)
+            return 2
+        return int(args.func(args))
+    except GlocalVerifyError as exc:
+        print(f"{PROG}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

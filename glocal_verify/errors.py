@@ -1,0 +1,55 @@
+"""Exception classes of glocal-verify.
+
+Every error the library raises on purpose derives from :class:`GlocalVerifyError`.
+Subclasses also derive from the builtin they refine, so callers may catch either.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "GlocalVerifyError",
+    "SpecError",
+    "ModelError",
+    "UnknownConditionError",
+    "NotApplicableError",
+]
+
+
+class GlocalVerifyError(Exception):
+    """Root of every exception raised by glocal-verify."""
+
+
+class SpecError(ValueError, GlocalVerifyError):
+    """A system specification is malformed or inconsistent.
+
+    Parameters
+    ----------
+    path : str
+        Key path inside the specification, e.g. ``clusters[2].observers[0].center``.
+    problem : str
+        What is wrong at that place.
+    source : str, optional
+        File the specification came from, if any.
+    """
+
+    def __init__(self, path: str, problem: str, source: str | None = None) -> None:
+        self.path = path
+        self.problem = problem
+        self.source = source
+        where = f"{source}: " if source else ""
+        super().__init__(f"{where}{path}: {problem}" if path else f"{where}{problem}")
+
+
+class ModelError(ValueError, GlocalVerifyError):
+    """A model request does not fit the system (unknown mode, cluster, node ...)."""
+
+
+class UnknownConditionError(KeyError, GlocalVerifyError):
+    """A condition id is not in the catalogue; the message lists the closest ids."""
+
+    def __str__(self) -> str:  # KeyError quotes its argument; keep the plain text
+        return str(self.args[0]) if self.args else ""
+
+
+class NotApplicableError(ValueError, GlocalVerifyError):
+    """A check cannot be run on this system (e.g. a switching check without safe modes)."""

@@ -1,0 +1,441 @@
+"""The closed-loop model of eq. ``cl_sys`` and the cluster model of eq. ``cluster_dyn2``.
+
+.. math::
+
+    A_q = \\begin{bmatrix} 0 & I \\\\ -\\alpha L_q & -\\gamma I \\end{bmatrix},\\quad
+    B = \\begin{bmatrix} 0 \\\\ S_F^\\top \\end{bmatrix},\\quad
+    C = \\operatorname{blkdiag}(S_{M_x}, S_{M_v})
+
+Node labels are kept end to end: every public method takes and returns the user's labels;
+0-based indices appear only in arrays, in the order of :attr:`System.labels`.
+
+The cluster model follows ``CONDITIONS.md``: A^i is built from the principal block L[P_i, P_i]
+(it keeps the degree contributed by inter-cluster edges), the coupling enters the velocity rows
+of the boundary agents dP_i, and E^i = [0; S_{dP_i}^T] has one column per boundary agent.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Iterable, Sequence
+
+import networkx as nx
+import numpy as np
+
+from .errors import ModelError, SpecError
+from .spec import NORMAL_MODE, ClusterSpec, Label, ObserverSpec, SystemSpec
+
+__all__ = [
+    "System",
+    "ClusterModel",
+    "LocalObserver",
+    "state_matrix",
+    "selection",
+]
+
+
+def selection(indices: Sequence[int], n: int) -> np.ndarray:
+    """Selection matrix S_X with rows e_i^T, i in ``indices`` (shape ``len(indices) x n``)."""
+    S = np.zeros((len(indices), n))
+    for r, i in enumerate(indices):
+        S[r, i] = 1.0
+    return S
+
+
+def state_matrix(L: np.ndarray, alpha: float, gamma: float) -> np.ndarray:
+    """A = [[0, I], [-alpha L, -gamma I]] for a (principal block of a) Laplacian L."""
+    n = L.shape[0]
+    A = np.zeros((2 * n, 2 * n))
+    A[:n, n:] = np.eye(n)
+    A[n:, :n] = -alpha * L
+    A[n:, n:] = -gamma * np.eye(n)
+    return A
+
+
+@dataclass(frozen=True, slots=True)
+class LocalObserver:
+    """A local observer with its resolved measured sets (labels)."""
+
+    cluster: str
+    center: Label
+    positions: tuple[Label, ...]
+    velocities: tuple[Label, ...]
+    poles: tuple[Fraction, ...] | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class ClusterModel:
+    """Matrices of one cluster subsystem (eq. ``cluster_dyn2``) in a given mode.
+
+    Attributes
+    ----------
+    nodes : tuple of labels
+        Agents of the cluster, in the order of the rows of ``L`` (positions first, then
+        velocities in the state).
+    L : ndarray
+        Principal block L[P_i, P_i] of the mode's Laplacian.
+    A : ndarray
+        A^i = [[0, I], [-alpha L, -gamma I]].
+    boundary : tuple of labels
+        Agents of the cluster with at least one inter-cluster edge (dP_i).
+    cut_edges : tuple of (inside, outside, weight)
+        Inter-cluster edges of the cluster.
+    E : ndarray
+        E^i = [0; S_{dP_i}^T] (one column per boundary agent, full column rank).
+    coupling : dict
+        A^{ij} blocks per neighbouring cluster name.
+    """
+
+    name: str
+    mode: str
+    nodes: tuple[Label, ...]
+    L: np.ndarray
+    A: np.ndarray
+    boundary: tuple[Label, ...]
+    cut_edges: tuple[tuple[Label, Label, Fraction], ...]
+    E: np.ndarray
+    coupling: dict[str, np.ndarray]
+
+    def B(self, suspected: Iterable[Label]) -> np.ndarray:
+        """B^i = [0; S_F^T] for the suspected actuators inside the cluster."""
+        idx = [self.nodes.index(a) for a in suspected if a in self.nodes]
+        n = len(self.nodes)
+        B = np.zeros((2 * n, len(idx)))
+        for c, i in enumerate(idx):
+            B[n + i, c] = 1.0
+        return B
+
+    def C(self, positions: Iterable[Label], velocities: Iterable[Label]) -> np.ndarray:
+        """Local output matrix blkdiag(S_pos, S_vel) in cluster coordinates."""
+        n = len(self.nodes)
+        pi = [self.nodes.index(a) for a in positions]
+        vi = [self.nodes.index(a) for a in velocities]
+        C = np.zeros((len(pi) + len(vi), 2 * n))
+        for r, i in enumerate(pi):
+            C[r, i] = 1.0
+        for r, i in enumerate(vi):
+            C[len(pi) + r, n + i] = 1.0
+        return C
+
+
+class System:
+    """A multi-agent system built from a validated :class:`~glocal_verify.spec.SystemSpec`.
+
+    Parameters
+    ----------
+    spec : SystemSpec
+        The validated specification.
+
+    Examples
+    --------
+    >>> from glocal_verify.spec import load_example
+    >>> sys = System(load_example("paper19"))
+    >>> sys.n, sys.modes[:2]
+    (19, ('normal', 'case-1'))
+    """
+
+    def __init__(self, spec: SystemSpec) -> None:
+        self.spec = spec
+        self.labels: tuple[Label, ...] = spec.nodes
+        self.n = len(self.labels)
+        self.index: dict[Label, int] = {lab: i for i, lab in enumerate(self.labels)}
+        self.alpha_q = spec.alpha
+        self.gamma_q = spec.gamma
+        self.alpha = float(spec.alpha)
+        self.gamma = float(spec.gamma)
+        self.modes: tuple[str, ...] = spec.mode_names
+        self._edges: dict[str, dict[frozenset[Label], Fraction]] = {}
+        self._lap: dict[str, np.ndarray] = {}
+        self._eigh: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        base = {e.key: e.weight for e in spec.edges}
+        self._edges[NORMAL_MODE] = base
+        for m in spec.modes:
+            w = dict(base)
+            for u, v in m.remove:
+                del w[frozenset((u, v))]
+            for e in m.add:
+                w[e.key] = e.weight
+            self._edges[m.name] = w
+
+    # -- labels ---------------------------------------------------------------------------
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+    def idx(self, labels: Iterable[Label]) -> list[int]:
+        """0-based indices of ``labels``."""
+        out = []
+        for lab in labels:
+            if lab not in self.index:
+                raise ModelError(f"node {lab!r} is not in the graph")
+            out.append(self.index[lab])
+        return out
+
+    def vector_by_label(self, v: Sequence[object], *, digits: int | None = None) -> dict[Label, object]:
+        """Map a length-N vector to ``{label: value}`` (the form every witness uses)."""
+        out: dict[Label, object] = {}
+        for lab, x in zip(self.labels, v):
+            out[lab] = round(float(x), digits) if digits is not None else x  # type: ignore[arg-type]
+        return out
+
+    def check_mode(self, mode: str) -> str:
+        if mode not in self._edges:
+            raise ModelError(f"no mode named {mode!r} (modes: {', '.join(self.modes)})")
+        return mode
+
+    @property
+    def safe_modes(self) -> tuple[str, ...]:
+        return self.modes[1:]
+
+    # -- graphs and Laplacians --------------------------------------------------------------
+    def edges(self, mode: str = NORMAL_MODE) -> dict[frozenset[Label], Fraction]:
+        """Edge weights of a mode, ``{frozenset({u, v}): w}``."""
+        return dict(self._edges[self.check_mode(mode)])
+
+    def graph(self, mode: str = NORMAL_MODE) -> nx.Graph:
+        """The mode's communication graph as a networkx graph (weights as floats)."""
+        G = nx.Graph()
+        G.add_nodes_from(self.labels)
+        for key, w in self._edges[self.check_mode(mode)].items():
+            u, v = tuple(key)
+            G.add_edge(u, v, weight=float(w))
+        return G
+
+    def laplacian(self, mode: str = NORMAL_MODE) -> np.ndarray:
+        """L_q as a float array (read-only, cached)."""
+        self.check_mode(mode)
+        if mode not in self._lap:
+            L = np.zeros((self.n, self.n))
+            for key, w in self._edges[mode].items():
+                u, v = (self.index[x] for x in key)
+                fw = float(w)
+                L[u, v] -= fw
+                L[v, u] -= fw
+                L[u, u] += fw
+                L[v, v] += fw
+            L.setflags(write=False)
+            self._lap[mode] = L
+        return self._lap[mode]
+
+    def laplacian_exact(self, mode: str = NORMAL_MODE) -> list[list[Fraction]]:
+        """L_q with exact rational entries (row lists)."""
+        self.check_mode(mode)
+        L = [[Fraction(0)] * self.n for _ in range(self.n)]
+        for key, w in self._edges[mode].items():
+            u, v = (self.index[x] for x in key)
+            L[u][v] -= w
+            L[v][u] -= w
+            L[u][u] += w
+            L[v][v] += w
+        return L
+
+    def delta_laplacian(self, mode: str) -> np.ndarray:
+        """dL_q = L_q - L_1."""
+        return self.laplacian(mode) - self.laplacian(NORMAL_MODE)
+
+    def delta_laplacian_exact(self, mode: str) -> list[list[Fraction]]:
+        Lq = self.laplacian_exact(mode)
+        L1 = self.laplacian_exact(NORMAL_MODE)
+        return [[a - b for a, b in zip(ra, rb)] for ra, rb in zip(Lq, L1)]
+
+    def switching_links(self, mode: str) -> list[tuple[Label, Label, Fraction]]:
+        """Pairs whose weight differs between ``mode`` and the normal mode, with the change."""
+        a, b = self._edges[self.check_mode(mode)], self._edges[NORMAL_MODE]
+        out = []
+        for key in sorted(set(a) | set(b), key=lambda k: sorted(self.index[x] for x in k)):
+            d = a.get(key, Fraction(0)) - b.get(key, Fraction(0))
+            if d != 0:
+                u, v = sorted(key, key=lambda x: self.index[x])
+                out.append((u, v, d))
+        return out
+
+    def switching_components(self, mode: str) -> tuple[tuple[Label, ...], ...]:
+        """Connected components D_c (>= 2 nodes) of the graph of switching links (Definition A.1).
+
+        The links are the nonzero off-diagonal entries of dL_q; they come exactly from the
+        spec's ``add``/``remove`` lists, so no tolerance is involved.
+        """
+        G = nx.Graph()
+        for u, v, _ in self.switching_links(mode):
+            G.add_edge(u, v)
+        comps = [tuple(sorted(c, key=self.index.__getitem__)) for c in nx.connected_components(G)]
+        return tuple(sorted(comps, key=lambda c: self.index[c[0]]))
+
+    def eigh(self, mode: str = NORMAL_MODE) -> tuple[np.ndarray, np.ndarray]:
+        """Eigen-decomposition L_q = U diag(w) U^T (ascending w; cached, read-only)."""
+        self.check_mode(mode)
+        if mode not in self._eigh:
+            w, U = np.linalg.eigh(self.laplacian(mode))
+            w.setflags(write=False)
+            U.setflags(write=False)
+            self._eigh[mode] = (w, U)
+        return self._eigh[mode]
+
+    # -- global matrices --------------------------------------------------------------------
+    @property
+    def monitored_positions(self) -> tuple[Label, ...]:
+        return self.spec.monitor.positions
+
+    @property
+    def monitored_velocities(self) -> tuple[Label, ...]:
+        return self.spec.monitor.velocities
+
+    @property
+    def monitored(self) -> tuple[Label, ...]:
+        """M = M_x union M_v, in label order."""
+        s = set(self.monitored_positions) | set(self.monitored_velocities)
+        return tuple(lab for lab in self.labels if lab in s)
+
+    @property
+    def attacked(self) -> tuple[Label, ...]:
+        """Attacked actuators F of the spec's attack (empty without an attack)."""
+        return self.spec.attack.actuators if self.spec.attack else ()
+
+    def A(self, mode: str = NORMAL_MODE) -> np.ndarray:
+        """Dense A_q (2N x 2N). For large N use the modal structure instead."""
+        return state_matrix(self.laplacian(mode), self.alpha, self.gamma)
+
+    def B(self, actuators: Iterable[Label] | None = None) -> np.ndarray:
+        """B = [0; S_F^T] (2N x |F|); default F = the spec's attacked actuators."""
+        F = self.idx(self.attacked if actuators is None else actuators)
+        B = np.zeros((2 * self.n, len(F)))
+        for c, i in enumerate(F):
+            B[self.n + i, c] = 1.0
+        return B
+
+    def C(self) -> np.ndarray:
+        """C = blkdiag(S_{M_x}, S_{M_v}) (|M_x| + |M_v| rows)."""
+        px = self.idx(self.monitored_positions)
+        pv = self.idx(self.monitored_velocities)
+        C = np.zeros((len(px) + len(pv), 2 * self.n))
+        for r, i in enumerate(px):
+            C[r, i] = 1.0
+        for r, i in enumerate(pv):
+            C[len(px) + r, self.n + i] = 1.0
+        return C
+
+    def output_channels(self) -> tuple[str, ...]:
+        """Names of the rows of C: ``"x:<label>"`` for positions, ``"v:<label>"`` for velocities."""
+        return tuple(f"x:{a}" for a in self.monitored_positions) + tuple(f"v:{a}" for a in self.monitored_velocities)
+
+    # -- connectivity -----------------------------------------------------------------------
+    def components(self, mode: str = NORMAL_MODE) -> list[list[Label]]:
+        """Connected components of the mode's graph, each in label order."""
+        G = self.graph(mode)
+        comps = [sorted(c, key=self.index.__getitem__) for c in nx.connected_components(G)]
+        return sorted(comps, key=lambda c: self.index[c[0]])
+
+    def require_connected(self, purpose: str) -> None:
+        """Raise :class:`SpecError` if some mode's graph is disconnected.
+
+        Used by the commands that assume connectivity (consensus simulation, observer
+        placement); ``verify`` reports disconnection as the verdict of ``privacy.connected``.
+        """
+        for mode in self.modes:
+            comps = self.components(mode)
+            if len(comps) > 1:
+                where = "graph" if mode == NORMAL_MODE else f"modes[{self.modes.index(mode) - 1}]"
+                raise SpecError(
+                    where,
+                    f"the {mode} graph is disconnected ({len(comps)} components, e.g. {comps[-1][:6]}); "
+                    f"{purpose} assumes a connected graph",
+                    self.spec.source,
+                )
+
+    # -- clusters ---------------------------------------------------------------------------
+    @property
+    def clusters(self) -> tuple[ClusterSpec, ...]:
+        return self.spec.clusters
+
+    def cluster(self, name: str) -> ClusterSpec:
+        for c in self.spec.clusters:
+            if c.name == name:
+                return c
+        raise ModelError(f"no cluster named {name!r} (clusters: {', '.join(c.name for c in self.clusters) or 'none'})")
+
+    def cluster_of(self, label: Label) -> str:
+        for c in self.spec.clusters:
+            if label in c.nodes:
+                return c.name
+        raise ModelError(f"node {label!r} is in no cluster")
+
+    def neighbours(self, label: Label, mode: str = NORMAL_MODE) -> list[Label]:
+        """Neighbours of ``label`` in the mode's graph, in label order."""
+        out = []
+        for key in self._edges[self.check_mode(mode)]:
+            if label in key:
+                (other,) = tuple(key - {label})
+                out.append(other)
+        return sorted(out, key=self.index.__getitem__)
+
+    def observers(self, cluster: str | None = None) -> list[LocalObserver]:
+        """Local observers with their measured sets resolved (default: centre + neighbours in P_i)."""
+        out = []
+        for c in self.spec.clusters:
+            if cluster is not None and c.name != cluster:
+                continue
+            for o in c.observers:
+                out.append(self.resolve_observer(c, o))
+        if cluster is not None:
+            self.cluster(cluster)
+        return out
+
+    def resolve_observer(self, cluster: ClusterSpec, obs: ObserverSpec) -> LocalObserver:
+        members = set(cluster.nodes)
+        default = tuple(
+            lab for lab in cluster.nodes if lab == obs.center or (lab in members and lab in self.neighbours(obs.center))
+        )
+        return LocalObserver(
+            cluster.name,
+            obs.center,
+            obs.positions if obs.positions is not None else default,
+            obs.velocities if obs.velocities is not None else default,
+            obs.poles,
+        )
+
+    def cluster_model(self, name: str, mode: str = NORMAL_MODE) -> ClusterModel:
+        """The cluster subsystem of eq. ``cluster_dyn2`` for cluster ``name`` in ``mode``."""
+        c = self.cluster(name)
+        idx = self.idx(c.nodes)
+        L = self.laplacian(mode)
+        Lii = np.array(L[np.ix_(idx, idx)])
+        A = state_matrix(Lii, self.alpha, self.gamma)
+        members = set(c.nodes)
+        cut: list[tuple[Label, Label, Fraction]] = []
+        for key, w in self._edges[self.check_mode(mode)].items():
+            u, v = tuple(key)
+            if (u in members) != (v in members):
+                inside, outside = (u, v) if u in members else (v, u)
+                cut.append((inside, outside, w))
+        cut.sort(key=lambda t: (self.index[t[0]], self.index[t[1]]))
+        boundary = tuple(lab for lab in c.nodes if any(t[0] == lab for t in cut))
+        n = len(c.nodes)
+        E = np.zeros((2 * n, len(boundary)))
+        for col, lab in enumerate(boundary):
+            E[n + c.nodes.index(lab), col] = 1.0
+        coupling: dict[str, np.ndarray] = {}
+        for other in self.spec.clusters:
+            if other.name == name:
+                continue
+            jdx = self.idx(other.nodes)
+            Lij = L[np.ix_(idx, jdx)]
+            if np.any(Lij != 0.0):
+                Aij = np.zeros((2 * n, 2 * len(jdx)))
+                Aij[n:, : len(jdx)] = -self.alpha * Lij
+                coupling[other.name] = Aij
+        return ClusterModel(name, mode, c.nodes, Lii, A, boundary, tuple(cut), E, coupling)
+
+    def cluster_laplacian_exact(self, name: str, mode: str = NORMAL_MODE) -> list[list[Fraction]]:
+        """Principal block L[P_i, P_i] with exact rational entries."""
+        c = self.cluster(name)
+        idx = self.idx(c.nodes)
+        L = self.laplacian_exact(mode)
+        return [[L[i][j] for j in idx] for i in idx]
+
+    # -- convenience ------------------------------------------------------------------------
+    @classmethod
+    def from_spec_file(cls, path: str) -> "System":
+        from .spec import load_spec
+
+        return cls(load_spec(path))

@@ -1,0 +1,184 @@
+"""Verdicts: :class:`ConditionResult`, :class:`Finding` and :class:`Report`.
+
+Every checker returns :class:`ConditionResult` values with the fields fixed by
+``CONDITIONS.md``: ``id``, ``scope``, ``status`` (holds / fails / undecided), ``margin``,
+``tolerance``, ``method`` (numeric / exact), ``witness``, ``reference`` and ``statement``.
+``undecided`` means the numbers cannot separate the cases at the tolerance used; it is never
+turned into ``holds``. Exact results never are ``undecided``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from enum import Enum
+from fractions import Fraction
+from typing import Any, Mapping
+
+import numpy as np
+
+__all__ = ["Status", "Method", "ConditionResult", "Finding", "Report", "SystemInfo", "jsonable", "REPORT_SCHEMA_ID"]
+
+REPORT_SCHEMA_ID = "glocal-verify/report@1"
+
+
+class Status(str, Enum):
+    """Three-valued verdict."""
+
+    HOLDS = "holds"
+    FAILS = "fails"
+    UNDECIDED = "undecided"
+
+    def __str__(self) -> str:
+        return self.value
+
+
+class Method(str, Enum):
+    """How a verdict was reached."""
+
+    NUMERIC = "numeric"
+    EXACT = "exact"
+
+    def __str__(self) -> str:
+        return self.value
+
+
+@dataclass(frozen=True, slots=True)
+class ConditionResult:
+    """The verdict of one condition in one scope.
+
+    Attributes
+    ----------
+    id : str
+        Public condition id (``CONDITIONS.md``), e.g. ``"switching.image-kernel"``.
+    scope : mapping
+        ``{"mode": ..., "cluster": ..., "observer": ..., "suspected": ...}``; empty when global.
+    status : Status
+    margin : float or None
+        Distance from the boundary of the condition on the scale the checker documents;
+        ``None`` only where no meaningful scale exists.
+    tolerance : float or None
+        Relative tolerance used for the numeric decision; ``None`` for exact or purely
+        combinatorial decisions.
+    method : Method
+    witness : mapping
+        What proves the verdict, in the user's node labels.
+    reference : str
+        Place in the paper, e.g. ``"Theorem III.3 (i)"``.
+    statement : str
+        One line stating the condition.
+    """
+
+    id: str
+    scope: Mapping[str, Any]
+    status: Status
+    margin: float | None
+    tolerance: float | None
+    method: Method
+    witness: Mapping[str, Any]
+    reference: str
+    statement: str
+
+    @property
+    def holds(self) -> bool:
+        return self.status is Status.HOLDS
+
+    @property
+    def fails(self) -> bool:
+        return self.status is Status.FAILS
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "id": self.id,
+            "scope": jsonable(dict(self.scope)),
+            "status": self.status.value,
+            "margin": jsonable(self.margin),
+            "tolerance": self.tolerance,
+            "method": self.method.value,
+            "witness": jsonable(dict(self.witness)),
+            "reference": self.reference,
+            "statement": self.statement,
+        }
+
+
+@dataclass(frozen=True, slots=True)
+class Finding:
+    """A place where the paper is loose or wrong, as shown on this system."""
+
+    id: str
+    title: str
+    detail: str
+    reference: str = ""
+    data: Mapping[str, Any] = field(default_factory=dict)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"id": self.id, "title": self.title, "detail": self.detail, "reference": self.reference, "data": jsonable(dict(self.data))}
+
+
+@dataclass(frozen=True, slots=True)
+class SystemInfo:
+    name: str
+    agents: int
+    modes: tuple[str, ...]
+    clusters: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
+class Report:
+    """All verdicts of one verification run."""
+
+    system: SystemInfo
+    conditions: tuple[ConditionResult, ...]
+    findings: tuple[Finding, ...] = ()
+    options: Mapping[str, Any] = field(default_factory=dict)
+
+    def results(self, cid: str) -> list[ConditionResult]:
+        """All results with condition id ``cid``."""
+        return [r for r in self.conditions if r.id == cid]
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "schema": REPORT_SCHEMA_ID,
+            "system": {
+                "name": self.system.name,
+                "agents": self.system.agents,
+                "modes": list(self.system.modes),
+                "clusters": list(self.system.clusters),
+            },
+            "options": jsonable(dict(self.options)),
+            "conditions": [r.to_json() for r in self.conditions],
+            "findings": [f.to_json() for f in self.findings],
+        }
+
+
+def jsonable(x: Any) -> Any:
+    """Convert numpy scalars, complex numbers, fractions and tuples into JSON-ready values.
+
+    Complex numbers become ``[re, im]`` pairs (plain numbers when the imaginary part is
+    exactly zero); fractions become floats; non-finite floats become strings.
+    """
+    if x is None or isinstance(x, (bool, str)):
+        return x
+    if isinstance(x, Enum):
+        return x.value
+    if isinstance(x, (int, np.integer)):
+        return int(x)
+    if isinstance(x, Fraction):
+        return float(x) if x.denominator != 1 else int(x)
+    if isinstance(x, (float, np.floating)):
+        f = float(x)
+        return f if math.isfinite(f) else str(f)
+    if isinstance(x, (complex, np.complexfloating)):
+        c = complex(x)
+        if c.imag == 0.0:
+            return jsonable(c.real)
+        return [jsonable(c.real), jsonable(c.imag)]
+    if isinstance(x, np.ndarray):
+        return [jsonable(v) for v in x.tolist()]
+    if isinstance(x, Mapping):
+        return {str(k): jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple, set, frozenset)):
+        return [jsonable(v) for v in x]
+    if hasattr(x, "p") and hasattr(x, "q"):  # flint.fmpq
+        return jsonable(Fraction(int(x.p), int(x.q)))
+    return str(x)

@@ -1,0 +1,102 @@
+"""The report: JSON schema, Markdown, --only, --require, --exact and the example command."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import jsonschema
+import pytest
+
+from glocal_verify import System, load_example, validate_report_json, verify
+from glocal_verify.cli import main
+from glocal_verify.errors import UnknownConditionError
+from glocal_verify.registry import CATALOGUE, resolve_ids
+
+
+@pytest.fixture(scope="module")
+def paper19() -> System:
+    return System(load_example("paper19"))
+
+
+def test_the_json_report_validates_against_its_schema(paper19: System) -> None:
+    for exact in (False, True):
+        data = verify(paper19, exact=exact).to_json()
+        validate_report_json(data)
+        assert data["schema"] == "glocal-verify/report@1"
+        assert data["system"] == {"name": "paper19", "agents": 19, "modes": ["normal", "case-1", "case-2", "case-3"], "clusters": ["P1", "P2", "P3"]}
+
+
+def test_the_schema_rejects_a_report_with_a_bad_status(paper19: System) -> None:
+    data = verify(paper19).to_json()
+    data["conditions"][0]["status"] = "maybe"
+    with pytest.raises(jsonschema.ValidationError):
+        validate_report_json(data)
+
+
+def test_cli_writes_json_to_a_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "r" / "report.json"
+    assert main(["verify", "--example", "paper19", "--format", "json", "--out", str(out), "--quiet"]) == 0
+    data = json.loads(out.read_text())
+    validate_report_json(data)
+    ids = {c["id"] for c in data["conditions"]}
+    assert {"privacy.connected", "privacy.kernel", "switching.image-kernel", "switching.distinct-eigenvalues", "switching.coverage"} <= ids
+    for c in data["conditions"]:
+        if c["id"].startswith("switching."):
+            assert c["scope"]["mode"] in {"case-1", "case-2", "case-3"}
+
+
+def test_markdown_report_has_a_summary_and_a_section_per_condition(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["verify", "--example", "paper19"]) == 0
+    md = capsys.readouterr().out
+    assert md.startswith("# glocal-verify report: paper19")
+    assert "## Summary" in md and "## `switching.image-kernel` (Theorem III.3 (i))" in md
+
+
+def test_only_restricts_the_conditions(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["verify", "--example", "paper19", "--format", "json", "--only", "switching.*"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert {c["id"].split(".")[0] for c in data["conditions"]} == {"switching"}
+
+
+def test_require_exits_1_when_a_required_condition_fails(capsys: pytest.CaptureFixture[str]) -> None:
+    # case-3 of paper19 breaks Theorem III.3 (i) on purpose
+    assert main(["verify", "--example", "paper19", "--require", "switching.image-kernel", "--quiet"]) == 1
+    err = capsys.readouterr().err
+    assert "switching.image-kernel [mode=case-3]: fails" in err
+    assert main(["verify", "--example", "paper19", "--require", "privacy.kernel,privacy.connected"]) == 0
+
+
+def test_a_mistyped_condition_id_gets_the_closest_matches(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["verify", "--example", "paper19", "--only", "switching.imagekernel"]) == 2
+    assert "did you mean switching.image-kernel" in capsys.readouterr().err
+    with pytest.raises(UnknownConditionError):
+        resolve_ids(["privacy.kernal"])
+
+
+def test_exact_and_numeric_verdicts_agree_on_paper19(paper19: System) -> None:
+    num = {(r.id, tuple(sorted(r.scope.items()))): r.status for r in verify(paper19).conditions}
+    exa = {(r.id, tuple(sorted(r.scope.items()))): r.status for r in verify(paper19, exact=True).conditions}
+    assert num == exa
+
+
+def test_exact_results_have_no_tolerance_and_numeric_ones_record_it(paper19: System) -> None:
+    for r in verify(paper19, exact=True).conditions:
+        assert r.method.value == "exact" and r.tolerance is None
+    for r in verify(paper19, only=["switching.image-kernel"]).conditions:
+        assert r.method.value == "numeric" and r.tolerance == 1e-9
+
+
+def test_example_prints_the_bundled_spec(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["example", "paper19"]) == 0
+    text = capsys.readouterr().out
+    assert 'name = "paper19"' in text and "velocities = [7, 12, 14]" in text
+    assert main(["example", "--list"]) == 0
+    assert "paper19" in capsys.readouterr().out
+
+
+def test_conditions_lists_every_catalogue_id(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["conditions"]) == 0
+    out = capsys.readouterr().out
+    for cid in CATALOGUE:
+        assert cid in out
