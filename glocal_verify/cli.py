@@ -112,6 +112,13 @@ def cmd_conditions(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_findings(args: argparse.Namespace) -> int:
+    from .findings_report import build_findings_report
+
+    _write(build_findings_report(args.dir), args.out)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog=PROG, description="Check the conditions of the glocal attack-detection paper on a concrete network.")
     sub = p.add_subparsers(dest="command", parser_class=_Parser)
@@ -136,6 +143,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     c = sub.add_parser("conditions", help="list the condition ids")
     c.set_defaults(func=cmd_conditions)
+
+    f = sub.add_parser("findings", help="regenerate the findings report from reports/findings/*.toml")
+    f.add_argument("--dir", default="reports/findings", help="folder of counterexample specs")
+    f.add_argument("--out", metavar="FILE", help="write to FILE (e.g. reports/findings.md) instead of stdout")
+    f.set_defaults(func=cmd_findings)
     return p
 
 

@@ -66,7 +66,7 @@ _ENTRIES = [
 CATALOGUE: dict[str, ConditionInfo] = {cid: ConditionInfo(cid, ref, st) for cid, ref, st in _ENTRIES}
 
 #: modules that register checkers; each is imported if present in the package
-CHECKER_MODULES = ("privacy", "switching", "observability", "stealthy", "switching_safe", "central", "local", "detection")
+CHECKER_MODULES = ("privacy", "switching", "observability", "stealthy", "switching_safe", "central", "local", "detection", "paper_findings")
 
 
 @dataclass(frozen=True, slots=True)

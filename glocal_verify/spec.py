@@ -169,6 +169,7 @@ class SystemSpec:
     simulation: SimulationSpec = field(default_factory=SimulationSpec)
     description: str = ""
     source: str | None = None
+    finding: Mapping[str, Any] | None = None
 
     @property
     def mode_names(self) -> tuple[str, ...]:
@@ -376,6 +377,7 @@ class _Builder:
             simulation=simulation,
             description=str(d.get("description", "")),
             source=self.source,
+            finding=d.get("finding"),
         )
 
     def nodes(self, value: Any) -> tuple[Label, ...]:
