@@ -104,7 +104,7 @@ def matvec(A: Rows, v: Sequence[Fraction]) -> list[Fraction]:
 
 
 def select_rows(A: Rows, idx: Sequence[int]) -> list[list[Fraction]]:
-    return [list(A[i]) for i in idx]
+    return [[Fraction(x) for x in A[i]] for i in idx]
 
 
 def charpoly(rows: Rows) -> flint.fmpq_poly:

@@ -172,7 +172,7 @@ class System:
             out.append(self.index[lab])
         return out
 
-    def vector_by_label(self, v: Sequence[object], *, digits: int | None = None) -> dict[Label, object]:
+    def vector_by_label(self, v: Sequence[object] | np.ndarray, *, digits: int | None = None) -> dict[Label, object]:
         """Map a length-N vector to ``{label: value}`` (the form every witness uses)."""
         out: dict[Label, object] = {}
         for lab, x in zip(self.labels, v):

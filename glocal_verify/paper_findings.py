@@ -8,11 +8,13 @@ problem statements.
 
 from __future__ import annotations
 
+from fractions import Fraction
 from typing import Sequence
 
 from .model import System
 from .registry import finding_rule
 from .results import ConditionResult, Finding
+from .spec import Label
 
 __all__ = ["topology_revealed", "intersection_wording"]
 
@@ -46,8 +48,8 @@ def topology_revealed(system: System, results: Sequence[ConditionResult]) -> lis
     ]
 
 
-def _row(system: System, a: object) -> dict[object, object]:
-    out = {}
+def _row(system: System, a: Label) -> dict[Label, Fraction]:
+    out: dict[Label, Fraction] = {}
     for key, w in system.edges().items():
         if a in key:
             (b,) = tuple(key - {a})

@@ -215,6 +215,8 @@ def verify(
         Use the exact (rational) path of every checker.
     tol : Tolerance
         Numeric tolerance.
+    options : mapping, optional
+        Extra options passed to every checker through :class:`CheckContext`.
     progress : callable, optional
         Called with each condition id before it runs.
 

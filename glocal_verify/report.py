@@ -92,7 +92,7 @@ def to_markdown(report: Report) -> str:
 
 
 def render(report: Report, fmt: str) -> str:
-    """Render in ``"json"`` or ``"markdown"``."""
+    """Render ``report`` in ``fmt``: ``"json"`` (schema ``glocal-verify/report@1``) or ``"markdown"``."""
     if fmt == "json":
         return to_json_text(report)
     if fmt == "markdown":

@@ -264,7 +264,10 @@ def load_spec(path: str | Path) -> SystemSpec:
 
 
 def loads_spec(text: str, source: str | None = None) -> SystemSpec:
-    """Parse and validate a TOML specification given as text."""
+    """Parse and validate a TOML specification given as ``text``.
+
+    ``source`` (a file name, optional) prefixes every error message.
+    """
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -273,7 +276,10 @@ def loads_spec(text: str, source: str | None = None) -> SystemSpec:
 
 
 def spec_from_dict(data: Mapping[str, Any], source: str | None = None) -> SystemSpec:
-    """Validate a specification given as a mapping shaped like the TOML file."""
+    """Validate a specification given as a mapping ``data`` shaped like the TOML file.
+
+    ``source`` (a file name, optional) prefixes every error message.
+    """
     global _SCHEMA
     if _SCHEMA is None:
         _SCHEMA = _schema()
@@ -613,6 +619,14 @@ def spec_from_graph(
     ----------
     graph : networkx.Graph
         Undirected graph; edge attribute ``weight`` (default 1) is the coupling weight.
+    name : str
+        System name used in reports.
+    alpha, gamma : number or str
+        Control gains of eq. ``ctrl_proto`` (rationals such as ``"1/3"`` allowed).
+    monitor_positions, monitor_velocities : sequence of labels
+        Globally monitored agents M_x and M_v.
+    weight : str
+        Name of the edge attribute holding the weight.
     modes : mapping, optional
         ``{name: {"add": [(i, j[, w]), ...], "remove": [(i, j), ...]}}``.
     clusters : mapping, optional
@@ -688,5 +702,5 @@ def example_text(name: str) -> str:
 
 
 def load_example(name: str) -> SystemSpec:
-    """Load a bundled example specification."""
+    """Load the bundled example specification called ``name`` (see :func:`example_names`)."""
     return loads_spec(example_text(name), source=f"<example {name}>")
