@@ -1,0 +1,552 @@
+"""Unknown-input observers of a cluster (Chen, Patton & Zhang 1996; eqs. ``obs_decent``-``uio_conds_3``).
+
+For the cluster model of eq. ``cluster_dyn2``,
+
+.. math::
+
+    \\dot x = A x + E d + B u_a, \\qquad y = C x,
+
+where d (the neighbour clusters' states as seen through the cut edges) is unknown, the
+observer
+
+.. math::
+
+    \\dot z = F z + K y, \\qquad \\hat x = z + h y
+
+with
+
+.. math::
+
+    h = E (C E)^{+},\\quad T = I - h C,\\quad A_1 = T A,\\quad F = A_1 - K_1 C,\\quad
+    K = K_1 + F h
+
+has the error e = x - x_hat obeying eq. ``obs_decent_error``,
+
+.. math:: \\dot e = F e + T B u_a, \\qquad r = y - C \\hat x = C e,
+
+free of d because T E = 0 and T A - F T - K C = 0. (The paper's K_sigma is F h and its
+K-bar is K_1; the observer input gain is their sum.) It exists iff rank(C E) = rank(E)
+(Proposition III.2 (ii), which makes (h C - I) E = 0 solvable) and (C, A_1) is detectable.
+K_1 is found by pole placement on the observable part of (A_1, C); the unobservable modes
+of (A_1, C) are eigenvalues of F for every K_1 and must be stable.
+
+Default poles (:func:`default_poles`): n_o distinct real poles spread evenly over
+[-2 p0, -p0], p0 = max(gamma, 1), so the observer is at least as fast as the slowest
+velocity damping of the agents. User poles (``poles`` of ``[[clusters.observers]]``) are
+used first; if there are fewer than n_o, the rest are default-spaced poles left of the
+leftmost user pole; extra poles are ignored (and said so in :attr:`UnknownInputObserver.notes`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from fractions import Fraction
+from typing import Any, Sequence
+
+import warnings
+
+import numpy as np
+import scipy.signal
+
+from . import exact as ex
+from .errors import NotApplicableError
+from .linalg import DEFAULT_TOLERANCE, Decision, Tolerance, numeric_rank
+from .model import LocalObserver, System
+from .results import Status
+from .spec import NORMAL_MODE, Label
+
+__all__ = [
+    "ObservableSplit",
+    "UIOExistence",
+    "UnknownInputObserver",
+    "observable_split",
+    "default_poles",
+    "uio_existence",
+    "uio_existence_exact",
+    "design_uio",
+    "local_uio",
+    "is_hurwitz_exact",
+]
+
+
+# --------------------------------------------------------------------------------------------
+# observable / unobservable split
+
+
+@dataclass(frozen=True, slots=True)
+class ObservableSplit:
+    """Orthonormal bases of the observable and unobservable subspaces of (A, C).
+
+    Attributes
+    ----------
+    Qo : ndarray
+        Columns span the observable subspace Im [C; C A; ...]^T.
+    Qu : ndarray
+        Columns span its orthogonal complement, the unobservable subspace (A-invariant).
+    decided : bool
+        False when some rank step had a singular value in the undecided band.
+    """
+
+    Qo: np.ndarray
+    Qu: np.ndarray
+    decided: bool
+
+
+def observable_split(A: np.ndarray, C: np.ndarray, tol: Tolerance = DEFAULT_TOLERANCE) -> ObservableSplit:
+    """Observable subspace of (A, C) by an orthogonal Krylov iteration on (A^T, C^T).
+
+    Starting from an orthonormal basis V of Im C^T, the new directions (I - V V^T) A^T V are
+    added while they have singular values above ``rtol * band * max(||A||_2, ||C||_2)``;
+    singular values between ``rtol`` and ``rtol * band`` times that scale make the split
+    undecided. The observability matrix is never formed.
+    """
+    n = A.shape[0]
+    scale = max(float(np.linalg.norm(A, 2)) if n else 0.0, float(np.linalg.norm(C, 2)) if C.size else 0.0, 1e-300)
+    decided = True
+    if C.size == 0:
+        return ObservableSplit(np.zeros((n, 0)), np.eye(n), True)
+    U, s, _ = np.linalg.svd(C.T, full_matrices=False)
+    keep = s > tol.upper * scale
+    if np.any((s > tol.rtol * scale) & ~keep):
+        decided = False
+    V = U[:, keep]
+    new = V
+    while V.shape[1] < n and new.shape[1] > 0:
+        W = A.T @ new
+        W = W - V @ (V.T @ W)
+        W = W - V @ (V.T @ W)  # re-orthogonalise
+        U, s, _ = np.linalg.svd(W, full_matrices=False)
+        keep = s > tol.upper * scale
+        if np.any((s > tol.rtol * scale) & ~keep):
+            decided = False
+        new = U[:, keep]
+        V = np.linalg.qr(np.hstack([V, new]))[0] if new.shape[1] else V
+    if V.shape[1] >= n:
+        return ObservableSplit(V[:, :n], np.zeros((n, 0)), decided)
+    Qfull = np.linalg.qr(np.hstack([V, np.eye(n)]))[0]
+    Qu = Qfull[:, V.shape[1] : n]
+    return ObservableSplit(V, Qu, decided)
+
+
+def default_poles(n: int, gamma: float = 1.0) -> np.ndarray:
+    """``n`` distinct real poles spread evenly over [-2 p0, -p0], p0 = max(gamma, 1)."""
+    p0 = max(float(gamma), 1.0)
+    if n <= 0:
+        return np.zeros(0)
+    if n == 1:
+        return np.array([-p0])
+    return -p0 * (1.0 + np.arange(n) / (n - 1))
+
+
+# --------------------------------------------------------------------------------------------
+# existence
+
+
+@dataclass(frozen=True, slots=True)
+class UIOExistence:
+    """Whether a UIO exists for (A, E, C), with the evidence.
+
+    Attributes
+    ----------
+    status : Status
+        HOLDS when rank(C E) = rank(E) and (C, A_1) is detectable.
+    rank_condition : Status
+        Verdict of rank(C E) = rank(E).
+    detectable : Status
+        Verdict of the detectability of (C, A_1) (FAILS also when the rank condition fails).
+    h, T, A1 : ndarray or None
+        The decoupling matrices (None when the rank condition fails).
+    split : ObservableSplit or None
+        Observable/unobservable split of (A_1, C).
+    unobservable_eigenvalues : ndarray
+        Eigenvalues of A_1 on the unobservable subspace (fixed eigenvalues of F).
+    unstable_mode : tuple (eigenvalue, vector) or None
+        An unobservable eigenvalue with Re >= 0 and its eigenvector (state coordinates).
+    margin : float
+        -max Re of the unobservable eigenvalues (inf when there are none); negative when
+        detectability fails.
+    """
+
+    status: Status
+    rank_condition: Status
+    detectable: Status
+    h: np.ndarray | None
+    T: np.ndarray | None
+    A1: np.ndarray | None
+    split: ObservableSplit | None
+    unobservable_eigenvalues: np.ndarray
+    unstable_mode: tuple[complex, np.ndarray] | None
+    margin: float
+
+
+def _decoupling(E: np.ndarray, C: np.ndarray, tol: Tolerance) -> tuple[Status, np.ndarray | None]:
+    rE = numeric_rank(E, tol)
+    rCE = numeric_rank(C @ E, tol, scale=max(rE.scale, 1e-300))
+    if not (rE.decided and rCE.decided):
+        return Status.UNDECIDED, None
+    if rCE.rank < rE.rank:
+        return Status.FAILS, None
+    h = E @ np.linalg.pinv(C @ E, rcond=tol.upper)
+    return Status.HOLDS, h
+
+
+def uio_existence(A: np.ndarray, E: np.ndarray, C: np.ndarray, tol: Tolerance = DEFAULT_TOLERANCE) -> UIOExistence:
+    """Decide UIO existence numerically (Chen, Patton & Zhang 1996, Theorem 1).
+
+    Rank condition decided by :func:`~glocal_verify.linalg.numeric_rank` (singular values of
+    C E relative to ||E||_2). Detectability: eigenvalues of A_1 on the unobservable subspace of
+    (A_1, C) (:func:`observable_split`); Re(mu) <= -rtol * band * ||A_1|| is stable,
+    Re(mu) > -rtol * ||A_1|| unstable, in between undecided.
+    """
+    n = A.shape[0]
+    rank_st, h = _decoupling(E, C, tol)
+    empty = np.zeros(0, dtype=complex)
+    if h is None:
+        return UIOExistence(rank_st if rank_st is Status.UNDECIDED else Status.FAILS, rank_st, Status.FAILS if rank_st is Status.FAILS else Status.UNDECIDED, None, None, None, None, empty, None, -np.inf)
+    T = np.eye(n) - h @ C
+    A1 = T @ A
+    split = observable_split(A1, C, tol)
+    Qu = split.Qu
+    scale = max(float(np.linalg.norm(A1, 2)), 1e-300)
+    if Qu.shape[1] == 0:
+        det = Status.HOLDS if split.decided else Status.UNDECIDED
+        return UIOExistence(det, rank_st, det, h, T, A1, split, empty, None, np.inf)
+    Auu = Qu.T @ A1 @ Qu
+    mu, W = np.linalg.eig(Auu)
+    worst = int(np.argmax(mu.real))
+    dec = [tol.decide(min(m.real, 0.0), scale) for m in mu]
+    unstable = [k for k, m in enumerate(mu) if m.real >= 0 or dec[k] is Decision.ZERO]
+    undecided = [k for k, d in enumerate(dec) if d is Decision.UNDECIDED and k not in unstable]
+    mode = None
+    if unstable:
+        k = max(unstable, key=lambda j: mu[j].real)
+        det = Status.FAILS
+        mode = (complex(mu[k]), Qu @ W[:, k])
+    elif undecided or not split.decided:
+        det = Status.UNDECIDED
+    else:
+        det = Status.HOLDS
+    return UIOExistence(det, rank_st, det, h, T, A1, split, mu, mode, float(-mu[worst].real))
+
+
+# --------------------------------------------------------------------------------------------
+# exact existence
+
+
+def is_hurwitz_exact(coeffs: Sequence[Fraction]) -> bool:
+    """Routh-Hurwitz test over Q: all roots of sum c_k s^k (``coeffs`` lowest degree first)
+    have negative real part. A zero in the first column means a root with Re >= 0."""
+    c = [Fraction(x) for x in coeffs]
+    while c and c[-1] == 0:
+        c.pop()
+    if not c:
+        return False
+    deg = len(c) - 1
+    if deg == 0:
+        return True
+    hi = list(reversed(c))  # a_n, a_{n-1}, ..., a_0
+    r0 = hi[0::2]
+    r1 = hi[1::2]
+    rows = [r0, r1 + [Fraction(0)] * (len(r0) - len(r1))]
+    for _ in range(deg - 1):
+        a, b = rows[-2], rows[-1]
+        if b[0] == 0:
+            return False
+        new = [(b[0] * a[k + 1] - a[0] * b[k + 1]) / b[0] for k in range(len(a) - 1)] + [Fraction(0)]
+        rows.append(new)
+    first = [r[0] for r in rows[: deg + 1]]
+    if any(x == 0 for x in first):
+        return False
+    return all(x > 0 for x in first) or all(x < 0 for x in first)
+
+
+@dataclass(frozen=True, slots=True)
+class _ExactExistence:
+    status: Status
+    rank_condition: Status
+    rank_E: int
+    rank_CE: int
+    unobservable_dim: int
+    unobservable_charpoly: list[Fraction]
+    h: list[list[Fraction]] | None
+
+
+def uio_existence_exact(A: ex.Rows, E: ex.Rows, C: ex.Rows) -> _ExactExistence:
+    """UIO existence over Q: rank(C E) = rank(E) and the characteristic polynomial of A_1
+    restricted to the unobservable subspace of (A_1, C) is Hurwitz (Routh test)."""
+    import flint
+
+    n = len(A)
+    m = len(E[0]) if E else 0
+    Em = ex.to_fmpq_mat(E, m)
+    Cm = ex.to_fmpq_mat(C, n)
+    CE = Cm * Em
+    rE, rCE = int(Em.rank()), int(CE.rank()) if CE.nrows() else 0
+    if rCE < rE:
+        return _ExactExistence(Status.FAILS, Status.FAILS, rE, rCE, -1, [], None)
+    if m == 0 or rE == 0:
+        h = flint.fmpq_mat(n, Cm.nrows())
+    else:
+        # E full column rank (as built by the model); C E then has full column rank too
+        CEt = CE.transpose()
+        h = Em * ((CEt * CE).inv() * CEt)
+    T = flint.fmpq_mat(n, n, [int(i == j) for i in range(n) for j in range(n)]) - h * Cm
+    A1 = T * ex.to_fmpq_mat(A, n)
+    # observable row space: the smallest space of row vectors containing the rows of C and
+    # closed under right multiplication by A1; R := rref([R; R A1]) until the rank is stable
+    R, rk = Cm.rref()
+    r = int(rk)
+    while 0 < r < n:
+        Rb = ex.to_fmpq_mat([[ex.to_fraction(R[i, j]) for j in range(n)] for i in range(r)], n)
+        stacked = ex.to_fmpq_mat(
+            [[ex.to_fraction(M[i, j]) for j in range(n)] for M in (Rb, Rb * A1) for i in range(r)], n
+        )
+        R2, rk2 = stacked.rref()
+        if int(rk2) == r:
+            break
+        R, r = R2, int(rk2)
+    rows = [[ex.to_fraction(R[i, j]) for j in range(n)] for i in range(r)]
+    N = ex.nullspace(rows, n) if rows else [[Fraction(int(i == j)) for i in range(n)] for j in range(n)]
+    hq = [[ex.to_fraction(h[i, j]) for j in range(h.ncols())] for i in range(h.nrows())]
+    if not N:
+        return _ExactExistence(Status.HOLDS, Status.HOLDS, rE, rCE, 0, [Fraction(1)], hq)
+    Nb = ex.to_fmpq_mat([list(col) for col in zip(*N)], len(N))  # n x k
+    X = (Nb.transpose() * Nb).inv() * (Nb.transpose() * (A1 * Nb))
+    p = X.charpoly()
+    coeffs = [ex.to_fraction(p[k]) for k in range(p.degree() + 1)]
+    st = Status.HOLDS if is_hurwitz_exact(coeffs) else Status.FAILS
+    return _ExactExistence(st, Status.HOLDS, rE, rCE, len(N), coeffs, hq)
+
+
+# --------------------------------------------------------------------------------------------
+# design
+
+
+@dataclass(frozen=True, slots=True)
+class UnknownInputObserver:
+    """A designed unknown-input observer of one cluster, ready to simulate.
+
+    State equation (eq. ``obs_decent``) with y = C x_cluster the local measurement::
+
+        dz/dt = F z + K y,     x_hat = z + h y,     r = y - C x_hat
+
+    and, for the true cluster state, the error e = x - x_hat obeys
+    de/dt = F e + T B u_a (eq. ``obs_decent_error``), whatever the neighbour clusters do.
+
+    Attributes
+    ----------
+    cluster, center, mode : str, label, str
+        Which observer and for which mode's A^i it was designed.
+    nodes : tuple of labels
+        Cluster agents; the cluster state is [positions of nodes; velocities of nodes].
+    positions, velocities : tuple of labels
+        Measured channels, in the order of the rows of ``C`` (positions first).
+    A, E, C : ndarray
+        Cluster matrices A^i, E^i and C_loc used in the design.
+    h, T, A1, K1, F, K : ndarray
+        Design matrices: h = E (C E)^+, T = I - h C, A1 = T A, F = A1 - K1 C, K = K1 + F h.
+    poles : ndarray
+        Requested poles of the observable part.
+    eigenvalues : ndarray
+        Eigenvalues of F actually obtained (placed poles and fixed unobservable modes).
+    decoupling_residual : float
+        ||(h C - I) E||_F / ||E||_F (0 when there is no boundary agent).
+    error_residual : float
+        ||T A - F T - K C||_F / (||A||_F + ||F||_F): the coefficient of the cluster state in
+        the error equation, which must vanish.
+    hurwitz_margin : float
+        -max Re eig(F).
+    notes : tuple of str
+        Remarks of the design (pole list adjusted, poles moved by the placement ...).
+    """
+
+    cluster: str
+    center: Label
+    mode: str
+    nodes: tuple[Label, ...]
+    positions: tuple[Label, ...]
+    velocities: tuple[Label, ...]
+    A: np.ndarray
+    E: np.ndarray
+    C: np.ndarray
+    h: np.ndarray
+    T: np.ndarray
+    A1: np.ndarray
+    K1: np.ndarray
+    F: np.ndarray
+    K: np.ndarray
+    poles: np.ndarray
+    eigenvalues: np.ndarray
+    decoupling_residual: float
+    error_residual: float
+    hurwitz_margin: float
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def n_states(self) -> int:
+        return int(self.F.shape[0])
+
+    def derivative(self, z: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """dz/dt = F z + K y."""
+        return self.F @ z + self.K @ y
+
+    def estimate(self, z: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """x_hat = z + h y (cluster coordinates)."""
+        return z + self.h @ y
+
+    def residual(self, z: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """r = y - C x_hat (= C e)."""
+        return y - self.C @ self.estimate(z, y)
+
+    def initial_state(self, y0: np.ndarray, x_hat0: np.ndarray | None = None) -> np.ndarray:
+        """z(0) = x_hat(0) - h y(0) (x_hat(0) = 0 as in eq. ``obs_decent`` by default)."""
+        xh = np.zeros(self.F.shape[0]) if x_hat0 is None else np.asarray(x_hat0, dtype=float)
+        return xh - self.h @ np.asarray(y0, dtype=float)
+
+    def measure(self, x_cluster: np.ndarray) -> np.ndarray:
+        """y = C x_cluster."""
+        return self.C @ x_cluster
+
+    def cluster_state(self, system: System, x: np.ndarray) -> np.ndarray:
+        """Extract [positions; velocities] of the cluster from a global state [x; v] of ``system``."""
+        idx = system.idx(self.nodes)
+        n = system.n
+        return np.concatenate([x[idx], x[[n + i for i in idx]]])
+
+
+def _place(Aoo: np.ndarray, Co: np.ndarray, poles: np.ndarray, tol: Tolerance) -> np.ndarray:
+    """Gain Lo with eig(Aoo - Lo Co) = poles, by :func:`scipy.signal.place_poles` on the dual."""
+    no = Aoo.shape[0]
+    U, s, Vh = np.linalg.svd(Co, full_matrices=False)
+    r = int(np.sum(s > tol.upper * max(float(s[0]) if len(s) else 0.0, 1e-300)))
+    Cr = Vh[:r]  # orthonormal rows spanning Im Co^T; Cr x = S^-1 U^T y
+    if no == 0:
+        return np.zeros((0, Co.shape[0]))
+    p = np.asarray(poles, dtype=complex)
+    if np.all(p.imag == 0):
+        p = p.real
+    if r == 1 or no == 1:
+        # single output: Ackermann-free placement via place_poles still works for distinct poles
+        pass
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # YT convergence is about robustness, not accuracy
+            res = scipy.signal.place_poles(Aoo.T, Cr.T, p, method="YT", maxiter=100)
+    except ValueError as exc:
+        raise NotApplicableError(f"pole placement failed: {exc}") from None
+    Lr = res.gain_matrix.T  # no x r
+    return Lr @ np.diag(1.0 / s[:r]) @ U[:, :r].T
+
+
+def design_uio(
+    A: np.ndarray,
+    E: np.ndarray,
+    C: np.ndarray,
+    *,
+    poles: Sequence[float | complex] | None = None,
+    gamma: float = 1.0,
+    tol: Tolerance = DEFAULT_TOLERANCE,
+) -> tuple[UIOExistence, dict[str, Any]]:
+    """Design h, T, A1, K1, F, K for (A, E, C) (eqs. ``uio_conds_1``-``uio_conds_3``).
+
+    Returns the existence evidence and a dict of the design matrices and checks (keys of
+    :class:`UnknownInputObserver`). Raises :class:`NotApplicableError` when no UIO exists
+    (rank condition or detectability fails, or cannot be decided), naming the reason.
+    """
+    ex_ = uio_existence(A, E, C, tol)
+    if ex_.rank_condition is not Status.HOLDS:
+        raise NotApplicableError(f"no UIO: rank(C E) = rank(E) is {ex_.rank_condition.value} (a boundary agent's velocity is not measured)")
+    if ex_.status is not Status.HOLDS:
+        lam = ex_.unstable_mode[0] if ex_.unstable_mode else None
+        why = f"unobservable mode {lam:.6g} of (A1, C) is not stable" if lam is not None else "detectability of (A1, C) is undecided"
+        raise NotApplicableError(f"no UIO: {why}")
+    assert ex_.h is not None and ex_.T is not None and ex_.A1 is not None and ex_.split is not None
+    h, T, A1 = ex_.h, ex_.T, ex_.A1
+    Qo = ex_.split.Qo
+    no = Qo.shape[1]
+    notes: list[str] = []
+    dflt = default_poles(no, gamma)
+    if poles is None:
+        want = dflt
+    else:
+        user = np.asarray([complex(p) for p in poles])
+        if len(user) >= no:
+            want = user[:no]
+            if len(user) > no:
+                notes.append(f"{len(user) - no} of the {len(user)} requested poles ignored: the observable part has dimension {no}")
+        else:
+            left = float(np.min(user.real)) if len(user) else -max(gamma, 1.0)
+            extra = left * (1.0 + (1.0 + np.arange(no - len(user))) / max(no - len(user), 1))
+            want = np.concatenate([user, extra])
+            notes.append(f"{no - len(user)} default poles added left of {left:.4g}: the observable part has dimension {no}")
+    Aoo = Qo.T @ A1 @ Qo
+    Co = C @ Qo
+    Lo = _place(Aoo, Co, want, tol)
+    K1 = Qo @ Lo
+    F = A1 - K1 @ C
+    K = K1 + F @ h
+    eig = np.linalg.eigvals(F)
+    nE = float(np.linalg.norm(E))
+    dec_res = float(np.linalg.norm((h @ C - np.eye(A.shape[0])) @ E) / nE) if nE > 0 else 0.0
+    err_res = float(np.linalg.norm(T @ A - F @ T - K @ C)) / max(float(np.linalg.norm(A)) + float(np.linalg.norm(F)), 1e-300)
+    if no and np.max(np.abs(np.sort_complex(np.linalg.eigvals(Aoo - Lo @ Co)) - np.sort_complex(want.astype(complex)))) > 1e-6 * max(1.0, float(np.max(np.abs(want)))):
+        notes.append("the placed poles differ from the requested ones by more than 1e-6 (ill-conditioned placement)")
+    design = {
+        "h": h,
+        "T": T,
+        "A1": A1,
+        "K1": K1,
+        "F": F,
+        "K": K,
+        "poles": np.asarray(want),
+        "eigenvalues": eig,
+        "decoupling_residual": dec_res,
+        "error_residual": err_res,
+        "hurwitz_margin": float(-np.max(eig.real)) if len(eig) else float("inf"),
+        "notes": tuple(notes),
+    }
+    return ex_, design
+
+
+def local_uio(
+    system: System,
+    observer: LocalObserver,
+    *,
+    mode: str = NORMAL_MODE,
+    poles: Sequence[float | complex] | None = None,
+    tol: Tolerance = DEFAULT_TOLERANCE,
+) -> UnknownInputObserver:
+    """Design the UIO of a local observer of ``system`` (the object the simulator runs).
+
+    Parameters
+    ----------
+    system : System
+    observer : LocalObserver
+        From :meth:`System.observers`; its ``poles`` are used unless ``poles`` is given.
+    mode : str
+        Mode whose A^i the design uses (default the normal mode).
+
+    Raises
+    ------
+    NotApplicableError
+        When no UIO exists for this observer (the message says which condition fails).
+    """
+    cm = system.cluster_model(observer.cluster, mode)
+    C = cm.C(observer.positions, observer.velocities)
+    want = poles if poles is not None else (None if observer.poles is None else [float(p) for p in observer.poles])
+    try:
+        _, d = design_uio(cm.A, cm.E, C, poles=want, gamma=system.gamma, tol=tol)
+    except NotApplicableError as exc:
+        raise NotApplicableError(f"cluster {observer.cluster!r}, observer {observer.center!r}: {exc}") from None
+    return UnknownInputObserver(
+        cluster=observer.cluster,
+        center=observer.center,
+        mode=mode,
+        nodes=cm.nodes,
+        positions=tuple(observer.positions),
+        velocities=tuple(observer.velocities),
+        A=cm.A,
+        E=cm.E,
+        C=C,
+        **d,
+    )
