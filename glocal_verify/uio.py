@@ -30,9 +30,9 @@ K-bar is K_1; the observer input gain is their sum.) It exists iff rank(C E) = r
 K_1 is found by pole placement on the observable part of (A_1, C); the unobservable modes
 of (A_1, C) are eigenvalues of F for every K_1 and must be stable.
 
-Default poles (:func:`default_poles`): n_o distinct real poles spread evenly over
-[-2 p0, -p0], p0 = max(gamma, 1), so the observer is at least as fast as the slowest
-velocity damping of the agents. User poles (``poles`` of ``[[clusters.observers]]``) are
+Default poles (:func:`default_poles`): the observable eigenvalues mu of A_1 moved to
+-|Re mu| - p0 + i Im mu, p0 = max(gamma, 1): every mode at least as fast as the agents'
+velocity damping, with a small gain. User poles (``poles`` of ``[[clusters.observers]]``) are
 used first; if there are fewer than n_o, the rest are default-spaced poles left of the
 leftmost user pole; extra poles are ignored (and said so in :attr:`UnknownInputObserver.notes`).
 """
@@ -61,6 +61,7 @@ __all__ = [
     "UnknownInputObserver",
     "observable_split",
     "default_poles",
+    "hurwitz_certificate",
     "uio_existence",
     "uio_existence_exact",
     "design_uio",
@@ -128,14 +129,70 @@ def observable_split(A: np.ndarray, C: np.ndarray, tol: Tolerance = DEFAULT_TOLE
     return ObservableSplit(V, Qu, decided)
 
 
-def default_poles(n: int, gamma: float = 1.0) -> np.ndarray:
-    """``n`` distinct real poles spread evenly over [-2 p0, -p0], p0 = max(gamma, 1)."""
+def default_poles(eigenvalues: np.ndarray, gamma: float = 1.0) -> np.ndarray:
+    """Default observer poles: the observable eigenvalues of A_1 moved left of -p0, p0 = max(gamma, 1).
+
+    Each eigenvalue mu becomes -|Re mu| - p0 + i Im mu (conjugate pairs stay pairs), so every
+    pole has real part <= -p0 and the poles stay close to where A_1 already has them, which
+    keeps the gain K_1 small (spreading poles far from the open-loop spectrum makes the gain,
+    and the conditioning of F, grow like a power of the distance). Repeated values are spread
+    by multiples of -0.01 p0 so that no pole is requested more often than place_poles allows.
+
+    Parameters
+    ----------
+    eigenvalues : ndarray
+        Eigenvalues of A_1 on its observable part.
+    gamma : float
+        Velocity damping of the agents.
+    """
     p0 = max(float(gamma), 1.0)
-    if n <= 0:
-        return np.zeros(0)
-    if n == 1:
-        return np.array([-p0])
-    return -p0 * (1.0 + np.arange(n) / (n - 1))
+    mu = np.asarray(eigenvalues, dtype=complex)
+    out = np.array([complex(-abs(m.real) - p0, m.imag) for m in mu])
+    seen: dict[tuple[float, float], int] = {}
+    for k, p in enumerate(out):
+        key = (round(p.real, 8), round(p.imag, 8))
+        c = seen.get(key, 0)
+        seen[key] = c + 1
+        out[k] = p - 0.01 * p0 * c
+    if np.all(np.abs(out.imag) == 0.0):
+        return out.real
+    return out
+
+
+def hurwitz_certificate(F: np.ndarray, tol: Tolerance = DEFAULT_TOLERANCE) -> tuple[Status, float]:
+    """Decide whether F is Hurwitz, allowing for eigenvalue sensitivity.
+
+    With backward error delta = rtol * ||F||_2 and kappa_i = 1 / |y_i^H x_i| the condition
+    number of eigenvalue lambda_i (unit left and right eigenvectors), lambda_i is known to within
+    rho_i = kappa_i * delta. F is certified Hurwitz when Re lambda_i < -band * rho_i for every i,
+    certainly not Hurwitz when some Re lambda_i > band * rho_i, undecided otherwise.
+
+    Parameters
+    ----------
+    F : ndarray
+    tol : Tolerance
+
+    Returns
+    -------
+    (Status, float)
+        The verdict and the worst ratio -Re lambda_i / rho_i (the margin in units of uncertainty).
+    """
+    import scipy.linalg
+
+    if F.size == 0:
+        return Status.HOLDS, float("inf")
+    w, vl, vr = scipy.linalg.eig(F, left=True, right=True)
+    vl = vl / np.linalg.norm(vl, axis=0)
+    vr = vr / np.linalg.norm(vr, axis=0)
+    kappa = 1.0 / np.maximum(np.abs(np.sum(vl.conj() * vr, axis=0)), 1e-300)
+    rho = kappa * tol.rtol * max(float(np.linalg.norm(F, 2)), 1e-300)
+    ratio = -w.real / rho
+    worst = float(np.min(ratio))
+    if np.all(ratio > tol.band):
+        return Status.HOLDS, worst
+    if np.any(ratio < -tol.band):
+        return Status.FAILS, worst
+    return Status.UNDECIDED, worst
 
 
 # --------------------------------------------------------------------------------------------
@@ -356,6 +413,10 @@ class UnknownInputObserver:
         the error equation, which must vanish.
     hurwitz_margin : float
         -max Re eig(F).
+    hurwitz : Status
+        :func:`hurwitz_certificate` verdict on F (eigenvalue sensitivity included).
+    hurwitz_ratio : float
+        Worst -Re lambda_i / rho_i of that certificate.
     notes : tuple of str
         Remarks of the design (pole list adjusted, poles moved by the placement ...).
     """
@@ -380,6 +441,8 @@ class UnknownInputObserver:
     decoupling_residual: float
     error_residual: float
     hurwitz_margin: float
+    hurwitz: Status
+    hurwitz_ratio: float
     notes: tuple[str, ...] = field(default_factory=tuple)
 
     @property
@@ -431,7 +494,7 @@ def _place(Aoo: np.ndarray, Co: np.ndarray, poles: np.ndarray, tol: Tolerance) -
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)  # YT convergence is about robustness, not accuracy
-            res = scipy.signal.place_poles(Aoo.T, Cr.T, p, method="YT", maxiter=100)
+            res = scipy.signal.place_poles(Aoo.T, Cr.T, p, method="YT", maxiter=10)
     except ValueError as exc:
         raise NotApplicableError(f"pole placement failed: {exc}") from None
     Lr = res.gain_matrix.T  # no x r
@@ -465,7 +528,8 @@ def design_uio(
     Qo = ex_.split.Qo
     no = Qo.shape[1]
     notes: list[str] = []
-    dflt = default_poles(no, gamma)
+    Aoo = Qo.T @ A1 @ Qo
+    dflt = default_poles(np.linalg.eigvals(Aoo), gamma) if no else np.zeros(0)
     if poles is None:
         want = dflt
     else:
@@ -479,7 +543,8 @@ def design_uio(
             extra = left * (1.0 + (1.0 + np.arange(no - len(user))) / max(no - len(user), 1))
             want = np.concatenate([user, extra])
             notes.append(f"{no - len(user)} default poles added left of {left:.4g}: the observable part has dimension {no}")
-    Aoo = Qo.T @ A1 @ Qo
+        if np.all(want.imag == 0.0):
+            want = want.real
     Co = C @ Qo
     Lo = _place(Aoo, Co, want, tol)
     K1 = Qo @ Lo
@@ -489,8 +554,10 @@ def design_uio(
     nE = float(np.linalg.norm(E))
     dec_res = float(np.linalg.norm((h @ C - np.eye(A.shape[0])) @ E) / nE) if nE > 0 else 0.0
     err_res = float(np.linalg.norm(T @ A - F @ T - K @ C)) / max(float(np.linalg.norm(A)) + float(np.linalg.norm(F)), 1e-300)
-    if no and np.max(np.abs(np.sort_complex(np.linalg.eigvals(Aoo - Lo @ Co)) - np.sort_complex(want.astype(complex)))) > 1e-6 * max(1.0, float(np.max(np.abs(want)))):
+    placed = np.linalg.eigvals(Aoo - Lo @ Co) if no else np.zeros(0)
+    if no and max(float(np.min(np.abs(placed - p))) for p in np.atleast_1d(want)) > 1e-6 * max(1.0, float(np.max(np.abs(want)))):
         notes.append("the placed poles differ from the requested ones by more than 1e-6 (ill-conditioned placement)")
+    hurwitz, hurwitz_ratio = hurwitz_certificate(F, tol)
     design = {
         "h": h,
         "T": T,
@@ -503,6 +570,8 @@ def design_uio(
         "decoupling_residual": dec_res,
         "error_residual": err_res,
         "hurwitz_margin": float(-np.max(eig.real)) if len(eig) else float("inf"),
+        "hurwitz": hurwitz,
+        "hurwitz_ratio": hurwitz_ratio,
         "notes": tuple(notes),
     }
     return ex_, design
