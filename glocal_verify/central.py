@@ -386,7 +386,8 @@ def check_central_observer(system: System, ctx: CheckContext) -> list[ConditionR
     Numeric: ``m = max Re`` of the observable eigenvalues; holds iff ``m < 0`` and
     ``|m| > rtol * band * ||A_1||_2``, fails iff ``m >= 0`` or ``|m| <= rtol * ||A_1||_2``
     (not stable by a margin), undecided in between (``||A_1||_2`` is the largest norm of the
-    2 x 2 modal blocks). Exact: the gain is rounded to its binary rationals; the characteristic
+    2 x 2 modal blocks) or when the unobservable subspace itself is undecided (then the split
+    into observable and fixed eigenvalues is). Exact: the gain is rounded to its binary rationals; the characteristic
     polynomial of ``A_1 - H C`` over Q divided by that of A_1 on the rational unobservable
     subspace is tested with the exact Routh-Hurwitz criterion (:func:`routh_hurwitz`).
 
@@ -443,6 +444,10 @@ def check_central_observer(system: System, ctx: CheckContext) -> list[ConditionR
             status = Status.FAILS
         else:
             status = Status.UNDECIDED
+        if not obsv.unobservable.decided and status is Status.HOLDS:
+            # the split into observable and fixed eigenvalues is itself undecided
+            status = Status.UNDECIDED
+            witness["note"] = "the unobservable subspace of (A_1, C) is undecided at this tolerance"
     return [result("central.observer", ctx, status, margin=obsv.stability_margin, witness=witness)]
 
 

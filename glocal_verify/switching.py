@@ -8,6 +8,7 @@ question below splits into one small question per component.
 
 from __future__ import annotations
 
+import math
 from fractions import Fraction
 from typing import Any
 
@@ -25,6 +26,8 @@ __all__ = [
     "check_distinct_eigenvalues",
     "check_coverage",
     "image_kernel_component",
+    "check_eigenvector_differences",
+    "eigenvector_difference_polynomial",
 ]
 
 
@@ -251,4 +254,236 @@ def check_coverage(system: System, ctx: CheckContext) -> list[ConditionResult]:
             witness["uncovered"] = uncovered
         margin = min((len(r["monitored"]) for r in rows), default=0)
         out.append(result("switching.coverage", ctx, status, scope={"mode": mode}, margin=margin, witness=witness, numeric_decision=False))
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# Theorem III.3 (iii)
+
+_EPS = float(np.finfo(float).eps)
+
+
+def _pairs(system: System, mode: str) -> list[tuple[Label, Label]]:
+    out = []
+    for comp in system.switching_components(mode):
+        for a in range(len(comp)):
+            for b in range(a + 1, len(comp)):
+                out.append((comp[a], comp[b]))
+    return out
+
+
+def eigenvector_difference_polynomial(L: list[list[Fraction]], i: int, j: int) -> "ex.flint.fmpq_poly":
+    """q_ij(mu) = (e_i - e_j)^T adj(mu I - L) (e_i - e_j), exactly.
+
+    By the matrix determinant lemma, ``det(M + b b^T) = det M + b^T adj(M) b``; with
+    ``M = mu I - L`` and ``b = e_i - e_j``,
+
+    .. math:: q_{ij}(\\mu) = \\det(\\mu I - (L - b b^\\top)) - \\det(\\mu I - L),
+
+    the difference of two characteristic polynomials (``L - b b^T`` is L with the weight of the
+    pair {i, j} lowered by 1). For a simple eigenvalue ``mu_l`` with unit eigenvector ``u_l``,
+    ``adj(mu_l I - L) = p'(mu_l) u_l u_l^T``, hence ``q_ij(mu_l) = p'(mu_l) (u_l(i) - u_l(j))^2``.
+
+    Parameters
+    ----------
+    L : list of list of Fraction
+        A symmetric rational matrix (a Laplacian).
+    i, j : int
+        0-based indices, ``i != j``.
+    """
+    M = [list(r) for r in L]
+    M[i][i] -= 1
+    M[j][j] -= 1
+    M[i][j] += 1
+    M[j][i] += 1
+    return ex.charpoly(M) - ex.charpoly(L)
+
+
+def _repeated_witness(system: System, U: np.ndarray, w: np.ndarray, g: list[int], pair: tuple[Label, Label]) -> dict[str, Any]:
+    """A unit u in the eigenspace of the group g with u(i) = u(j): it exists when dim >= 2."""
+    i, j = system.idx(pair)
+    E = U[:, g]
+    row = (E[i] - E[j])[None, :]
+    _, _, Vh = np.linalg.svd(row, full_matrices=True)
+    u = E @ Vh[-1]
+    u = u / np.linalg.norm(u)
+    u = np.where(np.abs(u) <= 1e-14, 0.0, u)
+    return {
+        "reason": "repeated eigenvalue: (iii) presupposes (ii); in an eigenspace of dimension >= 2 some unit "
+        "eigenvector has u(i) = u(j), and an orthonormal eigenbasis U_q containing it violates (iii)",
+        "eigenvalue": float(np.mean(w[g])),
+        "multiplicity": len(g),
+        "pair": list(pair),
+        "eigenvector": system.vector_by_label(u, digits=12),
+        "difference": float(u[i] - u[j]),
+    }
+
+
+def _eigvec_numeric(system: System, mode: str, ctx: CheckContext) -> tuple[Status, float, dict[str, Any]]:
+    w, U = system.eigh(mode)
+    n = system.n
+    pairs = _pairs(system, mode)
+    if not pairs:
+        return Status.HOLDS, 1.0, {"note": "the mode changes no link: no pair to check"}
+    scale = float(np.max(np.abs(w))) if n else 0.0
+    scale = scale if scale > 0 else 1.0
+    groups: list[list[int]] = [[0]]
+    undecided_gap: list[int] = []
+    for k in range(1, n):
+        d = ctx.tol.decide(w[k] - w[k - 1], scale)
+        if d is Decision.ZERO:
+            groups[-1].append(k)
+        else:
+            if d is Decision.UNDECIDED:
+                undecided_gap.append(k)
+            groups.append([k])
+    rep = [g for g in groups if len(g) >= 2]
+    if rep:
+        return Status.FAILS, 0.0, _repeated_witness(system, U, w, rep[0], pairs[0])
+    idx = [tuple(system.idx(p)) for p in pairs]
+    ii = np.array([a for a, _ in idx])
+    jj = np.array([b for _, b in idx])
+    D = np.abs(U[ii, :] - U[jj, :])  # pairs x N
+    gaps = np.diff(w)
+    left = np.concatenate([[np.inf], gaps])
+    right = np.concatenate([gaps, [np.inf]])
+    gap = np.minimum(left, right)
+    err = math.sqrt(2.0) * (n * _EPS * scale / gap + n * _EPS)
+    cols = list(range(1, n))  # l != 1 (the simple eigenvalue 0 of a connected graph, or the smallest one)
+    if not cols:
+        return Status.HOLDS, 1.0, {"note": "a single agent"}
+    sub = D[:, cols]
+    flat = int(np.argmin(sub))
+    pk, lk = divmod(flat, len(cols))
+    l = cols[lk]
+    margin = float(sub[pk, lk])
+    status = Status.HOLDS
+    witness: dict[str, Any] = {}
+    first_undecided: tuple[int, int] | None = None
+    for c_i, l_i in enumerate(cols):
+        for p_i in range(len(pairs)):
+            dec = _decide_err(float(D[p_i, l_i]), float(err[l_i]), ctx)
+            if dec is Decision.ZERO:
+                a, b = idx[p_i]
+                return Status.FAILS, 0.0, {
+                    "pair": list(pairs[p_i]),
+                    "l": l_i + 1,
+                    "eigenvalue": float(w[l_i]),
+                    "entries": [float(U[a, l_i]), float(U[b, l_i])],
+                    "difference": float(D[p_i, l_i]),
+                    "error_bound": float(err[l_i]),
+                }
+            if dec is Decision.UNDECIDED and first_undecided is None:
+                first_undecided = (p_i, l_i)
+    if first_undecided is not None:
+        status = Status.UNDECIDED
+        p_i, l_i = first_undecided
+        witness = {"pair": list(pairs[p_i]), "l": l_i + 1, "eigenvalue": float(w[l_i]),
+                   "difference": float(D[p_i, l_i]), "error_bound": float(err[l_i])}
+    elif undecided_gap:
+        status = Status.UNDECIDED
+        k = undecided_gap[0]
+        witness = {"reason": "eigenvalues l and l+1 may coincide at this tolerance", "l": k, "eigenvalues": [float(w[k - 1]), float(w[k])]}
+    else:
+        a, b = idx[pk]
+        witness = {"closest": {"pair": list(pairs[pk]), "l": l + 1, "eigenvalue": float(w[l]),
+                               "entries": [float(U[a, l]), float(U[b, l])], "error_bound": float(err[l])}}
+    witness["pairs_checked"] = len(pairs)
+    return status, margin, witness
+
+
+def _decide_err(value: float, error: float, ctx: CheckContext) -> Decision:
+    if not math.isfinite(error):
+        return Decision.UNDECIDED
+    if value + error <= ctx.tol.rtol:
+        return Decision.ZERO
+    if value - error > ctx.tol.upper:
+        return Decision.NONZERO
+    return Decision.UNDECIDED
+
+
+def _eigvec_exact(system: System, mode: str, numeric: tuple[Status, float, dict[str, Any]]) -> tuple[Status, float, dict[str, Any]]:
+    pairs = _pairs(system, mode)
+    _, margin, nwit = numeric
+    if not pairs:
+        return Status.HOLDS, 1.0, {"note": "the mode changes no link: no pair to check"}
+    L = system.laplacian_exact(mode)
+    p = ex.charpoly(L)
+    if not ex.is_squarefree(p):
+        g = ex.repeated_factor(p)
+        w, U = system.eigh(mode)
+        wit: dict[str, Any] = {
+            "reason": "repeated eigenvalue: (iii) presupposes (ii); in an eigenspace of dimension >= 2 some unit "
+            "eigenvector has u(i) = u(j), and an orthonormal eigenbasis U_q containing it violates (iii)",
+            "repeated_factor": ex.poly_str(g),
+            "pair": list(pairs[0]),
+        }
+        if "eigenvector" in nwit:
+            wit["eigenvector"] = nwit["eigenvector"]
+        return Status.FAILS, 0.0, wit
+    coeffs = p.coeffs()
+    if coeffs[0] != 0:  # pragma: no cover - a Laplacian always has the eigenvalue 0
+        raise AssertionError("charpoly of a Laplacian must vanish at 0")
+    p0 = type(p)(coeffs[1:])  # p(mu) / mu
+    w, U = system.eigh(mode)
+    for a, b in pairs:
+        i, j = system.idx((a, b))
+        q = eigenvector_difference_polynomial(L, i, j)
+        g = p0.gcd(q)
+        if g.degree() >= 1:
+            fl = [float(Fraction(int(c.p), int(c.q))) for c in reversed(g.coeffs())]
+            roots = np.roots(fl) if len(fl) > 1 else np.zeros(0)
+            mu = float(np.real(roots[0])) if len(roots) else float("nan")
+            l = int(np.argmin(np.abs(w - mu)))
+            return Status.FAILS, 0.0, {
+                "pair": [a, b],
+                "l": l + 1,
+                "eigenvalue": mu,
+                "common_factor": ex.poly_str(g),
+                "entries": [float(U[i, l]), float(U[j, l])],
+            }
+    return Status.HOLDS, margin, {"pairs_checked": len(pairs), "closest": nwit.get("closest")}
+
+
+@checker("switching.eigenvector-differences")
+def check_eigenvector_differences(system: System, ctx: CheckContext) -> list[ConditionResult]:
+    """Theorem III.3 (iii): eigenvectors separate every pair of one switching component.
+
+    .. math:: [U_q]_{i,\\ell} \\neq [U_q]_{j,\\ell} \\quad \\forall \\ell \\neq 1,\\;
+              \\forall i \\neq j \\in \\mathcal D_c,\\; \\forall c
+
+    for each safe mode q, with ``U_q`` an orthonormal eigenbasis of L_q (ascending eigenvalues;
+    ``l = 1`` is the eigenvalue 0 of a connected graph) and D_c the switching components.
+
+    Only meaningful under (ii). If an eigenvalue is repeated, ``U_q`` is not unique, and the
+    condition fails for some admissible ``U_q``: on an eigenspace E of dimension ``k >= 2`` the
+    functional ``u -> u(i) - u(j)`` has a kernel of dimension ``>= k - 1 >= 1``; a unit vector of
+    that kernel, completed to an orthonormal basis of E (and of R^N), is a diagonalizing
+    ``U_q`` with ``u(i) = u(j)``. The checker then reports ``fails`` with that vector.
+
+    Numeric: eigenvalues grouped at ``rtol * ||L_q||_2`` (as in ``switching.distinct-eigenvalues``);
+    for a simple eigenvalue the differences ``|u_l(i) - u_l(j)|`` of the unit eigenvectors are
+    compared with ``rtol`` (unit scale) after widening by the Davis-Kahan error
+    ``sqrt(2) N eps ||L_q||_2 / gap_l`` (``gap_l`` = distance to the nearest other eigenvalue):
+    zero if ``d + err <= rtol``, nonzero if ``d - err > rtol * band``, undecided otherwise; an
+    undecided eigenvalue gap makes the verdict undecided.
+    Exact: ``p`` = charpoly(L_q); repeated eigenvalue iff ``gcd(p, p') != 1`` (fails). Otherwise
+    with ``q_ij`` from :func:`eigenvector_difference_polynomial`,
+    ``q_ij(mu_l) = p'(mu_l) (u_l(i) - u_l(j))^2`` and ``p'(mu_l) != 0``, so (iii) fails for (i, j)
+    iff ``gcd(p(mu) / mu, q_ij) != 1``.
+
+    Margin
+        ``min |u_l(i) - u_l(j)|`` over ``l != 1`` and the pairs (unit eigenvectors; floating
+        point in both modes), 0 on failure.
+    Witness
+        On failure the pair (i, j), ``l`` (1-based, ascending eigenvalues), the eigenvalue and
+        the two entries; exact: also the common factor. A repeated eigenvalue: the reason, the
+        eigenvalue (or the repeated factor) and an eigenvector with equal entries on the pair.
+        On success the closest (pair, l).
+    """
+    out = []
+    for mode in system.safe_modes:
+        num = _eigvec_numeric(system, mode, ctx)
+        status, margin, witness = _eigvec_exact(system, mode, num) if ctx.exact else num
+        out.append(result("switching.eigenvector-differences", ctx, status, scope={"mode": mode}, margin=margin, witness=witness))
     return out
