@@ -1,0 +1,160 @@
+"""Rosenbrock pencil analysis: zeros and directions checked against the definition
+P(z) [x; u] = 0, and the numeric deflation against the exact geometric algorithm."""
+
+from __future__ import annotations
+
+from fractions import Fraction
+
+import numpy as np
+import pytest
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
+
+from glocal_verify.errors import ModelError, NotApplicableError
+from glocal_verify.pencil import analyze_pencil, analyze_pencil_exact, direction_at, pencil_matrix
+
+
+def _residual(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray | None, z: complex, x: np.ndarray, u: np.ndarray) -> float:
+    P = pencil_matrix(A, B, C, D, z)
+    v = np.concatenate([x, u])
+    return float(np.linalg.norm(P @ v) / (max(np.linalg.norm(P, 2), 1.0) * np.linalg.norm(v)))
+
+
+def test_a_siso_zero_with_a_pole_zero_cancellation_is_an_unobservable_mode() -> None:
+    # (s + 1) / ((s + 1)(s + 2)): the zero at -1 has u = 0 (C kills the eigenvector of -1)
+    A = np.array([[0.0, 1.0], [-2.0, -3.0]])
+    B = np.array([[0.0], [1.0]])
+    C = np.array([[1.0, 1.0]])
+    pa = analyze_pencil(A, B, C)
+    assert pa.full_normal_column_rank and pa.decided and pa.normal_rank == 3
+    (z,) = pa.zeros
+    assert z.value == pytest.approx(-1.0)
+    assert np.linalg.norm(z.u) < 1e-12
+    assert _residual(A, B, C, None, z.value, z.x, z.u) < 1e-12
+
+
+def test_a_transmission_zero_has_a_direction_with_an_input() -> None:
+    # G(s) = (s - 2) / ((s + 1)(s + 3)) in controllable form
+    A = np.array([[0.0, 1.0], [-3.0, -4.0]])
+    B = np.array([[0.0], [1.0]])
+    C = np.array([[-2.0, 1.0]])
+    pa = analyze_pencil(A, B, C)
+    (z,) = pa.zeros
+    assert z.value == pytest.approx(2.0) and z.verified
+    assert abs(z.u[0]) > 0.1
+    assert _residual(A, B, C, None, z.value, z.x, z.u) < 1e-12
+
+
+def test_an_invertible_feedthrough_gives_the_eigenvalues_of_a_minus_b_dinv_c() -> None:
+    rng = np.random.default_rng(3)
+    A, B, C = rng.standard_normal((5, 5)), rng.standard_normal((5, 2)), rng.standard_normal((2, 5))
+    D = np.array([[2.0, 0.5], [0.0, 1.0]])
+    pa = analyze_pencil(A, B, C, D)
+    expected = np.linalg.eigvals(A - B @ np.linalg.solve(D, C))
+    got = np.array([z.value for z in pa.zeros])
+    assert len(got) == 5
+    for e in expected:
+        assert np.min(np.abs(got - e)) < 1e-8 * (1 + abs(e))
+
+
+def test_a_pencil_that_loses_rank_everywhere_has_a_direction_at_every_lambda() -> None:
+    # two inputs driving the same state: B is not injective, the pencil is never full column rank
+    A = np.array([[0.0, 1.0], [-1.0, -1.0]])
+    B = np.array([[0.0, 0.0], [1.0, 1.0]])
+    C = np.array([[0.0, 1.0]])
+    pa = analyze_pencil(A, B, C)
+    assert not pa.full_normal_column_rank and pa.normal_rank == 3
+    for lam in (1.0, -0.3 + 2j, 7.0):
+        d = direction_at(A, B, C, None, lam)
+        assert d is not None
+        x, u = d
+        assert _residual(A, B, C, None, lam, x, u) < 1e-12 and np.linalg.norm(u) > 0.1
+
+
+def test_direction_at_a_regular_point_is_none() -> None:
+    A = np.array([[0.0, 1.0], [-3.0, -4.0]])
+    assert direction_at(A, np.array([[0.0], [1.0]]), np.array([[-2.0, 1.0]]), None, 5.0) is None
+
+
+def test_bad_shapes_raise_model_errors() -> None:
+    with pytest.raises(ModelError, match="square"):
+        analyze_pencil(np.zeros((2, 3)), np.zeros((2, 1)), np.zeros((1, 2)))
+    with pytest.raises(ModelError, match="B must have 2 rows"):
+        analyze_pencil(np.zeros((2, 2)), np.zeros((3, 1)), np.zeros((1, 2)))
+    with pytest.raises(ModelError, match="D must have shape"):
+        analyze_pencil(np.zeros((2, 2)), np.zeros((2, 1)), np.zeros((1, 2)), np.zeros((2, 2)))
+
+
+def test_the_exact_analysis_supports_zero_feedthrough_only() -> None:
+    with pytest.raises(NotApplicableError, match="D = 0"):
+        analyze_pencil_exact([[0]], [[1]], [[1]], [[1]])
+
+
+def test_exact_zeros_of_an_irreducible_quadratic_come_with_directions_that_satisfy_the_pencil() -> None:
+    # G(s) = (s^2 - 3 s + 5) / ((s - 2)^2 (s + 1)): a Jordan block at 2 and two complex zeros
+    A = [[2, 1, 0], [0, 2, 0], [0, 0, -1]]
+    B = [[0], [1], [1]]
+    C = [[1, 0, 1]]
+    e = analyze_pencil_exact(A, B, C)
+    num = analyze_pencil(np.array(A, float), np.array(B, float), np.array(C, float))
+    assert e.normal_rank == num.normal_rank == 4 and e.left_invertible and num.left_invertible
+    assert [str(f) for f, _ in e.factors] == ["x^2 + (-3)*x + 5"]
+    assert sorted((round(z.value.real, 8), round(z.value.imag, 8)) for z in e.zeros) == sorted(
+        (round(z.value.real, 8), round(z.value.imag, 8)) for z in num.zeros
+    )
+    for z in e.zeros:
+        assert z.rational is None and z.real_sign == 1 and z.input_direction
+        P = pencil_matrix(np.array(A, float), np.array(B, float), np.array(C, float), None, z.value)
+        assert np.linalg.norm(P @ np.concatenate([z.x, z.u])) < 1e-12
+
+
+@st.composite
+def _integer_systems(draw: st.DrawFn) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    n = draw(st.integers(1, 6))
+    m = draw(st.integers(0, 3))
+    p = draw(st.integers(0, 3))
+    ent = st.integers(-2, 2)
+    A = np.array(draw(st.lists(st.lists(ent, min_size=n, max_size=n), min_size=n, max_size=n)), dtype=int).reshape(n, n)
+    # a repeated eigenvalue now and then: overwrite A by a triangular matrix with a repeated diagonal
+    if draw(st.booleans()):
+        d = draw(st.integers(-2, 2))
+        A = np.triu(A, 1) * draw(st.integers(0, 1)) + d * np.eye(n, dtype=int)
+    B = np.array(draw(st.lists(st.lists(ent, min_size=m, max_size=m), min_size=n, max_size=n)), dtype=int).reshape(n, m)
+    C = np.array(draw(st.lists(st.lists(ent, min_size=n, max_size=n), min_size=p, max_size=p)), dtype=int).reshape(p, n)
+    return A, B, C
+
+
+@settings(max_examples=60)
+@example((np.zeros((1, 1), dtype=int), np.zeros((1, 0), dtype=int), np.zeros((0, 1), dtype=int)))
+@example((np.array([[1, 1], [0, 1]]), np.array([[0], [1]]), np.array([[1, 0]])))
+@given(_integer_systems())
+def test_numeric_and_exact_pencil_analyses_agree_on_integer_systems(sys_: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
+    A, B, C = sys_
+    n, m = B.shape
+    num = analyze_pencil(A.astype(float), B.astype(float), C.astype(float))
+    exa = analyze_pencil_exact(A.tolist(), B.tolist(), C.tolist(), n_inputs=m)
+    if not num.decided:
+        return  # allowed, but never a wrong decided answer
+    assert num.normal_rank == exa.normal_rank
+    assert num.full_normal_column_rank == exa.full_normal_column_rank
+    distinct: list[complex] = []
+    for z in exa.zeros:
+        if all(abs(z.value - w) > 1e-9 for w in distinct):
+            distinct.append(z.value)
+    assert len(distinct) == len(num.zeros)
+    for zn in num.zeros:
+        ze = min(exa.zeros, key=lambda w: abs(w.value - zn.value))
+        assert abs(ze.value - zn.value) < 1e-6 * (1 + abs(ze.value))
+        assert (np.linalg.norm(zn.u) > 1e-6) == ze.input_direction
+        assert _residual(A.astype(float), B.astype(float), C.astype(float), None, zn.value, zn.x, zn.u) < 1e-9
+        if ze.x.size:
+            P = pencil_matrix(A.astype(float), B.astype(float), C.astype(float), None, ze.value)
+            v = np.concatenate([ze.x, ze.u])
+            assert np.linalg.norm(P @ v) <= 1e-9 * np.linalg.norm(P, 2) * np.linalg.norm(v)
+
+
+def test_exact_zero_polynomial_is_the_gcd_structure_of_a_simple_example() -> None:
+    # x1' = x2, x2' = u, y = x1 - x2: zero at s = 1 (numerator 1 - s)
+    e = analyze_pencil_exact([[0, 1], [0, 0]], [[0], [1]], [[1, -1]])
+    assert e.left_invertible and [z.rational for z in e.zeros] == [Fraction(1)]
+    assert e.zeros[0].real_sign == 1 and e.zeros[0].input_direction
