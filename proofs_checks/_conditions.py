@@ -72,7 +72,8 @@ def adjugate_poly_entry(L: sp.Matrix, u: sp.Matrix, v: sp.Matrix) -> flint.fmpq_
     n = L.shape[0]
     Lq = X.qmat(L)
     uq, vq = X.qmat(u.T), X.qmat(v)
-    pts, vals = [], []
+    pts: list[flint.fmpq] = []
+    vals: list[flint.fmpq] = []
     k = 0
     while len(pts) < n:
         m = flint.fmpq(2 * k + 1, 3)

@@ -387,10 +387,12 @@ def _remark_uio() -> list[sp.Matrix]:
     equation="pencil_uio",
     reference="Remark III.2.1, Proposition III.2 (i)",
     expected="nonzero",
-    paper_error="(i)-(iii) are not 'equivalent to necessary and sufficient conditions' for the UIO: a UIO exists and (ii)-(iii) hold while (i) fails",
+    paper_error="(i)-(iii) are not 'equivalent to necessary and sufficient conditions' for the UIO: a UIO exists and (ii)-(iii) hold while (i), counting cut edges as stated, fails",
 )
 def _remark_i() -> sp.Expr:
-    """Residual (cut edges + |F ∩ P_i|) - deg(centre) = 2 + 0 - 1 = 1 > 0: (i) fails for the
-    cluster of ``remark_iii21_instance_has_uio`` (agent 2 has two cut edges, E has rank 1)."""
+    """Residual (cut edges + |F ∩ P_i|) - deg(centre) = 2 + 0 - 1 = 1 > 0: (i) as stated (with
+    the count of cut edges) fails for the cluster of ``remark_iii21_instance_has_uio`` (agent 2
+    has two cut edges). With rank(E^i) = 1 in place of the edge count it would hold: the
+    paper's count is conservative, and (i) is not necessary for a UIO."""
     cut_edges, suspected, deg_centre = 2, 0, 1
     return sp.Integer(max(0, cut_edges + suspected - deg_centre))

@@ -206,7 +206,7 @@ def _mao_consensus() -> sp.Matrix:
     from ._conditions import condition_iii_pair
 
     rng = random.Random(5)
-    out = []
+    out: list[int] = []
     while len(out) < 6:
         n = rng.randint(3, 6)
         L = laplacian(n, random_edges(rng, n, 0.6))
