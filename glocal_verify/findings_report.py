@@ -115,8 +115,27 @@ def _short(obj: Any, limit: int = 140) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
-def build_findings_report(directory: str | Path = DEFAULT_DIR, extra: Sequence[tuple[str, str, str]] = ()) -> str:
-    """Markdown of every finding: counterexample specs (verified now) and textual findings."""
+def proof_findings() -> list[tuple[str, str, str, str]]:
+    """Paper errors documented by ``proofs_checks``: (step, equation, explanation, verdict).
+
+    Only the steps marked as paper errors are run (each is an exact symbolic or rational
+    computation); the verdict is ``EXPECTED-FAIL`` when the error is confirmed.
+    """
+    from proofs_checks.core import all_steps, check
+
+    out = []
+    for step in all_steps():
+        if step.paper_error:
+            o = check(step)
+            out.append((f"{step.module}.{step.name}", step.equation, step.paper_error, o.verdict.value))
+    return out
+
+
+def build_findings_report(
+    directory: str | Path = DEFAULT_DIR, extra: Sequence[tuple[str, str, str]] = (), proofs: bool = True
+) -> str:
+    """Markdown of every finding: counterexample specs (verified now), the paper errors that
+    ``proofs_checks`` exhibits (run now when ``proofs``) and textual findings."""
     cases = load_cases(directory)
     lines = [
         "# Findings: where the paper is loose or wrong",
@@ -148,6 +167,20 @@ def build_findings_report(directory: str | Path = DEFAULT_DIR, extra: Sequence[t
             lines.append(
                 f"| `{rn.id}` | {scope} | {rn.status.value} | {re_.status.value if re_ else '-'} | `{_short(re_.witness if re_ else rn.witness)}` |"
             )
+        lines.append("")
+    if proofs:
+        rows = proof_findings()
+        lines += [
+            "## Paper errors exhibited by the proof checks",
+            "",
+            "Each is a step of `python -m proofs_checks` (exact symbolic or rational computation); "
+            "reproduce one with `python -m proofs_checks --only <step>`.",
+            "",
+            "| step | paper equation | what is wrong | verdict |",
+            "|---|---|---|---|",
+        ]
+        for name, eq, why, verdict in rows:
+            lines.append(f"| `{name}` | `{eq}` | {why} | {verdict} |")
         lines.append("")
     all_textual = list(TEXTUAL_FINDINGS) + list(extra)
     if all_textual:

@@ -23,6 +23,7 @@ def test_each_counterexample_reproduces_its_documented_verdicts(case, exact: boo
 def test_the_findings_report_regenerates_and_confirms_every_case(tmp_path: Path) -> None:
     text = build_findings_report(ROOT / "reports" / "findings")
     assert "NOT CONFIRMED" not in text
+    assert "UNEXPECTED-PASS" not in text and "| ERROR |" not in text and "| UNDECIDED |" not in text
     out = tmp_path / "findings.md"
     assert main(["findings", "--dir", str(ROOT / "reports" / "findings"), "--out", str(out)]) == 0
     assert out.read_text().startswith("# Findings")
