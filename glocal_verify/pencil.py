@@ -28,8 +28,10 @@ Numeric method (:func:`analyze_pencil`)
     of P(lambda0) relative to ||P(lambda0)||_2 must be zero at the tolerance, and its
     direction is taken from the right singular vectors of P(lambda0) whose singular values are
     not certainly nonzero. The normal rank from the deflation is cross-checked by the rank of
-    P at three fixed pseudo-random complex points of modulus ~ ||A|| (a disagreement marks the
-    analysis undecided). The observability matrix is never formed.
+    P at three fixed pseudo-random complex points (a point certainly above the normal rank, or
+    all three certainly below it, mark the analysis undecided). The points have modulus in [0.5, 1.5] sqrt(max |A_ij|) (far
+    out, pencils of high relative degree look singular; near 0 the zeros of Laplacian
+    dynamics sit). The observability matrix is never formed.
 
 Exact method (:func:`analyze_pencil_exact`, D = 0 only)
     The geometric approach over Q (Trentelman, Stoorvogel & Hautus, ch. 7-8): V* = the largest
@@ -52,7 +54,6 @@ from typing import Any, Sequence
 import flint
 import numpy as np
 import scipy.linalg
-from scipy.linalg import lapack
 
 from . import exact as ex
 from .errors import ModelError, NotApplicableError
@@ -234,18 +235,36 @@ def _count(s: np.ndarray, scale: float, tol: Tolerance) -> tuple[int, bool]:
     return hi, hi != lo
 
 
-def _apply_householder(qr: np.ndarray, tau: np.ndarray, M: np.ndarray, side: str, adjoint: bool) -> np.ndarray:
-    """Q^H M / Q M (side 'L') or M Q / M Q^H (side 'R') for Q stored by ``qr(..., mode='raw')``."""
+def _block_reflector(V1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Compact-WY form Q = I - Y T Y^H of the Householder QR of V1 (n x nu).
+
+    Q is unitary and its first nu columns span Im V1. Applying Q to an n x n matrix costs two
+    thin matrix products (O(nu n^2)), never an n x n orthogonal factor.
+    """
+    (qr, tau), _ = scipy.linalg.qr(V1, mode="raw")
+    n, nu = V1.shape
+    Y = np.tril(qr[:, :nu], -1)
+    Y[np.arange(nu), np.arange(nu)] = 1.0
+    T = np.zeros((nu, nu), dtype=qr.dtype)
+    for i in range(nu):
+        T[i, i] = tau[i]
+        if i:
+            T[:i, i] = -tau[i] * (T[:i, :i] @ (Y[:, :i].conj().T @ Y[:, i]))
+    return Y, T
+
+
+def _qh_left(Y: np.ndarray, T: np.ndarray, M: np.ndarray) -> np.ndarray:
+    """Q^H M with Q = I - Y T Y^H."""
     if M.size == 0:
         return M
-    lwork = max(1, 64 * max(M.shape))
-    if np.iscomplexobj(qr) or np.iscomplexobj(M):
-        out = lapack.zunmqr(side, "C" if adjoint else "N", qr.astype(complex), tau.astype(complex), np.asfortranarray(M, dtype=complex), lwork)
-    else:
-        out = lapack.dormqr(side, "T" if adjoint else "N", qr, tau, np.asfortranarray(M), lwork)
-    if out[-1] != 0:
-        raise RuntimeError(f"LAPACK ormqr failed with info={out[-1]}")
-    return np.asarray(out[0])
+    return M - Y @ (T.conj().T @ (Y.conj().T @ M))
+
+
+def _q_right(Y: np.ndarray, T: np.ndarray, M: np.ndarray) -> np.ndarray:
+    """M Q with Q = I - Y T Y^H."""
+    if M.size == 0:
+        return M
+    return M - ((M @ Y) @ T) @ Y.conj().T
 
 
 def _reduce(
@@ -286,12 +305,11 @@ def _reduce(
         if nu == 0:  # the rows [C1, 0] are zero: they do not count
             C, D = C2, D2
             break
-        V1 = Vh[:nu].conj().T
-        (qr, tau), _ = scipy.linalg.qr(V1, mode="raw")
-        At = _apply_householder(qr, tau, _apply_householder(qr, tau, A, "L", True), "R", False)
-        Bt = _apply_householder(qr, tau, B, "L", True)
-        C2t = _apply_householder(qr, tau, C2, "R", False)
-        A, B = At[nu:, nu:], Bt[nu:]
+        Y, Tw = _block_reflector(Vh[:nu].conj().T)
+        At = _q_right(Y, Tw, _qh_left(Y, Tw, A))
+        Bt = _qh_left(Y, Tw, B)
+        C2t = _q_right(Y, Tw, C2)
+        A, B = np.ascontiguousarray(At[nu:, nu:]), np.ascontiguousarray(Bt[nu:])
         C = np.vstack([At[:nu, nu:], C2t[:, nu:]])
         D = np.vstack([Bt[:nu], D2])
         acc += nu
@@ -345,16 +363,26 @@ def _kernel_at(P: np.ndarray, r: int, n: int, tol: Tolerance) -> tuple[np.ndarra
 
 
 def _cluster(values: Sequence[complex], radius: float) -> list[list[int]]:
+    """Single-linkage clusters of points closer than ``radius`` (sweep over the real part)."""
     order = sorted(range(len(values)), key=lambda i: (values[i].real, values[i].imag))
-    clusters: list[list[int]] = []
-    for i in order:
-        for c in clusters:
-            if any(abs(values[i] - values[j]) <= radius for j in c):
-                c.append(i)
+    parent = list(range(len(values)))
+
+    def find(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for a_pos, i in enumerate(order):
+        for j in order[a_pos + 1 :]:
+            if values[j].real - values[i].real > radius:
                 break
-        else:
-            clusters.append([i])
-    return clusters
+            if abs(values[i] - values[j]) <= radius:
+                parent[find(j)] = find(i)
+    groups: dict[int, list[int]] = {}
+    for i in order:
+        groups.setdefault(find(i), []).append(i)
+    return list(groups.values())
 
 
 def analyze_pencil(
@@ -389,7 +417,8 @@ def analyze_pencil(
     verify : bool
         Verify every zero on the full pencil (one SVD of size (n+p) x (n+m) per zero) and
         cross-check the normal rank at random points. ``False`` skips both: the zeros are
-        then the unverified QZ eigenvalues (clustered) with empty directions; callers that
+        then the unverified QZ eigenvalues (one per eigenvalue, not merged) with empty
+        directions; callers that
         verify on their own structure (e.g. :mod:`glocal_verify.stealthy`) use it.
     scale : float, optional
         Scale of the rank decisions; default ``||[A B; C D]||_2`` (a power-iteration estimate
@@ -446,13 +475,9 @@ def analyze_pencil(
     clusters = _cluster(eigs, radius)
     zeros: list[Zero] = []
     empty = np.zeros(0)
-    if not verify:
-        for c in clusters:
-            if len(c) > 1:
-                mean = complex(np.mean([eigs[i] for i in c]))
-                zeros.append(Zero(mean, empty, empty, float("nan"), len(c), False))
-            else:
-                zeros.append(Zero(eigs[c[0]], empty, empty, float("nan"), 1, False))
+    if not verify:  # raw QZ eigenvalues: merging needs verification, which the caller does
+        for z in eigs:
+            zeros.append(Zero(z, empty, empty, float("nan"), 1, False))
         return PencilAnalysis(n, m, normal_rank, normal_rank == n + m, tuple(zeros), decided, tol.rtol, p, scale, tuple(notes))
 
     # cross-check of the normal rank at pseudo-random points
@@ -460,7 +485,7 @@ def analyze_pencil(
     a_scale = max(float(np.abs(A).max()) if A.size else 0.0, 1.0)
     ranks: list[tuple[int, int]] = []
     for _ in range(_NORMAL_RANK_POINTS):
-        z = a_scale * (0.5 + rng.random()) * np.exp(2j * np.pi * rng.random())
+        z = math.sqrt(a_scale) * (0.5 + rng.random()) * np.exp(2j * np.pi * rng.random())
         P = pencil_matrix(A, B, C, D, z)
         s = np.linalg.svd(P, compute_uv=False)
         s1 = float(s[0]) if len(s) else 0.0
@@ -469,7 +494,10 @@ def analyze_pencil(
         ranks.append((lo, hi))
     r_lo = max(r[0] for r in ranks)
     r_hi = max(r[1] for r in ranks)
-    if not (r_lo <= normal_rank <= r_hi) or r_lo != r_hi:
+    # the rank at any point is <= the normal rank; a point certainly above it, or every point
+    # certainly below it, contradicts the deflation (points far out can look singular when
+    # the relative degree is high, so an undecided singular value there is no contradiction)
+    if r_lo > normal_rank or r_hi < normal_rank:
         decided = False
         notes.append(f"normal rank {normal_rank} from the deflation vs {r_lo}..{r_hi} at random points")
 
