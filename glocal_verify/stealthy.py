@@ -73,8 +73,8 @@ from . import pencil as pn
 from .errors import NotApplicableError
 from .linalg import DEFAULT_TOLERANCE, Decision, Tolerance
 from .model import System
-from .registry import CheckContext, checker, result
-from .results import ConditionResult, Status
+from .registry import CheckContext, checker, finding_rule, result
+from .results import ConditionResult, Finding, Status
 from .spec import Label
 
 __all__ = [
@@ -90,6 +90,8 @@ __all__ = [
     "reachable_agents",
     "check_zda",
     "check_covert",
+    "unobservable_zeros_finding",
+    "covert_sensors_finding",
 ]
 
 GROWTH_UNBOUNDED = "unbounded"
@@ -1116,3 +1118,55 @@ def check_covert(system: System, ctx: CheckContext) -> list[ConditionResult]:
     }
     return [result("stealthy.covert", ctx, status, margin=float(len(missing)), witness=witness, numeric_decision=False)]
 
+
+
+# ------------------------------------------------------------------------------------------
+# findings
+
+
+@finding_rule
+def unobservable_zeros_finding(system: System, results: Sequence[ConditionResult]) -> list[Finding]:
+    """Definition II.2 counts zeroing directions with u0 = 0 (unobservable modes) as ZDAs."""
+    out = []
+    for r in results:
+        if r.id != "stealthy.zda" or not r.witness.get("unobservable_modes"):
+            continue
+        modes = r.witness["unobservable_modes"]
+        out.append(
+            Finding(
+                "definition-ii2.unobservable-zeros",
+                "Definition II.2 admits u0 = 0: unobservable modes satisfy eq. zda_cond without any attack",
+                "Definition II.2 calls lambda0 a zero whenever some (x0, u0) != (0, 0) solves eq. inv_zeros, and "
+                "Proposition II.4 (ii) builds the ZDA from such a direction. A direction with u0 = 0 is an "
+                "unobservable mode: u_a = u0 exp(lambda0 t) = 0 is no attack. With M_x empty (Lemma III.1's "
+                "privacy) the consensus direction [1; 0] at lambda0 = 0 is always one. On this system the zeros "
+                f"{modes} have only u0 = 0 directions; stealthy.zda requires u0 != 0 and does not count them.",
+                "Definition II.2, Proposition II.4 (ii)",
+                {"unobservable_modes": modes},
+            )
+        )
+    return out
+
+
+@finding_rule
+def covert_sensors_finding(system: System, results: Sequence[ConditionResult]) -> list[Finding]:
+    """Proposition II.4 (i) omits the sensor channels the cancellation needs."""
+    out = []
+    for r in results:
+        if r.id != "stealthy.covert" or r.status is not Status.FAILS:
+            continue
+        missing = r.witness.get("missing", [])
+        out.append(
+            Finding(
+                "proposition-ii4.covert-needs-sensors",
+                "Proposition II.4 (i): x~(t_a) = 0 is not enough for a covert attack",
+                "The proposition states that with x~(t_a) = 0 'there exists a vector u_s ... canceling out the "
+                "effect of u_a on the system output', but eq. attack_model restricts supp(u_s) to the compromised "
+                "channels F_s: the cancellation u_s = C x~ needs every monitored channel that u_a reaches. On this "
+                f"system the attacker does not own {missing}, so no covert attack exists with these sensors. "
+                "Minimal example: path 1-2, F = {1}, M_v = {2}, F_s = {}.",
+                "Proposition II.4 (i), eq. attack_model",
+                {"missing": missing, "required": r.witness.get("required", [])},
+            )
+        )
+    return out

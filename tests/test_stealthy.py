@@ -211,3 +211,14 @@ def test_a_covert_attack_is_feasible_exactly_when_the_reached_channels_are_owned
     s2 = _system(G, attack={"kind": "covert", "actuators": [1], "sensors": [2]}, **base)
     r2 = _one(s2, "stealthy.covert", exact)
     assert r2.status is Status.FAILS and r2.witness["missing"] == ["x:4", "v:5"] and r2.margin == 2
+
+
+def test_findings_name_the_unobservable_zeros_and_the_missing_covert_sensors() -> None:
+    s = _system(nx.path_graph(range(1, 4)), monitor_velocities=[1], attack={"kind": "covert", "actuators": [2]})
+    rep = verify(s, ["stealthy.zda", "stealthy.covert"])
+    f = {x.id: x for x in rep.findings}
+    assert f["definition-ii2.unobservable-zeros"].data["unobservable_modes"] == [[0.0, 0.0]]
+    assert f["proposition-ii4.covert-needs-sensors"].data["missing"] == ["v:1"]
+    # owning the channel removes the covert finding
+    s2 = _system(nx.path_graph(range(1, 4)), monitor_velocities=[1], attack={"kind": "covert", "actuators": [2], "sensors": [1]})
+    assert "proposition-ii4.covert-needs-sensors" not in {x.id for x in verify(s2, ["stealthy.covert"]).findings}
