@@ -515,8 +515,16 @@ def _structured(system: System, F: tuple[Label, ...], tol: Tolerance, lam_req: c
             cands.append((complex(lam), z.multiplicity * (2 if len(roots) == 1 else 1)))
     clusters = pn._cluster([c[0] for c in cands], math.sqrt(tol.upper) * md.A_scale)
 
-    def build(lam: complex, mult: int) -> tuple[ZdaZero | None, Decision, Decision]:
-        found, dres, _, _ = md.direction(lam)
+    def build(lam: complex, mult: int, rank_drop: bool = False) -> tuple[ZdaZero | None, Decision, Decision]:
+        # rank_drop: lam must be a zero, i.e. dim ker Q > k0. When the pencil is left-invertible
+        # (k0 = 0) a verified kernel vector proves it; otherwise a kernel vector exists at every
+        # lam and the dimension of the reduced kernel decides.
+        found, dres, lo, hi = md.direction(lam)
+        if rank_drop and k0 > 0:
+            if hi <= k0:
+                return None, Decision.NONZERO, Decision.ZERO
+            if lo <= k0:
+                return None, Decision.UNDECIDED, Decision.ZERO
         if found is None:
             return None, dres, Decision.ZERO
         xi, u, res, _, du = found
@@ -533,7 +541,7 @@ def _structured(system: System, F: tuple[Label, ...], tol: Tolerance, lam_req: c
             trials.append([(complex(np.mean([cands[i][0] for i in c])), sum(cands[i][1] for i in c))])
         trials.append([cands[i] for i in c])
         for t_idx, trial in enumerate(trials):
-            built = [(lam, mult, *build(lam, mult)) for lam, mult in trial]
+            built = [(lam, mult, *build(lam, mult, rank_drop=True)) for lam, mult in trial]
             if t_idx + 1 < len(trials) and any(b[2] is None for b in built):
                 continue
             for lam, mult, zz, dres, du in built:
