@@ -119,6 +119,19 @@ def cmd_findings(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_place_observers(args: argparse.Namespace) -> int:
+    import json
+
+    from .placement import parse_suspected, place_observers
+
+    system = _load_system(args)
+    suspected = parse_suspected(system, args.suspected)
+    placement = place_observers(system, args.cluster, suspected, exact_limit=args.exact_limit, progress=not args.quiet)
+    text = placement.to_toml() if args.format == "toml" else json.dumps(placement.to_json(), indent=2) + "\n"
+    _write(text, args.out)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog=PROG, description="Check the conditions of the glocal attack-detection paper on a concrete network.")
     sub = p.add_subparsers(dest="command", parser_class=_Parser)
@@ -148,6 +161,17 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--dir", default="reports/findings", help="folder of counterexample specs")
     f.add_argument("--out", metavar="FILE", help="write to FILE (e.g. reports/findings.md) instead of stdout")
     f.set_defaults(func=cmd_findings)
+
+    po = sub.add_parser("place-observers", help="propose local observers satisfying Proposition III.2 (ii), (iii) and UIO existence")
+    po.add_argument("spec", nargs="?", help="system specification (TOML, format 1)")
+    po.add_argument("--example", metavar="NAME", help="use a bundled example")
+    po.add_argument("--cluster", metavar="NAME", help="only this cluster")
+    po.add_argument("--suspected", default="attack", metavar="SET", help="attack (default), interior, all, or a comma-separated agent list")
+    po.add_argument("--exact-limit", type=int, default=20000, metavar="N", help="candidate sets the exhaustive search may visit per cluster (0: greedy only)")
+    po.add_argument("--format", choices=("toml", "json"), default="toml", help="toml: the spec fragment to paste (default)")
+    po.add_argument("--out", metavar="FILE", help="write to FILE instead of stdout")
+    po.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    po.set_defaults(func=cmd_place_observers)
     return p
 
 

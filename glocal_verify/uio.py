@@ -30,9 +30,9 @@ K-bar is K_1; the observer input gain is their sum.) It exists iff rank(C E) = r
 K_1 is found by pole placement on the observable part of (A_1, C); the unobservable modes
 of (A_1, C) are eigenvalues of F for every K_1 and must be stable.
 
-Default poles (:func:`default_poles`): the observable eigenvalues mu of A_1 moved to
--|Re mu| - p0 + i Im mu, p0 = max(gamma, 1): every mode at least as fast as the agents'
-velocity damping, with a small gain. User poles (``poles`` of ``[[clusters.observers]]``) are
+Default poles (:func:`default_poles`): with sigma = gamma / 2, the observable eigenvalues mu
+of A_1 with Re mu <= -0.9 sigma stay, the others move to -|Re mu| - sigma + i Im mu; only the
+moved ones are placed (ordered Schur form), which keeps the gain small on large clusters. User poles (``poles`` of ``[[clusters.observers]]``) are
 used first; if there are fewer than n_o, the rest are default-spaced poles left of the
 leftmost user pole; extra poles are ignored (and said so in :attr:`UnknownInputObserver.notes`).
 """
@@ -129,14 +129,21 @@ def observable_split(A: np.ndarray, C: np.ndarray, tol: Tolerance = DEFAULT_TOLE
     return ObservableSplit(V, Qu, decided)
 
 
-def default_poles(eigenvalues: np.ndarray, gamma: float = 1.0) -> np.ndarray:
-    """Default observer poles: the observable eigenvalues of A_1 moved left of -p0, p0 = max(gamma, 1).
+def _keep_threshold(gamma: float) -> float:
+    return 0.9 * float(gamma) / 2.0
 
-    Each eigenvalue mu becomes -|Re mu| - p0 + i Im mu (conjugate pairs stay pairs), so every
-    pole has real part <= -p0 and the poles stay close to where A_1 already has them, which
-    keeps the gain K_1 small (spreading poles far from the open-loop spectrum makes the gain,
-    and the conditioning of F, grow like a power of the distance). Repeated values are spread
-    by multiples of -0.01 p0 so that no pole is requested more often than place_poles allows.
+
+def default_poles(eigenvalues: np.ndarray, gamma: float = 1.0) -> np.ndarray:
+    """Default observer poles from the observable eigenvalues mu of A_1.
+
+    With sigma = gamma / 2 (the decay rate of the agents' underdamped modes, Re of the roots of
+    lam^2 + gamma lam + alpha mu_L = 0), an eigenvalue with Re mu <= -0.9 sigma is kept where
+    it is (no gain is spent on it); any other becomes -|Re mu| - sigma + i Im mu, so every pole
+    has Re <= -0.9 sigma and conjugate pairs stay pairs. Moving only the slow modes keeps K_1
+    small: placing all poles of a large cluster far from the open-loop spectrum makes the gain
+    (and the eigenvalue sensitivity of F) grow like a power of the distance. Repeated moved
+    values are spread by multiples of -0.01 sigma so no pole is requested more often than
+    place_poles allows.
 
     Parameters
     ----------
@@ -145,18 +152,63 @@ def default_poles(eigenvalues: np.ndarray, gamma: float = 1.0) -> np.ndarray:
     gamma : float
         Velocity damping of the agents.
     """
-    p0 = max(float(gamma), 1.0)
+    sigma = float(gamma) / 2.0
+    keep = _keep_threshold(gamma)
     mu = np.asarray(eigenvalues, dtype=complex)
-    out = np.array([complex(-abs(m.real) - p0, m.imag) for m in mu])
+    out = mu.copy()
     seen: dict[tuple[float, float], int] = {}
-    for k, p in enumerate(out):
+    for k, m in enumerate(mu):
+        if m.real <= -keep:
+            continue
+        p = complex(-abs(m.real) - sigma, m.imag)
         key = (round(p.real, 8), round(p.imag, 8))
         c = seen.get(key, 0)
         seen[key] = c + 1
-        out[k] = p - 0.01 * p0 * c
+        out[k] = p - 0.01 * sigma * c
     if np.all(np.abs(out.imag) == 0.0):
         return out.real
     return out
+
+
+def _place_slow(Aoo: np.ndarray, Co: np.ndarray, gamma: float, tol: Tolerance) -> np.ndarray:
+    """Gain Lo moving only the slow modes of Aoo (partial placement through an ordered Schur form).
+
+    The real Schur form of Aoo^T is ordered with the kept eigenvalues first:
+    Q^T Aoo^T Q = [[T11, T12], [0, T22]]. With Lo = Q2 G^T, Q^T (Aoo - Lo Co)^T Q =
+    [[T11, T12 - Y1 G], [0, T22 - Y2 G]] (Y = Q^T Co^T), so the kept eigenvalues stay and
+    eig(T22 - Y2 G) are placed at the default poles of the slow ones.
+    """
+    import scipy.linalg
+
+    no = Aoo.shape[0]
+    keep = _keep_threshold(gamma)
+    T, Q, k = scipy.linalg.schur(Aoo.T, output="real", sort=lambda x, y: x <= -keep)
+    k = int(k)
+    if k == no:
+        return np.zeros((no, Co.shape[0]))
+    T22 = T[k:, k:]
+    Q2 = Q[:, k:]
+    Y2 = Q2.T @ Co.T
+    want = default_poles(np.linalg.eigvals(T22), gamma)
+    G = _place_dual(T22, Y2, want, tol)
+    return np.asarray(Q2 @ G.T)
+
+
+def _place_dual(X: np.ndarray, Y: np.ndarray, poles: np.ndarray, tol: Tolerance) -> np.ndarray:
+    """G with eig(X - Y G) = poles (Y compressed to full column rank first)."""
+    U, s, Vh = np.linalg.svd(Y, full_matrices=False)
+    r = int(np.sum(s > tol.upper * max(float(s[0]) if len(s) else 0.0, 1e-300)))
+    Bp = U[:, :r] * s[:r]
+    p = np.asarray(poles, dtype=complex)
+    if np.all(p.imag == 0):
+        p = p.real
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # YT convergence is about robustness, not accuracy
+            res = scipy.signal.place_poles(X, Bp, p, method="YT", maxiter=10)
+    except ValueError as exc:
+        raise NotApplicableError(f"pole placement failed: {exc}") from None
+    return np.asarray(Vh[:r].T @ res.gain_matrix)
 
 
 def hurwitz_certificate(F: np.ndarray, tol: Tolerance = DEFAULT_TOLERANCE) -> tuple[Status, float]:
@@ -479,26 +531,9 @@ class UnknownInputObserver:
 
 def _place(Aoo: np.ndarray, Co: np.ndarray, poles: np.ndarray, tol: Tolerance) -> np.ndarray:
     """Gain Lo with eig(Aoo - Lo Co) = poles, by :func:`scipy.signal.place_poles` on the dual."""
-    no = Aoo.shape[0]
-    U, s, Vh = np.linalg.svd(Co, full_matrices=False)
-    r = int(np.sum(s > tol.upper * max(float(s[0]) if len(s) else 0.0, 1e-300)))
-    Cr = Vh[:r]  # orthonormal rows spanning Im Co^T; Cr x = S^-1 U^T y
-    if no == 0:
+    if Aoo.shape[0] == 0:
         return np.zeros((0, Co.shape[0]))
-    p = np.asarray(poles, dtype=complex)
-    if np.all(p.imag == 0):
-        p = p.real
-    if r == 1 or no == 1:
-        # single output: Ackermann-free placement via place_poles still works for distinct poles
-        pass
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", UserWarning)  # YT convergence is about robustness, not accuracy
-            res = scipy.signal.place_poles(Aoo.T, Cr.T, p, method="YT", maxiter=10)
-    except ValueError as exc:
-        raise NotApplicableError(f"pole placement failed: {exc}") from None
-    Lr = res.gain_matrix.T  # no x r
-    return Lr @ np.diag(1.0 / s[:r]) @ U[:, :r].T
+    return _place_dual(Aoo.T, Co.T, poles, tol).T
 
 
 def design_uio(
@@ -529,9 +564,8 @@ def design_uio(
     no = Qo.shape[1]
     notes: list[str] = []
     Aoo = Qo.T @ A1 @ Qo
-    dflt = default_poles(np.linalg.eigvals(Aoo), gamma) if no else np.zeros(0)
     if poles is None:
-        want = dflt
+        want = default_poles(np.linalg.eigvals(Aoo), gamma) if no else np.zeros(0)
     else:
         user = np.asarray([complex(p) for p in poles])
         if len(user) >= no:
@@ -546,7 +580,7 @@ def design_uio(
         if np.all(want.imag == 0.0):
             want = want.real
     Co = C @ Qo
-    Lo = _place(Aoo, Co, want, tol)
+    Lo = _place_slow(Aoo, Co, gamma, tol) if poles is None else _place(Aoo, Co, want, tol)
     K1 = Qo @ Lo
     F = A1 - K1 @ C
     K = K1 + F @ h
