@@ -387,8 +387,9 @@ class PostSwitch:
         attack-only run, exact by linearity): ``"invisible"`` (below the rounding allowance),
         ``"unbounded"`` (grows exponentially), ``"vanishing"`` (decays) or ``"persistent"``.
     rate : float or None
-        Least-squares exponential rate (1/s) of the attack part over the second half of the
-        post-switch window.
+        Least-squares exponential rate (1/s) of the upper envelope of the attack part (maxima
+        over eight windows of the second half of the post-switch interval); above 0.01/s it
+        counts as unbounded growth, below -0.01/s as vanishing.
     attack_peak : float
         Largest attack-induced global residual relative to ``max(box, ||s||_2)``.
     full : str
@@ -465,13 +466,18 @@ def classify_post_switch(
     if attack_peak <= rounding:
         part = "invisible"
     else:
-        ah = a[half]
-        ok = ah > 0
+        # rate of the upper envelope: maxima over 8 consecutive windows of the second half
+        # (robust to oscillation of complex exponents and to the post-switch transient)
+        th_, ah = t[half], a[half]
+        chunks = [c for c in np.array_split(np.arange(len(th_)), 8) if len(c)]
+        tm = np.array([th_[c].mean() for c in chunks])
+        am = np.array([ah[c].max() for c in chunks])
+        ok = am > 0
         if np.sum(ok) >= 3:
-            rate = float(np.polyfit(t[half][ok], np.log(ah[ok]), 1)[0])
-        if rate is not None and rate > 1e-3 and a[-1] >= a.max() * 0.999:
+            rate = float(np.polyfit(tm[ok], np.log(am[ok]), 1)[0])
+        if rate is not None and rate > 1e-2:
             part = "unbounded"
-        elif rate is not None and rate < -1e-3:
+        elif rate is not None and rate < -1e-2:
             part = "vanishing"
         else:
             part = "persistent"
