@@ -386,6 +386,8 @@ def _structural_witness(case: LocalCase) -> dict[str, Any]:
 
 def _relative_sigma_min(case: LocalCase, lam: complex) -> float:
     P = full_pencil(case, lam)
+    if P.shape[0] < P.shape[1]:
+        return 0.0  # wide: a kernel vector exists at every lam
     s = np.linalg.svd(P, compute_uv=False)
     return float(s[P.shape[1] - 1] / s[0]) if s[0] > 0 else 0.0
 

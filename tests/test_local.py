@@ -1,0 +1,220 @@
+"""Proposition III.2 per cluster and observer: known cases, witnesses checked against the pencil."""
+
+from __future__ import annotations
+
+from fractions import Fraction
+
+import networkx as nx
+import numpy as np
+import pytest
+
+from glocal_verify import System, load_example, spec_from_graph, verify
+from glocal_verify.cli import main
+from glocal_verify.local import LocalCase, full_pencil, local_cases
+from glocal_verify.results import ConditionResult, Status
+
+LOCAL = ["local.k-connected", "local.rank", "local.pencil", "local.uio"]
+
+
+@pytest.fixture(scope="module")
+def paper19() -> System:
+    return System(load_example("paper19"))
+
+
+def _results(system: System, cid: str, exact: bool = False) -> dict[tuple[str, object, str], ConditionResult]:
+    return {(r.scope["cluster"], r.scope["observer"], r.scope["suspected"]): r for r in verify(system, [cid], exact=exact).conditions}
+
+
+def _case(system: System, cluster: str, center: object, kind: str) -> LocalCase:
+    (c,) = [c for c in local_cases(system) if c.model.name == cluster and c.observer.center == center and c.kind == kind]
+    return c
+
+
+def _vector(case: LocalCase, d: dict) -> np.ndarray:  # type: ignore[type-arg]
+    """[x; u_B; u_E] of a witness direction, in the column order of the full pencil."""
+    nodes = case.model.nodes
+    pos = {str(k): v for k, v in d["positions"].items()}
+    vel = {str(k): v for k, v in d["velocities"].items()}
+    att = {str(k): v for k, v in d["attack_input"].items()}
+    cpl = {str(k): v for k, v in d["coupling_input"].items()}
+    x = [complex(pos.get(str(a), 0)) for a in nodes] + [complex(vel.get(str(a), 0)) for a in nodes]
+    u = [complex(att.get(str(a), 0)) for a in case.suspected] + [complex(cpl.get(str(a), 0)) for a in case.model.boundary]
+    return np.array(x + u)
+
+
+def test_paper19_reports_all_four_local_conditions_for_every_observer_and_both_suspected_sets(paper19: System) -> None:
+    rep = verify(paper19, LOCAL)
+    for cid in LOCAL:
+        scopes = {(r.scope["cluster"], r.scope["observer"], r.scope["suspected"]) for r in rep.results(cid)}
+        assert scopes == {(c, o, k) for c, o in [("P1", 5), ("P1", 6), ("P2", 10), ("P3", 16)] for k in ("attack", "all")}
+
+
+def test_the_cli_reports_the_local_conditions_of_paper19(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["verify", "--example", "paper19", "--only", "local.*", "--format", "json", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    for cid in LOCAL:
+        assert f'"id": "{cid}"' in out
+
+
+@pytest.mark.parametrize("exact", [False, True])
+def test_observer_5_detects_the_zda_on_agents_3_and_4(paper19: System, exact: bool) -> None:
+    r = _results(paper19, "local.pencil", exact)[("P1", 5, "attack")]
+    assert r.status is Status.HOLDS
+    assert r.witness["suspected_agents"] == [3, 4]
+
+
+@pytest.mark.parametrize("exact", [False, True])
+def test_observer_6_misses_it_with_a_direction_that_moves_3_and_4_and_kills_the_pencil(paper19: System, exact: bool) -> None:
+    r = _results(paper19, "local.pencil", exact)[("P1", 6, "attack")]
+    assert r.status is Status.FAILS
+    assert r.witness["full_normal_column_rank"] is False
+    d = r.witness["direction"]
+    assert d["moves"] == [3, 4]
+    pos = d["positions"]
+    assert pos[4] / pos[3] == pytest.approx(-2.0)  # xi = e3 - 2 e4 of the paper19 construction
+    case = _case(paper19, "P1", 6, "attack")
+    v = _vector(case, d)
+    P = full_pencil(case, d["lambda"])
+    assert np.linalg.norm(P @ v) <= 1e-9 * np.linalg.norm(P, 2) * np.linalg.norm(v)
+    # normal-rank deficiency: the pencil is singular at other lam too
+    for lam in (0.0, 2.0, -0.3 + 1.1j):
+        s = np.linalg.svd(full_pencil(case, lam), compute_uv=False)
+        assert s[-1] < 1e-12 * s[0]
+
+
+@pytest.mark.parametrize("exact", [False, True])
+def test_the_worst_case_fails_structurally_at_the_boundary_agent_and_becomes_a_finding(paper19: System, exact: bool) -> None:
+    rep = verify(paper19, ["local.pencil"], exact=exact)
+    r = [x for x in rep.conditions if x.scope == {"cluster": "P1", "observer": 5, "suspected": "all"}][0]
+    assert r.status is Status.FAILS and r.witness["structural"] is True
+    assert r.witness["suspected_and_boundary"] == [7]
+    assert "7" in r.witness["reason"]
+    case = _case(paper19, "P1", 5, "all")
+    v = _vector(case, r.witness["direction"])
+    for lam in (0.0, 1.0, 3j):
+        assert np.linalg.norm(full_pencil(case, lam) @ v) == 0.0
+    assert any(f.id == "local.boundary-attack-invisible" for f in rep.findings)
+
+
+def test_a_uio_without_detection_is_reported_as_a_finding(paper19: System) -> None:
+    rep = verify(paper19, ["local.pencil", "local.uio"])
+    uio6 = [r for r in rep.results("local.uio") if r.scope == {"cluster": "P1", "observer": 6, "suspected": "attack"}][0]
+    assert uio6.status is Status.HOLDS
+    f = [f for f in rep.findings if f.id == "local.uio-without-detection"]
+    assert f and {"cluster": "P1", "observer": 6, "suspected": "attack"} in f[0].data["scopes"]
+
+
+def _path_clusters(measured: list[int], suspected: list[int] | None = None) -> System:
+    """Path 1-2-3 | 4-5: cluster A = {1, 2, 3} with boundary agent 1 (edge 1-4)."""
+    G = nx.Graph()
+    G.add_weighted_edges_from([(1, 2, 1), (2, 3, 2), (1, 4, 1), (4, 5, 1)])
+    return System(
+        spec_from_graph(
+            G,
+            clusters={"A": [1, 2, 3], "B": [4, 5]},
+            observers={"A": [{"center": 1, "positions": measured, "velocities": measured}], "B": [4]},
+            monitor_velocities=[5],
+            attack={"kind": "zda", "actuators": suspected or [5]},
+        )
+    )
+
+
+@pytest.mark.parametrize("exact", [False, True])
+def test_an_observer_measuring_only_the_boundary_fails_iii_with_finite_zeros_checked_on_the_pencil(exact: bool) -> None:
+    s = _path_clusters([1])
+    r = _results(s, "local.pencil", exact)[("A", 1, "attack")]
+    assert r.status is Status.FAILS and r.witness["full_normal_column_rank"] is True
+    zeros = r.witness["zeros"]
+    assert len(zeros) == 4  # two eigenvalues mu of L[{2,3},{2,3}], two lam each
+    case = _case(s, "A", 1, "attack")
+    mus = np.linalg.eigvalsh(case.model.L[1:, 1:])
+    for z in zeros:
+        lam = complex(z["lambda"])
+        s_ = lam * lam + s.gamma * lam
+        assert min(abs(s_ + s.alpha * mu) for mu in mus) < 1e-8  # lam^2 + gamma lam = -alpha mu
+        P = full_pencil(case, lam)
+        sv = np.linalg.svd(P, compute_uv=False)
+        assert sv[-1] < 1e-9 * sv[0]
+        v = _vector(case, z)
+        assert np.linalg.norm(P @ v) <= 1e-8 * sv[0] * np.linalg.norm(v)
+        assert set(z["moves"]) <= {2, 3} and z["moves"]
+    # measuring agent 3 as well removes every zero
+    assert _results(_path_clusters([1, 3]), "local.pencil", exact)[("A", 1, "attack")].status is Status.HOLDS
+
+
+@pytest.mark.parametrize("exact", [False, True])
+def test_an_unmeasured_boundary_velocity_fails_ii_and_the_uio_naming_the_agent(exact: bool) -> None:
+    s = _path_clusters([2, 3])
+    r = _results(s, "local.rank", exact)[("A", 1, "attack")]
+    assert r.status is Status.FAILS and r.witness["unmeasured_boundary"] == [1]
+    u = _results(s, "local.uio", exact)[("A", 1, "attack")]
+    assert u.status is Status.FAILS and u.witness["normal"]["unmeasured_boundary"] == [1]
+
+
+@pytest.mark.parametrize("exact", [False, True])
+def test_a_marginal_unobservable_mode_of_a1_makes_the_uio_fail_with_the_mode_as_witness(exact: bool) -> None:
+    # only the boundary agent's velocity is measured: T kills its velocity row, x1 integrates
+    G = nx.Graph()
+    G.add_weighted_edges_from([(1, 2, 1), (2, 3, 1), (1, 4, 1), (4, 5, 1)])
+    s = System(
+        spec_from_graph(G, clusters={"A": [1, 2, 3], "B": [4, 5]}, observers={"A": [{"center": 1, "positions": [], "velocities": [1]}], "B": [4]})
+    )
+    (r,) = verify(s, ["local.uio"], exact=exact).conditions[:1]
+    assert r.scope == {"cluster": "A", "observer": 1, "suspected": "all"}
+    assert r.status is Status.FAILS
+    w = r.witness["normal"]
+    if exact:
+        assert w["unstable_unobservable_modes"]
+    else:
+        mode = w["unstable_unobservable_mode"]
+        assert abs(complex(mode["eigenvalue"])) < 1e-9 and mode["positions"]
+
+
+def test_k_connected_reports_the_cut_edge_count_and_rank_e() -> None:
+    # agent 1 has two cut edges (to 4 and 5): the paper counts 2, rank(E) is 1
+    G = nx.Graph()
+    G.add_weighted_edges_from([(1, 2, 1), (2, 3, 1), (1, 4, 1), (1, 5, 1), (4, 5, 1)])
+    s = System(
+        spec_from_graph(G, clusters={"A": [1, 2, 3], "B": [4, 5]}, observers={"A": [2], "B": [4]}, attack={"kind": "zda", "actuators": [3]})
+    )
+    r = _results(s, "local.k-connected")[("A", 2, "attack")]
+    w = r.witness
+    assert w["degree"] == 2 and w["inter_cluster_edges"] == 2 and w["rank_E"] == 1
+    assert w["required"] == 3 and w["required_with_rank_E"] == 2
+    assert r.status is Status.FAILS and w["holds_with_rank_E"] is True
+    assert r.margin == -1
+
+
+def test_the_attack_scope_is_present_even_when_no_attacked_agent_is_in_the_cluster(paper19: System) -> None:
+    r = _results(paper19, "local.pencil")[("P2", 10, "attack")]
+    assert r.witness["suspected_agents"] == []
+    s = System(spec_from_graph(nx.path_graph([1, 2, 3, 4]), clusters={"A": [1, 2], "B": [3, 4]}, observers={"A": [1], "B": [4]}))
+    assert {k[2] for k in _results(s, "local.rank")} == {"all"}
+
+
+def test_exact_results_are_never_undecided_and_agree_with_numeric_on_paper19(paper19: System) -> None:
+    for cid in ("local.rank", "local.pencil", "local.uio"):
+        num = _results(paper19, cid)
+        exa = _results(paper19, cid, exact=True)
+        for k, r in exa.items():
+            assert r.status is not Status.UNDECIDED
+            assert r.status is num[k].status, (cid, k)
+
+
+def test_local_results_validate_against_the_report_schema(paper19: System) -> None:
+    from glocal_verify import validate_report_json
+
+    validate_report_json(verify(paper19, LOCAL).to_json())
+    validate_report_json(verify(paper19, LOCAL, exact=True).to_json())
+
+
+def test_rational_weights_reach_the_exact_pencil_unchanged() -> None:
+    G = nx.Graph()
+    G.add_edge(1, 2, weight=Fraction(1, 3))
+    G.add_edge(2, 3, weight=Fraction(5, 7))
+    G.add_edge(3, 4, weight=1)
+    s = System(spec_from_graph(G, clusters={"A": [1, 2, 3], "B": [4]}, observers={"A": [{"center": 2, "positions": [2, 3], "velocities": [2, 3]}], "B": [4]}))
+    num = _results(s, "local.pencil")
+    exa = _results(s, "local.pencil", exact=True)
+    for k in exa:
+        assert exa[k].status is num[k].status
