@@ -73,6 +73,7 @@ __all__ = [
     "rank_over_field",
     "poly_pencil",
     "classify_real_parts",
+    "eval_at_root",
 ]
 
 #: seed of the fixed pseudo-random points at which the normal rank is cross-checked
@@ -748,14 +749,70 @@ class FieldKernel:
         root : complex
             A root of ``f``.
         """
-        return [np.array([_poly_eval(e, root) for e in v], dtype=complex) for v in self.basis]
+        return [eval_at_root(v, self.f, root) for v in self.basis]
 
 
 def _poly_eval(p: Any, z: complex) -> complex:
+    """p(z) in double precision (Horner); fine for rational z, see :func:`eval_at_root`."""
     acc = 0j
     for c in reversed(p.coeffs()):
         acc = acc * z + float(Fraction(int(c.p), int(c.q)))
     return acc
+
+
+_ROOTS_CACHE: dict[tuple[str, int], list[Any]] = {}
+
+
+def _roots_acb(f: Any, prec: int) -> list[Any]:
+    key = (str(f), prec)
+    if key not in _ROOTS_CACHE:
+        old = flint.ctx.prec
+        try:
+            flint.ctx.prec = prec
+            _ROOTS_CACHE[key] = [r for r, _ in f.complex_roots()]
+        finally:
+            flint.ctx.prec = old
+        if len(_ROOTS_CACHE) > 512:
+            _ROOTS_CACHE.pop(next(iter(_ROOTS_CACHE)))
+    return _ROOTS_CACHE[key]
+
+
+def _mid(a: Any) -> complex:
+    return complex(float(a.real.mid()), float(a.imag.mid()))
+
+
+def eval_at_root(polys: Sequence[Any], f: Any, root: complex) -> np.ndarray:
+    """Values of residues mod ``f`` at the root of ``f`` nearest to ``root``, to full double
+    precision: ball arithmetic from 256 bits up until every ball is below 1e-17 of the
+    largest value (double-precision Horner loses digits when the residues have high degree
+    and large coefficients).
+
+    Parameters
+    ----------
+    polys : sequence of fmpq_poly
+        The residues (e.g. a kernel vector over Q[x]/(f)).
+    f : fmpq_poly
+        Irreducible polynomial.
+    root : complex
+        Approximation of the wanted root.
+    """
+    if f.degree() <= 1:
+        return np.array([_poly_eval(q, root) for q in polys], dtype=complex)
+    prec = 256
+    while True:
+        r = min(_roots_acb(f, prec), key=lambda a: abs(_mid(a) - root))
+        old = flint.ctx.prec
+        try:
+            flint.ctx.prec = prec
+            vals = [flint.acb_poly(q)(r) for q in polys]
+        finally:
+            flint.ctx.prec = old
+        out = np.array([_mid(v) for v in vals], dtype=complex)
+        big = float(np.max(np.abs(out), initial=0.0))
+        rad = max((float(v.real.rad()) + float(v.imag.rad()) for v in vals), default=0.0)
+        if rad <= 1e-17 * big or prec >= 16384:
+            return out
+        prec *= 4
 
 
 def kernel_over_field(M: Sequence[Sequence[Any]], f: Any, ncols: int) -> FieldKernel:
@@ -1053,7 +1110,7 @@ def analyze_pencil_exact(
         for root, sign in roots:
             value = complex(float(rational)) if rational is not None else root
             if pick is not None:
-                vec = np.array([_poly_eval(e, value) for e in pick], dtype=complex)
+                vec = eval_at_root(pick, f, value)
                 vec = _normalize_phase(vec)
                 xs, us = vec[:n], vec[n:]
             else:

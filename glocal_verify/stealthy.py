@@ -798,7 +798,7 @@ def _exact_zero(system: System, g: Any, vec: Any, root: complex, sign: int, atta
         xi, u = np.zeros(N), np.zeros(m)
         xf: tuple[Any, ...] = ()
     else:
-        v = np.array([pn._poly_eval(e, root) for e in vec], dtype=complex)
+        v = pn.eval_at_root(vec, g, root)
         xi, u = _normalize(v[:N], v[N:])
         xf = tuple(vec[:N])
     return ExactZdaZero(root, rational, str(g), sign, attack, xi, u, xf, g, mult)
