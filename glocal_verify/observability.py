@@ -51,8 +51,9 @@ merged: the *upper* reading). Every other decision compares a quantity on the un
 distances of unit vectors) with ``rtol`` and ``rtol * band``, after widening it by the estimated
 error of the computed subspaces: a value ``s`` with error ``e`` is zero iff
 ``s + e <= rtol``, nonzero iff ``s - e > rtol * band``, undecided otherwise. The eigenvector
-error of a group is estimated by the Davis-Kahan bound ``N eps ||L||_2 / gap`` (``N eps ||L||``
-bounds the backward error of ``eigh``; ``gap`` = distance to the nearest other eigenvalue). A
+error of a group is the a-posteriori Davis-Kahan bound ``||L E - E Lambda|| / gap``
+(:func:`eigen_residuals`; ``gap`` = distance to the nearest other eigenvalue, shrunk by twice the
+largest residual); the eigenspace of 0 is taken exactly, spanned by the component indicators. A
 :class:`Subspace` carries both readings: the true subspace lies between ``basis`` and ``upper``
 and is decided when their dimensions agree.
 """
@@ -67,12 +68,13 @@ from typing import Any, Mapping, Sequence
 
 import flint
 import numpy as np
+import scipy.sparse
 
 from .errors import ModelError
 from .linalg import DEFAULT_TOLERANCE, Decision, Tolerance
 from .model import System
-from .registry import CheckContext, checker, result
-from .results import ConditionResult, Method, Status
+from .registry import CheckContext, checker, finding_rule, result
+from .results import ConditionResult, Finding, Status
 from .spec import NORMAL_MODE, Label
 
 __all__ = [
@@ -86,6 +88,7 @@ __all__ = [
     "switched_unobservable_subspace",
     "switched_unobservable_bounds_exact",
     "modal_decomposition",
+    "eigen_residuals",
     "modal_exponential",
     "block_exponentials",
     "mode_sequence",
@@ -95,6 +98,7 @@ __all__ = [
     "check_privacy_unobservable",
     "check_privacy_initial_state",
     "check_privacy_consensus_value",
+    "switched_subspace_not_invariant",
 ]
 
 EPS = float(np.finfo(float).eps)
@@ -340,22 +344,29 @@ def _group_parts(
     mx: list[int],
     m: list[int],
     tol: Tolerance,
+    residuals: np.ndarray,
+    kernel_basis: np.ndarray | None,
 ) -> tuple[EigenGroupPart, ...]:
     n = len(w)
+    rmax = float(np.max(residuals)) if len(residuals) else 0.0
     out = []
     for gi, g in enumerate(partition):
         lo = w[g[0]]
         hi = w[g[-1]]
         gap_left = lo - w[partition[gi - 1][-1]] if gi > 0 else math.inf
         gap_right = w[partition[gi + 1][0]] - hi if gi + 1 < len(partition) else math.inf
-        gap = min(gap_left, gap_right)
-        err = n * EPS * (scale / gap if gap > 0 else math.inf) + n * EPS
-        if not math.isfinite(err):
-            err = math.inf
-        E = U[:, g]
-        k = len(g)
+        gap = min(gap_left, gap_right) - 2.0 * rmax
         value = float(np.mean(w[g]))
         zero = tol.decide(value, scale)
+        k = len(g)
+        if zero is Decision.ZERO and kernel_basis is not None and kernel_basis.shape[1] == k:
+            # ker L is spanned by the component indicators: known exactly
+            E = kernel_basis
+            err = math.sqrt(n) * EPS
+        else:
+            E = U[:, g]
+            rg = float(np.linalg.norm(residuals[g]))
+            err = (rg / gap if gap > 0 else math.inf) + math.sqrt(n) * EPS
         ker_lo, ker_hi, sv, _ = _kernel_readings(E[m, :], k, err, tol)
         kx_lo, kx_hi, svx, _ = _kernel_readings(E[mx, :], k, err, tol)
         out.append(
@@ -374,6 +385,42 @@ def _group_parts(
             )
         )
     return tuple(out)
+
+
+def eigen_residuals(system: System, mode: str = NORMAL_MODE) -> np.ndarray:
+    """Residual norms ``||L_q u_i - w_i u_i||_2`` of the computed eigenpairs (cached).
+
+    With the gap ``delta`` between a group of computed eigenvalues and the rest of the
+    spectrum, the Davis-Kahan sin-theta theorem bounds the angle between the computed and the
+    exact eigenspace by ``||R_g|| / delta`` (``R_g`` the group's residual block; each computed
+    eigenvalue lies within its residual of an exact one, so ``delta`` is shrunk by twice the
+    largest residual). This a-posteriori bound replaces the a-priori ``N eps ||L|| / gap``.
+    L_q is applied as a sparse matrix: O(nnz * N).
+
+    Parameters
+    ----------
+    system : System
+        The multi-agent system.
+    mode : str
+        The mode q.
+    """
+    key = ("residuals", mode)
+    cache = _cache(system)
+    if key not in cache:
+        w, U = system.eigh(mode)
+        L = scipy.sparse.csr_matrix(system.laplacian(mode))
+        R = L @ U - U * w[None, :]
+        cache[key] = np.linalg.norm(R, axis=0)
+    return cache[key]  # type: ignore[no-any-return]
+
+
+def _kernel_indicators(system: System, mode: str) -> np.ndarray:
+    comps = system.components(mode)
+    K = np.zeros((system.n, len(comps)))
+    for c, comp in enumerate(comps):
+        idx = system.idx(comp)
+        K[idx, c] = 1.0 / math.sqrt(len(idx))
+    return K
 
 
 _CACHE: "weakref.WeakKeyDictionary[System, dict[Any, Any]]" = weakref.WeakKeyDictionary()
@@ -411,8 +458,10 @@ def modal_decomposition(system: System, mode: str = NORMAL_MODE, tol: Tolerance 
     split, merged, decided = _partition(w, scale, tol)
     mx = system.idx(system.monitored_positions)
     m = system.idx(system.monitored)
-    groups = _group_parts(w, U, split, scale, mx, m, tol)
-    mgroups = groups if decided else _group_parts(w, U, merged, scale, mx, m, tol)
+    res = eigen_residuals(system, mode)
+    K = _kernel_indicators(system, mode)
+    groups = _group_parts(w, U, split, scale, mx, m, tol, res, K)
+    mgroups = groups if decided else _group_parts(w, U, merged, scale, mx, m, tol, res, K)
     md = ModalDecomposition(mode, groups, mgroups, scale, decided)
     cache[key] = md
     return md
@@ -468,7 +517,7 @@ def unobservable_subspace(system: System, mode: str = NORMAL_MODE, tol: Toleranc
     tol : Tolerance
         Eigenvalues are grouped at ``rtol * ||L_q||_2``; ``W_mu`` keeps the right singular
         vectors of ``S_M E_mu`` whose singular values are zero after widening by the
-        Davis-Kahan error ``N eps ||L||_2 / gap`` of ``E_mu`` (module docstring).
+        a-posteriori Davis-Kahan error ``||L E_mu - mu E_mu|| / gap`` (module docstring).
 
     Returns
     -------
@@ -1342,7 +1391,8 @@ def check_privacy_unobservable(system: System, ctx: CheckContext) -> list[Condit
     dec, dist = Ssw.contains_decision(e, ctx.tol)
     witness = {"sequence": [list(s) for s in seq], "schedule": sequence_text(seq), "distance": dist, "dim": Ssw.dim}
     if ctx.exact:
-        status = Status.FAILS if mx else Status.HOLDS
+        fixed = all(all(sum(row, Fraction(0)) == 0 for row in system.laplacian_exact(m)) for m, _ in seq)
+        status = Status.FAILS if (mx or not fixed) else Status.HOLDS
         witness["reason"] = "A_k [1; 0] = 0 for every mode, so [1; 0] is fixed by every exp(A_k t); it is unobservable iff C [1; 0] = 0"
     else:
         status = {Decision.ZERO: Status.HOLDS, Decision.NONZERO: Status.FAILS, Decision.UNDECIDED: Status.UNDECIDED}[dec]
@@ -1522,3 +1572,63 @@ def check_privacy_consensus_value(system: System, ctx: CheckContext) -> list[Con
         witness["f_dot_v"] = float(f @ v) / math.sqrt(n)
     out.append(result(cid, ctx, status, margin=c, witness=witness))
     return out
+
+
+# --------------------------------------------------------------------------------------------
+# finding: Lemma II.3 (ii) calls N_1^m "the largest A_sigma-invariant subspace contained in ker C"
+
+
+@finding_rule
+def switched_subspace_not_invariant(system: System, results: Sequence[ConditionResult]) -> list[Finding]:
+    """Lemma II.3 (ii): the switched unobservable subspace need not be invariant under the A_k.
+
+    The lemma describes ``N_1^m`` as "the largest A_sigma(t)-invariant subspace contained in
+    ker(C)". The recursion it gives computes the set of initial states with zero output over the
+    schedule, which in general is invariant under none of the A_k; the largest subspace of
+    ker C invariant under every A_k (the Krylov closure of C under all modes, computed exactly)
+    can be strictly smaller. The rule fires when ``switched-observability`` ran on a schedule
+    and the computed ``N_1^m`` has a certainly nonzero invariance residual
+    ``||(I - V V^T) A_k V|| > rtol * band * ||A_k||`` for some mode of the schedule.
+    """
+    if not any(r.id == "switched-observability" and not r.scope for r in results):
+        return []
+    seq = mode_sequence(system)
+    if seq is None or len(seq) < 2:
+        return []
+    seq = _check_sequence(system, seq)
+    tol = DEFAULT_TOLERANCE
+    S = switched_unobservable_subspace(system, seq, tol)
+    if not S.decided or S.dim == 0:
+        return []
+    V = S.basis
+    residuals: dict[str, float] = {}
+    for m in dict.fromkeys(mm for mm, _ in seq):
+        w, _ = system.eigh(m)
+        scale = max(system.alpha * float(np.max(np.abs(w))), system.gamma, 1.0)
+        X = _apply_A(system, m, V)
+        res = float(np.linalg.norm(X - V @ (V.T @ X), 2)) / scale
+        if decide_with_error(res, S.error, tol) is Decision.NONZERO:
+            residuals[m] = res
+    if not residuals:
+        return []
+    n2 = 2 * system.n
+    common = _kernel(_row_closure(_exact_C(system), [_exact_A(system, m) for m in dict.fromkeys(mm for mm, _ in seq)])).ncols() if system.n <= 60 else None
+    return [
+        Finding(
+            "lemma2.switched-subspace-not-invariant",
+            "The switched unobservable subspace of Lemma II.3 is not invariant under the modes' A_k",
+            f"Lemma II.3 (ii) calls N_1^m 'the largest A_sigma(t)-invariant subspace contained in ker(C)'. On the schedule "
+            f"{sequence_text(seq)} the recursion gives dim N_1^m = {S.dim}, and this subspace is not invariant under "
+            f"{', '.join(residuals)} (relative residuals {', '.join(f'{v:.2g}' for v in residuals.values())})"
+            + (f"; the largest subspace of ker C invariant under every A_k has dimension {common}." if common is not None else ".")
+            + " The recursion (eqs. obsv_nullspace_1-2) is right; the description is not.",
+            "Lemma II.3 (ii)",
+            {"schedule": [list(x) for x in seq], "dim": S.dim, "common_invariant_dim": common, "residuals": residuals, "state_dim": n2},
+        )
+    ]
+
+
+def _apply_A(system: System, mode: str, X: np.ndarray) -> np.ndarray:
+    n = system.n
+    L = system.laplacian(mode)
+    return np.vstack([X[n:], -system.alpha * (L @ X[:n]) - system.gamma * X[n:]])

@@ -17,6 +17,7 @@ import numpy as np
 from . import exact as ex
 from .linalg import Decision
 from .model import System
+from .observability import eigen_residuals
 from .registry import CheckContext, checker, result
 from .results import ConditionResult, Status
 from .spec import Label
@@ -347,8 +348,12 @@ def _eigvec_numeric(system: System, mode: str, ctx: CheckContext) -> tuple[Statu
     gaps = np.diff(w)
     left = np.concatenate([[np.inf], gaps])
     right = np.concatenate([gaps, [np.inf]])
-    gap = np.minimum(left, right)
-    err = math.sqrt(2.0) * (n * _EPS * scale / gap + n * _EPS)
+    res = eigen_residuals(system, mode)
+    gap = np.minimum(left, right) - 2.0 * float(np.max(res))
+    with np.errstate(divide="ignore"):
+        # Davis-Kahan: sin(angle(u_l, exact)) <= ||L u_l - w_l u_l|| / gap_l; an entry difference
+        # moves by at most 2 sin(angle)
+        err = np.where(gap > 0, 2.0 * res / np.where(gap > 0, gap, 1.0), np.inf) + 2.0 * math.sqrt(n) * _EPS
     cols = list(range(1, n))  # l != 1 (the simple eigenvalue 0 of a connected graph, or the smallest one)
     if not cols:
         return Status.HOLDS, 1.0, {"note": "a single agent"}
@@ -463,8 +468,9 @@ def check_eigenvector_differences(system: System, ctx: CheckContext) -> list[Con
 
     Numeric: eigenvalues grouped at ``rtol * ||L_q||_2`` (as in ``switching.distinct-eigenvalues``);
     for a simple eigenvalue the differences ``|u_l(i) - u_l(j)|`` of the unit eigenvectors are
-    compared with ``rtol`` (unit scale) after widening by the Davis-Kahan error
-    ``sqrt(2) N eps ||L_q||_2 / gap_l`` (``gap_l`` = distance to the nearest other eigenvalue):
+    compared with ``rtol`` (unit scale) after widening by the a-posteriori Davis-Kahan error
+    ``2 ||L_q u_l - mu_l u_l|| / gap_l`` (``gap_l`` = distance to the nearest other eigenvalue,
+    shrunk by twice the largest residual; :func:`~glocal_verify.observability.eigen_residuals`):
     zero if ``d + err <= rtol``, nonzero if ``d - err > rtol * band``, undecided otherwise; an
     undecided eigenvalue gap makes the verdict undecided.
     Exact: ``p`` = charpoly(L_q); repeated eigenvalue iff ``gcd(p, p') != 1`` (fails). Otherwise

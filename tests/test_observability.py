@@ -379,3 +379,28 @@ def test_the_cli_reports_the_new_conditions_with_exact_arithmetic(tmp_path: Any)
     assert {c["id"] for c in data["conditions"]} == set(NEW_IDS)
     assert all(c["method"] == "exact" and c["status"] != "undecided" for c in data["conditions"])
     assert any(f["id"] == "central.hurwitz-infeasible" for f in data["findings"])
+
+
+def test_the_switched_subspace_need_not_be_invariant_which_lemma_ii3_claims() -> None:
+    # Lemma II.3 (ii) calls N_1^m "the largest A_sigma-invariant subspace contained in ker C"
+    data = {
+        "format": 1,
+        "graph": {"nodes": 5, "edges": [[1, 4], [2, 4], [3, 4], [3, 5], [4, 5]]},
+        "monitor": {"velocities": [4]},
+        "modes": [{"name": "a", "add": [[2, 3]]}, {"name": "b", "remove": [[3, 4]]}],
+        "switching": {"sequence": [{"mode": "normal", "duration": 1.0}, {"mode": "a", "duration": 1.0}, {"mode": "b", "duration": 1.0}]},
+    }
+    s = System(spec_from_dict(data))
+    seq = mode_sequence(s)
+    assert seq is not None
+    V = switched_unobservable_subspace(s, seq).basis
+    assert V.shape[1] == 3
+    for mode in s.modes:
+        AV = s.A(mode) @ V
+        assert np.linalg.norm(AV - V @ (V.T @ AV)) > 0.1  # invariant under no mode
+    rep = verify(s, ["switched-observability"])
+    (f,) = [f for f in rep.findings if f.id == "lemma2.switched-subspace-not-invariant"]
+    assert f.data["dim"] == 3 and f.data["common_invariant_dim"] == 1
+    # paper19's two-mode schedule keeps only [1; 0], which is invariant: no finding
+    p19 = System(load_example("paper19"))
+    assert not [f for f in verify(p19, ["switched-observability"]).findings if f.id.startswith("lemma2.")]
