@@ -3,8 +3,8 @@
 :func:`random_clustered_spec` builds a validated :class:`~glocal_verify.spec.SystemSpec`:
 clusters are sparse connected random graphs (a random spanning tree plus a few chords, integer
 weights), consecutive clusters are joined by a few inter-cluster edges, a handful of agents
-are velocity-monitored, each safe mode adds or removes intra-cluster links at a monitored
-agent, and a ZDA attacks two agents of the first cluster.
+are velocity-monitored, each safe mode adds an intra-cluster link at a monitored agent, and a
+ZDA attacks two interior (not boundary, not monitored) agents of the first cluster.
 """
 
 from __future__ import annotations
@@ -100,7 +100,8 @@ def random_clustered_spec(
         "simulation": {"horizon": horizon, "step": step, "seed": seed},
     }
     if attack:
-        first = [a for a in members[0] if a not in mon]
+        boundary = {a for key in edges for a in key if (a in members[0]) != (next(b for b in key if b != a) in members[0])}
+        first = [a for a in members[0] if a not in mon and a not in boundary]
         data["attack"] = {"kind": "zda", "actuators": [int(a) for a in rng.choice(first, size=2, replace=False)]}
         if mode_list:
             data["switching"] = {"mode": mode_list[0]["name"], "time": horizon / 3}

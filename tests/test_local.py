@@ -46,7 +46,7 @@ def test_paper19_reports_all_four_local_conditions_for_every_observer_and_both_s
     rep = verify(paper19, LOCAL)
     for cid in LOCAL:
         scopes = {(r.scope["cluster"], r.scope["observer"], r.scope["suspected"]) for r in rep.results(cid)}
-        assert scopes == {(c, o, k) for c, o in [("P1", 5), ("P1", 6), ("P2", 10), ("P3", 16)] for k in ("attack", "all")}
+        assert scopes == {(c, o, k) for c, o in [("P1", 5), ("P1", 6), ("P2", 10), ("P3", 13)] for k in ("attack", "all")}
 
 
 def test_the_cli_reports_the_local_conditions_of_paper19(capsys: pytest.CaptureFixture[str]) -> None:

@@ -142,10 +142,17 @@ def test_the_same_zda_keeps_the_residual_of_observer_6_at_zero(paper19: System) 
     assert np.linalg.norm(err[-1]) > 10 * np.linalg.norm(err[0])
 
 
-def test_an_unmeasured_boundary_agent_makes_the_design_refuse_with_the_reason(paper19: System) -> None:
-    (obs,) = paper19.observers("P3")
+def test_an_unmeasured_boundary_agent_makes_the_design_refuse_with_the_reason() -> None:
+    # paper19 with the P3 observer moved to 16, whose neighbours (15, 17, 18) miss the
+    # boundary agent 13
+    from glocal_verify.spec import example_text, loads_spec
+
+    text = example_text("paper19").replace("center = 13 ", "center = 16 ")
+    system = System(loads_spec(text))
+    (obs,) = system.observers("P3")
+    assert obs.center == 16
     with pytest.raises(NotApplicableError, match="boundary agent"):
-        local_uio(paper19, obs)
+        local_uio(system, obs)
 
 
 def test_an_unstable_unobservable_mode_of_a1_is_reported() -> None:
