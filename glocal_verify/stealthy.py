@@ -389,6 +389,8 @@ class _Modal:
                     frac = float(np.linalg.norm(u2)) / max(float(np.linalg.norm(xi)), 1e-300)
                     if best is None or frac > float(np.linalg.norm(best[1])) / max(float(np.linalg.norm(best[0])), 1e-300):
                         best = (xi, u2, res, dres, du)
+                    if du is Decision.NONZERO:
+                        break  # the first candidate is the largest-input vector of the certain kernel
                 elif dres is Decision.UNDECIDED and best_dec is Decision.NONZERO:
                     best_dec = Decision.UNDECIDED
             if best is not None:
