@@ -768,9 +768,10 @@ def algorithm1(
     if ga is not None and ga.detected:
         events.append(Event(ga.time or 0.0, "global-detection", f"control centre detects the attack: global residual crosses on {ga.channel}", observer="central"))
     for nm, c in local_after.items():
-        if c.detected:
-            events.append(Event(c.time or 0.0, "local-detection-after-switch", f"local residual {nm} above its threshold after the switch", observer=nm))
-    events.sort(key=lambda e: (e.time, e.kind))
+        if c.detected and not local[nm].detected:
+            events.append(Event(c.time or 0.0, "local-detection-after-switch", f"local residual {nm} crosses its threshold after the switch", observer=nm))
+    order = {"attack-start": 0, "local-detection": 1, "global-detection": 2, "switch": 3, "local-detection-after-switch": 4}
+    events.sort(key=lambda e: (e.time, order.get(e.kind, 9) + (3 if e.kind == "global-detection" and ts_ is not None and e.time >= ts_ else 0)))
     if trig == "schedule" and chosen is not None:
         rk = next((r for r in ranking if r.mode == chosen), None)
         if rk is not None and not rk.eligible:

@@ -442,6 +442,13 @@ def write_cases(outcomes: Sequence[CaseOutcome], out_dir: str | Path, *, preambl
             f"after the switch the global residual is {oc.result.post_switch.summary if oc.result.post_switch else 'not switched'}; "
             f"the control centre {'detects' if oc.detected else 'does not detect'} the attack."
         )
+        fl = oc.result.first_local
+        if fl is not None and fl.time == 0.0:
+            lines.append(
+                f"  - the local detection by {fl.observer} at t = 0 comes from the ZDA's initial deviation x~0 "
+                "(part of the actual initial state, Proposition II.4 (ii)): no attack-free initial state in the box "
+                "produces that local measurement; the local residual then keeps growing with the attack (figure, panel c)."
+            )
     if findings:
         lines += ["", "## Findings", ""]
         lines += [f"- {f}" for f in findings]
