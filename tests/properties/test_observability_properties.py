@@ -88,16 +88,28 @@ _HUB_EDGES = [[1, k, "1/2"] for k in (2, 4, 7, 8, 10, 12, 13, 14, 15, 16, 17, 20
     [13, 18, "1/2"], [13, 26, "1/2"], [19, 28, "3/2"], [21, 22, "1/2"],
 ]
 HUB30 = System(spec_from_dict({"format": 1, "graph": {"nodes": 30, "edges": _HUB_EDGES}, "monitor": {"velocities": [20]}}))
+# an eigenvector entry of 4.7e-7 at the monitored agent 9: the modal method is undecided (fuzz profile)
+_BAND_EDGES = [
+    [1, 7, 2], [1, 21, "3/2"], [2, 3, "1/2"], [2, 5, 3], [2, 14, "1/2"], [3, 11, 2],
+    [3, 19, "3/2"], [4, 13, "5/2"], [4, 19, 1], [5, 9, 1], [5, 21, 3], [6, 17, 3],
+    [6, 22, "3/2"], [7, 22, "5/2"], [8, 9, "3/2"], [8, 12, 3], [9, 16, 1], [10, 23, 1],
+    [11, 18, 1], [11, 23, 1], [15, 20, "5/2"], [17, 19, "1/2"], [20, 23, "5/2"],
+]
+BAND23 = System(spec_from_dict({"format": 1, "graph": {"nodes": 23, "edges": _BAND_EDGES}, "monitor": {"velocities": [9]}}))
 
 
 @example(system=HUB30)
+@example(system=BAND23)
 @given(systems(max_n=30, integer=False))
 def test_the_structured_and_the_dense_staircase_subspaces_agree(system: System) -> None:
     # the weights are rational, so the exact kernel arbitrates any disagreement
     for mode in system.modes:
         S = unobservable_subspace(system, mode)
         D = unobservable_subspace_dense(system.A(mode), system.C())
-        assert S.decided
+        if not S.decided:
+            # e.g. an eigenvector entry of 4.7e-7 at the monitor: inside the undecided band
+            assert S.dim <= len(unobservable_subspace_exact(system, mode)) <= S.dim_upper
+            continue
         if not D.decided:
             continue
         if S.dim != D.dim:
