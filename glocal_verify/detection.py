@@ -1170,18 +1170,22 @@ def case_findings(outcomes: Sequence[CaseOutcome]) -> list[str]:
                 f"(||dL_q xi|| / ||xi|| = {d:.1e}: the switch does not touch the agents the ZDA moves, so the "
                 f"ZDA is still a zero direction of (A_q, B, C) and the residual equals the attack-free one). "
                 f"The paper's 'trade-off between a faster attack detection ... and a slower detection' "
-                f"(Section IV) cannot hold for such a switch on any graph: there is no detection, slow or fast."
+                f"(Section IV) cannot hold for such a switch on any graph: there is no detection, slow or fast. "
+                f"Minimal counterexample (3 agents): reports/findings/theorem3-sufficiency-switch-avoids-zda.toml."
             )
     touch = {oc.case.name: _dl_xi(oc.case.system, oc.case.mode, oc.result.attack) for oc in outcomes if oc.result.attack is not None and oc.result.attack.xi is not None}
     bounded = [nm for nm, d in touch.items() if d is not None and d <= 1e-9 and any(o.case.name == nm and o.observed == "vanishing" for o in outcomes)]
     unbounded = [oc.case.name for oc in outcomes if oc.observed == "unbounded"]
     if any(oc.case.expect == "unbounded" for oc in outcomes) and unbounded:
         out.append(
-            "Section IV vs Remark III.3.1: the text says only case 2 meets eq. (unsafe_set) and that case 2 is "
-            "unbounded, while the remark says that meeting (unsafe_set) keeps the discrepancy bounded and vanishing. "
-            f"Simulation supports the remark with X_q read as the states the switch touches: the cases whose switch "
-            f"avoids the moved agents ({', '.join(bounded) or 'none'}) are bounded and vanishing, the case whose switch "
-            f"touches them ({', '.join(unbounded)}) is unbounded. Under that reading it is case 1, not case 2, that "
-            f"meets (unsafe_set); no graph can make the three sentences consistent."
+            "Section IV vs Remark III.3.1: three sentences cannot all hold, on any graph: (a) the remark, 'the "
+            "discrepancy term ... will be bounded and vanishing if (unsafe_set) holds'; (b) Section IV, 'only case 2 "
+            "meets (unsafe_set)'; (c) Section IV, 'that [residual] of case 2 is unbounded'. (a) and (b) make case 2 "
+            "bounded, against (c). Simulation supports (a) and (c) with X_q ∩ Z = ∅ read as 'the switch does not touch "
+            f"the states the attack moves': the cases whose switch avoids the moved agents ({', '.join(bounded) or 'none'}) "
+            f"are bounded and vanishing, the case whose switch touches them ({', '.join(unbounded)}) is unbounded. "
+            "Sentence (b) is the one that fails: it is case 1, not case 2, that meets (unsafe_set). Touching is not "
+            "sufficient either: reports/findings/remark-touching-switch-hides-zda.toml (3 agents) touches the ZDA and "
+            "the residual stays exactly attack-free, because Theorem III.3 (ii) fails there."
         )
     return out
