@@ -395,7 +395,14 @@ def cases_table(outcomes: Sequence[CaseOutcome]) -> str:
     return "\n".join(lines)
 
 
-def write_cases(outcomes: Sequence[CaseOutcome], out_dir: str | Path, *, preamble: str = "", findings: Sequence[str] = ()) -> list[Path]:
+def write_cases(
+    outcomes: Sequence[CaseOutcome],
+    out_dir: str | Path,
+    *,
+    preamble: str = "",
+    findings: Sequence[str] = (),
+    sections: Sequence[tuple[str, str]] = (),
+) -> list[Path]:
     """Write ``cases.md`` (outcome table and verdicts), ``cases.json``, ``figure2.{png,svg}`` and
     one ``<case>.{json,png,svg}`` per case.
 
@@ -407,6 +414,8 @@ def write_cases(outcomes: Sequence[CaseOutcome], out_dir: str | Path, *, preambl
         Markdown inserted after the title (how the files were generated).
     findings : sequence of str
         Markdown bullet texts listed under "Findings".
+    sections : sequence of (title, markdown)
+        Extra sections placed before the findings.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -449,6 +458,8 @@ def write_cases(outcomes: Sequence[CaseOutcome], out_dir: str | Path, *, preambl
                 "(part of the actual initial state, Proposition II.4 (ii)): no attack-free initial state in the box "
                 "produces that local measurement; the local residual then keeps growing with the attack (figure, panel c)."
             )
+    for title, body in sections:
+        lines += ["", f"## {title}", "", body]
     if findings:
         lines += ["", "## Findings", ""]
         lines += [f"- {f}" for f in findings]
@@ -463,7 +474,7 @@ def write_cases(outcomes: Sequence[CaseOutcome], out_dir: str | Path, *, preambl
         "",
     ]
     p = out / "cases.md"
-    p.write_text("\n".join(lines), encoding="utf-8")
+    p.write_text("\n".join(lines) + "\n", encoding="utf-8")
     paths.append(p)
     return paths
 
@@ -545,5 +556,26 @@ def write_case_study(
     pre += " Every run is an exact piecewise-LTI simulation (matrix exponentials; see `glocal_verify/simulate.py`)."
     if comp:
         pre += " Companion specs: " + ", ".join(f"{q} uses `{s.name}`" for q, s in comp.items()) + "."
-    paths = write_cases(outcomes, out_dir, preamble=pre, findings=case_findings(outcomes))
+    sections: list[tuple[str, str]] = []
+    findings = case_findings(outcomes)
+    if system.spec.attack is not None and system.safe_modes:
+        alg = algorithm1(system, trigger="local", rule=rule, method=method, progress=progress)
+        fl = alg.first_local
+        ranking = ", ".join(f"{r.mode} ({'eligible' if r.eligible else 'not eligible'}, score {r.score:.3g})" for r in alg.ranking)
+        text = (
+            f"Algorithm 1 as written, on `{system.name}`: the observers run in the normal mode; the first local "
+            f"detection is {fl.observer + ' at t = ' + format(fl.time or 0.0, '.2f') + ' s' if fl else 'none'}; line 4 "
+            f"ranks the safe modes by Theorem III.3 (i)-(iii) and their margins: {ranking}; it switches to "
+            f"**{alg.chosen_mode}** at t = {alg.switch_time if alg.switch_time is not None else '-'} s, and the control centre "
+            + (f"detects the attack at t = {alg.global_after.time:.2f} s." if alg.detected_globally and alg.global_after else "**never detects** the attack.")
+        )
+        sections.append(("Algorithm 1 with the local trigger", text))
+        if not alg.detected_globally and alg.chosen_mode is not None:
+            findings.append(
+                f"Algorithm 1, line 4 ('identify a safe mode that satisfies conditions (i)-(iii)') can choose a mode that "
+                f"never detects: on {system.name} the best-ranked mode satisfying (i)-(iii) is {alg.chosen_mode}, and after "
+                f"switching to it the control centre never detects the ZDA. Conditions (i)-(iii) do not depend on the attack; "
+                f"the local centre must also pick a switch that touches the agents its residual shows moving (dL_q xi != 0)."
+            )
+    paths = write_cases(outcomes, out_dir, preamble=pre, findings=findings, sections=sections)
     return outcomes, paths

@@ -179,6 +179,9 @@ def test_the_local_trigger_switches_one_step_after_the_first_local_detection(pap
     assert r.chosen_mode == rank_safe_modes(paper19)[0].mode
     kinds = [e.kind for e in r.events]
     assert kinds.index("local-detection") < kinds.index("switch")
+    # finding: line 4 ranks by Theorem III.3's margins, which ignore the attack; on paper19 it
+    # picks case-1, whose switch avoids the ZDA, and the control centre never detects
+    assert r.chosen_mode == "case-1" and not r.detected_globally
 
 
 def test_no_switch_keeps_the_normal_mode_and_the_attack_hidden(paper19: System, bank: ObserverBank) -> None:
