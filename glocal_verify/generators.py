@@ -3,8 +3,10 @@
 :func:`random_clustered_spec` builds a validated :class:`~glocal_verify.spec.SystemSpec`:
 clusters are sparse connected random graphs (a random spanning tree plus a few chords, integer
 weights), consecutive clusters are joined by a few inter-cluster edges, a handful of agents
-are velocity-monitored, each safe mode adds an intra-cluster link at a monitored agent, and a
-ZDA attacks two interior (not boundary, not monitored) agents of the first cluster.
+are velocity-monitored, each safe mode adds an intra-cluster link at a monitored agent, each
+cluster's observers sit at boundary agents and measure their neighbours and the cluster's boundary
+(so Proposition III.2 (ii) holds), and a ZDA attacks two interior (not boundary, not monitored)
+agents of the first cluster.
 """
 
 from __future__ import annotations
@@ -88,8 +90,17 @@ def random_clustered_spec(
                 break
     cluster_tables = []
     for k, nodes in enumerate(members):
-        centers = [int(c) for c in rng.choice(nodes, size=min(observers_per_cluster, len(nodes)), replace=False)]
-        cluster_tables.append({"name": f"P{k + 1}", "nodes": nodes, "observers": [{"center": c} for c in centers]})
+        inside = set(nodes)
+        bnd = sorted({a for (u, v) in edges for a in (u, v) if a in inside and ((u in inside) != (v in inside))})
+        pool = bnd + [a for a in nodes if a not in bnd]
+        observers = []
+        for c in pool[: min(observers_per_cluster, len(nodes))]:
+            # centre at a boundary agent; it measures its in-cluster neighbours and the cluster's
+            # boundary agents, so Proposition III.2 (ii) holds by construction
+            nb = {b for (u, v) in edges for b in (u, v) if c in (u, v) and b != c and b in inside}
+            meas = sorted(nb | set(bnd) | {c})
+            observers.append({"center": c, "positions": meas, "velocities": meas})
+        cluster_tables.append({"name": f"P{k + 1}", "nodes": nodes, "observers": observers})
     data: dict[str, Any] = {
         "format": 1,
         "name": f"random-{n}-{clusters}-s{seed}",
