@@ -53,6 +53,14 @@ def random_clustered_spec(
         Velocity-monitored agents (default ``max(3, n // 100)``).
     modes : int
         Safe modes; each adds one intra-cluster link at a monitored agent.
+    max_weight : int
+        Edge weights are drawn uniformly from 1..max_weight.
+    attack : bool
+        Add a ZDA on two interior agents of the first cluster (and a scheduled switch).
+    observers_per_cluster : int
+        Local observers per cluster, centred at boundary agents first.
+    horizon, step : float
+        The ``[simulation]`` table.
     """
     if n < 2 * clusters:
         raise ValueError("need at least two agents per cluster")
