@@ -58,6 +58,7 @@ from .simulate import (
     attack_from_spec,
     random_initial_state,
     simulate,
+    zda_attack_from_direction,
 )
 from .spec import NORMAL_MODE, Label
 
@@ -895,7 +896,8 @@ def check_detects(system: System, ctx: CheckContext) -> list[ConditionResult]:
     rule = ThresholdRule(rounding=ctx.tol.rtol)
     xbar = random_initial_state(system, rule.box)
     for q in system.safe_modes:
-        r = algorithm1(system, attack=atk, observers=bank, rule=rule, mode=q, trigger="schedule", x0=xbar)
+        atk_q, chosen_by = _attacker_choice(system, q, atk, ctx)
+        r = algorithm1(system, attack=atk_q, observers=bank, rule=rule, mode=q, trigger="schedule", x0=xbar)
         ga = r.global_after
         assert ga is not None and r.post_switch is not None and r.switch_time is not None
         peak = r.post_switch.attack_peak
@@ -915,14 +917,15 @@ def check_detects(system: System, ctx: CheckContext) -> list[ConditionResult]:
             "channel": ga.channel,
             "peak_ratio": ga.peak_ratio,
             "post_switch": r.post_switch.to_json(),
-            "attack": atk.describe() if atk else None,
+            "attack": atk_q.describe() if atk_q else None,
+            "attack_direction": chosen_by,
             "threshold_rule": rule.describe(),
             "horizon": float(r.simulation.t[-1]),
             "step": float(r.simulation.t[1] - r.simulation.t[0]),
             "seed": spec.simulation.seed,
         }
-        if atk is not None:
-            d = _dl_xi(system, q, atk)
+        if atk_q is not None:
+            d = _dl_xi(system, q, atk_q)
             if d is not None:
                 witness["dL_xi_relative"] = d
         if r.global_before is not None and r.global_before.detected:
@@ -930,6 +933,30 @@ def check_detects(system: System, ctx: CheckContext) -> list[ConditionResult]:
         out.append(res(q, status, margin, witness))
     _DETECTS_CACHE.setdefault(system, {})[key] = list(out)
     return out
+
+
+def _attacker_choice(system: System, mode: str, atk: AttackModel | None, ctx: CheckContext) -> tuple[AttackModel | None, str]:
+    """The ZDA an informed attacker would run against the switch to ``mode``.
+
+    When some stealthy direction at lambda0 is not touched by the switch (``switching.safe``
+    holds through :func:`glocal_verify.switching_safe.avoidance`), the attacker uses it: a
+    detection verdict must hold against every stealthy direction, not only the one
+    ``stealthy.zda`` happens to report.
+    """
+    if atk is None or atk.kind != "zda":
+        return atk, "spec"
+    from .switching_safe import avoidance
+
+    av = avoidance(system, mode, ctx.tol)
+    if av is None or av.status is not Status.HOLDS or av.direction is None or av.direction_source == "stealthy.zda":
+        return atk, "stealthy.zda"
+    a = system.spec.attack
+    assert a is not None
+    d = av.direction
+    return (
+        zda_attack_from_direction(system, d.lambda0, d.xi, d.u0, amplitude=a.amplitude, start=a.start),
+        "avoiding direction of switching.safe",
+    )
 
 
 # --------------------------------------------------------------------------------------------

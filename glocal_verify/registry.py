@@ -59,7 +59,7 @@ _ENTRIES = [
     ("switching.distinct-eigenvalues", "Theorem III.3 (ii)", "L_q has N distinct eigenvalues."),
     ("switching.eigenvector-differences", "Theorem III.3 (iii)", "[U_q]_{i,l} != [U_q]_{j,l} for every l != 1 and every pair i != j in one component D_c."),
     ("switching.coverage", "Lemma A.2", "Every component D_c of the switching links contains a globally monitored agent."),
-    ("switching.safe", "Remark III.3.1, eq. unsafe_set", "Does the switch touch the attack (dL_q xi != 0)? Both readings of the remark."),
+    ("switching.safe", "Remark III.3.1, eq. unsafe_set", "The switch does not touch the attack: some stealthy direction at lambda0 has dL_q xi = 0 (remark's reading; both readings reported)."),
     ("switching.detects", "Theorem III.3 (conclusion)", "After the switch the global residual leaves its attack-free band (simulation)."),
 ]
 

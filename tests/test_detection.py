@@ -247,3 +247,38 @@ def test_simulate_writes_a_json_summary_and_png_and_svg_figures(tmp_path: Path, 
 def test_simulate_rejects_cases_with_a_forced_mode(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["simulate", "--example", "paper19", "--cases", "--mode", "case-1"]) == 2
     assert "--cases" in capsys.readouterr().err
+
+
+def test_switching_detects_simulates_the_direction_an_informed_attacker_would_choose() -> None:
+    # stealthy.zda reports a direction that the switch touches, but xi = [1, 0, -1, 0] is a
+    # stealthy direction at every lambda0 that the switch does not touch: the attacker uses it
+    # and the control centre never detects (reports/findings/theorem3-signed-switch-keeps-zda)
+    from glocal_verify import loads_spec
+
+    text = """
+format = 1
+name = "signed"
+[graph]
+nodes = 4
+edges = [[1, 3, "1/2"], [2, 4, 2], [3, 4, 1]]
+[[modes]]
+name = "signed"
+add = [[1, 2], [2, 3]]
+remove = [[1, 3]]
+[monitor]
+velocities = [2]
+[attack]
+kind = "zda"
+actuators = [1, 3, 4]
+lambda0 = 1.0
+[switching]
+mode = "signed"
+time = 2.0
+[simulation]
+horizon = 8.0
+step = 0.05
+"""
+    system = System(loads_spec(text))
+    (r,) = verify(system, ["switching.detects"], options={"simulate": True}).conditions
+    assert r.witness["attack_direction"] == "avoiding direction of switching.safe"
+    assert r.status is Status.FAILS and r.witness["detected"] is False
