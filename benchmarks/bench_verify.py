@@ -2,6 +2,8 @@
 
 Baselines, measured in the same run:
 - the same structured verification at N = 250 (scaling ratio);
+- the generic dense methods (2N-state pencil for the ZDA, orthogonal staircase for the
+  unobservable subspace) against the structured N-sized ones on the same systems;
 - the exact (flint) decision of Theorem III.3 (ii) against the numeric one at small N.
 """
 
@@ -9,6 +11,8 @@ from __future__ import annotations
 
 from glocal_verify import System, verify
 from glocal_verify.generators import random_clustered_spec
+from glocal_verify.observability import unobservable_subspace, unobservable_subspace_dense
+from glocal_verify.stealthy import zda_analysis
 
 from .harness import Row, best_time
 
@@ -37,6 +41,19 @@ def run(quick: bool) -> list[Row]:
                 f"time grows x{t / base_t:.1f} for x{n / 250:.0f} agents",
             )
         )
+    for n in ([40, 80] if quick else [40, 80, 160]):
+        system = System(random_clustered_spec(n, 2, seed=5))
+        A, C = system.A(), system.C()
+
+        def fresh(system: System = system) -> System:
+            return System(system.spec)  # no cached eigen-decomposition
+
+        td = best_time(lambda: zda_analysis(fresh(), method="dense"), budget=120.0)
+        ts = best_time(lambda: zda_analysis(fresh()))
+        rows.append(Row("stealthy.zda: structured (N-sized modal pencil) vs dense (2N Rosenbrock pencil)", f"N = {n}", "dense pencil", td, "structured", ts))
+        tdo = best_time(lambda: unobservable_subspace_dense(A, C), budget=120.0)
+        tso = best_time(lambda: unobservable_subspace(fresh()))
+        rows.append(Row("unobservable subspace: modal formula vs dense staircase", f"N = {n}", "dense staircase", tdo, "modal", tso))
     for n in ([20, 40] if quick else [20, 40, 80]):
         spec = random_clustered_spec(n, 2, seed=3)
         system = System(spec)
