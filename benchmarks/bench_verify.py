@@ -32,7 +32,7 @@ def run(quick: bool) -> list[Row]:
             base_t = t
         rows.append(
             Row(
-                "verify (all implemented global checkers, structured path)",
+                "verify (every implemented checker, structured paths)",
                 f"N = {n}, 3 clusters",
                 "same at N = 250",
                 base_t,
