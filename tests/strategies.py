@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from glocal_verify import System, spec_from_dict
 
-__all__ = ["weights", "connected_graphs", "graphs", "systems", "special_graphs", "clustered_systems"]
+__all__ = ["weights", "graphs", "systems", "special_graphs", "clustered_systems", "assert_numeric_matches_exact"]
 
 
 def weights(integer: bool = True) -> st.SearchStrategy[Any]:
@@ -129,3 +129,23 @@ def clustered_systems(draw: st.DrawFn, max_n: int = 14, integer: bool = True) ->
         "attack": attack,
     }
     return System(spec_from_dict(data))
+
+
+def assert_numeric_matches_exact(system: System, ids: list[str]) -> None:
+    """Numeric and exact verdicts of ``ids`` agree: exact is never undecided, and a decided
+    numeric verdict equals the exact one (a numeric ``holds`` that exact arithmetic calls
+    ``fails`` is a bug of the highest priority)."""
+    from glocal_verify import verify
+    from glocal_verify.results import Status
+
+    def key(r: Any) -> tuple[str, tuple[tuple[str, Any], ...]]:
+        return (r.id, tuple(sorted(r.scope.items())))
+
+    num = {key(r): r for r in verify(system, ids).conditions}
+    exa = {key(r): r for r in verify(system, ids, exact=True).conditions}
+    assert num.keys() == exa.keys()
+    for k, rn in num.items():
+        re_ = exa[k]
+        assert re_.status is not Status.UNDECIDED
+        if rn.status is not Status.UNDECIDED:
+            assert rn.status is re_.status, (k, rn.witness, re_.witness)

@@ -255,22 +255,10 @@ def test_switching_detects_simulates_the_direction_an_informed_attacker_would_ch
     # and the control centre never detects (reports/findings/theorem3-signed-switch-keeps-zda)
     from glocal_verify import loads_spec
 
-    text = """
-format = 1
-name = "signed"
-[graph]
-nodes = 4
-edges = [[1, 3, "1/2"], [2, 4, 2], [3, 4, 1]]
-[[modes]]
-name = "signed"
-add = [[1, 2], [2, 3]]
-remove = [[1, 3]]
-[monitor]
-velocities = [2]
-[attack]
-kind = "zda"
-actuators = [1, 3, 4]
-lambda0 = 1.0
+    root = Path(__file__).resolve().parent.parent
+    spec_text = (root / "reports/findings/theorem3-signed-switch-keeps-zda.toml").read_text()
+    spec_text = spec_text[: spec_text.index("[finding]")]
+    text = spec_text + """
 [switching]
 mode = "signed"
 time = 2.0

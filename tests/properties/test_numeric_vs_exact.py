@@ -10,25 +10,14 @@ from hypothesis import given
 
 from glocal_verify import System, verify
 from glocal_verify.results import Status
-from strategies import systems
+from strategies import assert_numeric_matches_exact, systems
 
 FOUNDATION = ["privacy.connected", "privacy.kernel", "switching.image-kernel", "switching.distinct-eigenvalues", "switching.coverage"]
 
 
-def _key(r):  # type: ignore[no-untyped-def]
-    return (r.id, tuple(sorted(r.scope.items())))
-
-
 @given(systems(max_n=12))
 def test_numeric_and_exact_verdicts_agree_on_integer_weight_graphs(system: System) -> None:
-    num = {_key(r): r for r in verify(system, FOUNDATION).conditions}
-    exa = {_key(r): r for r in verify(system, FOUNDATION, exact=True).conditions}
-    assert num.keys() == exa.keys()
-    for k, rn in num.items():
-        re_ = exa[k]
-        assert re_.status is not Status.UNDECIDED
-        if rn.status is not Status.UNDECIDED:
-            assert rn.status is re_.status, (k, rn.witness, re_.witness)
+    assert_numeric_matches_exact(system, FOUNDATION)
 
 
 @given(systems(max_n=12))

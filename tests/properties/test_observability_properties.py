@@ -28,7 +28,7 @@ from glocal_verify.observability import (
     unobservable_subspace_exact,
 )
 from glocal_verify.results import ConditionResult, Status
-from strategies import systems
+from strategies import assert_numeric_matches_exact, systems
 
 NEW_IDS = [
     "switched-observability",
@@ -61,10 +61,6 @@ def exact_observability_rank(system: System, mode: str) -> int:
         rows.extend([[M[r, c] for c in range(n2)] for r in range(M.nrows())])
         M = M * A
     return int(flint.fmpq_mat(rows).rank())
-
-
-def _key(r: ConditionResult) -> tuple[str, tuple[tuple[str, Any], ...]]:
-    return (r.id, tuple(sorted(r.scope.items())))
 
 
 @given(systems(max_n=12))
@@ -137,14 +133,7 @@ def test_unobservable_basis_vectors_have_vanishing_output_derivatives(system: Sy
 
 @given(systems(max_n=12))
 def test_numeric_and_exact_verdicts_of_the_new_conditions_agree(system: System) -> None:
-    num = {_key(r): r for r in verify(system, NEW_IDS).conditions}
-    exa = {_key(r): r for r in verify(system, NEW_IDS, exact=True).conditions}
-    assert num.keys() == exa.keys()
-    for k, rn in num.items():
-        re_ = exa[k]
-        assert re_.status is not Status.UNDECIDED
-        if rn.status is not Status.UNDECIDED:
-            assert rn.status is re_.status, (k, rn.witness, re_.witness)
+    assert_numeric_matches_exact(system, NEW_IDS)
 
 
 @given(systems(max_n=10, max_modes=2), st.floats(0.1, 3.0), st.floats(0.1, 3.0))
