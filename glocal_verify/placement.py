@@ -25,7 +25,9 @@ has full column rank for every complex s. Two tests on it:
 * the *pencil test* (necessary and sufficient): Q(s) is the Rosenbrock pencil of a system with
   |R ∩ U| states, analysed by :func:`glocal_verify.pencil.analyze_pencil`.
 
-A necessary count: |M| >= |I| (Q(s) must be tall), i.e. |M \\ dP_i| >= |S|.
+A necessary count: |M| >= |I| (Q(s) must be tall), i.e. |M \\ dP_i| >= |S|. Both tests, and
+the proofs that they decide (iii), live in :mod:`glocal_verify.cluster_pencil`, shared with the
+structured ``local.pencil`` checker (:func:`glocal_verify.local.pencil_verdict`).
 
 **Search.** Greedy set cover: start from M = dP_i and add the agent whose measurement forces
 the most agents, until zero forcing completes; then drop agents (last added first) while the
@@ -52,8 +54,9 @@ from typing import Any, Iterable, Sequence
 import numpy as np
 from tqdm import tqdm
 
+from .cluster_pencil import intra_neighbours, reduced_pencil_holds, zero_forcing_closure
 from .errors import ModelError, NotApplicableError
-from .linalg import DEFAULT_TOLERANCE, Decision, Tolerance, numeric_rank
+from .linalg import DEFAULT_TOLERANCE, Tolerance
 from .model import ClusterModel, LocalObserver, System
 from .results import Status
 from .spec import NORMAL_MODE, Label
@@ -230,93 +233,7 @@ def parse_suspected(system: System, text: str) -> str | tuple[Label, ...]:
 
 
 def _intra_neighbours(cm: ClusterModel) -> list[list[int]]:
-    L = cm.L
-    n = len(cm.nodes)
-    return [[j for j in range(n) if j != i and L[i, j] != 0.0] for i in range(n)]
-
-
-def zero_forcing_closure(nbrs: Sequence[Sequence[int]], known: Iterable[int], inputs: Iterable[int]) -> set[int]:
-    """Agents forced to xi = 0 (indices): a known agent outside ``inputs`` with exactly one
-    unknown neighbour forces it; repeated until nothing changes.
-
-    Parameters
-    ----------
-    nbrs : sequence of sequences of int
-        Neighbours (cluster indices) of each agent inside the cluster.
-    known : iterable of int
-        Measured agents.
-    inputs : iterable of int
-        Agents whose velocity row carries an unknown input (suspected or boundary).
-    """
-    K = set(known)
-    inp = set(inputs)
-    active = [r for r in K if r not in inp]
-    while active:
-        nxt: list[int] = []
-        for r in active:
-            unk = [k for k in nbrs[r] if k not in K]
-            if len(unk) == 1:
-                k = unk[0]
-                K.add(k)
-                if k not in inp:
-                    nxt.append(k)
-                # the neighbours of k may now have a single unknown neighbour
-                nxt.extend(j for j in nbrs[k] if j in K and j not in inp)
-        active = list(dict.fromkeys(nxt))
-    return K
-
-
-def reduced_pencil_holds(cm: ClusterModel, alpha: float, inputs: Sequence[int], measured: Sequence[int], tol: Tolerance = DEFAULT_TOLERANCE) -> Status:
-    """Decide (iii) on the reduced pencil Q(s) = (s I + alpha L)[R, U] (module docstring).
-
-    Parameters
-    ----------
-    cm : ClusterModel
-    alpha : float
-    inputs : sequence of int
-        Cluster indices of I = S ∪ dP_i (the boundary must be measured).
-    measured : sequence of int
-        Cluster indices of M.
-    tol : Tolerance
-    """
-    n = len(cm.nodes)
-    I = set(inputs)
-    M = set(measured)
-    U = [k for k in range(n) if k not in M]
-    if not U:
-        return Status.HOLDS
-    R = [k for k in range(n) if k not in I]
-    if len(R) < len(U):
-        return Status.FAILS
-    RU = [k for k in R if k not in M]
-    RM = [k for k in R if k in M]
-    US = [k for k in U if k in I]
-    L = alpha * cm.L
-    A = -L[np.ix_(RU, RU)]
-    B = -L[np.ix_(RU, US)]
-    C = L[np.ix_(RM, RU)]
-    D = L[np.ix_(RM, US)]
-    if not RU:
-        info = numeric_rank(D, tol)
-        if not info.decided:
-            return Status.UNDECIDED
-        return Status.HOLDS if info.rank == len(US) else Status.FAILS
-    # quick rejection: a rank drop at a fixed generic point means a rank drop everywhere
-    s0 = complex(0.6180339887, 1.3247179572) * max(1.0, float(np.sqrt(np.max(np.abs(L))))) if L.size else 1.0
-    Q = np.zeros((len(R), len(U)), dtype=complex)
-    Q[: len(RU), : len(RU)] = s0 * np.eye(len(RU)) - A
-    Q[: len(RU), len(RU) :] = -B
-    Q[len(RU) :, : len(RU)] = C
-    Q[len(RU) :, len(RU) :] = D
-    sv = np.linalg.svd(Q, compute_uv=False)
-    if tol.decide(sv[-1], sv[0]) is Decision.ZERO:
-        return Status.FAILS
-    from .pencil import analyze_pencil
-
-    pa = analyze_pencil(A, B, C, D, tol=tol)
-    if not pa.decided:
-        return Status.UNDECIDED
-    return Status.HOLDS if (pa.full_normal_column_rank and not pa.zeros) else Status.FAILS
+    return intra_neighbours(cm.L)
 
 
 # --------------------------------------------------------------------------------------------

@@ -32,7 +32,13 @@ of (A_1, C) are eigenvalues of F for every K_1 and must be stable.
 
 Default poles (:func:`default_poles`): with sigma = gamma / 2, the observable eigenvalues mu
 of A_1 with Re mu <= -0.9 sigma stay, the others move to -|Re mu| - sigma + i Im mu; only the
-moved ones are placed (ordered Schur form), which keeps the gain small on large clusters. User poles (``poles`` of ``[[clusters.observers]]``) are
+moved ones are placed (ordered Schur form), which keeps the gain small on large clusters. If
+the resulting F is not certified Hurwitz (:func:`hurwitz_certificate`) and the gain is large
+(||K1||_2 > 10 max(||A1||_2, 1)), the design is redone moving only the modes with
+Re > -theta sigma for theta in :data:`SLOW_LADDER` (0.3, 0.1, 0.02):
+on large clusters measured at a few agents the slow, stable modes are weakly observable, and
+moving them took gains of 1e3-1e10 and eigenvalue condition numbers that no certificate can
+accept; keeping them costs margin (reported), not correctness. User poles (``poles`` of ``[[clusters.observers]]``) are
 used first; if there are fewer than n_o, the rest are default-spaced poles left of the
 leftmost user pole; extra poles are ignored (and said so in :attr:`UnknownInputObserver.notes`).
 """
@@ -64,6 +70,8 @@ __all__ = [
     "hurwitz_certificate",
     "uio_existence",
     "uio_existence_exact",
+    "cluster_detectability",
+    "SLOW_LADDER",
     "design_uio",
     "local_uio",
     "is_hurwitz_exact",
@@ -110,9 +118,15 @@ def observable_split(A: np.ndarray, C: np.ndarray, tol: Tolerance = DEFAULT_TOLE
     keep = s > tol.upper * scale
     if np.any((s > tol.rtol * scale) & ~keep):
         decided = False
-    V = U[:, keep]
-    new = V
-    while V.shape[1] < n and new.shape[1] > 0:
+    # the basis grows in place: every new block is orthonormal (left singular vectors) and
+    # orthogonal to the current basis (two Gram-Schmidt passes), so no re-factorisation of the
+    # whole basis is needed (that made the iteration O(n^4))
+    Vbuf = np.zeros((n, n))
+    k = int(np.sum(keep))
+    Vbuf[:, :k] = U[:, keep]
+    new = Vbuf[:, :k]
+    while k < n and new.shape[1] > 0:
+        V = Vbuf[:, :k]
         W = A.T @ new
         W = W - V @ (V.T @ W)
         W = W - V @ (V.T @ W)  # re-orthogonalise
@@ -120,12 +134,15 @@ def observable_split(A: np.ndarray, C: np.ndarray, tol: Tolerance = DEFAULT_TOLE
         keep = s > tol.upper * scale
         if np.any((s > tol.rtol * scale) & ~keep):
             decided = False
-        new = U[:, keep]
-        V = np.linalg.qr(np.hstack([V, new]))[0] if new.shape[1] else V
-    if V.shape[1] >= n:
-        return ObservableSplit(V[:, :n], np.zeros((n, 0)), decided)
-    Qfull = np.linalg.qr(np.hstack([V, np.eye(n)]))[0]
-    Qu = Qfull[:, V.shape[1] : n]
+        b = min(int(np.sum(keep)), n - k)
+        Vbuf[:, k : k + b] = U[:, keep][:, :b]
+        new = Vbuf[:, k : k + b]
+        k += b
+    V = Vbuf[:, :k].copy()
+    if k >= n:
+        return ObservableSplit(V, np.zeros((n, 0)), decided)
+    Qfull = np.linalg.qr(V, mode="complete")[0]
+    Qu = np.ascontiguousarray(Qfull[:, k:])
     return ObservableSplit(V, Qu, decided)
 
 
@@ -143,7 +160,7 @@ def default_poles(eigenvalues: np.ndarray, gamma: float = 1.0) -> np.ndarray:
     small: placing all poles of a large cluster far from the open-loop spectrum makes the gain
     (and the eigenvalue sensitivity of F) grow like a power of the distance. Repeated moved
     values are spread by multiples of -0.01 sigma so no pole is requested more often than
-    place_poles allows.
+    place_poles allows; the two members of a conjugate pair get the same shift.
 
     Parameters
     ----------
@@ -156,12 +173,15 @@ def default_poles(eigenvalues: np.ndarray, gamma: float = 1.0) -> np.ndarray:
     keep = _keep_threshold(gamma)
     mu = np.asarray(eigenvalues, dtype=complex)
     out = mu.copy()
-    seen: dict[tuple[float, float], int] = {}
+    seen: dict[tuple[float, float, int], int] = {}
     for k, m in enumerate(mu):
         if m.real <= -keep:
             continue
         p = complex(-abs(m.real) - sigma, m.imag)
-        key = (round(p.real, 8), round(p.imag, 8))
+        # the sign of Im is part of the key: the two members of a conjugate pair are counted
+        # separately and get the same shift (rounding Im alone merged x + 1e-10 i with its
+        # conjugate, shifted only one of them and broke the pair)
+        key = (round(p.real, 8), round(abs(p.imag), 8), int(np.sign(p.imag)))
         c = seen.get(key, 0)
         seen[key] = c + 1
         out[k] = p - 0.01 * sigma * c
@@ -170,28 +190,73 @@ def default_poles(eigenvalues: np.ndarray, gamma: float = 1.0) -> np.ndarray:
     return out
 
 
-def _place_slow(Aoo: np.ndarray, Co: np.ndarray, gamma: float, tol: Tolerance) -> np.ndarray:
+def _schur_eigvals(T: np.ndarray) -> np.ndarray:
+    """Eigenvalues of a real quasi-triangular Schur factor, read off its 1x1 and 2x2 blocks."""
+    n = T.shape[0]
+    out: list[complex] = []
+    k = 0
+    while k < n:
+        if k + 1 < n and T[k + 1, k] != 0.0:
+            a, b, c, d = T[k, k], T[k, k + 1], T[k + 1, k], T[k + 1, k + 1]
+            tr, det = (a + d) / 2.0, a * d - b * c
+            r = np.sqrt(complex(tr * tr - det))
+            out += [complex(tr + r), complex(tr - r)]
+            k += 2
+        else:
+            out.append(complex(T[k, k]))
+            k += 1
+    return np.asarray(out)
+
+
+#: fallback ladder of the default design: the modes with Re > -theta * sigma are moved, for
+#: theta in this order, until F is certified Hurwitz (0.9 is :func:`default_poles`' rule)
+SLOW_LADDER = (0.9, 0.3, 0.1, 0.02)
+#: the ladder is climbed only while ||K1||_2 > _LADDER_GAIN * max(||A1||_2, 1)
+_LADDER_GAIN = 10.0
+
+
+def _slow_schur(Aoo: np.ndarray, gamma: float) -> tuple[np.ndarray, np.ndarray, int]:
+    """Real Schur form of Aoo^T ordered with the eigenvalues Re <= -0.9 sigma first."""
+    import scipy.linalg
+
+    keep = _keep_threshold(gamma)
+    T, Q, k = scipy.linalg.schur(Aoo.T, output="real", sort=lambda x, y: x <= -keep)
+    return T, Q, int(k)
+
+
+def _place_slow(
+    Aoo: np.ndarray, Co: np.ndarray, gamma: float, tol: Tolerance, theta: float = 0.9, schur: tuple[np.ndarray, np.ndarray, int] | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Gain Lo moving only the slow modes of Aoo (partial placement through an ordered Schur form).
 
     The real Schur form of Aoo^T is ordered with the kept eigenvalues first:
     Q^T Aoo^T Q = [[T11, T12], [0, T22]]. With Lo = Q2 G^T, Q^T (Aoo - Lo Co)^T Q =
     [[T11, T12 - Y1 G], [0, T22 - Y2 G]] (Y = Q^T Co^T), so the kept eigenvalues stay and
-    eig(T22 - Y2 G) are placed at the default poles of the slow ones.
+    eig(T22 - Y2 G) are placed at the default poles of the slow ones. With ``theta`` < 0.9 the
+    small block T22 is reordered once more (its eigenvalues with Re <= -theta sigma join the
+    kept ones), so fewer, only the slowest, modes are moved.
+
+    Returns (Lo, requested poles, eigenvalues of Aoo - Lo Co), the last two read off the
+    (block) triangular form instead of a new eigen-decomposition.
     """
     import scipy.linalg
 
     no = Aoo.shape[0]
-    keep = _keep_threshold(gamma)
-    T, Q, k = scipy.linalg.schur(Aoo.T, output="real", sort=lambda x, y: x <= -keep)
-    k = int(k)
-    if k == no:
-        return np.zeros((no, Co.shape[0]))
-    T22 = T[k:, k:]
-    Q2 = Q[:, k:]
+    T, Q, k = schur if schur is not None else _slow_schur(Aoo, gamma)
+    kept = _schur_eigvals(T[:k, :k])
+    T22, Q2 = T[k:, k:], Q[:, k:]
+    if theta < 0.9 and k < no:
+        S, Z, j = scipy.linalg.schur(T22, output="real", sort=lambda x, y: x <= -theta * float(gamma) / 2.0)
+        j = int(j)
+        kept = np.concatenate([kept, _schur_eigvals(S[:j, :j])])
+        T22, Q2 = S[j:, j:], (Q2 @ Z)[:, j:]
+    if T22.shape[0] == 0:
+        return np.zeros((no, Co.shape[0])), default_poles(kept, gamma), kept
     Y2 = Q2.T @ Co.T
-    want = default_poles(np.linalg.eigvals(T22), gamma)
+    want = default_poles(_schur_eigvals(T22), gamma)
     G = _place_dual(T22, Y2, want, tol)
-    return np.asarray(Q2 @ G.T)
+    placed = np.concatenate([kept, np.linalg.eigvals(T22 - Y2 @ G)])
+    return np.asarray(Q2 @ G.T), np.concatenate([kept, np.asarray(want, dtype=complex)]), placed
 
 
 def _place_dual(X: np.ndarray, Y: np.ndarray, poles: np.ndarray, tol: Tolerance) -> np.ndarray:
@@ -229,22 +294,33 @@ def hurwitz_certificate(F: np.ndarray, tol: Tolerance = DEFAULT_TOLERANCE) -> tu
     (Status, float)
         The verdict and the worst ratio -Re lambda_i / rho_i (the margin in units of uncertainty).
     """
+    st, worst, _ = _hurwitz(F, tol)
+    return st, worst
+
+
+def _hurwitz(F: np.ndarray, tol: Tolerance) -> tuple[Status, float, np.ndarray]:
+    """:func:`hurwitz_certificate` and the eigenvalues of F (one eigen-decomposition)."""
     import scipy.linalg
 
     if F.size == 0:
-        return Status.HOLDS, float("inf")
+        return Status.HOLDS, float("inf"), np.zeros(0, dtype=complex)
     w, vl, vr = scipy.linalg.eig(F, left=True, right=True)
     vl = vl / np.linalg.norm(vl, axis=0)
     vr = vr / np.linalg.norm(vr, axis=0)
     kappa = 1.0 / np.maximum(np.abs(np.sum(vl.conj() * vr, axis=0)), 1e-300)
-    rho = kappa * tol.rtol * max(float(np.linalg.norm(F, 2)), 1e-300)
+    rho = kappa * tol.rtol * max(_norm2(F), 1e-300)
     ratio = -w.real / rho
     worst = float(np.min(ratio))
     if np.all(ratio > tol.band):
-        return Status.HOLDS, worst
+        return Status.HOLDS, worst, w
     if np.any(ratio < -tol.band):
-        return Status.FAILS, worst
-    return Status.UNDECIDED, worst
+        return Status.FAILS, worst, w
+    return Status.UNDECIDED, worst, w
+
+
+def _norm2(M: np.ndarray) -> float:
+    """||M||_2 (an SVD; the norm enters the uncertainty rho, so it is never underestimated)."""
+    return float(np.linalg.norm(M, 2)) if M.size else 0.0
 
 
 # --------------------------------------------------------------------------------------------
@@ -336,6 +412,68 @@ def uio_existence(A: np.ndarray, E: np.ndarray, C: np.ndarray, tol: Tolerance = 
     else:
         det = Status.HOLDS
     return UIOExistence(det, rank_st, det, h, T, A1, split, mu, mode, float(-mu[worst].real))
+
+
+def cluster_detectability(
+    L: np.ndarray, boundary: Sequence[int], positions: Sequence[int], tol: Tolerance = DEFAULT_TOLERANCE
+) -> tuple[Status, np.ndarray | None, str]:
+    """Detectability of (C_loc, A_1) for the cluster model of eq. ``cluster_dyn2``, structurally.
+
+    Assumes A = [[0, I], [-alpha L, -gamma I]] with alpha, gamma > 0 and L = L[P_i, P_i]
+    symmetric positive semidefinite (positive weights), E^i the boundary velocity columns and
+    C_loc = blkdiag(S_{M_x}, S_{M_v}) with Proposition III.2 (ii) holding (every boundary
+    velocity measured). Then h C_loc is the projector onto the boundary velocities, so
+    A_1 = (I - h C_loc) A is A with the velocity rows of the boundary agents set to zero, and
+    a PBH vector x = [p; v] of (C_loc, A_1) at lam satisfies v = lam p and
+
+    * lam != 0: p vanishes on M ∪ dP_i (boundary rows give lam v_b = 0) and, on the remaining
+      agents U', (s I + alpha L[U', U']) p_{U'} = 0 with s = lam^2 + gamma lam; so s =
+      -alpha mu with mu >= 0 an eigenvalue of the PSD matrix L[U', U'], and the roots of
+      lam^2 + gamma lam + alpha mu have Re lam < 0 unless mu = 0, where lam in {0, -gamma};
+      every unobservable mode with lam != 0 is stable;
+    * lam = 0: v = 0, p_{M_x} = 0 and (L p)_{P_i \\ dP_i} = 0.
+
+    Hence (C_loc, A_1) is detectable iff L[P_i \\ dP_i, P_i \\ M_x] has full column rank. Zero
+    forcing from M_x with the boundary rows as inputs proves it combinatorially
+    (:func:`glocal_verify.cluster_pencil.zero_forcing_closure`); otherwise the smallest singular
+    value relative to the largest is decided at ``tol``.
+
+    Parameters
+    ----------
+    L : ndarray
+        Laplacian block L[P_i, P_i].
+    boundary : sequence of int
+        Cluster indices of dP_i.
+    positions : sequence of int
+        Cluster indices of M_x (measured positions).
+    tol : Tolerance
+
+    Returns
+    -------
+    (Status, ndarray or None, str)
+        The verdict, on failure the positions p of an unobservable mode at lam = 0 (the mode
+        is [p; 0]), and how it was decided (``"zero forcing"`` or ``"rank"``).
+    """
+    from .cluster_pencil import intra_neighbours, zero_forcing_closure
+
+    n = L.shape[0]
+    inp = set(boundary)
+    known = set(positions)
+    if len(zero_forcing_closure(intra_neighbours(L), known, inp)) == n:
+        return Status.HOLDS, None, "zero forcing"
+    rows = [k for k in range(n) if k not in inp]
+    cols = [k for k in range(n) if k not in known]
+    p = np.zeros(n)
+    if not rows:  # every agent on the boundary: nothing constrains the unmeasured positions
+        p[cols[0]] = 1.0
+        return Status.FAILS, p, "rank"
+    M0 = np.asarray(L, dtype=float)[np.ix_(rows, cols)]
+    _, sv, Vh = np.linalg.svd(M0, full_matrices=True)
+    d = tol.decide(sv[-1], sv[0]) if sv[0] > 0 else Decision.ZERO
+    if len(rows) < len(cols) or d is Decision.ZERO:
+        p[cols] = Vh[-1]
+        return Status.FAILS, p, "rank"
+    return (Status.HOLDS if d is Decision.NONZERO else Status.UNDECIDED), None, "rank"
 
 
 # --------------------------------------------------------------------------------------------
@@ -544,14 +682,38 @@ def design_uio(
     poles: Sequence[float | complex] | None = None,
     gamma: float = 1.0,
     tol: Tolerance = DEFAULT_TOLERANCE,
+    existence: UIOExistence | None = None,
 ) -> tuple[UIOExistence, dict[str, Any]]:
     """Design h, T, A1, K1, F, K for (A, E, C) (eqs. ``uio_conds_1``-``uio_conds_3``).
 
     Returns the existence evidence and a dict of the design matrices and checks (keys of
     :class:`UnknownInputObserver`). Raises :class:`NotApplicableError` when no UIO exists
     (rank condition or detectability fails, or cannot be decided), naming the reason.
+
+    Parameters
+    ----------
+    A, E, C : ndarray
+        Cluster matrices.
+    poles : sequence of complex, optional
+        Poles of the observable part (default: :func:`default_poles`, slow modes only).
+    gamma : float
+        Velocity damping (sets the default poles).
+    tol : Tolerance
+        Rank decisions and the Hurwitz certificate.
+    existence : UIOExistence, optional
+        The result of :func:`uio_existence` for the same (A, E, C, tol), when the caller has
+        it (it is not recomputed).
+
+    Notes
+    -----
+    Cost: one observable split (unless given), one real Schur form of the observable part
+    (the kept and placed eigenvalues are read off it), a small pole placement on the slow
+    block, and one eigen-decomposition of F with left and right vectors (the Hurwitz
+    certificate; the reported eigenvalues of F are its eigenvalues). With default poles, an
+    F that is not certified is redesigned along :data:`SLOW_LADDER` (one more small
+    placement and certificate per step; the notes say so).
     """
-    ex_ = uio_existence(A, E, C, tol)
+    ex_ = existence if existence is not None else uio_existence(A, E, C, tol)
     if ex_.rank_condition is not Status.HOLDS:
         raise NotApplicableError(f"no UIO: rank(C E) = rank(E) is {ex_.rank_condition.value} (a boundary agent's velocity is not measured)")
     if ex_.status is not Status.HOLDS:
@@ -564,8 +726,17 @@ def design_uio(
     no = Qo.shape[1]
     notes: list[str] = []
     Aoo = Qo.T @ A1 @ Qo
+    Co = C @ Qo
+    placed: np.ndarray
+    ladder: tuple[float, ...] = (SLOW_LADDER[0],)
+    sch: tuple[np.ndarray, np.ndarray, int] | None = None
     if poles is None:
-        want = default_poles(np.linalg.eigvals(Aoo), gamma) if no else np.zeros(0)
+        if no:
+            sch = _slow_schur(Aoo, gamma)
+            ladder = SLOW_LADDER if sch[2] < no else ladder
+            Lo, want, placed = _place_slow(Aoo, Co, gamma, tol, ladder[0], sch)
+        else:
+            Lo, want, placed = np.zeros((0, C.shape[0])), np.zeros(0), np.zeros(0)
     else:
         user = np.asarray([complex(p) for p in poles])
         if len(user) >= no:
@@ -579,19 +750,34 @@ def design_uio(
             notes.append(f"{no - len(user)} default poles added left of {left:.4g}: the observable part has dimension {no}")
         if np.all(want.imag == 0.0):
             want = want.real
-    Co = C @ Qo
-    Lo = _place_slow(Aoo, Co, gamma, tol) if poles is None else _place(Aoo, Co, want, tol)
+        Lo = _place(Aoo, Co, want, tol)
+        placed = np.linalg.eigvals(Aoo - Lo @ Co) if no else np.zeros(0)
+    if no and np.all(np.asarray(want).imag == 0.0):
+        want = np.asarray(want).real
     K1 = Qo @ Lo
     F = A1 - K1 @ C
+    hurwitz, hurwitz_ratio, eig = _hurwitz(F, tol)
+    nA1 = _norm2(A1)
+    for theta in ladder[1:]:
+        # moving weakly observable slow modes that are already stable can take a huge gain
+        # and make F too ill-conditioned to certify: keep more of them, move only the slowest
+        # (a small gain means the trouble is elsewhere, e.g. a repeated eigenvalue: no retry)
+        if hurwitz is Status.HOLDS or _norm2(K1) <= _LADDER_GAIN * max(nA1, 1.0):
+            break
+        Lo2, want2, placed2 = _place_slow(Aoo, Co, gamma, tol, theta, sch)
+        F2 = A1 - (Qo @ Lo2) @ C
+        h2, r2, e2 = _hurwitz(F2, tol)
+        notes.append(
+            f"default placement (modes with Re > -{ladder[ladder.index(theta) - 1]:g} sigma moved) not certified Hurwitz "
+            f"(ratio {hurwitz_ratio:.3g}, ||K1||_2 {float(np.linalg.norm(K1, 2)):.3g}); retried moving only Re > -{theta:g} sigma"
+        )
+        Lo, want, placed, K1, F, hurwitz, hurwitz_ratio, eig = Lo2, want2, placed2, Qo @ Lo2, F2, h2, r2, e2
     K = K1 + F @ h
-    eig = np.linalg.eigvals(F)
     nE = float(np.linalg.norm(E))
     dec_res = float(np.linalg.norm((h @ C - np.eye(A.shape[0])) @ E) / nE) if nE > 0 else 0.0
     err_res = float(np.linalg.norm(T @ A - F @ T - K @ C)) / max(float(np.linalg.norm(A)) + float(np.linalg.norm(F)), 1e-300)
-    placed = np.linalg.eigvals(Aoo - Lo @ Co) if no else np.zeros(0)
     if no and max(float(np.min(np.abs(placed - p))) for p in np.atleast_1d(want)) > 1e-6 * max(1.0, float(np.max(np.abs(want)))):
         notes.append("the placed poles differ from the requested ones by more than 1e-6 (ill-conditioned placement)")
-    hurwitz, hurwitz_ratio = hurwitz_certificate(F, tol)
     design = {
         "h": h,
         "T": T,
@@ -628,6 +814,10 @@ def local_uio(
         From :meth:`System.observers`; its ``poles`` are used unless ``poles`` is given.
     mode : str
         Mode whose A^i the design uses (default the normal mode).
+    poles : sequence of complex, optional
+        Poles of the observable part; default the observer's, else :func:`default_poles`.
+    tol : Tolerance
+        Rank decisions and the Hurwitz certificate (:func:`design_uio`).
 
     Raises
     ------

@@ -218,3 +218,139 @@ def test_rational_weights_reach_the_exact_pencil_unchanged() -> None:
     exa = _results(s, "local.pencil", exact=True)
     for k in exa:
         assert exa[k].status is num[k].status
+
+
+# --------------------------------------------------------------------------------------------
+# structured path of local.pencil (zero forcing, reduced pencil, lifted directions)
+
+METHODS = ["structured", "dense"]
+
+
+def _pencil(system: System, exact: bool, method: str) -> dict[tuple[str, object, str], ConditionResult]:
+    rep = verify(system, ["local.pencil"], exact=exact, options={"local_pencil_method": method})
+    return {(r.scope["cluster"], r.scope["observer"], r.scope["suspected"]): r for r in rep.conditions}
+
+
+def _check_direction(case: LocalCase, d: dict, rtol: float = 1e-9) -> None:  # type: ignore[type-arg]
+    """The witness direction is a kernel vector of the full pencil of eq. pencil_uio."""
+    v = _vector(case, d)
+    P = full_pencil(case, complex(d["lambda"]))
+    assert np.linalg.norm(v) > 0
+    assert np.linalg.norm(P @ v) <= rtol * np.linalg.norm(P, 2) * np.linalg.norm(v)
+
+
+@pytest.mark.parametrize("exact", [False, True])
+@pytest.mark.parametrize("method", METHODS)
+def test_paper19_verdicts_are_the_same_with_both_methods(paper19: System, exact: bool, method: str) -> None:
+    res = _pencil(paper19, exact, method)
+    expect = {("P1", 5): "holds", ("P1", 6): "fails", ("P2", 10): "holds", ("P3", 13): "holds"}
+    for (cl, obs), st in expect.items():
+        r = res[(cl, obs, "attack")]
+        assert r.status.value == st, (cl, obs, r.witness)
+        assert r.witness["method"] == method
+        w = res[(cl, obs, "all")]
+        assert w.status is Status.FAILS and w.witness["structural"] is True
+    assert res[("P1", 5, "all")].witness["suspected_and_boundary"] == [7]
+    r6 = res[("P1", 6, "attack")]
+    assert r6.witness["full_normal_column_rank"] is False and r6.witness["normal_rank"] == 16
+    d = r6.witness["direction"]
+    assert d["moves"] == [3, 4]
+    assert d["positions"][4] / d["positions"][3] == pytest.approx(-2.0)
+    case = _case(paper19, "P1", 6, "attack")
+    _check_direction(case, d)
+    if method == "structured":
+        assert r6.witness["zero_forcing"]["complete"] is False
+        assert r6.witness["zero_forcing"]["unforced"] == [3, 4]
+        # P1@5 holds by zero forcing: a combinatorial proof, no rank decision
+        r5 = res[("P1", 5, "attack")]
+        assert r5.witness["zero_forcing"]["complete"] is True and r5.margin > 0
+
+
+@pytest.mark.parametrize("exact", [False, True])
+def test_the_structured_path_finds_the_finite_zeros_of_the_path_cluster(exact: bool) -> None:
+    s = _path_clusters([1])
+    dense = _pencil(s, exact, "dense")[("A", 1, "attack")]
+    r = _pencil(s, exact, "structured")[("A", 1, "attack")]
+    assert r.status is Status.FAILS and r.witness["full_normal_column_rank"] is True
+    assert r.witness["normal_rank"] == dense.witness["normal_rank"] == r.witness["columns"]
+    zs = sorted((complex(z["lambda"]) for z in r.witness["zeros"]), key=lambda z: (z.real, z.imag))
+    zd = sorted((complex(z["lambda"]) for z in dense.witness["zeros"]), key=lambda z: (z.real, z.imag))
+    assert len(zs) == len(zd) == 4
+    assert np.allclose(zs, zd, atol=1e-9)
+    case = _case(s, "A", 1, "attack")
+    for z in r.witness["zeros"]:
+        _check_direction(case, z, 1e-8)
+        lam = complex(z["lambda"])
+        assert abs(lam * lam + s.gamma * lam - complex(z["s"])) < 1e-8
+        if not exact:
+            assert z["verified"] is True and z["residual"] < 1e-12
+    if exact:
+        assert r.witness["zero_polynomial"] == dense.witness["zero_polynomial"]
+    for ex_ in (False, True):
+        assert _pencil(_path_clusters([1, 3]), ex_, "structured")[("A", 1, "attack")].status is Status.HOLDS
+
+
+def _velocity_only(positions: list[int], velocities: list[int], suspected: list[int]) -> System:
+    """Path 1-2-3-4 | 5 with boundary agent 4; agents can be measured in velocity only."""
+    G = nx.Graph()
+    G.add_weighted_edges_from([(1, 2, 1), (2, 3, 2), (3, 4, 1), (4, 5, 1)])
+    return System(
+        spec_from_graph(
+            G,
+            clusters={"A": [1, 2, 3, 4], "B": [5]},
+            observers={"A": [{"center": 4, "positions": positions, "velocities": velocities}], "B": [5]},
+            attack={"kind": "zda", "actuators": suspected},
+        )
+    )
+
+
+@pytest.mark.parametrize("exact", [False, True])
+def test_a_velocity_only_measurement_makes_lambda_0_a_zero_of_its_own(exact: bool) -> None:
+    # velocity of agent 1 measured, not its position: for lam != 0 zero forcing from {1, 4}
+    # proves (iii) (1 forces 2, 2 forces 3), at lam = 0 only the position of 4 is known and
+    # the constant mode of {1, 2, 3} (L xi = 0 on the rows 1, 2, 3... up to the input row 3)
+    # stays: lam = 0 is a zero
+    s = _velocity_only([4], [1, 4], [3])
+    dense = _pencil(s, exact, "dense")[("A", 4, "attack")]
+    r = _pencil(s, exact, "structured")[("A", 4, "attack")]
+    assert dense.status is Status.FAILS
+    assert r.status is Status.FAILS, r.witness
+    assert [complex(z["lambda"]) for z in dense.witness["zeros"]] == [0.0]
+    assert [complex(z["lambda"]) for z in r.witness["zeros"]] == [0.0]
+    _check_direction(_case(s, "A", 4, "attack"), r.witness["zeros"][0])
+    # measuring the position of 1 as well removes it
+    s2 = _velocity_only([1, 4], [1, 4], [3])
+    assert _pencil(s2, exact, "structured")[("A", 4, "attack")].status is Status.HOLDS
+    assert _pencil(s2, exact, "dense")[("A", 4, "attack")].status is Status.HOLDS
+
+
+def test_the_structured_margin_is_zero_on_failure_and_positive_on_success(paper19: System) -> None:
+    res = _pencil(paper19, False, "structured")
+    for k, r in res.items():
+        if r.status is Status.FAILS:
+            assert r.margin == 0.0, k
+        else:
+            assert 0.0 < r.margin <= 1.0, k
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_structured_and_dense_agree_on_generated_networks_with_every_zero_verified(seed: int) -> None:
+    from glocal_verify.generators import random_clustered_spec
+    from glocal_verify.local import pencil_verdict
+
+    system = System(random_clustered_spec(120, 3, seed=seed))
+    for case in local_cases(system):
+        sd, _, wd = pencil_verdict(system, case, method="dense", margin=False)
+        ss, _, ws = pencil_verdict(system, case, method="structured", margin=False)
+        assert ss is sd, (seed, case.scope, wd, ws)
+        if case.structural:
+            continue
+        assert ws["normal_rank"] == wd["normal_rank"]
+        assert ws.get("zero_count", 0) == wd.get("zero_count", 0)
+        dense_all = [complex(z["lambda"]) for z in wd["zeros"]]
+        for z in ws["zeros"]:
+            assert z["verified"] is True
+            _check_direction(case, z, 1e-8)
+            if wd.get("zero_count", 0) <= 12:
+                lam = complex(z["lambda"])
+                assert min(abs(lam - x) for x in dense_all) < 1e-6 * max(1.0, abs(lam))

@@ -117,3 +117,11 @@ def test_random_200_agent_networks_get_a_verified_placement_for_every_cluster(se
         assert all(v == "holds" for v in p.verification.values()), (p.cluster, p.verification)
         assert len(p.measured) >= p.lower_bound and set(p.boundary) <= set(p.measured)
         assert len(p.measured) < len(system.cluster(p.cluster).nodes)
+
+
+def test_placement_and_the_local_checker_share_one_zero_forcing_and_reduced_pencil() -> None:
+    import glocal_verify.cluster_pencil as cp
+    import glocal_verify.placement as pl
+
+    assert pl.zero_forcing_closure is cp.zero_forcing_closure
+    assert pl.reduced_pencil_holds is cp.reduced_pencil_holds

@@ -7,7 +7,10 @@ from fractions import Fraction
 import networkx as nx
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
+from strategies import clustered_systems
 
 from glocal_verify import NotApplicableError, System, load_example, spec_from_graph
 from glocal_verify.uio import (
@@ -191,3 +194,148 @@ def test_the_observable_split_matches_the_kalman_rank_on_a_small_case() -> None:
 def test_the_routh_test_agrees_with_the_roots(roots: list[complex], hurwitz: bool) -> None:
     c = np.poly(roots).real[::-1]
     assert is_hurwitz_exact([Fraction(x).limit_denominator(10**6) for x in c]) is hurwitz
+
+
+# --------------------------------------------------------------------------------------------
+# at scale: structured detectability, cached designs, conditioned default placement
+
+
+def test_a_near_real_conjugate_pair_keeps_its_pair_when_spread() -> None:
+    # Im rounded to 8 digits is 0 for both members: they used to be counted as one repeated
+    # value, only the second was shifted, and place_poles refused the broken pair
+    p = default_poles(np.array([-0.1 + 1e-10j, -0.1 - 1e-10j, 0.2, 0.2, 0.1 + 1j, 0.1 - 1j, 0.1 + 1j, 0.1 - 1j]), 1.0)
+    assert p[0] == np.conj(p[1])
+    assert p[4] == np.conj(p[5]) and p[6] == np.conj(p[7]) and p[4] != p[6]
+    assert p[2] != p[3]
+
+
+def _case_matrices(system: System, cluster: str, positions: list[int], velocities: list[int]) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[int], list[int]]:
+    cm = system.cluster_model(cluster)
+    idx = {a: k for k, a in enumerate(cm.nodes)}
+    return cm.A, cm.E, cm.C(positions, velocities), [idx[a] for a in cm.boundary], [idx[a] for a in positions]
+
+
+def test_structured_detectability_finds_the_marginal_mode_of_a_velocity_only_boundary() -> None:
+    from glocal_verify.uio import cluster_detectability
+
+    G = nx.Graph()
+    G.add_weighted_edges_from([(1, 2, 1), (2, 3, 1), (1, 4, 1), (4, 5, 1)])
+    s = System(spec_from_graph(G, clusters={"A": [1, 2, 3], "B": [4, 5]}, observers={"A": [{"center": 1, "positions": [], "velocities": [1]}], "B": [4]}))
+    A, E, C, bnd, pos = _case_matrices(s, "A", [], [1])
+    st, p, how = cluster_detectability(s.cluster_model("A").L, bnd, pos)
+    assert st.value == "fails" and how == "rank" and p is not None
+    ex = uio_existence(A, E, C)
+    assert ex.status.value == "fails"
+    # [p; 0] is an unobservable eigenvector of A1 at 0
+    x = np.concatenate([p, np.zeros_like(p)])
+    assert ex.A1 is not None
+    assert np.allclose(ex.A1 @ x, 0.0) and np.allclose(C @ x, 0.0) and np.linalg.norm(x) > 0.5
+    # the position of 1 too: decided by rank (1 is an input row and cannot force)
+    st1, p1, how1 = cluster_detectability(s.cluster_model("A").L, bnd, [0])
+    assert st1.value == "holds" and p1 is None and how1 == "rank"
+    # the position of 3: zero forcing proves it (3 forces 2, 2 forces 1)
+    st2, p2, how2 = cluster_detectability(s.cluster_model("A").L, bnd, [2])
+    assert st2.value == "holds" and p2 is None and how2 == "zero forcing"
+
+
+@settings(max_examples=30)
+@given(clustered_systems(max_n=12), st.data())
+def test_structured_and_generic_detectability_agree(system: System, data: st.DataObject) -> None:
+    from glocal_verify.uio import cluster_detectability
+
+    for c in system.clusters:
+        cm = system.cluster_model(c.name)
+        nodes = list(cm.nodes)
+        pos = data.draw(st.lists(st.sampled_from(nodes), unique=True, max_size=len(nodes)))
+        vel = list(dict.fromkeys(data.draw(st.lists(st.sampled_from(nodes), unique=True, max_size=len(nodes))) + list(cm.boundary)))
+        A, E, C, bnd, pidx = _case_matrices(system, c.name, pos, vel)
+        ex = uio_existence(A, E, C)
+        assert ex.rank_condition.value == "holds"
+        st_, p, _ = cluster_detectability(cm.L, bnd, pidx)
+        if ex.detectable.value != "undecided" and st_.value != "undecided":
+            assert st_ is ex.detectable, (c.name, pos, vel, ex.unobservable_eigenvalues)
+        if p is not None:
+            x = np.concatenate([p, np.zeros_like(p)])
+            assert ex.A1 is not None and np.allclose(ex.A1 @ x, 0.0, atol=1e-9) and np.allclose(C @ x, 0.0)
+
+
+def test_the_observable_split_is_orthonormal_and_invariant_on_a_generated_cluster() -> None:
+    from glocal_verify.generators import random_clustered_spec
+
+    s = System(random_clustered_spec(150, 3, seed=4))
+    (obs,) = s.observers("P2")
+    cm = s.cluster_model("P2")
+    C = cm.C(obs.positions, obs.velocities)
+    ex = uio_existence(cm.A, cm.E, C)
+    assert ex.split is not None and ex.A1 is not None
+    Qo, Qu = ex.split.Qo, ex.split.Qu
+    Q = np.hstack([Qo, Qu])
+    assert Q.shape == (2 * len(cm.nodes), 2 * len(cm.nodes))
+    assert np.allclose(Q.T @ Q, np.eye(Q.shape[1]), atol=1e-10)
+    assert np.allclose(C @ Qu, 0.0, atol=1e-10)
+    assert np.linalg.norm(Qo.T @ ex.A1 @ Qu) < 1e-8 * np.linalg.norm(ex.A1)  # unobservable part A1-invariant
+
+
+def test_local_uio_reuses_one_design_per_cluster_block_and_gets_the_same_results(monkeypatch: pytest.MonkeyPatch) -> None:
+    import glocal_verify.local as local
+    from glocal_verify import verify
+    from glocal_verify.generators import random_clustered_spec
+
+    s = System(random_clustered_spec(60, 3, seed=2))
+    calls: list[int] = []
+    real = local.design_uio
+
+    def counting(*a, **k):  # type: ignore[no-untyped-def]
+        calls.append(1)
+        return real(*a, **k)
+
+    monkeypatch.setattr(local, "design_uio", counting)
+    rep = verify(s, ["local.uio"])
+    # a safe mode adds one link inside one cluster: the other clusters keep their design, and
+    # the two suspected sets of an observer share it
+    changed = sum(
+        1 for c in s.clusters for m in s.safe_modes if not np.array_equal(s.cluster_model(c.name, m).A, s.cluster_model(c.name).A)
+    )
+    assert len(calls) == len(s.clusters) + changed < 2 * len(s.clusters) * len(s.modes)
+    calls.clear()
+    uncached = {}
+    for case in local.local_cases(s):
+        uncached[tuple(sorted(case.scope.items(), key=str))] = local.uio_verdict(s, case)
+    assert len(calls) == 2 * len(s.clusters) * len(s.modes)
+    for r in rep.conditions:
+        st_, mg, w = uncached[tuple(sorted(r.scope.items(), key=str))]
+        assert r.status is st_ and r.margin == pytest.approx(mg)
+        assert w["normal"]["eigenvalues_F"] == r.witness["normal"]["eigenvalues_F"]
+        assert w.get("normal", {}).get("attack_invisible") == r.witness["normal"].get("attack_invisible")
+
+
+def test_an_uncertified_large_gain_design_is_redone_moving_fewer_slow_modes(paper19: System, monkeypatch: pytest.MonkeyPatch) -> None:
+    import glocal_verify.uio as uio
+
+    (obs,) = [o for o in paper19.observers("P1") if o.center == 5]
+    cm = paper19.cluster_model("P1")
+    C = cm.C(obs.positions, obs.velocities)
+    _, d0 = design_uio(cm.A, cm.E, C, gamma=paper19.gamma)
+    assert not d0["notes"] and d0["hurwitz"].value == "holds"
+    # pretend the default design were not certified and its gain large: the ladder moves only
+    # the modes with Re > -0.3 sigma, keeps the others where they are, and says so
+    real = uio._hurwitz
+    seen: list[int] = []
+
+    def first_undecided(F, tol):  # type: ignore[no-untyped-def]
+        st_, r, w = real(F, tol)
+        seen.append(1)
+        return (uio.Status.UNDECIDED, r, w) if len(seen) == 1 else (st_, r, w)
+
+    monkeypatch.setattr(uio, "_hurwitz", first_undecided)
+    monkeypatch.setattr(uio, "_LADDER_GAIN", 0.0)
+    ex, d = design_uio(cm.A, cm.E, C, gamma=paper19.gamma)
+    assert len(seen) == 2 and d["hurwitz"].value == "holds"
+    assert any("retried moving only Re > -0.3 sigma" in n for n in d["notes"])
+    assert ex.A1 is not None
+    mu = np.linalg.eigvals(ex.A1)
+    kept = [m for m in mu if m.real <= -0.3 * paper19.gamma / 2]
+    for m in kept:  # not moved
+        assert np.min(np.abs(d["eigenvalues"] - m)) < 1e-6
+    assert np.max(d["eigenvalues"].real) < 0
+    assert np.allclose(d["T"] @ cm.A - d["F"] @ d["T"] - d["K"] @ C, 0.0, atol=1e-9)
