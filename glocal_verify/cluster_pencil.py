@@ -42,7 +42,9 @@ M_v ⊆ M_x this is Q(0) again. Consequences:
 
 Q(s) is the Rosenbrock pencil [[s I - A_r, -B_r], [C_r, D_r]] of a system with the states
 RU = R ∩ U, inputs US = U ∩ I, outputs RM = R ∩ M (:func:`reduced_pencil`): n-sized instead of
-2n-sized. For the exact analysis, which needs D = 0, Q is embedded in the D = 0 system with
+2n-sized. Without inputs (every suspected agent measured, or none suspected) A_r = -alpha L_UU
+is symmetric and the zeros are the unobservable eigenvalues of (L_UU, L_MU), found from one
+symmetric eigen-decomposition (:func:`symmetric_zeros`). For the exact analysis, which needs D = 0, Q is embedded in the D = 0 system with
 states (xi_RU, xi_US) and input w (rows s xi_US - w = 0): the column operation
 w -> w - s xi_US shows that its pencil is equivalent to diag(-I, Q(s)), so kernels, normal rank
 deficiency and zero polynomial are those of Q (:func:`reduced_system_exact`).
@@ -92,6 +94,8 @@ __all__ = [
     "ReducedPencil",
     "reduced_pencil",
     "reduced_pencil_holds",
+    "SymmetricZero",
+    "symmetric_zeros",
     "reduced_system_exact",
     "lambdas_of_s",
     "lift",
@@ -295,6 +299,110 @@ def reduced_pencil_holds(cm: ClusterModel, alpha: float, inputs: Sequence[int], 
     return Status.HOLDS if (pa.full_normal_column_rank and not pa.zeros) else Status.FAILS
 
 
+@dataclass(frozen=True, slots=True)
+class SymmetricZero:
+    """A zero s of Q(s) found by :func:`symmetric_zeros`, with a direction on ``cols``.
+
+    Attributes
+    ----------
+    value : complex
+        The zero s (real: s = -alpha mu).
+    multiplicity : int
+        Merged multiplicity as reported by the small analysis.
+    direction : ndarray
+        xi on the columns U of Q (unit norm).
+    certain : bool
+        ||alpha L_MU xi|| is zero at ``rtol`` (not merely inside the undecided band).
+    """
+
+    value: complex
+    multiplicity: int
+    direction: np.ndarray
+    certain: bool = True
+
+
+def symmetric_zeros(rp: ReducedPencil, tol: Tolerance = DEFAULT_TOLERANCE) -> tuple[list[SymmetricZero], bool]:
+    """Zeros of Q(s) when it has no input columns (no unmeasured suspected agent), by symmetry.
+
+    Then U ⊆ R and Q(s) = [[s I + alpha L_UU], [alpha L_MU]] (M = R ∩ M): full normal column
+    rank, and ker Q(s) != 0 iff s = -alpha mu for an eigenvalue mu of the symmetric L_UU whose
+    eigenspace holds a w with L_MU w = 0 (an unobservable mode of (L_UU, L_MU)). One ``eigh``
+    of alpha L_UU; eigenvalues closer than rtol * band times the scale are grouped (numerically
+    equal). A group is separated from the others by at least that gap, so its computed invariant
+    subspace W_g is accurate to about eps / (rtol * band) ~ 2e-10 < rtol, and an unobservable
+    eigenvector of the group gives ||alpha L_MU W_g v|| below ``rtol`` times the scale: it
+    cannot be missed. In a group,
+    the directions W_g v with alpha L_MU W_g v not certainly nonzero (singular values against
+    the scale of the whole pencil, ``tol``) hold every unobservable eigenvector of the group;
+    the Rayleigh quotient of L_UU on them gives the candidate zeros and their directions. A
+    group with no such direction has no zero, so "no candidate at all" proves that Q(s) has
+    full column rank for every s; candidates are flagged ``certain`` when alpha L_MU xi is zero
+    at ``rtol`` (weakly observed modes far from the measured agents land in the undecided
+    band); every candidate is a claim only, verified by the caller on
+    the full pencil (a group of distinct eigenvalues can produce a candidate that is not an
+    eigenvector: it does not verify, and the verdict is undecided). This avoids the deflation
+    of a large pencil with few outputs (the observability of a large graph from a few agents is
+    numerically delicate).
+
+    Parameters
+    ----------
+    rp : ReducedPencil
+        A reduced pencil with no input columns (``rp.B`` has no columns).
+    tol : Tolerance
+
+    Returns
+    -------
+    (list of SymmetricZero, decided)
+        The candidate zeros (each with a direction, to be lifted and verified on the full
+        pencil) and whether every rank decision was decided.
+    """
+    if rp.B.shape[1] != 0:
+        raise ValueError("symmetric_zeros needs a reduced pencil without input columns")
+    k = rp.n_states
+    if k == 0:
+        return [], True
+    S = -(rp.A + rp.A.T) / 2.0
+    mu, W = np.linalg.eigh(S)
+    C = rp.C
+    scale = max(float(np.max(np.abs(mu))) + (float(np.linalg.norm(C, 2)) if C.size else 0.0), 1e-300)
+    tau = tol.upper * scale
+    groups: list[list[int]] = [[0]]
+    for i in range(1, k):
+        if mu[i] - mu[i - 1] > tau:
+            groups.append([i])
+        else:
+            groups[-1].append(i)
+    out: list[SymmetricZero] = []
+    decided = True
+    for g in groups:
+        Wg = W[:, g]
+        m = len(g)
+        if C.shape[0] == 0:
+            N = np.eye(m)
+        else:
+            _, sv, Vh = np.linalg.svd(C @ Wg, full_matrices=True)
+            full = np.zeros(m)
+            full[: min(len(sv), m)] = sv[:m]
+            hi = int(np.sum(full > tol.rtol * scale))
+            lo = int(np.sum(full > tol.upper * scale))
+            decided &= hi == lo
+            N = Vh[lo:].conj().T
+        if N.shape[1] == 0:
+            continue
+        theta, V = np.linalg.eigh(N.T @ (mu[g][:, None] * N))
+        dirs = Wg @ (N @ V)
+        j = 0
+        while j < len(theta):  # equal Rayleigh values: one multiple zero
+            e = j
+            while e + 1 < len(theta) and theta[e + 1] - theta[j] <= tol.upper * scale:
+                e += 1
+            v = dirs[:, j] / max(float(np.linalg.norm(dirs[:, j])), 1e-300)
+            certain = C.shape[0] == 0 or float(np.linalg.norm(C @ v)) <= tol.rtol * scale
+            out.append(SymmetricZero(complex(-float(np.mean(theta[j : e + 1]))), e - j + 1, v, certain))
+            j = e + 1
+    return out, decided
+
+
 # --------------------------------------------------------------------------------------------
 # reduced pencil (exact)
 
@@ -404,7 +512,8 @@ def norm2_lower(P: np.ndarray, steps: int = 8) -> float:
     best = float(cn[j])
     if best == 0.0:
         return 0.0
-    x = P.conj().T @ P[:, j]
+    PH = P.conj().T
+    x = PH @ P[:, j]
     for _ in range(steps):
         nx = float(np.linalg.norm(x))
         if nx == 0.0:
@@ -412,7 +521,7 @@ def norm2_lower(P: np.ndarray, steps: int = 8) -> float:
         x = x / nx
         y = P @ x
         best = max(best, float(np.linalg.norm(y)))
-        x = P.conj().T @ y
+        x = PH @ y
     return best
 
 

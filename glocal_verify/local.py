@@ -48,6 +48,7 @@ import numpy as np
 
 from . import exact as ex
 from .cluster_pencil import (
+    SymmetricZero,
     backward_error,
     intra_neighbours,
     lambdas_of_s,
@@ -56,6 +57,7 @@ from .cluster_pencil import (
     reduced_pencil,
     reduced_system_exact,
     relative_sigma_min,
+    symmetric_zeros,
     zero_forcing_closure,
 )
 from .linalg import DEFAULT_TOLERANCE, Decision, Tolerance, numeric_rank
@@ -591,20 +593,34 @@ def _pencil_structured(system: System, case: LocalCase, tol: Tolerance, margin: 
         return (Status.FAILS if verified else Status.UNDECIDED), 0.0, witness
 
     rp = reduced_pencil(cm.L, system.alpha, st.inputs, st.measured)
-    pa = analyze_pencil(rp.A, rp.B, rp.C, rp.D, tol=tol, verify=False)
     nU = len(rp.cols)
-    nrank = st.columns - (nU - pa.normal_rank)
+    sym: list[SymmetricZero] | None = None
+    if rp.B.shape[1] == 0 and rp.n_states > 0:
+        # no unmeasured suspected agent: Q(s) = [[s I + alpha L_UU], [alpha L_MU]], symmetric
+        sym, sym_decided = symmetric_zeros(rp, tol)
+        full_rank, nrank_q, decided = True, nU, sym_decided
+    else:
+        pa = analyze_pencil(rp.A, rp.B, rp.C, rp.D, tol=tol, verify=False)
+        full_rank, nrank_q, decided = bool(pa.full_normal_column_rank), int(pa.normal_rank), bool(pa.decided)
     witness.update(
         {
-            "normal_rank": int(nrank),
-            "full_normal_column_rank": bool(pa.full_normal_column_rank),
-            "reduced": {"rows": len(rp.rows), "columns": nU, "states": rp.n_states, "outputs": len(rp.rows) - rp.n_states, "inputs": nU - rp.n_states, "normal_rank": int(pa.normal_rank)},
+            "normal_rank": int(st.columns - (nU - nrank_q)),
+            "full_normal_column_rank": full_rank,
+            "reduced": {
+                "rows": len(rp.rows),
+                "columns": nU,
+                "states": rp.n_states,
+                "outputs": len(rp.rows) - rp.n_states,
+                "inputs": nU - rp.n_states,
+                "normal_rank": nrank_q,
+                "analysis": "symmetric" if sym is not None else "deflation",
+            },
             "zeros": [],
         }
     )
-    undecided = not pa.decided
+    undecided = not decided
     n = st.n
-    if not pa.full_normal_column_rank:
+    if not full_rank:
         lam = _lambda0(system)
         Q, cols = _reduced_matrix(case, system.alpha, system.gamma, st, lam)
         if Q.shape[0] >= Q.shape[1]:
@@ -622,45 +638,71 @@ def _pencil_structured(system: System, case: LocalCase, tol: Tolerance, margin: 
         return (Status.UNDECIDED if undecided else Status.FAILS), 0.0, witness
 
     # finite zeros s_k of Q -> lam with lam^2 + gamma lam = s_k
-    raw = [complex(z.value) for z in pa.zeros]
     gamma = system.gamma
     groups: list[tuple[complex, int]] = []
     directions: dict[int, tuple[np.ndarray, tuple[int, ...]]] = {}
-    for members in _cluster(raw, math.sqrt(tol.upper) * pa.scale):
+    uncertain: set[int] = set()  # groups whose zero is only inside the undecided band
+    raw: list[complex] = []
+    clusters: list[list[int]] = []
+    if sym is not None:
+        for zs in sym:
+            directions[len(groups)] = (zs.direction, rp.cols)
+            if not zs.certain:
+                uncertain.add(len(groups))
+            groups.append((zs.value, zs.multiplicity))
+    else:
+        raw = [complex(z.value) for z in pa.zeros]
+        clusters = _cluster(raw, math.sqrt(tol.upper) * pa.scale)
+    merged: dict[int, list[int]] = {}  # group -> its raw members, until its mean is checked
+    for members in clusters:
         if len(members) > 1:
-            # a merged cluster of eigenvalues stands for one multiple zero only if Q is
-            # singular at its mean (as in the dense analysis); else its members stand alone
-            sm = complex(np.mean([raw[i] for i in members]))
-            Q, cols = _reduced_matrix(case, system.alpha, gamma, st, 1.0, sm)
-            v = near_null_vector(Q)
-            if tol.decide(backward_error(Q, v), 1.0) is Decision.ZERO:
-                directions[len(groups)] = (v, cols)
-                groups.append((sm, len(members)))
-                continue
-        groups += [(raw[i], 1) for i in members]
+            merged[len(groups)] = members
+            groups.append((complex(np.mean([raw[i] for i in members])), len(members)))
+        else:
+            groups.append((raw[members[0]], 1))
     merge = math.sqrt(tol.upper) * max(1.0, gamma)
-    cands: list[tuple[complex, int, int]] = []  # (lam, group, multiplicity)
-    for g, (s, mult) in enumerate(groups):
+
+    def lams(g: int) -> list[tuple[complex, int, int]]:  # (lam, group, multiplicity)
+        s, mult = groups[g]
         l1, l2 = lambdas_of_s(s, gamma)
         if abs(l1 - l2) <= merge:
-            cands.append((complex(-gamma / 2.0, 0.0) if abs(s.imag) <= merge else (l1 + l2) / 2.0, g, 2 * mult))
-        else:
-            cands += [(l1, g, mult), (l2, g, mult)]
+            return [(complex(-gamma / 2.0, 0.0) if abs(s.imag) <= merge else (l1 + l2) / 2.0, g, 2 * mult)]
+        return [(l1, g, mult), (l2, g, mult)]
+
+    cands = [c for g in range(len(groups)) for c in lams(g)]
     d0, w0 = (Decision.NONZERO, None)
     if st.origin_apart and not any(abs(lam) <= merge for lam, _, _ in cands):
         d0, w0 = _origin_zero(system, case, st, tol)
-    cands.sort(key=lambda c: _zero_order(c[0]))
-    witness["zero_count"] = len(cands) + (1 if w0 is not None else 0)
+    # zeros certain at rtol first (they verify), then the most unstable
+    cands.sort(key=lambda c: (c[1] in uncertain, *_zero_order(c[0])))
+    # zeros counted with multiplicity (invariant under the merging of clusters below)
+    witness["zero_count"] = sum(c[2] for c in cands) + (1 if w0 is not None else 0)
     reported: list[dict[str, Any]] = []
     if w0 is not None:
         reported.append(w0)
         if d0 is not Decision.ZERO or not w0["verified"]:
             w0["verified"] = False
-    for lam, g, mult in cands:
+    while cands:
+        lam, g, mult = cands.pop(0)
         # report the first 12; if none of them verifies, look at up to 24 more for one that does
         if len(reported) >= _MAX_REPORTED_ZEROS and (any(w["verified"] for w in reported) or len(reported) >= 3 * _MAX_REPORTED_ZEROS):
-            witness["zeros_not_reported"] = witness["zero_count"] - len(reported)
+            witness["zeros_not_reported"] = len(cands) + 1
             break
+        if g in merged:
+            # a merged cluster of eigenvalues stands for one multiple zero only if Q is
+            # singular at its mean (as in the dense analysis); else its members stand alone
+            members = merged.pop(g)
+            Q, cols = _reduced_matrix(case, system.alpha, gamma, st, lam, groups[g][0])
+            v = near_null_vector(Q)
+            if tol.decide(backward_error(Q, v), 1.0) is Decision.ZERO:
+                directions[g] = (v, cols)
+            else:
+                cands = [c for c in cands if c[1] != g]
+                for i in members:
+                    groups.append((raw[i], 1))
+                    cands += lams(len(groups) - 1)
+                cands.sort(key=lambda c: (c[1] in uncertain, *_zero_order(c[0])))
+                continue
         if g not in directions:
             Q, cols = _reduced_matrix(case, system.alpha, gamma, st, lam, groups[g][0])
             directions[g] = (near_null_vector(Q), cols)
@@ -725,7 +767,7 @@ def _pencil_dense(system: System, case: LocalCase, tol: Tolerance, margin: bool)
             w["multiplicity"] = z.multiplicity
         witness["zeros"].append(w)
     if pa.zeros:
-        witness["zero_count"] = len(witness["zeros"])
+        witness["zero_count"] = sum(w.get("multiplicity", 1) for w in witness["zeros"])
         witness["zeros"] = witness["zeros"][:_MAX_REPORTED_ZEROS]
         status = Status.UNDECIDED if (undecided and not any(w["verified"] for w in witness["zeros"])) else Status.FAILS
         return status, 0.0, witness
@@ -768,7 +810,9 @@ def pencil_verdict(
     1. zero forcing from the measured agents; if it reaches every agent (iii) holds for every
        lam, whatever the weights (an exact, combinatorial proof);
     2. otherwise the n-sized reduced pencil Q(s) = (s I + alpha L)[R, U], s = lam^2 + gamma lam,
-       is analysed by :func:`~glocal_verify.pencil.analyze_pencil` (same tolerance rule). Its
+       is analysed by :func:`~glocal_verify.pencil.analyze_pencil` (same tolerance rule), or,
+       when no suspected agent is unmeasured (Q has no input columns), through the symmetric
+       eigenproblem of L[U, U] (:func:`~glocal_verify.cluster_pencil.symmetric_zeros`). Its
        normal-rank deficiency is that of the full pencil (nrank P = columns - (|U| - nrank Q)).
        Each zero s_k gives lam = (-gamma ± sqrt(gamma^2 + 4 s_k)) / 2 (one double lam =
        -gamma/2 when the two coincide); a near-null vector of Q(s_k) is lifted to the full
@@ -777,7 +821,7 @@ def pencil_verdict(
        large pencils): zero at ``rtol`` proves the rank drop; otherwise the zero is reported
        unverified and, if no zero verifies, the verdict is undecided. Zeros are reported most
        unstable first, at most 12 (up to 36 while none verifies; ``zero_count`` gives the
-       total). A ``holds`` from the reduced
+       total, counted with multiplicity). A ``holds`` from the reduced
        analysis is cross-checked at the sample points: Q(s) must be certainly full column rank
        at one of them and certainly rank deficient at none.
     3. an agent measured in velocity only makes lam = 0 special (only the positions constrain
@@ -941,7 +985,7 @@ def _pencil_exact_structured(system: System, case: LocalCase) -> tuple[Status, d
                 entries.append((value, rational, sign, str(h), str(f), mult * int(e), has_u))
     witness["zero_polynomial"] = str(zp)
     entries.sort(key=lambda t: (-t[0].real, -abs(t[0].imag)))
-    witness["zero_count"] = len(entries)
+    witness["zero_count"] = sum(e[5] for e in entries)
     zs = []
     for value, rational, sign, hstr, fstr, mult, has_u in entries[:_MAX_REPORTED_ZEROS]:
         sv = value * value + system.gamma * value

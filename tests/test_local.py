@@ -354,3 +354,28 @@ def test_structured_and_dense_agree_on_generated_networks_with_every_zero_verifi
             if wd.get("zero_count", 0) <= 12:
                 lam = complex(z["lambda"])
                 assert min(abs(lam - x) for x in dense_all) < 1e-6 * max(1.0, abs(lam))
+
+
+def test_a_star_of_equal_leaves_gives_a_multiple_zero_found_by_the_symmetric_analysis() -> None:
+    # centre 3 with seven unit leaves 5..11, a heavier leaf 12 and leaf 2; the boundary agent 4
+    # (edge 4-1 to cluster B); velocities of 2 and 4 measured, no position: the six
+    # antisymmetric leaf modes (mu = 1) are unobservable, s = -1, lam = -1/2 ± i sqrt(3)/2 with
+    # multiplicity 6, and lam = 0 is a zero because no position is measured
+    G = nx.Graph()
+    G.add_weighted_edges_from([(3, a, 1) for a in (2, 4, 5, 6, 7, 8, 9, 10, 11)] + [(3, 12, 2), (4, 1, 1), (1, 13, 1)])
+    nodes = list(range(2, 13))
+    s = System(spec_from_graph(G, clusters={"A": nodes, "B": [1, 13]}, observers={"A": [{"center": 3, "positions": [], "velocities": [2, 4]}], "B": [1]}))
+    case = LocalCase(s.cluster_model("A"), s.observers("A")[0], "attack", ())
+    from glocal_verify.local import pencil_verdict
+
+    sd, _, wd = pencil_verdict(s, case, method="dense")
+    ss, _, ws = pencil_verdict(s, case, method="structured")
+    assert sd is ss is Status.FAILS
+    assert ws["reduced"]["analysis"] == "symmetric"
+    got = sorted(((complex(z["lambda"]), z.get("multiplicity", 1)) for z in ws["zeros"]), key=lambda t: (t[0].imag, t[0].real))
+    want = sorted(((complex(z["lambda"]), z.get("multiplicity", 1)) for z in wd["zeros"]), key=lambda t: (t[0].imag, t[0].real))
+    assert [m for _, m in got] == [m for _, m in want] == [6, 1, 6]
+    assert np.allclose([z for z, _ in got], [z for z, _ in want], atol=1e-9)
+    for z in ws["zeros"]:
+        assert z["verified"] is True
+        _check_direction(case, z)
