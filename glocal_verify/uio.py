@@ -757,12 +757,11 @@ def design_uio(
     K1 = Qo @ Lo
     F = A1 - K1 @ C
     hurwitz, hurwitz_ratio, eig = _hurwitz(F, tol)
-    nA1 = _norm2(A1)
     for theta in ladder[1:]:
         # moving weakly observable slow modes that are already stable can take a huge gain
         # and make F too ill-conditioned to certify: keep more of them, move only the slowest
         # (a small gain means the trouble is elsewhere, e.g. a repeated eigenvalue: no retry)
-        if hurwitz is Status.HOLDS or _norm2(K1) <= _LADDER_GAIN * max(nA1, 1.0):
+        if hurwitz is Status.HOLDS or _norm2(K1) <= _LADDER_GAIN * max(_norm2(A1), 1.0):
             break
         Lo2, want2, placed2 = _place_slow(Aoo, Co, gamma, tol, theta, sch)
         F2 = A1 - (Qo @ Lo2) @ C
