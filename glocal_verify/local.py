@@ -1240,7 +1240,13 @@ def check_uio(system: System, ctx: CheckContext) -> list[ConditionResult]:
     certified Hurwitz by :func:`glocal_verify.uio.hurwitz_certificate` (every eigenvalue at
     least ``band`` times its uncertainty rtol ||F||_2 kappa_i left of the axis). The paper asks F Hurwitz in every mode, so the
     observer is designed and verified for the normal mode and every safe mode (F_q per mode);
-    the verdict holds only if all do. Exact mode decides existence over Q (rank condition, Routh
+    the verdict holds only if all do. Detectability is decided twice: by the generic observable
+    split of (A_1, C) and by the structured PBH test of
+    :func:`glocal_verify.uio.cluster_detectability` (only lam = 0 can be an unstable unobservable
+    mode of the cluster model; zero forcing or one n-sized SVD); an undecided split is settled
+    by the structured test, a disagreement is undecided (witness ``detectability``). One design
+    per distinct cluster block is made and shared (suspected sets, unchanged modes; see
+    :func:`uio_verdict`). Exact mode decides existence over Q (rank condition, Routh
     test of the unobservable part's characteristic polynomial); the design stays numeric.
     Existence does not involve B^i; the suspected set only adds ``attack_invisible``: suspected
     boundary agents, whose attack the observer cancels together with the coupling (T B e_k = 0).
