@@ -1040,6 +1040,17 @@ def switched_unobservable_subspace(
         Basis of ``N_1^m`` as initial states ``x(t_0)``; ``margin`` is the smallest certainly
         nonzero sine met in the intersections (1.0 if none).
     """
+    key = ("switched", tuple((m, float(t)) for m, t in sequence), tol.rtol, tol.band)
+    cache = _cache(system)
+    if key not in cache:
+        cache[key] = _switched_recursion(system, sequence, tol)
+    return cache[key]  # type: ignore[no-any-return]
+
+
+def _switched_recursion(
+    system: System, sequence: Sequence[tuple[str, float]], tol: Tolerance = DEFAULT_TOLERANCE
+) -> Subspace:
+    """Uncached body of :func:`switched_unobservable_subspace`."""
     seq = _check_sequence(system, sequence)
     subs = {m: unobservable_subspace(system, m, tol) for m, _ in seq}
     results = {}
@@ -1140,6 +1151,15 @@ def switched_unobservable_bounds_exact(system: System, sequence: Sequence[tuple[
     sequence : sequence of (mode, duration)
         The schedule; durations are validated but not used.
     """
+    key = ("switched-exact", tuple((m, float(t)) for m, t in sequence))
+    cache = _cache(system)
+    if key not in cache:
+        cache[key] = _switched_bounds_exact(system, sequence)
+    return cache[key]  # type: ignore[no-any-return]
+
+
+def _switched_bounds_exact(system: System, sequence: Sequence[tuple[str, float]]) -> SwitchedBounds:
+    """Uncached body of :func:`switched_unobservable_bounds_exact`."""
     seq = _check_sequence(system, sequence)
     n2 = 2 * system.n
     modes = [m for m, _ in seq]

@@ -29,15 +29,8 @@ from glocal_verify.observability import (
 )
 from glocal_verify.results import ConditionResult, Status
 from strategies import assert_numeric_matches_exact, systems
+from test_observability import NEW_IDS
 
-NEW_IDS = [
-    "switched-observability",
-    "privacy.unobservable",
-    "privacy.initial-state",
-    "privacy.consensus-value",
-    "switching.eigenvector-differences",
-    "central.observer",
-]
 
 
 def exact_observability_rank(system: System, mode: str) -> int:
