@@ -23,18 +23,17 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from glocal_verify import System, load_example, spec_from_dict
-from glocal_verify.detection import cases_for, companion_systems, run_case
-from glocal_verify.generators import random_clustered_spec
-from glocal_verify.simulate import (
+from glocal_verify.design.generators import random_clustered_spec
+from glocal_verify.reporting.case_study import cases_for, companion_systems, run_case
+from glocal_verify.simulation.attacks import zda_attack
+from glocal_verify.simulation.engine import simulate
+from glocal_verify.simulation.observer_models import (
     ObserverBank,
-    Schedule,
     central_observer_model,
     local_observer_models,
-    random_initial_state,
-    simulate,
-    zda_attack,
 )
-from glocal_verify.spec import SystemSpec
+from glocal_verify.simulation.schedule import Schedule, random_initial_state
+from glocal_verify.spec.types import SystemSpec
 
 from .harness import Row, best_time
 

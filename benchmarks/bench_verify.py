@@ -10,9 +10,10 @@ Baselines, measured in the same run:
 from __future__ import annotations
 
 from glocal_verify import System, verify
-from glocal_verify.generators import random_clustered_spec
-from glocal_verify.observability import unobservable_subspace, unobservable_subspace_dense
-from glocal_verify.stealthy import zda_analysis
+from glocal_verify.analysis.unobservable import unobservable_subspace
+from glocal_verify.analysis.zda import zda_analysis
+from glocal_verify.design.generators import random_clustered_spec
+from glocal_verify.numerics.staircase import unobservable_subspace_dense
 
 from .harness import Row, best_time
 

@@ -11,15 +11,24 @@ import sys
 from pathlib import Path
 from typing import Callable, Sequence
 
-from .errors import GlocalVerifyError
-from .linalg import Tolerance
-from .model import System
-from .registry import CATALOGUE, implemented_ids, resolve_ids, verify
-from .report import FORMATS, render
-from .results import Status
-from .spec import example_names, example_text, load_example, load_spec
+from glocal_verify.conditions.registry import (
+    CATALOGUE,
+    implemented_ids,
+    resolve_ids,
+    verify,
+)
+from glocal_verify.errors import GlocalVerifyError
+from glocal_verify.model import System
+from glocal_verify.numerics.tolerance import Tolerance
+from glocal_verify.reporting.render import FORMATS, render
+from glocal_verify.results import Status
+from glocal_verify.spec import load_spec
+from glocal_verify.spec.examples import example_names, example_text, load_example
 
-__all__ = ["main", "build_parser"]
+__all__ = [
+    "main",
+    "build_parser",
+]
 
 PROG = "glocal-verify"
 
@@ -113,7 +122,7 @@ def cmd_conditions(args: argparse.Namespace) -> int:
 
 
 def cmd_findings(args: argparse.Namespace) -> int:
-    from .findings_report import build_findings_report
+    from glocal_verify.reporting.findings import build_findings_report
 
     _write(build_findings_report(args.dir), args.out)
     return 0
@@ -122,7 +131,7 @@ def cmd_findings(args: argparse.Namespace) -> int:
 def cmd_place_observers(args: argparse.Namespace) -> int:
     import json
 
-    from .placement import parse_suspected, place_observers
+    from glocal_verify.design.placement import parse_suspected, place_observers
 
     system = _load_system(args)
     suspected = parse_suspected(system, args.suspected)
@@ -133,8 +142,11 @@ def cmd_place_observers(args: argparse.Namespace) -> int:
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
-    from .detection import ThresholdRule
-    from .figures import write_case_study, write_simulation
+    from glocal_verify.reporting.simulation_report import (
+        write_case_study,
+        write_simulation,
+    )
+    from glocal_verify.simulation.thresholds import ThresholdRule
 
     system = _load_system(args)
     if args.cases and (args.mode or args.no_switch):

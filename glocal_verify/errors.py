@@ -14,7 +14,6 @@ __all__ = [
     "NotApplicableError",
 ]
 
-
 class GlocalVerifyError(Exception):
     """Root of every exception raised by glocal-verify."""
 

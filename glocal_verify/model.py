@@ -9,7 +9,7 @@
 Node labels are kept end to end: every public method takes and returns the user's labels;
 0-based indices appear only in arrays, in the order of :attr:`System.labels`.
 
-The cluster model follows ``CONDITIONS.md``: A^i is built from the principal block L[P_i, P_i]
+The cluster model follows ``docs/conditions.md``: A^i is built from the principal block L[P_i, P_i]
 (it keeps the degree contributed by inter-cluster edges), the coupling enters the velocity rows
 of the boundary agents dP_i, and E^i = [0; S_{dP_i}^T] has one column per boundary agent.
 """
@@ -18,21 +18,100 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import Iterable, Sequence
+from typing import Any, Callable, Hashable, Iterable, Iterator, Sequence, TypeVar
 
 import networkx as nx
 import numpy as np
 
-from .errors import ModelError, SpecError
-from .spec import NORMAL_MODE, ClusterSpec, Label, ObserverSpec, SystemSpec
+from glocal_verify.errors import ModelError, SpecError
+from glocal_verify.numerics.spectrum import Spectrum
+from glocal_verify.spec.types import (
+    NORMAL_MODE,
+    ClusterSpec,
+    Label,
+    ObserverSpec,
+    SystemSpec,
+)
 
 __all__ = [
     "System",
+    "Analysis",
     "ClusterModel",
     "LocalObserver",
     "state_matrix",
     "selection",
 ]
+
+T = TypeVar("T")
+
+
+class Analysis:
+    """The derived results of one :class:`System`, computed on first use and kept with it.
+
+    Every analysis that more than one checker needs (modal decompositions, unobservable and
+    switched subspaces, zero-dynamics analyses, simulated detections ...) is stored here under
+    a key ``(kind, *parameters)`` naming what it depends on: the mode, the tolerance, the
+    actuators, the schedule. A ``System`` is immutable once built, so nothing here goes stale;
+    :meth:`clear` forgets everything (e.g. to measure a cold run). The eigendecompositions
+    themselves are :class:`~glocal_verify.numerics.spectrum.Spectrum` objects held by the
+    system (:meth:`System.spectrum`).
+
+    Examples
+    --------
+    >>> a = Analysis()
+    >>> a.get(("answer",), lambda: 42)
+    42
+    >>> a.kinds()
+    {'answer': 1}
+    """
+
+    def __init__(self) -> None:
+        self._store: dict[Hashable, Any] = {}
+
+    def get(self, key: Hashable, compute: Callable[[], T]) -> T:
+        """The result stored under ``key``, computing and storing it first if absent.
+
+        Parameters
+        ----------
+        key : hashable
+            ``(kind, *parameters)``.
+        compute : callable
+            Called without arguments when the key is absent.
+        """
+        if key not in self._store:
+            self._store[key] = compute()
+        return self._store[key]  # type: ignore[no-any-return]
+
+    def __contains__(self, key: object) -> bool:
+        return key in self._store
+
+    def __getitem__(self, key: Hashable) -> Any:
+        return self._store[key]
+
+    def __setitem__(self, key: Hashable, value: Any) -> None:
+        self._store[key] = value
+
+    def __iter__(self) -> Iterator[Hashable]:
+        return iter(self._store)
+
+    def __len__(self) -> int:
+        return len(self._store)
+
+    def kinds(self) -> dict[str, int]:
+        """How many results of each kind are held (the first element of each key)."""
+        out: dict[str, int] = {}
+        for key in self._store:
+            kind = str(key[0]) if isinstance(key, tuple) and key else str(key)
+            out[kind] = out.get(kind, 0) + 1
+        return out
+
+    def clear(self) -> None:
+        """Forget every derived result."""
+        self._store.clear()
+
+    def __repr__(self) -> str:
+        inner = ", ".join(f"{k}: {v}" for k, v in self.kinds().items())
+        return f"Analysis({inner})"
 
 
 def selection(indices: Sequence[int], n: int) -> np.ndarray:
@@ -120,7 +199,7 @@ class ClusterModel:
 
 
 class System:
-    """A multi-agent system built from a validated :class:`~glocal_verify.spec.SystemSpec`.
+    """A multi-agent system built from a validated :class:`~glocal_verify.spec.types.SystemSpec`.
 
     Parameters
     ----------
@@ -147,7 +226,9 @@ class System:
         self.modes: tuple[str, ...] = spec.mode_names
         self._edges: dict[str, dict[frozenset[Label], Fraction]] = {}
         self._lap: dict[str, np.ndarray] = {}
-        self._eigh: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        self._spectra: dict[str, Spectrum] = {}
+        #: derived results shared by the analyses and checkers run on this system
+        self.analysis = Analysis()
         base = {e.key: e.weight for e in spec.edges}
         self._edges[NORMAL_MODE] = base
         for m in spec.modes:
@@ -262,15 +343,23 @@ class System:
         comps = [tuple(sorted(c, key=self.index.__getitem__)) for c in nx.connected_components(G)]
         return tuple(sorted(comps, key=lambda c: self.index[c[0]]))
 
-    def eigh(self, mode: str = NORMAL_MODE) -> tuple[np.ndarray, np.ndarray]:
-        """Eigen-decomposition L_q = U diag(w) U^T (ascending w; cached, read-only)."""
+    def spectrum(self, mode: str = NORMAL_MODE) -> Spectrum:
+        """The eigendecomposition of L_q with its error bounds (computed once per mode).
+
+        Parameters
+        ----------
+        mode : str
+            The mode q.
+        """
         self.check_mode(mode)
-        if mode not in self._eigh:
-            w, U = np.linalg.eigh(self.laplacian(mode))
-            w.setflags(write=False)
-            U.setflags(write=False)
-            self._eigh[mode] = (w, U)
-        return self._eigh[mode]
+        if mode not in self._spectra:
+            self._spectra[mode] = Spectrum(self.laplacian(mode))
+        return self._spectra[mode]
+
+    def eigh(self, mode: str = NORMAL_MODE) -> tuple[np.ndarray, np.ndarray]:
+        """Eigen-decomposition L_q = U diag(w) U^T (ascending w; read-only), from :meth:`spectrum`."""
+        sp = self.spectrum(mode)
+        return sp.values, sp.vectors
 
     # -- global matrices --------------------------------------------------------------------
     @property
@@ -436,6 +525,6 @@ class System:
     # -- convenience ------------------------------------------------------------------------
     @classmethod
     def from_spec_file(cls, path: str) -> "System":
-        from .spec import load_spec
+        from glocal_verify.spec import load_spec
 
         return cls(load_spec(path))

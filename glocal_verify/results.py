@@ -1,7 +1,7 @@
 """Verdicts: :class:`ConditionResult`, :class:`Finding` and :class:`Report`.
 
 Every checker returns :class:`ConditionResult` values with the fields fixed by
-``CONDITIONS.md``: ``id``, ``scope``, ``status`` (holds / fails / undecided), ``margin``,
+``docs/conditions.md``: ``id``, ``scope``, ``status`` (holds / fails / undecided), ``margin``,
 ``tolerance``, ``method`` (numeric / exact), ``witness``, ``reference`` and ``statement``.
 ``undecided`` means the numbers cannot separate the cases at the tolerance used; it is never
 turned into ``holds``. Exact results never are ``undecided``.
@@ -17,7 +17,16 @@ from typing import Any, Mapping
 
 import numpy as np
 
-__all__ = ["Status", "Method", "ConditionResult", "Finding", "Report", "SystemInfo", "jsonable", "REPORT_SCHEMA_ID"]
+__all__ = [
+    "Status",
+    "Method",
+    "ConditionResult",
+    "Finding",
+    "Report",
+    "SystemInfo",
+    "jsonable",
+    "REPORT_SCHEMA_ID",
+]
 
 REPORT_SCHEMA_ID = "glocal-verify/report@1"
 
@@ -50,7 +59,7 @@ class ConditionResult:
     Attributes
     ----------
     id : str
-        Public condition id (``CONDITIONS.md``), e.g. ``"switching.image-kernel"``.
+        Public condition id (``docs/conditions.md``), e.g. ``"switching.image-kernel"``.
     scope : mapping
         ``{"mode": ..., "cluster": ..., "observer": ..., "suspected": ...}``; empty when global.
     status : Status

@@ -11,19 +11,22 @@ import pytest
 
 from glocal_verify import System, load_example, load_spec, spec_from_dict, verify
 from glocal_verify.cli import main
-from glocal_verify.detection import (
-    ThresholdRule,
-    algorithm1,
-    attack_free_thresholds,
+from glocal_verify.conditions.detects import algorithm1, rank_safe_modes
+from glocal_verify.reporting.case_study import (
     case_findings,
     cases_for,
     companion_systems,
-    first_crossing,
-    rank_safe_modes,
     run_case,
 )
 from glocal_verify.results import Status
-from glocal_verify.simulate import ObserverBank, Schedule, simulate
+from glocal_verify.simulation.engine import simulate
+from glocal_verify.simulation.observer_models import ObserverBank
+from glocal_verify.simulation.schedule import Schedule
+from glocal_verify.simulation.thresholds import (
+    ThresholdRule,
+    attack_free_thresholds,
+    first_crossing,
+)
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -11,8 +11,8 @@ import pytest
 import sympy
 
 from glocal_verify import System, load_example, spec_from_graph, verify
+from glocal_verify.conditions.switching import eigenvector_difference_polynomial
 from glocal_verify.results import ConditionResult, Status
-from glocal_verify.switching import eigenvector_difference_polynomial
 
 CID = "switching.eigenvector-differences"
 

@@ -7,7 +7,11 @@ from pathlib import Path
 import pytest
 
 from glocal_verify.cli import main
-from glocal_verify.findings_report import build_findings_report, check_case, load_cases
+from glocal_verify.reporting.findings import (
+    build_findings_report,
+    check_case,
+    load_cases,
+)
 
 ROOT = Path(__file__).resolve().parent.parent
 CASES = load_cases(ROOT / "reports" / "findings")

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from glocal_verify import System, load_example, spec_from_graph, verify
+from glocal_verify.analysis.local_cases import LocalCase, full_pencil, local_cases
 from glocal_verify.cli import main
-from glocal_verify.local import LocalCase, full_pencil, local_cases
 from glocal_verify.results import ConditionResult, Status
 
 LOCAL = ["local.k-connected", "local.rank", "local.pencil", "local.uio"]
@@ -335,8 +335,8 @@ def test_the_structured_margin_is_zero_on_failure_and_positive_on_success(paper1
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_structured_and_dense_agree_on_generated_networks_with_every_zero_verified(seed: int) -> None:
-    from glocal_verify.generators import random_clustered_spec
-    from glocal_verify.local import pencil_verdict
+    from glocal_verify.conditions.local_pencil import pencil_verdict
+    from glocal_verify.design.generators import random_clustered_spec
 
     system = System(random_clustered_spec(120, 3, seed=seed))
     for case in local_cases(system):
@@ -366,7 +366,7 @@ def test_a_star_of_equal_leaves_gives_a_multiple_zero_found_by_the_symmetric_ana
     nodes = list(range(2, 13))
     s = System(spec_from_graph(G, clusters={"A": nodes, "B": [1, 13]}, observers={"A": [{"center": 3, "positions": [], "velocities": [2, 4]}], "B": [1]}))
     case = LocalCase(s.cluster_model("A"), s.observers("A")[0], "attack", ())
-    from glocal_verify.local import pencil_verdict
+    from glocal_verify.conditions.local_pencil import pencil_verdict
 
     sd, _, wd = pencil_verdict(s, case, method="dense")
     ss, _, ws = pencil_verdict(s, case, method="structured")

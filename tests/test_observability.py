@@ -18,18 +18,19 @@ import pytest
 import scipy.linalg
 
 from glocal_verify import System, load_example, spec_from_dict, spec_from_graph, verify
-from glocal_verify.cli import main
-from glocal_verify.linalg import principal_sines
-from glocal_verify.observability import (
-    block_exponentials,
-    modal_exponential,
+from glocal_verify.analysis.modal import block_exponentials, modal_exponential
+from glocal_verify.analysis.switched import (
     mode_sequence,
     switched_unobservable_bounds_exact,
     switched_unobservable_subspace,
+)
+from glocal_verify.analysis.unobservable import (
     unobservable_subspace,
-    unobservable_subspace_dense,
     unobservable_subspace_exact,
 )
+from glocal_verify.cli import main
+from glocal_verify.numerics.staircase import unobservable_subspace_dense
+from glocal_verify.numerics.tolerance import principal_sines
 from glocal_verify.results import ConditionResult, Method, Status
 
 NEW_IDS = [

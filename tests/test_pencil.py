@@ -11,7 +11,8 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from glocal_verify.errors import ModelError, NotApplicableError
-from glocal_verify.pencil import analyze_pencil, analyze_pencil_exact, direction_at, pencil_matrix
+from glocal_verify.numerics.pencil import analyze_pencil, direction_at, pencil_matrix
+from glocal_verify.numerics.pencil_exact import analyze_pencil_exact
 
 
 def _residual(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray | None, z: complex, x: np.ndarray, u: np.ndarray) -> float:

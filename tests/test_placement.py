@@ -9,13 +9,18 @@ import tomllib
 import pytest
 
 from glocal_verify import NotApplicableError, System, load_example, verify
+from glocal_verify.analysis.local_cases import LocalCase
 from glocal_verify.cli import main
-from glocal_verify.generators import random_clustered_spec
-from glocal_verify.local import LocalCase, pencil_verdict
+from glocal_verify.conditions.local_pencil import pencil_verdict
+from glocal_verify.design.generators import random_clustered_spec
+from glocal_verify.design.placement import (
+    Placement,
+    place_observers,
+    zero_forcing_closure,
+)
 from glocal_verify.model import LocalObserver
-from glocal_verify.placement import Placement, place_observers, zero_forcing_closure
 from glocal_verify.results import Status
-from glocal_verify.spec import ClusterSpec, ObserverSpec
+from glocal_verify.spec.types import ClusterSpec, ObserverSpec
 
 
 @pytest.fixture(scope="module")
@@ -120,8 +125,8 @@ def test_random_200_agent_networks_get_a_verified_placement_for_every_cluster(se
 
 
 def test_placement_and_the_local_checker_share_one_zero_forcing_and_reduced_pencil() -> None:
-    import glocal_verify.cluster_pencil as cp
-    import glocal_verify.placement as pl
+    import glocal_verify.analysis.cluster_pencil as cp
+    import glocal_verify.design.placement as pl
 
     assert pl.zero_forcing_closure is cp.zero_forcing_closure
     assert pl.reduced_pencil_holds is cp.reduced_pencil_holds

@@ -13,7 +13,15 @@ import sympy as sp
 
 from proofs_checks import MODULES, all_steps, run
 from proofs_checks.__main__ import main
-from proofs_checks.core import Decision, Step, Summary, Verdict, check, decide_zero, select
+from proofs_checks.core import (
+    Decision,
+    Step,
+    Summary,
+    Verdict,
+    check,
+    decide_zero,
+    select,
+)
 
 
 @pytest.fixture(scope="module")

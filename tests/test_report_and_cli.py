@@ -10,8 +10,8 @@ import pytest
 
 from glocal_verify import System, load_example, validate_report_json, verify
 from glocal_verify.cli import main
+from glocal_verify.conditions.registry import CATALOGUE, resolve_ids
 from glocal_verify.errors import UnknownConditionError
-from glocal_verify.registry import CATALOGUE, resolve_ids
 
 
 @pytest.fixture(scope="module")

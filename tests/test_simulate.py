@@ -12,20 +12,19 @@ from scipy.integrate import solve_ivp
 
 from glocal_verify import System, load_example, spec_from_dict
 from glocal_verify.errors import ModelError
-from glocal_verify.simulate import (
-    UNIT_ROUNDOFF,
+from glocal_verify.simulation.attacks import (
     AttackModel,
     Exosystem,
-    ObserverBank,
-    ObserverModel,
-    Schedule,
-    SimulationResult,
     covert_attack,
-    random_initial_state,
-    simulate,
-    taylor_order,
     zda_attack,
     zda_attack_from_direction,
+)
+from glocal_verify.simulation.engine import UNIT_ROUNDOFF, simulate, taylor_order
+from glocal_verify.simulation.observer_models import ObserverBank, ObserverModel
+from glocal_verify.simulation.schedule import (
+    Schedule,
+    SimulationResult,
+    random_initial_state,
 )
 
 # --------------------------------------------------------------------------------------------
@@ -248,7 +247,7 @@ def test_a_zda_is_invisible_in_the_global_residual_before_the_switch_on_paper19(
 
 @pytest.mark.parametrize("seed", [5, 6])
 def test_a_zda_is_invisible_before_the_switch_on_a_random_clustered_network(seed: int) -> None:
-    from glocal_verify.generators import random_clustered_spec
+    from glocal_verify.design.generators import random_clustered_spec
 
     # seed 5: a zero at lambda0 = 0; seed 6: a complex pair (lambda0 = 0.06 - 2.88j)
     system = System(random_clustered_spec(40, 3, seed=seed, horizon=9.0, step=0.05))
@@ -338,7 +337,7 @@ def test_observer_models_from_plain_matrices_run_without_the_design_modules() ->
 
 
 def test_ctrl_c_returns_the_samples_computed_so_far(monkeypatch: pytest.MonkeyPatch) -> None:
-    from glocal_verify import simulate as sim_mod
+    from glocal_verify.simulation import engine as sim_mod
 
     system = _small()
     calls = {"n": 0}

@@ -9,17 +9,14 @@ import networkx as nx
 import numpy as np
 import pytest
 from hypothesis import given, settings
+from strategies import systems
 
 from glocal_verify import System, load_example, spec_from_graph, verify
+from glocal_verify.analysis.covert import covert_required_channels
+from glocal_verify.analysis.zda import zda_analysis, zda_direction
+from glocal_verify.analysis.zda_exact import zda_analysis_exact
 from glocal_verify.errors import ModelError, NotApplicableError
 from glocal_verify.results import ConditionResult, Status
-from glocal_verify.stealthy import (
-    covert_required_channels,
-    zda_analysis,
-    zda_analysis_exact,
-    zda_direction,
-)
-from strategies import systems
 
 
 def _system(G: nx.Graph, **kw: Any) -> System:

@@ -12,13 +12,23 @@ import networkx as nx
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, event, example, given, settings
-
-from glocal_verify import System, load_example, loads_spec, spec_from_dict, spec_from_graph, verify
-from glocal_verify.results import Status
-from glocal_verify.simulate import ObserverBank, Schedule, simulate, zda_attack_from_direction
-from glocal_verify.stealthy import zda_direction
-from glocal_verify.switching_safe import Avoidance, avoidance, avoidance_exact
 from strategies import systems
+
+from glocal_verify import (
+    System,
+    load_example,
+    loads_spec,
+    spec_from_dict,
+    spec_from_graph,
+    verify,
+)
+from glocal_verify.analysis.avoidance import Avoidance, avoidance, avoidance_exact
+from glocal_verify.analysis.zda import zda_direction
+from glocal_verify.results import Status
+from glocal_verify.simulation.attacks import zda_attack_from_direction
+from glocal_verify.simulation.engine import simulate
+from glocal_verify.simulation.observer_models import ObserverBank
+from glocal_verify.simulation.schedule import Schedule
 
 
 def _system(G: nx.Graph, **kw: Any) -> System:

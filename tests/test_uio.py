@@ -13,12 +13,10 @@ from scipy.integrate import solve_ivp
 from strategies import clustered_systems
 
 from glocal_verify import NotApplicableError, System, load_example, spec_from_graph
-from glocal_verify.uio import (
-    UnknownInputObserver,
+from glocal_verify.observers.uio import UnknownInputObserver, design_uio, local_uio
+from glocal_verify.observers.uio_existence import (
     default_poles,
-    design_uio,
     is_hurwitz_exact,
-    local_uio,
     observable_split,
     uio_existence,
 )
@@ -148,7 +146,8 @@ def test_the_same_zda_keeps_the_residual_of_observer_6_at_zero(paper19: System) 
 def test_an_unmeasured_boundary_agent_makes_the_design_refuse_with_the_reason() -> None:
     # paper19 with the P3 observer moved to 16, whose neighbours (15, 17, 18) miss the
     # boundary agent 13
-    from glocal_verify.spec import example_text, loads_spec
+    from glocal_verify.spec import loads_spec
+    from glocal_verify.spec.examples import example_text
 
     text = example_text("paper19").replace("center = 13 ", "center = 16 ")
     system = System(loads_spec(text))
@@ -216,7 +215,7 @@ def _case_matrices(system: System, cluster: str, positions: list[int], velocitie
 
 
 def test_structured_detectability_finds_the_marginal_mode_of_a_velocity_only_boundary() -> None:
-    from glocal_verify.uio import cluster_detectability
+    from glocal_verify.observers.uio_existence import cluster_detectability
 
     G = nx.Graph()
     G.add_weighted_edges_from([(1, 2, 1), (2, 3, 1), (1, 4, 1), (4, 5, 1)])
@@ -241,7 +240,7 @@ def test_structured_detectability_finds_the_marginal_mode_of_a_velocity_only_bou
 @settings(max_examples=30)
 @given(clustered_systems(max_n=12), st.data())
 def test_structured_and_generic_detectability_agree(system: System, data: st.DataObject) -> None:
-    from glocal_verify.uio import cluster_detectability
+    from glocal_verify.observers.uio_existence import cluster_detectability
 
     for c in system.clusters:
         cm = system.cluster_model(c.name)
@@ -260,7 +259,7 @@ def test_structured_and_generic_detectability_agree(system: System, data: st.Dat
 
 
 def test_the_observable_split_is_orthonormal_and_invariant_on_a_generated_cluster() -> None:
-    from glocal_verify.generators import random_clustered_spec
+    from glocal_verify.design.generators import random_clustered_spec
 
     s = System(random_clustered_spec(150, 3, seed=4))
     (obs,) = s.observers("P2")
@@ -277,9 +276,9 @@ def test_the_observable_split_is_orthonormal_and_invariant_on_a_generated_cluste
 
 
 def test_local_uio_reuses_one_design_per_cluster_block_and_gets_the_same_results(monkeypatch: pytest.MonkeyPatch) -> None:
-    import glocal_verify.local as local
+    import glocal_verify.conditions.local as local
     from glocal_verify import verify
-    from glocal_verify.generators import random_clustered_spec
+    from glocal_verify.design.generators import random_clustered_spec
 
     s = System(random_clustered_spec(60, 3, seed=2))
     calls: list[int] = []
@@ -310,7 +309,7 @@ def test_local_uio_reuses_one_design_per_cluster_block_and_gets_the_same_results
 
 
 def test_an_uncertified_large_gain_design_is_redone_moving_fewer_slow_modes(paper19: System, monkeypatch: pytest.MonkeyPatch) -> None:
-    import glocal_verify.uio as uio
+    import glocal_verify.observers.uio as uio
 
     (obs,) = [o for o in paper19.observers("P1") if o.center == 5]
     cm = paper19.cluster_model("P1")

@@ -8,22 +8,26 @@ from __future__ import annotations
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from strategies import assert_numeric_matches_exact, clustered_systems
 
 from glocal_verify import System, verify
-from glocal_verify.cluster_pencil import zero_forcing_steps
-from glocal_verify.local import (
+from glocal_verify.analysis.cluster_pencil import zero_forcing_steps
+from glocal_verify.analysis.local_cases import (
     LocalCase,
     full_pencil,
     local_cases,
     pencil_matrices,
     pencil_matrices_exact,
-    pencil_verdict,
-    pencil_verdict_exact,
 )
-from glocal_verify.pencil import analyze_pencil, analyze_pencil_exact
-from glocal_verify.placement import _intra_neighbours, reduced_pencil_holds, zero_forcing_closure
+from glocal_verify.conditions.local_pencil import pencil_verdict, pencil_verdict_exact
+from glocal_verify.design.placement import (
+    _intra_neighbours,
+    reduced_pencil_holds,
+    zero_forcing_closure,
+)
+from glocal_verify.numerics.pencil import analyze_pencil
+from glocal_verify.numerics.pencil_exact import analyze_pencil_exact
 from glocal_verify.results import Status
-from strategies import assert_numeric_matches_exact, clustered_systems
 
 
 @settings(max_examples=25)

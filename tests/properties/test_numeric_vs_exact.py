@@ -7,10 +7,10 @@ highest priority; a numeric ``undecided`` is allowed but must be rare.
 from __future__ import annotations
 
 from hypothesis import given
+from strategies import assert_numeric_matches_exact, systems
 
 from glocal_verify import System, verify
 from glocal_verify.results import Status
-from strategies import assert_numeric_matches_exact, systems
 
 FOUNDATION = ["privacy.connected", "privacy.kernel", "switching.image-kernel", "switching.distinct-eigenvalues", "switching.coverage"]
 

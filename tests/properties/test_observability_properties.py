@@ -17,20 +17,20 @@ import flint
 import numpy as np
 from hypothesis import example, given
 from hypothesis import strategies as st
-
-from glocal_verify import System, spec_from_dict, verify
-from glocal_verify.linalg import principal_sines
-from glocal_verify.observability import (
-    switched_unobservable_bounds_exact,
-    switched_unobservable_subspace,
-    unobservable_subspace,
-    unobservable_subspace_dense,
-    unobservable_subspace_exact,
-)
-from glocal_verify.results import ConditionResult, Status
 from strategies import assert_numeric_matches_exact, systems
 from test_observability import NEW_IDS
 
+from glocal_verify import System, spec_from_dict
+from glocal_verify.analysis.switched import (
+    switched_unobservable_bounds_exact,
+    switched_unobservable_subspace,
+)
+from glocal_verify.analysis.unobservable import (
+    unobservable_subspace,
+    unobservable_subspace_exact,
+)
+from glocal_verify.numerics.staircase import unobservable_subspace_dense
+from glocal_verify.numerics.tolerance import principal_sines
 
 
 def exact_observability_rank(system: System, mode: str) -> int:

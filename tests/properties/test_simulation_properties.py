@@ -1,4 +1,4 @@
-"""Simulation cross-validates the checkers on random networks (CONDITIONS.md, "Cross-validation").
+"""Simulation cross-validates the checkers on random networks (docs/conditions.md, "Cross-validation").
 
 * the two exact propagators agree;
 * a ZDA of ``stealthy.zda`` keeps the global residual at rounding level before any switch,
@@ -31,16 +31,19 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, assume, event, example, given, settings
 from hypothesis import strategies as st
+from strategies import clustered_systems, graphs
 
 from glocal_verify import System, load_example, spec_from_dict, verify
-from glocal_verify.detection import THEOREM_III3_IDS, algorithm1, check_detects
+from glocal_verify.analysis.avoidance import avoidance
+from glocal_verify.conditions.detects import THEOREM_III3_IDS, algorithm1, check_detects
+from glocal_verify.conditions.registry import CheckContext
 from glocal_verify.errors import GlocalVerifyError
-from glocal_verify.linalg import DEFAULT_TOLERANCE, group_eigenvalues
-from glocal_verify.registry import CheckContext
+from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, group_eigenvalues
 from glocal_verify.results import Status
-from glocal_verify.simulate import ObserverBank, Schedule, random_initial_state, simulate, zda_attack, zda_attack_from_direction
-from glocal_verify.switching_safe import avoidance
-from strategies import clustered_systems, graphs
+from glocal_verify.simulation.attacks import zda_attack, zda_attack_from_direction
+from glocal_verify.simulation.engine import simulate
+from glocal_verify.simulation.observer_models import ObserverBank
+from glocal_verify.simulation.schedule import Schedule, random_initial_state
 
 #: each example simulates; a quarter of the profile's budget (12 under ci, 750 under fuzz)
 SLOW = settings(max_examples=max(12, settings.default.max_examples // 4), suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much, HealthCheck.data_too_large])

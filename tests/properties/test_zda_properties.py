@@ -11,11 +11,12 @@ import networkx as nx
 import numpy as np
 from hypothesis import example, given
 from hypothesis import strategies as st
+from strategies import systems
 
 from glocal_verify import System, spec_from_graph, verify
+from glocal_verify.analysis.zda import ZdaAnalysis, zda_analysis
+from glocal_verify.analysis.zda_exact import zda_analysis_exact
 from glocal_verify.results import Status
-from glocal_verify.stealthy import ZdaAnalysis, zda_analysis, zda_analysis_exact
-from strategies import systems
 
 
 def _attacked(data: st.DataObject, system: System) -> tuple[int, ...]:

@@ -1,0 +1,13 @@
+"""Analysis: the paper's objects on a given system, as typed results (no verdicts).
+
+- :mod:`.modal` -- eigen-groups of L_q with their unobservable parts (the modal structure);
+- :mod:`.unobservable` -- unobservable subspaces per mode (modal, exact);
+- :mod:`.switched` -- Lemma II.3's switched unobservable subspace;
+- :mod:`.zda`, :mod:`.zda_exact` -- zero-dynamics attacks: zeros, directions, growth;
+- :mod:`.covert` -- the channels a covert attacker must own;
+- :mod:`.avoidance` -- does a safe mode touch the stealthy kernel (Remark III.3.1)?
+- :mod:`.local_cases`, :mod:`.cluster_pencil` -- cluster subsystems and their reduced pencils.
+
+Layer: imports :mod:`glocal_verify.numerics`, :mod:`glocal_verify.model` and the spec types.
+Derived results are kept on the system's explicit :class:`~glocal_verify.model.Analysis`.
+"""

@@ -1,0 +1,492 @@
+"""Does a safe mode touch the attack? The analysis behind Remark III.3.1.
+
+At the attack's exponent lambda0 the attacker may choose any direction of the stealthy kernel
+Z; the switch to mode q is avoidable iff some direction in Z has ``dL_q xi = 0``.
+:func:`avoidance` decides it numerically, :func:`avoidance_exact` over Q or a number field.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from fractions import Fraction
+from typing import Any, Sequence
+
+import flint
+import numpy as np
+
+from glocal_verify.analysis.zda import (
+    ZdaDirection,
+    ZdaZero,
+    _Modal,
+    _normalize,
+    zda_analysis,
+)
+from glocal_verify.analysis.zda_exact import (
+    ExactZdaZero,
+    _exact_zero,
+    _fq,
+    _q_matrix,
+    zda_analysis_exact,
+)
+from glocal_verify.model import System
+from glocal_verify.numerics import exact as ex
+from glocal_verify.numerics.pencil_exact import kernel_over_field, rank_over_field
+from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
+from glocal_verify.results import Status
+from glocal_verify.spec.types import Label
+
+__all__ = [
+    "Avoidance",
+    "avoidance",
+    "avoidance_exact",
+    "delta_norm",
+]
+
+#: modes with |s + alpha mu_k| above this are eliminated in the numeric reduction (see the module docstring)
+_NEAR = 1.0
+
+
+def _delta_block(system: System, mode: str) -> tuple[list[int], np.ndarray]:
+    """Indices D of the switching components and dL_q[D, D] (dL_q is zero outside D x D)."""
+    labs = [lab for comp in system.switching_components(mode) for lab in comp]
+    idx = system.idx(labs)
+    pos = {i: k for k, i in enumerate(idx)}
+    blk = np.zeros((len(idx), len(idx)))
+    for u, v, dw in system.switching_links(mode):
+        a, b = pos[system.index[u]], pos[system.index[v]]
+        w = float(dw)
+        blk[a, b] -= w
+        blk[b, a] -= w
+        blk[a, a] += w
+        blk[b, b] += w
+    return idx, blk
+
+
+def _block_norm(blk: np.ndarray) -> float:
+    if blk.size == 0:
+        return 0.0
+    return float(np.max(np.abs(np.linalg.eigvalsh(blk)), initial=0.0))
+
+
+def delta_norm(system: System, mode: str) -> float:
+    """||dL_q||_2, computed on the switching components D_c (dL_q is zero elsewhere).
+
+    Parameters
+    ----------
+    system : System
+        The system.
+    mode : str
+        A safe mode.
+    """
+    return _block_norm(_delta_block(system, mode)[1])
+
+
+# ------------------------------------------------------------------------------------------
+# records
+
+
+@dataclass(frozen=True, slots=True)
+class Avoidance:
+    """Can a stealthy ZDA at lambda0 avoid the switch to ``mode``? (Remark III.3.1)
+
+    Attributes
+    ----------
+    mode : str
+        The safe mode q.
+    status : Status
+        ``HOLDS``: an avoiding direction exists (the switch does not touch the attack);
+        ``FAILS``: every stealthy direction at lambda0 is touched; ``UNDECIDED`` (numeric only).
+    lambda0 : complex
+        The exponent (see the module docstring for how it is chosen).
+    growth : str
+        Growth class of lambda0 (``unbounded`` / ``persistent`` / ``decaying`` / ``undecided``).
+    chosen : ZdaDirection
+        The witness direction of ``stealthy.zda``.
+    chosen_source : str
+        Why ``stealthy.zda`` chose it.
+    chosen_touched : bool or None
+        dL_q xi != 0 for the chosen direction (None: undecided).
+    chosen_touched_agents : tuple of labels
+        Rows of dL_q xi (chosen direction) that are nonzero.
+    direction : ZdaDirection or None
+        On ``HOLDS`` the avoiding direction: the chosen one when it is untouched, else a
+        vector of the avoiding subspace with the largest input part.
+    direction_source : str
+        ``stealthy.zda`` or ``kernel of the stacked system``.
+    dimension : int or None
+        Rank of the u0-part of the avoiding subspace {(xi, u0) in Z : dL_q xi = 0} (the
+        number of independent inputs an avoiding attacker has). Numeric: the count of
+        certainly nonzero singular values (a lower bound; at least 1 on ``HOLDS``); 0 on
+        ``FAILS``; None when undecided.
+    margin : float
+        See ``MARGIN_SCALE``.
+    dl_residual : float
+        ||dL_q xi|| / (||dL_q||_2 ||xi||) of ``direction`` (on ``HOLDS``).
+    exact_xi, exact_u0 : tuple of Fraction or None
+        The avoiding direction over Q (exact path, rational lambda0), xi scaled to max |xi_k| = 1.
+    notes : tuple of str
+    """
+
+    mode: str
+    status: Status
+    lambda0: complex
+    growth: str
+    chosen: ZdaDirection
+    chosen_source: str
+    chosen_touched: bool | None
+    chosen_touched_agents: tuple[Label, ...]
+    direction: ZdaDirection | None
+    direction_source: str
+    dimension: int | None
+    margin: float
+    dl_residual: float = math.nan
+    exact_xi: tuple[Fraction, ...] | None = None
+    exact_u0: tuple[Fraction, ...] | None = None
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+
+# ------------------------------------------------------------------------------------------
+# numeric
+
+
+@dataclass(frozen=True, slots=True)
+class _Basis:
+    """A basis of (part of) Z: modal coordinates eta (xi = U eta), xi and u0 (columns)."""
+
+    eta: np.ndarray
+    x: np.ndarray
+    u: np.ndarray
+
+
+def _right_svd(M: np.ndarray, ncols: int) -> tuple[np.ndarray, np.ndarray]:
+    """Singular values padded with zeros to ``ncols`` (descending) and all right singular vectors."""
+    if M.shape[0] == 0 or ncols == 0:
+        return np.zeros(ncols), np.eye(ncols, dtype=M.dtype if M.size else float)
+    _, sv, Vh = np.linalg.svd(M, full_matrices=True)
+    return np.concatenate([sv, np.zeros(ncols - len(sv))]), Vh.conj().T
+
+
+def _stealthy_bases(md: _Modal, lam: complex) -> tuple[_Basis, _Basis]:
+    """Certain and possible bases of Z at ``lam`` from the reduced modal matrix S."""
+    N, m = md.N, len(md.F)
+    s = lam * lam + md.gamma * lam
+    d: np.ndarray = s + md.alpha * md.mu
+    real = lam.imag == 0.0
+    if real:
+        d = d.real
+    dtype = float if real else complex
+    rows_out = md.Mx if lam == 0 else md.M
+    near = np.abs(d) <= _NEAR
+    J, far = np.flatnonzero(near), np.flatnonzero(~near)
+    nJ, p = len(J), len(rows_out)
+    UF = md.U[md.F, :]
+    UO = md.U[rows_out, :]
+    S = np.zeros((nJ + p, nJ + m), dtype=dtype)
+    S[:nJ, :nJ] = np.diag(d[J])
+    S[:nJ, nJ:] = -UF[:, J].T
+    S[nJ:, :nJ] = UO[:, J]
+    if len(far):
+        S[nJ:, nJ:] = (UO[:, far] / d[far]) @ UF[:, far].T
+    ncols = nJ + m
+    sv, V = _right_svd(S, ncols)
+    scale = max(1.0, float(sv[0]) if ncols else 0.0)
+    cert = int(np.sum(sv > md.tol.upper * scale))
+    maybe = int(np.sum(sv > md.tol.rtol * scale))
+
+    def basis(Vk: np.ndarray) -> _Basis:
+        k = Vk.shape[1]
+        eta = np.zeros((N, k), dtype=dtype)
+        uu = Vk[nJ:].astype(dtype)
+        eta[J] = Vk[:nJ]
+        if len(far):
+            eta[far] = (UF[:, far].T @ uu) / d[far][:, None]
+        x = md.U @ eta if real else md.U @ eta.real + 1j * (md.U @ eta.imag)
+        return _Basis(eta, x, uu)
+
+    return basis(V[:, maybe:]), basis(V[:, cert:])
+
+
+@dataclass(frozen=True, slots=True)
+class _Split:
+    """Z in xi-orthonormal coordinates: xi = Xo c, u0 = B c, eta = E c; A c = dL_q xi / ||dL_q||."""
+
+    Xo: np.ndarray
+    B: np.ndarray
+    E: np.ndarray | None
+    A: np.ndarray
+
+
+def _split(basis_x: np.ndarray, basis_u: np.ndarray, basis_eta: np.ndarray | None, dl_idx: Sequence[int], dl_blk: np.ndarray, dl_norm: float) -> _Split:
+    k = basis_x.shape[1]
+    if k == 0:
+        z = np.zeros((0, 0))
+        return _Split(np.zeros((basis_x.shape[0], 0)), np.zeros((basis_u.shape[0], 0)), None if basis_eta is None else np.zeros((basis_x.shape[0], 0)), z)
+    Ux, Sx, Vxh = np.linalg.svd(basis_x, full_matrices=False)
+    keep = Sx > 1e-300  # xi = 0 forces u0 = 0 (S_F^T is injective): X is injective on Z
+    W = Vxh.conj().T[:, keep] / Sx[keep]
+    Xo = Ux[:, keep]
+    A = dl_blk @ Xo[list(dl_idx), :] / dl_norm if dl_norm > 0 else np.zeros((0, Xo.shape[1]), dtype=Xo.dtype)
+    return _Split(Xo, basis_u @ W, None if basis_eta is None else basis_eta @ W, A)
+
+
+def _input_decisions(sv: np.ndarray, lam: complex, tol: Tolerance) -> list[Decision]:
+    """||u0|| against ||[x0; u0]|| for unit xi (``stealthy.zda``'s rule)."""
+    x2 = 1.0 + abs(lam) ** 2
+    return [tol.decide(float(v), math.sqrt(x2 + float(v) ** 2)) for v in sv]
+
+
+def _avoiding(sp: _Split, lam: complex, tol: Tolerance, cut: float) -> tuple[np.ndarray | None, int, bool]:
+    """(best coefficient vector, certain u0-rank, some input not certainly zero) of the
+    avoiding subspace {c : singular values of A <= cut} of ``sp``."""
+    r = sp.Xo.shape[1]
+    if r == 0:
+        return None, 0, False
+    sa, Va = _right_svd(sp.A, r)
+    K = Va[:, sa <= cut]
+    if K.shape[1] == 0 or sp.B.shape[0] == 0:
+        return None, 0, False
+    _, su, Vuh = np.linalg.svd(sp.B @ K, full_matrices=False)
+    dec = _input_decisions(su, lam, tol)
+    dim = sum(1 for x in dec if x is Decision.NONZERO)
+    some = any(x is not Decision.ZERO for x in dec)
+    best = K @ Vuh[0].conj() if len(su) else None
+    return best, dim, some
+
+
+def _fails_margin(sp: _Split, lam: complex, tol: Tolerance) -> float | None:
+    """min ||P A c|| over unit c orthogonal to the input-free directions (see ``MARGIN_SCALE``):
+    P projects out A(input-free directions). None when Z carries no input at all."""
+    r = sp.Xo.shape[1]
+    if r == 0:
+        return None
+    sb, Vb = _right_svd(sp.B, r)
+    free = np.array([x is Decision.ZERO for x in _input_decisions(sb, lam, tol)], dtype=bool)
+    N0, Vr = Vb[:, free], Vb[:, ~free]
+    if Vr.shape[1] == 0:
+        return None
+    AV = sp.A @ Vr
+    if N0.shape[1] and sp.A.shape[0]:
+        U0, s0, _ = np.linalg.svd(sp.A @ N0, full_matrices=False)
+        Q0 = U0[:, s0 > tol.rtol]
+        AV = AV - Q0 @ (Q0.conj().T @ AV)
+    sp_, _ = _right_svd(AV, Vr.shape[1])
+    return float(sp_[-1])
+
+
+def _touched(system: System, dl_idx: Sequence[int], dl_blk: np.ndarray, dl_norm: float, xi: np.ndarray, tol: Tolerance) -> tuple[Decision, float, list[Label]]:
+    """Decision on ||dL_q xi|| vs ||dL_q||_2 ||xi||, the ratio, and the nonzero rows."""
+    dLxi = dl_blk @ xi[list(dl_idx)]
+    nrm = dl_norm * float(np.linalg.norm(xi))
+    val = float(np.linalg.norm(dLxi))
+    rows = [system.labels[i] for i, v in zip(dl_idx, dLxi) if tol.decide(abs(v), nrm) is Decision.NONZERO]
+    rows.sort(key=system.index.__getitem__)
+    return tol.decide(val, nrm), (val / nrm if nrm > 0 else 0.0), rows
+
+
+def _numeric_mode(system: System, mode: str, md: _Modal, z: ZdaZero, source: str, bases: tuple[_Basis, _Basis]) -> Avoidance:
+    tol = md.tol
+    lam = z.value
+    chosen = z.direction()
+    dl_idx, dl_blk = _delta_block(system, mode)
+    dl_norm = _block_norm(dl_blk)
+    dec_c, ratio_c, rows_c = _touched(system, dl_idx, dl_blk, dl_norm, chosen.xi, tol)
+    chosen_touched = None if dec_c is Decision.UNDECIDED else dec_c is Decision.NONZERO
+    zc, zp = bases
+    sc = _split(zc.x, zc.u, zc.eta, dl_idx, dl_blk, dl_norm)
+    best, dim_c, _ = _avoiding(sc, lam, tol, tol.rtol)
+    notes: list[str] = []
+    common: dict[str, Any] = dict(
+        mode=mode, lambda0=lam, growth=z.growth, chosen=chosen, chosen_source=source, chosen_touched=chosen_touched, chosen_touched_agents=tuple(rows_c)
+    )
+    if dec_c is Decision.ZERO:
+        return Avoidance(
+            status=Status.HOLDS, direction=chosen, direction_source="stealthy.zda", dimension=max(1, dim_c), margin=ratio_c, dl_residual=ratio_c, **common
+        )
+    if best is not None and dim_c >= 1 and sc.E is not None:
+        eta = sc.E @ best
+        u = sc.B @ best
+        xi, u2, res, dres, du = md.verify(lam, eta, u)
+        dd, ratio, _ = _touched(system, dl_idx, dl_blk, dl_norm, xi, tol)
+        if dres is Decision.ZERO and du is Decision.NONZERO and dd is Decision.ZERO:
+            xi_n, u_n = _normalize(xi, u2)
+            d = ZdaDirection(lam, xi_n, u_n, np.concatenate([xi_n, lam * xi_n]), res)
+            return Avoidance(
+                status=Status.HOLDS, direction=d, direction_source="kernel of the stacked system", dimension=dim_c, margin=ratio, dl_residual=ratio, **common
+            )
+        notes.append(f"avoiding candidate failed verification (pencil residual {res:.3g}: {dres.value}, input {du.value}, dL_q xi {dd.value})")
+    sp = _split(zp.x, zp.u, None, dl_idx, dl_blk, dl_norm)
+    _, _, some = _avoiding(sp, lam, tol, tol.upper)
+    if dec_c is Decision.NONZERO and not some:
+        fm = _fails_margin(sp, lam, tol)
+        return Avoidance(status=Status.FAILS, direction=None, direction_source="", dimension=0, margin=ratio_c if fm is None else fm, **common)
+    if some:
+        notes.append("an avoiding direction with an input may exist (possible kernel) but is not certain at the tolerance")
+    if dec_c is Decision.UNDECIDED:
+        notes.append("whether dL_q xi = 0 for the chosen direction is undecided")
+    return Avoidance(status=Status.UNDECIDED, direction=None, direction_source="", dimension=None, margin=ratio_c, notes=tuple(notes), **common)
+
+
+def avoidance(system: System, mode: str, tol: Tolerance = DEFAULT_TOLERANCE, *, lambda0: complex | float | Sequence[float] | None = None) -> Avoidance | None:
+    """Numeric decision of ``switching.safe`` for a ZDA at lambda0 and the switch to ``mode``.
+
+    .. math::
+
+        \\exists\\, (\\xi, u_0):\\ (sI + \\alpha L_1)\\xi = S_F^\\top u_0,\\ S_{\\mathrm{out}}\\xi = 0,\\
+        \\Delta L_q \\xi = 0,\\ u_0 \\ne 0
+
+    Parameters
+    ----------
+    system : System
+        The system; F is its ``attack.actuators``.
+    mode : str
+        A safe mode q.
+    tol : Tolerance
+        Tolerance (rules in the module docstring).
+    lambda0 : complex, float or [re, im], optional
+        Overrides the spec's ``attack.lambda0`` (the exponent rule of ``stealthy.zda`` applies).
+
+    Returns
+    -------
+    Avoidance or None
+        None when ``stealthy.zda`` has no witness direction (no stealthy ZDA, or undecided).
+    """
+    za = zda_analysis(system, tol, lambda0=lambda0)
+    if za.direction is None:
+        return None
+    md = _Modal(system, za.actuators, tol)
+    return _numeric_mode(system, mode, md, za.direction, za.direction_source, _stealthy_bases(md, za.direction.value))
+
+
+# ------------------------------------------------------------------------------------------
+# exact
+
+
+def _rational_rows(system: System, F: Sequence[int], lam: Fraction, dL: Sequence[Sequence[Fraction]], dl_idx: Sequence[int]) -> tuple[list[list[Fraction]], list[list[Fraction]]]:
+    """Over Q: the rows [sI + alpha L_1, -S_F^T], [S_out, 0] and the rows [dL_q[D, :], 0]."""
+    N, m = system.n, len(F)
+    L = system.laplacian_exact()
+    a, s = system.alpha_q, lam * lam + system.gamma_q * lam
+    rows: list[list[Fraction]] = []
+    for i in range(N):
+        rows.append([a * L[i][j] + (s if i == j else 0) for j in range(N)] + [Fraction(-1 if F[k] == i else 0) for k in range(m)])
+    out = system.idx(system.monitored_positions) if lam == 0 else system.idx(system.monitored)
+    for r in out:
+        rows.append([Fraction(int(j == r)) for j in range(N + m)])
+    return rows, [list(dL[i]) + [Fraction(0)] * m for i in dl_idx]
+
+
+def _normalize_exact(v: Sequence[Fraction], N: int) -> tuple[tuple[Fraction, ...], tuple[Fraction, ...]]:
+    k = max(range(N), key=lambda i: abs(v[i]))
+    c = v[k]
+    return tuple(x / c for x in v[:N]), tuple(x / c for x in v[N:])
+
+
+def _exact_mode(system: System, mode: str, d: ExactZdaZero, source: str, F: Sequence[int], tol: Tolerance) -> Avoidance:
+    N, m = system.n, len(F)
+    g = d.field
+    dL = system.delta_laplacian_exact(mode)
+    dl_idx, dl_blk = _delta_block(system, mode)
+    dl_norm = _block_norm(dl_blk)
+    touched: list[Label] = []
+    for i in sorted(dl_idx):  # (dL_q xi)_i in Q[x]/(g), exactly; rows outside D are zero
+        acc = flint.fmpq_poly(0)
+        for j, v in enumerate(d.xi_field):
+            if dL[i][j] != 0:
+                acc = acc + v * _fq(dL[i][j])
+        if not (acc % g).is_zero():
+            touched.append(system.labels[i])
+    chosen = d.direction()
+    exact_xi: tuple[Fraction, ...] | None = None
+    exact_u0: tuple[Fraction, ...] | None = None
+    avoid_dir: ZdaDirection | None = None
+    Zcols: list[np.ndarray]
+    if d.rational is not None:
+        rows, dl_rows = _rational_rows(system, F, d.rational, dL, dl_idx)
+        K = ex.nullspace(rows + dl_rows, N + m)
+        urows_q = [v[N:] for v in K]
+        dim = ex.rank(urows_q, m) if urows_q else 0
+        pick_q = next((v for v in K if any(x != 0 for x in v[N:])), None)
+        if pick_q is not None:
+            exact_xi, exact_u0 = _normalize_exact(pick_q, N)
+            xi = np.array([float(x) for x in exact_xi])
+            u = np.array([float(x) for x in exact_u0])
+            avoid_dir = ZdaDirection(chosen.lambda0, xi, u, np.concatenate([xi, chosen.lambda0 * xi]), 0.0)
+
+        def z_basis() -> list[np.ndarray]:
+            return [np.array([float(x) for x in v], dtype=complex) for v in ex.nullspace(rows, N + m)]
+
+    else:  # irrational or complex lambda0: the number field Q[x]/(g)
+        x = flint.fmpq_poly([0, 1])
+        s_poly = x * x + _fq(system.gamma_q) * x
+        Q = _q_matrix(system, F, system.idx(system.monitored), s_poly)
+        zero = flint.fmpq_poly(0)
+        dl_p = [[flint.fmpq_poly(_fq(dL[i][j])) for j in range(N)] + [zero] * m for i in dl_idx]
+        Kf = kernel_over_field(Q + dl_p, g, N + m).basis
+        urows_f = [list(v[N:]) for v in Kf]
+        dim = rank_over_field(urows_f, g, m) if urows_f else 0
+        pick_f = next((v for v in Kf if any(not e.is_zero() for e in v[N:])), None)
+        if pick_f is not None:
+            avoid_dir = _exact_zero(system, g, pick_f, d.value, d.real_sign, True, 1, m).direction()
+
+        def z_basis() -> list[np.ndarray]:
+            return kernel_over_field(Q, g, N + m).evaluate(d.value)
+
+    if touched == [] and dim == 0:  # pragma: no cover - a theorem, kept as a self-check
+        raise AssertionError("the chosen ZDA direction avoids the switch but the stacked kernel has no input; please report")
+    common: dict[str, Any] = dict(
+        mode=mode,
+        lambda0=d.value,
+        growth=d.growth,
+        chosen=chosen,
+        chosen_source=source,
+        chosen_touched=bool(touched),
+        chosen_touched_agents=tuple(touched),
+        dimension=dim,
+    )
+    if not touched:
+        return Avoidance(status=Status.HOLDS, direction=chosen, direction_source="stealthy.zda", margin=0.0, dl_residual=0.0, **common)
+    if dim > 0:
+        assert avoid_dir is not None
+        return Avoidance(
+            status=Status.HOLDS,
+            direction=avoid_dir,
+            direction_source="kernel of the stacked system",
+            margin=0.0,
+            dl_residual=0.0,
+            exact_xi=exact_xi,
+            exact_u0=exact_u0,
+            **common,
+        )
+    cols = z_basis()
+    X = np.array(cols).T if cols else np.zeros((N + m, 0))
+    sp = _split(X[:N], X[N:], None, dl_idx, dl_blk, dl_norm)
+    fm = _fails_margin(sp, d.value, tol)
+    if fm is None:
+        fm = _touched(system, dl_idx, dl_blk, dl_norm, chosen.xi, tol)[1]
+    return Avoidance(status=Status.FAILS, direction=None, direction_source="", margin=fm, **common)
+
+
+def avoidance_exact(system: System, mode: str, *, lambda0: complex | float | Sequence[float] | None = None, tol: Tolerance = DEFAULT_TOLERANCE) -> Avoidance | None:
+    """Exact decision of ``switching.safe`` (rational weights and gains; never undecided).
+
+    Parameters
+    ----------
+    system : System
+        The system; F is its ``attack.actuators``.
+    mode : str
+        A safe mode q.
+    lambda0 : complex, float or [re, im], optional
+        Overrides the spec's ``attack.lambda0`` (read as an exact binary rational).
+    tol : Tolerance
+        Used only for the (informative) margin on ``FAILS``.
+
+    Returns
+    -------
+    Avoidance or None
+        None when no stealthy ZDA exists.
+    """
+    ea = zda_analysis_exact(system, lambda0=lambda0)
+    if ea.direction is None:
+        return None
+    return _exact_mode(system, mode, ea.direction, ea.direction_source, system.idx(ea.actuators), tol)

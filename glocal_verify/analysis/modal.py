@@ -1,0 +1,390 @@
+"""The modal structure of the closed loop: eigen-groups of L_q and their unobservable parts.
+
+The closed loop of eq. ``cl_sys`` has a modal structure that reduces every observability
+question to N-sized questions on the Laplacian. If ``L_q w = mu w`` then
+
+.. math::
+
+    A_q \\begin{bmatrix} a\\,w \\\\ b\\,w \\end{bmatrix}
+    = \\begin{bmatrix} b\\,w \\\\ (-\\alpha\\mu a - \\gamma b)\\,w \\end{bmatrix},
+
+so every space ``X (x) R^2 = {[w; z] : w, z in X}`` with ``X`` inside one eigenspace ``E_mu``
+is A_q-invariant, and A_q acts on it as ``B_mu (x) I`` with
+``B_mu = [[0, 1], [-alpha mu, -gamma]]`` (a Jordan block when ``gamma^2 = 4 alpha mu``). With
+``W^x_mu = E_mu ∩ ker S_{M_x}`` and ``W_mu = E_mu ∩ ker S_M`` (``docs/conditions.md``, "Modal
+structure"):
+
+.. math::
+
+    \\mathcal N(A_q, C) = (W^x_0 \\times W_0) \\;\\oplus\\; \\bigoplus_{\\mu > 0} (W_\\mu \\times W_\\mu).
+
+*Why.* Each summand is A_q-invariant and inside ``ker C`` (for ``mu > 0`` the velocity part of
+``A_q [w; z]`` is ``-alpha mu w - gamma z``, which must be seen by neither monitor set, hence
+``W_mu`` in both slots; for ``mu = 0`` a position ``w in ker L`` only needs ``S_{M_x} w = 0``).
+Maximality: the unobservable subspace is A_q-invariant, hence the direct sum of its parts in
+the A_q-invariant spaces ``E_mu (x) R^2``; inside ``E_mu (x) R^2`` an eigenvector of
+``B_mu (x) I`` is ``[w; lam w]`` and lies in ``ker C`` iff ``S_{M_x} w = 0`` and
+``lam S_{M_v} w = 0``, and an invariant subspace of ``ker C`` is spanned by such chains. The
+``proofs_checks`` and the property tests compare the formula with exact rational ranks.
+
+This module holds the eigen-groups of ``L_q`` with their parts ``W_mu`` and ``W^x_mu``
+(:func:`modal_decomposition`) and the modal exponentials; the subspaces built from them are in
+:mod:`glocal_verify.analysis.unobservable` (per mode) and :mod:`glocal_verify.analysis.switched`
+(Lemma II.3), the generic staircase in :mod:`glocal_verify.numerics.staircase`. None of them forms the observability matrix ``(C, CA, ..., CA^{2N-1})``: in double precision it is
+already wrong at N = 50.
+
+Tolerance rule
+--------------
+Eigenvalues are grouped with :func:`~glocal_verify.numerics.tolerance.group_eigenvalues` at
+``rtol * ||L_q||_2``; a gap in the undecided band is read both ways (split: the *lower* reading,
+merged: the *upper* reading). Every other decision compares a quantity on the unit scale
+(singular values of ``S E`` for an orthonormal eigenbasis ``E``, sines of principal angles,
+distances of unit vectors) with ``rtol`` and ``rtol * band``, after widening it by the estimated
+error of the computed subspaces: a value ``s`` with error ``e`` is zero iff
+``s + e <= rtol``, nonzero iff ``s - e > rtol * band``, undecided otherwise. The eigenvector
+error of a group is the a-posteriori Davis-Kahan bound ``||L E - E Lambda|| / gap``
+(:func:`eigen_residuals`; ``gap`` = distance to the nearest other eigenvalue, shrunk by twice the
+largest residual); the eigenspace of 0 is taken exactly, spanned by the component indicators. A
+:class:`Subspace` carries both readings: the true subspace lies between ``basis`` and ``upper``
+and is decided when their dimensions agree.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from glocal_verify.model import System
+from glocal_verify.numerics.subspace import EPS, decide_with_error
+from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
+from glocal_verify.spec.types import NORMAL_MODE
+
+__all__ = [
+    "EigenGroupPart",
+    "ModalDecomposition",
+    "modal_decomposition",
+    "eigen_residuals",
+    "modal_exponential",
+    "block_exponentials",
+]
+
+# --------------------------------------------------------------------------------------------
+# modal decomposition of one mode
+
+
+@dataclass(frozen=True, slots=True)
+class EigenGroupPart:
+    """One group of numerically equal eigenvalues of L_q and its unobservable parts.
+
+    Attributes
+    ----------
+    value : float
+        Mean eigenvalue ``mu`` of the group.
+    indices : tuple of int
+        Positions in the ascending eigenvalue array.
+    zero : Decision
+        Is ``mu = 0`` (decided at ``rtol * ||L_q||_2``)?
+    E : ndarray
+        ``N x k`` orthonormal eigenbasis of the group.
+    W : ndarray
+        Orthonormal basis of ``W_mu = E ∩ ker S_M`` (lower reading).
+    W_upper : ndarray
+        Upper reading of ``W_mu``.
+    Wx : ndarray
+        Orthonormal basis of ``W^x_mu = E ∩ ker S_{M_x}`` (lower reading; used for ``mu = 0``).
+    Wx_upper : ndarray
+        Upper reading of ``W^x_mu``.
+    sv : ndarray
+        Singular values of ``S_M E`` padded with zeros to ``k``.
+    svx : ndarray
+        Singular values of ``S_{M_x} E`` padded with zeros to ``k``.
+    error : float
+        Estimated eigenvector error of the group (Davis-Kahan).
+    """
+
+    value: float
+    indices: tuple[int, ...]
+    zero: Decision
+    E: np.ndarray
+    W: np.ndarray
+    W_upper: np.ndarray
+    Wx: np.ndarray
+    Wx_upper: np.ndarray
+    sv: np.ndarray
+    svx: np.ndarray
+    error: float
+
+
+@dataclass(frozen=True, slots=True)
+class ModalDecomposition:
+    """Eigen-groups of L_q with their unobservable parts (both readings of undecided gaps).
+
+    Attributes
+    ----------
+    mode : str
+        The mode.
+    groups : tuple of EigenGroupPart
+        Groups of the split reading (undecided gaps split).
+    merged : tuple of EigenGroupPart
+        Groups of the merged reading (undecided gaps merged); equal to ``groups`` when every
+        gap is decided.
+    scale : float
+        ``||L_q||_2`` (1.0 for the zero Laplacian).
+    gaps_decided : bool
+        No gap between consecutive eigenvalues fell in the undecided band.
+    """
+
+    mode: str
+    groups: tuple[EigenGroupPart, ...]
+    merged: tuple[EigenGroupPart, ...]
+    scale: float
+    gaps_decided: bool
+
+
+def _kernel_readings(S: np.ndarray, k: int, err: float, tol: Tolerance) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
+    """Kernel of a ``p x k`` matrix with orthonormal-scale singular values, both readings.
+
+    Returns (kernel lower reading, kernel upper reading, padded singular values, decided)
+    as coefficient matrices ``k x r``.
+    """
+    if k == 0:
+        z = np.zeros((0, 0))
+        return z, z, np.zeros(0), True
+    if S.shape[0] == 0:
+        I = np.eye(k)
+        return I, I, np.zeros(k), True
+    _, s, Vh = np.linalg.svd(S, full_matrices=True)
+    sp = np.zeros(k)
+    sp[: len(s)] = s
+    dec = [decide_with_error(x, err, tol) for x in sp]
+    r_lo = sum(1 for d in dec if d is Decision.NONZERO)  # certainly nonzero
+    r_hi = sum(1 for d in dec if d is not Decision.ZERO)  # not certainly zero
+    V = Vh.T
+    return V[:, r_hi:], V[:, r_lo:], sp, r_lo == r_hi
+
+
+def _partition(w: np.ndarray, scale: float, tol: Tolerance) -> tuple[list[list[int]], list[list[int]], bool]:
+    split: list[list[int]] = [[0]] if len(w) else []
+    merged: list[list[int]] = [[0]] if len(w) else []
+    decided = True
+    for k in range(1, len(w)):
+        d = tol.decide(w[k] - w[k - 1], scale)
+        if d is Decision.ZERO:
+            split[-1].append(k)
+            merged[-1].append(k)
+        elif d is Decision.UNDECIDED:
+            decided = False
+            split.append([k])
+            merged[-1].append(k)
+        else:
+            split.append([k])
+            merged.append([k])
+    return split, merged, decided
+
+
+def _group_parts(
+    w: np.ndarray,
+    U: np.ndarray,
+    partition: list[list[int]],
+    scale: float,
+    mx: list[int],
+    m: list[int],
+    tol: Tolerance,
+    residuals: np.ndarray,
+    kernel_basis: np.ndarray | None,
+) -> tuple[EigenGroupPart, ...]:
+    n = len(w)
+    rmax = float(np.max(residuals)) if len(residuals) else 0.0
+    out = []
+    for gi, g in enumerate(partition):
+        lo = w[g[0]]
+        hi = w[g[-1]]
+        gap_left = lo - w[partition[gi - 1][-1]] if gi > 0 else math.inf
+        gap_right = w[partition[gi + 1][0]] - hi if gi + 1 < len(partition) else math.inf
+        gap = min(gap_left, gap_right) - 2.0 * rmax
+        value = float(np.mean(w[g]))
+        zero = tol.decide(value, scale)
+        k = len(g)
+        if zero is Decision.ZERO and kernel_basis is not None and kernel_basis.shape[1] == k:
+            # ker L is spanned by the component indicators: known exactly
+            E = kernel_basis
+            err = math.sqrt(n) * EPS
+        else:
+            E = U[:, g]
+            rg = float(np.linalg.norm(residuals[g]))
+            err = (rg / gap if gap > 0 else math.inf) + math.sqrt(n) * EPS
+        ker_lo, ker_hi, sv, _ = _kernel_readings(E[m, :], k, err, tol)
+        kx_lo, kx_hi, svx, _ = _kernel_readings(E[mx, :], k, err, tol)
+        out.append(
+            EigenGroupPart(
+                value=value,
+                indices=tuple(g),
+                zero=zero,
+                E=E,
+                W=E @ ker_lo,
+                W_upper=E @ ker_hi,
+                Wx=E @ kx_lo,
+                Wx_upper=E @ kx_hi,
+                sv=sv,
+                svx=svx,
+                error=err,
+            )
+        )
+    return tuple(out)
+
+
+def eigen_residuals(system: System, mode: str = NORMAL_MODE) -> np.ndarray:
+    """Residual norms ``||L_q u_i - w_i u_i||_2`` of the computed eigenpairs (cached).
+
+    With the gap ``delta`` between a group of computed eigenvalues and the rest of the
+    spectrum, the Davis-Kahan sin-theta theorem bounds the angle between the computed and the
+    exact eigenspace by ``||R_g|| / delta`` (``R_g`` the group's residual block; each computed
+    eigenvalue lies within its residual of an exact one, so ``delta`` is shrunk by twice the
+    largest residual). This a-posteriori bound replaces the a-priori ``N eps ||L|| / gap``.
+    L_q is applied as a sparse matrix: O(nnz * N).
+
+    Parameters
+    ----------
+    system : System
+        The multi-agent system.
+    mode : str
+        The mode q.
+    """
+    return system.spectrum(mode).residuals
+
+
+def _kernel_indicators(system: System, mode: str) -> np.ndarray:
+    comps = system.components(mode)
+    K = np.zeros((system.n, len(comps)))
+    for c, comp in enumerate(comps):
+        idx = system.idx(comp)
+        K[idx, c] = 1.0 / math.sqrt(len(idx))
+    return K
+
+
+def modal_decomposition(system: System, mode: str = NORMAL_MODE, tol: Tolerance = DEFAULT_TOLERANCE) -> ModalDecomposition:
+    """Eigen-groups of L_q and, per group, ``W_mu = E_mu ∩ ker S_M`` and ``W^x_mu = E_mu ∩ ker S_{M_x}``.
+
+    Parameters
+    ----------
+    system : System
+        The multi-agent system.
+    mode : str
+        Mode whose Laplacian is decomposed.
+    tol : Tolerance
+        Tolerance of the eigenvalue grouping and of the kernel decisions (module docstring).
+    """
+    key = ("modal", mode, tol.rtol, tol.band)
+    cache = system.analysis
+    if key in cache:
+        return cache[key]  # type: ignore[no-any-return]
+    system.check_mode(mode)
+    w, U = system.eigh(mode)
+    scale = float(np.max(np.abs(w))) if len(w) else 0.0
+    if scale == 0.0:
+        scale = 1.0
+    split, merged, decided = _partition(w, scale, tol)
+    mx = system.idx(system.monitored_positions)
+    m = system.idx(system.monitored)
+    res = eigen_residuals(system, mode)
+    K = _kernel_indicators(system, mode)
+    groups = _group_parts(w, U, split, scale, mx, m, tol, res, K)
+    mgroups = groups if decided else _group_parts(w, U, merged, scale, mx, m, tol, res, K)
+    md = ModalDecomposition(mode, groups, mgroups, scale, decided)
+    cache[key] = md
+    return md
+
+
+# --------------------------------------------------------------------------------------------
+# modal exponentials and the switched recursion
+
+
+def block_exponentials(mu: np.ndarray, alpha: float, gamma: float, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Entries of ``exp(B_mu t)``, ``B_mu = [[0, 1], [-alpha mu, -gamma]]``, for each ``mu``.
+
+    With ``d = gamma^2 / 4 - alpha mu`` (so that ``(B + gamma/2 I)^2 = d I``),
+
+    .. math:: e^{B t} = e^{-\\gamma t / 2} \\left( c\\, I + s\\, (B + \\tfrac{\\gamma}{2} I) \\right),
+              \\quad c = \\cosh(\\sqrt{d} t),\\; s = \\frac{\\sinh(\\sqrt d t)}{\\sqrt d},
+
+    read as ``cos``/``sin`` for ``d < 0`` and as ``c = 1, s = t`` at the double root ``d = 0``
+    (the Jordan case ``gamma^2 = 4 alpha mu``); a series is used near ``d t^2 = 0``, so the
+    formula is continuous through the double root.
+
+    Parameters
+    ----------
+    mu : ndarray
+        Eigenvalues of L.
+    alpha, gamma : float
+        Gains.
+    t : float
+        Time (negative for the inverse map).
+
+    Returns
+    -------
+    tuple of ndarray
+        ``(p11, p12, p21, p22)``, each of the shape of ``mu``.
+    """
+    mu = np.asarray(mu, dtype=float)
+    d = gamma * gamma / 4.0 - alpha * mu
+    z = d * t * t
+    c = np.empty_like(z)
+    sfac = np.empty_like(z)
+    small = np.abs(z) < 1e-4
+    pos = (z >= 1e-4)
+    neg = (z <= -1e-4)
+    zs = z[small]
+    c[small] = 1 + zs / 2 + zs**2 / 24 + zs**3 / 720
+    sfac[small] = 1 + zs / 6 + zs**2 / 120 + zs**3 / 5040
+    rp = np.sqrt(z[pos])
+    c[pos] = np.cosh(rp)
+    sfac[pos] = np.sinh(rp) / rp
+    rn = np.sqrt(-z[neg])
+    c[neg] = np.cos(rn)
+    sfac[neg] = np.sin(rn) / rn
+    s = t * sfac
+    e = math.exp(-gamma * t / 2.0)
+    p11 = e * (c + s * gamma / 2.0)
+    p12 = e * s
+    p21 = e * (-alpha * mu * s)
+    p22 = e * (c - s * gamma / 2.0)
+    return p11, p12, p21, p22
+
+
+def modal_exponential(system: System, mode: str, t: float, X: np.ndarray) -> np.ndarray:
+    """``exp(A_q t) X`` through the eigendecomposition of L_q (2 x 2 blocks per eigenvalue).
+
+    Cost O(N^2 k) for ``X`` of shape ``2N x k`` (after the cached ``eigh``); never forms A_q.
+
+    Parameters
+    ----------
+    system : System
+        The multi-agent system.
+    mode : str
+        The mode q.
+    t : float
+        Time (negative values give ``exp(-A_q |t|)``).
+    X : ndarray
+        ``2N x k`` (or length-2N) array.
+    """
+    w, U = system.eigh(mode)
+    n = system.n
+    X = np.asarray(X, dtype=float)
+    vec = X.ndim == 1
+    if vec:
+        X = X[:, None]
+    a = U.T @ X[:n]
+    b = U.T @ X[n:]
+    p11, p12, p21, p22 = block_exponentials(w, system.alpha, system.gamma, t)
+    a2 = p11[:, None] * a + p12[:, None] * b
+    b2 = p21[:, None] * a + p22[:, None] * b
+    out = np.vstack([U @ a2, U @ b2])
+    return out[:, 0] if vec else out
+
+
+def _apply_A(system: System, mode: str, X: np.ndarray) -> np.ndarray:
+    n = system.n
+    L = system.laplacian(mode)
+    return np.vstack([X[n:], -system.alpha * (L @ X[:n]) - system.gamma * X[n:]])

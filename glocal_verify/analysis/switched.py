@@ -1,0 +1,316 @@
+"""Lemma II.3: the unobservable subspace of the switched system over a mode sequence.
+
+Backward recursion ``N := N(A_m, C)``, then ``N := N(A_k, C) ∩ exp(A_k tau_k)^{-1} N`` with the
+exponentials in modal form; both readings of undecided decisions are carried; the exact
+bounds work over Q. Results are kept on ``system.analysis``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Any, Sequence
+
+import numpy as np
+
+from glocal_verify.analysis.modal import modal_exponential
+from glocal_verify.analysis.unobservable import (
+    _exact_A,
+    _exact_obs_rows,
+    unobservable_subspace,
+)
+from glocal_verify.errors import ModelError
+from glocal_verify.model import System
+from glocal_verify.numerics.exact_subspace import (
+    _annihilator,
+    _cols_closure,
+    _kernel,
+    _row_basis,
+    _row_closure,
+    _to_fraction_cols,
+    _vstack,
+)
+from glocal_verify.numerics.subspace import EPS, Subspace, decide_with_error
+from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
+from glocal_verify.spec.types import NORMAL_MODE
+
+__all__ = [
+    "SwitchedBounds",
+    "switched_unobservable_subspace",
+    "switched_unobservable_bounds_exact",
+    "mode_sequence",
+    "sequence_text",
+]
+
+def mode_sequence(system: System) -> list[tuple[str, float]] | None:
+    """The mode schedule of the spec: ``switching.sequence``, else ``[normal, switching.mode]``.
+
+    Returns ``None`` when the spec defines no switching (each mode is then checked alone).
+    With ``switching.mode`` at ``switching.time`` the schedule is
+    ``[("normal", time), (mode, horizon - time)]`` (just ``[("normal", horizon)]`` if the switch
+    falls after the horizon).
+
+    Parameters
+    ----------
+    system : System
+        The multi-agent system.
+    """
+    sw = system.spec.switching
+    if sw is None:
+        return None
+    if sw.sequence:
+        return [(s.mode, float(s.duration)) for s in sw.sequence]
+    if sw.mode is not None and sw.time is not None:
+        horizon = float(system.spec.simulation.horizon)
+        if horizon <= sw.time:
+            return [(NORMAL_MODE, horizon)]
+        return [(NORMAL_MODE, float(sw.time)), (sw.mode, horizon - float(sw.time))]
+    return None
+
+
+def sequence_text(sequence: Sequence[tuple[str, float]]) -> str:
+    """``"normal(10) -> case-2(20)"``.
+
+    Parameters
+    ----------
+    sequence : sequence of (mode, duration)
+        A mode schedule.
+    """
+    return " -> ".join(f"{m}({d:g})" for m, d in sequence)
+
+
+def _orth_readings(X: np.ndarray) -> tuple[np.ndarray, float]:
+    """Orthonormal basis of span(X) for full-column-rank X and its condition number."""
+    if X.shape[1] == 0:
+        return X, 1.0
+    Q, s, _ = np.linalg.svd(X, full_matrices=False)
+    cond = float(s[0] / s[-1]) if s[-1] > 0 else math.inf
+    return Q, cond
+
+
+def _intersect(P: np.ndarray, V: np.ndarray, err: float, tol: Tolerance, upper: bool) -> tuple[np.ndarray, bool, float]:
+    """span(P) ∩ span(V) for orthonormal P, V: kernel of ``(I - P P^T) V`` (sines of principal angles)."""
+    k = V.shape[1]
+    if k == 0:
+        return V, True, 1.0
+    if P.shape[1] == 0:
+        return V[:, :0], True, 1.0
+    R = V - P @ (P.T @ V)
+    _, s, Vh = np.linalg.svd(R, full_matrices=False)
+    sp = np.zeros(k)
+    sp[: len(s)] = s
+    dec = [decide_with_error(x, err, tol) for x in sp]
+    r_lo = sum(1 for d in dec if d is Decision.NONZERO)
+    r_hi = sum(1 for d in dec if d is not Decision.ZERO)
+    margin = float(sp[r_lo - 1]) if r_lo else 1.0
+    Z = Vh.T[:, (r_lo if upper else r_hi) :]
+    return V @ Z, r_lo == r_hi, margin
+
+
+def _check_sequence(system: System, sequence: Sequence[tuple[str, float]]) -> list[tuple[str, float]]:
+    seq = [(str(m), float(d)) for m, d in sequence]
+    if not seq:
+        raise ModelError("a mode sequence needs at least one mode")
+    for m, d in seq:
+        system.check_mode(m)
+        if not (d > 0 and math.isfinite(d)):
+            raise ModelError(f"mode {m!r}: dwell time must be a positive finite number, got {d!r}")
+    return seq
+
+
+def switched_unobservable_subspace(
+    system: System, sequence: Sequence[tuple[str, float]], tol: Tolerance = DEFAULT_TOLERANCE
+) -> Subspace:
+    """Unobservable subspace ``N_1^m`` of the switched system over a mode schedule (Lemma II.3).
+
+    Backward recursion of eqs. ``obsv_nullspace_1``-``obsv_nullspace_2``:
+
+    .. math::
+
+        \\mathcal N \\leftarrow \\mathcal N(A_m, C); \\qquad
+        \\mathcal N \\leftarrow \\mathcal N(A_k, C) \\cap e^{-A_k \\tau_k} \\mathcal N
+        = e^{-A_k \\tau_k} \\left( \\mathcal N(A_k, C) \\cap \\mathcal N \\right),
+        \\quad k = m-1, \\dots, 1.
+
+    The equality holds because ``N(A_k, C)`` is A_k-invariant, so ``exp(A_k tau_k)`` maps it onto
+    itself. Each step intersects two orthonormal bases by the sines of their principal angles
+    and pushes the result through ``exp(-A_k tau_k)`` with :func:`modal_exponential`; the
+    result is re-orthonormalized by an SVD. The estimated subspace error grows by the
+    condition number ``kappa`` of the pushed basis:
+    ``err <- kappa (err + N eps (1 + alpha ||L_k|| tau_k + gamma tau_k))``.
+    The dwell time of the last mode does not matter.
+
+    Parameters
+    ----------
+    system : System
+        The multi-agent system.
+    sequence : sequence of (mode, duration)
+        The schedule ``[(mode_1, tau_1), ..., (mode_m, tau_m)]``, e.g. :func:`mode_sequence`.
+    tol : Tolerance
+        Tolerance of every decision (sines compared with ``rtol``, ``rtol * band`` after
+        widening by the estimated error).
+
+    Returns
+    -------
+    Subspace
+        Basis of ``N_1^m`` as initial states ``x(t_0)``; ``margin`` is the smallest certainly
+        nonzero sine met in the intersections (1.0 if none).
+    """
+    key = ("switched", tuple((m, float(t)) for m, t in sequence), tol.rtol, tol.band)
+    cache = system.analysis
+    if key not in cache:
+        cache[key] = _switched_recursion(system, sequence, tol)
+    return cache[key]  # type: ignore[no-any-return]
+
+
+def _switched_recursion(
+    system: System, sequence: Sequence[tuple[str, float]], tol: Tolerance = DEFAULT_TOLERANCE
+) -> Subspace:
+    """Uncached body of :func:`switched_unobservable_subspace`."""
+    seq = _check_sequence(system, sequence)
+    subs = {m: unobservable_subspace(system, m, tol) for m, _ in seq}
+    results = {}
+    decided = all(subs[m].decided for m, _ in seq)
+    margin = 1.0
+    steps: list[dict[str, Any]] = []
+    for upper in (False, True):
+        last = subs[seq[-1][0]]
+        V = last.upper if upper else last.basis
+        err = last.error
+        for k in range(len(seq) - 2, -1, -1):
+            mode, tau = seq[k]
+            Sk = subs[mode]
+            P = Sk.upper if upper else Sk.basis
+            S, dec, mg = _intersect(P, V, err + Sk.error, tol, upper)
+            decided &= dec
+            if not upper:
+                margin = min(margin, mg)
+            X = modal_exponential(system, mode, -tau, S)
+            if not np.all(np.isfinite(X)):
+                decided = False
+                err = math.inf
+                V = S
+                continue
+            V, kappa = _orth_readings(X)
+            scale = float(np.max(np.abs(system.eigh(mode)[0]))) if system.n else 0.0
+            err = kappa * (err + Sk.error + system.n * EPS * (1 + system.alpha * scale * tau + system.gamma * tau))
+            if not upper:
+                steps.append({"mode": mode, "tau": tau, "dim": int(V.shape[1]), "condition": kappa, "error": err})
+        results[upper] = (V, err)
+    lo, err_lo = results[False]
+    hi, _ = results[True]
+    return Subspace(
+        basis=lo,
+        upper=hi,
+        decided=decided and lo.shape[1] == hi.shape[1],
+        margin=margin,
+        error=err_lo,
+        rtol=tol.rtol,
+        evidence={"method": "backward recursion", "sequence": [list(s) for s in seq], "steps": steps[::-1]},
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# exact bounds for the switched subspace
+
+
+@dataclass(frozen=True, slots=True)
+class SwitchedBounds:
+    """Exact, dwell-time-independent bounds on the switched unobservable subspace.
+
+    Attributes
+    ----------
+    dim_lower, dim_upper : int
+        ``dim_lower <= dim N_1^m <= dim_upper`` for every choice of dwell times.
+    inner : list of list of Fraction
+        Basis of a rational subspace contained in ``N_1^m`` (as initial states).
+    outer : list of list of Fraction
+        Basis of a rational subspace containing ``N_1^m``.
+    at_first_switch : list of list of Fraction
+        For a two-mode schedule, a basis of ``N(A_1, C) ∩ N(A_2, C)``: the states ``x(t_1)`` at
+        the switch, ``N_1^2 = exp(-A_1 tau_1)`` of this space; empty otherwise.
+    exact_dimension : bool
+        ``dim_lower == dim_upper``.
+    """
+
+    dim_lower: int
+    dim_upper: int
+    inner: list[list[Fraction]]
+    outer: list[list[Fraction]]
+    at_first_switch: list[list[Fraction]]
+    exact_dimension: bool
+
+
+def switched_unobservable_bounds_exact(system: System, sequence: Sequence[tuple[str, float]]) -> SwitchedBounds:
+    """Exact bounds on ``N_1^m`` that hold for every dwell time (python-flint, no tolerance).
+
+    With rational data the exponentials ``exp(A_k tau_k)`` are transcendental, so the switched
+    subspace itself is not computed over Q. What exact arithmetic proves:
+
+    * ``N_k = exp(-A_k tau_k)(N(A_k, C) ∩ N_{k+1})`` and ``exp(-A_k tau_k)`` is a bijection, so
+      ``dim N_1^m = dim(N(A_1, C) ∩ N_2^m)``. For two modes (the paper's normal -> safe switch)
+      ``dim N_1^2 = dim(N(A_1, C) ∩ N(A_2, C))`` exactly, for every ``tau_1``.
+    * Inner bound: ``L_m = N(A_m, C)``, ``L_k`` = the largest A_k-invariant subspace of
+      ``N(A_k, C) ∩ L_{k+1}``; then ``L_k ⊆ N_k`` (an A_k-invariant space is fixed by
+      ``exp(-A_k tau)``) and ``dim N_1 >= dim(N(A_1, C) ∩ L_2)``.
+    * Outer bound: ``U_m = N(A_m, C)``, ``U_k`` = the smallest A_k-invariant subspace containing
+      ``N(A_k, C) ∩ U_{k+1}``; then ``N_k ⊆ U_k`` and ``dim N_1 <= dim(N(A_1, C) ∩ U_2)``.
+
+    When the two dimensions agree (always for m <= 2) the dimension, hence observability, is
+    decided exactly; otherwise the answer depends on the dwell times and exact arithmetic
+    cannot decide it (the checkers then fall back to the numeric recursion and say so).
+
+    Parameters
+    ----------
+    system : System
+        The multi-agent system (rational data).
+    sequence : sequence of (mode, duration)
+        The schedule; durations are validated but not used.
+    """
+    key = ("switched-exact", tuple((m, float(t)) for m, t in sequence))
+    cache = system.analysis
+    if key not in cache:
+        cache[key] = _switched_bounds_exact(system, sequence)
+    return cache[key]  # type: ignore[no-any-return]
+
+
+def _switched_bounds_exact(system: System, sequence: Sequence[tuple[str, float]]) -> SwitchedBounds:
+    """Uncached body of :func:`switched_unobservable_bounds_exact`."""
+    seq = _check_sequence(system, sequence)
+    n2 = 2 * system.n
+    modes = [m for m, _ in seq]
+    A = {m: _exact_A(system, m) for m in set(modes)}
+    R = {m: _exact_obs_rows(system, m) for m in set(modes)}
+    m = len(seq)
+    if m == 1:
+        K = _kernel(R[modes[0]])
+        basis = _to_fraction_cols(K)
+        return SwitchedBounds(len(basis), len(basis), basis, basis, [], True)
+    # inner: annihilator rows of L_{k}
+    lo_rows = R[modes[-1]]
+    for k in range(m - 2, 0, -1):
+        lo_rows = _row_closure(_vstack([R[modes[k]], lo_rows], n2), [A[modes[k]]])
+    first = _row_basis(_vstack([R[modes[0]], lo_rows], n2))
+    dim_lo = n2 - first.nrows()
+    inner = _kernel(_row_closure(first, [A[modes[0]]]))
+    # outer: column bases of U_k
+    U = _kernel(R[modes[-1]])
+    for k in range(m - 2, 0, -1):
+        S = _kernel(_vstack([R[modes[k]], _annihilator(U)], n2)) if U.ncols() else U
+        U = _cols_closure(S, A[modes[k]])
+    if U.ncols():
+        S1 = _kernel(_vstack([R[modes[0]], _annihilator(U)], n2))
+    else:
+        S1 = U
+    dim_hi = S1.ncols()
+    outer = _cols_closure(S1, A[modes[0]]) if S1.ncols() else S1
+    at_switch = _to_fraction_cols(S1) if m == 2 else []
+    return SwitchedBounds(
+        dim_lower=dim_lo,
+        dim_upper=dim_hi,
+        inner=_to_fraction_cols(inner),
+        outer=_to_fraction_cols(outer),
+        at_first_switch=at_switch,
+        exact_dimension=dim_lo == dim_hi,
+    )

@@ -1,0 +1,271 @@
+"""Zero-dynamics attacks over Q: the N-sized pencil in s, factor by factor, with certified directions."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from fractions import Fraction
+from typing import Any, Iterable, Sequence
+
+import flint
+import numpy as np
+
+from glocal_verify.analysis.zda import (
+    GROWTH_DECAYING,
+    GROWTH_PERSISTENT,
+    GROWTH_UNBOUNDED,
+    ZdaDirection,
+    _actuators,
+    _lambda_request,
+    _normalize,
+)
+from glocal_verify.model import System
+from glocal_verify.numerics.pencil_exact import (
+    RootEnclosures,
+    analyze_pencil_exact,
+    classify_real_parts,
+    eval_at_root,
+    kernel_over_field,
+)
+from glocal_verify.spec.types import Label
+
+__all__ = [
+    "ExactZdaZero",
+    "ExactZdaAnalysis",
+    "zda_analysis_exact",
+]
+
+# ------------------------------------------------------------------------------------------
+# exact path
+
+
+@dataclass(frozen=True, slots=True)
+class ExactZdaZero:
+    """A zero (or the witness exponent) of the exact analysis.
+
+    Attributes
+    ----------
+    value : complex
+        lambda0 (exact when ``rational`` is set; else a certified approximation).
+    rational : Fraction or None
+        lambda0 when rational.
+    factor : str
+        Its minimal polynomial over Q (variable ``x`` = lambda).
+    real_sign : int
+        Exact sign of Re lambda0.
+    attack : bool
+        ker P(lambda0) holds a direction with u0 != 0 (decided in Q[x]/(factor)).
+    xi, u0 : ndarray
+        The exact kernel vector (over Q[x]/(factor)) evaluated at lambda0, xi scaled to
+        max |xi_k| = 1.
+    xi_field : tuple
+        The same xi as ``fmpq_poly`` residues modulo ``field`` (exact; used by
+        ``switching.safe``).
+    field : fmpq_poly
+        The minimal polynomial (``factor``) as a flint object.
+    multiplicity : int
+        Multiplicity in z(lambda^2 + gamma lambda) (1 for a requested exponent).
+    """
+
+    value: complex
+    rational: Fraction | None
+    factor: str
+    real_sign: int
+    attack: bool
+    xi: np.ndarray
+    u0: np.ndarray
+    xi_field: tuple[Any, ...]
+    field: Any
+    multiplicity: int = 1
+
+    @property
+    def growth(self) -> str:
+        """``unbounded`` / ``persistent`` / ``decaying`` from the exact sign of Re lambda0."""
+        return {1: GROWTH_UNBOUNDED, 0: GROWTH_PERSISTENT, -1: GROWTH_DECAYING}[self.real_sign]
+
+    def direction(self) -> ZdaDirection:
+        """This zero as a :class:`ZdaDirection` (numeric values of the exact vectors)."""
+        return ZdaDirection(self.value, self.xi, self.u0, np.concatenate([self.xi, self.value * self.xi]), 0.0)
+
+
+@dataclass(frozen=True, slots=True)
+class ExactZdaAnalysis:
+    """Stealthy ZDAs decided over Q.
+
+    Attributes
+    ----------
+    actuators : tuple of labels
+    left_invertible : bool
+    normal_rank : int
+        Of the 2N pencil.
+    normal_kernel_dim : int
+    s_zero_polynomial : str
+        Zero polynomial of the N-sized pencil in s.
+    zeros : tuple of ExactZdaZero
+        Zeros with an input direction (stealthy ZDAs), fastest growing first.
+    unobservable : tuple of ExactZdaZero
+        Zeros all of whose directions have u0 = 0.
+    direction : ExactZdaZero or None
+        Witness (same selection rule as :func:`zda_analysis`).
+    direction_source : str
+    notes : tuple of str
+    """
+
+    actuators: tuple[Label, ...]
+    left_invertible: bool
+    normal_rank: int
+    normal_kernel_dim: int
+    s_zero_polynomial: str
+    zeros: tuple[ExactZdaZero, ...]
+    unobservable: tuple[ExactZdaZero, ...]
+    direction: ExactZdaZero | None
+    direction_source: str
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def exists(self) -> bool:
+        """A stealthy ZDA exists."""
+        return self.direction is not None
+
+
+def _fq(x: Fraction) -> Any:
+    return flint.fmpq(x.numerator, x.denominator)
+
+
+def _q_matrix(system: System, F: Sequence[int], rows_out: Sequence[int], s_poly: Any) -> list[list[Any]]:
+    """[[s(x) I + alpha L, -S_F^T], [S_out, 0]] with fmpq_poly entries."""
+    N = system.n
+    L = system.laplacian_exact()
+    a = _fq(system.alpha_q)
+    rows: list[list[Any]] = []
+    for i in range(N):
+        row = [flint.fmpq_poly(a * _fq(L[i][j])) + (s_poly if i == j else 0) for j in range(N)]
+        row += [flint.fmpq_poly(-1 if F[k] == i else 0) for k in range(len(F))]
+        rows.append(row)
+    for r in rows_out:
+        rows.append([flint.fmpq_poly(int(j == r)) for j in range(N)] + [flint.fmpq_poly(0)] * len(F))
+    return rows
+
+
+def _exact_at(system: System, F: Sequence[int], g: Any, s_poly: Any, zero_lambda: bool) -> tuple[bool, Any | None, int]:
+    """(attack?, chosen kernel vector over Q[x]/g, kernel dimension) of Q at the roots of g."""
+    rows_out = system.idx(system.monitored_positions) if zero_lambda else system.idx(system.monitored)
+    Q = _q_matrix(system, F, rows_out, s_poly)
+    N = system.n
+    K = kernel_over_field(Q, g, N + len(F))
+    pick = next((v for v in K.basis if any(not e.is_zero() for e in v[N:])), None)
+    return pick is not None, pick if pick is not None else (K.basis[0] if K.basis else None), len(K.basis)
+
+
+def _exact_zero(
+    system: System, g: Any, vec: Any, root: complex, sign: int, attack: bool, mult: int, m: int, enclosures: RootEnclosures | None = None
+) -> ExactZdaZero:
+    N = system.n
+    c = g.coeffs()
+    rational = None
+    if g.degree() == 1:
+        rational = -Fraction(int(c[0].p), int(c[0].q)) / Fraction(int(c[1].p), int(c[1].q))
+        root = complex(float(rational))
+    if vec is None:
+        xi, u = np.zeros(N), np.zeros(m)
+        xf: tuple[Any, ...] = ()
+    else:
+        v = eval_at_root(vec, g, root, enclosures)
+        xi, u = _normalize(v[:N], v[N:])
+        xf = tuple(vec[:N])
+    return ExactZdaZero(root, rational, str(g), sign, attack, xi, u, xf, g, mult)
+
+
+def zda_analysis_exact(
+    system: System,
+    actuators: Iterable[Label] | None = None,
+    *,
+    lambda0: complex | float | Sequence[float] | None = None,
+) -> ExactZdaAnalysis:
+    """Exact version of :func:`zda_analysis` (rational weights and gains; no tolerance).
+
+    Parameters
+    ----------
+    system : System
+        The system (its weights and alpha, gamma are exact rationals).
+    actuators : iterable of labels, optional
+        F; default the spec's attacked actuators.
+    lambda0 : complex, float or [re, im], optional
+        Exponent for the witness (default the spec's ``attack.lambda0``); its real and
+        imaginary parts are read as exact binary rationals.
+
+    Returns
+    -------
+    ExactZdaAnalysis
+    """
+    F_lab = _actuators(system, actuators)
+    F = system.idx(F_lab)
+    lam_req = _lambda_request(system, lambda0)
+    N, m = system.n, len(F)
+    L = system.laplacian_exact()
+    a = system.alpha_q
+    As = [[-a * L[i][j] for j in range(N)] for i in range(N)]
+    Bs = [[Fraction(int(F[k] == i)) for k in range(m)] for i in range(N)]
+    M = system.idx(system.monitored)
+    Cs = [[Fraction(int(j == r)) for j in range(N)] for r in M]
+    es = analyze_pencil_exact(As, Bs, Cs, directions=False, n_inputs=m)
+    k0 = N + m - es.normal_rank
+    g_q = _fq(system.gamma_q)
+    x = flint.fmpq_poly([0, 1])
+    s_poly = x * x + g_q * x
+    Z = es.zero_polynomial(s_poly) if es.zero_polynomial.degree() > 0 else flint.fmpq_poly(1)
+    attack: list[ExactZdaZero] = []
+    unobs: list[ExactZdaZero] = []
+    notes: list[str] = []
+    if Z.degree() > 0:
+        _, facs = Z.factor()
+        for g, mult in facs:
+            g = g / g.leading_coefficient()
+            if g == x:
+                continue
+            is_attack, vec, kdim = _exact_at(system, F, g, s_poly, False)
+            if kdim <= k0:  # pragma: no cover - a theorem, kept as a self-check
+                raise AssertionError(f"root of {g} is not a zero of the pencil; please report")
+            enclosures = RootEnclosures(g)
+            for root, sign in classify_real_parts(g):
+                zz = _exact_zero(system, g, vec, root, sign, is_attack, int(mult), m, enclosures)
+                (attack if is_attack else unobs).append(zz)
+    # lambda = 0
+    g0 = x
+    is_attack0, vec0, kdim0 = _exact_at(system, F, g0, s_poly, True)
+    if kdim0 > k0:
+        zz = _exact_zero(system, g0, vec0, 0j, 0, is_attack0, kdim0 - k0, m)
+        (attack if is_attack0 else unobs).append(zz)
+    attack.sort(key=lambda z: (-z.value.real, -abs(z.value.imag)))
+    unobs.sort(key=lambda z: (-z.value.real, -abs(z.value.imag)))
+
+    def at(lam: complex) -> ExactZdaZero | None:
+        re, im = Fraction(lam.real), Fraction(lam.imag)
+        if im == 0:
+            g = x - _fq(re)
+        else:
+            g = (x - _fq(re)) ** 2 + _fq(im) ** 2
+        is_att, vec, _ = _exact_at(system, F, g, s_poly, lam == 0)
+        if not is_att:
+            return None
+        sign = (re > 0) - (re < 0)
+        zz = _exact_zero(system, g, vec, complex(float(re), float(im)), sign, True, 1, m)
+        return zz
+
+    direction: ExactZdaZero | None = None
+    source = "none"
+    if lam_req is not None:
+        direction = at(lam_req)
+        if direction is not None:
+            source = "requested lambda0"
+        else:
+            notes.append(f"no stealthy ZDA at the requested lambda0 = {lam_req}")
+    if direction is None:
+        best = attack[0] if attack else None
+        if not es.left_invertible and (best is None or best.real_sign <= 0):
+            direction = at(1 + 0j)
+            source = "lambda0 = 1 (not left-invertible: a ZDA exists at every lambda0)"
+        if direction is None and best is not None:
+            direction, source = best, "fastest-growing zero"
+    return ExactZdaAnalysis(
+        F_lab, es.left_invertible, N + es.normal_rank, k0, str(es.zero_polynomial), tuple(attack), tuple(unobs), direction, source, tuple(notes)
+    )

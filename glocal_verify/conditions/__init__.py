@@ -1,0 +1,16 @@
+"""Conditions: the catalogue, the registry and one thin checker module per paper result.
+
+- :mod:`.registry` -- the condition catalogue, :class:`CheckContext` and :func:`verify`;
+- :mod:`.privacy` -- Lemma III.1 and Problem 1 (i): every ``privacy.*`` id;
+- :mod:`.observability` -- Lemma II.3 (``switched-observability``);
+- :mod:`.stealthy` -- Proposition II.4 (``stealthy.zda``, ``stealthy.covert``);
+- :mod:`.local`, :mod:`.local_pencil` -- Proposition III.2 (``local.*``);
+- :mod:`.central` -- the centralised observer (``central.observer``);
+- :mod:`.switching` -- Theorem III.3 (i)-(iii) and Lemma A.2;
+- :mod:`.safe_switch` -- Remark III.3.1 (does the switch touch the attack?);
+- :mod:`.detects` -- the theorem's conclusion by simulation (``switching.detects``);
+- :mod:`.paper_findings` -- finding rules that are not tied to one checker.
+
+A checker turns analyses into :class:`~glocal_verify.results.ConditionResult` values and reads
+like the theorem it checks. Layer: imports :mod:`glocal_verify.simulation` and below.
+"""

@@ -1,0 +1,264 @@
+"""The ``switching.detects`` checker: Theorem III.3's conclusion, decided by simulation.
+
+For each safe mode, Algorithm 1 is simulated with the schedule trigger against the attacker's
+best choice of direction (one that avoids the switching links when one exists); the status
+says whether the global residual of the normal-mode observer leaves its attack-free envelope
+after the switch. Also :func:`rank_safe_modes` (Algorithm 1, line 4: Theorem III.3 (i)-(iii)
+verdicts per safe mode) and :func:`algorithm1`, which runs
+:func:`~glocal_verify.simulation.algorithm1.run_algorithm1` with that ranking.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from glocal_verify.conditions.registry import (
+    CheckContext,
+    checker,
+    implemented_ids,
+    verify,
+)
+from glocal_verify.errors import GlocalVerifyError, NotApplicableError
+from glocal_verify.model import System
+from glocal_verify.results import ConditionResult, Method, Status
+from glocal_verify.simulation.algorithm1 import (
+    Algorithm1Result,
+    ModeRanking,
+    run_algorithm1,
+)
+from glocal_verify.simulation.attacks import (
+    AttackModel,
+    attack_from_spec,
+    zda_attack_from_direction,
+)
+from glocal_verify.simulation.observer_models import ObserverBank
+from glocal_verify.simulation.schedule import Schedule, random_initial_state
+from glocal_verify.simulation.thresholds import ThresholdRule
+
+__all__ = [
+    "THEOREM_III3_IDS",
+    "rank_safe_modes",
+    "check_detects",
+    "algorithm1",
+]
+
+#: the conditions Algorithm 1 (line 4) evaluates for a safe mode
+THEOREM_III3_IDS = ("switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences")
+
+#: largest network on which ``switching.detects`` simulates (each mode: one 2N-column batch)
+DETECTS_MAX_AGENTS = 150
+
+
+def rank_safe_modes(system: System, modes: Sequence[str] | None = None) -> tuple[ModeRanking, ...]:
+    """Rank safe modes by Theorem III.3 (i)-(iii): eligible modes first, then by score.
+
+    Uses :func:`glocal_verify.conditions.registry.verify` with :data:`THEOREM_III3_IDS`. The score of a
+    mode is the smallest of its margins on a relative scale: sigma_min of (i) (in [0, 1]),
+    the smallest eigenvalue gap of (ii) divided by ||L_q||_2, and the margin of (iii) as its
+    checker reports it.
+
+    Parameters
+    ----------
+    system : System
+    modes : sequence of str, optional
+        Default: every safe mode.
+    """
+    wanted = list(system.safe_modes if modes is None else modes)
+    ids = [c for c in THEOREM_III3_IDS if c in implemented_ids()]
+    report = verify(system, ids) if ids and wanted else None
+    out = []
+    for q in wanted:
+        st: dict[str, Status | None] = {}
+        mg: dict[str, float | None] = {}
+        for cid in THEOREM_III3_IDS:
+            rs = [r for r in report.results(cid) if r.scope.get("mode") == q] if report else []
+            if not rs:
+                st[cid], mg[cid] = None, None
+                continue
+            r = rs[0]
+            st[cid] = r.status
+            m = r.margin
+            if cid == "switching.distinct-eigenvalues" and m is not None:
+                w = system.eigh(q)[0]
+                m = float(m) / max(float(np.max(np.abs(w))), 1e-300)
+            mg[cid] = m
+        evaluated = [s for s in st.values() if s is not None]
+        eligible = bool(evaluated) and all(s is Status.HOLDS for s in evaluated)
+        vals = [float(v) for v in mg.values() if v is not None and math.isfinite(float(v))]
+        score = min(vals) if vals else 0.0
+        out.append(ModeRanking(q, st, mg, eligible, score))
+    out.sort(key=lambda r: (not r.eligible, -r.score))
+    return tuple(out)
+
+
+# --------------------------------------------------------------------------------------------
+# the switching.detects checker
+
+
+def _dl_xi(system: System, mode: str, attack: AttackModel) -> float | None:
+    """||dL_q xi|| / ||xi|| (complex xi allowed): does the switch touch the ZDA (Remark III.3.1)?"""
+    if attack.xi is None:
+        return None
+    xi = np.asarray(attack.xi)
+    return float(np.linalg.norm(system.delta_laplacian(mode) @ xi) / max(float(np.linalg.norm(xi)), 1e-300))
+
+
+@checker("switching.detects")
+def check_detects(system: System, ctx: CheckContext) -> list[ConditionResult]:
+    """Theorem III.3's conclusion, checked by simulation (opt-in).
+
+    For every safe mode q: simulate the spec's attack (``stealthy.zda`` direction, or the
+    covert attack) from a random attack-free initial state in the box, the centralized
+    observer of eq. ``obs_cent`` (normal-mode model), and a switch to q at the spec's switching
+    time; the condition **holds** when, after the switch, the global residual
+    :math:`r_0 = y - C\\hat x` leaves its attack-free band (:class:`ThresholdRule`, exact
+    envelope over :math:`\\|\\bar x_0\\|_\\infty \\le 1` including the switch, plus the rounding
+    allowance ``rtol * max(1, ||s(t)||_2)``). Formally, with :math:`t_1` the switching time,
+
+    .. math:: \\exists\\, t \\ge t_1,\\ k:\\ |r_{0,k}(t)| > \\theta_k(t).
+
+    Opt-in: it runs only when the check context has ``options["simulate"]`` true (e.g.
+    ``verify(system, ["switching.detects"], options={"simulate": True})``; ``glocal-verify
+    simulate`` reports it), the spec has an attack and a ``[switching]`` table, the system has
+    at most ``options["max_agents"]`` agents (default 150) and the numeric path is requested
+    (a simulation has no exact counterpart: in exact mode the checker returns nothing).
+
+    Tolerance rule
+        The attack-induced part of the residual (the attack-only run, exact by linearity)
+        relative to ``max(1, ||s||_2)`` is decided with the context tolerance: zero at or below
+        ``rtol``, nonzero above ``rtol * band``. A crossing by a residual whose attack part is
+        not certainly nonzero is ``undecided`` (rounding could have caused it).
+    Margin
+        log10 of the largest post-switch ratio |r_k| / threshold_k (> 0 iff crossed).
+    Witness
+        switch time, detection time and channel, delay, post-switch behaviour (attack part
+        invisible / vanishing / unbounded, exponential rate), ||dL_q xi|| / ||xi|| for a ZDA,
+        the attack (kind, lambda0, moved agents), the threshold rule, horizon, step, seed.
+    """
+    if ctx.exact or not ctx.options.get("simulate"):
+        return []
+    spec = system.spec
+    if spec.attack is None or spec.switching is None or not system.safe_modes:
+        return []
+    limit = int(ctx.options.get("max_agents", DETECTS_MAX_AGENTS))
+    key = ("switching.detects", ctx.tol.rtol, ctx.tol.band, limit)
+    if key in system.analysis:
+        return list(system.analysis[key])
+    out: list[ConditionResult] = []
+
+    def res(mode: str, status: Status, margin: float | None, witness: Mapping[str, Any]) -> ConditionResult:
+        from glocal_verify.conditions.registry import CATALOGUE
+
+        info = CATALOGUE["switching.detects"]
+        return ConditionResult(
+            "switching.detects",
+            {"mode": mode},
+            status,
+            margin,
+            ctx.tol.rtol,
+            Method.NUMERIC,
+            dict(witness),
+            info.reference,
+            info.statement,
+        )
+
+    if system.n > limit:
+        for q in system.safe_modes:
+            out.append(res(q, Status.UNDECIDED, None, {"note": f"not simulated: {system.n} agents > max_agents = {limit}"}))
+        return out
+    try:
+        atk = attack_from_spec(system)
+        bank = ObserverBank.for_system(system, local=False)
+        if "central" not in bank.names:
+            raise NotApplicableError("; ".join(bank.notes) or "no centralized observer")
+        base = Schedule.from_spec(system)
+    except (GlocalVerifyError, ImportError) as exc:
+        for q in system.safe_modes:
+            out.append(res(q, Status.UNDECIDED, None, {"note": f"cannot simulate: {exc}"}))
+        return out
+    if not base.switch_times:
+        return []
+    rule = ThresholdRule(rounding=ctx.tol.rtol)
+    xbar = random_initial_state(system, rule.box)
+    for q in system.safe_modes:
+        atk_q, chosen_by = _attacker_choice(system, q, atk, ctx)
+        r = algorithm1(system, attack=atk_q, observers=bank, rule=rule, mode=q, trigger="schedule", x0=xbar)
+        ga = r.global_after
+        assert ga is not None and r.post_switch is not None and r.switch_time is not None
+        peak = r.post_switch.attack_peak
+        dec = ctx.tol.decide(peak, 1.0)
+        if not ga.detected:
+            status = Status.FAILS
+        elif dec.value == "nonzero":
+            status = Status.HOLDS
+        else:
+            status = Status.UNDECIDED
+        margin = math.log10(ga.peak_ratio) if ga.peak_ratio > 0 else -math.inf
+        witness: dict[str, Any] = {
+            "switch_time": r.switch_time,
+            "detected": ga.detected,
+            "detection_time": ga.time,
+            "delay": (ga.time - r.switch_time) if ga.time is not None else None,
+            "channel": ga.channel,
+            "peak_ratio": ga.peak_ratio,
+            "post_switch": r.post_switch.to_json(),
+            "attack": atk_q.describe() if atk_q else None,
+            "attack_direction": chosen_by,
+            "threshold_rule": rule.describe(),
+            "horizon": float(r.simulation.t[-1]),
+            "step": float(r.simulation.t[1] - r.simulation.t[0]),
+            "seed": spec.simulation.seed,
+        }
+        if atk_q is not None:
+            d = _dl_xi(system, q, atk_q)
+            if d is not None:
+                witness["dL_xi_relative"] = d
+        if r.global_before is not None and r.global_before.detected:
+            witness["note"] = "the global residual already crossed before the switch: the attack is not stealthy for this observer"
+        out.append(res(q, status, margin, witness))
+    system.analysis[key] = list(out)
+    return out
+
+
+def _attacker_choice(system: System, mode: str, atk: AttackModel | None, ctx: CheckContext) -> tuple[AttackModel | None, str]:
+    """The ZDA an informed attacker would run against the switch to ``mode``.
+
+    When some stealthy direction at lambda0 is not touched by the switch (``switching.safe``
+    holds through :func:`glocal_verify.analysis.avoidance.avoidance`), the attacker uses it: a
+    detection verdict must hold against every stealthy direction, not only the one
+    ``stealthy.zda`` happens to report.
+    """
+    if atk is None or atk.kind != "zda":
+        return atk, "spec"
+    from glocal_verify.analysis.avoidance import avoidance
+
+    av = avoidance(system, mode, ctx.tol)
+    if av is None or av.status is not Status.HOLDS or av.direction is None or av.direction_source == "stealthy.zda":
+        return atk, "stealthy.zda"
+    a = system.spec.attack
+    assert a is not None
+    d = av.direction
+    return (
+        zda_attack_from_direction(system, d.lambda0, d.xi, d.u0, amplitude=a.amplitude, start=a.start),
+        "avoiding direction of switching.safe",
+    )
+
+
+def algorithm1(system: System, **options: Any) -> Algorithm1Result:
+    """Algorithm 1 (``alg:detection_procedure``) with the safe modes ranked by Theorem III.3.
+
+    :func:`rank_safe_modes` orders the safe modes by the verdicts of conditions (i)-(iii);
+    :func:`~glocal_verify.simulation.algorithm1.run_algorithm1` then runs the observers and the
+    switch.
+
+    Parameters
+    ----------
+    system : System
+    **options
+        Every keyword of :func:`~glocal_verify.simulation.algorithm1.run_algorithm1` (attack,
+        observers, rule, mode, trigger, no_switch, delay, x0, horizon, step, method, progress).
+    """
+    return run_algorithm1(system, rank_safe_modes(system), **options)

@@ -1,0 +1,228 @@
+"""Lemma II.3 (``lemma:observability``): the ``switched-observability`` checker.
+
+Holds when the switched pair (A_sigma, C) over the spec's mode sequence is observable,
+``N_1^m = {0}``, computed by the backward recursion of
+:func:`~glocal_verify.analysis.switched.switched_unobservable_subspace` (numeric, both
+readings of undecided decisions) or over Q (:func:`~glocal_verify.analysis.switched.switched_unobservable_bounds_exact`).
+The witness is an orthonormal basis of the unobservable subspace (at most six vectors, in
+node labels). A finding rule reports when the switched subspace is not A_k-invariant.
+"""
+
+from __future__ import annotations
+
+from fractions import Fraction
+from typing import Any, Sequence
+
+import numpy as np
+
+from glocal_verify.analysis.modal import _apply_A
+from glocal_verify.analysis.switched import (
+    _check_sequence,
+    mode_sequence,
+    sequence_text,
+    switched_unobservable_bounds_exact,
+    switched_unobservable_subspace,
+)
+from glocal_verify.analysis.unobservable import (
+    _exact_A,
+    _exact_C,
+    unobservable_subspace,
+    unobservable_subspace_exact,
+)
+from glocal_verify.conditions.registry import (
+    CheckContext,
+    checker,
+    finding_rule,
+    result,
+)
+from glocal_verify.model import System
+from glocal_verify.numerics.exact_subspace import _kernel, _row_closure
+from glocal_verify.numerics.subspace import decide_with_error
+from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision
+from glocal_verify.results import ConditionResult, Finding, Status
+
+__all__ = [
+    "check_switched_observability",
+    "switched_subspace_not_invariant",
+]
+
+# --------------------------------------------------------------------------------------------
+# witnesses
+
+
+def _state_map(system: System, v: Sequence[Any] | np.ndarray, digits: int | None = 12) -> dict[str, Any]:
+    n = system.n
+    vals = list(v)
+    if digits is None:
+        return {"x": dict(zip(system.labels, vals[:n])), "v": dict(zip(system.labels, vals[n:]))}
+    arr = np.asarray([float(x) for x in vals])
+    big = float(np.max(np.abs(arr))) if len(arr) else 0.0
+    arr = np.where(np.abs(arr) <= 1e-13 * max(big, 1.0), 0.0, arr)
+    return {
+        "x": {lab: round(float(x), digits) for lab, x in zip(system.labels, arr[:n])},
+        "v": {lab: round(float(x), digits) for lab, x in zip(system.labels, arr[n:])},
+    }
+
+
+def _basis_witness(system: System, B: np.ndarray, limit: int = 6) -> list[dict[str, Any]]:
+    return [_state_map(system, B[:, j]) for j in range(min(B.shape[1], limit))]
+
+
+def _exact_basis_witness(system: System, B: list[list[Fraction]], limit: int = 6) -> list[dict[str, Any]]:
+    return [_state_map(system, b, digits=None) for b in B[:limit]]
+
+
+def _numeric_ctx(ctx: CheckContext) -> CheckContext:
+    return CheckContext(exact=False, tol=ctx.tol, options=ctx.options)
+
+
+_FALLBACK_NOTE = (
+    "exact arithmetic cannot decide this schedule: with more than two modes the switched subspace "
+    "depends on transcendental exponentials exp(A_k tau_k) and the exact dwell-time-independent bounds "
+    "disagree; the verdict is the numeric recursion's"
+)
+
+
+# --------------------------------------------------------------------------------------------
+# switched-observability
+
+
+def _status_from_dims(dim: int, dim_upper: int, observable_holds: bool) -> Status:
+    """holds/fails for 'N = {0}' (observable_holds) or 'N != {0}'."""
+    if dim_upper == 0:
+        return Status.HOLDS if observable_holds else Status.FAILS
+    if dim > 0:
+        return Status.FAILS if observable_holds else Status.HOLDS
+    return Status.UNDECIDED
+
+
+@checker("switched-observability")
+def check_switched_observability(system: System, ctx: CheckContext) -> list[ConditionResult]:
+    """Lemma II.3 (``lemma:observability``): the switched pair is observable, ``N_1^m = {0}``.
+
+    .. math:: \\mathcal N_1^m = \\ker \\mathcal O = \\{0\\}
+
+    with the backward recursion of :func:`switched_unobservable_subspace`. Scopes: every mode
+    alone (``{"mode": q}``: observability of ``(A_q, C)``), and the spec's schedule (scope
+    ``{}``; the schedule is in the witness) when :func:`mode_sequence` gives one.
+
+    Numeric: dimensions of the lower and upper readings (module tolerance rule); holds iff the
+    upper reading is ``{0}``, fails iff the lower reading is not, undecided otherwise.
+    Exact: per mode the rational kernel of the Krylov row closure; for the schedule the exact
+    dwell-time-independent bounds of :func:`switched_unobservable_bounds_exact` (exact for two
+    modes). If they disagree (three or more modes), the result is the numeric one
+    (``method = numeric``) with a note in the witness.
+
+    Margin
+        Per mode: min over eigen-groups of ``sigma_min(S E_mu)`` (unit scale; 0 when
+        unobservable). Schedule: the smallest certainly nonzero sine of the principal angles
+        met in the recursion (1.0 if none), 0 when unobservable. Computed in floating point in
+        both modes.
+    Witness
+        ``dim`` (and ``dim_upper`` if undecided) and an orthonormal (numeric) or rational
+        (exact) basis of the unobservable subspace as ``{"x": {label: ...}, "v": {label: ...}}``
+        maps (at most six vectors); for the schedule the schedule itself.
+    """
+    out: list[ConditionResult] = []
+    cid = "switched-observability"
+    for mode in system.modes:
+        S = unobservable_subspace(system, mode, ctx.tol)
+        if ctx.exact:
+            basis = unobservable_subspace_exact(system, mode)
+            status = Status.HOLDS if not basis else Status.FAILS
+            witness: dict[str, Any] = {"dim": len(basis), "basis": _exact_basis_witness(system, basis)}
+            margin = 0.0 if basis else S.margin
+        else:
+            status = _status_from_dims(S.dim, S.dim_upper, observable_holds=True)
+            witness = {"dim": S.dim, "basis": _basis_witness(system, S.basis)}
+            if not S.decided:
+                witness["dim_upper"] = S.dim_upper
+            margin = 0.0 if S.dim else S.margin
+        out.append(result(cid, ctx, status, scope={"mode": mode}, margin=margin, witness=witness))
+    seq = mode_sequence(system)
+    if seq is None:
+        return out
+    seq = _check_sequence(system, seq)
+    Ssw = switched_unobservable_subspace(system, seq, ctx.tol)
+    base = {"sequence": [list(s) for s in seq], "schedule": sequence_text(seq)}
+    if ctx.exact:
+        bounds = switched_unobservable_bounds_exact(system, seq)
+        if bounds.dim_upper == 0 or bounds.dim_lower > 0:
+            status = Status.HOLDS if bounds.dim_upper == 0 else Status.FAILS
+            witness = dict(base, dim_lower=bounds.dim_lower, dim_upper=bounds.dim_upper)
+            if bounds.exact_dimension:
+                witness["dim"] = bounds.dim_lower
+            if bounds.at_first_switch:
+                witness["states_at_switch"] = _exact_basis_witness(system, bounds.at_first_switch)
+                witness["note"] = "N_1^2 = exp(-A_1 tau_1) (N(A_1, C) ∩ N(A_2, C)); the basis is of the states x(t_1) at the switch"
+            elif bounds.inner:
+                witness["inner_basis"] = _exact_basis_witness(system, bounds.inner)
+            margin = 0.0 if status is Status.FAILS else Ssw.margin
+            out.append(result(cid, ctx, status, margin=margin, witness=witness))
+            return out
+        nctx = _numeric_ctx(ctx)
+        status = _status_from_dims(Ssw.dim, Ssw.dim_upper, observable_holds=True)
+        witness = dict(base, dim=Ssw.dim, basis=_basis_witness(system, Ssw.basis), note=_FALLBACK_NOTE,
+                       exact_bounds=[bounds.dim_lower, bounds.dim_upper])
+        out.append(result(cid, nctx, status, margin=0.0 if Ssw.dim else Ssw.margin, witness=witness))
+        return out
+    status = _status_from_dims(Ssw.dim, Ssw.dim_upper, observable_holds=True)
+    witness = dict(base, dim=Ssw.dim, basis=_basis_witness(system, Ssw.basis), steps=Ssw.evidence["steps"])
+    if not Ssw.decided:
+        witness["dim_upper"] = Ssw.dim_upper
+    out.append(result(cid, ctx, status, margin=0.0 if Ssw.dim else Ssw.margin, witness=witness))
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# finding: Lemma II.3 (ii) calls N_1^m "the largest A_sigma-invariant subspace contained in ker C"
+
+
+@finding_rule
+def switched_subspace_not_invariant(system: System, results: Sequence[ConditionResult]) -> list[Finding]:
+    """Lemma II.3 (ii): the switched unobservable subspace need not be invariant under the A_k.
+
+    The lemma describes ``N_1^m`` as "the largest A_sigma(t)-invariant subspace contained in
+    ker(C)". The recursion it gives computes the set of initial states with zero output over the
+    schedule, which in general is invariant under none of the A_k; the largest subspace of
+    ker C invariant under every A_k (the Krylov closure of C under all modes, computed exactly)
+    can be strictly smaller. The rule fires when ``switched-observability`` ran on a schedule
+    and the computed ``N_1^m`` has a certainly nonzero invariance residual
+    ``||(I - V V^T) A_k V|| > rtol * band * ||A_k||`` for some mode of the schedule.
+    """
+    if not any(r.id == "switched-observability" and not r.scope for r in results):
+        return []
+    seq = mode_sequence(system)
+    if seq is None or len(seq) < 2:
+        return []
+    seq = _check_sequence(system, seq)
+    tol = DEFAULT_TOLERANCE
+    S = switched_unobservable_subspace(system, seq, tol)
+    if not S.decided or S.dim == 0:
+        return []
+    V = S.basis
+    residuals: dict[str, float] = {}
+    for m in dict.fromkeys(mm for mm, _ in seq):
+        w, _ = system.eigh(m)
+        scale = max(system.alpha * float(np.max(np.abs(w))), system.gamma, 1.0)
+        X = _apply_A(system, m, V)
+        res = float(np.linalg.norm(X - V @ (V.T @ X), 2)) / scale
+        if decide_with_error(res, S.error, tol) is Decision.NONZERO:
+            residuals[m] = res
+    if not residuals:
+        return []
+    n2 = 2 * system.n
+    common = _kernel(_row_closure(_exact_C(system), [_exact_A(system, m) for m in dict.fromkeys(mm for mm, _ in seq)])).ncols() if system.n <= 60 else None
+    return [
+        Finding(
+            "lemma2.switched-subspace-not-invariant",
+            "The switched unobservable subspace of Lemma II.3 is not invariant under the modes' A_k",
+            f"Lemma II.3 (ii) calls N_1^m 'the largest A_sigma(t)-invariant subspace contained in ker(C)'. On the schedule "
+            f"{sequence_text(seq)} the recursion gives dim N_1^m = {S.dim}, and this subspace is not invariant under "
+            f"{', '.join(residuals)} (relative residuals {', '.join(f'{v:.2g}' for v in residuals.values())})"
+            + (f"; the largest subspace of ker C invariant under every A_k has dimension {common}." if common is not None else ".")
+            + " The recursion (eqs. obsv_nullspace_1-2) is right; the description is not.",
+            "Lemma II.3 (ii)",
+            {"schedule": [list(x) for x in seq], "dim": S.dim, "common_invariant_dim": common, "residuals": residuals, "state_dim": n2},
+        )
+    ]

@@ -1,0 +1,313 @@
+"""Stealthy attacks of Proposition II.4 (``propo:stealthy_attacks``): ZDA and covert attacks.
+
+Zero-dynamics attacks (Definition II.2, eq. ``zda_cond``)
+    A stealthy ZDA of (A_1, B, C, 0) is a zeroing direction ([x~_0; u_0], u_0 != 0) of the
+    Rosenbrock pencil at some lambda_0; u_0 = 0 directions are unobservable modes, not
+    attacks. With s = lambda^2 + gamma lambda the 2N-sized pencil reduces exactly to an
+    N-sized one: x~_0 = [xi; lambda xi] with
+
+    .. math::
+
+        (sI + \\alpha L)\\,\\xi = S_F^\\top u_0,\\qquad S_{M_x}\\xi = 0,\\qquad
+        \\lambda \\ne 0 \\Rightarrow S_{M_v}\\xi = 0,
+
+    so ``dim ker P(lambda) = dim ker Q_lambda(s)`` with the pencil in s
+
+    .. math::
+
+        Q(s) = \\begin{bmatrix} sI + \\alpha L & -S_F^\\top \\\\ S_M & 0 \\end{bmatrix}
+
+    (for lambda = 0 only the position rows S_{M_x} remain). Hence nrank P = N + nrank Q, P is
+    left-invertible iff Q is, and the nonzero finite zeros of P are the roots lambda of
+    lambda^2 + gamma lambda = s over the zeros s of Q; lambda = 0 is a zero iff
+    dim ker Q_0 exceeds the normal kernel dimension N + m - nrank Q.
+
+Structured numeric path (default)
+    In the modal coordinates of L = U diag(mu) U^T, Q(s) is the Rosenbrock pencil of the
+    N-state system (-alpha diag(mu), U_F^T, U_M, 0); :func:`glocal_verify.numerics.pencil.analyze_pencil`
+    gives its normal rank and zeros in s. Every resulting lambda is then verified on the full
+    2N pencil without forming it: the kernel of Q(s) is computed by eliminating the modes
+    far from -s (eta_k = (U_F^T u)_k / (s + alpha mu_k)) and taking the small kernel of the
+    remaining (near-pole modes, u) system; the direction is mapped back to
+    x~_0 = [xi; lambda xi] and its residual
+
+    .. math:: \\rho = \\frac{\\lVert P(\\lambda)[\\tilde x_0; u_0] \\rVert}
+              {\\lVert P(\\lambda) \\rVert_{lb}\\, \\lVert [\\tilde x_0; u_0] \\rVert}
+
+    is decided with the tolerance, where ||P(lambda)||_lb = max(||lambda I - A||_2, 1) is a
+    lower bound of the pencil norm computed blockwise from the modal 2 x 2 blocks (a lower
+    bound makes "zero" harder to reach: conservative for "a ZDA exists"). The input part is
+    an attack when ||u_0|| / ||[x~_0; u_0]|| is nonzero at the tolerance.
+    Cost: one symmetric eigendecomposition, one N-sized deflation and QZ, O(N^2) per zero.
+
+Dense path (``method="dense"``)
+    :func:`glocal_verify.numerics.pencil.analyze_pencil` on the 2N-sized (A_1, B, C): for small systems
+    and for the tests that compare the two.
+
+Exact path (:func:`zda_analysis_exact`)
+    The N-sized pencil in s over Q (:func:`glocal_verify.numerics.pencil_exact.analyze_pencil_exact`) gives
+    left-invertibility and the zero polynomial z(s); the lambda-zeros are the roots of
+    z(lambda^2 + gamma lambda) factored over Q, and for each irreducible factor g the kernel
+    of Q(lambda^2 + gamma lambda) is computed exactly in Q[lambda]/(g), which decides whether
+    an input direction exists and gives the direction.
+
+Covert attacks (eqs. ``ym_solution``-``covert_trajec_post``)
+    u_s = C x~ cancels u_a iff the attacker owns every monitored channel that u_a reaches;
+    see :func:`covert_required_channels`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Sequence
+
+import numpy as np
+
+from glocal_verify.analysis.covert import (
+    _channel_label,
+    covert_required_channels,
+    reachable_agents,
+)
+from glocal_verify.analysis.zda import ZdaAnalysis, ZdaZero, zda_analysis
+from glocal_verify.analysis.zda_exact import (
+    ExactZdaAnalysis,
+    ExactZdaZero,
+    zda_analysis_exact,
+)
+from glocal_verify.conditions.registry import (
+    CheckContext,
+    checker,
+    finding_rule,
+    result,
+)
+from glocal_verify.model import System
+from glocal_verify.numerics.tolerance import Decision, Tolerance
+from glocal_verify.results import ConditionResult, Finding, Status
+from glocal_verify.spec.types import Label
+
+__all__ = [
+    "check_zda",
+    "check_covert",
+    "unobservable_zeros_finding",
+    "covert_sensors_finding",
+]
+
+
+
+# ------------------------------------------------------------------------------------------
+# checkers
+
+
+def _vec(system: System, v: np.ndarray, labels: Sequence[Label], tol: Tolerance, support_only: bool = True) -> dict[Label, Any]:
+    big = float(np.max(np.abs(v), initial=0.0))
+    out: dict[Label, Any] = {}
+    for lab, x in zip(labels, v):
+        if support_only and tol.decide(abs(x), big) is Decision.ZERO:
+            continue
+        c = complex(x)
+        out[lab] = c.real if c.imag == 0 else c
+    return out
+
+
+def _moved(system: System, xi: np.ndarray, tol: Tolerance) -> list[Label]:
+    big = float(np.max(np.abs(xi), initial=0.0))
+    return [lab for lab, x in zip(system.labels, xi) if big > 0 and tol.decide(abs(x), big) is Decision.NONZERO]
+
+
+def _zero_json(system: System, F: Sequence[Label], z: ZdaZero | ExactZdaZero, tol: Tolerance) -> dict[str, Any]:
+    d: dict[str, Any] = {
+        "lambda": [z.value.real, z.value.imag],
+        "growth": z.growth,
+        "multiplicity": z.multiplicity,
+        "u0": _vec(system, z.u0, F, tol, support_only=False),
+        "xi": _vec(system, z.xi, system.labels, tol),
+        "moved": _moved(system, z.xi, tol),
+    }
+    if isinstance(z, ZdaZero):
+        d["residual"] = z.residual
+    else:
+        d["minimal_polynomial"] = z.factor
+        if z.rational is not None:
+            d["lambda_exact"] = str(z.rational)
+    return d
+
+
+def _margin(left_inv: bool, zeros: Sequence[ZdaZero | ExactZdaZero]) -> float:
+    if not left_inv:
+        return math.inf
+    if zeros:
+        return max(z.value.real for z in zeros)
+    return -math.inf
+
+
+@checker("stealthy.zda")
+def check_zda(system: System, ctx: CheckContext) -> list[ConditionResult]:
+    """Proposition II.4 (ii), Definition II.2: a stealthy ZDA of (A_1, B, C, 0) exists.
+
+    .. math::
+
+        \\exists\\,\\lambda_0 \\in \\mathbb C,\\ (\\tilde x_0, u_0),\\ u_0 \\ne 0:\\quad
+        \\begin{bmatrix} \\lambda_0 I - A_1 & -B \\\\ C & 0 \\end{bmatrix}
+        \\begin{bmatrix} \\tilde x_0 \\\\ u_0 \\end{bmatrix} = 0
+
+    Scope: global (normal mode), F = ``attack.actuators``. Without an attack in the spec the
+    condition is not evaluated (no result). ``holds`` = a verified stealthy ZDA exists (the
+    pencil is not left-invertible, or it has a zero with an input direction; note that a
+    zero at lambda0 = 0 with u0 != 0 -- a constant input that shifts positions without moving
+    velocities -- is a persistent, not an unbounded, ZDA). ``fails`` = left-invertible and
+    no zero has an input direction. Numeric: structured modal path (option
+    ``zda_method = "dense"`` for the dense pencil); tolerance rules in the module docstring.
+    Exact: :func:`zda_analysis_exact`. Option ``lambda0`` overrides the spec's exponent.
+
+    Margin
+        The largest growth rate Re lambda0 of an available stealthy ZDA: +inf when the system
+        is not left-invertible (every lambda0 is available), -inf when none exists.
+    Witness
+        ``left_invertible``, ``normal_rank`` (of the 2N pencil), ``normal_kernel_dim``,
+        ``zeros`` (lambda, growth, u0, xi on its support, moved agents, residual), at most
+        ``max_zeros`` (option, default 50) of them, ``zeros_total``, ``unobservable_modes``
+        (zeros with u0 = 0, not attacks) and ``direction`` (lambda0, u0, xi, moved, source).
+    """
+    if system.spec.attack is None:
+        return []
+    F = system.attacked
+    lam_opt = ctx.options.get("lambda0")
+    max_z = int(ctx.options.get("max_zeros", 50))
+    tol = ctx.tol
+    ea: ExactZdaAnalysis | None = None
+    za: ZdaAnalysis | None = None
+    if ctx.exact:
+        ea = zda_analysis_exact(system, lambda0=lam_opt)
+        left_inv, nrank, k0 = ea.left_invertible, ea.normal_rank, ea.normal_kernel_dim
+        zeros: Sequence[ZdaZero | ExactZdaZero] = ea.zeros
+        unobs: Sequence[ZdaZero | ExactZdaZero] = ea.unobservable
+        direction: ZdaZero | ExactZdaZero | None = ea.direction
+        source, notes = ea.direction_source, ea.notes
+        status = Status.HOLDS if ea.exists else Status.FAILS
+    else:
+        za = zda_analysis(system, tol, lambda0=lam_opt, method=str(ctx.options.get("zda_method", "structured")))
+        left_inv, nrank, k0 = za.left_invertible, za.normal_rank, za.normal_kernel_dim
+        zeros, unobs, direction = za.zeros, za.unobservable, za.direction
+        source, notes = za.direction_source, za.notes
+        if za.exists:
+            status = Status.HOLDS
+        elif za.decided:
+            status = Status.FAILS
+        else:
+            status = Status.UNDECIDED
+    N, m = system.n, len(F)
+    p = len(system.output_channels())
+    witness: dict[str, Any] = {
+        "actuators": list(F),
+        "left_invertible": left_inv,
+        "normal_rank": nrank,
+        "pencil_shape": [2 * N + p, 2 * N + m],
+        "normal_kernel_dim": k0,
+        "zeros": [_zero_json(system, F, z, tol) for z in zeros[:max_z]],
+        "zeros_total": len(zeros),
+        "unobservable_modes": [[z.value.real, z.value.imag] for z in unobs[:max_z]],
+        "method": "exact (N-sized pencil in s over Q)" if ctx.exact else f"{za.method if za else ''} (N-sized pencil in s = lambda^2 + gamma lambda)",
+    }
+    if ea is not None:
+        witness["s_zero_polynomial"] = ea.s_zero_polynomial
+    if direction is not None:
+        dj = _zero_json(system, F, direction, tol)
+        dj["source"] = source
+        dj["lambda0"] = dj.pop("lambda")
+        witness["direction"] = dj
+    if notes:
+        witness["notes"] = list(notes)
+    margin = _margin(left_inv, zeros)
+    return [result("stealthy.zda", ctx, status, margin=margin, witness=witness)]
+
+
+@checker("stealthy.covert")
+def check_covert(system: System, ctx: CheckContext) -> list[ConditionResult]:
+    """Proposition II.4 (i): a covert attack is feasible (eqs. ``ym_solution``-``covert_trajec_post``).
+
+    .. math::
+
+        \\{c \\in \\text{rows}(C) : c A_1^k B \\ne 0 \\text{ for some } k\\} \\subseteq
+        \\text{channels of } F_s
+
+    u_s = C x~ cancels u_a exactly when the attacker owns every monitored channel that u_a
+    reaches (:func:`covert_required_channels`; combinatorial for positive weights, so no
+    tolerance and the same verdict in numeric and exact mode). F_s = ``attack.sensors``
+    (every monitored channel of a listed agent). Scope: global (normal mode). No attack in
+    the spec: no result.
+
+    Margin
+        The number of reached channels the attacker does not own (0 when feasible).
+    Witness
+        ``required`` (reached channels), ``compromised`` (owned channels), ``missing``,
+        ``reachable_agents``.
+    """
+    attack = system.spec.attack
+    if attack is None:
+        return []
+    req = covert_required_channels(system)
+    sensors = set(attack.sensors)
+    owned = [ch for ch in system.output_channels() if _channel_label(system, ch) in sensors]
+    missing = [ch for ch in req if ch not in owned]
+    status = Status.FAILS if missing else Status.HOLDS
+    witness: dict[str, Any] = {
+        "actuators": list(system.attacked),
+        "required": req,
+        "compromised": owned,
+        "missing": missing,
+        "reachable_agents": reachable_agents(system),
+    }
+    return [result("stealthy.covert", ctx, status, margin=float(len(missing)), witness=witness, numeric_decision=False)]
+
+
+
+# ------------------------------------------------------------------------------------------
+# findings
+
+
+@finding_rule
+def unobservable_zeros_finding(system: System, results: Sequence[ConditionResult]) -> list[Finding]:
+    """Definition II.2 counts zeroing directions with u0 = 0 (unobservable modes) as ZDAs."""
+    out = []
+    for r in results:
+        if r.id != "stealthy.zda" or not r.witness.get("unobservable_modes"):
+            continue
+        modes = r.witness["unobservable_modes"]
+        out.append(
+            Finding(
+                "definition-ii2.unobservable-zeros",
+                "Definition II.2 admits u0 = 0: unobservable modes satisfy eq. zda_cond without any attack",
+                "Definition II.2 calls lambda0 a zero whenever some (x0, u0) != (0, 0) solves eq. inv_zeros, and "
+                "Proposition II.4 (ii) builds the ZDA from such a direction. A direction with u0 = 0 is an "
+                "unobservable mode: u_a = u0 exp(lambda0 t) = 0 is no attack. With M_x empty (Lemma III.1's "
+                "privacy) the consensus direction [1; 0] at lambda0 = 0 is always one. On this system the zeros "
+                f"{modes} have only u0 = 0 directions; stealthy.zda requires u0 != 0 and does not count them.",
+                "Definition II.2, Proposition II.4 (ii)",
+                {"unobservable_modes": modes},
+            )
+        )
+    return out
+
+
+@finding_rule
+def covert_sensors_finding(system: System, results: Sequence[ConditionResult]) -> list[Finding]:
+    """Proposition II.4 (i) omits the sensor channels the cancellation needs."""
+    out = []
+    for r in results:
+        if r.id != "stealthy.covert" or r.status is not Status.FAILS:
+            continue
+        missing = r.witness.get("missing", [])
+        out.append(
+            Finding(
+                "proposition-ii4.covert-needs-sensors",
+                "Proposition II.4 (i): x~(t_a) = 0 is not enough for a covert attack",
+                "The proposition states that with x~(t_a) = 0 'there exists a vector u_s ... canceling out the "
+                "effect of u_a on the system output', but eq. attack_model restricts supp(u_s) to the compromised "
+                "channels F_s: the cancellation u_s = C x~ needs every monitored channel that u_a reaches. On this "
+                f"system the attacker does not own {missing}, so no covert attack exists with these sensors. "
+                "Minimal example: path 1-2, F = {1}, M_v = {2}, F_s = {}.",
+                "Proposition II.4 (i), eq. attack_model",
+                {"missing": missing, "required": r.witness.get("required", [])},
+            )
+        )
+    return out

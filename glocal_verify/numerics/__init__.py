@@ -1,0 +1,15 @@
+"""Numerics: certified decisions on matrices, exact arithmetic and pencils, knowing no system.
+
+- :mod:`.tolerance` -- the three-valued zero test (:class:`Tolerance`, :class:`Decision`), ranks
+  with their evidence, eigenvalue grouping;
+- :mod:`.subspace` -- :class:`Subspace` (a computed subspace with both readings of its
+  undecided decisions) and :func:`decide_with_error`;
+- :mod:`.spectrum` -- :class:`Spectrum`, the eigendecomposition of one symmetric matrix with
+  its a-posteriori error bounds;
+- :mod:`.staircase` -- the generic orthogonal staircase for any (A, C);
+- :mod:`.pencil`, :mod:`.pencil_exact` -- the Rosenbrock system pencil, numeric and exact;
+- :mod:`.exact`, :mod:`.exact_subspace` -- python-flint helpers over Q.
+
+Layer: imports only :mod:`glocal_verify.errors` (and :mod:`glocal_verify.results` for the
+status enum); everything here takes matrices, never a ``System``.
+"""

@@ -1,0 +1,8 @@
+"""Observers: design of the centralised Luenberger observer and of the local unknown-input observers.
+
+- :mod:`.central` -- eq. ``obs_cent``: a gain H stabilising A_1 - H C on the observable part;
+- :mod:`.uio_existence` -- existence of the UIO (Chen, Patton & Zhang) and its certificates;
+- :mod:`.uio` -- the verified UIO design of eqs. ``uio_conds_1``-``uio_conds_3``.
+
+Layer: imports :mod:`glocal_verify.analysis` and below.
+"""

@@ -1,0 +1,529 @@
+"""Existence of an unknown-input observer for a cluster and the certificates it rests on.
+
+The observer of Chen, Patton & Zhang (1996) exists iff ``rank(C E) = rank(E)`` and
+``(C, (I - h C) A)`` is detectable with ``h = E (C E)^+``. Here: the observable split of a
+pair, default poles and the pole ladder, Hurwitz certificates (numeric with an error bound,
+exact by Routh-Hurwitz) and :func:`uio_existence` / :func:`uio_existence_exact`.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Sequence
+
+import numpy as np
+import scipy.signal
+
+from glocal_verify.errors import NotApplicableError
+from glocal_verify.numerics import exact as ex
+from glocal_verify.numerics.tolerance import (
+    DEFAULT_TOLERANCE,
+    Decision,
+    Tolerance,
+    numeric_rank,
+)
+from glocal_verify.results import Status
+
+__all__ = [
+    "ObservableSplit",
+    "UIOExistence",
+    "observable_split",
+    "default_poles",
+    "hurwitz_certificate",
+    "uio_existence",
+    "uio_existence_exact",
+    "cluster_detectability",
+    "SLOW_LADDER",
+    "is_hurwitz_exact",
+]
+
+# --------------------------------------------------------------------------------------------
+# observable / unobservable split
+
+
+@dataclass(frozen=True, slots=True)
+class ObservableSplit:
+    """Orthonormal bases of the observable and unobservable subspaces of (A, C).
+
+    Attributes
+    ----------
+    Qo : ndarray
+        Columns span the observable subspace Im [C; C A; ...]^T.
+    Qu : ndarray
+        Columns span its orthogonal complement, the unobservable subspace (A-invariant).
+    decided : bool
+        False when some rank step had a singular value in the undecided band.
+    """
+
+    Qo: np.ndarray
+    Qu: np.ndarray
+    decided: bool
+
+
+def observable_split(A: np.ndarray, C: np.ndarray, tol: Tolerance = DEFAULT_TOLERANCE) -> ObservableSplit:
+    """Observable subspace of (A, C) by an orthogonal Krylov iteration on (A^T, C^T).
+
+    Starting from an orthonormal basis V of Im C^T, the new directions (I - V V^T) A^T V are
+    added while they have singular values above ``rtol * band * max(||A||_2, ||C||_2)``;
+    singular values between ``rtol`` and ``rtol * band`` times that scale make the split
+    undecided. The observability matrix is never formed.
+    """
+    n = A.shape[0]
+    scale = max(float(np.linalg.norm(A, 2)) if n else 0.0, float(np.linalg.norm(C, 2)) if C.size else 0.0, 1e-300)
+    decided = True
+    if C.size == 0:
+        return ObservableSplit(np.zeros((n, 0)), np.eye(n), True)
+    U, s, _ = np.linalg.svd(C.T, full_matrices=False)
+    keep = s > tol.upper * scale
+    if np.any((s > tol.rtol * scale) & ~keep):
+        decided = False
+    # the basis grows in place: every new block is orthonormal (left singular vectors) and
+    # orthogonal to the current basis (two Gram-Schmidt passes), so no re-factorisation of the
+    # whole basis is needed (that made the iteration O(n^4))
+    Vbuf = np.zeros((n, n))
+    k = int(np.sum(keep))
+    Vbuf[:, :k] = U[:, keep]
+    new = Vbuf[:, :k]
+    while k < n and new.shape[1] > 0:
+        V = Vbuf[:, :k]
+        W = A.T @ new
+        W = W - V @ (V.T @ W)
+        W = W - V @ (V.T @ W)  # re-orthogonalise
+        U, s, _ = np.linalg.svd(W, full_matrices=False)
+        keep = s > tol.upper * scale
+        if np.any((s > tol.rtol * scale) & ~keep):
+            decided = False
+        b = min(int(np.sum(keep)), n - k)
+        Vbuf[:, k : k + b] = U[:, keep][:, :b]
+        new = Vbuf[:, k : k + b]
+        k += b
+    V = Vbuf[:, :k].copy()
+    if k >= n:
+        return ObservableSplit(V, np.zeros((n, 0)), decided)
+    Qfull = np.linalg.qr(V, mode="complete")[0]
+    Qu = np.ascontiguousarray(Qfull[:, k:])
+    return ObservableSplit(V, Qu, decided)
+
+
+def _keep_threshold(gamma: float) -> float:
+    return 0.9 * float(gamma) / 2.0
+
+
+def default_poles(eigenvalues: np.ndarray, gamma: float = 1.0) -> np.ndarray:
+    """Default observer poles from the observable eigenvalues mu of A_1.
+
+    With sigma = gamma / 2 (the decay rate of the agents' underdamped modes, Re of the roots of
+    lam^2 + gamma lam + alpha mu_L = 0), an eigenvalue with Re mu <= -0.9 sigma is kept where
+    it is (no gain is spent on it); any other becomes -|Re mu| - sigma + i Im mu, so every pole
+    has Re <= -0.9 sigma and conjugate pairs stay pairs. Moving only the slow modes keeps K_1
+    small: placing all poles of a large cluster far from the open-loop spectrum makes the gain
+    (and the eigenvalue sensitivity of F) grow like a power of the distance. Repeated moved
+    values are spread by multiples of -0.01 sigma so no pole is requested more often than
+    place_poles allows; the two members of a conjugate pair get the same shift.
+
+    Parameters
+    ----------
+    eigenvalues : ndarray
+        Eigenvalues of A_1 on its observable part.
+    gamma : float
+        Velocity damping of the agents.
+    """
+    sigma = float(gamma) / 2.0
+    keep = _keep_threshold(gamma)
+    mu = np.asarray(eigenvalues, dtype=complex)
+    out = mu.copy()
+    seen: dict[tuple[float, float, int], int] = {}
+    for k, m in enumerate(mu):
+        if m.real <= -keep:
+            continue
+        p = complex(-abs(m.real) - sigma, m.imag)
+        # the sign of Im is part of the key: the two members of a conjugate pair are counted
+        # separately and get the same shift (rounding Im alone merged x + 1e-10 i with its
+        # conjugate, shifted only one of them and broke the pair)
+        key = (round(p.real, 8), round(abs(p.imag), 8), int(np.sign(p.imag)))
+        c = seen.get(key, 0)
+        seen[key] = c + 1
+        out[k] = p - 0.01 * sigma * c
+    if np.all(np.abs(out.imag) == 0.0):
+        return out.real
+    return out
+
+
+def _schur_eigvals(T: np.ndarray) -> np.ndarray:
+    """Eigenvalues of a real quasi-triangular Schur factor, read off its 1x1 and 2x2 blocks."""
+    n = T.shape[0]
+    out: list[complex] = []
+    k = 0
+    while k < n:
+        if k + 1 < n and T[k + 1, k] != 0.0:
+            a, b, c, d = T[k, k], T[k, k + 1], T[k + 1, k], T[k + 1, k + 1]
+            tr, det = (a + d) / 2.0, a * d - b * c
+            r = np.sqrt(complex(tr * tr - det))
+            out += [complex(tr + r), complex(tr - r)]
+            k += 2
+        else:
+            out.append(complex(T[k, k]))
+            k += 1
+    return np.asarray(out)
+
+
+#: fallback ladder of the default design: the modes with Re > -theta * sigma are moved, for
+#: theta in this order, until F is certified Hurwitz (0.9 is :func:`default_poles`' rule)
+SLOW_LADDER = (0.9, 0.3, 0.1, 0.02)
+#: the ladder is climbed only while ||K1||_2 > _LADDER_GAIN * max(||A1||_2, 1)
+_LADDER_GAIN = 10.0
+
+
+def _slow_schur(Aoo: np.ndarray, gamma: float) -> tuple[np.ndarray, np.ndarray, int]:
+    """Real Schur form of Aoo^T ordered with the eigenvalues Re <= -0.9 sigma first."""
+    import scipy.linalg
+
+    keep = _keep_threshold(gamma)
+    T, Q, k = scipy.linalg.schur(Aoo.T, output="real", sort=lambda x, y: x <= -keep)
+    return T, Q, int(k)
+
+
+def _place_slow(
+    Aoo: np.ndarray, Co: np.ndarray, gamma: float, tol: Tolerance, theta: float = 0.9, schur: tuple[np.ndarray, np.ndarray, int] | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Gain Lo moving only the slow modes of Aoo (partial placement through an ordered Schur form).
+
+    The real Schur form of Aoo^T is ordered with the kept eigenvalues first:
+    Q^T Aoo^T Q = [[T11, T12], [0, T22]]. With Lo = Q2 G^T, Q^T (Aoo - Lo Co)^T Q =
+    [[T11, T12 - Y1 G], [0, T22 - Y2 G]] (Y = Q^T Co^T), so the kept eigenvalues stay and
+    eig(T22 - Y2 G) are placed at the default poles of the slow ones. With ``theta`` < 0.9 the
+    small block T22 is reordered once more (its eigenvalues with Re <= -theta sigma join the
+    kept ones), so fewer, only the slowest, modes are moved.
+
+    Returns (Lo, requested poles, eigenvalues of Aoo - Lo Co), the last two read off the
+    (block) triangular form instead of a new eigen-decomposition.
+    """
+    import scipy.linalg
+
+    no = Aoo.shape[0]
+    T, Q, k = schur if schur is not None else _slow_schur(Aoo, gamma)
+    kept = _schur_eigvals(T[:k, :k])
+    T22, Q2 = T[k:, k:], Q[:, k:]
+    if theta < 0.9 and k < no:
+        S, Z, j = scipy.linalg.schur(T22, output="real", sort=lambda x, y: x <= -theta * float(gamma) / 2.0)
+        j = int(j)
+        kept = np.concatenate([kept, _schur_eigvals(S[:j, :j])])
+        T22, Q2 = S[j:, j:], (Q2 @ Z)[:, j:]
+    if T22.shape[0] == 0:
+        return np.zeros((no, Co.shape[0])), default_poles(kept, gamma), kept
+    Y2 = Q2.T @ Co.T
+    want = default_poles(_schur_eigvals(T22), gamma)
+    G = _place_dual(T22, Y2, want, tol)
+    placed = np.concatenate([kept, np.linalg.eigvals(T22 - Y2 @ G)])
+    return np.asarray(Q2 @ G.T), np.concatenate([kept, np.asarray(want, dtype=complex)]), placed
+
+
+def _place_dual(X: np.ndarray, Y: np.ndarray, poles: np.ndarray, tol: Tolerance) -> np.ndarray:
+    """G with eig(X - Y G) = poles (Y compressed to full column rank first)."""
+    U, s, Vh = np.linalg.svd(Y, full_matrices=False)
+    r = int(np.sum(s > tol.upper * max(float(s[0]) if len(s) else 0.0, 1e-300)))
+    Bp = U[:, :r] * s[:r]
+    p = np.asarray(poles, dtype=complex)
+    if np.all(p.imag == 0):
+        p = p.real
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # YT convergence is about robustness, not accuracy
+            res = scipy.signal.place_poles(X, Bp, p, method="YT", maxiter=10)
+    except ValueError as exc:
+        raise NotApplicableError(f"pole placement failed: {exc}") from None
+    return np.asarray(Vh[:r].T @ res.gain_matrix)
+
+
+def hurwitz_certificate(F: np.ndarray, tol: Tolerance = DEFAULT_TOLERANCE) -> tuple[Status, float]:
+    """Decide whether F is Hurwitz, allowing for eigenvalue sensitivity.
+
+    With backward error delta = rtol * ||F||_2 and kappa_i = 1 / |y_i^H x_i| the condition
+    number of eigenvalue lambda_i (unit left and right eigenvectors), lambda_i is known to within
+    rho_i = kappa_i * delta. F is certified Hurwitz when Re lambda_i < -band * rho_i for every i,
+    certainly not Hurwitz when some Re lambda_i > band * rho_i, undecided otherwise.
+
+    Parameters
+    ----------
+    F : ndarray
+    tol : Tolerance
+
+    Returns
+    -------
+    (Status, float)
+        The verdict and the worst ratio -Re lambda_i / rho_i (the margin in units of uncertainty).
+    """
+    st, worst, _ = _hurwitz(F, tol)
+    return st, worst
+
+
+def _hurwitz(F: np.ndarray, tol: Tolerance) -> tuple[Status, float, np.ndarray]:
+    """:func:`hurwitz_certificate` and the eigenvalues of F (one eigen-decomposition)."""
+    import scipy.linalg
+
+    if F.size == 0:
+        return Status.HOLDS, float("inf"), np.zeros(0, dtype=complex)
+    w, vl, vr = scipy.linalg.eig(F, left=True, right=True)
+    vl = vl / np.linalg.norm(vl, axis=0)
+    vr = vr / np.linalg.norm(vr, axis=0)
+    kappa = 1.0 / np.maximum(np.abs(np.sum(vl.conj() * vr, axis=0)), 1e-300)
+    rho = kappa * tol.rtol * max(_norm2(F), 1e-300)
+    ratio = -w.real / rho
+    worst = float(np.min(ratio))
+    if np.all(ratio > tol.band):
+        return Status.HOLDS, worst, w
+    if np.any(ratio < -tol.band):
+        return Status.FAILS, worst, w
+    return Status.UNDECIDED, worst, w
+
+
+def _norm2(M: np.ndarray) -> float:
+    """||M||_2 (an SVD; the norm enters the uncertainty rho, so it is never underestimated)."""
+    return float(np.linalg.norm(M, 2)) if M.size else 0.0
+
+
+# --------------------------------------------------------------------------------------------
+# existence
+
+
+@dataclass(frozen=True, slots=True)
+class UIOExistence:
+    """Whether a UIO exists for (A, E, C), with the evidence.
+
+    Attributes
+    ----------
+    status : Status
+        HOLDS when rank(C E) = rank(E) and (C, A_1) is detectable.
+    rank_condition : Status
+        Verdict of rank(C E) = rank(E).
+    detectable : Status
+        Verdict of the detectability of (C, A_1) (FAILS also when the rank condition fails).
+    h, T, A1 : ndarray or None
+        The decoupling matrices (None when the rank condition fails).
+    split : ObservableSplit or None
+        Observable/unobservable split of (A_1, C).
+    unobservable_eigenvalues : ndarray
+        Eigenvalues of A_1 on the unobservable subspace (fixed eigenvalues of F).
+    unstable_mode : tuple (eigenvalue, vector) or None
+        An unobservable eigenvalue with Re >= 0 and its eigenvector (state coordinates).
+    margin : float
+        -max Re of the unobservable eigenvalues (inf when there are none); negative when
+        detectability fails.
+    """
+
+    status: Status
+    rank_condition: Status
+    detectable: Status
+    h: np.ndarray | None
+    T: np.ndarray | None
+    A1: np.ndarray | None
+    split: ObservableSplit | None
+    unobservable_eigenvalues: np.ndarray
+    unstable_mode: tuple[complex, np.ndarray] | None
+    margin: float
+
+
+def _decoupling(E: np.ndarray, C: np.ndarray, tol: Tolerance) -> tuple[Status, np.ndarray | None]:
+    rE = numeric_rank(E, tol)
+    rCE = numeric_rank(C @ E, tol, scale=max(rE.scale, 1e-300))
+    if not (rE.decided and rCE.decided):
+        return Status.UNDECIDED, None
+    if rCE.rank < rE.rank:
+        return Status.FAILS, None
+    h = E @ np.linalg.pinv(C @ E, rcond=tol.upper)
+    return Status.HOLDS, h
+
+
+def uio_existence(A: np.ndarray, E: np.ndarray, C: np.ndarray, tol: Tolerance = DEFAULT_TOLERANCE) -> UIOExistence:
+    """Decide UIO existence numerically (Chen, Patton & Zhang 1996, Theorem 1).
+
+    Rank condition decided by :func:`~glocal_verify.numerics.tolerance.numeric_rank` (singular values of
+    C E relative to ||E||_2). Detectability: eigenvalues of A_1 on the unobservable subspace of
+    (A_1, C) (:func:`observable_split`); Re(mu) <= -rtol * band * ||A_1|| is stable,
+    Re(mu) > -rtol * ||A_1|| unstable, in between undecided.
+    """
+    n = A.shape[0]
+    rank_st, h = _decoupling(E, C, tol)
+    empty = np.zeros(0, dtype=complex)
+    if h is None:
+        return UIOExistence(rank_st if rank_st is Status.UNDECIDED else Status.FAILS, rank_st, Status.FAILS if rank_st is Status.FAILS else Status.UNDECIDED, None, None, None, None, empty, None, -np.inf)
+    T = np.eye(n) - h @ C
+    A1 = T @ A
+    split = observable_split(A1, C, tol)
+    Qu = split.Qu
+    scale = max(float(np.linalg.norm(A1, 2)), 1e-300)
+    if Qu.shape[1] == 0:
+        det = Status.HOLDS if split.decided else Status.UNDECIDED
+        return UIOExistence(det, rank_st, det, h, T, A1, split, empty, None, np.inf)
+    Auu = Qu.T @ A1 @ Qu
+    mu, W = np.linalg.eig(Auu)
+    worst = int(np.argmax(mu.real))
+    dec = [tol.decide(min(m.real, 0.0), scale) for m in mu]
+    unstable = [k for k, m in enumerate(mu) if m.real >= 0 or dec[k] is Decision.ZERO]
+    undecided = [k for k, d in enumerate(dec) if d is Decision.UNDECIDED and k not in unstable]
+    mode = None
+    if unstable:
+        k = max(unstable, key=lambda j: mu[j].real)
+        det = Status.FAILS
+        mode = (complex(mu[k]), Qu @ W[:, k])
+    elif undecided or not split.decided:
+        det = Status.UNDECIDED
+    else:
+        det = Status.HOLDS
+    return UIOExistence(det, rank_st, det, h, T, A1, split, mu, mode, float(-mu[worst].real))
+
+
+def cluster_detectability(
+    L: np.ndarray, boundary: Sequence[int], positions: Sequence[int], tol: Tolerance = DEFAULT_TOLERANCE
+) -> tuple[Status, np.ndarray | None, str]:
+    """Detectability of (C_loc, A_1) for the cluster model of eq. ``cluster_dyn2``, structurally.
+
+    Assumes A = [[0, I], [-alpha L, -gamma I]] with alpha, gamma > 0 and L = L[P_i, P_i]
+    symmetric positive semidefinite (positive weights), E^i the boundary velocity columns and
+    C_loc = blkdiag(S_{M_x}, S_{M_v}) with Proposition III.2 (ii) holding (every boundary
+    velocity measured). Then h C_loc is the projector onto the boundary velocities, so
+    A_1 = (I - h C_loc) A is A with the velocity rows of the boundary agents set to zero, and
+    a PBH vector x = [p; v] of (C_loc, A_1) at lam satisfies v = lam p and
+
+    * lam != 0: p vanishes on M ∪ dP_i (boundary rows give lam v_b = 0) and, on the remaining
+      agents U', (s I + alpha L[U', U']) p_{U'} = 0 with s = lam^2 + gamma lam; so s =
+      -alpha mu with mu >= 0 an eigenvalue of the PSD matrix L[U', U'], and the roots of
+      lam^2 + gamma lam + alpha mu have Re lam < 0 unless mu = 0, where lam in {0, -gamma};
+      every unobservable mode with lam != 0 is stable;
+    * lam = 0: v = 0, p_{M_x} = 0 and (L p)_{P_i \\ dP_i} = 0.
+
+    Hence (C_loc, A_1) is detectable iff L[P_i \\ dP_i, P_i \\ M_x] has full column rank. Zero
+    forcing from M_x with the boundary rows as inputs proves it combinatorially
+    (:func:`glocal_verify.analysis.cluster_pencil.zero_forcing_closure`); otherwise the smallest singular
+    value relative to the largest is decided at ``tol``.
+
+    Parameters
+    ----------
+    L : ndarray
+        Laplacian block L[P_i, P_i].
+    boundary : sequence of int
+        Cluster indices of dP_i.
+    positions : sequence of int
+        Cluster indices of M_x (measured positions).
+    tol : Tolerance
+
+    Returns
+    -------
+    (Status, ndarray or None, str)
+        The verdict, on failure the positions p of an unobservable mode at lam = 0 (the mode
+        is [p; 0]), and how it was decided (``"zero forcing"`` or ``"rank"``).
+    """
+    from glocal_verify.analysis.cluster_pencil import (
+        intra_neighbours,
+        zero_forcing_closure,
+    )
+
+    n = L.shape[0]
+    inp = set(boundary)
+    known = set(positions)
+    if len(zero_forcing_closure(intra_neighbours(L), known, inp)) == n:
+        return Status.HOLDS, None, "zero forcing"
+    rows = [k for k in range(n) if k not in inp]
+    cols = [k for k in range(n) if k not in known]
+    p = np.zeros(n)
+    if not rows:  # every agent on the boundary: nothing constrains the unmeasured positions
+        p[cols[0]] = 1.0
+        return Status.FAILS, p, "rank"
+    M0 = np.asarray(L, dtype=float)[np.ix_(rows, cols)]
+    _, sv, Vh = np.linalg.svd(M0, full_matrices=True)
+    d = tol.decide(sv[-1], sv[0]) if sv[0] > 0 else Decision.ZERO
+    if len(rows) < len(cols) or d is Decision.ZERO:
+        p[cols] = Vh[-1]
+        return Status.FAILS, p, "rank"
+    return (Status.HOLDS if d is Decision.NONZERO else Status.UNDECIDED), None, "rank"
+
+
+# --------------------------------------------------------------------------------------------
+# exact existence
+
+
+def is_hurwitz_exact(coeffs: Sequence[Fraction]) -> bool:
+    """Routh-Hurwitz test over Q: all roots of sum c_k s^k (``coeffs`` lowest degree first)
+    have negative real part. A zero in the first column means a root with Re >= 0."""
+    c = [Fraction(x) for x in coeffs]
+    while c and c[-1] == 0:
+        c.pop()
+    if not c:
+        return False
+    deg = len(c) - 1
+    if deg == 0:
+        return True
+    hi = list(reversed(c))  # a_n, a_{n-1}, ..., a_0
+    r0 = hi[0::2]
+    r1 = hi[1::2]
+    rows = [r0, r1 + [Fraction(0)] * (len(r0) - len(r1))]
+    for _ in range(deg - 1):
+        a, b = rows[-2], rows[-1]
+        if b[0] == 0:
+            return False
+        new = [(b[0] * a[k + 1] - a[0] * b[k + 1]) / b[0] for k in range(len(a) - 1)] + [Fraction(0)]
+        rows.append(new)
+    first = [r[0] for r in rows[: deg + 1]]
+    if any(x == 0 for x in first):
+        return False
+    return all(x > 0 for x in first) or all(x < 0 for x in first)
+
+
+@dataclass(frozen=True, slots=True)
+class _ExactExistence:
+    status: Status
+    rank_condition: Status
+    rank_E: int
+    rank_CE: int
+    unobservable_dim: int
+    unobservable_charpoly: list[Fraction]
+    h: list[list[Fraction]] | None
+
+
+def uio_existence_exact(A: ex.Rows, E: ex.Rows, C: ex.Rows) -> _ExactExistence:
+    """UIO existence over Q: rank(C E) = rank(E) and the characteristic polynomial of A_1
+    restricted to the unobservable subspace of (A_1, C) is Hurwitz (Routh test)."""
+    import flint
+
+    n = len(A)
+    m = len(E[0]) if E else 0
+    Em = ex.to_fmpq_mat(E, m)
+    Cm = ex.to_fmpq_mat(C, n)
+    CE = Cm * Em
+    rE, rCE = int(Em.rank()), int(CE.rank()) if CE.nrows() else 0
+    if rCE < rE:
+        return _ExactExistence(Status.FAILS, Status.FAILS, rE, rCE, -1, [], None)
+    if m == 0 or rE == 0:
+        h = flint.fmpq_mat(n, Cm.nrows())
+    else:
+        # E full column rank (as built by the model); C E then has full column rank too
+        CEt = CE.transpose()
+        h = Em * ((CEt * CE).inv() * CEt)
+    T = flint.fmpq_mat(n, n, [int(i == j) for i in range(n) for j in range(n)]) - h * Cm
+    A1 = T * ex.to_fmpq_mat(A, n)
+    # observable row space: the smallest space of row vectors containing the rows of C and
+    # closed under right multiplication by A1; R := rref([R; R A1]) until the rank is stable
+    R, rk = Cm.rref()
+    r = int(rk)
+    while 0 < r < n:
+        Rb = ex.to_fmpq_mat([[ex.to_fraction(R[i, j]) for j in range(n)] for i in range(r)], n)
+        stacked = ex.to_fmpq_mat(
+            [[ex.to_fraction(M[i, j]) for j in range(n)] for M in (Rb, Rb * A1) for i in range(r)], n
+        )
+        R2, rk2 = stacked.rref()
+        if int(rk2) == r:
+            break
+        R, r = R2, int(rk2)
+    rows = [[ex.to_fraction(R[i, j]) for j in range(n)] for i in range(r)]
+    N = ex.nullspace(rows, n) if rows else [[Fraction(int(i == j)) for i in range(n)] for j in range(n)]
+    hq = [[ex.to_fraction(h[i, j]) for j in range(h.ncols())] for i in range(h.nrows())]
+    if not N:
+        return _ExactExistence(Status.HOLDS, Status.HOLDS, rE, rCE, 0, [Fraction(1)], hq)
+    Nb = ex.to_fmpq_mat([list(col) for col in zip(*N)], len(N))  # n x k
+    X = (Nb.transpose() * Nb).inv() * (Nb.transpose() * (A1 * Nb))
+    p = X.charpoly()
+    coeffs = [ex.to_fraction(p[k]) for k in range(p.degree() + 1)]
+    st = Status.HOLDS if is_hurwitz_exact(coeffs) else Status.FAILS
+    return _ExactExistence(st, Status.HOLDS, rE, rCE, len(N), coeffs, hq)

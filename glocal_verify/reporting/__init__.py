@@ -1,0 +1,10 @@
+"""Reporting: renderers, figures, the Section IV case study and the findings report.
+
+- :mod:`.render` -- Markdown and JSON reports and the report schema (``schemas/``);
+- :mod:`.figures` -- figures drawn from given results (no simulation inside);
+- :mod:`.case_study` -- the three cases of Section IV, simulated and checked;
+- :mod:`.simulation_report` -- writes simulation and case-study reports to a folder;
+- :mod:`.findings` -- re-verifies every finding spec and writes ``findings.md``.
+
+Layer: the top of the library; imports anything below, nothing imports it but the CLI.
+"""
