@@ -30,6 +30,9 @@ __all__ = [
 
 REPORT_SCHEMA_ID = "glocal-verify/report@1"
 
+#: condition ids renamed, still accepted for one release: old id -> current id
+ALIASES: dict[str, str] = {"switching.safe": "switching.avoids-attack"}
+
 
 class Status(str, Enum):
     """Three-valued verdict."""
@@ -47,6 +50,8 @@ class Method(str, Enum):
 
     NUMERIC = "numeric"
     EXACT = "exact"
+    #: the numeric run was undecided and exact arithmetic decided it
+    ESCALATED = "exact (escalated)"
 
     def __str__(self) -> str:
         return self.value
@@ -76,6 +81,18 @@ class ConditionResult:
         Place in the paper, e.g. ``"Theorem III.3 (i)"``.
     statement : str
         One line stating the condition.
+    favourable : bool or None
+        Is this status good for the defender (polarity of the catalogue)? None when undecided.
+    fragile : bool
+        The margin is below the robustness tolerance (``--fragile-below``): the verdict is
+        certain but the exact system is close to the boundary (detection or privacy would be
+        weak). Never changes the status.
+    error_bound : float or None
+        The certified bound on the floating-point error of the quantity decided (numeric
+        results whose checker records it).
+    note : str
+        Why a result is undecided (which bound failed, what would decide it), or what
+        escalation did.
     """
 
     id: str
@@ -87,6 +104,10 @@ class ConditionResult:
     witness: Mapping[str, Any]
     reference: str
     statement: str
+    favourable: bool | None = None
+    fragile: bool = False
+    error_bound: float | None = None
+    note: str = ""
 
     @property
     def holds(self) -> bool:
@@ -107,6 +128,10 @@ class ConditionResult:
             "witness": jsonable(dict(self.witness)),
             "reference": self.reference,
             "statement": self.statement,
+            "favourable": self.favourable,
+            "fragile": self.fragile,
+            "error_bound": jsonable(self.error_bound),
+            "note": self.note,
         }
 
 
@@ -142,7 +167,8 @@ class Report:
     options: Mapping[str, Any] = field(default_factory=dict)
 
     def results(self, cid: str) -> list[ConditionResult]:
-        """All results with condition id ``cid``."""
+        """All results with condition id ``cid`` (an old id of :data:`ALIASES` names its new one)."""
+        cid = ALIASES.get(cid, cid)
         return [r for r in self.conditions if r.id == cid]
 
     def to_json(self) -> dict[str, Any]:

@@ -8,8 +8,13 @@ collects a :class:`~glocal_verify.results.Report`.
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import importlib
+import math
+import signal
+import threading
+import time
 from dataclasses import dataclass, field
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
@@ -17,6 +22,7 @@ from glocal_verify.errors import UnknownConditionError
 from glocal_verify.model import System
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
 from glocal_verify.results import (
+    ALIASES,
     ConditionResult,
     Finding,
     Method,
@@ -39,36 +45,64 @@ __all__ = [
 
 @dataclass(frozen=True, slots=True)
 class ConditionInfo:
-    """Catalogue entry of a condition."""
+    """Catalogue entry of a condition.
+
+    Attributes
+    ----------
+    id : str
+        Public id (report key, CLI filter).
+    reference : str
+        Place in the paper.
+    statement : str
+        What ``holds`` means, in one line.
+    favourable : Status
+        The status that is good for the defender (``FAILS`` for ``stealthy.*`` and
+        ``switching.avoids-attack``, ``HOLDS`` otherwise).
+    margin_is_distance : bool
+        The margin measures how far the exact system is from the condition's boundary on a
+        relative scale (so a small one makes the result fragile); False for counts, growth
+        rates and combinatorial facts.
+    """
 
     id: str
     reference: str
     statement: str
+    favourable: Status = Status.HOLDS
+    margin_is_distance: bool = True
 
+
+_H, _F = Status.HOLDS, Status.FAILS
 
 _ENTRIES = [
-    ("switched-observability", "Lemma II.3", "The switched pair (A_sigma, C) over the mode sequence is observable: N_1^m = {0}."),
-    ("stealthy.zda", "Proposition II.4 (ii), Definition II.2", "A stealthy zero-dynamics attack exists for (A_1, B, C, 0)."),
-    ("stealthy.covert", "Proposition II.4 (i)", "A covert attack is feasible: every monitored channel reached by u_a is compromised."),
-    ("privacy.connected", "Lemma III.1", "The communication graph G_q is connected."),
-    ("privacy.kernel", "Lemma III.1", "[1; 0] lies in ker C (no position of any agent is monitored globally)."),
-    ("privacy.unobservable", "Lemma III.1", "span{[1; 0]} is A_q-invariant and unobservable in every mode and for the switched system."),
-    ("privacy.initial-state", "Problem 1 (i)", "The initial state x(t0) cannot be reconstructed from the global measurements."),
-    ("privacy.consensus-value", "Problem 1 (i)", "The consensus value x* = (1/N) 1^T x(t0) cannot be reconstructed."),
-    ("local.k-connected", "Proposition III.2 (i)", "The observer centre has degree >= inter-cluster edges + suspected agents of the cluster."),
-    ("local.rank", "Proposition III.2 (ii)", "rank(C_loc E^i) = rank(E^i)."),
-    ("local.pencil", "Proposition III.2 (iii)", "[[lam I - A^i, -B^i, E^i], [C_loc, 0, 0]] has full column rank for every complex lam."),
-    ("local.uio", "Proposition III.2, eqs. uio_conds_1-uio_conds_3", "An unknown-input observer for the cluster exists and is verified."),
-    ("central.observer", "eq. obs_cent", "A_1 - H C is stable on the observable part; fixed unobservable eigenvalues reported."),
-    ("switching.image-kernel", "Theorem III.3 (i)", "Im(dL_q) ∩ ker([S_Mx; S_Mv]) = {0}, i.e. rank(S_M dL_q) = rank(dL_q)."),
-    ("switching.distinct-eigenvalues", "Theorem III.3 (ii)", "L_q has N distinct eigenvalues."),
-    ("switching.eigenvector-differences", "Theorem III.3 (iii)", "[U_q]_{i,l} != [U_q]_{j,l} for every l != 1 and every pair i != j in one component D_c."),
-    ("switching.coverage", "Lemma A.2", "Every component D_c of the switching links contains a globally monitored agent."),
-    ("switching.safe", "Remark III.3.1, eq. unsafe_set", "The switch does not touch the attack: some stealthy direction at lambda0 has dL_q xi = 0 (remark's reading; both readings reported)."),
-    ("switching.detects", "Theorem III.3 (conclusion)", "After the switch the global residual leaves its attack-free band (simulation)."),
+    ("switched-observability", "Lemma II.3", "The switched pair (A_sigma, C) over the mode sequence is observable: N_1^m = {0}.", _H, True),
+    ("stealthy.zda", "Proposition II.4 (ii), Definition II.2", "A stealthy zero-dynamics attack exists for (A_1, B, C, 0).", _F, False),
+    ("stealthy.covert", "Proposition II.4 (i)", "A covert attack is feasible: every monitored channel reached by u_a is compromised.", _F, False),
+    ("privacy.connected", "Lemma III.1", "The communication graph G_q is connected.", _H, False),
+    ("privacy.kernel", "Lemma III.1", "[1; 0] lies in ker C (no position of any agent is monitored globally).", _H, False),
+    ("privacy.unobservable", "Lemma III.1", "span{[1; 0]} is A_q-invariant and unobservable in every mode and for the switched system.", _H, False),
+    ("privacy.initial-state", "Problem 1 (i)", "The initial state x(t0) cannot be reconstructed from the global measurements.", _H, True),
+    ("privacy.consensus-value", "Problem 1 (i)", "The consensus value x* = (1/N) 1^T x(t0) cannot be reconstructed.", _H, True),
+    ("local.k-connected", "Proposition III.2 (i)", "The observer centre has degree >= inter-cluster edges + suspected agents of the cluster.", _H, False),
+    ("local.rank", "Proposition III.2 (ii)", "rank(C_loc E^i) = rank(E^i).", _H, True),
+    ("local.pencil", "Proposition III.2 (iii)", "[[lam I - A^i, -B^i, E^i], [C_loc, 0, 0]] has full column rank for every complex lam.", _H, True),
+    ("local.uio", "Proposition III.2, eqs. uio_conds_1-uio_conds_3", "An unknown-input observer for the cluster exists and is verified.", _H, True),
+    ("central.observer", "eq. obs_cent", "A_1 - H C is stable on the observable part; fixed unobservable eigenvalues reported.", _H, True),
+    ("switching.image-kernel", "Theorem III.3 (i)", "Im(dL_q) ∩ ker([S_Mx; S_Mv]) = {0}, i.e. rank(S_M dL_q) = rank(dL_q).", _H, True),
+    ("switching.distinct-eigenvalues", "Theorem III.3 (ii)", "L_q has N distinct eigenvalues.", _H, True),
+    ("switching.eigenvector-differences", "Theorem III.3 (iii)", "[U_q]_{i,l} != [U_q]_{j,l} for every l != 1 and every pair i != j in one component D_c.", _H, True),
+    ("switching.coverage", "Lemma A.2", "Every component D_c of the switching links contains a globally monitored agent.", _H, False),
+    (
+        "switching.avoids-attack",
+        "Remark III.3.1, eq. unsafe_set",
+        "The safe mode avoids the attack: some stealthy direction at lambda0 has dL_q xi = 0, so the switch does not expose it (remark's reading; both readings reported).",
+        _F,
+        False,
+    ),
+    ("switching.detects", "Theorem III.3 (conclusion)", "After the switch the global residual leaves its attack-free band (simulation).", _H, False),
 ]
 
-CATALOGUE: dict[str, ConditionInfo] = {cid: ConditionInfo(cid, ref, st) for cid, ref, st in _ENTRIES}
+
+CATALOGUE: dict[str, ConditionInfo] = {e[0]: ConditionInfo(*e) for e in _ENTRIES}
 
 #: modules of this package that register checkers and finding rules (imported on first use)
 CHECKER_MODULES = ("privacy", "switching", "observability", "stealthy", "safe_switch", "central", "local", "detects", "paper_findings")
@@ -86,15 +120,24 @@ class CheckContext:
         Numeric tolerance (recorded in numeric results).
     options : mapping
         Free-form extra options (e.g. ``{"lambda0": 0.5}``).
+    fragile_below : float
+        Robustness tolerance: a result whose margin (on a relative scale) is below it is
+        marked ``fragile`` (default 1e-9).
+    escalated : bool
+        This exact run re-decides a numeric ``undecided`` (results say ``exact (escalated)``).
     """
 
     exact: bool = False
     tol: Tolerance = DEFAULT_TOLERANCE
     options: Mapping[str, Any] = field(default_factory=dict)
+    fragile_below: float = 1e-9
+    escalated: bool = False
 
     @property
     def method(self) -> Method:
-        return Method.EXACT if self.exact else Method.NUMERIC
+        if self.exact:
+            return Method.ESCALATED if self.escalated else Method.EXACT
+        return Method.NUMERIC
 
 
 Checker = Callable[[System, CheckContext], list[ConditionResult]]
@@ -132,15 +175,31 @@ def result(
     margin: float | None = None,
     witness: Mapping[str, Any] | None = None,
     numeric_decision: bool = True,
+    error_bound: float | None = None,
+    note: str = "",
 ) -> ConditionResult:
-    """Build a :class:`ConditionResult` with the catalogue's reference and statement.
+    """Build a :class:`ConditionResult` with the catalogue's reference, statement and polarity.
 
     ``numeric_decision=False`` marks a combinatorial decision (no tolerance involved).
+    ``favourable`` follows the catalogue; ``fragile`` is set when the condition's margin is a
+    relative distance to its boundary and a ``holds`` lies below ``ctx.fragile_below`` (a
+    failure of a rank or gap condition is an exact zero, not a distance; an undecided result
+    has no known margin).
     """
     info = CATALOGUE[cid]
     if ctx.exact and status is Status.UNDECIDED:
         raise AssertionError(f"{cid}: an exact decision cannot be undecided")
     tol = ctx.tol.rtol if (numeric_decision and not ctx.exact) else None
+    favourable = None if status is Status.UNDECIDED else status is info.favourable
+    fragile = (
+        info.margin_is_distance
+        and status is Status.HOLDS
+        and margin is not None
+        and math.isfinite(float(margin))
+        and abs(float(margin)) < ctx.fragile_below
+    )
+    if status is Status.UNDECIDED and not note:
+        note = "the certified error bound does not separate the cases (see the witness)"
     return ConditionResult(
         id=cid,
         scope=dict(scope or {}),
@@ -151,6 +210,10 @@ def result(
         witness=dict(witness or {}),
         reference=info.reference,
         statement=info.statement,
+        favourable=favourable,
+        fragile=bool(fragile),
+        error_bound=None if error_bound is None else float(error_bound),
+        note=note,
     )
 
 
@@ -184,17 +247,83 @@ def resolve_ids(ids: Iterable[str]) -> list[str]:
             continue
         if cid.endswith("*") or cid.endswith("."):
             prefix = cid.rstrip("*")
-            matches = [c for c in CATALOGUE if c.startswith(prefix)]
+            matches = [c for c in CATALOGUE if c.startswith(prefix)] + [ALIASES[a] for a in ALIASES if a.startswith(prefix)]
             if not matches:
                 raise UnknownConditionError(f"no condition id starts with {prefix!r}")
             out.extend(m for m in matches if m not in out)
             continue
+        cid = ALIASES.get(cid, cid)
         if cid not in CATALOGUE:
-            close = difflib.get_close_matches(cid, list(CATALOGUE), n=3, cutoff=0.5)
+            close = difflib.get_close_matches(cid, list(CATALOGUE) + list(ALIASES), n=3, cutoff=0.5)
             hint = f"; did you mean {', '.join(close)}?" if close else f"; known ids: {', '.join(CATALOGUE)}"
             raise UnknownConditionError(f"unknown condition id {cid!r}{hint}")
         if cid not in out:
             out.append(cid)
+    return out
+
+
+class _BudgetExceeded(Exception):
+    """The exact re-decision of an escalated condition ran out of its time budget."""
+
+
+def _with_budget(seconds: float | None, compute: Callable[[], list[ConditionResult]]) -> list[ConditionResult] | None:
+    """``compute()`` within ``seconds`` of wall time, or None when the budget ran out.
+
+    The budget is enforced with a real-time interval timer (``SIGALRM``), available in the
+    main thread on POSIX; elsewhere the computation runs without a budget.
+    """
+    usable = seconds is not None and seconds > 0 and hasattr(signal, "setitimer") and threading.current_thread() is threading.main_thread()
+    if not usable:
+        return compute()
+
+    def alarm(signum: int, frame: Any) -> None:
+        raise _BudgetExceeded
+
+    old = signal.signal(signal.SIGALRM, alarm)
+    signal.setitimer(signal.ITIMER_REAL, float(seconds))  # type: ignore[arg-type]
+    try:
+        return compute()
+    except _BudgetExceeded:
+        return None
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        signal.signal(signal.SIGALRM, old)
+
+
+def _scope_key(r: ConditionResult) -> tuple[tuple[str, str], ...]:
+    return tuple(sorted((str(k), repr(v)) for k, v in r.scope.items()))
+
+
+def _escalate(
+    system: System, cid: str, numeric: list[ConditionResult], ctx: CheckContext, budget: float | None
+) -> list[ConditionResult]:
+    """Re-decide the undecided results of one checker in exact arithmetic (rational weights).
+
+    Decided numeric results are kept (they are certified); each undecided one is replaced by
+    the exact result of the same scope. When the exact run exceeds ``budget`` seconds the
+    undecided results stay, with a note saying so.
+    """
+    if not any(r.status is Status.UNDECIDED for r in numeric):
+        return numeric
+    exact_ctx = CheckContext(exact=True, tol=ctx.tol, options=ctx.options, fragile_below=ctx.fragile_below, escalated=True)
+    t0 = time.perf_counter()
+    exact = _with_budget(budget, lambda: _CHECKERS[cid](system, exact_ctx))
+    if exact is None:
+        note = f"undecided numerically; the exact re-decision exceeded its budget of {budget:g} s (--exact-budget)"
+        return [dataclasses.replace(r, note=f"{r.note}; {note}" if r.note else note) if r.status is Status.UNDECIDED else r for r in numeric]
+    took = time.perf_counter() - t0
+    by_scope = {_scope_key(r): r for r in exact}
+    out = []
+    for r in numeric:
+        if r.status is not Status.UNDECIDED:
+            out.append(r)
+            continue
+        e = by_scope.get(_scope_key(r))
+        if e is None:
+            out.append(dataclasses.replace(r, note=f"{r.note}; the exact run has no result for this scope"))
+        else:
+            why = r.note or "the certified error bound did not separate the cases"
+            out.append(dataclasses.replace(e, note=f"escalated to exact arithmetic ({took:.2g} s): {why}"))
     return out
 
 
@@ -206,6 +335,9 @@ def verify(
     tol: Tolerance = DEFAULT_TOLERANCE,
     options: Mapping[str, Any] | None = None,
     progress: Callable[[str], None] | None = None,
+    escalate: str = "auto",
+    exact_budget: float | None = 30.0,
+    fragile_below: float = 1e-9,
 ) -> Report:
     """Run the registered checkers on ``system``.
 
@@ -214,6 +346,7 @@ def verify(
     system : System
     only : iterable of str, optional
         Condition ids (or prefixes such as ``"switching.*"``) to run; default all implemented.
+        Old ids of :data:`ALIASES` are accepted.
     exact : bool
         Use the exact (rational) path of every checker.
     tol : Tolerance
@@ -222,24 +355,46 @@ def verify(
         Extra options passed to every checker through :class:`CheckContext`.
     progress : callable, optional
         Called with each condition id before it runs.
+    escalate : {"auto", "never"}
+        ``"auto"``: a numeric ``undecided`` is re-decided by the checker's exact path (the
+        spec's weights are rational), within ``exact_budget``; the result then says
+        ``method: exact (escalated)``.
+    exact_budget : float or None
+        Seconds of wall time allowed to each escalated exact run (None: no limit).
+    fragile_below : float
+        Robustness tolerance: a verdict whose relative margin is below it is ``fragile`` (a
+        warning; the status never changes).
 
     Returns
     -------
     Report
     """
+    if escalate not in ("auto", "never"):
+        raise ValueError(f"escalate must be 'auto' or 'never', not {escalate!r}")
     _load()
     ids = resolve_ids(only) if only is not None else implemented_ids()
-    ctx = CheckContext(exact=exact, tol=tol, options=dict(options or {}))
+    ctx = CheckContext(exact=exact, tol=tol, options=dict(options or {}), fragile_below=fragile_below)
     results: list[ConditionResult] = []
     for cid in ids:
         if cid not in _CHECKERS:
             continue
         if progress:
             progress(cid)
-        results.extend(_CHECKERS[cid](system, ctx))
+        rs = _CHECKERS[cid](system, ctx)
+        if not exact and escalate == "auto" and cid != "switching.detects":
+            rs = _escalate(system, cid, rs, ctx, exact_budget)
+        results.extend(rs)
     findings: list[Finding] = []
     for rule in _FINDINGS:
         findings.extend(rule(system, results))
     info = SystemInfo(system.name, system.n, system.modes, tuple(c.name for c in system.clusters))
-    opts = {"exact": exact, "rtol": tol.rtol, "band": tol.band, "only": list(ids)}
+    opts = {
+        "exact": exact,
+        "rtol": tol.rtol,
+        "band": tol.band,
+        "only": list(ids),
+        "escalate": escalate,
+        "exact_budget": exact_budget,
+        "fragile_below": fragile_below,
+    }
     return Report(info, tuple(results), tuple(findings), opts)

@@ -232,7 +232,7 @@ def _avoidance_result(system: System, ctx: CheckContext, F: Sequence[Label], av:
     if av.notes:
         w["notes"] = list(av.notes)
     w.update(extra or {})
-    return result("switching.safe", ctx, av.status, scope={"mode": av.mode}, margin=av.margin, witness=w)
+    return result("switching.avoids-attack", ctx, av.status, scope={"mode": av.mode}, margin=av.margin, witness=w)
 
 
 def _zda_results(system: System, ctx: CheckContext) -> list[ConditionResult]:
@@ -260,7 +260,7 @@ def _zda_results(system: System, ctx: CheckContext) -> list[ConditionResult]:
                 "reading_remark": remark,
                 "reading_section_iv": sec4,
             }
-            out.append(result("switching.safe", ctx, status, scope={"mode": mode}, margin=0.0, witness=base))
+            out.append(result("switching.avoids-attack", ctx, status, scope={"mode": mode}, margin=0.0, witness=base))
         return out
     if ctx.exact:
         d_ex = ea.direction
@@ -309,12 +309,12 @@ def _covert_results(system: System, ctx: CheckContext) -> list[ConditionResult]:
         }
         status = Status.FAILS if touches else Status.HOLDS
         out.append(
-            result("switching.safe", ctx, status, scope={"mode": mode}, margin=float(len(touching)), witness=witness, numeric_decision=False)
+            result("switching.avoids-attack", ctx, status, scope={"mode": mode}, margin=float(len(touching)), witness=witness, numeric_decision=False)
         )
     return out
 
 
-@checker("switching.safe")
+@checker("switching.avoids-attack")
 def check_safe(system: System, ctx: CheckContext) -> list[ConditionResult]:
     """Remark III.3.1, eq. ``unsafe_set``: the safe-mode switch does not touch the attack.
 
@@ -376,7 +376,7 @@ def remark_contradiction(system: System, results: Sequence[ConditionResult]) -> 
         return []
     per_mode: dict[str, Any] = {}
     for r in results:
-        if r.id == "switching.safe":
+        if r.id == "switching.avoids-attack":
             per_mode[str(r.scope.get("mode"))] = {
                 "touches_attack": r.witness.get("touches_attack"),
                 "predicted_residual": r.witness.get("predicted_residual"),

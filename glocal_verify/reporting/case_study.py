@@ -182,7 +182,7 @@ CASE_VERDICT_IDS = (
     "switching.distinct-eigenvalues",
     "switching.eigenvector-differences",
     "switching.coverage",
-    "switching.safe",
+    "switching.avoids-attack",
 )
 
 

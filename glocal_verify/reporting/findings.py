@@ -26,7 +26,7 @@ from typing import Any, Sequence
 from glocal_verify.conditions.registry import implemented_ids, verify
 from glocal_verify.errors import SpecError
 from glocal_verify.model import System
-from glocal_verify.results import ConditionResult, jsonable
+from glocal_verify.results import ALIASES, ConditionResult, jsonable
 from glocal_verify.spec import load_spec
 
 __all__ = [
@@ -85,8 +85,8 @@ def load_cases(directory: str | Path = DEFAULT_DIR) -> list[FindingCase]:
                 str(f["reference"]),
                 str(f.get("paper_says", "")),
                 str(f.get("explanation", "")),
-                tuple(f.get("conditions", [])),
-                tuple(dict(e) for e in f.get("expect", [])),
+                tuple(ALIASES.get(c, c) for c in f.get("conditions", [])),
+                tuple({**dict(e), "id": ALIASES.get(e["id"], e["id"])} for e in f.get("expect", [])),
             )
         )
     return out
