@@ -16,23 +16,57 @@ information python-control's ``zeros()`` (SLICOT AB08ND) throws away, and the re
 module reports the normal rank next to the zeros.
 
 Numeric method (:func:`analyze_pencil`)
-    Orthogonal deflation in the style of Emami-Naeini and Van Dooren (1982): repeatedly
-    compress the rows of D (SVD) and the columns of the remaining output rows (SVD, applied to
-    A as a product of Householder reflectors), deflating the states that the outputs pin
-    down, until D has full row rank; then do the same on the dual system, after which D is
-    square and invertible. The finite zeros are then the eigenvalues of the Schur complement
-    A - B D^{-1} C when cond(D) <= 1e4, else the QZ eigenvalues of the square regular pencil
-    lambda E - M left by compressing [C D] to [0 R]. Every rank decision
-    compares a singular value with ``rtol * ||[A B; C D]||_2`` (:class:`~glocal_verify.numerics.tolerance.Tolerance`);
-    one in the undecided band marks the analysis ``decided = False``. Every zero is then
-    *verified* on the full, unreduced pencil: with r the normal rank, the r-th singular value
-    of P(lambda0) relative to ||P(lambda0)||_2 must be zero at the tolerance, and its
-    direction is taken from the right singular vectors of P(lambda0) whose singular values are
-    not certainly nonzero. The normal rank from the deflation is cross-checked by the rank of
-    P at three fixed pseudo-random complex points (a point certainly above the normal rank, or
-    all three certainly below it, mark the analysis undecided). The points have modulus in [0.5, 1.5] sqrt(max |A_ij|) (far
-    out, pencils of high relative degree look singular; near 0 the zeros of Laplacian
-    dynamics sit). The observability matrix is never formed.
+    1. *Balancing.* States, inputs and outputs are scaled by powers of two,
+       (A, B, C, D) -> (T^-1 A T, T^-1 B Su, Sy C T, Sy D Su), so that the balanced pencil
+       P_b(lambda) = diag(T^-1, Sy) P(lambda) diag(T, Su) has entries of magnitude close to 1:
+       the exponents minimise the sum of squared log2-magnitudes of the nonzero entries (the
+       diagonal of A, which no such scaling changes, left out), a weighted graph-Laplacian
+       least-squares problem (Ward 1981's criterion for ``xGGBAL``, here with one scaling per
+       state for rows and columns so that lambda I stays lambda I; in the spirit of SLICOT
+       TB01ID and MatrixPencils.jl ``lsbalance!``). Multiplying by powers of two is exact in
+       floating point, so P_b has exactly the rank of P at every lambda, the same zeros, and
+       kernels ker P(lambda) = diag(T, Su) ker P_b(lambda). A diagonal state scaling of the
+       data by powers of two only shifts the exponents, so the balanced data, and with it every
+       decision below, is the same for the data and its rescalings.
+    2. *Deflation* in the style of Emami-Naeini and Van Dooren (1982) on the balanced data:
+       repeatedly compress the rows of D (SVD) and the columns of the remaining output rows
+       (SVD, applied to A as a product of Householder reflectors), deflating the states that
+       the outputs pin down, until D has full row rank; then do the same on the dual system,
+       after which D is square and invertible. The finite zeros are then the eigenvalues of
+       the Schur complement A - B D^{-1} C when cond(D) <= 1e4, else the QZ eigenvalues of the
+       square regular pencil lambda E - M left by compressing [C D] to [0 R].
+    3. *Bounds.* With nu = ||[A_b B_b; C_b D_b]||_2 (``scale``), eps the unit roundoff and d
+       the row plus column count of the matrix at hand, each SVD or Householder step is taken
+       to have a normwise backward error of at most ``c d eps nu``, c = 8 (LAPACK Users'
+       Guide, section 4.9, and Higham, *Accuracy and Stability of Numerical Algorithms*, ch.
+       19, with the modest polynomial p(d) taken as c d). Singular values ``<= rtol nu`` are
+       set to zero; their sizes plus the rounding bound of every step performed accumulate
+       into the backward error delta of the deflation: its result (normal rank, number and
+       values of the regular part's eigenvalues) is exact for a system within delta of the
+       balanced data. A kept singular value is *certainly* nonzero only when it exceeds
+       ``rtol * band * nu + delta`` (Weyl: no perturbation of size delta removes it); one in
+       between is undecided and makes the analysis ``decided = False``.
+    4. *Verification* of every eigenvalue z on the full balanced pencil: sigma_r(P_b(z)) with r
+       the normal rank is the distance (in the 2-norm of the data) from the balanced data to a
+       system for which z is a rank drop, since lambda I is exact. z is a zero at the
+       tolerance iff ``sigma_r + c d eps ||P_b(z)|| <= rtol nu`` (the second term bounds the
+       error of that SVD); it is certainly not one when ``sigma_r - c d eps ||P_b(z)|| >
+       rtol band nu``; else undecided. Eigenvalues closer than ``sqrt(rtol band) (1 + max
+       |z_i|)`` form a cluster whose mean is taken as one multiple zero only if it verifies
+       and its residual is no worse than its members' (up to the SVD bound); else each member
+       stands alone.
+    5. *Directions* come from exactly the kernel the verification certified: the right
+       singular vectors of P_b(z) beyond index r - 1 (the kernel dimension the normal rank
+       gives) and any further ones whose singular value is certainly zero; among them the
+       vector with the largest (balanced) input part. Its residual ``||P_b(z) v_b||`` is
+       checked against the same bound (else the zero is undecided), then it is mapped back,
+       v = diag(T, Su) v_b, and normalised in the caller's coordinates.
+    6. *Cross-check of the normal rank* at three fixed pseudo-random complex points of modulus
+       in [0.5, 1.5] sqrt(max(1, max |(A_b)_ij|)) (far out, pencils of high relative degree
+       look singular; near 0 the zeros of Laplacian dynamics sit): a point where sigma_{r+1}
+       of P_b is certainly nonzero (above delta + the SVD bound), or three points where
+       sigma_r is certainly zero, contradict the deflation and mark the analysis undecided.
+    The observability matrix is never formed.
 
 Exact method (:func:`analyze_pencil_exact`, D = 0 only)
     The geometric approach over Q (Trentelman, Stoorvogel & Hautus, ch. 7-8): V* = the largest

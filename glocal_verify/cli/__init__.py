@@ -1,0 +1,53 @@
+"""The ``glocal-verify`` command: a thin layer over the library.
+
+Exit codes: 0 report written; 1 a condition named in ``--require`` fails or is undecided;
+2 bad input or usage (one line on stderr, no traceback).
+
+One module per group of subcommands, each with a ``register(subparsers)`` function, listed in
+:data:`COMMAND_MODULES`; :mod:`.common` holds what they share.
+
+Layer: the top; imports the library, and nothing imports it.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+from typing import Sequence
+
+from glocal_verify.cli.common import PROG, Parser
+from glocal_verify.errors import GlocalVerifyError
+
+__all__ = ["main", "build_parser", "COMMAND_MODULES"]
+
+#: modules of this package that add subcommands, in the order ``--help`` lists them
+COMMAND_MODULES = ("verify", "placement", "simulate")
+
+
+def build_parser() -> Parser:
+    """The argument parser with every subcommand of :data:`COMMAND_MODULES`."""
+    p = Parser(prog=PROG, description="Check the conditions of the glocal attack-detection paper on a concrete network.")
+    sub = p.add_subparsers(dest="command", parser_class=Parser)
+    for name in COMMAND_MODULES:
+        importlib.import_module(f"{__name__}.{name}").register(sub)
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+        if not getattr(args, "func", None):
+            parser.print_help(sys.stderr)
+            return 2
+        return int(args.func(args))
+    except GlocalVerifyError as exc:
+        print(f"{PROG}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

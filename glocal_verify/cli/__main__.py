@@ -1,0 +1,7 @@
+"""``python -m glocal_verify.cli``: the same as the ``glocal-verify`` command."""
+
+import sys
+
+from glocal_verify.cli import main
+
+sys.exit(main())
