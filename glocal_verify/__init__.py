@@ -20,49 +20,133 @@ registry and checkers), ``design`` (placement, generators), ``reporting`` (rende
 figures, case study, findings) and ``cli``.
 """
 
-from glocal_verify.analysis.covert import covert_required_channels
-from glocal_verify.analysis.switched import switched_unobservable_subspace
-from glocal_verify.analysis.unobservable import unobservable_subspace
-from glocal_verify.analysis.zda import ZdaDirection, zda_analysis, zda_direction
-from glocal_verify.conditions.detects import algorithm1
-from glocal_verify.conditions.registry import (
-    CATALOGUE,
-    CheckContext,
-    implemented_ids,
-    verify,
-)
-from glocal_verify.design.generators import random_clustered_spec
-from glocal_verify.design.placement import Placement, place_observers
-from glocal_verify.errors import (
-    GlocalVerifyError,
-    ModelError,
-    NotApplicableError,
-    SpecError,
-    UnknownConditionError,
-)
-from glocal_verify.model import Analysis, ClusterModel, LocalObserver, System
-from glocal_verify.numerics.pencil import PencilAnalysis, analyze_pencil
-from glocal_verify.numerics.pencil_exact import analyze_pencil_exact
-from glocal_verify.numerics.spectrum import Spectrum
-from glocal_verify.numerics.subspace import Subspace
-from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
-from glocal_verify.observers.central import CentralObserver, design_central_observer
-from glocal_verify.observers.uio import UnknownInputObserver, design_uio, local_uio
-from glocal_verify.reporting.render import render, report_schema, validate_report_json
-from glocal_verify.results import ConditionResult, Finding, Method, Report, Status
-from glocal_verify.simulation.attacks import covert_attack, zda_attack
-from glocal_verify.simulation.engine import simulate
-from glocal_verify.simulation.schedule import Schedule, SimulationResult
-from glocal_verify.simulation.thresholds import attack_free_thresholds
-from glocal_verify.spec import (
-    SystemSpec,
-    example_names,
-    load_example,
-    load_spec,
-    loads_spec,
-    spec_from_dict,
-    spec_from_graph,
-)
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # the names below load on first use (PEP 562): `import glocal_verify` stays light
+    from glocal_verify.analysis.covert import covert_required_channels
+    from glocal_verify.analysis.switched import switched_unobservable_subspace
+    from glocal_verify.analysis.unobservable import unobservable_subspace
+    from glocal_verify.analysis.zda import ZdaDirection, zda_analysis, zda_direction
+    from glocal_verify.conditions.detects import algorithm1
+    from glocal_verify.conditions.registry import (
+        CATALOGUE,
+        CheckContext,
+        implemented_ids,
+        verify,
+    )
+    from glocal_verify.design.generators import random_clustered_spec
+    from glocal_verify.design.placement import Placement, place_observers
+    from glocal_verify.errors import (
+        GlocalVerifyError,
+        ModelError,
+        NotApplicableError,
+        SpecError,
+        UnknownConditionError,
+    )
+    from glocal_verify.model import Analysis, ClusterModel, LocalObserver, System
+    from glocal_verify.numerics.pencil import PencilAnalysis, analyze_pencil
+    from glocal_verify.numerics.pencil_exact import analyze_pencil_exact
+    from glocal_verify.numerics.spectrum import Spectrum
+    from glocal_verify.numerics.subspace import Subspace
+    from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
+    from glocal_verify.observers.central import CentralObserver, design_central_observer
+    from glocal_verify.observers.uio import UnknownInputObserver, design_uio, local_uio
+    from glocal_verify.reporting.render import (
+        render,
+        report_schema,
+        validate_report_json,
+    )
+    from glocal_verify.results import ConditionResult, Finding, Method, Report, Status
+    from glocal_verify.simulation.attacks import covert_attack, zda_attack
+    from glocal_verify.simulation.engine import simulate
+    from glocal_verify.simulation.schedule import Schedule, SimulationResult
+    from glocal_verify.simulation.thresholds import attack_free_thresholds
+    from glocal_verify.spec import (
+        SystemSpec,
+        example_names,
+        load_example,
+        load_spec,
+        loads_spec,
+        spec_from_dict,
+        spec_from_graph,
+    )
+
+#: public name -> module that defines it
+_LAZY: dict[str, str] = {
+    "covert_required_channels": "glocal_verify.analysis.covert",
+    "switched_unobservable_subspace": "glocal_verify.analysis.switched",
+    "unobservable_subspace": "glocal_verify.analysis.unobservable",
+    "ZdaDirection": "glocal_verify.analysis.zda",
+    "zda_analysis": "glocal_verify.analysis.zda",
+    "zda_direction": "glocal_verify.analysis.zda",
+    "algorithm1": "glocal_verify.conditions.detects",
+    "CATALOGUE": "glocal_verify.conditions.registry",
+    "CheckContext": "glocal_verify.conditions.registry",
+    "implemented_ids": "glocal_verify.conditions.registry",
+    "verify": "glocal_verify.conditions.registry",
+    "random_clustered_spec": "glocal_verify.design.generators",
+    "Placement": "glocal_verify.design.placement",
+    "place_observers": "glocal_verify.design.placement",
+    "GlocalVerifyError": "glocal_verify.errors",
+    "ModelError": "glocal_verify.errors",
+    "NotApplicableError": "glocal_verify.errors",
+    "SpecError": "glocal_verify.errors",
+    "UnknownConditionError": "glocal_verify.errors",
+    "Analysis": "glocal_verify.model",
+    "ClusterModel": "glocal_verify.model",
+    "LocalObserver": "glocal_verify.model",
+    "System": "glocal_verify.model",
+    "PencilAnalysis": "glocal_verify.numerics.pencil",
+    "analyze_pencil": "glocal_verify.numerics.pencil",
+    "analyze_pencil_exact": "glocal_verify.numerics.pencil_exact",
+    "Spectrum": "glocal_verify.numerics.spectrum",
+    "Subspace": "glocal_verify.numerics.subspace",
+    "DEFAULT_TOLERANCE": "glocal_verify.numerics.tolerance",
+    "Tolerance": "glocal_verify.numerics.tolerance",
+    "CentralObserver": "glocal_verify.observers.central",
+    "design_central_observer": "glocal_verify.observers.central",
+    "UnknownInputObserver": "glocal_verify.observers.uio",
+    "design_uio": "glocal_verify.observers.uio",
+    "local_uio": "glocal_verify.observers.uio",
+    "render": "glocal_verify.reporting.render",
+    "report_schema": "glocal_verify.reporting.render",
+    "validate_report_json": "glocal_verify.reporting.render",
+    "ConditionResult": "glocal_verify.results",
+    "Finding": "glocal_verify.results",
+    "Method": "glocal_verify.results",
+    "Report": "glocal_verify.results",
+    "Status": "glocal_verify.results",
+    "covert_attack": "glocal_verify.simulation.attacks",
+    "zda_attack": "glocal_verify.simulation.attacks",
+    "simulate": "glocal_verify.simulation.engine",
+    "Schedule": "glocal_verify.simulation.schedule",
+    "SimulationResult": "glocal_verify.simulation.schedule",
+    "attack_free_thresholds": "glocal_verify.simulation.thresholds",
+    "SystemSpec": "glocal_verify.spec",
+    "example_names": "glocal_verify.spec",
+    "load_example": "glocal_verify.spec",
+    "load_spec": "glocal_verify.spec",
+    "loads_spec": "glocal_verify.spec",
+    "spec_from_dict": "glocal_verify.spec",
+    "spec_from_graph": "glocal_verify.spec",
+}
+
+
+def __getattr__(name: str) -> Any:
+    """Import a public name from its module on first access."""
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'glocal_verify' has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
 
 __all__ = [
     "GlocalVerifyError",

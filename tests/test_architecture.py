@@ -88,3 +88,17 @@ def test_derived_results_live_on_the_system_that_owns_them() -> None:
     assert system.spectrum("normal") is system.spectrum("normal")
     other = System(load_example("paper19"))
     assert len(other.analysis) == 0
+
+
+def test_the_package_imports_its_public_names_on_first_use() -> None:
+    import importlib
+    import subprocess
+    import sys
+
+    lazy = glocal_verify._LAZY  # type: ignore[attr-defined]
+    assert set(glocal_verify.__all__) == set(lazy)
+    for name in glocal_verify.__all__:
+        assert getattr(glocal_verify, name) is getattr(importlib.import_module(lazy[name]), name)
+    probe = "import sys, glocal_verify; print('numpy' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True).stdout.strip()
+    assert out == "False"
