@@ -87,8 +87,19 @@ from typing import Any, Sequence
 
 import numpy as np
 import scipy.linalg
+import scipy.sparse
+import scipy.sparse.csgraph
+import scipy.sparse.linalg
 
 from glocal_verify.errors import ModelError
+from glocal_verify.numerics.balancing import (
+    _REAL_CUTOFF,
+    _balance,
+    _Balanced,
+    _reduce,
+    _rosenbrock,
+    _rounding,
+)
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
 
 __all__ = [
@@ -119,20 +130,27 @@ class Zero:
     value : complex
         The zero lambda0.
     x, u : ndarray
-        State and input parts of a zeroing direction, ``||[x; u]|| = 1``, phase chosen so the
-        largest entry is real and positive. Among the (numerical) kernel vectors of
-        P(lambda0) the one with the largest input part is taken, so ``u == 0`` means that the
-        kernel at lambda0 holds no direction with a nonzero input (an unobservable mode).
-        Empty arrays when the analysis ran with ``verify=False``.
+        State and input parts of a zeroing direction in the caller's coordinates,
+        ``||[x; u]|| = 1``, phase chosen so the largest entry is real and positive. The
+        direction is taken from the kernel of the balanced pencil P_b(lambda0) that the
+        verification certified (see the module docstring): among those kernel vectors the one
+        with the largest balanced input part, so ``u == 0`` means that the kernel at lambda0
+        holds no direction with a nonzero input (an unobservable mode). Empty arrays when the
+        analysis ran with ``verify=False``.
     residual : float
-        ``sigma_r(P(lambda0)) / ||P(lambda0)||_2`` with r the normal rank (NaN when not
-        verified).
+        ``sigma_r(P_b(lambda0)) / scale`` with r the normal rank and P_b the balanced pencil:
+        the relative distance from the balanced data to a system with a rank drop at lambda0
+        (NaN when not verified).
     multiplicity : int
-        Number of QZ eigenvalues merged into this zero (algebraic multiplicity as seen by the
-        regular part).
+        Number of eigenvalues of the regular part merged into this zero (algebraic
+        multiplicity as seen by the regular part).
     verified : bool
-        True when the residual is zero at the tolerance; False when it lies in the undecided
-        band (or verification was skipped).
+        True when the rank drop *and* the direction's residual are zero at the tolerance,
+        after adding the SVD's own error bound; False when either lies in the undecided band
+        (or verification was skipped).
+    direction_residual : float
+        ``||P_b(lambda0) v_b|| / (scale ||v_b||)`` for the returned direction mapped to the
+        balanced coordinates, ``v_b = diag(T, Su)^-1 [x; u]`` (NaN when not verified).
     """
 
     value: complex
@@ -141,6 +159,11 @@ class Zero:
     residual: float
     multiplicity: int = 1
     verified: bool = True
+    direction_residual: float = float("nan")
+
+
+def _empty() -> np.ndarray:
+    return np.zeros(0)
 
 
 @dataclass(frozen=True, slots=True)
@@ -156,19 +179,32 @@ class PencilAnalysis:
     full_normal_column_rank : bool
         ``normal_rank == n_states + n_inputs`` (left-invertible system).
     zeros : tuple of Zero
-        Finite zeros (rank drops below the normal rank), each verified on the full pencil
-        unless ``verify=False`` was asked.
+        Finite zeros (rank drops below the normal rank), each verified on the full balanced
+        pencil unless ``verify=False`` was asked.
     decided : bool
-        False when a rank or zero decision fell in the undecided band, when the random-point
-        normal rank disagrees, or when a QZ eigenvalue failed verification.
+        True only when every bound of the module docstring separates its cases: each kept
+        singular value of the deflation exceeds ``rtol * band * scale`` plus the accumulated
+        backward error, every finite/infinite split of the QZ eigenvalues is clear, the
+        random-point normal rank agrees, and every eigenvalue verifies as a zero (rank drop
+        and direction residual). False otherwise, with the reason in ``notes``.
     tolerance : float
         The ``rtol`` used.
     n_outputs : int
         p.
     scale : float
-        ``||[A B; C D]||_2`` (or the caller's scale), against which ranks were decided.
+        ``||[A_b B_b; C_b D_b]||_2`` of the balanced data (or the caller's scale), against
+        which every rank, zero and direction was decided.
     notes : tuple of str
         Why the analysis is undecided, eigenvalues that failed verification, ...
+    backward_error : float
+        Bound delta / scale on the backward error of the deflation actually performed (the
+        singular values set to zero plus ``c d eps scale`` per unitary operation, c = 8): the
+        normal rank and the regular part are exact for a system within ``delta`` of the
+        balanced data.
+    state_scaling, input_scaling, output_scaling : ndarray
+        The powers of two t, su, sy of the balancing: the decisions were made on
+        (T^-1 A T, T^-1 B Su, Sy C T, Sy D Su) with T = diag(t), Su = diag(su),
+        Sy = diag(sy) (all ones with ``balance=False``).
     """
 
     n_states: int
@@ -181,6 +217,10 @@ class PencilAnalysis:
     n_outputs: int = 0
     scale: float = 0.0
     notes: tuple[str, ...] = field(default_factory=tuple)
+    backward_error: float = 0.0
+    state_scaling: np.ndarray = field(default_factory=_empty)
+    input_scaling: np.ndarray = field(default_factory=_empty)
+    output_scaling: np.ndarray = field(default_factory=_empty)
 
     @property
     def left_invertible(self) -> bool:
@@ -227,119 +267,11 @@ def pencil_matrix(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray | N
         Point of evaluation.
     """
     A, B, C, D = _system(A, B, C, D)
-    n = A.shape[0]
-    top = np.hstack([lam * np.eye(n) - A, -B])
-    bottom = np.hstack([C, D])
-    return np.vstack([top, bottom])
+    return _rosenbrock(A, B, C, D, lam)
 
 
-def _norm2(M: np.ndarray) -> float:
-    if M.size == 0:
-        return 0.0
-    if min(M.shape) <= 600:
-        return float(np.linalg.norm(M, 2))
-    # power iteration on M^H M: a lower estimate within a few per cent after 60 steps
-    rng = np.random.default_rng(0)
-    x: np.ndarray = np.asarray(rng.standard_normal(M.shape[1]))
-    est = 0.0
-    for _ in range(60):
-        y = M.conj().T @ (M @ x)
-        ny = float(np.linalg.norm(y))
-        if ny == 0.0:
-            return float(np.abs(M).max())
-        est = math.sqrt(ny / float(np.linalg.norm(x)))
-        x = y / ny
-    return max(est, float(np.abs(M).max()))
-
-
-def _count(s: np.ndarray, scale: float, tol: Tolerance) -> tuple[int, bool]:
-    """(number of singular values not certainly zero, whether any is undecided)."""
-    if s.size == 0:
-        return 0, False
-    hi = int(np.sum(s > tol.rtol * scale))
-    lo = int(np.sum(s > tol.upper * scale))
-    return hi, hi != lo
-
-
-def _block_reflector(V1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Compact-WY form Q = I - Y T Y^H of the Householder QR of V1 (n x nu).
-
-    Q is unitary and its first nu columns span Im V1. Applying Q to an n x n matrix costs two
-    thin matrix products (O(nu n^2)), never an n x n orthogonal factor.
-    """
-    (qr, tau), _ = scipy.linalg.qr(V1, mode="raw")
-    n, nu = V1.shape
-    Y = np.tril(qr[:, :nu], -1)
-    Y[np.arange(nu), np.arange(nu)] = 1.0
-    T = np.zeros((nu, nu), dtype=qr.dtype)
-    for i in range(nu):
-        T[i, i] = tau[i]
-        if i:
-            T[:i, i] = -tau[i] * (T[:i, :i] @ (Y[:, :i].conj().T @ Y[:, i]))
-    return Y, T
-
-
-def _qh_left(Y: np.ndarray, T: np.ndarray, M: np.ndarray) -> np.ndarray:
-    """Q^H M with Q = I - Y T Y^H."""
-    if M.size == 0:
-        return M
-    return M - Y @ (T.conj().T @ (Y.conj().T @ M))
-
-
-def _q_right(Y: np.ndarray, T: np.ndarray, M: np.ndarray) -> np.ndarray:
-    """M Q with Q = I - Y T Y^H."""
-    if M.size == 0:
-        return M
-    return M - ((M @ Y) @ T) @ Y.conj().T
-
-
-def _reduce(
-    A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, tol: Tolerance, scale: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, bool]:
-    """Deflate until D has full row rank; rank P(lam) = acc + rank P_reduced(lam) for all lam.
-
-    One step: rotate the outputs so that D = [0; D2] with D2 of full row rank; the rows
-    [C1, 0] with C1 != 0 have a row space of dimension nu; with a state rotation whose first
-    nu coordinates span it, those rows read [C12, 0, 0] with C12 of full column rank, so (by
-    unimodular row operations) the first nu states contribute exactly nu to the rank for
-    every lambda. The rows of their state equation become new output rows.
-    """
-    acc = 0
-    undecided = False
-    while True:
-        n, m, p = A.shape[0], B.shape[1], C.shape[0]
-        if p == 0:
-            break
-        if m > 0:
-            Ud, sd, _ = np.linalg.svd(D)
-            rho, und = _count(sd, scale, tol)
-            undecided |= und
-        else:
-            Ud, rho = np.eye(p, dtype=C.dtype), 0
-        T = Ud.conj().T
-        Ct, Dt = T @ C, T @ D
-        if rho == p:
-            C, D = Ct, Dt
-            break
-        C1, C2, D2 = Ct[rho:], Ct[:rho], Dt[:rho]
-        if n == 0:
-            C, D = C2, D2
-            break
-        _, sc, Vh = np.linalg.svd(C1, full_matrices=False)
-        nu, und = _count(sc, scale, tol)
-        undecided |= und
-        if nu == 0:  # the rows [C1, 0] are zero: they do not count
-            C, D = C2, D2
-            break
-        Y, Tw = _block_reflector(Vh[:nu].conj().T)
-        At = _q_right(Y, Tw, _qh_left(Y, Tw, A))
-        Bt = _qh_left(Y, Tw, B)
-        C2t = _q_right(Y, Tw, C2)
-        A, B = np.ascontiguousarray(At[nu:, nu:]), np.ascontiguousarray(Bt[nu:])
-        C = np.vstack([At[:nu, nu:], C2t[:, nu:]])
-        D = np.vstack([Bt[:nu], D2])
-        acc += nu
-    return A, B, C, D, acc, undecided
+# ------------------------------------------------------------------------------------------
+# verification on the full balanced pencil
 
 
 def _max_input_vector(K: np.ndarray, n: int) -> np.ndarray:
@@ -358,34 +290,80 @@ def _normalize_phase(v: np.ndarray) -> np.ndarray:
     k = int(np.argmax(np.abs(v)))
     ph = v[k] / abs(v[k])
     out = v / ph
-    if np.iscomplexobj(out) and np.all(np.abs(out.imag) <= 1e-15 * np.max(np.abs(out.real), initial=1.0)):
+    if np.iscomplexobj(out) and np.all(np.abs(out.imag) <= _REAL_CUTOFF * np.max(np.abs(out.real), initial=1.0)):
         out = out.real.copy()
     return out
 
 
-def _kernel_at(P: np.ndarray, r: int, n: int, tol: Tolerance) -> tuple[np.ndarray | None, float, Decision]:
-    """Zeroing direction of P with the rank expected to drop below ``r``.
+def _decide_small(value: float, err: float, scale: float, tol: Tolerance, delta: float = 0.0) -> Decision:
+    """Is a computed quantity (singular value, residual) zero at the tolerance?
 
-    Returns (vector or None, sigma_r / sigma_1, decision of that ratio).
+    ZERO when ``value + err <= rtol * scale`` (the exact quantity is then within the
+    tolerance), NONZERO when ``value - err > rtol * band * scale + delta``, else UNDECIDED;
+    ``err`` is the rounding bound of the computation that produced ``value``.
     """
-    ncols = P.shape[1]
+    if value + err <= tol.rtol * scale:
+        return Decision.ZERO
+    if value - err > tol.upper * scale + delta:
+        return Decision.NONZERO
+    return Decision.UNDECIDED
+
+
+@dataclass(slots=True)
+class _Point:
+    """SVD of the balanced pencil at one point, with the rank-drop decision at rank r."""
+
+    lam: complex
+    s: np.ndarray  # padded with zeros to the column count
+    Vh: np.ndarray | None
+    err: float
+    sigma: float
+    decision: Decision
+
+
+def _svd_point(bal: _Balanced, lam: complex, r: int, scale: float, tol: Tolerance, vectors: bool) -> _Point:
+    P = bal.pencil(lam)
+    rows, ncols = P.shape
     if ncols == 0:
-        return None, 1.0, Decision.NONZERO
-    _, s, Vh = np.linalg.svd(P, full_matrices=True)
+        return _Point(lam, np.zeros(0), np.zeros((0, 0)), 0.0, 0.0, Decision.NONZERO)
+    if vectors:
+        _, s, Vh = np.linalg.svd(P, full_matrices=True)
+    else:
+        s, Vh = np.linalg.svd(P, compute_uv=False), None
     s_full = np.zeros(ncols)
     s_full[: len(s)] = s
-    s1 = float(s_full[0]) if len(s) else 0.0
-    idx = min(r, ncols) - 1  # r-th singular value (0-based r-1)
-    ratio = float(s_full[idx] / s1) if (s1 > 0.0 and idx >= 0) else 0.0
-    dec = tol.decide(ratio, 1.0) if s1 > 0.0 else Decision.ZERO
+    err = _rounding(rows + ncols, float(s_full[0]))
+    idx = min(r, ncols) - 1
     if idx < 0:
-        dec = Decision.ZERO
-    k0 = int(np.sum(s_full > tol.upper * s1)) if s1 > 0.0 else 0
-    if k0 >= ncols:
-        return None, ratio, dec
-    K = Vh[k0:].conj().T
-    v = _normalize_phase(_max_input_vector(K, n))
-    return v, ratio, dec
+        return _Point(lam, s_full, Vh, err, 0.0, Decision.ZERO)
+    sigma = float(s_full[idx])
+    return _Point(lam, s_full, Vh, err, sigma, _decide_small(sigma, err, scale, tol))
+
+
+def _direction(
+    bal: _Balanced, pt: _Point, r: int, scale: float, tol: Tolerance
+) -> tuple[np.ndarray, float, Decision]:
+    """Direction from the kernel the decision at ``pt`` certified, in caller coordinates.
+
+    The kernel is spanned by the right singular vectors beyond index r - 1 (dimension
+    ncols - r + 1, the least a rank drop below the normal rank r gives) and any earlier ones
+    whose singular value is certainly zero; never an undecided one. Among them the vector with
+    the largest input part (balanced coordinates). Returns (v, ||P_b v_b|| / ||v_b||, its
+    decision) with v normalised in the caller's coordinates and v_b = diag(T, Su)^-1 v.
+    """
+    assert pt.Vh is not None
+    ncols = pt.s.size
+    n = bal.A.shape[0]
+    certain_zero = pt.s + pt.err <= tol.rtol * scale
+    k0 = min(max(r - 1, 0), int(np.sum(~certain_zero)))
+    K = pt.Vh[k0:].conj().T
+    if K.shape[1] == 0:  # pragma: no cover - only when r > ncols, excluded by the deflation
+        return np.zeros(ncols), float("inf"), Decision.NONZERO
+    vb = _max_input_vector(K, n)
+    v, vb2 = bal.to_caller(vb)
+    nvb = float(np.linalg.norm(vb2))
+    res = float(np.linalg.norm(bal.pencil(pt.lam) @ vb2)) / nvb if nvb > 0 else float("inf")
+    return v, res, _decide_small(res, pt.err, scale, tol)
 
 
 def _cluster(values: Sequence[complex], radius: float) -> list[list[int]]:
@@ -411,6 +389,34 @@ def _cluster(values: Sequence[complex], radius: float) -> list[list[int]]:
     return list(groups.values())
 
 
+def _cluster_relative(values: Sequence[complex], rel: float) -> list[list[int]]:
+    """Single-linkage clusters of points with ``|z_i - z_j| <= rel (1 + max(|z_i|, |z_j|))``.
+
+    The sweep over the real part stops once the real gap exceeds ``rel (1 + |z_i|) / (1 - rel)``:
+    beyond it ``|z_i - z_j| > rel (1 + |z_i| + |z_i - z_j|) >= rel (1 + |z_j|)``.
+    """
+    order = sorted(range(len(values)), key=lambda i: (values[i].real, values[i].imag))
+    parent = list(range(len(values)))
+
+    def find(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for a_pos, i in enumerate(order):
+        reach = rel * (1.0 + abs(values[i])) / (1.0 - rel)
+        for j in order[a_pos + 1 :]:
+            if values[j].real - values[i].real > reach:
+                break
+            if abs(values[i] - values[j]) <= rel * (1.0 + max(abs(values[i]), abs(values[j]))):
+                parent[find(j)] = find(i)
+    groups: dict[int, list[int]] = {}
+    for i in order:
+        groups.setdefault(find(i), []).append(i)
+    return list(groups.values())
+
+
 def analyze_pencil(
     A: Any,
     B: Any,
@@ -420,6 +426,7 @@ def analyze_pencil(
     *,
     verify: bool = True,
     scale: float | None = None,
+    balance: bool = True,
 ) -> PencilAnalysis:
     """Normal rank, left-invertibility and verified finite zeros of a Rosenbrock pencil.
 
@@ -428,8 +435,9 @@ def analyze_pencil(
         P(\\lambda) = \\begin{bmatrix} \\lambda I - A & -B \\\\ C & D \\end{bmatrix},\\qquad
         z \\text{ is a zero} \\iff \\operatorname{rank} P(z) < \\operatorname{nrank} P
 
-    (Definition II.2, eq. ``inv_zeros``). Method: see the module docstring (orthogonal
-    deflation, QZ on the regular part, verification on the full pencil).
+    (Definition II.2, eq. ``inv_zeros``). Method: see the module docstring (power-of-two
+    balancing, orthogonal deflation, QZ on the regular part, verification and directions on
+    the full balanced pencil, each decision against a stated bound).
 
     Parameters
     ----------
@@ -437,18 +445,23 @@ def analyze_pencil(
         System matrices, shapes (n, n), (n, m), (p, n), (p, m); ``D = None`` means zero.
         Real or complex.
     tol : Tolerance
-        Rank decisions: singular values ``<= rtol * scale`` are zero, ``> rtol * band *
-        scale`` nonzero, undecided in between. A QZ eigenvalue with ``|lam| > scale / rtol``
-        is infinite. Zero verification: ``sigma_r(P(z)) / ||P(z)||_2`` decided the same way.
+        Every decision is made on the balanced data against ``scale``: a deflation singular
+        value ``<= rtol * scale`` is zero, one above ``rtol * band * scale`` plus the
+        accumulated backward error nonzero, undecided in between. A QZ eigenvalue with
+        ``|lam| > scale / rtol`` is infinite. A zero verifies when ``sigma_r(P_b(z))`` plus
+        the SVD's error bound is ``<= rtol * scale``, and so must its direction's residual.
     verify : bool
-        Verify every zero on the full pencil (one SVD of size (n+p) x (n+m) per zero) and
-        cross-check the normal rank at random points. ``False`` skips both: the zeros are
-        then the unverified QZ eigenvalues (one per eigenvalue, not merged) with empty
-        directions; callers that
-        verify on their own structure (e.g. :mod:`glocal_verify.conditions.stealthy`) use it.
+        Verify every zero on the full balanced pencil (one SVD of size (n+p) x (n+m) per
+        zero) and cross-check the normal rank at random points. ``False`` skips both: the
+        zeros are then the unverified QZ eigenvalues (one per eigenvalue, not merged) with
+        empty directions; callers that verify on their own structure (e.g.
+        :mod:`glocal_verify.conditions.stealthy`) use it.
     scale : float, optional
-        Scale of the rank decisions; default ``||[A B; C D]||_2`` (a power-iteration estimate
-        when min(n + p, n + m) > 600).
+        Scale of the decisions on the balanced data; default ``||[A_b B_b; C_b D_b]||_2``
+        (a power-iteration estimate when min(n + p, n + m) > 600).
+    balance : bool
+        Balance the data by powers of two first (default). ``False`` decides on the data as
+        given (scalings all one).
 
     Returns
     -------
@@ -463,15 +476,19 @@ def analyze_pencil(
     """
     A, B, C, D = _system(A, B, C, D)
     n, m, p = A.shape[0], B.shape[1], C.shape[0]
+    bal = _balance(A, B, C, D, balance)
     if scale is None:
-        scale = _norm2(np.block([[A, B], [C, D]])) if (n + p) and (n + m) else 0.0
+        scale = bal.norm()
     scale = float(scale) if scale and scale > 0.0 else 1.0
     notes: list[str] = []
-    A1, B1, C1, D1, acc1, und1 = _reduce(A, B, C, D, tol, scale)
-    A2, B2, C2, D2, acc2, und2 = _reduce(A1.T, C1.T, B1.T, D1.T, tol, scale)
+    A1, B1, C1, D1, acc1, und1, delta = _reduce(bal.A, bal.B, bal.C, bal.D, tol, scale, 0.0)
+    A2, B2, C2, D2, acc2, und2, delta = _reduce(A1.T, C1.T, B1.T, D1.T, tol, scale, delta)
     decided = not (und1 or und2)
     if und1 or und2:
-        notes.append("a rank decision of the deflation fell in the undecided band")
+        notes.append(
+            "a rank decision of the deflation fell in the undecided band "
+            f"(between rtol and rtol * band of the scale, plus the backward error {delta / scale:.3g})"
+        )
     k = D2.shape[0]
     if D2.shape[0] != D2.shape[1]:  # pragma: no cover - excluded by the theory of the deflation
         raise AssertionError(f"deflation left a non-square D ({D2.shape}); please report")
@@ -500,65 +517,72 @@ def analyze_pencil(
                     decided = False
                     notes.append(f"eigenvalue {complex(a_ / b_)} is undecided between finite and infinite")
                 eigs.append(complex(a_ / b_))
-    radius = math.sqrt(tol.upper) * scale
-    clusters = _cluster(eigs, radius)
     zeros: list[Zero] = []
     empty = np.zeros(0)
-    if not verify:  # raw QZ eigenvalues: merging needs verification, which the caller does
-        for z in eigs:
-            zeros.append(Zero(z, empty, empty, float("nan"), 1, False))
-        return PencilAnalysis(n, m, normal_rank, normal_rank == n + m, tuple(zeros), decided, tol.rtol, p, scale, tuple(notes))
 
-    # cross-check of the normal rank at pseudo-random points
+    def result(zs: tuple[Zero, ...]) -> PencilAnalysis:
+        return PencilAnalysis(
+            n, m, normal_rank, normal_rank == n + m, zs, decided, tol.rtol, p, scale, tuple(notes),
+            delta / scale, bal.t, bal.su, bal.sy,
+        )  # fmt: skip
+
+    if not verify:  # raw QZ eigenvalues: merging needs verification, which the caller does
+        return result(tuple(Zero(z, empty, empty, float("nan"), 1, False) for z in eigs))
+
+    # cross-check of the normal rank at pseudo-random points of the balanced pencil
     rng = np.random.default_rng(_NORMAL_RANK_SEED)
-    a_scale = max(float(np.abs(A).max()) if A.size else 0.0, 1.0)
+    a_scale = max(float(np.abs(bal.A).max()) if bal.A.size else 0.0, 1.0)
     ranks: list[tuple[int, int]] = []
     for _ in range(_NORMAL_RANK_POINTS):
         z = math.sqrt(a_scale) * (0.5 + rng.random()) * np.exp(2j * np.pi * rng.random())
-        P = pencil_matrix(A, B, C, D, z)
-        s = np.linalg.svd(P, compute_uv=False)
-        s1 = float(s[0]) if len(s) else 0.0
-        hi = int(np.sum(s > tol.rtol * s1)) if s1 > 0 else 0
-        lo = int(np.sum(s > tol.upper * s1)) if s1 > 0 else 0
+        P = bal.pencil(z)
+        s = np.linalg.svd(P, compute_uv=False) if P.size else np.zeros(0)
+        err = _rounding(sum(P.shape), float(s[0]) if s.size else 0.0)
+        lo = int(np.sum(s - err > tol.upper * scale + delta))  # certainly nonzero, even for the deflated system
+        hi = int(np.sum(s + err > tol.rtol * scale))  # not certainly zero
         ranks.append((lo, hi))
     r_lo = max(r[0] for r in ranks)
     r_hi = max(r[1] for r in ranks)
     # the rank at any point is <= the normal rank; a point certainly above it, or every point
-    # certainly below it, contradicts the deflation (points far out can look singular when
-    # the relative degree is high, so an undecided singular value there is no contradiction)
+    # certainly below it, contradicts the deflation
     if r_lo > normal_rank or r_hi < normal_rank:
         decided = False
         notes.append(f"normal rank {normal_rank} from the deflation vs {r_lo}..{r_hi} at random points")
 
-    def verify_one(z: complex, mult: int) -> Zero | None:
-        nonlocal decided
-        P = pencil_matrix(A, B, C, D, z)
-        v, ratio, dec = _kernel_at(P, normal_rank, n, tol)
-        if dec is Decision.NONZERO or v is None:
-            return None
-        if dec is Decision.UNDECIDED:
-            decided = False
-            notes.append(f"zero {z} verified only to the undecided band (residual {ratio:.3g})")
-        return Zero(z, v[:n], v[n:], ratio, mult, dec is Decision.ZERO)
+    r = normal_rank
 
-    for c in clusters:
+    def accept(pt: _Point, mult: int) -> Zero:
+        nonlocal decided
+        v, res, dres = _direction(bal, pt, r, scale, tol)
+        ok = pt.decision is Decision.ZERO and dres is Decision.ZERO
+        if pt.decision is Decision.UNDECIDED:
+            decided = False
+            notes.append(f"zero {pt.lam} verified only to the undecided band (residual {pt.sigma / scale:.3g})")
+        elif dres is not Decision.ZERO:
+            decided = False
+            notes.append(f"zero {pt.lam}: the direction's residual {res / scale:.3g} is not zero at the tolerance")
+        return Zero(pt.lam, v[:n], v[n:], pt.sigma / scale, mult, ok, res / scale)
+
+    rel = math.sqrt(tol.upper)
+    for c in _cluster_relative(eigs, rel):
         members = [eigs[i] for i in c]
-        done = False
         if len(c) > 1:
-            zc = verify_one(complex(np.mean(members)), len(c))
-            if zc is not None and zc.verified:
-                zeros.append(zc)
-                done = True
-        if not done:
-            for z in members:
-                zz = verify_one(z, 1)
-                if zz is None:
-                    decided = False
-                    notes.append(f"QZ eigenvalue {z} of the regular part failed verification on the full pencil")
-                else:
-                    zeros.append(zz)
+            worst = max(_svd_point(bal, z, r, scale, tol, False).sigma for z in members)
+            pm = _svd_point(bal, complex(np.mean(members)), r, scale, tol, True)
+            if pm.decision is Decision.ZERO and pm.sigma <= worst + pm.err:
+                zeros.append(accept(pm, len(c)))
+                continue
+        for z in members:
+            pt = _svd_point(bal, z, r, scale, tol, True)
+            if pt.decision is Decision.NONZERO:
+                decided = False
+                notes.append(
+                    f"eigenvalue {z} of the regular part failed verification on the full pencil (residual {pt.sigma / scale:.3g})"
+                )
+                continue
+            zeros.append(accept(pt, 1))
     zeros.sort(key=lambda z: (-z.value.real, -abs(z.value.imag)))
-    return PencilAnalysis(n, m, normal_rank, normal_rank == n + m, tuple(zeros), decided, tol.rtol, p, scale, tuple(notes))
+    return result(tuple(zeros))
 
 
 def direction_at(
@@ -566,10 +590,15 @@ def direction_at(
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """A zeroing direction (x, u) of the pencil at ``lam``, or None if there is none.
 
-    The smallest singular value of P(lam) must be zero relative to ``||P(lam)||_2`` at the
-    tolerance (an undecided value also gives None). Among the kernel vectors the one with the
-    largest input part is returned (its ``u`` is zero only if every kernel vector has u = 0),
-    normalised to ``||[x; u]|| = 1`` with its largest entry real and positive.
+    Decided on the balanced pencil P_b (see the module docstring) against its data norm
+    ``scale = ||[A_b B_b; C_b D_b]||_2``: the smallest singular value of P_b(lam) plus the
+    SVD's error bound ``c d eps ||P_b(lam)||`` must be ``<= rtol * scale`` (a system within
+    ``rtol * scale`` of the data has lam as a rank drop; an undecided value also gives None).
+    The direction is taken from the certainly-zero right singular vectors only: the one with
+    the largest input part (its ``u`` is zero only if every such kernel vector has u = 0); its
+    residual ``||P_b v_b||`` must pass the same bound, else None. It is returned in the
+    caller's coordinates, normalised to ``||[x; u]|| = 1`` with its largest entry real and
+    positive.
 
     Parameters
     ----------
@@ -578,12 +607,20 @@ def direction_at(
     lam : complex
         The point lambda.
     tol : Tolerance
-        Decides ``sigma_min / sigma_max``.
+        Decides ``sigma_min(P_b(lam)) / scale`` and the direction's residual.
     """
     A, B, C, D = _system(A, B, C, D)
     n = A.shape[0]
-    P = pencil_matrix(A, B, C, D, lam)
-    v, _ratio, dec = _kernel_at(P, P.shape[1], n, tol)
-    if v is None or dec is not Decision.ZERO:
+    bal = _balance(A, B, C, D)
+    scale = bal.norm()
+    scale = scale if scale > 0.0 else 1.0
+    ncols = n + B.shape[1]
+    if ncols == 0:
+        return None
+    pt = _svd_point(bal, lam, ncols, scale, tol, True)
+    if pt.decision is not Decision.ZERO:
+        return None
+    v, _res, dres = _direction(bal, pt, ncols, scale, tol)
+    if dres is not Decision.ZERO:
         return None
     return v[:n], v[n:]
