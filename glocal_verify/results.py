@@ -159,12 +159,28 @@ class SystemInfo:
 
 @dataclass(frozen=True, slots=True)
 class Report:
-    """All verdicts of one verification run."""
+    """All verdicts of one verification run.
+
+    Attributes
+    ----------
+    system : SystemInfo
+    conditions : tuple of ConditionResult
+    findings : tuple of Finding
+    options : mapping
+        The options of the run (``verify``'s keywords and the ids it ran).
+    assessment : mapping or None
+        The JSON form of the report's bottom line (Problem 1 privacy, Problem 2 detection,
+        warnings about vacuous premises), derived from ``conditions`` alone by
+        ``glocal_verify.reporting.assessment.assess``; ``None`` until a renderer (or the
+        caller, via ``glocal_verify.reporting.assessment.with_assessment``) attaches it. This
+        layer cannot compute it: the assessment lives in the reporting layer.
+    """
 
     system: SystemInfo
     conditions: tuple[ConditionResult, ...]
     findings: tuple[Finding, ...] = ()
     options: Mapping[str, Any] = field(default_factory=dict)
+    assessment: Mapping[str, Any] | None = None
 
     def results(self, cid: str) -> list[ConditionResult]:
         """All results with condition id ``cid`` (an old id of :data:`ALIASES` names its new one)."""
@@ -172,7 +188,8 @@ class Report:
         return [r for r in self.conditions if r.id == cid]
 
     def to_json(self) -> dict[str, Any]:
-        return {
+        """The report as JSON (schema ``glocal-verify/report@1``); ``assessment`` when attached."""
+        out: dict[str, Any] = {
             "schema": REPORT_SCHEMA_ID,
             "system": {
                 "name": self.system.name,
@@ -180,10 +197,76 @@ class Report:
                 "modes": list(self.system.modes),
                 "clusters": list(self.system.clusters),
             },
-            "options": jsonable(dict(self.options)),
-            "conditions": [r.to_json() for r in self.conditions],
-            "findings": [f.to_json() for f in self.findings],
         }
+        if self.assessment is not None:
+            out["assessment"] = jsonable(dict(self.assessment))
+        out["options"] = jsonable(dict(self.options))
+        out["conditions"] = [r.to_json() for r in self.conditions]
+        out["findings"] = [f.to_json() for f in self.findings]
+        return out
+
+    def _summary_rows(self) -> list[tuple[str, int, int, int, int, int, int]]:
+        """Per condition id (first-seen order): holds, fails, undecided, favourable, unfavourable, fragile."""
+        order: list[str] = []
+        rows: dict[str, list[int]] = {}
+        for r in self.conditions:
+            if r.id not in rows:
+                order.append(r.id)
+                rows[r.id] = [0, 0, 0, 0, 0, 0]
+            c = rows[r.id]
+            c[(Status.HOLDS, Status.FAILS, Status.UNDECIDED).index(r.status)] += 1
+            c[3] += r.favourable is True
+            c[4] += r.favourable is False
+            c[5] += bool(r.fragile)
+        return [(cid, *rows[cid]) for cid in order]  # type: ignore[misc]
+
+    def _headline(self) -> str:
+        s = self.system
+        n = {st: sum(1 for r in self.conditions if r.status is st) for st in Status}
+        return (
+            f"{s.name}: {s.agents} agents, {len(s.modes)} modes, {len(self.conditions)} results "
+            f"({n[Status.HOLDS]} holds, {n[Status.FAILS]} fails, {n[Status.UNDECIDED]} undecided), "
+            f"{len(self.findings)} findings"
+        )
+
+    def summary(self) -> str:
+        """A small text table: per condition id, the count of each status and of favourable results.
+
+        Columns ``holds``, ``fails``, ``undecided`` count the statuses; ``good`` and ``bad``
+        count the results that are favourable / unfavourable for the defender (the catalogue's
+        polarity, :attr:`ConditionResult.favourable`; undecided results are neither);
+        ``fragile`` counts results whose margin is below the robustness tolerance.
+        """
+        head = ("condition", "holds", "fails", "undecided", "good", "bad", "fragile")
+        rows = [tuple(str(x) for x in row) for row in self._summary_rows()]
+        width = max([len(head[0])] + [len(r[0]) for r in rows])
+        fmt = "{:<" + str(width) + "}" + "".join(" {:>" + str(len(h)) + "}" for h in head[1:])
+        lines = [self._headline(), fmt.format(*head)] + [fmt.format(*r) for r in rows]
+        return "\n".join(lines)
+
+    def _repr_markdown_(self) -> str:
+        """The summary as a Markdown table (Jupyter)."""
+        lines = [
+            f"**glocal-verify report** {self._headline()}",
+            "",
+            "| condition | holds | fails | undecided | favourable | unfavourable | fragile |",
+            "|---|---|---|---|---|---|---|",
+        ]
+        lines += [f"| `{cid}` | " + " | ".join(str(x) for x in rest) + " |" for cid, *rest in self._summary_rows()]
+        return "\n".join(lines) + "\n"
+
+    def _repr_html_(self) -> str:
+        """The summary as an HTML table (Jupyter); every string is HTML-escaped."""
+        from html import escape
+
+        head = "".join(f"<th>{h}</th>" for h in ("condition", "holds", "fails", "undecided", "favourable", "unfavourable", "fragile"))
+        body = "".join(
+            f"<tr><td><code>{escape(cid)}</code></td>" + "".join(f"<td>{x}</td>" for x in rest) + "</tr>" for cid, *rest in self._summary_rows()
+        )
+        return f"<div><p><b>glocal-verify report</b> {escape(self._headline())}</p><table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table></div>"
+
+    def __repr__(self) -> str:
+        return f"<Report {self._headline()}>"
 
 
 def jsonable(x: Any) -> Any:
