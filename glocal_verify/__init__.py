@@ -51,6 +51,7 @@ if TYPE_CHECKING:  # the names below load on first use (PEP 562): `import glocal
     from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
     from glocal_verify.observers.central import CentralObserver, design_central_observer
     from glocal_verify.observers.uio import UnknownInputObserver, design_uio, local_uio
+    from glocal_verify.reporting.assessment import Assessment, assess
     from glocal_verify.reporting.render import (
         render,
         report_schema,
@@ -73,6 +74,8 @@ if TYPE_CHECKING:  # the names below load on first use (PEP 562): `import glocal
 
 #: public name -> module that defines it
 _LAZY: dict[str, str] = {
+    "Assessment": "glocal_verify.reporting.assessment",
+    "assess": "glocal_verify.reporting.assessment",
     "covert_required_channels": "glocal_verify.analysis.covert",
     "switched_unobservable_subspace": "glocal_verify.analysis.switched",
     "unobservable_subspace": "glocal_verify.analysis.unobservable",
@@ -166,6 +169,8 @@ __all__ = [
     "implemented_ids",
     "verify",
     "render",
+    "assess",
+    "Assessment",
     "report_schema",
     "validate_report_json",
     "ConditionResult",

@@ -1,6 +1,7 @@
 """Reporting: renderers, figures, the Section IV case study and the findings report.
 
-- :mod:`.render` -- Markdown and JSON reports and the report schema (``schemas/``);
+- :mod:`.assessment` -- the bottom line of a report (Problems 1 and 2), from its results alone;
+- :mod:`.render` -- Markdown, JSON and HTML reports and the report schema (``schemas/``);
 - :mod:`.figures` -- figures drawn from given results (no simulation inside);
 - :mod:`.case_study` -- the three cases of Section IV, simulated and checked;
 - :mod:`.simulation_report` -- writes simulation and case-study reports to a folder;
