@@ -227,6 +227,9 @@ class System:
         self._edges: dict[str, dict[frozenset[Label], Fraction]] = {}
         self._lap: dict[str, np.ndarray] = {}
         self._spectra: dict[str, Spectrum] = {}
+        self._adjacency: dict[str, dict[Label, tuple[Label, ...]]] = {}
+        self._cluster_models: dict[tuple[str, str], ClusterModel] = {}
+        self._cluster_of: dict[Label, str] = {lab: c.name for c in spec.clusters for lab in c.nodes}
         #: derived results shared by the analyses and checkers run on this system
         self.analysis = Analysis()
         base = {e.key: e.weight for e in spec.edges}
@@ -284,17 +287,27 @@ class System:
         return G
 
     def laplacian(self, mode: str = NORMAL_MODE) -> np.ndarray:
-        """L_q as a float array (read-only, cached)."""
+        """L_q as a float array (read-only, cached), every entry correctly rounded.
+
+        The entries are formed exactly from the spec's rational weights (the degrees are
+        rational sums) and only then rounded once to the nearest double, so
+        ``|fl(L)_ij - L_ij| <= u |L_ij|`` with ``u = 2^-53`` and
+        ``||fl(L) - L||_2 <= ||fl(L) - L||_F <= u ||L||_F``: the input error that the
+        certified bounds of :class:`~glocal_verify.numerics.spectrum.Spectrum` add.
+        """
         self.check_mode(mode)
         if mode not in self._lap:
             L = np.zeros((self.n, self.n))
+            deg = [Fraction(0)] * self.n
             for key, w in self._edges[mode].items():
                 u, v = (self.index[x] for x in key)
                 fw = float(w)
                 L[u, v] -= fw
                 L[v, u] -= fw
-                L[u, u] += fw
-                L[v, v] += fw
+                deg[u] += w
+                deg[v] += w
+            for i, d in enumerate(deg):
+                L[i, i] = float(d)
             L.setflags(write=False)
             self._lap[mode] = L
         return self._lap[mode]
@@ -312,10 +325,31 @@ class System:
         return L
 
     def delta_laplacian(self, mode: str) -> np.ndarray:
-        """dL_q = L_q - L_1."""
-        return self.laplacian(mode) - self.laplacian(NORMAL_MODE)
+        """dL_q = L_q - L_1 as a float array (read-only), every entry correctly rounded.
+
+        Formed from the exact rational link differences of :meth:`switching_links` and only
+        then rounded (never as ``fl(L_q) - fl(L_1)``, which cancels: a weight changed from 3
+        to 3 + 1e-15 would vanish). Entries that are exactly zero stay zero, so the support
+        of the float matrix is the exact support of dL_q.
+        """
+        key = ("delta-laplacian", self.check_mode(mode))
+        if key in self.analysis:
+            return self.analysis[key]  # type: ignore[no-any-return]
+        D = np.zeros((self.n, self.n))
+        deg = [Fraction(0)] * self.n
+        for a, b, d in self.switching_links(mode):
+            u, v = self.index[a], self.index[b]
+            D[u, v] = D[v, u] = -float(d)
+            deg[u] += d
+            deg[v] += d
+        for i, d in enumerate(deg):
+            D[i, i] = float(d)
+        D.setflags(write=False)
+        self.analysis[key] = D
+        return D
 
     def delta_laplacian_exact(self, mode: str) -> list[list[Fraction]]:
+        """dL_q = L_q - L_1 with exact rational entries (row lists)."""
         Lq = self.laplacian_exact(mode)
         L1 = self.laplacian_exact(NORMAL_MODE)
         return [[a - b for a, b in zip(ra, rb)] for ra, rb in zip(Lq, L1)]
@@ -444,19 +478,28 @@ class System:
         raise ModelError(f"no cluster named {name!r} (clusters: {', '.join(c.name for c in self.clusters) or 'none'})")
 
     def cluster_of(self, label: Label) -> str:
-        for c in self.spec.clusters:
-            if label in c.nodes:
-                return c.name
+        """Name of the cluster holding ``label``."""
+        if label in self._cluster_of:
+            return self._cluster_of[label]
         raise ModelError(f"node {label!r} is in no cluster")
+
+    def adjacency(self, mode: str = NORMAL_MODE) -> dict[Label, tuple[Label, ...]]:
+        """Neighbour lists of every agent in the mode's graph, in label order (built once per mode, O(E log E))."""
+        self.check_mode(mode)
+        if mode not in self._adjacency:
+            nbrs: dict[Label, list[Label]] = {lab: [] for lab in self.labels}
+            for key in self._edges[mode]:
+                u, v = tuple(key)
+                nbrs[u].append(v)
+                nbrs[v].append(u)
+            self._adjacency[mode] = {lab: tuple(sorted(ns, key=self.index.__getitem__)) for lab, ns in nbrs.items()}
+        return self._adjacency[mode]
 
     def neighbours(self, label: Label, mode: str = NORMAL_MODE) -> list[Label]:
         """Neighbours of ``label`` in the mode's graph, in label order."""
-        out = []
-        for key in self._edges[self.check_mode(mode)]:
-            if label in key:
-                (other,) = tuple(key - {label})
-                out.append(other)
-        return sorted(out, key=self.index.__getitem__)
+        if label not in self.index:
+            return []
+        return list(self.adjacency(mode)[label])
 
     def observers(self, cluster: str | None = None) -> list[LocalObserver]:
         """Local observers with their measured sets resolved (default: centre + neighbours in P_i)."""
@@ -471,10 +514,8 @@ class System:
         return out
 
     def resolve_observer(self, cluster: ClusterSpec, obs: ObserverSpec) -> LocalObserver:
-        members = set(cluster.nodes)
-        default = tuple(
-            lab for lab in cluster.nodes if lab == obs.center or (lab in members and lab in self.neighbours(obs.center))
-        )
+        near = set(self.neighbours(obs.center))
+        default = tuple(lab for lab in cluster.nodes if lab == obs.center or lab in near)
         return LocalObserver(
             cluster.name,
             obs.center,
@@ -484,36 +525,49 @@ class System:
         )
 
     def cluster_model(self, name: str, mode: str = NORMAL_MODE) -> ClusterModel:
-        """The cluster subsystem of eq. ``cluster_dyn2`` for cluster ``name`` in ``mode``."""
+        """The cluster subsystem of eq. ``cluster_dyn2`` for cluster ``name`` in ``mode``.
+
+        Built once per (cluster, mode) in time proportional to the cluster and its cut edges
+        (neighbour lists, not a scan of every edge); the blocks A^{ij} exist only for the
+        clusters it is coupled to.
+        """
+        key = (name, self.check_mode(mode))
+        if key in self._cluster_models:
+            return self._cluster_models[key]
         c = self.cluster(name)
         idx = self.idx(c.nodes)
         L = self.laplacian(mode)
         Lii = np.array(L[np.ix_(idx, idx)])
         A = state_matrix(Lii, self.alpha, self.gamma)
         members = set(c.nodes)
+        local = {lab: i for i, lab in enumerate(c.nodes)}
+        edges = self._edges[mode]
+        adj = self.adjacency(mode)
         cut: list[tuple[Label, Label, Fraction]] = []
-        for key, w in self._edges[self.check_mode(mode)].items():
-            u, v = tuple(key)
-            if (u in members) != (v in members):
-                inside, outside = (u, v) if u in members else (v, u)
-                cut.append((inside, outside, w))
+        for u in c.nodes:
+            for v in adj[u]:
+                if v not in members:
+                    cut.append((u, v, edges[frozenset((u, v))]))
         cut.sort(key=lambda t: (self.index[t[0]], self.index[t[1]]))
-        boundary = tuple(lab for lab in c.nodes if any(t[0] == lab for t in cut))
+        with_cut = {t[0] for t in cut}
+        boundary = tuple(lab for lab in c.nodes if lab in with_cut)
         n = len(c.nodes)
         E = np.zeros((2 * n, len(boundary)))
         for col, lab in enumerate(boundary):
-            E[n + c.nodes.index(lab), col] = 1.0
+            E[n + local[lab], col] = 1.0
+        coupled = {self._cluster_of.get(t[1]) for t in cut}
         coupling: dict[str, np.ndarray] = {}
         for other in self.spec.clusters:
-            if other.name == name:
+            if other.name == name or other.name not in coupled:
                 continue
             jdx = self.idx(other.nodes)
             Lij = L[np.ix_(idx, jdx)]
-            if np.any(Lij != 0.0):
-                Aij = np.zeros((2 * n, 2 * len(jdx)))
-                Aij[n:, : len(jdx)] = -self.alpha * Lij
-                coupling[other.name] = Aij
-        return ClusterModel(name, mode, c.nodes, Lii, A, boundary, tuple(cut), E, coupling)
+            Aij = np.zeros((2 * n, 2 * len(jdx)))
+            Aij[n:, : len(jdx)] = -self.alpha * Lij
+            coupling[other.name] = Aij
+        model = ClusterModel(name, mode, c.nodes, Lii, A, boundary, tuple(cut), E, coupling)
+        self._cluster_models[key] = model
+        return model
 
     def cluster_laplacian_exact(self, name: str, mode: str = NORMAL_MODE) -> list[list[Fraction]]:
         """Principal block L[P_i, P_i] with exact rational entries."""
@@ -528,3 +582,93 @@ class System:
         from glocal_verify.spec import load_spec
 
         return cls(load_spec(path))
+
+    # -- interoperability and display -------------------------------------------------------
+    def to_statespace(self, mode: str = NORMAL_MODE) -> Any:
+        """The closed loop of eq. ``cl_sys`` in ``mode`` as a python-control ``StateSpace``.
+
+        .. math::
+
+            \\dot x = A_q x + B u_a,\\quad y = C x,\\qquad
+            A_q = \\begin{bmatrix} 0 & I \\\\ -\\alpha L_q & -\\gamma I \\end{bmatrix},\\
+            B = \\begin{bmatrix} 0 \\\\ S_F^\\top \\end{bmatrix},\\
+            C = \\operatorname{blkdiag}(S_{M_x}, S_{M_v}),\\ D = 0
+
+        with F the spec's attacked actuators (no input when the spec has no attack) and
+        :math:`M_x, M_v` its global monitors. Entries are the floats of the spec's exact
+        rationals (:meth:`A`, :meth:`B`, :meth:`C`); the states are named ``x:<label>`` and
+        ``v:<label>``, the inputs ``u:<label>``, the outputs as :meth:`output_channels`.
+
+        Parameters
+        ----------
+        mode : str
+            The mode q (``"normal"`` or a safe mode).
+
+        Returns
+        -------
+        control.StateSpace
+
+        Raises
+        ------
+        NotApplicableError
+            When python-control is not installed (``pip install 'glocal-verify[control]'``).
+        ModelError
+            For an unknown mode.
+        """
+        from glocal_verify.errors import NotApplicableError
+
+        self.check_mode(mode)
+        try:
+            import control
+        except ImportError:
+            raise NotApplicableError(
+                "to_statespace needs python-control, which is not installed: pip install 'glocal-verify[control]'"
+            ) from None
+        A, B, C = self.A(mode), self.B(), self.C()
+        D = np.zeros((C.shape[0], B.shape[1]))
+        return control.ss(
+            A,
+            B,
+            C,
+            D,
+            states=[f"x:{a}" for a in self.labels] + [f"v:{a}" for a in self.labels],
+            inputs=[f"u:{a}" for a in self.attacked],
+            outputs=list(self.output_channels()),
+            name=f"{self.name}[{mode}]",
+        )
+
+    def _facts(self) -> list[tuple[str, str]]:
+        def short(xs: Sequence[object], limit: int = 8) -> str:
+            text = ", ".join(str(x) for x in xs[:limit])
+            return f"{text}, ... ({len(xs)})" if len(xs) > limit else text
+
+        clusters = [f"{c.name} ({len(c.nodes)})" for c in self.clusters]
+        atk = self.spec.attack
+        return [
+            ("agents", str(self.n)),
+            ("edges", str(len(self._edges[NORMAL_MODE]))),
+            ("modes", short(self.modes)),
+            ("clusters", short(clusters) or "none"),
+            ("local observers", str(sum(len(c.observers) for c in self.clusters))),
+            ("monitors", f"x: [{short(self.monitored_positions)}], v: [{short(self.monitored_velocities)}]"),
+            ("attack", f"{atk.kind} on [{short(atk.actuators)}]" if atk else "none"),
+        ]
+
+    def __repr__(self) -> str:
+        facts = dict(self._facts())
+        return (
+            f"<System {self.name!r}: N={facts['agents']}, modes {facts['modes']}; clusters {facts['clusters']}; "
+            f"monitors {facts['monitors']}; attack {facts['attack']}>"
+        )
+
+    def _repr_markdown_(self) -> str:
+        """A small Markdown table of the system (Jupyter)."""
+        rows = "\n".join(f"| {k} | {v.replace('|', '/')} |" for k, v in self._facts())
+        return f"**System** `{self.name}`\n\n| | |\n|---|---|\n{rows}\n"
+
+    def _repr_html_(self) -> str:
+        """A small HTML table of the system (Jupyter); every string is HTML-escaped."""
+        from html import escape
+
+        rows = "".join(f"<tr><th>{escape(k)}</th><td>{escape(v)}</td></tr>" for k, v in self._facts())
+        return f"<div><p><b>System</b> <code>{escape(self.name)}</code></p><table>{rows}</table></div>"

@@ -327,7 +327,12 @@ def block_exponentials(mu: np.ndarray, alpha: float, gamma: float, t: float) -> 
     tuple of ndarray
         ``(p11, p12, p21, p22)``, each of the shape of ``mu``.
     """
-    mu = np.asarray(mu, dtype=float)
+    with np.errstate(over="ignore", invalid="ignore"):
+        return _block_exponentials(np.asarray(mu, dtype=float), alpha, gamma, t)
+
+
+def _block_exponentials(mu: np.ndarray, alpha: float, gamma: float, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Body of :func:`block_exponentials` (overflow for huge ``alpha mu t^2`` gives inf/nan, which callers check)."""
     d = gamma * gamma / 4.0 - alpha * mu
     z = d * t * t
     c = np.empty_like(z)
@@ -378,9 +383,10 @@ def modal_exponential(system: System, mode: str, t: float, X: np.ndarray) -> np.
     a = U.T @ X[:n]
     b = U.T @ X[n:]
     p11, p12, p21, p22 = block_exponentials(w, system.alpha, system.gamma, t)
-    a2 = p11[:, None] * a + p12[:, None] * b
-    b2 = p21[:, None] * a + p22[:, None] * b
-    out = np.vstack([U @ a2, U @ b2])
+    with np.errstate(over="ignore", invalid="ignore"):
+        a2 = p11[:, None] * a + p12[:, None] * b
+        b2 = p21[:, None] * a + p22[:, None] * b
+        out = np.vstack([U @ a2, U @ b2])
     return out[:, 0] if vec else out
 
 

@@ -12,12 +12,15 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any, Sequence
 
+import networkx as nx
 import numpy as np
 
 from glocal_verify.analysis.modal import modal_exponential
 from glocal_verify.analysis.unobservable import (
     _exact_A,
     _exact_obs_rows,
+    certified_unobservable,
+    structural_basis,
     unobservable_subspace,
 )
 from glocal_verify.errors import ModelError
@@ -36,6 +39,9 @@ from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolera
 from glocal_verify.spec.types import NORMAL_MODE
 
 __all__ = [
+    "CertifiedSwitched",
+    "certified_switched",
+    "union_components",
     "SwitchedBounds",
     "switched_unobservable_subspace",
     "switched_unobservable_bounds_exact",
@@ -314,3 +320,125 @@ def _switched_bounds_exact(system: System, sequence: Sequence[tuple[str, float]]
         at_first_switch=at_switch,
         exact_dimension=dim_lo == dim_hi,
     )
+
+
+# --------------------------------------------------------------------------------------------
+# certified bounds for the switched subspace (structure + per-mode certificates)
+
+
+def union_components(system: System, modes: Sequence[str]) -> list[list[Any]]:
+    """Components of the union of the graphs of ``modes`` (exact edge sets), each in label order.
+
+    Parameters
+    ----------
+    system : System
+        The multi-agent system.
+    modes : sequence of str
+        The modes of a schedule.
+    """
+    G = nx.Graph()
+    G.add_nodes_from(system.labels)
+    for m in dict.fromkeys(modes):
+        for key in system.edges(m):
+            u, v = tuple(key)
+            G.add_edge(u, v)
+    comps = [sorted(c, key=system.index.__getitem__) for c in nx.connected_components(G)]
+    return sorted(comps, key=lambda c: system.index[c[0]])
+
+
+@dataclass(frozen=True, slots=True)
+class CertifiedSwitched:
+    """Proven bounds on ``dim N_1^m`` for every dwell time, from structure and per-mode certificates.
+
+    Attributes
+    ----------
+    dim_lower : int
+        ``dim I`` with ``I = {[w; z] : w in K_x, z in K}``, ``K_x`` (``K``) the vectors constant on
+        the components of the union of the schedule's graphs and zero on those with a position
+        monitor (with any monitor). I is invariant under every A_k and inside ker C, hence in
+        ``N_1^m`` (exact).
+    dim_upper : int
+        ``min_k`` of the proven upper bounds of ``dim N(A_k, C)`` (``dim N_1^m <= dim N(A_k, C)``
+        for every k of the schedule), and ``dim I`` when every mode is certified to have only
+        its structural part (then ``N_1^m = I`` exactly, for every dwell time).
+    inner : tuple of tuple of Fraction
+        Exact basis of I.
+    first_upper : int
+        Proven upper bound of ``dim N(A_1, C)`` for the first mode (``N_1^m`` lies in it).
+    first_structural_positions : int
+        Number of components of the first mode's graph without a position monitor.
+    all_structural : bool
+        Every mode of the schedule is certified (its unobservable subspace is its structural part).
+    error_bound : float
+        Largest certified eigenvector error met.
+    note : str
+        Why the bounds do not meet ('' when decided).
+    """
+
+    dim_lower: int
+    dim_upper: int
+    inner: tuple[tuple[Fraction, ...], ...]
+    first_upper: int
+    first_structural_positions: int
+    all_structural: bool
+    error_bound: float
+    note: str
+
+    @property
+    def decided(self) -> bool:
+        """``dim_lower == dim_upper``."""
+        return self.dim_lower == self.dim_upper
+
+
+def certified_switched(system: System, sequence: Sequence[tuple[str, float]]) -> CertifiedSwitched:
+    """Proven bounds on ``dim N_1^m`` (cached), valid for every dwell time.
+
+    Lower bound: the exact subspace I of :class:`CertifiedSwitched` (for ``z`` constant on
+    the union components, ``exp(A_k t) [0; z] = [(1 - e^{-gamma t}) z / gamma; e^{-gamma t} z]``
+    and ``A_k [w; 0] = 0``). Upper bound: ``N_k = exp(-A_k tau_k)(N(A_k, C) ∩ N_{k+1})`` gives
+    ``dim N_1^m <= dim N(A_k, C)`` for every k, with the per-mode bounds of
+    :func:`~glocal_verify.analysis.unobservable.certified_unobservable`; when every mode is
+    certified to have only its structural part ``S_k`` (``mu = 0``), ``S_k ∩ S_{k+1}`` is
+    A_k-invariant and the recursion gives ``N_1^m = ∩_k S_k = I`` exactly.
+
+    Parameters
+    ----------
+    system : System
+        The multi-agent system.
+    sequence : sequence of (mode, duration)
+        The schedule.
+    """
+    seq = _check_sequence(system, sequence)
+    key = ("certified-switched", tuple(m for m, _ in seq))
+    cache = system.analysis
+    if key in cache:
+        return cache[key]  # type: ignore[no-any-return]
+    modes = [m for m, _ in seq]
+    inner = structural_basis(system, union_components(system, modes))
+    per = {m: certified_unobservable(system, m) for m in dict.fromkeys(modes)}
+    all_structural = all(c.dim_upper == c.dim_lower for c in per.values())
+    upper = min(c.dim_upper for c in per.values())
+    if all_structural:
+        upper = min(upper, len(inner))
+    first = per[modes[0]]
+    mx = set(system.monitored_positions)
+    first_pos = sum(1 for c in system.components(modes[0]) if not mx.intersection(c))
+    note = ""
+    if upper != len(inner):
+        notes = [c.note for c in per.values() if c.note]
+        note = notes[0] if notes else (
+            f"the schedule's modes have larger unobservable subspaces (proven dims {sorted(c.dim_lower for c in per.values())}) "
+            f"than the common structural part (dim {len(inner)}); which of them survive the schedule is not proven"
+        )
+    out = CertifiedSwitched(
+        dim_lower=len(inner),
+        dim_upper=upper,
+        inner=inner,
+        first_upper=first.dim_upper,
+        first_structural_positions=first_pos,
+        all_structural=all_structural,
+        error_bound=max(c.error_bound for c in per.values()),
+        note=note,
+    )
+    cache[key] = out
+    return out

@@ -10,6 +10,9 @@ from __future__ import annotations
 from fractions import Fraction
 from typing import Sequence
 
+import math
+from dataclasses import dataclass
+
 import flint
 import numpy as np
 
@@ -21,6 +24,7 @@ from glocal_verify.numerics.exact_subspace import (
     _row_closure,
     _to_fraction_cols,
 )
+from glocal_verify.numerics.spectrum import EPS
 from glocal_verify.numerics.subspace import Subspace, decide_with_error
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
 from glocal_verify.spec.types import NORMAL_MODE
@@ -28,6 +32,9 @@ from glocal_verify.spec.types import NORMAL_MODE
 __all__ = [
     "unobservable_subspace",
     "unobservable_subspace_exact",
+    "CertifiedUnobservable",
+    "certified_unobservable",
+    "structural_basis",
 ]
 
 def _assemble(n: int, groups: Sequence[EigenGroupPart], upper: bool) -> tuple[np.ndarray, bool]:
@@ -196,3 +203,163 @@ def _exact_N(system: System, mode: str) -> flint.fmpq_mat:
     if key not in cache:
         cache[key] = _kernel(_exact_obs_rows(system, mode))
     return cache[key]  # type: ignore[no-any-return]
+
+
+# --------------------------------------------------------------------------------------------
+# certified dimension bounds (structure + rigorous floating-point bounds)
+
+
+@dataclass(frozen=True, slots=True)
+class CertifiedUnobservable:
+    """Rigorous bounds on ``dim N(A_q, C)`` from exact structure and certified eigenvector bounds.
+
+    Attributes
+    ----------
+    mode : str
+        The mode q.
+    dim_lower : int
+        Proven lower bound: ``dim (W^x_0 x W_0)``, read from the exact components of G_q
+        (``ker L_q`` is spanned by their indicators): the number of components without a
+        position monitor plus the number without any monitor (``2N`` when nothing is monitored).
+    dim_upper : int
+        Proven upper bound: ``dim_lower + 2 * (sizes of the eigenvalue clusters of mu > 0 on
+        which S_M is not certified injective)``.
+    structural : tuple of tuple of Fraction
+        Exact rational basis (length 2N) of ``W^x_0 x W_0``: ``[1_c; 0]`` for components c
+        without a position monitor, ``[0; 1_c]`` for components without any monitor.
+    error_bound : float
+        Largest certified eigenvector error (sine) met; ``inf`` for a cluster that is not
+        separated at all.
+    note : str
+        Which bound failed and by how much ('' when decided).
+    slack : float
+        Smallest certified ``sigma_min(S_M U_g) sqrt(1 - s^2) - s - e`` over the clusters (the
+        quantity whose positivity proves injectivity; 1.0 when there is none).
+    """
+
+    mode: str
+    dim_lower: int
+    dim_upper: int
+    structural: tuple[tuple[Fraction, ...], ...]
+    error_bound: float
+    note: str
+    slack: float
+
+    @property
+    def decided(self) -> bool:
+        """``dim_lower == dim_upper``: the dimension is proven."""
+        return self.dim_lower == self.dim_upper
+
+
+def structural_basis(system: System, comps: Sequence[Sequence[object]]) -> tuple[tuple[Fraction, ...], ...]:
+    """``[1_c; 0]`` for each component without a position monitor, ``[0; 1_c]`` without any monitor (exact).
+
+    Parameters
+    ----------
+    system : System
+        The multi-agent system (its monitor sets).
+    comps : sequence of label sequences
+        Components (of one mode's graph, or of the union of a schedule's graphs).
+    """
+    n = system.n
+    mx = set(system.monitored_positions)
+    m = set(system.monitored)
+    out: list[tuple[Fraction, ...]] = []
+    for c in comps:
+        if not mx.intersection(c):
+            ind = [Fraction(int(lab in c)) for lab in system.labels]
+            out.append(tuple(ind + [Fraction(0)] * n))
+    for c in comps:
+        if not m.intersection(c):
+            ind = [Fraction(int(lab in c)) for lab in system.labels]
+            out.append(tuple([Fraction(0)] * n + ind))
+    return tuple(out)
+
+
+def certified_unobservable(system: System, mode: str = NORMAL_MODE) -> CertifiedUnobservable:
+    """Proven bounds on ``dim N(A_q, C)`` (cached): structure for ``mu = 0``, certificates for ``mu > 0``.
+
+    ``N(A_q, C) = (W^x_0 x W_0) ⊕ ⊕_{mu>0} (W_mu x W_mu)`` (module docstring). The first
+    summand is exact: ``ker L_q`` is spanned by the indicators of the components of G_q (the
+    exact edge set), so ``W^x_0``/``W_0`` are spanned by the indicators of the components
+    without position monitor / without any monitor. For ``mu > 0`` nothing small is read as
+    zero: the eigenvalues of index ``>= #components`` are grouped into the certified clusters
+    of :attr:`Spectrum.clusters <glocal_verify.numerics.spectrum.Spectrum.clusters>` (Weyl
+    radius rho); for a cluster g with computed basis ``U_g`` and Davis-Kahan sine bound ``s``
+    (:meth:`Spectrum.subspace_sine <glocal_verify.numerics.spectrum.Spectrum.subspace_sine>`),
+    every unit x of the exact spectral subspace has
+
+    .. math:: \\|S_M x\\| \\ge \\sigma_{\\min}(S_M U_g) \\sqrt{1 - s^2} - s - e,
+
+    ``e = eta + 2 k eps`` (loss of orthonormality ``eta`` and the rounding of the k x k SVD of
+    rows of ``U_g``, backward error ``k eps`` per singular value, doubled). If it is positive,
+    S_M is injective on every eigenspace of the cluster: ``W_mu = 0`` there (certified). A
+    cluster that fails the test adds at most ``2 |g|`` to the upper bound. A cluster that
+    straddles 0 and a positive eigenvalue (``w <= rho``) is treated the same way, with the
+    exact zero eigenvalues removed from it (they are known exactly).
+
+    Parameters
+    ----------
+    system : System
+        The multi-agent system.
+    mode : str
+        The mode q.
+    """
+    key = ("certified-N", mode)
+    cache = system.analysis
+    if key in cache:
+        return cache[key]  # type: ignore[no-any-return]
+    system.check_mode(mode)
+    n = system.n
+    comps = system.components(mode)
+    struct = structural_basis(system, comps)
+    m = system.idx(system.monitored)
+    if not m:
+        cu = CertifiedUnobservable(mode, 2 * n, 2 * n, struct, 0.0, "", 1.0)
+        cache[key] = cu
+        return cu
+    sp = system.spectrum(mode)
+    w, U = sp.values, sp.vectors
+    nz = len(comps)
+    rho = sp.error_radius
+    eta = sp.orthogonality_error
+    extra = 0
+    worst_err = 0.0
+    slack_min = 1.0
+    note = ""
+    for c in sp.clusters:
+        g = [i for i in c if i >= nz]
+        if not g:
+            continue
+        a, b = g[0], g[-1]
+        # distance of the cluster's Ritz values to the other exact eigenvalues: the exact zeros are 0,
+        # the others lie within rho of their computed values (Weyl, index pairing)
+        left = (w[a] if a - 1 < nz else w[a] - w[a - 1] - rho) if a > 0 else math.inf
+        right = w[b + 1] - w[b] - rho if b + 1 < n else math.inf
+        delta = float(min(left, right))
+        if delta > 0:
+            r = float(np.linalg.norm(sp.residuals[g]))
+            k = int(np.max(np.count_nonzero(sp.matrix, axis=1)))
+            r += (k + 2) * EPS * math.sqrt(n) * (float(np.linalg.norm(sp.matrix, "fro")) + float(np.max(np.abs(w[g])))) + sp.input_error
+            s = min(1.0, r * (1.0 + 4.0 * n * EPS) / delta)
+        else:
+            s = math.inf
+        Ug = U[:, g]
+        sv = np.linalg.svd(Ug[m, :], compute_uv=False) if len(m) else np.zeros(0)
+        smin = float(sv[-1]) if len(sv) == len(g) else 0.0
+        e = eta + 2.0 * len(g) * EPS
+        slack = smin * math.sqrt(max(0.0, 1.0 - s * s)) - s - e if math.isfinite(s) else -math.inf
+        worst_err = max(worst_err, s)
+        slack_min = min(slack_min, slack)
+        if not slack > 0:
+            extra += 2 * len(g)
+            if not note:
+                note = (
+                    f"mode {mode}: eigenvalue cluster {a + 1}..{b + 1} (mu ~ {float(np.mean(w[g])):.6g}): "
+                    f"sigma_min(S_M U_g) = {smin:.3g} does not exceed its certified error "
+                    f"(Davis-Kahan sine {s:.3g} + {e:.2g}); whether an unobservable eigenvector exists there is not proven"
+                )
+    base = len(struct)
+    cu = CertifiedUnobservable(mode, base, min(2 * n, base + extra), struct, worst_err, note, slack_min)
+    cache[key] = cu
+    return cu

@@ -18,6 +18,7 @@ import numpy as np
 from glocal_verify.analysis.modal import _apply_A
 from glocal_verify.analysis.switched import (
     _check_sequence,
+    certified_switched,
     mode_sequence,
     sequence_text,
     switched_unobservable_bounds_exact,
@@ -26,6 +27,7 @@ from glocal_verify.analysis.switched import (
 from glocal_verify.analysis.unobservable import (
     _exact_A,
     _exact_C,
+    certified_unobservable,
     unobservable_subspace,
     unobservable_subspace_exact,
 )
@@ -72,6 +74,24 @@ def _exact_basis_witness(system: System, B: list[list[Fraction]], limit: int = 6
     return [_state_map(system, b, digits=None) for b in B[:limit]]
 
 
+def _structural_witness(system: System, basis: Sequence[Sequence[Fraction]], limit: int = 6) -> list[dict[str, Any]]:
+    """Exact structural vectors (0/1 indicators), normalised to unit length, as state maps."""
+    out = []
+    for b in list(basis)[:limit]:
+        v = np.array([float(x) for x in b])
+        out.append(_state_map(system, v / np.linalg.norm(v)))
+    return out
+
+
+def _bounds_status(lower: int, upper: int, observable_holds: bool) -> Status:
+    """holds/fails/undecided for 'N = {0}' (observable_holds) or 'N != {0}' from proven dimension bounds."""
+    if upper == 0:
+        return Status.HOLDS if observable_holds else Status.FAILS
+    if lower > 0:
+        return Status.FAILS if observable_holds else Status.HOLDS
+    return Status.UNDECIDED
+
+
 def _numeric_ctx(ctx: CheckContext) -> CheckContext:
     return CheckContext(exact=False, tol=ctx.tol, options=ctx.options)
 
@@ -79,7 +99,12 @@ def _numeric_ctx(ctx: CheckContext) -> CheckContext:
 _FALLBACK_NOTE = (
     "exact arithmetic cannot decide this schedule: with more than two modes the switched subspace "
     "depends on transcendental exponentials exp(A_k tau_k) and the exact dwell-time-independent bounds "
-    "disagree; the verdict is the numeric recursion's"
+    "disagree; the verdict is the numeric recursion's at rtol, NOT certified by an error bound"
+)
+
+_CERTIFIED_FALLBACK_NOTE = (
+    "exact arithmetic cannot decide this schedule (more than two modes, the exact dwell-time-independent "
+    "bounds disagree); the verdict is the certified numeric one (structure and certified eigenvector bounds)"
 )
 
 
@@ -106,12 +131,21 @@ def check_switched_observability(system: System, ctx: CheckContext) -> list[Cond
     alone (``{"mode": q}``: observability of ``(A_q, C)``), and the spec's schedule (scope
     ``{}``; the schedule is in the witness) when :func:`mode_sequence` gives one.
 
-    Numeric: dimensions of the lower and upper readings (module tolerance rule); holds iff the
-    upper reading is ``{0}``, fails iff the lower reading is not, undecided otherwise.
+    Numeric (certified): proven bounds ``lo <= dim N <= up``. Per mode
+    (:func:`~glocal_verify.analysis.unobservable.certified_unobservable`): ``lo`` = the exact
+    structural part ``W^x_0 x W_0`` (component indicators of the exact graph), ``up`` adds
+    ``2 |g|`` for every eigenvalue cluster g of ``mu > 0`` on which injectivity of S_M is not
+    proven by ``sigma_min(S_M U_g) sqrt(1 - s^2) - s - e > 0`` (Davis-Kahan sine s, rounding
+    e). Schedule (:func:`~glocal_verify.analysis.switched.certified_switched`): ``lo`` = the
+    exact subspace constant on the union components, ``up`` = min over the modes, exact when
+    every mode is certified. Holds iff ``up = 0``, fails iff ``lo > 0``; otherwise undecided
+    with the failed certificate in ``note`` and the largest sine in ``error_bound`` (a
+    singular value that is merely small is never read as zero).
     Exact: per mode the rational kernel of the Krylov row closure; for the schedule the exact
     dwell-time-independent bounds of :func:`switched_unobservable_bounds_exact` (exact for two
-    modes). If they disagree (three or more modes), the result is the numeric one
-    (``method = numeric``) with a note in the witness.
+    modes). If they disagree (three or more modes), the result is the certified numeric one
+    when it is decided, otherwise the numeric recursion's at ``rtol`` (not certified; the
+    only uncertified verdict, flagged ``method = numeric`` with a note in the witness).
 
     Margin
         Per mode: min over eigen-groups of ``sigma_min(S E_mu)`` (unit scale; 0 when
@@ -132,13 +166,20 @@ def check_switched_observability(system: System, ctx: CheckContext) -> list[Cond
             status = Status.HOLDS if not basis else Status.FAILS
             witness: dict[str, Any] = {"dim": len(basis), "basis": _exact_basis_witness(system, basis)}
             margin = 0.0 if basis else S.margin
+            bound, note = None, ""
         else:
-            status = _status_from_dims(S.dim, S.dim_upper, observable_holds=True)
-            witness = {"dim": S.dim, "basis": _basis_witness(system, S.basis)}
-            if not S.decided:
-                witness["dim_upper"] = S.dim_upper
-            margin = 0.0 if S.dim else S.margin
-        out.append(result(cid, ctx, status, scope={"mode": mode}, margin=margin, witness=witness))
+            cu = certified_unobservable(system, mode)
+            status = _bounds_status(cu.dim_lower, cu.dim_upper, observable_holds=True)
+            if cu.dim_lower:
+                witness = {"dim": cu.dim_lower, "basis": _structural_witness(system, cu.structural)}
+            else:
+                witness = {"dim": 0, "basis": []}
+            if not cu.decided:
+                witness["dim_bounds"] = [cu.dim_lower, cu.dim_upper]
+                witness["numeric_basis"] = _basis_witness(system, S.upper)
+            margin = 0.0 if cu.dim_lower else S.margin
+            bound, note = cu.error_bound, (cu.note if status is Status.UNDECIDED else "")
+        out.append(result(cid, ctx, status, scope={"mode": mode}, margin=margin, witness=witness, error_bound=bound, note=note))
     seq = mode_sequence(system)
     if seq is None:
         return out
@@ -161,16 +202,23 @@ def check_switched_observability(system: System, ctx: CheckContext) -> list[Cond
             out.append(result(cid, ctx, status, margin=margin, witness=witness))
             return out
         nctx = _numeric_ctx(ctx)
-        status = _status_from_dims(Ssw.dim, Ssw.dim_upper, observable_holds=True)
-        witness = dict(base, dim=Ssw.dim, basis=_basis_witness(system, Ssw.basis), note=_FALLBACK_NOTE,
-                       exact_bounds=[bounds.dim_lower, bounds.dim_upper])
+        cs = certified_switched(system, seq)
+        status = _bounds_status(cs.dim_lower, cs.dim_upper, observable_holds=True)
+        certified = status is not Status.UNDECIDED
+        if not certified:
+            status = _status_from_dims(Ssw.dim, Ssw.dim_upper, observable_holds=True)
+        witness = dict(base, dim=Ssw.dim, basis=_basis_witness(system, Ssw.basis), exact_bounds=[bounds.dim_lower, bounds.dim_upper],
+                       note=_FALLBACK_NOTE if not certified else _CERTIFIED_FALLBACK_NOTE)
         out.append(result(cid, nctx, status, margin=0.0 if Ssw.dim else Ssw.margin, witness=witness))
         return out
-    status = _status_from_dims(Ssw.dim, Ssw.dim_upper, observable_holds=True)
-    witness = dict(base, dim=Ssw.dim, basis=_basis_witness(system, Ssw.basis), steps=Ssw.evidence["steps"])
-    if not Ssw.decided:
-        witness["dim_upper"] = Ssw.dim_upper
-    out.append(result(cid, ctx, status, margin=0.0 if Ssw.dim else Ssw.margin, witness=witness))
+    cs = certified_switched(system, seq)
+    status = _bounds_status(cs.dim_lower, cs.dim_upper, observable_holds=True)
+    witness = dict(base, dim=cs.dim_lower if cs.decided else Ssw.dim, steps=Ssw.evidence["steps"])
+    witness["basis"] = _structural_witness(system, cs.inner) if cs.dim_lower else (_basis_witness(system, Ssw.basis) if not cs.decided else [])
+    if not cs.decided:
+        witness["dim_bounds"] = [cs.dim_lower, cs.dim_upper]
+    note = cs.note if status is Status.UNDECIDED else ""
+    out.append(result(cid, ctx, status, margin=0.0 if cs.dim_lower else Ssw.margin, witness=witness, error_bound=cs.error_bound, note=note))
     return out
 
 

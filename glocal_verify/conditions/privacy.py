@@ -15,6 +15,7 @@ import numpy as np
 
 from glocal_verify.analysis.switched import (
     _check_sequence,
+    certified_switched,
     mode_sequence,
     sequence_text,
     switched_unobservable_bounds_exact,
@@ -22,14 +23,18 @@ from glocal_verify.analysis.switched import (
 )
 from glocal_verify.analysis.unobservable import (
     _exact_N,
+    certified_unobservable,
     unobservable_subspace,
     unobservable_subspace_exact,
 )
 from glocal_verify.conditions.observability import (
+    _CERTIFIED_FALLBACK_NOTE,
     _FALLBACK_NOTE,
+    _bounds_status,
     _numeric_ctx,
     _state_map,
     _status_from_dims,
+    _structural_witness,
 )
 from glocal_verify.conditions.registry import CheckContext, checker, result
 from glocal_verify.model import System
@@ -78,10 +83,10 @@ def check_privacy_unobservable(system: System, ctx: CheckContext) -> list[Condit
 
     Scopes: every mode (``{"mode": q}``) and the spec's schedule (scope ``{}``) if any.
 
-    Numeric: ``e = [1; 0]/sqrt(N)``; invariance: ``||A_q e|| <= rtol ||A_q||`` (always true:
-    ``L_q 1 = 0``); membership: the distance of e from the lower reading of the subspace plus
-    its estimated error is at most ``rtol`` (holds), the distance from the upper reading minus
-    the error exceeds ``rtol * band`` (fails), undecided otherwise.
+    Numeric (certified by structure, no rounding involved): ``A_q [1; 0] = 0`` exactly
+    (Laplacian rows sum to 0 in the spec's rationals) and ``1`` spans part of ``ker L_q``, so
+    ``[1; 0] in N(A_q, C)`` iff ``S_{M_x} 1 = 0`` iff ``M_x`` is empty; the same for the
+    schedule (``[1; 0]`` is fixed by every ``exp(A_k t)``). The computed distance is the margin.
     Exact: ``A_q e = 0`` and e in the rational unobservable subspace. For the schedule, since
     ``A_k e = 0`` for every k, e is fixed by every ``exp(A_k t)``, so e is in ``N_1^m`` iff
     ``C e = 0`` (exact, for every dwell time). Note that connectivity, which the lemma assumes,
@@ -111,14 +116,10 @@ def check_privacy_unobservable(system: System, ctx: CheckContext) -> list[Condit
             status = Status.HOLDS if (invariant and inside) else Status.FAILS
             witness["dim"] = int(_exact_N(system, mode).ncols())
         else:
-            scale_a = max(system.alpha * float(np.max(np.abs(system.eigh(mode)[0]))) if n else 0.0, system.gamma, 1.0)
-            inv = ctx.tol.decide(Ae_norm, scale_a)
-            if inv is Decision.NONZERO or dec is Decision.NONZERO:
-                status = Status.FAILS
-            elif inv is Decision.ZERO and dec is Decision.ZERO:
-                status = Status.HOLDS
-            else:
-                status = Status.UNDECIDED
+            # structure: L_q 1 = 0 exactly (rational rows sum to 0) and [1; 0] in N(A_q, C) iff 1 in
+            # W^x_0 = ker L_q ∩ ker S_Mx iff M_x is empty
+            status = Status.FAILS if mx else Status.HOLDS
+            witness["decided_by"] = "structure: A_q [1; 0] = 0 exactly; [1; 0] in ker C iff no position is monitored"
         if status is not Status.HOLDS and mx:
             witness["position_monitors"] = mx
         out.append(result(cid, ctx, status, scope={"mode": mode}, margin=dist, witness=witness))
@@ -134,7 +135,8 @@ def check_privacy_unobservable(system: System, ctx: CheckContext) -> list[Condit
         status = Status.FAILS if (mx or not fixed) else Status.HOLDS
         witness["reason"] = "A_k [1; 0] = 0 for every mode, so [1; 0] is fixed by every exp(A_k t); it is unobservable iff C [1; 0] = 0"
     else:
-        status = {Decision.ZERO: Status.HOLDS, Decision.NONZERO: Status.FAILS, Decision.UNDECIDED: Status.UNDECIDED}[dec]
+        status = Status.FAILS if mx else Status.HOLDS
+        witness["decided_by"] = "structure: [1; 0] is fixed by every exp(A_k t) and lies in ker C iff no position is monitored"
     if status is not Status.HOLDS and mx:
         witness["position_monitors"] = mx
     out.append(result(cid, ctx, status, margin=dist, witness=witness))
@@ -169,13 +171,19 @@ def check_privacy_initial_state(system: System, ctx: CheckContext) -> list[Condi
             status = Status.HOLDS if basis else Status.FAILS
             dim = len(basis)
             witness = {"dim": dim, "vector": _state_map(system, basis[0], digits=None)} if basis else {"dim": 0, "observability_margin": S.margin}
+            bound, note = None, ""
         else:
-            status = _status_from_dims(S.dim, S.dim_upper, observable_holds=False)
-            dim = S.dim
-            witness = {"dim": dim, "vector": _state_map(system, S.basis[:, 0])} if dim else {"dim": 0, "observability_margin": S.margin}
-            if not S.decided:
-                witness["dim_upper"] = S.dim_upper
-        out.append(result(cid, ctx, status, scope={"mode": mode}, margin=dim, witness=witness))
+            cu = certified_unobservable(system, mode)
+            status = _bounds_status(cu.dim_lower, cu.dim_upper, observable_holds=False)
+            dim = cu.dim_lower
+            if dim:
+                witness = {"dim": dim, "vector": _structural_witness(system, cu.structural, 1)[0]}
+            else:
+                witness = {"dim": 0, "observability_margin": S.margin}
+            if not cu.decided:
+                witness["dim_bounds"] = [cu.dim_lower, cu.dim_upper]
+            bound, note = cu.error_bound, (cu.note if status is Status.UNDECIDED else "")
+        out.append(result(cid, ctx, status, scope={"mode": mode}, margin=dim, witness=witness, error_bound=bound, note=note))
     seq = mode_sequence(system)
     if seq is None:
         return out
@@ -193,19 +201,26 @@ def check_privacy_initial_state(system: System, ctx: CheckContext) -> list[Condi
                     witness["state_at_switch"] = _state_map(system, b.at_first_switch[0], digits=None)
             out.append(result(cid, ctx, status, margin=b.dim_lower, witness=witness))
             return out
-        status = _status_from_dims(Ssw.dim, Ssw.dim_upper, observable_holds=False)
-        witness = dict(base, dim=Ssw.dim, note=_FALLBACK_NOTE, exact_bounds=[b.dim_lower, b.dim_upper])
+        cs = certified_switched(system, seq)
+        status = _bounds_status(cs.dim_lower, cs.dim_upper, observable_holds=False)
+        certified = status is not Status.UNDECIDED
+        if not certified:
+            status = _status_from_dims(Ssw.dim, Ssw.dim_upper, observable_holds=False)
+        witness = dict(base, dim=Ssw.dim, note=_CERTIFIED_FALLBACK_NOTE if certified else _FALLBACK_NOTE,
+                       exact_bounds=[b.dim_lower, b.dim_upper])
         if Ssw.dim:
             witness["vector"] = _state_map(system, Ssw.basis[:, 0])
         out.append(result(cid, _numeric_ctx(ctx), status, margin=Ssw.dim, witness=witness))
         return out
-    status = _status_from_dims(Ssw.dim, Ssw.dim_upper, observable_holds=False)
-    witness = dict(base, dim=Ssw.dim)
-    if Ssw.dim:
-        witness["vector"] = _state_map(system, Ssw.basis[:, 0])
-    if not Ssw.decided:
-        witness["dim_upper"] = Ssw.dim_upper
-    out.append(result(cid, ctx, status, margin=Ssw.dim, witness=witness))
+    cs = certified_switched(system, seq)
+    status = _bounds_status(cs.dim_lower, cs.dim_upper, observable_holds=False)
+    witness = dict(base, dim=cs.dim_lower)
+    if cs.dim_lower:
+        witness["vector"] = _structural_witness(system, cs.inner, 1)[0]
+    if not cs.decided:
+        witness["dim_bounds"] = [cs.dim_lower, cs.dim_upper]
+    note = cs.note if status is Status.UNDECIDED else ""
+    out.append(result(cid, ctx, status, margin=cs.dim_lower, witness=witness, error_bound=cs.error_bound, note=note))
     return out
 
 
@@ -234,8 +249,12 @@ def check_privacy_consensus_value(system: System, ctx: CheckContext) -> list[Con
     and then two initial states with the same output differ in x*. Scopes: every mode alone
     and the spec's schedule (scope ``{}``) if any.
 
-    Numeric: ``c = ||P_N f|| / ||f||``, the cosine between f and N, decided against ``rtol`` after
-    widening by the subspace error (lower reading for holds, upper reading for fails).
+    Numeric (certified): per mode exact structure: ``f`` is orthogonal to ``W_mu x W_mu`` for
+    ``mu > 0`` (``W_mu`` is orthogonal to ``1``) and to the velocity slot, so ``f`` is not
+    orthogonal to ``N(A_q, C)`` iff ``W^x_0 != 0`` iff some component of G_q has no position
+    monitor (no rounding involved). Schedule: :func:`_certified_consensus` (structure and the
+    certified per-mode bounds; undecided when they do not settle it). The cosine
+    ``c = ||P_N f|| / ||f||`` of the computed subspace is only the margin.
     Exact: per mode, ``f . b != 0`` for a rational basis vector b of N. Schedule with two
     modes: ``N_1^2 = exp(-A_1 tau_1) S`` with ``S = N(A_1, C) ∩ N(A_2, C)`` rational, and
     ``exp(-A_1^T tau_1) f = (1/N) [1; kappa 1]`` with ``kappa = (1 - e^{gamma tau_1}) / gamma``, which
@@ -266,9 +285,18 @@ def check_privacy_consensus_value(system: System, ctx: CheckContext) -> list[Con
             if hit is not None:
                 witness["vector"] = _state_map(system, hit, digits=None)
                 witness["f_dot_v"] = sum(hit[:n], Fraction(0)) / n
-        elif v is not None:
-            witness["vector"] = _state_map(system, v)
-            witness["f_dot_v"] = float(f @ v) / math.sqrt(n)
+        else:
+            # structure: f is orthogonal to every summand W_mu x W_mu (mu > 0: W_mu is orthogonal to 1)
+            # and to the velocity slot, so f is not orthogonal to N iff W^x_0 != 0
+            cu = certified_unobservable(system, mode)
+            pos = [b for b in cu.structural if any(b[:n])]
+            status = Status.HOLDS if pos else Status.FAILS
+            witness["decided_by"] = "structure: x* is hidden iff some component of G_q has no position monitor"
+            if pos:
+                vec = np.array([float(x) for x in pos[0]])
+                vec /= np.linalg.norm(vec)
+                witness["vector"] = _state_map(system, vec)
+                witness["f_dot_v"] = float(np.sum(vec[:n])) / n
         out.append(result(cid, ctx, status, scope={"mode": mode}, margin=c, witness=witness))
     seq = mode_sequence(system)
     if seq is None:
@@ -302,15 +330,40 @@ def check_privacy_consensus_value(system: System, ctx: CheckContext) -> list[Con
         if ex_status is not None:
             out.append(result(cid, ctx, ex_status, margin=c, witness=witness))
             return out
-        witness["note"] = _FALLBACK_NOTE
-        out.append(result(cid, _numeric_ctx(ctx), status, margin=c, witness=witness))
+        cstat, _, _ = _certified_consensus(system, seq)
+        witness["note"] = _FALLBACK_NOTE if cstat is Status.UNDECIDED else _CERTIFIED_FALLBACK_NOTE
+        out.append(result(cid, _numeric_ctx(ctx), status if cstat is Status.UNDECIDED else cstat, margin=c, witness=witness))
         return out
+    status, unit, note = _certified_consensus(system, seq)
     witness = dict(base)
-    if v is not None:
-        witness["vector"] = _state_map(system, v)
-        witness["f_dot_v"] = float(f @ v) / math.sqrt(n)
-    out.append(result(cid, ctx, status, margin=c, witness=witness))
+    if unit is not None:
+        witness["vector"] = _state_map(system, unit)
+        witness["f_dot_v"] = float(np.sum(unit[:n])) / n
+    cs = certified_switched(system, seq)
+    out.append(result(cid, ctx, status, margin=c, witness=witness, error_bound=cs.error_bound, note=note))
     return out
+
+
+def _certified_consensus(system: System, seq: Sequence[tuple[str, float]]) -> tuple[Status, np.ndarray | None, str]:
+    """Certified verdict of privacy.consensus-value on a schedule (structure + per-mode certificates).
+
+    Holds when the exact subspace I of :func:`certified_switched` has a vector ``[1_c; 0]``
+    (a union component without position monitor: ``f . [1_c; 0] != 0``). Fails when
+    ``N_1^m = I`` is proven and I has none, or when every component of the first mode's graph
+    has a position monitor (then ``W^x_0 = 0`` and f is orthogonal to ``N(A_1, C)``, which
+    contains ``N_1^m``; see the per-mode argument). Undecided otherwise.
+    """
+    n = system.n
+    cs = certified_switched(system, seq)
+    pos = [b for b in cs.inner if any(b[:n])]
+    if pos:
+        vec = np.array([float(x) for x in pos[0]])
+        return Status.HOLDS, vec / np.linalg.norm(vec), ""
+    if cs.all_structural:
+        return Status.FAILS, None, ""
+    if cs.first_structural_positions == 0:
+        return Status.FAILS, None, ""
+    return Status.UNDECIDED, None, cs.note or certified_unobservable(system, seq[0][0]).note
 
 
 @checker("privacy.connected")

@@ -13,12 +13,21 @@ matrices), and, for a group of eigenvalues separated from the rest by ``delta``,
 Davis-Kahan sin-theta theorem bounds the angle between the computed and the exact invariant
 subspace by ``||R_g||_2 / delta``. The residuals are computed with the matrix applied in
 sparse form, O(nnz * N).
+
+Certified quantities (:attr:`Spectrum.error_radius`, :attr:`Spectrum.clusters`,
+:meth:`Spectrum.subspace_sine`) are rigorous: they add the rounding of the residual itself,
+the loss of orthonormality of the computed eigenvectors and the rounding of the input
+(``input_error``, for a matrix whose entries were each rounded once from exact values) to the
+a-posteriori residual bounds, with the constants stated in each docstring. They are bounds on
+floating-point error, not tolerances: no ``rtol`` enters them.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import cached_property
+from typing import Sequence
 
 import numpy as np
 import scipy.sparse
@@ -30,7 +39,10 @@ from glocal_verify.numerics.tolerance import (
     group_eigenvalues,
 )
 
-__all__ = ["Spectrum"]
+__all__ = ["Spectrum", "EPS"]
+
+#: unit roundoff doubled: the spacing of doubles at 1 (2^-52)
+EPS = float(np.finfo(float).eps)
 
 
 @dataclass(frozen=True, eq=False)
@@ -93,6 +105,122 @@ class Spectrum:
         r = np.linalg.norm(R, axis=0)
         r.setflags(write=False)
         return r
+
+    @cached_property
+    def input_error(self) -> float:
+        """Bound on ``||fl(L) - L||_2`` for the exact matrix L whose entries were rounded once.
+
+        ``u ||fl(L)||_F / (1 - u)`` with ``u = 2^-53``: valid when every entry of
+        :attr:`matrix` is the correctly rounded value of an exact entry (as
+        :meth:`System.laplacian <glocal_verify.model.System.laplacian>` builds it); 0 for a
+        matrix whose entries are all small integers would also be valid but is not assumed.
+        """
+        u = EPS / 2.0
+        return u * float(np.linalg.norm(self.matrix, "fro")) / (1.0 - u) if self.size else 0.0
+
+    @cached_property
+    def orthogonality_error(self) -> float:
+        """``eta = ||U^T U - I||_F + 2 N eps``: a bound on the loss of orthonormality of :attr:`vectors`.
+
+        The second term covers the rounding of the product ``U^T U`` itself (each entry is a
+        sum of N products of numbers of modulus at most 1).
+        """
+        n = self.size
+        if n == 0:
+            return 0.0
+        U = self.vectors
+        return float(np.linalg.norm(U.T @ U - np.eye(n), "fro")) + 2.0 * n * EPS
+
+    @cached_property
+    def error_radius(self) -> float:
+        """Certified ``rho``: the i-th smallest eigenvalue of the exact L lies in ``[w_i - rho, w_i + rho]``.
+
+        Weyl's theorem applied to ``L = U diag(w) U^T + F`` with the computed (nearly
+        orthonormal) ``U``. With ``R = fl(L U - U diag(w))``, ``eta = ||U^T U - I||_F + 2 N eps``
+        (bound on the loss of orthonormality, its own rounding included) and ``k`` the largest
+        number of nonzeros of a row of L,
+
+        .. math:: \\rho = \\frac{\\|R\\|_F + (k + 2)\\,\\varepsilon\\,\\sqrt N\\,(\\|L\\|_F + \\max|w_i|)}{1 - \\eta}
+                  + 2 \\eta \\max|w_i| + \\text{input\\_error},
+
+        where the second term of the numerator bounds the rounding of the residual
+        (Higham, Thm 3.5, constant ``k + 2`` for a sparse product with ``k`` terms and a
+        subtraction, ``sqrt N`` from ``|| |L| |U| ||_F <= ||L||_F ||U||_F``), ``1 / (1 - eta)``
+        accounts for a non-orthonormal ``U`` (polar factor) and ``2 eta max|w|`` for
+        ``U diag(w) U^T`` versus its orthonormal polar part. Infinite if ``eta >= 1/2``.
+        """
+        n = self.size
+        if n == 0:
+            return 0.0
+        eta = self.orthogonality_error
+        if eta >= 0.5:
+            return math.inf
+        k = int(np.max(np.count_nonzero(self.matrix, axis=1))) if n else 0
+        wmax = float(np.max(np.abs(self.values)))
+        rnorm = float(np.linalg.norm(self.residuals))
+        rround = (k + 2) * EPS * math.sqrt(n) * (float(np.linalg.norm(self.matrix, "fro")) + wmax)
+        return (rnorm + rround) * (1.0 + 2.0 * eta) + 2.0 * eta * wmax + self.input_error
+
+    @cached_property
+    def clusters(self) -> tuple[tuple[int, ...], ...]:
+        """Maximal runs of consecutive eigenvalues that the certified radius cannot separate.
+
+        ``i`` and ``i + 1`` are in one cluster iff ``w_{i+1} - w_i <= 2 rho``
+        (:attr:`error_radius`). By Weyl's index pairing the exact eigenvalues with the indices
+        of a cluster lie in ``[w_first - rho, w_last + rho]`` and no other exact eigenvalue does:
+        a singleton cluster is a certified simple eigenvalue.
+        """
+        n = self.size
+        if n == 0:
+            return ()
+        rho = self.error_radius
+        out: list[list[int]] = [[0]]
+        for i in range(1, n):
+            if not (self.values[i] - self.values[i - 1] > 2.0 * rho):
+                out[-1].append(i)
+            else:
+                out.append([i])
+        return tuple(tuple(c) for c in out)
+
+    def separation(self, cluster: Sequence[int]) -> float:
+        """Certified lower bound on the distance from the Ritz values of ``cluster`` to the other exact eigenvalues.
+
+        ``min(w_first - w_{first-1}, w_{last+1} - w_last) - rho`` (``inf`` without neighbours).
+
+        Parameters
+        ----------
+        cluster : sequence of int
+            Consecutive indices (one of :attr:`clusters`).
+        """
+        a, b = cluster[0], cluster[-1]
+        left = self.values[a] - self.values[a - 1] if a > 0 else math.inf
+        right = self.values[b + 1] - self.values[b] if b + 1 < self.size else math.inf
+        return float(min(left, right)) - self.error_radius
+
+    def subspace_sine(self, cluster: Sequence[int]) -> float:
+        """Certified bound on ``||sin Theta||_2`` between ``span(U[:, cluster])`` and the exact spectral subspace.
+
+        Davis-Kahan sin-theta theorem (residual form, Hermitian case):
+        ``||sin Theta|| <= ||L U_g - U_g W_g||_F / delta`` with ``delta`` from
+        :meth:`separation`; the residual is widened by its rounding and by the input error
+        exactly as in :attr:`error_radius` (per cluster). ``inf`` when ``delta <= 0``; capped at 1.
+
+        Parameters
+        ----------
+        cluster : sequence of int
+            Consecutive indices (one of :attr:`clusters`).
+        """
+        delta = self.separation(cluster)
+        if not delta > 0:
+            return math.inf
+        n = self.size
+        g = list(cluster)
+        k = int(np.max(np.count_nonzero(self.matrix, axis=1))) if n else 0
+        wmax = float(np.max(np.abs(self.values[g])))
+        r = float(np.linalg.norm(self.residuals[g]))
+        r += (k + 2) * EPS * math.sqrt(n) * (float(np.linalg.norm(self.matrix, "fro")) + wmax) + self.input_error
+        r *= 1.0 + 4.0 * n * EPS
+        return min(1.0, r / delta)
 
     def groups(self, tol: Tolerance = DEFAULT_TOLERANCE) -> list[EigenGroup]:
         """Groups of numerically equal eigenvalues at ``rtol * ||L||_2``.

@@ -12,6 +12,17 @@ precision on the problem sizes the toolkit targets (backward errors of ``eigh``/
 small multiple of ``eps * ||M||``, eps = 2.2e-16) and well below the smallest structural
 quantities of weighted graphs with moderate weight ratios. Checkers record the ``rtol`` they
 used in every result.
+
+What a tolerance is not
+-----------------------
+``rtol`` is a *modelling / robustness* threshold, not a bound on floating-point error: a value
+below ``rtol * scale`` may be a genuine nonzero (a weight changed by 1e-10, a link of weight
+1e-11) and reading it as zero gives verdicts that exact arithmetic contradicts. The global
+checkers (``switched-observability``, ``privacy.*``, ``switching.*``, ``central.observer``)
+therefore decide with certified bounds instead (:class:`~glocal_verify.numerics.spectrum.Spectrum`
+``error_radius`` / ``subspace_sine``, SVD backward errors), read exact zeros only from the
+spec's structure, and use this class only for robustness (``fragile``) and for the numeric
+subspace bases they show as witnesses and margins.
 """
 
 from __future__ import annotations

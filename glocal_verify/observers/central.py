@@ -52,8 +52,9 @@ import scipy.linalg
 import scipy.signal
 
 from glocal_verify.analysis.modal import EigenGroupPart, modal_decomposition
-from glocal_verify.analysis.unobservable import unobservable_subspace
+from glocal_verify.analysis.unobservable import certified_unobservable, unobservable_subspace
 from glocal_verify.model import System
+from glocal_verify.numerics.spectrum import EPS
 from glocal_verify.numerics.subspace import Subspace
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
 from glocal_verify.spec.types import NORMAL_MODE
@@ -62,7 +63,13 @@ __all__ = [
     "CentralObserver",
     "design_central_observer",
     "routh_hurwitz",
+    "StabilityCertificate",
+    "certify_observable_stability",
+    "CERTIFY_MAX_STATES",
 ]
+
+#: largest observable part (states) for the dense Bauer-Fike certificate
+CERTIFY_MAX_STATES = 800
 
 DEFAULT_MAX_DESIGN = 100
 
@@ -326,3 +333,104 @@ def routh_hurwitz(coeffs: Sequence[Fraction]) -> bool:
         if r1 and all(x == 0 for x in r1):
             return False
     return r0[0] > 0
+
+
+# --------------------------------------------------------------------------------------------
+# certified stability of the observable part (floating point with a rigorous bound)
+
+
+@dataclass(frozen=True, slots=True)
+class StabilityCertificate:
+    """Outcome of :func:`certify_observable_stability`.
+
+    Attributes
+    ----------
+    decision : str
+        ``"stable"``, ``"unstable"`` or ``"undecided"``.
+    max_real : float
+        Largest real part of the computed observable eigenvalues.
+    radius : float
+        Bauer-Fike radius: every exact observable eigenvalue lies within it of a computed one.
+    note : str
+        Why it is undecided ('' otherwise).
+    """
+
+    decision: str
+    max_real: float
+    radius: float
+    note: str
+
+
+def certify_observable_stability(system: System, obsv: CentralObserver) -> StabilityCertificate:
+    """Is ``A_1 - H C`` (exact A_1, the float gain H) Hurwitz on ``R^2N / N(A_1, C)``? Certified.
+
+    Needs a proven unobservable subspace: ``N = W^x_0 x W_0`` with exact rational basis
+    (:func:`~glocal_verify.analysis.unobservable.certified_unobservable` decided); N is
+    ``(A_1 - H C)``-invariant (it is A_1-invariant and in ker C), so the observable eigenvalues
+    are those of ``M_o = Q^T (A_1 - H C) Q`` for an orthonormal basis Q of ``N^perp``. With the
+    computed ``M_o = V diag(lam) V^{-1} + R V^{-1}`` (``R`` the eigen-residual), the exact
+    quotient is ``V diag(lam) V^{-1} + G`` with
+
+    .. math:: \\|G\\|_2 \\le \\|R\\|_F / \\sigma_{\\min}(V) + E,
+
+    ``E`` bounding the rounding of A_1 (``u ||A||_F`` per rounded entry, plus ``alpha`` times
+    the input error of L), of the products ``Q^T M Q`` (``4 (2N) eps ||M||_F``) and the
+    non-orthonormality of Q (``2 eta ||M||_F``). By Bauer-Fike every exact observable
+    eigenvalue lies within ``r = kappa(V) ||G||`` of a computed one (``kappa`` with
+    ``sigma_min(V)`` lowered by its own SVD backward error ``10 (2N) eps ||V||``). Stable iff
+    ``max Re lam + r < 0``; unstable iff a disc isolated from all others (hence holding exactly
+    one eigenvalue) lies in ``Re > 0``; undecided otherwise, or when N is not proven, or when
+    the observable part exceeds :data:`CERTIFY_MAX_STATES` states (dense certificate).
+
+    Parameters
+    ----------
+    system : System
+        The multi-agent system.
+    obsv : CentralObserver
+        The designed observer (its mode and gain).
+    """
+    cu = certified_unobservable(system, obsv.mode)
+    if not cu.decided:
+        return StabilityCertificate("undecided", math.nan, math.inf, "the unobservable subspace of (A_1, C) is not proven: " + cu.note)
+    n = system.n
+    k = 2 * n - cu.dim_lower
+    if k == 0:
+        return StabilityCertificate("stable", -math.inf, 0.0, "")
+    if k > CERTIFY_MAX_STATES:
+        return StabilityCertificate(
+            "undecided", math.nan, math.inf, f"the observable part has {k} states, more than the dense certificate handles ({CERTIFY_MAX_STATES})"
+        )
+    Nb = np.array([[float(x) for x in b] for b in cu.structural]).T if cu.structural else np.zeros((2 * n, 0))
+    if Nb.shape[1]:
+        Nb = Nb / np.linalg.norm(Nb, axis=0)
+        Qf, _ = np.linalg.qr(np.hstack([Nb, np.eye(2 * n)]))
+        Q = Qf[:, Nb.shape[1] : 2 * n]
+    else:
+        Q = np.eye(2 * n)
+    A = system.A(obsv.mode)
+    C = system.C()
+    M = A - obsv.H @ C if C.shape[0] else A
+    fro = float(np.linalg.norm(M, "fro"))
+    L_err = system.spectrum(obsv.mode).input_error
+    u = EPS / 2
+    eta = float(np.linalg.norm(Q.T @ Q - np.eye(k), "fro")) + float(np.linalg.norm(Q.T @ Nb, "fro")) + 4 * n * EPS
+    E = u * fro * 2 + system.alpha * L_err * (1 + u) + 4 * (2 * n) * EPS * fro + 2 * eta * fro
+    Mo = Q.T @ M @ Q
+    lam, V = np.linalg.eig(Mo)
+    R = Mo @ V - V * lam[None, :]
+    sv = np.linalg.svd(V, compute_uv=False)
+    smin = float(sv[-1]) - 10 * k * EPS * float(sv[0])
+    if not smin > 0:
+        return StabilityCertificate("undecided", float(np.max(lam.real)), math.inf, "the computed eigenvectors of the observable part are numerically dependent (defective or nearly so)")
+    rround = 4 * k * EPS * (float(np.linalg.norm(Mo, "fro")) + float(np.max(np.abs(lam)))) * float(np.linalg.norm(V, "fro"))
+    G = (float(np.linalg.norm(R, "fro")) + rround) / smin + E
+    r = float(sv[0]) / smin * G * (1 + 4 * k * EPS)
+    mr = float(np.max(lam.real))
+    if mr + r < 0:
+        return StabilityCertificate("stable", mr, r, "")
+    for i, z in enumerate(lam):
+        if z.real - r > 0 and all(abs(z - y) > 2 * r for j, y in enumerate(lam) if j != i):
+            return StabilityCertificate("unstable", mr, r, "")
+    return StabilityCertificate(
+        "undecided", mr, r, f"the slowest observable eigenvalue has Re = {mr:.3g}, within the Bauer-Fike radius {r:.3g} of the imaginary axis"
+    )
