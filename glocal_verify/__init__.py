@@ -64,8 +64,10 @@ if TYPE_CHECKING:  # the names below load on first use (PEP 562): `import glocal
     from glocal_verify.simulation.thresholds import attack_free_thresholds
     from glocal_verify.spec import (
         SystemSpec,
+        dump_spec,
         example_names,
         load_example,
+        load_graph,
         load_spec,
         loads_spec,
         spec_from_dict,
@@ -74,6 +76,8 @@ if TYPE_CHECKING:  # the names below load on first use (PEP 562): `import glocal
 
 #: public name -> module that defines it
 _LAZY: dict[str, str] = {
+    "dump_spec": "glocal_verify.spec",
+    "load_graph": "glocal_verify.spec",
     "Assessment": "glocal_verify.reporting.assessment",
     "assess": "glocal_verify.reporting.assessment",
     "covert_required_channels": "glocal_verify.analysis.covert",
@@ -185,6 +189,8 @@ __all__ = [
     "loads_spec",
     "spec_from_dict",
     "spec_from_graph",
+    "dump_spec",
+    "load_graph",
     "random_clustered_spec",
     "PencilAnalysis",
     "analyze_pencil",

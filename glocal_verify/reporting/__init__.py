@@ -2,6 +2,7 @@
 
 - :mod:`.assessment` -- the bottom line of a report (Problems 1 and 2), from its results alone;
 - :mod:`.render` -- Markdown, JSON and HTML reports and the report schema (``schemas/``);
+- :mod:`.html`, :mod:`.network_svg` -- the self-contained HTML report and the network drawing;
 - :mod:`.figures` -- figures drawn from given results (no simulation inside);
 - :mod:`.case_study` -- the three cases of Section IV, simulated and checked;
 - :mod:`.simulation_report` -- writes simulation and case-study reports to a folder;

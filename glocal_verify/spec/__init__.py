@@ -1,7 +1,9 @@
 """Specifications: the data a user writes, loaded, validated and written back.
 
 Holds the frozen spec types (:mod:`.types`), the loaders for TOML text, dicts and networkx
-graphs with the one builder whose messages name the key path (:mod:`.load`), the JSON schema
+graphs with the one builder whose messages name the key path (:mod:`.load`), networkx graph files
+(:mod:`.graph_files`), the TOML writer (:mod:`.writer`), the generated key reference
+(:mod:`.reference`), the JSON schema
 of the spec format (``schemas/spec.schema.json``) and the bundled examples (``data/``,
 :mod:`.examples`).
 
@@ -10,6 +12,7 @@ nothing else of the package.
 """
 
 from glocal_verify.spec.examples import example_names, example_text, load_example
+from glocal_verify.spec.graph_files import load_graph
 from glocal_verify.spec.load import (
     load_spec,
     loads_spec,
@@ -31,6 +34,7 @@ from glocal_verify.spec.types import (
     SwitchStep,
     SystemSpec,
 )
+from glocal_verify.spec.writer import dump_spec
 
 __all__ = [
     "ATTACK_KINDS",
@@ -46,7 +50,9 @@ __all__ = [
     "SwitchingSpec",
     "SwitchStep",
     "SystemSpec",
+    "dump_spec",
     "example_names",
+    "load_graph",
     "example_text",
     "load_example",
     "load_spec",

@@ -157,3 +157,9 @@ class SystemSpec:
             if m.name == name:
                 return m
         raise SpecError("modes", f"no safe mode named {name!r}", self.source)
+
+    def to_toml(self) -> str:
+        """This specification as TOML text (format 1), exactly; see :func:`glocal_verify.spec.writer.dump_spec`."""
+        from glocal_verify.spec.writer import dump_spec
+
+        return dump_spec(self)
