@@ -336,7 +336,9 @@ def test_observer_models_from_plain_matrices_run_without_the_design_modules() ->
     assert res.method == "dense"
 
 
-def test_ctrl_c_returns_the_samples_computed_so_far(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_ctrl_c_propagates_out_of_simulate_and_returns_no_partial_result(monkeypatch: pytest.MonkeyPatch) -> None:
+    # requirement changed: an interrupt must stop the whole command (Algorithm 1 must not go on
+    # with truncated runs), so simulate lets KeyboardInterrupt through and returns nothing
     from glocal_verify.simulation import engine as sim_mod
 
     system = _small()
@@ -350,10 +352,10 @@ def test_ctrl_c_returns_the_samples_computed_so_far(monkeypatch: pytest.MonkeyPa
         orig(self, delta)
 
     monkeypatch.setattr(sim_mod._DenseEngine, "advance", advance)
-    res = simulate(system, observers=ObserverBank.for_system(system), method="dense")
-    assert res.interrupted
-    assert len(res.t) == 7 and res.x is not None and res.x.shape[0] == 7
-    assert not np.any(np.isnan(res.x))
+    got: list[Any] = []
+    with pytest.raises(KeyboardInterrupt):
+        got.append(simulate(system, observers=ObserverBank.for_system(system), method="dense", progress=True))
+    assert got == [] and calls["n"] == 7
 
 
 def test_a_batch_of_initial_states_needs_a_reduction() -> None:

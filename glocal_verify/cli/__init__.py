@@ -1,7 +1,9 @@
 """The ``glocal-verify`` command: a thin layer over the library.
 
 Exit codes: 0 report written; 1 a condition named in ``--require`` fails or is undecided;
-2 bad input or usage (one line on stderr, no traceback).
+2 bad input or usage (one line on stderr, no traceback); 130 interrupted (Ctrl-C: one line
+``glocal-verify: interrupted``; outputs are written atomically, so nothing partial is left).
+Every ``--out`` prints ``wrote <path>`` on stderr.
 
 One module per group of subcommands, each with a ``register(subparsers)`` function, listed in
 :data:`COMMAND_MODULES`; :mod:`.common` holds what they share.
@@ -15,18 +17,20 @@ import importlib
 import sys
 from typing import Sequence
 
+from glocal_verify import __version__
 from glocal_verify.cli.common import PROG, Parser
 from glocal_verify.errors import GlocalVerifyError
 
 __all__ = ["main", "build_parser", "COMMAND_MODULES"]
 
 #: modules of this package that add subcommands, in the order ``--help`` lists them
-COMMAND_MODULES = ("verify", "placement", "simulate")
+COMMAND_MODULES = ("verify", "placement", "simulate", "sweep", "draw")
 
 
 def build_parser() -> Parser:
     """The argument parser with every subcommand of :data:`COMMAND_MODULES`."""
     p = Parser(prog=PROG, description="Check the conditions of the glocal attack-detection paper on a concrete network.")
+    p.add_argument("--version", action="version", version=f"{PROG} {__version__}")
     sub = p.add_subparsers(dest="command", parser_class=Parser)
     for name in COMMAND_MODULES:
         importlib.import_module(f"{__name__}.{name}").register(sub)
@@ -34,8 +38,9 @@ def build_parser() -> Parser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); return the exit code."""
     try:
+        parser = build_parser()
         args = parser.parse_args(argv)
         if not getattr(args, "func", None):
             parser.print_help(sys.stderr)
@@ -44,6 +49,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except GlocalVerifyError as exc:
         print(f"{PROG}: error: {exc}", file=sys.stderr)
         return 2
+    except SystemExit as exc:  # --help, --version
+        return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted", file=sys.stderr)
         return 130

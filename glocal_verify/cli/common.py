@@ -5,33 +5,50 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import Iterable
 
 from glocal_verify.errors import GlocalVerifyError
 from glocal_verify.model import System
+from glocal_verify.reporting.output import check_output_dir, check_output_file, write_text_atomic
 from glocal_verify.spec import load_spec
 from glocal_verify.spec.examples import load_example
 
-__all__ = ["PROG", "UsageError", "Parser", "ids_arg", "load_system", "write_output"]
+__all__ = [
+    "PROG",
+    "UsageError",
+    "Parser",
+    "ids_arg",
+    "load_system",
+    "spec_inputs",
+    "check_out_file",
+    "check_out_dir",
+    "wrote",
+    "write_output",
+]
 
 PROG = "glocal-verify"
 
 
 class UsageError(GlocalVerifyError):
-    pass
+    """A bad command line (one line on stderr, exit code 2)."""
 
 
 class Parser(argparse.ArgumentParser):
+    """An argument parser whose errors raise :class:`UsageError` instead of exiting."""
+
     def error(self, message: str) -> None:  # type: ignore[override]
         raise UsageError(message)
 
 
 def ids_arg(text: str | None) -> list[str] | None:
+    """Split a comma-separated option value (None stays None; blanks are dropped)."""
     if text is None:
         return None
     return [t for t in (x.strip() for x in text.split(",")) if t]
 
 
 def load_system(args: argparse.Namespace) -> System:
+    """The :class:`System` of ``SPEC`` or ``--example NAME`` (exactly one of them)."""
     if args.example and args.spec:
         raise UsageError("give either SPEC or --example, not both")
     if args.example:
@@ -41,14 +58,44 @@ def load_system(args: argparse.Namespace) -> System:
     return System(load_spec(args.spec))
 
 
-def write_output(text: str, out: str | None) -> None:
+def spec_inputs(args: argparse.Namespace) -> list[str]:
+    """The files a command reads (its SPEC and ``--graph``), which ``--out`` must not overwrite."""
+    return [str(x) for x in (getattr(args, "spec", None), getattr(args, "graph", None)) if x]
+
+
+def check_out_file(args: argparse.Namespace) -> None:
+    """Check ``args.out`` (a file) before computing: not a symbolic link, not an input, in a
+    writable folder (:func:`~glocal_verify.reporting.output.check_output_file`)."""
+    out = getattr(args, "out", None)
     if out:
-        p = Path(out)
-        try:
-            p.parent.mkdir(parents=True, exist_ok=True)
-            p.write_text(text, encoding="utf-8")
-        except OSError as exc:
-            raise UsageError(f"--out {out}: cannot write ({exc.strerror})") from None
+        check_output_file(out, inputs=spec_inputs(args))
+
+
+def check_out_dir(path: str | Path) -> Path:
+    """Check an output folder before computing (:func:`~glocal_verify.reporting.output.check_output_dir`)."""
+    return check_output_dir(path)
+
+
+def wrote(path: str | Path) -> None:
+    """Tell the user where the output went: one line ``wrote <path>`` on stderr."""
+    print(f"wrote {path}", file=sys.stderr)
+
+
+def write_output(text: str, out: str | None, *, inputs: Iterable[str] = ()) -> None:
+    """Write ``text`` to the file ``out`` atomically (and say so on stderr), or to stdout.
+
+    Parameters
+    ----------
+    text : str
+    out : str, optional
+        Output file; None or empty: standard output.
+    inputs : iterable of str
+        Files the command read; ``out`` must not be one of them.
+    """
+    if out:
+        p = check_output_file(out, inputs=inputs)
+        write_text_atomic(p, text)
+        wrote(p)
     else:
         sys.stdout.write(text)
 

@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
-from glocal_verify.cli.common import load_system, write_output
+from glocal_verify.cli.common import PROG, check_out_file, load_system, spec_inputs, write_output
 
 __all__ = ["register"]
 
@@ -15,11 +16,14 @@ def cmd_place_observers(args: argparse.Namespace) -> int:
 
     from glocal_verify.design.placement import parse_suspected, place_observers
 
+    check_out_file(args)  # a bad --out fails before the search
     system = load_system(args)
     suspected = parse_suspected(system, args.suspected)
     placement = place_observers(system, args.cluster, suspected, exact_limit=args.exact_limit, progress=not args.quiet)
+    for line in placement.warnings:
+        print(f"{PROG}: {line}", file=sys.stderr)
     text = placement.to_toml() if args.format == "toml" else json.dumps(placement.to_json(), indent=2) + "\n"
-    write_output(text, args.out)
+    write_output(text, args.out, inputs=spec_inputs(args))
     return 0
 
 

@@ -9,8 +9,10 @@ from typing import Any, Callable
 from glocal_verify.cli.common import (
     PROG,
     UsageError,
+    check_out_file,
     ids_arg,
     load_system,
+    spec_inputs,
     write_output,
 )
 from glocal_verify.conditions.registry import (
@@ -19,12 +21,45 @@ from glocal_verify.conditions.registry import (
     resolve_ids,
     verify,
 )
+from glocal_verify.model import System
 from glocal_verify.numerics.tolerance import Tolerance
 from glocal_verify.reporting.render import FORMATS, render
 from glocal_verify.results import Status
 from glocal_verify.spec.examples import example_names, example_text
 
 __all__ = ["register"]
+
+#: report formats offered by ``--format`` (``html`` is rendered by the optional HTML renderer)
+VERIFY_FORMATS = tuple(dict.fromkeys((*FORMATS, "html")))
+
+
+def _graph_labels(text: str | None, nodes: Any, flag: str) -> list[Any]:
+    """Labels of ``--velocities`` / ``--positions``: each token as the graph spells it (int or str)."""
+    out: list[Any] = []
+    by_text = {str(v): v for v in nodes}
+    for tok in ids_arg(text) or []:
+        if tok not in by_text:
+            raise UsageError(f"{flag}: agent {tok} is not a node of the --graph file")
+        out.append(by_text[tok])
+    return out
+
+
+def _graph_system(args: argparse.Namespace) -> System:
+    """The system of ``--graph FILE`` with the monitored agents of ``--velocities``/``--positions``."""
+    if args.spec or args.example:
+        raise UsageError("give one of SPEC, --example or --graph")
+    try:
+        from glocal_verify.spec import spec_from_graph
+        from glocal_verify.spec.graph_files import load_graph
+    except ImportError as exc:
+        raise UsageError(f"--graph is not available in this installation ({exc})") from None
+    from pathlib import Path
+
+    G = load_graph(args.graph)
+    vel = _graph_labels(args.velocities, G.nodes, "--velocities")
+    pos = _graph_labels(args.positions, G.nodes, "--positions")
+    spec = spec_from_graph(G, name=Path(args.graph).stem or "graph", monitor_velocities=vel, monitor_positions=pos)
+    return System(spec)
 
 
 def cmd_verify(args: argparse.Namespace) -> int:
@@ -40,12 +75,32 @@ def cmd_verify(args: argparse.Namespace) -> int:
         tol = Tolerance(args.rtol, args.band)
     except ValueError as exc:
         raise UsageError(f"--rtol/--band: {exc}") from None
-    system = load_system(args)
+    if not (args.exact_budget >= 0.0):
+        raise UsageError(f"--exact-budget: {args.exact_budget} must be >= 0 seconds (0: no limit)")
+    if not (args.fragile_below >= 0.0):
+        raise UsageError(f"--fragile-below: {args.fragile_below} must be >= 0")
+    if (args.velocities or args.positions) and not args.graph:
+        raise UsageError("--velocities/--positions need --graph FILE")
+    check_out_file(args)  # before any computation: a bad --out fails at once
+    system = _graph_system(args) if args.graph else load_system(args)
     progress: Callable[[str], None] | None = None
     if sys.stderr.isatty() and not args.quiet:
         progress = lambda cid: print(f"checking {cid} ...", file=sys.stderr)  # noqa: E731
-    report = verify(system, only, exact=args.exact, tol=tol, progress=progress)
-    write_output(render(report, args.format), args.out)
+    report = verify(
+        system,
+        only,
+        exact=args.exact,
+        tol=tol,
+        progress=progress,
+        escalate=args.escalate,
+        exact_budget=args.exact_budget if args.exact_budget > 0 else None,
+        fragile_below=args.fragile_below,
+    )
+    try:
+        text = render(report, args.format)
+    except ValueError as exc:
+        raise UsageError(f"--format {args.format}: {exc}") from None
+    write_output(text, args.out, inputs=spec_inputs(args))
     bad = []
     for cid in require:
         rs = report.results(cid)
@@ -81,6 +136,7 @@ def cmd_conditions(args: argparse.Namespace) -> int:
 def cmd_findings(args: argparse.Namespace) -> int:
     from glocal_verify.reporting.findings import build_findings_report
 
+    check_out_file(args)
     write_output(build_findings_report(args.dir), args.out)
     return 0
 
@@ -91,13 +147,19 @@ def register(sub: Any) -> None:
     v = sub.add_parser("verify", help="check every condition and write a report")
     v.add_argument("spec", nargs="?", help="system specification (TOML, format 1)")
     v.add_argument("--example", metavar="NAME", help=f"use a bundled example ({', '.join(example_names())})")
-    v.add_argument("--format", choices=FORMATS, default="markdown", help="report format (default: markdown)")
+    v.add_argument("--graph", metavar="FILE", help="build the spec from a graph file (GraphML, GML, edge list, CSV)")
+    v.add_argument("--velocities", metavar="A,B,...", help="with --graph: agents whose velocity the control centre measures")
+    v.add_argument("--positions", metavar="A,B,...", help="with --graph: agents whose position the control centre measures")
+    v.add_argument("--format", choices=VERIFY_FORMATS, default="markdown", help="report format (default: markdown)")
     v.add_argument("--out", metavar="FILE", help="write the report to FILE instead of stdout")
     v.add_argument("--only", metavar="ID,...", help="check only these condition ids (prefixes like switching.* allowed)")
     v.add_argument("--exact", action="store_true", help="decide with exact rational arithmetic (python-flint)")
     v.add_argument("--require", metavar="ID,...", help="exit 1 unless every result of these ids holds")
     v.add_argument("--rtol", type=float, default=Tolerance().rtol, help="relative tolerance of numeric decisions (default 1e-9)")
     v.add_argument("--band", type=float, default=Tolerance().band, help="undecided band factor above rtol (default 1e3)")
+    v.add_argument("--escalate", choices=("auto", "never"), default="auto", help="auto (default): re-decide a numeric undecided exactly within --exact-budget")
+    v.add_argument("--exact-budget", type=float, default=30.0, metavar="SECONDS", help="time for each exact escalation (default 30; 0: no limit)")
+    v.add_argument("--fragile-below", type=float, default=1e-9, metavar="X", help="mark a verdict fragile when its margin is below X (default 1e-9)")
     v.add_argument("--quiet", action="store_true", help="no progress on stderr")
     v.set_defaults(func=cmd_verify)
 

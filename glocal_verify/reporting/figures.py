@@ -15,6 +15,7 @@ curve exceeds 1).
 
 from __future__ import annotations
 
+import io
 import math
 from pathlib import Path
 from typing import Sequence
@@ -28,6 +29,7 @@ from matplotlib.lines import Line2D
 
 from glocal_verify.model import System
 from glocal_verify.reporting.case_study import CaseOutcome
+from glocal_verify.reporting.output import write_bytes_atomic
 from glocal_verify.simulation.algorithm1 import Algorithm1Result
 from glocal_verify.spec.types import NORMAL_MODE, Label
 
@@ -35,21 +37,42 @@ __all__ = [
     "plot_run",
     "plot_cases",
     "save_figure",
+    "figure_bytes",
 ]
 
 BLUE, GREEN, RED, GREY, ORANGE, PURPLE = "#1f4e9c", "#2e8b57", "#d62728", "#9a9a9a", "#ff7f0e", "#7b3f9e"
 FORMATS = ("png", "svg")
 
 
-def save_figure(fig: Figure, stem: Path) -> list[Path]:
-    """Save ``fig`` as ``stem.png`` (150 dpi) and ``stem.svg``; return the paths."""
+def figure_bytes(fig: Figure) -> dict[str, bytes]:
+    """Render ``fig`` as PNG (150 dpi) and SVG in memory: ``{"png": ..., "svg": ...}``.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    """
     FigureCanvasAgg(fig)
-    stem.parent.mkdir(parents=True, exist_ok=True)
-    out = []
+    out: dict[str, bytes] = {}
     for ext in FORMATS:
-        p = stem.with_suffix(f".{ext}")
-        fig.savefig(p, dpi=150, bbox_inches="tight")
-        out.append(p)
+        buf = io.BytesIO()
+        fig.savefig(buf, format=ext, dpi=150, bbox_inches="tight")
+        out[ext] = buf.getvalue()
+    return out
+
+
+def save_figure(fig: Figure, stem: Path) -> list[Path]:
+    """Save ``fig`` as ``stem.png`` (150 dpi) and ``stem.svg``, each written atomically
+    (:func:`~glocal_verify.reporting.output.write_bytes_atomic`); return the paths.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    stem : Path
+        Path without the extension.
+    """
+    out = []
+    for ext, data in figure_bytes(fig).items():
+        out.append(write_bytes_atomic(stem.with_name(f"{stem.name}.{ext}"), data))
     return out
 
 

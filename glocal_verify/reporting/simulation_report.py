@@ -1,10 +1,17 @@
-"""Writes simulation and case-study reports (JSON, Markdown, figures) into a chosen folder."""
+"""Writes simulation and case-study reports (JSON, Markdown, figures) into a chosen folder.
+
+Every folder is written all-or-nothing through :class:`~glocal_verify.reporting.output.OutputFolder`
+(staged, then moved into place; an error or Ctrl-C leaves the folder as it was), and every
+file name derived from the spec (mode and case names) goes through
+:func:`~glocal_verify.reporting.output.safe_component`. Figures are optional
+(``figures=False`` never imports matplotlib).
+"""
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 from glocal_verify.conditions.detects import algorithm1
 from glocal_verify.model import System
@@ -15,7 +22,7 @@ from glocal_verify.reporting.case_study import (
     companion_systems,
     run_case,
 )
-from glocal_verify.reporting.figures import plot_cases, plot_run, save_figure
+from glocal_verify.reporting.output import OutputFolder, check_output_dir, safe_component
 from glocal_verify.results import jsonable
 from glocal_verify.simulation.algorithm1 import Algorithm1Result
 from glocal_verify.simulation.thresholds import ThresholdRule
@@ -28,12 +35,42 @@ __all__ = [
     "write_case_study",
 ]
 
+#: a callback told the name of each phase of a long run (one line per phase on stderr)
+PhaseHook = Callable[[str], None] | None
+
 # --------------------------------------------------------------------------------------------
 # files
 
 
-def write_run(system: System, res: Algorithm1Result, out_dir: str | Path, stem: str = "simulation", *, verdicts: Any = None) -> list[Path]:
-    """Write ``<stem>.json`` (the summary of :meth:`Algorithm1Result.to_json`) and the figure.
+def _say(phase: PhaseHook, text: str) -> None:
+    if phase is not None:
+        phase(text)
+
+
+def _put_run(folder: OutputFolder, system: System, res: Algorithm1Result, stem: str, verdicts: Any, figures: bool) -> list[Path]:
+    data = res.to_json()
+    if verdicts is not None:
+        data["verdicts"] = jsonable(verdicts)
+    paths = [folder.write_text(f"{stem}.json", json.dumps(data, indent=2) + "\n")]
+    if figures:
+        from glocal_verify.reporting.figures import figure_bytes, plot_run
+
+        for ext, blob in figure_bytes(plot_run(system, res)).items():
+            paths.append(folder.write_bytes(f"{stem}.{ext}", blob))
+    return paths
+
+
+def write_run(
+    system: System,
+    res: Algorithm1Result,
+    out_dir: str | Path,
+    stem: str = "simulation",
+    *,
+    verdicts: Any = None,
+    figures: bool = True,
+) -> list[Path]:
+    """Write ``<stem>.json`` (the summary of :meth:`Algorithm1Result.to_json`) and the figure
+    ``<stem>.{png,svg}``, all or nothing.
 
     Parameters
     ----------
@@ -41,19 +78,15 @@ def write_run(system: System, res: Algorithm1Result, out_dir: str | Path, stem: 
     res : Algorithm1Result
     out_dir : path
     stem : str
-        File name stem.
+        File name stem (passed through :func:`~glocal_verify.reporting.output.safe_component`).
     verdicts : any, optional
         Extra JSON-ready data stored under ``"verdicts"`` (e.g. ``switching.detects`` results).
+    figures : bool
+        Also draw the figure (False: matplotlib is not imported).
     """
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    data = res.to_json()
-    if verdicts is not None:
-        data["verdicts"] = jsonable(verdicts)
-    p = out / f"{stem}.json"
-    p.write_text(json.dumps(data, indent=2) + "\n", encoding="utf-8")
-    fig = plot_run(system, res)
-    return [p] + save_figure(fig, out / stem)
+    with OutputFolder(out_dir) as folder:
+        _put_run(folder, system, res, safe_component(stem), verdicts, figures)
+    return folder.written
 
 
 def _fmt_time(x: float | None) -> str:
@@ -123,9 +156,11 @@ def write_cases(
     preamble: str = "",
     findings: Sequence[str] = (),
     sections: Sequence[tuple[str, str]] = (),
+    figures: bool = True,
 ) -> list[Path]:
     """Write ``cases.md`` (outcome table and verdicts), ``cases.json``, ``figure2.{png,svg}`` and
-    one ``<case>.{json,png,svg}`` per case.
+    one ``<case>.{json,png,svg}`` per case (``<case>`` is the
+    :func:`~glocal_verify.reporting.output.safe_component` of the case name), all or nothing.
 
     Parameters
     ----------
@@ -137,17 +172,31 @@ def write_cases(
         Markdown bullet texts listed under "Findings".
     sections : sequence of (title, markdown)
         Extra sections placed before the findings.
+    figures : bool
+        Also draw the figures (False: matplotlib is not imported).
     """
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    paths: list[Path] = []
+    with OutputFolder(out_dir) as folder:
+        _put_cases(folder, outcomes, preamble, findings, sections, figures)
+    return folder.written
+
+
+def _put_cases(
+    folder: OutputFolder,
+    outcomes: Sequence[CaseOutcome],
+    preamble: str,
+    findings: Sequence[str],
+    sections: Sequence[tuple[str, str]],
+    figures: bool,
+) -> None:
     for oc in outcomes:
-        paths += write_run(oc.case.system, oc.result, out, oc.case.name, verdicts={"case": oc.to_json() | {"run": None}})
-    paths += save_figure(plot_cases(outcomes), out / "figure2")
+        _put_run(folder, oc.case.system, oc.result, safe_component(oc.case.name), {"case": oc.to_json() | {"run": None}}, figures)
+    if figures:
+        from glocal_verify.reporting.figures import figure_bytes, plot_cases
+
+        for ext, blob in figure_bytes(plot_cases(outcomes)).items():
+            folder.write_bytes(f"figure2.{ext}", blob)
     data = {"cases": [oc.to_json() for oc in outcomes]}
-    p = out / "cases.json"
-    p.write_text(json.dumps(jsonable(data), indent=2) + "\n", encoding="utf-8")
-    paths.append(p)
+    folder.write_text("cases.json", json.dumps(jsonable(data), indent=2) + "\n")
     rule = outcomes[0].result.thresholds.rule.describe() if outcomes else ""
     lines = ["# Section IV cases, simulated exactly", ""]
     if preamble:
@@ -194,10 +243,9 @@ def write_cases(
         "  (events, detection times, residual maxima before and after the switch).",
         "",
     ]
-    p = out / "cases.md"
-    p.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    paths.append(p)
-    return paths
+    if not figures:
+        lines[-7:-1] = ["## Figures", "", "Not drawn (`--no-figures`); `<case>.json` holds each run's JSON summary."]
+    folder.write_text("cases.md", "\n".join(lines) + "\n")
 
 
 def write_simulation(
@@ -211,6 +259,8 @@ def write_simulation(
     method: str = "auto",
     progress: bool = False,
     detects: bool = True,
+    figures: bool = True,
+    phase: PhaseHook = None,
 ) -> tuple[Algorithm1Result, list[Path]]:
     """Run :func:`~glocal_verify.conditions.detects.algorithm1` and write its summary and figure
     (what ``glocal-verify simulate SPEC`` does).
@@ -232,16 +282,30 @@ def write_simulation(
         Progress bars on stderr.
     detects : bool
         Also record the ``switching.detects`` verdicts of every safe mode.
+    figures : bool
+        Draw the figure (False: matplotlib is not imported).
+    phase : callable, optional
+        Told the name of each phase as it starts.
+
+    Notes
+    -----
+    The output folder is checked (:func:`~glocal_verify.reporting.output.check_output_dir`)
+    before anything is computed; the files are ``simulation-<mode>.{json,png,svg}`` with
+    ``<mode>`` the :func:`~glocal_verify.reporting.output.safe_component` of the chosen mode.
     """
+    check_output_dir(out_dir)
+    _say(phase, f"simulating {system.name}: thresholds, attacked run and Algorithm 1")
     res = algorithm1(system, mode=mode, no_switch=no_switch, trigger=trigger, rule=rule, method=method, progress=progress)
     verdicts = None
     if detects:
         from glocal_verify.conditions.registry import verify
 
+        _say(phase, "switching.detects: one simulated switch per safe mode")
         rep = verify(system, ["switching.detects"], options={"simulate": True})
         verdicts = [r.to_json() for r in rep.conditions]
-    stem = f"simulation-{res.chosen_mode or 'normal'}"
-    return res, write_run(system, res, out_dir, stem, verdicts=verdicts)
+    stem = "simulation-" + safe_component(res.chosen_mode or "normal")
+    _say(phase, "writing the summary" + (" and the figure" if figures else ""))
+    return res, write_run(system, res, out_dir, stem, verdicts=verdicts, figures=figures)
 
 
 def write_case_study(
@@ -253,6 +317,8 @@ def write_case_study(
     method: str = "auto",
     progress: bool = False,
     command: str = "",
+    figures: bool = True,
+    phase: PhaseHook = None,
 ) -> tuple[list[CaseOutcome], list[Path]]:
     """One case per safe mode (:func:`~glocal_verify.reporting.case_study.cases_for`), simulated with the
     scheduled switch, written by :func:`write_cases` with the findings of
@@ -270,16 +336,30 @@ def write_case_study(
     progress : bool
     command : str
         The command line, recorded in ``cases.md``.
+    figures : bool
+        Draw the figures (False: matplotlib is not imported).
+    phase : callable, optional
+        Told the name of each phase as it starts.
     """
-    comp = companion_systems(system) if companions is None else companions
-    outcomes = [run_case(c, rule=rule, method=method, progress=progress) for c in cases_for(system, comp)]
+    check_output_dir(out_dir)
+    comp = companions
+    if comp is None:
+        try:
+            comp = companion_systems(system)
+        except ValueError:  # a mode name that is no file-name component: no companion file can match
+            comp = {}
+    outcomes = []
+    for c in cases_for(system, comp):
+        _say(phase, f"case {c.name}: simulating {c.system.name} with the switch to {c.mode}")
+        outcomes.append(run_case(c, rule=rule, method=method, progress=progress))
     pre = "Generated by `" + (command or "glocal-verify simulate --cases") + "`; never edited by hand."
-    pre += " Every run is an exact piecewise-LTI simulation (matrix exponentials; see `glocal_verify/simulate.py`)."
+    pre += " Every run is an exact piecewise-LTI simulation (matrix exponentials; see `glocal_verify/simulation/engine.py`)."
     if comp:
         pre += " Companion specs: " + ", ".join(f"{q} uses `{s.name}`" for q, s in comp.items()) + "."
     sections: list[tuple[str, str]] = []
     findings = case_findings(outcomes)
     if system.spec.attack is not None and system.safe_modes:
+        _say(phase, "Algorithm 1 with the local trigger")
         alg = algorithm1(system, trigger="local", rule=rule, method=method, progress=progress)
         fl = alg.first_local
         ranking = ", ".join(f"{r.mode} ({'eligible' if r.eligible else 'not eligible'}, score {r.score:.3g})" for r in alg.ranking)
@@ -298,5 +378,6 @@ def write_case_study(
                 f"switching to it the control centre never detects the ZDA. Conditions (i)-(iii) do not depend on the attack; "
                 f"the local centre must also pick a switch that touches the agents its residual shows moving (dL_q xi != 0)."
             )
-    paths = write_cases(outcomes, out_dir, preamble=pre, findings=findings, sections=sections)
+    _say(phase, "writing the outcome table" + (" and the figures" if figures else ""))
+    paths = write_cases(outcomes, out_dir, preamble=pre, findings=findings, sections=sections, figures=figures)
     return outcomes, paths

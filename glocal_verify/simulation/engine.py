@@ -68,13 +68,21 @@ Conventions (documented choices the paper leaves open):
   :math:`F_\\sigma`), while the centralized observer keeps the normal-mode model
   (eq. ``obs_cent``; the attacker likewise keeps :math:`A_1`, Assumption II.1 (iii));
 * a covert attacker's copy starts from :math:`\\tilde x(t_a) = 0` (Assumption II.1 (ii)).
+
+**Size limits and interrupts.** :func:`simulate` estimates samples and memory before
+allocating (:func:`estimate_size`) and refuses above :data:`MAX_SAMPLES` / :data:`MAX_BYTES`
+unless ``allow_large=True`` or inside :func:`allow_large` (``simulate --allow-large``).
+Ctrl-C propagates as ``KeyboardInterrupt``; no partial result is returned.
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
 import sys
-from typing import Any, Sequence
+from contextvars import ContextVar
+from dataclasses import dataclass
+from typing import Any, Iterator, Sequence
 
 import numpy as np
 import scipy.linalg
@@ -92,6 +100,12 @@ from glocal_verify.spec.types import NORMAL_MODE
 
 __all__ = [
     "UNIT_ROUNDOFF",
+    "MAX_SAMPLES",
+    "MAX_BYTES",
+    "SizeEstimate",
+    "allow_large",
+    "estimate_size",
+    "check_size",
     "simulate",
     "taylor_order",
 ]
@@ -101,6 +115,15 @@ UNIT_ROUNDOFF = 2.0**-53
 
 #: largest augmented dimension for which ``method="auto"`` picks the dense propagator
 DENSE_LIMIT = 600
+
+#: most output samples (horizon / step + 1) one simulation may store without ``allow_large``
+MAX_SAMPLES = 10**7
+
+#: most bytes (estimate of :func:`estimate_size`) one simulation may allocate without ``allow_large``
+MAX_BYTES = 2 * 1024**3
+
+#: set by :func:`allow_large` for the simulations run inside its ``with`` block
+_ALLOW_LARGE: ContextVar[bool] = ContextVar("glocal_verify_allow_large", default=False)
 
 #: largest rho = h_int * nu of one internal step of the modal propagator (the Taylor terms of the
 #: observer input then stay below e^2 times the state norm: at most a few ulps of cancellation)
@@ -128,6 +151,79 @@ def taylor_order(rho: float, tol: float = UNIT_ROUNDOFF) -> int:
         j += 1
         if j > 200:
             raise ValueError(f"rho = {rho} is too large for a Taylor input model")
+
+
+# --------------------------------------------------------------------------------------------
+# size limits
+
+
+@dataclass(frozen=True, slots=True)
+class SizeEstimate:
+    """Samples :math:`\\lfloor T/h \\rfloor + 1` and bytes a simulation would store (:func:`estimate_size`)."""
+
+    samples: float
+    bytes: float
+
+    def describe(self) -> str:
+        """One line, e.g. ``1e+18 samples, about 3.2e+08 GiB``."""
+        return f"{self.samples:.3g} samples, about {self.bytes / 1024**3:.3g} GiB"
+
+
+def estimate_size(n_agents: int, horizon: float, step: float, *, channels: int | None = None, record_states: bool = True, dim: int | None = None, batch: int = 1) -> SizeEstimate:
+    """Estimate, before allocating, what a simulation stores: 8 bytes times (samples x
+    (2 x 2N stored states, counted twice for the modal back-transformation, + residual channels
+    + 3) + 3 x dim x batch for the propagated state and two working copies).
+
+    Parameters
+    ----------
+    n_agents : int
+        N (2N plant states).
+    horizon, step : float
+        T and h.
+    channels : int, optional
+        Residual components per sample (default 2N).
+    record_states : bool
+        Whether the plant states are stored.
+    dim : int, optional
+        Augmented state dimension (default 4N).
+    batch : int
+        Initial states propagated together.
+    """
+    n2 = 2 * n_agents
+    ratio = horizon / step
+    samples = float(math.floor(ratio + 1e-9) + 1) if math.isfinite(ratio) else math.inf
+    per = (2 * n2 if record_states else 0) + (n2 if channels is None else channels) + 3
+    d = 2 * n2 if dim is None else dim
+    return SizeEstimate(samples, 8.0 * (samples * per + 3.0 * d * batch))
+
+
+def check_size(est: SizeEstimate, *, allow: bool | None = None) -> None:
+    """Raise :class:`~glocal_verify.errors.ModelError` (one line with the estimate) above
+    :data:`MAX_SAMPLES` samples or :data:`MAX_BYTES` bytes, unless ``allow`` (default: inside
+    :func:`allow_large`).
+
+    Parameters
+    ----------
+    est : SizeEstimate
+    allow : bool, optional
+    """
+    if _ALLOW_LARGE.get() if allow is None else allow:
+        return
+    if est.samples > MAX_SAMPLES or est.bytes > MAX_BYTES:
+        raise ModelError(
+            f"simulation too large: {est.describe()} (limits {MAX_SAMPLES:.0e} samples, {MAX_BYTES / 1024**3:g} GiB); "
+            "shorten simulation.horizon, enlarge simulation.step or allow large runs (--allow-large)"
+        )
+
+
+@contextlib.contextmanager
+def allow_large() -> Iterator[None]:
+    """Lift the size limits of :func:`simulate` for the simulations run inside the block."""
+    token = _ALLOW_LARGE.set(True)
+    try:
+        yield
+    finally:
+        _ALLOW_LARGE.reset(token)
 
 
 # --------------------------------------------------------------------------------------------
@@ -531,6 +627,7 @@ def simulate(
     record_states: bool = True,
     batch_reduce: str | None = None,
     progress: bool = False,
+    allow_large: bool | None = None,
 ) -> SimulationResult:
     """Simulate plant, attack and observers exactly (module docstring) on a uniform grid.
 
@@ -558,11 +655,21 @@ def simulate(
         component, ``"max-abs"`` the maximum over the batch. Required for batches.
     progress : bool
         Show a tqdm progress bar on stderr.
+    allow_large : bool, optional
+        Lift the size limits (module docstring); default: lifted only inside
+        :func:`allow_large` blocks.
 
     Returns
     -------
     SimulationResult
-        ``interrupted`` is True if Ctrl-C stopped the run (arrays truncated).
+        ``interrupted`` is always False: Ctrl-C propagates as ``KeyboardInterrupt``.
+
+    Raises
+    ------
+    ModelError
+        Bad horizon, step, x0 or method, or a run above the size limits.
+    KeyboardInterrupt
+        Ctrl-C during the run (nothing partial is returned).
     """
     bank = observers if observers is not None else ObserverBank(())
     sched = schedule if schedule is not None else Schedule()
@@ -570,8 +677,9 @@ def simulate(
         system.check_mode(m)
     T = float(system.spec.simulation.horizon if horizon is None else horizon)
     h = float(system.spec.simulation.step if step is None else step)
-    if not (h > 0 and T > 0):
-        raise ModelError(f"horizon {T} and step {h} must be positive")
+    if not (h > 0 and T > 0 and math.isfinite(T) and math.isfinite(h)):
+        raise ModelError(f"horizon {T} and step {h} must be positive and finite")
+    check_size(estimate_size(system.n, T, h, channels=0, record_states=False, dim=0), allow=allow_large)
     K = int(math.floor(T / h + 1e-9))
     end = K * h
     X = random_initial_state(system) if x0 is None else np.asarray(x0, dtype=float)
@@ -584,6 +692,9 @@ def simulate(
     B = X0.shape[1]
     st = _Setup(system, attack, bank)
     dim = st.m + (2 * system.n if st.copy else 0) + 2 * system.n + sum(o.order for o in bank)
+    n_channels = sum(len(o.channels) for o in bank)
+    want_states = record_states and not batch
+    check_size(estimate_size(system.n, T, h, channels=n_channels, record_states=want_states, dim=dim, batch=B), allow=allow_large)
     meth = method
     if meth == "auto":
         meth = "dense" if dim <= DENSE_LIMIT else "modal"
@@ -632,7 +743,6 @@ def simulate(
     record(0)
     events = _events(sched, attack, end)
     tol = 1e-9 * h
-    interrupted = False
     bar = None
     if progress:
         from tqdm import tqdm
@@ -663,19 +773,10 @@ def simulate(
                 apply_events(e)
                 if abs(t_cur - (k_next - 1) * h) <= tol and abs(e - t_cur) <= tol:
                     record(k_next - 1)  # the sample at an event shows the state after it
-    except KeyboardInterrupt:
-        interrupted = True
     finally:
+        # Ctrl-C propagates (no partial result); only the progress bar needs closing
         if bar is not None:
             bar.close()
-    n_done = int(np.sum(~np.isnan(scale_arr)))
-    if interrupted:
-        t_grid = t_grid[:n_done]
-        res_arr = {k: v[:n_done] for k, v in res_arr.items()}
-        scale_arr = scale_arr[:n_done]
-        if x_arr is not None:
-            x_arr = x_arr[:n_done]
-            x_basis = x_basis[:n_done]
     if x_arr is not None and isinstance(engine, _ModalEngine):
         x_arr = _from_modal(system, x_arr, x_basis)
     notes = list(bank.notes)
@@ -691,7 +792,7 @@ def simulate(
         meth,
         engine.J if isinstance(engine, _ModalEngine) else None,
         engine.n_sub if isinstance(engine, _ModalEngine) else 1,
-        interrupted,
+        False,
         tuple(notes),
     )
 

@@ -1,0 +1,606 @@
+"""Sweeps: population questions over ensembles of networks, run on Dask.
+
+A sweep file (TOML) declares an *ensemble* and what to *compute* for each member::
+
+    [ensemble]
+    generator = "random-clustered"          # glocal_verify's random clustered network generator
+    agents = [30, 50]                       # a list is a grid axis; a scalar is fixed
+    clusters = 3
+    seeds = { start = 0, count = 10 }
+    # or, instead of a generator:  specs = "folder/of/specs"   (every *.toml in it)
+
+    [compute]
+    conditions = ["privacy.*", "switching.*"]
+    exact = false                           # exact rational arithmetic for every member
+    escalate = "auto"                       # re-decide numeric undecided results exactly
+
+Every member (one point of the parameter grid and one seed, or one spec file) becomes one
+task; a task builds the member's system, runs :func:`~glocal_verify.conditions.registry.verify`
+and returns one row per condition result (member parameters, seed, condition id, scope,
+status, margin, method, favourable, fragile) -- or, when the member fails, one row with the
+error class and message: a failing member never aborts the sweep.
+
+Execution is ``dask.distributed``: an embedded ``LocalCluster`` on this machine by default
+(``workers`` processes, one thread each), or an existing cluster given by its scheduler
+address (``tcp://host:8786``) unchanged. Each finished member is written at once, atomically,
+to a parts folder beside the output (``<out>.parts/<member>.json``); a sweep started again
+with the same output skips the members already there (resume), and the final file (Parquet
+through pyarrow, or CSV) is assembled from the parts. A Markdown summary with the rate of
+``holds`` per condition against each grid parameter (Wilson 95% intervals) and a plot
+accompanies it.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import itertools
+import json
+import math
+import os
+import sys
+import tempfile
+import time
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Iterable, Mapping, Sequence
+
+from glocal_verify.errors import GlocalVerifyError, SpecError
+
+__all__ = [
+    "Member",
+    "SweepPlan",
+    "SweepResult",
+    "load_sweep",
+    "plan_from_dict",
+    "run_member",
+    "run_sweep",
+    "summarize",
+    "wilson_interval",
+    "GENERATORS",
+    "COLUMNS",
+]
+
+#: generators a sweep may name, and the sweep key -> generator keyword of each
+GENERATORS: dict[str, dict[str, str]] = {
+    "random-clustered": {
+        "agents": "n",
+        "clusters": "clusters",
+        "chords": "chords",
+        "cut_edges": "cut_edges",
+        "monitors": "monitors",
+        "modes": "modes",
+        "max_weight": "max_weight",
+        "attack": "attack",
+        "observers_per_cluster": "observers_per_cluster",
+        "horizon": "horizon",
+        "step": "step",
+    }
+}
+
+#: columns of the results file, in order (member parameters come first as ``param.<name>``)
+COLUMNS = (
+    "member",
+    "source",
+    "seed",
+    "condition",
+    "scope",
+    "status",
+    "margin",
+    "method",
+    "favourable",
+    "fragile",
+    "error_class",
+    "error",
+    "seconds",
+)
+
+_MAX_MEMBERS = 1_000_000
+
+
+@dataclass(frozen=True, slots=True)
+class Member:
+    """One member of an ensemble: a generated network (parameters and seed) or a spec file.
+
+    Attributes
+    ----------
+    key : str
+        Stable, file-name-safe identifier (used for the resume parts).
+    params : mapping
+        Grid parameters of a generated member (sweep keys), empty for a spec file.
+    seed : int or None
+        Seed of a generated member.
+    spec_path : str or None
+        Path of a spec-file member.
+    generator : str or None
+        Generator name of a generated member.
+    """
+
+    key: str
+    params: Mapping[str, Any]
+    seed: int | None
+    spec_path: str | None = None
+    generator: str | None = None
+
+    @property
+    def source(self) -> str:
+        """How to reproduce the member: the generator call or the spec path."""
+        if self.spec_path is not None:
+            return self.spec_path
+        args = ", ".join(f"{k}={v!r}" for k, v in self.params.items())
+        return f"{self.generator}({args}, seed={self.seed})"
+
+
+@dataclass(frozen=True, slots=True)
+class SweepPlan:
+    """A parsed sweep file: the members and what to compute for each.
+
+    Attributes
+    ----------
+    members : tuple of Member
+    conditions : tuple of str or None
+        Condition ids or prefixes (None: every implemented condition).
+    exact : bool
+    escalate : str
+    grid : mapping
+        The grid axes (sweep key -> values), for the summary.
+    """
+
+    members: tuple[Member, ...]
+    conditions: tuple[str, ...] | None
+    exact: bool = False
+    escalate: str = "auto"
+    grid: Mapping[str, tuple[Any, ...]] = field(default_factory=dict)
+
+
+def _fail(path: str, message: str, source: str | None) -> SpecError:
+    return SpecError(path, message, source)
+
+
+def plan_from_dict(data: Mapping[str, Any], source: str | None = None, base: Path | None = None) -> SweepPlan:
+    """Build a :class:`SweepPlan` from the parsed TOML of a sweep file.
+
+    Parameters
+    ----------
+    data : mapping
+        ``{"ensemble": {...}, "compute": {...}}``.
+    source : str, optional
+        File name for messages.
+    base : Path, optional
+        Folder that a relative ``ensemble.specs`` is resolved against.
+
+    Raises
+    ------
+    SpecError
+        Naming the key path of the problem.
+    """
+    if not isinstance(data, Mapping):
+        raise _fail("", "a sweep file is a TOML table", source)
+    unknown = set(data) - {"ensemble", "compute"}
+    if unknown:
+        raise _fail(sorted(unknown)[0], "unknown section (expected [ensemble] and [compute])", source)
+    ens = data.get("ensemble")
+    if not isinstance(ens, Mapping):
+        raise _fail("ensemble", "missing [ensemble] table", source)
+    comp = data.get("compute", {})
+    if not isinstance(comp, Mapping):
+        raise _fail("compute", "must be a table", source)
+    conditions = comp.get("conditions")
+    if conditions is not None:
+        if not isinstance(conditions, list) or not all(isinstance(c, str) for c in conditions) or not conditions:
+            raise _fail("compute.conditions", "must be a non-empty list of condition ids", source)
+        from glocal_verify.conditions.registry import resolve_ids
+
+        try:
+            resolve_ids(conditions)
+        except GlocalVerifyError as exc:
+            raise _fail("compute.conditions", str(exc), source) from None
+    exact = comp.get("exact", False)
+    if not isinstance(exact, bool):
+        raise _fail("compute.exact", "must be true or false", source)
+    escalate = comp.get("escalate", "auto")
+    if escalate not in ("auto", "never"):
+        raise _fail("compute.escalate", "must be 'auto' or 'never'", source)
+    extra = set(comp) - {"conditions", "exact", "escalate"}
+    if extra:
+        raise _fail(f"compute.{sorted(extra)[0]}", "unknown key (expected conditions, exact, escalate)", source)
+
+    if "specs" in ens:
+        if "generator" in ens:
+            raise _fail("ensemble", "give either generator or specs, not both", source)
+        folder = ens["specs"]
+        if not isinstance(folder, str):
+            raise _fail("ensemble.specs", "must be a folder path", source)
+        root = Path(folder) if base is None or Path(folder).is_absolute() else base / folder
+        if not root.is_dir():
+            raise _fail("ensemble.specs", f"{folder!r} is not a folder", source)
+        files = sorted(root.glob("*.toml"))
+        if not files:
+            raise _fail("ensemble.specs", f"no *.toml spec in {folder!r}", source)
+        members = tuple(Member(key=f"spec-{i:06d}-{_slug(p.stem)}", params={}, seed=None, spec_path=str(p)) for i, p in enumerate(files))
+        return SweepPlan(members, tuple(conditions) if conditions else None, exact, escalate, {})
+
+    gen = ens.get("generator")
+    if gen not in GENERATORS:
+        raise _fail("ensemble.generator", f"unknown generator {gen!r} (known: {', '.join(GENERATORS)})", source)
+    keys = GENERATORS[gen]
+    seeds_spec = ens.get("seeds", {"start": 0, "count": 1})
+    seeds = _seeds(seeds_spec, source)
+    grid: dict[str, tuple[Any, ...]] = {}
+    fixed: dict[str, Any] = {}
+    for k, v in ens.items():
+        if k in ("generator", "seeds"):
+            continue
+        if k not in keys:
+            raise _fail(f"ensemble.{k}", f"unknown parameter of {gen} (known: {', '.join(keys)})", source)
+        if isinstance(v, list):
+            if not v:
+                raise _fail(f"ensemble.{k}", "an empty grid axis", source)
+            grid[k] = tuple(v)
+        else:
+            fixed[k] = v
+    count = len(seeds) * math.prod(len(v) for v in grid.values())
+    if count > _MAX_MEMBERS:
+        raise _fail("ensemble", f"{count} members exceed the limit of {_MAX_MEMBERS}", source)
+    generated: list[Member] = []
+    axes = list(grid)
+    for combo in itertools.product(*(grid[a] for a in axes)):
+        params = dict(fixed)
+        params.update(dict(zip(axes, combo)))
+        for s in seeds:
+            tag = "-".join(f"{a}{_slug(str(v))}" for a, v in zip(axes, combo))
+            generated.append(Member(key=f"{gen}-{tag}-seed{s}" if tag else f"{gen}-seed{s}", params=params, seed=s, generator=gen))
+    return SweepPlan(tuple(generated), tuple(conditions) if conditions else None, exact, escalate, grid)
+
+
+def _seeds(spec: Any, source: str | None) -> list[int]:
+    if isinstance(spec, list):
+        if not spec or not all(isinstance(s, int) and not isinstance(s, bool) for s in spec):
+            raise _fail("ensemble.seeds", "must be a list of integers or {start, count}", source)
+        return list(spec)
+    if isinstance(spec, Mapping):
+        start, count = spec.get("start", 0), spec.get("count")
+        if not isinstance(start, int) or not isinstance(count, int) or isinstance(count, bool) or count < 1 or count > _MAX_MEMBERS:
+            raise _fail("ensemble.seeds", "needs integers start and count (1 <= count)", source)
+        return list(range(start, start + count))
+    raise _fail("ensemble.seeds", "must be a list of integers or {start, count}", source)
+
+
+def _slug(text: str) -> str:
+    out = "".join(ch if ch.isalnum() or ch in "._" else "_" for ch in text)[:40]
+    return out or "x"
+
+
+def load_sweep(path: str | Path) -> SweepPlan:
+    """Read and validate a sweep file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The TOML sweep file.
+    """
+    p = Path(path)
+    try:
+        data = tomllib.loads(p.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise SpecError("", f"cannot read the sweep file ({exc.strerror})", str(p)) from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise SpecError("", f"not valid TOML ({exc})", str(p)) from None
+    return plan_from_dict(data, str(p), p.parent)
+
+
+def _member_system(member: Member) -> Any:
+    from glocal_verify.model import System
+
+    if member.spec_path is not None:
+        from glocal_verify.spec import load_spec
+
+        return System(load_spec(member.spec_path))
+    from glocal_verify.design.generators import random_clustered_spec
+
+    keys = GENERATORS[member.generator or ""]
+    kwargs = {keys[k]: v for k, v in member.params.items()}
+    return System(random_clustered_spec(seed=int(member.seed or 0), **kwargs))
+
+
+def run_member(member: Member, conditions: Sequence[str] | None, exact: bool = False, escalate: str = "auto") -> list[dict[str, Any]]:
+    """Compute one member: its result rows (never raises for a failing member).
+
+    Parameters
+    ----------
+    member : Member
+    conditions : sequence of str or None
+        Condition ids or prefixes.
+    exact : bool
+    escalate : {"auto", "never"}
+
+    Returns
+    -------
+    list of dict
+        One row per condition result, or one row carrying ``error_class`` and ``error``.
+    """
+    from glocal_verify.conditions.registry import verify
+    from glocal_verify.results import jsonable
+
+    t0 = time.perf_counter()
+    base: dict[str, Any] = {"member": member.key, "source": member.source, "seed": member.seed}
+    base.update({f"param.{k}": v for k, v in member.params.items()})
+    try:
+        system = _member_system(member)
+        report = verify(system, list(conditions) if conditions else None, exact=exact, escalate=escalate)
+    except Exception as exc:  # a member's failure is a result of the sweep, not its end
+        return [{**base, "condition": None, "status": "error", "error_class": type(exc).__name__, "error": str(exc)[:500], "seconds": time.perf_counter() - t0}]
+    dt = time.perf_counter() - t0
+    rows = []
+    for r in report.conditions:
+        margin = jsonable(r.margin)
+        rows.append(
+            {
+                **base,
+                "condition": r.id,
+                "scope": json.dumps(jsonable(dict(r.scope)), sort_keys=True),
+                "status": r.status.value,
+                "margin": margin if isinstance(margin, (int, float)) else None,
+                "method": r.method.value,
+                "favourable": r.favourable,
+                "fragile": r.fragile,
+                "error_class": None,
+                "error": None,
+                "seconds": dt,
+            }
+        )
+    return rows
+
+
+def _run_chunk(members: Sequence[Member], conditions: Sequence[str] | None, exact: bool, escalate: str) -> list[tuple[str, list[dict[str, Any]]]]:
+    return [(m.key, run_member(m, conditions, exact, escalate)) for m in members]
+
+
+@dataclass(frozen=True, slots=True)
+class SweepResult:
+    """What a sweep wrote.
+
+    Attributes
+    ----------
+    rows : tuple of dict
+        Every result row, in member order.
+    out : Path
+        The results file.
+    summary : Path or None
+        The Markdown summary.
+    computed, resumed : int
+        Members computed in this run and members taken from earlier parts.
+    """
+
+    rows: tuple[dict[str, Any], ...]
+    out: Path
+    summary: Path | None
+    computed: int
+    resumed: int
+
+
+def _atomic_write(path: Path, data: bytes) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def _columns(rows: Iterable[Mapping[str, Any]]) -> list[str]:
+    params = sorted({k for r in rows for k in r if k.startswith("param.")})
+    return [COLUMNS[0]] + params + list(COLUMNS[1:])
+
+
+def _write_table(rows: Sequence[Mapping[str, Any]], out: Path) -> None:
+    cols = _columns(rows)
+    if out.suffix.lower() == ".csv":
+        buf = io.StringIO()
+        w = csv.DictWriter(buf, fieldnames=cols, extrasaction="ignore", lineterminator="\n")
+        w.writeheader()
+        for r in rows:
+            w.writerow({c: ("" if r.get(c) is None else r.get(c)) for c in cols})
+        _atomic_write(out, buf.getvalue().encode("utf-8"))
+        return
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pa.Table.from_pylist([{c: r.get(c) for c in cols} for r in rows])
+    sink = pa.BufferOutputStream()
+    pq.write_table(table, sink)
+    _atomic_write(out, sink.getvalue().to_pybytes())
+
+
+def wilson_interval(successes: int, trials: int, z: float = 1.959963984540054) -> tuple[float, float]:
+    """Wilson score interval of a binomial proportion (95% by default).
+
+    Parameters
+    ----------
+    successes, trials : int
+    z : float
+        Normal quantile (1.96 for 95%).
+    """
+    if trials <= 0:
+        return (0.0, 1.0)
+    p = successes / trials
+    d = 1 + z * z / trials
+    c = (p + z * z / (2 * trials)) / d
+    h = z * math.sqrt(p * (1 - p) / trials + z * z / (4 * trials * trials)) / d
+    return (max(0.0, c - h), min(1.0, c + h))
+
+
+def summarize(rows: Sequence[Mapping[str, Any]], grid: Mapping[str, Sequence[Any]], out_md: Path, *, figures: bool = True) -> Path:
+    """Write the Markdown summary: the rate of ``holds`` per condition (all scopes of a member
+    must hold) against each grid parameter, with Wilson 95% intervals, and a plot per parameter.
+
+    Parameters
+    ----------
+    rows : sequence of mapping
+        Result rows of :func:`run_member`.
+    grid : mapping
+        Grid axes of the sweep.
+    out_md : Path
+        Markdown file to write (plots beside it, ``<stem>-<param>.svg``).
+    figures : bool
+        Draw the plots (matplotlib, Agg).
+    """
+    members = sorted({r["member"] for r in rows})
+    errors = [r for r in rows if r.get("status") == "error"]
+    lines = [f"# Sweep summary", "", f"- members: {len(members)}", f"- result rows: {len(rows) - len(errors)}", f"- failed members: {len(errors)}", ""]
+    # per member and condition: holds iff every scope holds; undecided if any undecided and none fails
+    verdict: dict[tuple[str, str], str] = {}
+    for r in rows:
+        if r.get("condition") is None:
+            continue
+        k = (r["member"], r["condition"])
+        cur = verdict.get(k, "holds")
+        st = r["status"]
+        if st == "fails" or cur == "fails":
+            verdict[k] = "fails"
+        elif st == "undecided" or cur == "undecided":
+            verdict[k] = "undecided"
+        else:
+            verdict[k] = "holds"
+    params_of = {r["member"]: {k[len("param.") :]: v for k, v in r.items() if k.startswith("param.")} for r in rows}
+    conds = sorted({c for _, c in verdict})
+    axes = list(grid) or ["(all)"]
+    plots = []
+    for axis in axes:
+        values = list(grid.get(axis, ["all"]))
+        lines += [f"## Rate of `holds` against `{axis}`", "", "| condition | " + " | ".join(f"{axis} = {v}" for v in values) + " |", "|---|" + "---|" * len(values)]
+        series: dict[str, list[tuple[float, float, float]]] = {}
+        for c in conds:
+            cells = []
+            for v in values:
+                ms = [m for m in members if axis == "(all)" or params_of.get(m, {}).get(axis) == v]
+                vs = [verdict[(m, c)] for m in ms if (m, c) in verdict]
+                n, h = len(vs), sum(1 for x in vs if x == "holds")
+                lo, hi = wilson_interval(h, n)
+                series.setdefault(c, []).append((h / n if n else float("nan"), lo, hi))
+                und = sum(1 for x in vs if x == "undecided")
+                cells.append(f"{h}/{n} ({lo:.2f}-{hi:.2f})" + (f", {und} undecided" if und else ""))
+            lines.append(f"| `{c}` | " + " | ".join(cells) + " |")
+        lines.append("")
+        if figures and axis != "(all)" and conds:
+            svg = out_md.with_name(f"{out_md.stem}-{_slug(axis)}.svg")
+            _plot_rates(axis, values, series, svg)
+            plots.append(svg)
+            lines += [f"![rates against {axis}]({svg.name})", ""]
+    if errors:
+        lines += ["## Failed members", "", "| member | error |", "|---|---|"]
+        for r in errors[:50]:
+            lines.append(f"| {r['member']} | {r['error_class']}: {str(r['error'])[:120]} |")
+        lines.append("")
+    _atomic_write(out_md, "\n".join(lines).encode("utf-8"))
+    return out_md
+
+
+def _plot_rates(axis: str, values: Sequence[Any], series: Mapping[str, Sequence[tuple[float, float, float]]], path: Path) -> None:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(7, 4))
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot(1, 1, 1)
+    xs = list(range(len(values)))
+    for c, pts in series.items():
+        ys = [p[0] for p in pts]
+        lo = [max(0.0, p[0] - p[1]) if math.isfinite(p[0]) else 0.0 for p in pts]
+        hi = [max(0.0, p[2] - p[0]) if math.isfinite(p[0]) else 0.0 for p in pts]
+        ax.errorbar(xs, ys, yerr=[lo, hi], marker="o", capsize=3, label=c)
+    ax.set_xticks(xs, [str(v) for v in values])
+    ax.set_xlabel(axis)
+    ax.set_ylabel("rate of holds (Wilson 95%)")
+    ax.set_ylim(-0.05, 1.05)
+    ax.legend(fontsize=7, loc="best")
+    buf = io.StringIO()
+    fig.savefig(buf, format="svg")
+    _atomic_write(path, buf.getvalue().encode("utf-8"))
+
+
+def _client(scheduler: str | None, workers: int) -> tuple[Any, Any]:
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        return Client(scheduler, timeout="60s"), None
+    cluster = LocalCluster(n_workers=max(1, workers), threads_per_worker=1, processes=True, dashboard_address=None, host="127.0.0.1")
+    return Client(cluster), cluster
+
+
+def run_sweep(
+    plan: SweepPlan,
+    out: str | Path,
+    *,
+    scheduler: str | None = None,
+    workers: int = 2,
+    chunk_size: int = 4,
+    summary: bool = True,
+    figures: bool = True,
+    progress: Callable[[str], None] | None = None,
+) -> SweepResult:
+    """Run ``plan`` on Dask and write the results file, the parts and the summary.
+
+    Parameters
+    ----------
+    plan : SweepPlan
+    out : str or Path
+        Results file: ``.parquet`` (pyarrow) or ``.csv``.
+    scheduler : str, optional
+        Address of an existing Dask scheduler (``tcp://host:8786``); default an embedded
+        ``LocalCluster`` of ``workers`` processes on this machine.
+    workers : int
+        Worker processes of the embedded cluster.
+    chunk_size : int
+        Members per task (amortises task overhead; members of a chunk run in sequence).
+    summary, figures : bool
+        Write the Markdown summary (``<out stem>.md``) and its plots.
+    progress : callable, optional
+        Called with one line per finished chunk.
+    """
+    outp = Path(out)
+    if outp.suffix.lower() not in (".parquet", ".csv"):
+        raise SpecError("--out", "must end in .parquet or .csv", None)
+    parts = outp.with_name(outp.name + ".parts")
+    parts.mkdir(parents=True, exist_ok=True)
+    done = {p.stem for p in parts.glob("*.json")}
+    todo = [m for m in plan.members if m.key not in done]
+    resumed = len(plan.members) - len(todo)
+    if todo:
+        client, cluster = _client(scheduler, workers)
+        try:
+            from distributed import as_completed
+
+            chunks = [todo[i : i + max(1, chunk_size)] for i in range(0, len(todo), max(1, chunk_size))]
+            futures = [client.submit(_run_chunk, c, plan.conditions, plan.exact, plan.escalate, pure=False) for c in chunks]
+            finished = 0
+            t0 = time.perf_counter()
+            for fut in as_completed(futures):
+                for key, member_rows in fut.result():
+                    _atomic_write(parts / f"{key}.json", json.dumps(member_rows, allow_nan=True).encode("utf-8"))
+                    finished += 1
+                if progress:
+                    rate = finished / max(time.perf_counter() - t0, 1e-9)
+                    eta = (len(todo) - finished) / rate if rate > 0 else float("inf")
+                    progress(f"{finished}/{len(todo)} members ({resumed} resumed), ETA {eta:.0f} s")
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    rows: list[dict[str, Any]] = []
+    for m in plan.members:
+        rows.extend(json.loads((parts / f"{m.key}.json").read_text(encoding="utf-8")))
+    _write_table(rows, outp)
+    md = summarize(rows, plan.grid, outp.with_suffix(".md"), figures=figures) if summary else None
+    return SweepResult(tuple(rows), outp, md, len(todo), resumed)
+
+
+def _stderr_progress(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
