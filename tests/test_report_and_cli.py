@@ -100,3 +100,27 @@ def test_conditions_lists_every_catalogue_id(capsys: pytest.CaptureFixture[str])
     out = capsys.readouterr().out
     for cid in CATALOGUE:
         assert cid in out
+
+
+def test_a_numerical_failure_inside_a_checker_is_undecided_with_its_reason_then_settled_exactly(monkeypatch: pytest.MonkeyPatch) -> None:
+    import numpy as np
+
+    from glocal_verify import System, load_example
+    from glocal_verify.conditions import registry
+    from glocal_verify.results import Method, Status
+
+    registry._load()
+    real = registry._CHECKERS["central.observer"]
+
+    def fails_numerically(system: System, ctx: registry.CheckContext) -> list:
+        if not ctx.exact:
+            raise np.linalg.LinAlgError("SVD did not converge")
+        return real(system, ctx)
+
+    monkeypatch.setitem(registry._CHECKERS, "central.observer", fails_numerically)
+    system = System(load_example("paper19"))
+    (never,) = registry.verify(system, ["central.observer"], escalate="never").conditions
+    assert never.status is Status.UNDECIDED and "LinAlgError: SVD did not converge" in never.note
+    auto = registry.verify(system, ["central.observer"]).conditions
+    assert auto and all(r.method is Method.ESCALATED and r.status is not Status.UNDECIDED for r in auto)
+    assert [r.status for r in auto] == [r.status for r in real(system, registry.CheckContext(exact=True))]

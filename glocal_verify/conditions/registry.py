@@ -18,7 +18,10 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
-from glocal_verify.errors import UnknownConditionError
+import numpy as np
+import scipy.linalg
+
+from glocal_verify.errors import GlocalVerifyError, ModelError, UnknownConditionError
 from glocal_verify.model import System
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
 from glocal_verify.results import (
@@ -307,11 +310,18 @@ def _escalate(
         return numeric
     exact_ctx = CheckContext(exact=True, tol=ctx.tol, options=ctx.options, fragile_below=ctx.fragile_below, escalated=True)
     t0 = time.perf_counter()
-    exact = _with_budget(budget, lambda: _CHECKERS[cid](system, exact_ctx))
+    try:
+        exact = _with_budget(budget, lambda: _run_checker(system, cid, exact_ctx))
+    except ModelError as exc:
+        note = f"undecided numerically; the exact re-decision failed too ({exc})"
+        return [dataclasses.replace(r, note=f"{r.note}; {note}" if r.note else note) if r.status is Status.UNDECIDED else r for r in numeric]
     if exact is None:
         note = f"undecided numerically; the exact re-decision exceeded its budget of {budget:g} s (--exact-budget)"
         return [dataclasses.replace(r, note=f"{r.note}; {note}" if r.note else note) if r.status is Status.UNDECIDED else r for r in numeric]
     took = time.perf_counter() - t0
+    if len(numeric) == 1 and "numerical_failure" in numeric[0].witness:
+        why = numeric[0].note
+        return [dataclasses.replace(e, note=f"escalated to exact arithmetic ({took:.2g} s): {why}") for e in exact]
     by_scope = {_scope_key(r): r for r in exact}
     out = []
     for r in numeric:
@@ -325,6 +335,36 @@ def _escalate(
             why = r.note or "the certified error bound did not separate the cases"
             out.append(dataclasses.replace(e, note=f"escalated to exact arithmetic ({took:.2g} s): {why}"))
     return out
+
+
+#: exceptions a numerical routine may raise on data it cannot handle (non-convergence,
+#: overflow, non-finite intermediate values); a checker that raises one is undecided, not a crash
+NUMERICAL_FAILURES: tuple[type[BaseException], ...] = (
+    np.linalg.LinAlgError,
+    scipy.linalg.LinAlgError,
+    ArithmeticError,  # OverflowError, ZeroDivisionError, FloatingPointError
+    ValueError,  # numpy/scipy: "array must not contain infs or NaNs", QZ reordering failed ...
+    RecursionError,
+)
+
+
+def _run_checker(system: System, cid: str, ctx: CheckContext) -> list[ConditionResult]:
+    """Run one checker; a numerical failure of a numeric run becomes one undecided result.
+
+    The spec's own problems are :class:`~glocal_verify.errors.GlocalVerifyError` and pass
+    through. In exact mode a failure is re-raised as a :class:`ModelError` (exact results are
+    never undecided).
+    """
+    try:
+        return _CHECKERS[cid](system, ctx)
+    except GlocalVerifyError:
+        raise
+    except NUMERICAL_FAILURES as exc:
+        why = f"{type(exc).__name__}: {str(exc).splitlines()[0][:160] if str(exc) else 'no message'}"
+        if ctx.exact:
+            raise ModelError(f"{cid}: the exact computation failed ({why})") from None
+        note = f"the numerical computation failed ({why}); no verdict can be certified from it"
+        return [result(cid, ctx, Status.UNDECIDED, note=note, witness={"numerical_failure": why})]
 
 
 def verify(
@@ -380,7 +420,7 @@ def verify(
             continue
         if progress:
             progress(cid)
-        rs = _CHECKERS[cid](system, ctx)
+        rs = _run_checker(system, cid, ctx)
         if not exact and escalate == "auto" and cid != "switching.detects":
             rs = _escalate(system, cid, rs, ctx, exact_budget)
         results.extend(rs)
