@@ -49,7 +49,6 @@ from typing import Sequence
 
 import numpy as np
 import scipy.linalg
-import scipy.signal
 
 from glocal_verify.analysis.modal import EigenGroupPart, modal_decomposition
 from glocal_verify.analysis.unobservable import certified_unobservable, unobservable_subspace
@@ -263,6 +262,8 @@ def design_central_observer(
         Cs = np.hstack([b.C for b in design])
         Os = np.hstack([b.basis for b in design])
         if poles is not None:
+            import scipy.signal  # lazily: importing scipy.signal costs seconds
+
             res = scipy.signal.place_poles(As.T, Cs.T, np.asarray(poles))
             Hs = np.asarray(res.gain_matrix).T
             method = "place_poles"

@@ -14,7 +14,6 @@ from fractions import Fraction
 from typing import Sequence
 
 import numpy as np
-import scipy.signal
 
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.numerics import exact as ex
@@ -231,6 +230,8 @@ def _place_dual(X: np.ndarray, Y: np.ndarray, poles: np.ndarray, tol: Tolerance)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)  # YT convergence is about robustness, not accuracy
+            import scipy.signal  # lazily: importing scipy.signal costs seconds
+
             res = scipy.signal.place_poles(X, Bp, p, method="YT", maxiter=10)
     except ValueError as exc:
         raise NotApplicableError(f"pole placement failed: {exc}") from None
