@@ -236,9 +236,14 @@ def test_hostile_names_write_nothing_outside_the_output_folder(field: str, value
     work.mkdir(parents=True)
     monkeypatch.chdir(work)
     out = work / "DIR"
-    assert main(["simulate", str(spec), "--out", str(out), "--no-figures", "--quiet"]) == 0
-    assert "Traceback" not in capsys.readouterr().err
+    code = main(["simulate", str(spec), "--out", str(out), "--no-figures", "--quiet"])
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
     written = _files(tmp_path) - {spec}
+    if "\x00" in value or len(value) > 200:  # refused when the spec is loaded (control characters, over-long names): one line, nothing written
+        assert code == 2 and len(err.strip().splitlines()) == 1 and not written
+        return
+    assert code == 0
     assert written and all(out in p.parents for p in written), written
     assert all(SAFE.fullmatch(p.name) for p in written)
     assert not any(list(a.glob("escaped*")) for a in tmp_path.parents[:3])
@@ -289,7 +294,8 @@ def test_an_astronomical_horizon_is_refused_before_allocating(tmp_path: Path, ca
     spec = _spec(tmp_path, horizon="1e16")
     assert main(["simulate", str(spec), "--out", str(tmp_path / "o"), "--quiet"]) == 2
     line = _one_line(capsys.readouterr().err)
-    assert "too large" in line and "samples" in line and "--allow-large" in line
+    # refused by the spec's documented domain at load time, or else by the size estimate
+    assert "simulation.horizon" in line or ("too large" in line and "samples" in line and "--allow-large" in line)
     assert not (tmp_path / "o").exists()
 
 
@@ -373,7 +379,7 @@ def test_format_html_goes_to_the_renderer(tmp_path: Path, monkeypatch: pytest.Mo
     import glocal_verify.cli.verify as cli_verify
 
     asked: list[str] = []
-    monkeypatch.setattr(cli_verify, "render", lambda report, fmt: asked.append(fmt) or "<html></html>\n")
+    monkeypatch.setattr(cli_verify, "render", lambda report, fmt, system=None: asked.append(fmt) or "<html></html>\n")
     out = tmp_path / "r.html"
     assert main(["verify", str(_spec(tmp_path)), "--only", "privacy.connected", "--format", "html", "--out", str(out)]) == 0
     assert asked == ["html"] and out.read_text() == "<html></html>\n"
@@ -408,3 +414,15 @@ def test_draw_says_in_one_line_when_the_renderer_is_missing(monkeypatch: pytest.
     monkeypatch.setitem(sys.modules, "glocal_verify.reporting.network_svg", None)
     assert main(["draw", "--example", "paper19"]) == 2
     assert "network_svg" in _one_line(capsys.readouterr().err)
+
+
+def test_the_simulator_refuses_a_run_whose_estimate_exceeds_the_limits_unless_allowed() -> None:
+    from glocal_verify.errors import GlocalVerifyError
+    from glocal_verify.simulation.engine import allow_large, check_size, estimate_size
+
+    est = estimate_size(1000, 1e6, 1e-3)
+    with pytest.raises(GlocalVerifyError, match="allow-large"):
+        check_size(est)
+    with allow_large():
+        check_size(est)
+    check_size(estimate_size(19, 30.0, 0.05))

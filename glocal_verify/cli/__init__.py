@@ -14,6 +14,7 @@ Layer: the top; imports the library, and nothing imports it.
 from __future__ import annotations
 
 import importlib
+import os
 import sys
 from typing import Sequence
 
@@ -23,8 +24,11 @@ from glocal_verify.errors import GlocalVerifyError
 
 __all__ = ["main", "build_parser", "COMMAND_MODULES"]
 
+#: exit code of an internal error (a bug, never the user's input): EX_SOFTWARE of sysexits.h
+INTERNAL_ERROR = 70
+
 #: modules of this package that add subcommands, in the order ``--help`` lists them
-COMMAND_MODULES = ("verify", "placement", "simulate", "sweep", "draw")
+COMMAND_MODULES = ("verify", "placement", "simulate", "audit", "design", "sweep", "draw")
 
 
 def build_parser() -> Parser:
@@ -54,6 +58,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted", file=sys.stderr)
         return 130
+    except Exception as exc:  # a bug of the toolkit: one line for the user, the traceback on request
+        if os.environ.get("GLOCAL_DEBUG"):
+            raise
+        first = str(exc).splitlines()[0][:200] if str(exc) else ""
+        print(f"{PROG}: internal error ({type(exc).__name__}: {first}); please report it (GLOCAL_DEBUG=1 shows the traceback)", file=sys.stderr)
+        return INTERNAL_ERROR
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -5,13 +5,13 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import Iterable
+from typing import TYPE_CHECKING, Iterable
 
 from glocal_verify.errors import GlocalVerifyError
-from glocal_verify.model import System
 from glocal_verify.reporting.output import check_output_dir, check_output_file, write_text_atomic
-from glocal_verify.spec import load_spec
-from glocal_verify.spec.examples import load_example
+
+if TYPE_CHECKING:
+    from glocal_verify.model import System
 
 __all__ = [
     "PROG",
@@ -49,6 +49,10 @@ def ids_arg(text: str | None) -> list[str] | None:
 
 def load_system(args: argparse.Namespace) -> System:
     """The :class:`System` of ``SPEC`` or ``--example NAME`` (exactly one of them)."""
+    from glocal_verify.model import System
+    from glocal_verify.spec.examples import load_example
+    from glocal_verify.spec.load import load_spec
+
     if args.example and args.spec:
         raise UsageError("give either SPEC or --example, not both")
     if args.example:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 from glocal_verify.cli.common import (
     PROG,
@@ -15,22 +15,38 @@ from glocal_verify.cli.common import (
     spec_inputs,
     write_output,
 )
-from glocal_verify.conditions.registry import (
-    CATALOGUE,
-    implemented_ids,
-    resolve_ids,
-    verify,
-)
-from glocal_verify.model import System
-from glocal_verify.numerics.tolerance import Tolerance
-from glocal_verify.reporting.render import FORMATS, render
-from glocal_verify.results import Status
+from glocal_verify.conditions.catalogue import CATALOGUE
 from glocal_verify.spec.examples import example_names, example_text
+
+if TYPE_CHECKING:
+    from glocal_verify.model import System
+
+#: defaults of the numeric tolerance (glocal_verify.numerics.tolerance.Tolerance), kept literal
+#: here so that parsing the command line loads no numerics
+_RTOL, _BAND = 1e-9, 1e3
 
 __all__ = ["register"]
 
-#: report formats offered by ``--format`` (``html`` is rendered by the optional HTML renderer)
-VERIFY_FORMATS = tuple(dict.fromkeys((*FORMATS, "html")))
+#: report formats offered by ``--format`` (glocal_verify.reporting.render.FORMATS)
+VERIFY_FORMATS = ("json", "markdown", "html")
+
+
+def verify(system: System, only: Any = None, **options: Any) -> Any:
+    """:func:`glocal_verify.conditions.registry.verify`, imported when a command runs."""
+    from glocal_verify.conditions.registry import verify as run
+
+    return run(system, only, **options)
+
+
+def render(report: Any, fmt: str, system: System | None = None) -> str:
+    """The report in ``fmt``; the HTML page also draws the network of ``system``."""
+    if fmt == "html":
+        from glocal_verify.reporting.html import to_html
+
+        return to_html(report, system)
+    from glocal_verify.reporting.render import render as render_text
+
+    return render_text(report, fmt)
 
 
 def _graph_labels(text: str | None, nodes: Any, flag: str) -> list[Any]:
@@ -59,10 +75,16 @@ def _graph_system(args: argparse.Namespace) -> System:
     vel = _graph_labels(args.velocities, G.nodes, "--velocities")
     pos = _graph_labels(args.positions, G.nodes, "--positions")
     spec = spec_from_graph(G, name=Path(args.graph).stem or "graph", monitor_velocities=vel, monitor_positions=pos)
+    from glocal_verify.model import System
+
     return System(spec)
 
 
 def cmd_verify(args: argparse.Namespace) -> int:
+    from glocal_verify.conditions.registry import implemented_ids, resolve_ids
+    from glocal_verify.numerics.tolerance import Tolerance
+    from glocal_verify.results import Status
+
     only = ids_arg(args.only)
     require = resolve_ids(ids_arg(args.require) or [])
     if only is not None:
@@ -86,18 +108,22 @@ def cmd_verify(args: argparse.Namespace) -> int:
     progress: Callable[[str], None] | None = None
     if sys.stderr.isatty() and not args.quiet:
         progress = lambda cid: print(f"checking {cid} ...", file=sys.stderr)  # noqa: E731
+    from glocal_verify.conditions.detects import DETECTS_MAX_AGENTS
+
+    simulate = args.simulate == "always" or (args.simulate == "auto" and system.n <= DETECTS_MAX_AGENTS)
     report = verify(
         system,
         only,
         exact=args.exact,
         tol=tol,
+        options={"simulate": True} if simulate else None,
         progress=progress,
         escalate=args.escalate,
         exact_budget=args.exact_budget if args.exact_budget > 0 else None,
         fragile_below=args.fragile_below,
     )
     try:
-        text = render(report, args.format)
+        text = render(report, args.format, system)
     except ValueError as exc:
         raise UsageError(f"--format {args.format}: {exc}") from None
     write_output(text, args.out, inputs=spec_inputs(args))
@@ -126,10 +152,9 @@ def cmd_example(args: argparse.Namespace) -> int:
 
 
 def cmd_conditions(args: argparse.Namespace) -> int:
-    impl = set(implemented_ids())
+    """List the catalogue (without loading any checker): id, paper reference, good news when."""
     for cid, info in CATALOGUE.items():
-        mark = "" if cid in impl else "  (not implemented yet)"
-        print(f"{cid:36s} {info.reference}{mark}")
+        print(f"{cid:36s} {info.reference:48s} good for the defender when it {info.favourable.value}")
     return 0
 
 
@@ -155,8 +180,14 @@ def register(sub: Any) -> None:
     v.add_argument("--only", metavar="ID,...", help="check only these condition ids (prefixes like switching.* allowed)")
     v.add_argument("--exact", action="store_true", help="decide with exact rational arithmetic (python-flint)")
     v.add_argument("--require", metavar="ID,...", help="exit 1 unless every result of these ids holds")
-    v.add_argument("--rtol", type=float, default=Tolerance().rtol, help="relative tolerance of numeric decisions (default 1e-9)")
-    v.add_argument("--band", type=float, default=Tolerance().band, help="undecided band factor above rtol (default 1e3)")
+    v.add_argument("--rtol", type=float, default=_RTOL, help="relative tolerance of numeric decisions (default 1e-9)")
+    v.add_argument("--band", type=float, default=_BAND, help="undecided band factor above rtol (default 1e3)")
+    v.add_argument(
+        "--simulate",
+        choices=("auto", "always", "never"),
+        default="auto",
+        help="run switching.detects (Theorem III.3's conclusion, one simulated switch per safe mode; auto: up to 150 agents)",
+    )
     v.add_argument("--escalate", choices=("auto", "never"), default="auto", help="auto (default): re-decide a numeric undecided exactly within --exact-budget")
     v.add_argument("--exact-budget", type=float, default=30.0, metavar="SECONDS", help="time for each exact escalation (default 30; 0: no limit)")
     v.add_argument("--fragile-below", type=float, default=1e-9, metavar="X", help="mark a verdict fragile when its margin is below X (default 1e-9)")

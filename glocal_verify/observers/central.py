@@ -262,9 +262,9 @@ def design_central_observer(
         Cs = np.hstack([b.C for b in design])
         Os = np.hstack([b.basis for b in design])
         if poles is not None:
-            import scipy.signal  # lazily: importing scipy.signal costs seconds
+            from scipy.signal import place_poles  # lazily: importing scipy.signal costs seconds
 
-            res = scipy.signal.place_poles(As.T, Cs.T, np.asarray(poles))
+            res = place_poles(As.T, Cs.T, np.asarray(poles))
             Hs = np.asarray(res.gain_matrix).T
             method = "place_poles"
         else:

@@ -230,9 +230,9 @@ def _place_dual(X: np.ndarray, Y: np.ndarray, poles: np.ndarray, tol: Tolerance)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)  # YT convergence is about robustness, not accuracy
-            import scipy.signal  # lazily: importing scipy.signal costs seconds
+            from scipy.signal import place_poles  # lazily: importing scipy.signal costs seconds
 
-            res = scipy.signal.place_poles(X, Bp, p, method="YT", maxiter=10)
+            res = place_poles(X, Bp, p, method="YT", maxiter=10)
     except ValueError as exc:
         raise NotApplicableError(f"pole placement failed: {exc}") from None
     return np.asarray(Vh[:r].T @ res.gain_matrix)

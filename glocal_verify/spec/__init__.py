@@ -11,30 +11,71 @@ Layer: lowest with :mod:`glocal_verify.errors` and :mod:`glocal_verify.results`;
 nothing else of the package.
 """
 
-from glocal_verify.spec.examples import example_names, example_text, load_example
-from glocal_verify.spec.graph_files import load_graph
-from glocal_verify.spec.load import (
-    load_spec,
-    loads_spec,
-    spec_from_dict,
-    spec_from_graph,
-)
-from glocal_verify.spec.types import (
-    ATTACK_KINDS,
-    NORMAL_MODE,
-    AttackSpec,
-    ClusterSpec,
-    EdgeSpec,
-    Label,
-    ModeSpec,
-    MonitorSpec,
-    ObserverSpec,
-    SimulationSpec,
-    SwitchingSpec,
-    SwitchStep,
-    SystemSpec,
-)
-from glocal_verify.spec.writer import dump_spec
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # loaded on first use (PEP 562): listing examples never loads the validator
+    from glocal_verify.spec.examples import example_names, example_text, load_example
+    from glocal_verify.spec.graph_files import load_graph
+    from glocal_verify.spec.load import (
+        load_spec,
+        loads_spec,
+        spec_from_dict,
+        spec_from_graph,
+    )
+    from glocal_verify.spec.types import (
+        ATTACK_KINDS,
+        NORMAL_MODE,
+        AttackSpec,
+        ClusterSpec,
+        EdgeSpec,
+        Label,
+        ModeSpec,
+        MonitorSpec,
+        ObserverSpec,
+        SimulationSpec,
+        SwitchingSpec,
+        SwitchStep,
+        SystemSpec,
+    )
+    from glocal_verify.spec.writer import dump_spec
+
+#: public name -> module that defines it
+_LAZY: dict[str, str] = {
+    "example_names": "glocal_verify.spec.examples",
+    "example_text": "glocal_verify.spec.examples",
+    "load_example": "glocal_verify.spec.examples",
+    "load_graph": "glocal_verify.spec.graph_files",
+    "load_spec": "glocal_verify.spec.load",
+    "loads_spec": "glocal_verify.spec.load",
+    "spec_from_dict": "glocal_verify.spec.load",
+    "spec_from_graph": "glocal_verify.spec.load",
+    "ATTACK_KINDS": "glocal_verify.spec.types",
+    "NORMAL_MODE": "glocal_verify.spec.types",
+    "AttackSpec": "glocal_verify.spec.types",
+    "ClusterSpec": "glocal_verify.spec.types",
+    "EdgeSpec": "glocal_verify.spec.types",
+    "Label": "glocal_verify.spec.types",
+    "ModeSpec": "glocal_verify.spec.types",
+    "MonitorSpec": "glocal_verify.spec.types",
+    "ObserverSpec": "glocal_verify.spec.types",
+    "SimulationSpec": "glocal_verify.spec.types",
+    "SwitchingSpec": "glocal_verify.spec.types",
+    "SwitchStep": "glocal_verify.spec.types",
+    "SystemSpec": "glocal_verify.spec.types",
+    "dump_spec": "glocal_verify.spec.writer",
+}
+
+
+def __getattr__(name: str) -> Any:
+    """Import a public name from its module on first access."""
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'glocal_verify.spec' has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
 
 __all__ = [
     "ATTACK_KINDS",

@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 from importlib import resources
+from typing import TYPE_CHECKING
 
 from glocal_verify.errors import SpecError
-from glocal_verify.spec.load import loads_spec
-from glocal_verify.spec.types import SystemSpec
+
+if TYPE_CHECKING:
+    from glocal_verify.spec.types import SystemSpec
 
 __all__ = [
     "example_names",
@@ -33,4 +35,6 @@ def example_text(name: str) -> str:
 
 def load_example(name: str) -> SystemSpec:
     """Load the bundled example specification called ``name`` (see :func:`example_names`)."""
+    from glocal_verify.spec.load import loads_spec
+
     return loads_spec(example_text(name), source=f"<example {name}>")

@@ -1,0 +1,90 @@
+"""``glocal-verify audit``: which sets of compromised actuators can hide in the network."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any, Callable
+
+from glocal_verify.cli.common import UsageError, load_system, write_output
+
+__all__ = ["register"]
+
+
+def _labels(system: Any, text: str | None, what: str) -> list[Any] | None:
+    if text is None:
+        return None
+    out: list[Any] = []
+    by_str = {str(a): a for a in system.labels}
+    for tok in (t.strip() for t in text.split(",")):
+        if not tok:
+            continue
+        if tok not in by_str:
+            raise UsageError(f"{what}: agent {tok} is not in the graph")
+        out.append(by_str[tok])
+    if not out:
+        raise UsageError(f"{what}: the candidate set is empty")
+    return out
+
+
+def _progress(quiet: bool) -> Callable[[int, int], None] | None:
+    if quiet or not sys.stderr.isatty():
+        return None
+    from tqdm import tqdm
+
+    bar: dict[str, Any] = {}
+
+    def tick(done: int, total: int) -> None:
+        if "bar" not in bar:
+            bar["bar"] = tqdm(total=total, desc="attack sets", unit="set", leave=False)
+        b = bar["bar"]
+        b.update(done - b.n)
+        if done >= total:
+            b.close()
+
+    return tick
+
+
+def cmd_audit(args: argparse.Namespace) -> int:
+    from glocal_verify.design.audit import audit
+    from glocal_verify.design.audit_figure import audit_figure
+
+    system = load_system(args)
+    if args.max_attackers < 1:
+        raise UsageError(f"--max-attackers: must be at least 1, not {args.max_attackers}")
+    cands = _labels(system, args.agents, "--agents")
+    sensors = _labels(system, args.sensors, "--sensors") if args.sensors else None
+    n_cand = len(cands) if cands is not None else system.n
+    if args.max_attackers > n_cand:
+        raise UsageError(f"--max-attackers: {args.max_attackers} is larger than the number of candidate agents ({n_cand})")
+    result = audit(system, args.max_attackers, cands, sensors, _progress(args.quiet), exact=args.exact)
+    text = json.dumps(result.to_json(), indent=2) + "\n" if args.format == "json" else result.to_markdown()
+    out_dir = Path(args.out) if args.out and (Path(args.out).is_dir() or args.out.endswith("/")) else None
+    if out_dir is not None:
+        name = "audit.json" if args.format == "json" else "audit.md"
+        write_output(text, str(out_dir / name))
+        audit_figure(result, out_dir / "audit.svg")
+        audit_figure(result, out_dir / "audit.png")
+    else:
+        write_output(text, args.out)
+    if args.figure:
+        audit_figure(result, args.figure)
+    return 0
+
+
+def register(sub: Any) -> None:
+    """Add the ``audit`` subcommand."""
+    p = sub.add_parser("audit", help="list every set of 1..k compromised actuators with whether it can hide (stealthy ZDA, local observers, safe modes)")
+    p.add_argument("spec", nargs="?", help="system specification (TOML, format 1)")
+    p.add_argument("--example", metavar="NAME", help="use a bundled example")
+    p.add_argument("--max-attackers", type=int, default=2, metavar="K", help="largest set size (default 2)")
+    p.add_argument("--agents", metavar="LIST", help="comma-separated candidate agents (default all)")
+    p.add_argument("--sensors", metavar="LIST", help="agents whose global channels the attacker also owns")
+    p.add_argument("--exact", action="store_true", help="decide every row in exact arithmetic")
+    p.add_argument("--format", choices=("json", "markdown"), default="markdown")
+    p.add_argument("--out", metavar="F", help="file, or a folder (then audit.json|md, audit.svg and audit.png are written)")
+    p.add_argument("--figure", metavar="FILE", help="also write the figure (.svg or .png)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_audit)

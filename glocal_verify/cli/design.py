@@ -1,0 +1,88 @@
+"""``glocal-verify design``: monitors, local observers and safe modes that leave no attacker hidden."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from glocal_verify.cli.common import UsageError, load_system, write_output
+
+__all__ = ["register"]
+
+
+def _assessment_lines(system: Any, label: str, exact: bool) -> list[str]:
+    """Privacy and detection lines of the assessment of ``verify`` (when the reporting layer has it)."""
+    from glocal_verify.conditions.registry import verify
+
+    rep = verify(
+        system,
+        [
+            "privacy.initial-state",
+            "privacy.consensus-value",
+            "stealthy.zda",
+            "local.pencil",
+            "local.uio",
+            "switching.image-kernel",
+            "switching.distinct-eigenvalues",
+            "switching.eigenvector-differences",
+            "switching.avoids-attack",
+        ],
+        exact=exact,
+    )
+    try:
+        from glocal_verify.reporting.assessment import assess
+    except ImportError:  # pragma: no cover - the reporting layer is optional here
+        return [f"{label}: {sum(r.status.value == 'holds' for r in rep.conditions)} of {len(rep.conditions)} verdicts hold"]
+    a = assess(rep)
+    pr, at = a.privacy, a.attack
+    out = [f"{label}: privacy of x(t0) {pr.initial_state}, of x* {pr.consensus_value}"]
+    if at.present:
+        caught = ", ".join(f"{getattr(c, 'cluster', c)}@{getattr(c, 'observer', '')}" for c in at.caught_locally_by)
+        out.append(
+            f"{label}: attack on {list(at.actuators)}: {at.verdict} (stealthy {at.stealthy}; caught locally by {caught or '-'};"
+            f" exposed by modes {', '.join(at.exposed_by_modes) or '-'})"
+        )
+    return out
+
+
+def cmd_design(args: argparse.Namespace) -> int:
+    from glocal_verify.design.network import design_comments, design_network
+
+    system = load_system(args)
+    if args.budget < 1:
+        raise UsageError(f"--budget: must be at least 1 safe mode, not {args.budget}")
+    if args.max_attackers < 1 or args.max_attackers > system.n:
+        raise UsageError(f"--max-attackers: must be between 1 and the number of agents ({system.n}), not {args.max_attackers}")
+    if not args.quiet:
+        print("auditing, placing observers, designing safe modes ...", file=sys.stderr)
+    d = design_network(system, budget=args.budget, max_attackers=args.max_attackers, place=not args.no_observers)
+    if d.unmet:
+        raise UsageError(f"no design within the budget of {args.budget} safe mode(s) meets: {d.unmet[0]}" + (f" (and {len(d.unmet) - 1} more)" if len(d.unmet) > 1 else ""))
+    from glocal_verify.model import System
+    from glocal_verify.spec.writer import dump_spec
+
+    text = design_comments(d) + dump_spec(d.spec)
+    write_output(text, args.out)
+    exact = not args.numeric and system.n <= 60
+    b, a = d.before.summary()["counts"], d.after.summary()["counts"]
+    lines = [f"audit before: {b['undetected']} undetected, {b['undecided']} undecided of {d.before.summary()['sets']} sets"]
+    lines += [f"audit after:  {a['undetected']} undetected, {a['undecided']} undecided of {d.after.summary()['sets']} sets"]
+    lines += _assessment_lines(system, "before", exact)
+    lines += _assessment_lines(System(d.spec), "after ", exact)
+    print("\n".join(lines), file=sys.stderr if not args.out else sys.stdout)
+    return 0
+
+
+def register(sub: Any) -> None:
+    """Add the ``design`` subcommand."""
+    p = sub.add_parser("design", help="design monitors, local observers and safe modes so that no audited attacker stays hidden")
+    p.add_argument("spec", nargs="?", help="system specification (TOML, format 1)")
+    p.add_argument("--example", metavar="NAME", help="use a bundled example")
+    p.add_argument("--out", metavar="DESIGNED.toml", help="write the designed spec here (default stdout)")
+    p.add_argument("--budget", type=int, default=3, metavar="N", help="largest number of designed safe modes (one link change each)")
+    p.add_argument("--max-attackers", type=int, default=2, metavar="K", help="k of the audit (default 2)")
+    p.add_argument("--no-observers", action="store_true", help="keep the spec's local observers")
+    p.add_argument("--numeric", action="store_true", help="before/after assessment in floating point (default exact for N <= 60)")
+    p.add_argument("--quiet", action="store_true")
+    p.set_defaults(func=cmd_design)
