@@ -41,6 +41,7 @@ __all__ = [
     "avoidance",
     "avoidance_exact",
     "delta_norm",
+    "avoidance_certificate",
 ]
 
 #: modes with |s + alpha mu_k| above this are eliminated in the numeric reduction (see the module docstring)
@@ -445,7 +446,13 @@ def _exact_mode(system: System, mode: str, d: ExactZdaZero, source: str, F: Sequ
         dimension=dim,
     )
     if not touched:
-        return Avoidance(status=Status.HOLDS, direction=chosen, direction_source="stealthy.zda", margin=0.0, dl_residual=0.0, **common)
+        if d.rational is not None and d.xi_field and d.u0_field:
+            r = _fq(d.rational)
+            vals = [ex.to_fraction(flint.fmpq_poly(p)(r)) for p in (*d.xi_field, *d.u0_field)]
+            exact_xi, exact_u0 = _normalize_exact(vals, N)
+        return Avoidance(
+            status=Status.HOLDS, direction=chosen, direction_source="stealthy.zda", margin=0.0, dl_residual=0.0, exact_xi=exact_xi, exact_u0=exact_u0, **common
+        )
     if dim > 0:
         assert avoid_dir is not None
         return Avoidance(
@@ -490,3 +497,78 @@ def avoidance_exact(system: System, mode: str, *, lambda0: complex | float | Seq
     if ea.direction is None:
         return None
     return _exact_mode(system, mode, ea.direction, ea.direction_source, system.idx(ea.actuators), tol)
+
+
+def avoidance_certificate(
+    system: System,
+    mode: str,
+    F: Sequence[int],
+    lam: complex,
+    status: Status,
+    exact_lambda: bool,
+    candidate: np.ndarray | None = None,
+) -> tuple[bool, float | None, str]:
+    """Certify a numeric verdict of ``switching.avoids-attack`` at lambda0 for the exact system.
+
+    With s0 = lambda0^2 + gamma lambda0, Q = [[s0 I + alpha L_1, -S_F^T], [S_out, 0]] and
+    K = [Q; [dL_q, 0]] (exact rows), ``holds`` (an avoiding stealthy direction) means ker K
+    holds a vector with u0 != 0, ``fails`` means ker Q does and ker K does not. Both are decided
+    by :func:`~glocal_verify.analysis.zda.u_direction_certificate` (Weyl lower bounds with the
+    SVD backward error and the rounding of the rational data against structural upper bounds
+    of the exact support). Only a real lambda0 that is exactly the requested rational (the
+    spec's ``attack.lambda0`` or the ``lambda0`` option, read as an exact binary rational)
+    can be certified this way; the exponent of an irrational zero cannot. A ``holds`` is also
+    proved by the avoiding direction ``candidate`` = (xi, u0) when it rationalises to an exact
+    kernel vector of K with u0 != 0 (:func:`~glocal_verify.analysis.zda.rational_kernel_vector`).
+    Returns (certified, error bound, note saying which bound failed).
+
+    Parameters
+    ----------
+    system : System
+    mode : str
+        The safe mode q.
+    F : sequence of int
+        Attacked agents (indices).
+    lam : complex
+        lambda0.
+    status : Status
+        The numeric verdict to certify (``HOLDS`` or ``FAILS``).
+    exact_lambda : bool
+        lambda0 is the requested exact value (not a computed zero).
+    candidate : ndarray, optional
+        The avoiding direction [xi; u0] of a numeric ``holds``.
+    """
+    from glocal_verify.analysis.zda import exact_q_rows, rational_kernel_vector, u_direction_certificate
+
+    if not exact_lambda or lam.imag != 0:
+        # a computed lambda0 is the fastest-growing zero found numerically: neither the zero nor
+        # the choice (no faster zero was missed) has a floating-point proof
+        return False, None, (
+            f"lambda0 = {lam:.6g} is a computed (irrational or complex) zero chosen as the fastest-growing one: "
+            "neither its kernel nor the completeness of the zero set has a floating-point certificate"
+        )
+    q = Fraction(lam.real)
+    s0 = q * q + system.gamma_q * q
+    out = system.idx(system.monitored_positions) if q == 0 else system.idx(system.monitored)
+    N, m = system.n, len(F)
+    dL = [row for row in system.delta_laplacian_exact(mode) if any(x != 0 for x in row)]
+    rowsK, patK = exact_q_rows(system, F, out, s0, dL)
+    k_dir, bk = u_direction_certificate(rowsK, patK, N, m)
+    if status is Status.HOLDS:
+        if k_dir is True:
+            return True, bk, ""
+        if candidate is not None:
+            qv = rational_kernel_vector(rowsK, candidate)
+            if qv is not None and any(x != 0 for x in qv[N:]):
+                return True, None, ""
+        return False, bk, f"the rank bounds of [Q; dL_q] at lambda0 (error bound {bk:.3g}) do not prove an avoiding direction with u0 != 0"
+    rowsQ, patQ = exact_q_rows(system, F, out, s0)
+    q_dir, bq = u_direction_certificate(rowsQ, patQ, N, m)
+    bound = max(bk, bq)
+    if q_dir is True and k_dir is False:
+        return True, bound, ""
+    return False, bound, (
+        f"rank bounds (error bound {bound:.3g}): a stealthy direction at lambda0 is {'certain' if q_dir else 'not certain'}, "
+        f"its absence from ker [Q; dL_q] is {'certain' if k_dir is False else 'not certain'}"
+    )
+

@@ -32,6 +32,7 @@ __all__ = [
     "ExactZdaZero",
     "ExactZdaAnalysis",
     "zda_analysis_exact",
+    "exact_witness",
 ]
 
 # ------------------------------------------------------------------------------------------
@@ -64,6 +65,8 @@ class ExactZdaZero:
         The minimal polynomial (``factor``) as a flint object.
     multiplicity : int
         Multiplicity in z(lambda^2 + gamma lambda) (1 for a requested exponent).
+    u0_field : tuple
+        The u0 part of the same kernel vector as residues modulo ``field`` (exact).
     """
 
     value: complex
@@ -76,6 +79,7 @@ class ExactZdaZero:
     xi_field: tuple[Any, ...]
     field: Any
     multiplicity: int = 1
+    u0_field: tuple[Any, ...] = ()
 
     @property
     def growth(self) -> str:
@@ -165,14 +169,16 @@ def _exact_zero(
     if g.degree() == 1:
         rational = -Fraction(int(c[0].p), int(c[0].q)) / Fraction(int(c[1].p), int(c[1].q))
         root = complex(float(rational))
+    xf: tuple[Any, ...]
     if vec is None:
         xi, u = np.zeros(N), np.zeros(m)
-        xf: tuple[Any, ...] = ()
+        xf = ()
     else:
         v = eval_at_root(vec, g, root, enclosures)
         xi, u = _normalize(v[:N], v[N:])
         xf = tuple(vec[:N])
-    return ExactZdaZero(root, rational, str(g), sign, attack, xi, u, xf, g, mult)
+    uf: tuple[Any, ...] = () if vec is None else tuple(vec[N:])
+    return ExactZdaZero(root, rational, str(g), sign, attack, xi, u, xf, g, mult, uf)
 
 
 def zda_analysis_exact(
@@ -269,3 +275,53 @@ def zda_analysis_exact(
     return ExactZdaAnalysis(
         F_lab, es.left_invertible, N + es.normal_rank, k0, str(es.zero_polynomial), tuple(attack), tuple(unobs), direction, source, tuple(notes)
     )
+
+
+def _coeffs(p: Any) -> list[str]:
+    return [str(c) for c in flint.fmpq_poly(p).coeffs()]
+
+
+def exact_witness(system: System, F: Sequence[Label], z: ExactZdaZero) -> dict[str, Any]:
+    """The exact direction (xi, u0) of a zero, as the witness entries of ``stealthy.zda``.
+
+    Rational lambda0: ``xi_exact`` and ``u0_exact`` map labels to rationals (strings), scaled so
+    that the largest |xi_k| is 1 -- exactly (sI + alpha L) xi = S_F^T u0, S_M xi = 0. Irrational
+    lambda0: ``field`` (the minimal polynomial g of lambda0 in x; ``field_coefficients``
+    lowest degree first), ``xi_residues`` and
+    ``u0_residues`` (coefficient lists, lowest degree first, of polynomials r_k with xi_k =
+    r_k(lambda0): an exact kernel vector over Q[x]/(g), the defining equations hold modulo g)
+    and ``lambda0_enclosure`` (a certified python-flint ``acb`` ball around the root the
+    numeric values refer to). Empty when the zero carries no kernel vector.
+
+    Parameters
+    ----------
+    system : System
+    F : sequence of labels
+        The attacked actuators (labels of u0).
+    z : ExactZdaZero
+    """
+    if not z.xi_field:
+        return {}
+    labels = system.labels
+    if z.rational is not None:
+        r = flint.fmpq(z.rational.numerator, z.rational.denominator)
+        xi = [flint.fmpq_poly(p)(r) for p in z.xi_field]
+        u0 = [flint.fmpq_poly(p)(r) for p in z.u0_field]
+        big = max(xi, key=lambda q: abs(Fraction(int(q.p), int(q.q))))
+        if big == 0:
+            big = flint.fmpq(1)
+        return {
+            "xi_exact": {lab: str(x / big) for lab, x in zip(labels, xi) if x != 0},
+            "u0_exact": {lab: str(u / big) for lab, u in zip(F, u0)},
+            "exact_note": "exact rationals: (s I + alpha L) xi = S_F^T u0 and S_M xi = 0 hold exactly (entries not listed are 0)",
+        }
+    encl = RootEnclosures(z.field).at(128)
+    ball = min(encl, key=lambda b: abs(complex(float(b.real.mid()), float(b.imag.mid())) - z.value))
+    return {
+        "field": z.factor,
+        "field_coefficients": _coeffs(z.field),
+        "xi_residues": {lab: _coeffs(p) for lab, p in zip(labels, z.xi_field) if not flint.fmpq_poly(p).is_zero()},
+        "u0_residues": {lab: _coeffs(p) for lab, p in zip(F, z.u0_field)},
+        "lambda0_enclosure": str(ball),
+        "exact_note": "xi_k = r_k(lambda0), u0_k likewise, with r_k the residue polynomials (coefficients lowest degree first) modulo field",
+    }

@@ -40,7 +40,7 @@ import copy
 import dataclasses
 import hashlib
 import math
-from typing import Any, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -69,8 +69,8 @@ from glocal_verify.numerics.tolerance import (
     DEFAULT_TOLERANCE,
     Decision,
     Tolerance,
-    numeric_rank,
 )
+from glocal_verify.numerics.pencil_exact import hurwitz_enclosure, rank_bounds, rounding_error
 from glocal_verify.observers.uio import design_uio
 from glocal_verify.observers.uio_existence import (
     UIOExistence,
@@ -157,9 +157,13 @@ def check_rank(system: System, ctx: CheckContext) -> list[ConditionResult]:
     .. math:: \\operatorname{rank}(C_{loc} E^i) = \\operatorname{rank}(E^i)
 
     E^i has one unit column per boundary agent on its velocity row, so (ii) holds exactly
-    when the velocity of every boundary agent is measured. Numeric: ranks by
-    :func:`~glocal_verify.numerics.tolerance.numeric_rank` (singular values of C_loc E^i relative to
-    ||E^i||_2 = 1; zero below ``rtol``, nonzero above ``rtol * band``). Exact: ranks over Q.
+    when the velocity of every boundary agent is measured. Numeric: certified ranks
+    (:func:`~glocal_verify.numerics.pencil_exact.rank_bounds`): a singular value counts as
+    nonzero when it exceeds the SVD backward error 8 max(m, n) eps ||M||_F (E^i and C_loc E^i
+    are exact 0/1 matrices, so there is no data rounding), and the rank is bounded above by
+    the structural rank of the exact support; the verdict is undecided unless both bounds
+    meet for both matrices (``certificate`` in the witness, ``error_bound`` in the result).
+    Exact: ranks over Q.
     (ii) does not involve the suspected set; it is reported in every scope.
 
     Margin
@@ -172,7 +176,7 @@ def check_rank(system: System, ctx: CheckContext) -> list[ConditionResult]:
     out = []
     for case in local_cases(system):
         status, margin, witness = rank_verdict(case, ctx.tol, ctx.exact)
-        out.append(result("local.rank", ctx, status, scope=case.scope, margin=margin, witness=witness))
+        out.append(result("local.rank", ctx, status, scope=case.scope, margin=margin, witness=witness, **_certificate_args(witness)))
     return out
 
 
@@ -195,19 +199,39 @@ def rank_verdict(case: LocalCase, tol: Tolerance = DEFAULT_TOLERANCE, exact: boo
         rCE = ex.rank(_exact_int(CE), CE.shape[1]) if CE.size else 0
         status = Status.HOLDS if rCE == rE else Status.FAILS
     else:
-        iE = numeric_rank(cm.E, tol)
-        iCE = numeric_rank(CE, tol, scale=iE.scale if iE.scale > 0 else 1.0)
-        rE, rCE = iE.rank, iCE.rank
-        if not (iE.decided and iCE.decided):
+        # certified ranks: Weyl lower bound (SVD backward error; E and C_loc E are exact 0/1
+        # matrices, no data rounding) against the structural rank of the exact support
+        exact_data = bool(np.all(cm.E == np.round(cm.E)) and np.all(CE == np.round(CE)))
+        bE, bCE = rank_bounds(cm.E), rank_bounds(CE)
+        rE, rCE = bE.lower, bCE.lower
+        bound = max(bE.error_bound, bCE.error_bound)
+        cert: dict[str, Any] = {"error_bound": bound, "by": "Weyl bound of the SVD (backward error 8 max(m, n) eps ||M||_F) and the structural rank"}
+        if not (exact_data and bE.decided and bCE.decided):
             status = Status.UNDECIDED
+            cert["note"] = (
+                f"rank(E^i) in [{bE.lower}, {bE.upper}], rank(C_loc E^i) in [{bCE.lower}, {bCE.upper}]: the certified bounds "
+                f"(error bound {bound:.3g}) do not meet" + ("" if exact_data else "; C_loc E^i is not an exact 0/1 matrix")
+            )
         else:
             status = Status.HOLDS if rCE == rE else Status.FAILS
     sv = np.linalg.svd(CE, compute_uv=False) if CE.size else np.zeros(0)
     margin = 1.0 if rE == 0 else (float(sv[rE - 1]) if len(sv) >= rE else 0.0)
     witness: dict[str, Any] = {"rank_E": rE, "rank_CE": rCE, "boundary": list(cm.boundary)}
+    if not exact:
+        witness["certificate"] = cert
     if unmeasured:
         witness["unmeasured_boundary"] = unmeasured
     return status, margin, witness
+
+
+def _certificate_args(witness: Mapping[str, Any]) -> dict[str, Any]:
+    """``error_bound`` and ``note`` for :func:`~glocal_verify.conditions.registry.result` from a
+    verdict's ``certificate`` witness entry (none in exact mode)."""
+    cert = witness.get("certificate")
+    if not isinstance(cert, Mapping):
+        return {}
+    eb = cert.get("error_bound")
+    return {"error_bound": None if eb is None else float(eb), "note": str(cert.get("note", ""))}
 
 
 # --------------------------------------------------------------------------------------------
@@ -232,6 +256,16 @@ def check_pencil(system: System, ctx: CheckContext) -> list[ConditionResult]:
     ``local_pencil_method``: ``auto``, ``structured`` or ``dense``; auto is dense for clusters
     of at most :data:`DENSE_MAX_AGENTS` agents) is recorded in the witness.
 
+    Certification (numeric): a verdict of either method stands only when it is proved for the
+    exact pencil (``certificate`` in the witness; see ``_certify`` in
+    :mod:`glocal_verify.conditions.local_pencil`): ``holds`` by zero forcing on the exact support
+    (and lam = 0 by a Weyl bound sigma_min(P(0)) > ||fl P(0) - P(0)||_2 + 8 max(m, n) eps
+    ||P(0)||_F when only lam != 0 is forced), ``fails`` combinatorially (suspected boundary
+    agent) or by the structural rank of the exact support (generically, or at lam in {0,
+    -gamma}). A zero verified by a small backward error, or the absence of zeros found by
+    QZ, is not a proof: ``undecided`` with ``error_bound`` and ``note``, escalated by
+    ``verify``. The margin below is robustness (a relative distance), not the decision.
+
     Margin
         (holds) dense: the smallest singular value of P(lam) relative to its largest over the
         sample points lam in {0, 1, i, -gamma/2 + 0.7 i, lambda0}; structured: the same
@@ -252,7 +286,7 @@ def check_pencil(system: System, ctx: CheckContext) -> list[ConditionResult]:
         else:
             status, margin, witness = pencil_verdict(system, case, ctx.tol, method=method)
         witness = {"mode": case.mode, "suspected_agents": list(case.suspected), **witness}
-        out.append(result("local.pencil", ctx, status, scope=case.scope, margin=margin, witness=witness))
+        out.append(result("local.pencil", ctx, status, scope=case.scope, margin=margin, witness=witness, **_certificate_args(witness)))
     return out
 
 
@@ -304,9 +338,79 @@ def _uio_one(
         st, mg, w0 = cache[key]
         return st, mg, copy.deepcopy(w0)
     out = _uio_one_uncached(system, case, cm, C, mode, tol, exact)
+    if not exact and out[0] is not Status.HOLDS:
+        out = _uio_certify_negative(case, cm, C, *out)
     if cache is not None:
         cache[key] = (out[0], out[1], copy.deepcopy(out[2]))
     return out
+
+
+def _uio_certificate(system: System, case: LocalCase, cm: ClusterModel, C: np.ndarray, mode: str, K1: np.ndarray) -> dict[str, Any]:
+    """Certify that a UIO exists for the exact cluster model in ``mode`` from a numeric design.
+
+    The UIO exists iff rank(C E) = rank(E) and (C, (I - h C) A) is detectable, h = E (C E)^+.
+    C_loc and E^i are exact 0/1 matrices; when C E has orthonormal columns, (C E)^+ = (C E)^T
+    and h = E (C E)^T is exact in floating point. The rank condition is certified by
+    :func:`~glocal_verify.numerics.pencil_exact.rank_bounds`; detectability by the designed gain
+    K1 itself: F_exact = (I - h C) A_exact - K1 C Hurwitz (a certificate that the unobservable
+    modes are stable), with ||fl(F) - F_exact||_2 bounded by the rounding of A^i (rational
+    differences), the rounding of the products (gamma_n bounds) and of the subtraction, and the
+    eigenvalues enclosed by :func:`~glocal_verify.numerics.pencil_exact.hurwitz_enclosure`.
+    """
+    E = cm.E
+    n = E.shape[0]
+    CE = C @ E
+    out: dict[str, Any] = {"certified": False, "error_bound": None, "by": "rank bounds and Hurwitz enclosure of (I - hC)A - K1 C"}
+    exact01 = bool(np.all(C == np.round(C)) and np.all(E == np.round(E)))
+    bE, bCE = rank_bounds(E), rank_bounds(CE)
+    if not (exact01 and bE.decided and bCE.decided and bE.lower == bCE.lower):
+        out["note"] = f"rank condition not certified (rank E in [{bE.lower}, {bE.upper}], rank CE in [{bCE.lower}, {bCE.upper}])"
+        return out
+    if CE.shape[1] and not np.array_equal(CE.T @ CE, np.eye(CE.shape[1])):
+        out["note"] = "C_loc E^i has no orthonormal columns: h = E (C E)^+ is not exact in floating point"
+        return out
+    h = E @ CE.T if CE.shape[1] else np.zeros((n, C.shape[0]))
+    P = np.eye(n) - h @ C
+    sub = LocalCase(cm, case.observer, case.kind, case.suspected, mode)
+    A_ex, _, _ = pencil_matrices_exact(system, sub)
+    A = np.array([[float(x) for x in r] for r in A_ex]).reshape(n, n)
+    eps = float(np.finfo(float).eps)
+    g = n * eps / (1.0 - n * eps)
+    A1 = P @ A
+    K1C = K1 @ C
+    Fm = A1 - K1C
+    dA = rounding_error(A, A_ex)
+    delta = float(np.linalg.norm(P, 2)) * dA * (1 + 4 * eps) + g * float(np.linalg.norm(np.abs(P) @ np.abs(A))) + g * float(np.linalg.norm(np.abs(K1) @ np.abs(C)))
+    delta = (delta + eps * float(np.linalg.norm(Fm))) * (1.0 + 8 * eps)
+    enc = hurwitz_enclosure(Fm, delta)
+    out["error_bound"] = enc.radius
+    out["spectral_abscissa_upper"] = enc.max_real_upper
+    if enc.certified is True:
+        out["certified"] = True
+    else:
+        out["note"] = (
+            f"F = (I - hC)A - K1 C is not certified Hurwitz: max Re + enclosure radius = {enc.max_real_upper:.3g} "
+            f"(radius {enc.radius:.3g}, ||fl F - F_exact|| <= {delta:.3g})"
+        )
+    return out
+
+
+def _uio_certify_negative(case: LocalCase, cm: ClusterModel, C: np.ndarray, st: Status, mg: float, w: dict[str, Any]) -> tuple[Status, float, dict[str, Any]]:
+    """A numeric ``fails`` of local.uio is certified only through the rank condition (exact 0/1
+    matrices, :func:`~glocal_verify.numerics.pencil_exact.rank_bounds`); an unstable unobservable
+    mode is a rank-loss claim that floating point cannot prove: undecided."""
+    bE, bCE = rank_bounds(cm.E), rank_bounds(C @ cm.E)
+    cert: dict[str, Any] = {"certified": False, "error_bound": max(bE.error_bound, bCE.error_bound)}
+    if bE.decided and bCE.decided and bCE.lower < bE.lower:
+        cert.update(certified=True, by="certified rank bounds: rank(C E) < rank(E)")
+        w["certificate"] = cert
+        return Status.FAILS, mg, w
+    if st is Status.FAILS:
+        cert["note"] = "the rank condition holds; an unstable unobservable mode (a rank loss of the PBH pencil) has no floating-point proof"
+    else:
+        cert["note"] = "existence or the numeric design could not be decided"
+    w.setdefault("certificate", cert)
+    return Status.UNDECIDED, mg, w
 
 
 def _uio_one_uncached(system: System, case: LocalCase, cm: ClusterModel, C: np.ndarray, mode: str, tol: Tolerance, exact: bool) -> tuple[Status, float, dict[str, Any]]:
@@ -336,10 +440,11 @@ def _uio_one_uncached(system: System, case: LocalCase, cm: ClusterModel, C: np.n
             lam, vec = existence.unstable_mode
             n = len(cm.nodes)
             vec = vec / vec[int(np.argmax(np.abs(vec)))]
+            # full double precision; only exact zeros are left out
             w["unstable_unobservable_mode"] = {
                 "eigenvalue": _num(lam, 9),
-                "positions": {a: _num(c, 9) for a, c in zip(cm.nodes, vec[:n]) if abs(c) > 1e-9},
-                "velocities": {a: _num(c, 9) for a, c in zip(cm.nodes, vec[n:]) if abs(c) > 1e-9},
+                "positions": {a: (complex(c).real if complex(c).imag == 0 else complex(c)) for a, c in zip(cm.nodes, vec[:n]) if c != 0},
+                "velocities": {a: (complex(c).real if complex(c).imag == 0 else complex(c)) for a, c in zip(cm.nodes, vec[n:]) if c != 0},
             }
         w["unobservable_eigenvalues"] = [_num(m, 9) for m in existence.unobservable_eigenvalues]
         st = existence.status if exact_status is None else exact_status
@@ -375,6 +480,10 @@ def _uio_one_uncached(system: System, case: LocalCase, cm: ClusterModel, C: np.n
         w["notes"] = list(d["notes"])
     design_ok = checks["decoupling"] is Decision.ZERO and checks["error_free_of_state"] is Decision.ZERO and hurwitz_ok
     if design_ok:
+        if not exact:
+            w["certificate"] = _uio_certificate(system, case, cm, C, mode, d["K1"])
+            if not w["certificate"]["certified"]:
+                return Status.UNDECIDED, float(d["hurwitz_margin"]), w
         return Status.HOLDS, float(d["hurwitz_margin"]), w
     w["verification_failed"] = [k for k, v in checks.items() if v is not Decision.ZERO] + ([] if hurwitz_ok else ["hurwitz"])
     # the observer exists (decided above); the numeric design did not verify
@@ -409,6 +518,15 @@ def check_uio(system: System, ctx: CheckContext) -> list[ConditionResult]:
     Existence does not involve B^i; the suspected set only adds ``attack_invisible``: suspected
     boundary agents, whose attack the observer cancels together with the coupling (T B e_k = 0).
 
+    Certification (numeric): ``holds`` needs, per mode, the rank condition certified by
+    Weyl/structural rank bounds and F_exact = (I - h C) A_exact - K1 C certified Hurwitz for
+    the designed K1 (an eigenvalue enclosure from the residual of the computed
+    eigen-decomposition, Bauer-Fike, including ||fl F - F_exact||_2 from the rational data:
+    ``_uio_certificate``); this proves detectability of the exact pair. ``fails`` is certified
+    only through the rank condition; an unstable unobservable mode is a rank-loss claim
+    without a floating-point proof (``undecided``, escalated by ``verify``). The margin stays a
+    robustness measure.
+
     Margin
         min over modes of -max Re eig(F_q) (negative: the most unstable unobservable mode).
     Witness
@@ -419,7 +537,7 @@ def check_uio(system: System, ctx: CheckContext) -> list[ConditionResult]:
     cache: dict[str, tuple[Status, float, dict[str, Any]]] = {}
     for case in local_cases(system):
         status, margin, witness = uio_verdict(system, case, ctx.tol, ctx.exact, cache=cache)
-        out.append(result("local.uio", ctx, status, scope=case.scope, margin=margin, witness=witness))
+        out.append(result("local.uio", ctx, status, scope=case.scope, margin=margin, witness=witness, **_certificate_args(witness)))
     return out
 
 
@@ -472,6 +590,11 @@ def uio_verdict(
         if bad:
             witness["failing_modes"] = bad
     margin = min(margins) if margins else math.inf
+    if not exact:
+        certs = [(m, v["certificate"]) for m, v in per_mode.items() if isinstance(v.get("certificate"), dict)]
+        bounds = [c["error_bound"] for _, c in certs if c.get("error_bound") is not None]
+        notes = [f"{m}: {c['note']}" for m, c in certs if c.get("note")]
+        witness["certificate"] = {"error_bound": max(bounds) if bounds else None, "note": "; ".join(notes) if status is Status.UNDECIDED else ""}
     return status, margin, witness
 
 

@@ -32,6 +32,7 @@ from glocal_verify.analysis.cluster_pencil import (
 )
 from glocal_verify.analysis.local_cases import (
     LocalCase,
+    certify_pencil_verdict,
     full_pencil,
     pencil_matrices,
     pencil_matrices_exact,
@@ -70,6 +71,12 @@ def _num(z: complex, digits: int = 12) -> complex | float:
     return re if im == 0.0 else complex(re, im)
 
 
+def _full(z: complex) -> complex | float:
+    """A witness entry at full double precision (real when the imaginary part is exactly 0)."""
+    z = complex(z)
+    return z.real if z.imag == 0.0 else z
+
+
 def _residual(P: np.ndarray, v: np.ndarray) -> float:
     """||P v|| / (||P||_2 ||v||); ||P||_2 exact for small P, else its lower bound
     :func:`~glocal_verify.analysis.cluster_pencil.norm2_lower` (the ratio can then only be larger)."""
@@ -91,12 +98,13 @@ def _direction_witness(case: LocalCase, lam: complex, x: np.ndarray, u: np.ndarr
     xv, uv = v[: 2 * n], v[2 * n :]
     mb = len(case.suspected)
     # full pencil columns: [x, u_B, u_E] with -B^i u_B + E^i u_E; G = [B, -E] gives the same
+    # full double precision; only exact zeros are left out (no relative cut)
     return {
         "lambda": _num(lam),
-        "positions": {a: _num(c, 9) for a, c in zip(nodes, xv[:n]) if abs(c) > 1e-12},
-        "velocities": {a: _num(c, 9) for a, c in zip(nodes, xv[n:]) if abs(c) > 1e-12},
-        "attack_input": {a: _num(c, 9) for a, c in zip(case.suspected, uv[:mb]) if abs(c) > 1e-12},
-        "coupling_input": {a: _num(c, 9) for a, c in zip(case.model.boundary, uv[mb:]) if abs(c) > 1e-12},
+        "positions": {a: _full(c) for a, c in zip(nodes, xv[:n]) if c != 0},
+        "velocities": {a: _full(c) for a, c in zip(nodes, xv[n:]) if c != 0},
+        "attack_input": {a: _full(c) for a, c in zip(case.suspected, uv[:mb]) if c != 0},
+        "coupling_input": {a: _full(c) for a, c in zip(case.model.boundary, uv[mb:]) if c != 0},
         "moves": _moves(xv[:n] if np.any(np.abs(xv[:n]) > 0) else xv[n:], nodes),
         "residual": res,
     }
@@ -531,8 +539,11 @@ def pencil_verdict(
     if case.structural:
         return Status.FAILS, 0.0, {"method": _resolve_method(case, method), **_structural_witness(case)}
     if _resolve_method(case, method) == "dense":
-        return _pencil_dense(system, case, tol, margin)
-    return _pencil_structured(system, case, tol, margin)
+        status, mg, witness = _pencil_dense(system, case, tol, margin)
+    else:
+        status, mg, witness = _pencil_structured(system, case, tol, margin)
+    status, witness = certify_pencil_verdict(system, case, status, witness)
+    return status, mg, witness
 
 
 # -- exact ------------------------------------------------------------------------------------

@@ -100,11 +100,15 @@ Exact path
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any, Sequence
+
+import numpy as np
 
 from glocal_verify.analysis.avoidance import (
     Avoidance,
     _exact_mode,
+    avoidance_certificate,
     _numeric_mode,
     _stealthy_bases,
 )
@@ -116,6 +120,7 @@ from glocal_verify.analysis.zda import (
     ZdaDirection,
     _Modal,
     zda_analysis,
+    zda_certificate,
 )
 from glocal_verify.analysis.zda_exact import zda_analysis_exact
 from glocal_verify.conditions.registry import (
@@ -191,7 +196,27 @@ def _direction_json(system: System, F: Sequence[Label], d: ZdaDirection, tol: To
     }
 
 
-def _avoidance_result(system: System, ctx: CheckContext, F: Sequence[Label], av: Avoidance, extra: dict[str, Any] | None = None) -> ConditionResult:
+def _certified(system: System, F: Sequence[Label], av: Avoidance, exact_lambda: bool) -> tuple[Avoidance, dict[str, Any]]:
+    """The numeric ``av`` if :func:`~glocal_verify.analysis.avoidance.avoidance_certificate`
+    proves it for the exact system, else the same analysis with status ``undecided``."""
+    if av.status is Status.UNDECIDED:
+        return av, {"certified": False, "error_bound": None, "note": "; ".join(av.notes) or "a rank decision fell in the tolerance band"}
+    cand = None if av.direction is None else np.concatenate([av.direction.xi, av.direction.u0])
+    ok, bound, note = avoidance_certificate(system, av.mode, system.idx(F), av.lambda0, av.status, exact_lambda, cand)
+    cert: dict[str, Any] = {"certified": ok, "error_bound": bound, "note": "" if ok else f"numeric {av.status.value} not certified: {note}"}
+    if ok:
+        cert["by"] = (
+            "the avoiding direction rationalises to an exact kernel vector (checked over Q)"
+            if bound is None
+            else "Weyl lower bounds (SVD backward error and data rounding) against structural rank upper bounds at lambda0"
+        )
+        return av, cert
+    return dataclasses.replace(av, status=Status.UNDECIDED), cert
+
+
+def _avoidance_result(
+    system: System, ctx: CheckContext, F: Sequence[Label], av: Avoidance, extra: dict[str, Any] | None = None, cert: dict[str, Any] | None = None
+) -> ConditionResult:
     tol = ctx.tol
     touches = None if av.status is Status.UNDECIDED else av.status is Status.FAILS
     chosen = _direction_json(system, F, av.chosen, tol)
@@ -232,7 +257,11 @@ def _avoidance_result(system: System, ctx: CheckContext, F: Sequence[Label], av:
     if av.notes:
         w["notes"] = list(av.notes)
     w.update(extra or {})
-    return result("switching.avoids-attack", ctx, av.status, scope={"mode": av.mode}, margin=av.margin, witness=w)
+    if cert is None:
+        return result("switching.avoids-attack", ctx, av.status, scope={"mode": av.mode}, margin=av.margin, witness=w)
+    w["certificate"] = cert
+    note = str(cert.get("note", "")) if av.status is Status.UNDECIDED else ""
+    return result("switching.avoids-attack", ctx, av.status, scope={"mode": av.mode}, margin=av.margin, witness=w, error_bound=cert.get("error_bound"), note=note)
 
 
 def _zda_results(system: System, ctx: CheckContext) -> list[ConditionResult]:
@@ -246,6 +275,10 @@ def _zda_results(system: System, ctx: CheckContext) -> list[ConditionResult]:
         za = zda_analysis(system, ctx.tol, lambda0=lam_opt)
         exists, decided = za.exists, za.decided
         F = za.actuators
+        zc = zda_certificate(system, F)
+        # the numeric verdict on ZDA existence counts only where it is certified
+        if decided and zc.status is not (Status.HOLDS if exists else Status.FAILS):
+            decided = False
     if not exists:
         for mode in system.safe_modes:
             status = Status.HOLDS if decided else Status.UNDECIDED
@@ -260,7 +293,8 @@ def _zda_results(system: System, ctx: CheckContext) -> list[ConditionResult]:
                 "reading_remark": remark,
                 "reading_section_iv": sec4,
             }
-            out.append(result("switching.avoids-attack", ctx, status, scope={"mode": mode}, margin=0.0, witness=base))
+            note = "" if decided else f"the absence of a stealthy ZDA is not certified: {zc.note if not ctx.exact else ''}"
+            out.append(result("switching.avoids-attack", ctx, status, scope={"mode": mode}, margin=0.0, witness=base, note=note))
         return out
     if ctx.exact:
         d_ex = ea.direction
@@ -274,8 +308,10 @@ def _zda_results(system: System, ctx: CheckContext) -> list[ConditionResult]:
     assert d_num is not None
     md = _Modal(system, F, ctx.tol)
     bases = _stealthy_bases(md, d_num.value)  # Z does not depend on the mode
+    exact_lambda = za.direction_source == "requested lambda0"
     for mode in system.safe_modes:
-        out.append(_avoidance_result(system, ctx, F, _numeric_mode(system, mode, md, d_num, za.direction_source, bases)))
+        av, cert = _certified(system, F, _numeric_mode(system, mode, md, d_num, za.direction_source, bases), exact_lambda)
+        out.append(_avoidance_result(system, ctx, F, av, cert=cert))
     return out
 
 
@@ -342,6 +378,19 @@ def check_safe(system: System, ctx: CheckContext) -> list[ConditionResult]:
     pencil. Exact: kernel over Q (rational lambda0) or over Q[x]/(g), g the minimal
     polynomial of lambda0; never undecided. Covert: combinatorial (links of the spec), no
     tolerance; "does not touch" is sound, "touches" an over-approximation.
+
+    Certification (ZDA, numeric)
+        A numeric verdict stands only when
+        :func:`~glocal_verify.analysis.avoidance.avoidance_certificate` proves it at the exact
+        lambda0 (the requested rational exponent): Weyl lower bounds of the stacked
+        [Q; dL_q] and of its xi-part (SVD backward error 8 max(m, n) eps ||M||_F plus the
+        rounding of the rational data) against structural upper bounds of the exact
+        support, or the avoiding direction rationalised to an exact kernel vector; the
+        vacuous ``holds`` needs a certified absence of ZDAs
+        (:func:`~glocal_verify.analysis.zda.zda_certificate`). The exponent of a computed
+        (irrational) zero cannot be certified: ``undecided`` with ``error_bound`` and
+        ``note``, escalated to exact arithmetic by ``verify``. The margin below stays a
+        relative distance (robustness), not part of the decision.
 
     Margin
         ZDA (``MARGIN_SCALE``): on ``holds`` ||dL_q xi|| / (||dL_q||_2 ||xi||) of the avoiding

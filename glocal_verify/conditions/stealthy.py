@@ -68,10 +68,11 @@ from glocal_verify.analysis.covert import (
     covert_required_channels,
     reachable_agents,
 )
-from glocal_verify.analysis.zda import ZdaAnalysis, ZdaZero, zda_analysis
+from glocal_verify.analysis.zda import ZdaAnalysis, ZdaZero, zda_analysis, zda_certificate
 from glocal_verify.analysis.zda_exact import (
     ExactZdaAnalysis,
     ExactZdaZero,
+    exact_witness,
     zda_analysis_exact,
 )
 from glocal_verify.conditions.registry import (
@@ -99,12 +100,13 @@ __all__ = [
 
 
 def _vec(system: System, v: np.ndarray, labels: Sequence[Label], tol: Tolerance, support_only: bool = True) -> dict[Label, Any]:
-    big = float(np.max(np.abs(v), initial=0.0))
+    """A vector by label at full double precision; ``support_only`` leaves out the entries that
+    are exactly 0.0 (no relative cut: a tiny entry is kept, so the residual is not lost)."""
     out: dict[Label, Any] = {}
     for lab, x in zip(labels, v):
-        if support_only and tol.decide(abs(x), big) is Decision.ZERO:
-            continue
         c = complex(x)
+        if support_only and c == 0:
+            continue
         out[lab] = c.real if c.imag == 0 else c
     return out
 
@@ -129,6 +131,7 @@ def _zero_json(system: System, F: Sequence[Label], z: ZdaZero | ExactZdaZero, to
         d["minimal_polynomial"] = z.factor
         if z.rational is not None:
             d["lambda_exact"] = str(z.rational)
+        d.update(exact_witness(system, F, z))
     return d
 
 
@@ -159,9 +162,26 @@ def check_zda(system: System, ctx: CheckContext) -> list[ConditionResult]:
     ``zda_method = "dense"`` for the dense pencil); tolerance rules in the module docstring.
     Exact: :func:`zda_analysis_exact`. Option ``lambda0`` overrides the spec's exponent.
 
+    Certification (numeric)
+        The tolerance of the deflation only *finds* candidates; a numeric ``holds``/``fails``
+        is reported only when :func:`~glocal_verify.analysis.zda.zda_certificate` proves it
+        for the exact system: ``holds`` by the structural rank of the exact support (not
+        left-invertible), by Weyl lower bounds (SVD backward error 8 max(m, n) eps ||M||_F
+        plus the rounding of the rational data) against structural upper bounds at lambda0 =
+        0, or by the requested-lambda0 direction rationalised to an exact kernel vector;
+        ``fails`` by zero forcing on the exact graph (and lambda0 = 0 by zero forcing from
+        M_x or the same rank bounds). Otherwise ``undecided`` with ``error_bound`` and
+        ``note`` (which bound failed); ``verify(escalate="auto")`` then decides exactly.
+        A small residual is never by itself a proof of a zero. The witness records the
+        ``certificate``; vectors are given at full double precision (only exact zeros
+        left out), and in exact mode ``xi_exact``/``u0_exact`` (rationals) or
+        ``field``/``xi_residues``/``u0_residues``/``lambda0_enclosure`` (algebraic lambda0;
+        :func:`~glocal_verify.analysis.zda_exact.exact_witness`).
+
     Margin
         The largest growth rate Re lambda0 of an available stealthy ZDA: +inf when the system
-        is not left-invertible (every lambda0 is available), -inf when none exists.
+        is not left-invertible (every lambda0 is available), -inf when none exists (a
+        growth rate, not a distance to the boundary: never ``fragile``).
     Witness
         ``left_invertible``, ``normal_rank`` (of the 2N pencil), ``normal_kernel_dim``,
         ``zeros`` (lambda, growth, u0, xi on its support, moved agents, residual), at most
@@ -174,6 +194,7 @@ def check_zda(system: System, ctx: CheckContext) -> list[ConditionResult]:
     lam_opt = ctx.options.get("lambda0")
     max_z = int(ctx.options.get("max_zeros", 50))
     tol = ctx.tol
+    note = ""
     ea: ExactZdaAnalysis | None = None
     za: ZdaAnalysis | None = None
     if ctx.exact:
@@ -194,6 +215,17 @@ def check_zda(system: System, ctx: CheckContext) -> list[ConditionResult]:
         elif za.decided:
             status = Status.FAILS
         else:
+            status = Status.UNDECIDED
+        d0 = za.direction
+        cand = None if d0 is None or za.direction_source != "requested lambda0" else (d0.value, d0.xi, d0.u0)
+        cert = zda_certificate(system, F, cand, [(z.s, z.xi, z.u0) for z in za.zeros if z.value != 0])
+        if cert.status is not status:
+            if status is not Status.UNDECIDED and cert.status is not None:
+                note = f"the numeric analysis ({status.value}) contradicts the certificate ({cert.by})"
+            elif status is Status.UNDECIDED:
+                note = "; ".join(za.notes) or "a rank or zero decision of the deflation fell in the tolerance band"
+            else:
+                note = f"numeric {status.value} not certified: {cert.note}"
             status = Status.UNDECIDED
     N, m = system.n, len(F)
     p = len(system.output_channels())
@@ -218,7 +250,10 @@ def check_zda(system: System, ctx: CheckContext) -> list[ConditionResult]:
     if notes:
         witness["notes"] = list(notes)
     margin = _margin(left_inv, zeros)
-    return [result("stealthy.zda", ctx, status, margin=margin, witness=witness)]
+    if ctx.exact:
+        return [result("stealthy.zda", ctx, status, margin=margin, witness=witness)]
+    witness["certificate"] = {"status": None if cert.status is None else cert.status.value, "by": cert.by, "error_bound": cert.error_bound, "note": cert.note}
+    return [result("stealthy.zda", ctx, status, margin=margin, witness=witness, error_bound=cert.error_bound, note=note if status is Status.UNDECIDED else "")]
 
 
 @checker("stealthy.covert")

@@ -6,6 +6,7 @@ evaluated at certified root enclosures (python-flint ``acb``, :class:`RootEnclos
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from fractions import Fraction
 from functools import cached_property
@@ -29,6 +30,14 @@ __all__ = [
     "poly_pencil",
     "classify_real_parts",
     "eval_at_root",
+    "SVD_BACKWARD_CONSTANT",
+    "RankBounds",
+    "rounding_error",
+    "svd_error",
+    "structural_rank",
+    "rank_bounds",
+    "HurwitzEnclosure",
+    "hurwitz_enclosure",
 ]
 
 # ------------------------------------------------------------------------------------------
@@ -615,3 +624,221 @@ def analyze_pencil_exact(
     vbasis = tuple(tuple(ex.to_fraction(V[i, j]) for i in range(n)) for j in range(k))
     zeros.sort(key=lambda zz: (-zz.value.real, -abs(zz.value.imag)))
     return ExactPencilAnalysis(n, m, p, normal_rank, left_inv, vbasis, R.ncols(), z, tuple(factors), tuple(zeros))
+
+
+# ------------------------------------------------------------------------------------------
+# floating-point certificates (rigorous bounds that make a numeric verdict exact-sound)
+
+_EPS = float(np.finfo(float).eps)
+
+#: the stated constant c of the SVD backward error used by every rank certificate: the
+#: singular values LAPACK computes for M are the exact singular values of M + Delta with
+#: ||Delta||_2 <= c * max(m, n) * eps * ||M||_F (Demmel-Kahan / Golub-Van Loan 8.6; LAPACK's
+#: p(m, n) eps ||M||_2 with a modest p, taken generously).
+SVD_BACKWARD_CONSTANT = 8.0
+
+
+def rounding_error(M: np.ndarray, exact: Sequence[Sequence[Any]]) -> float:
+    """Rigorous upper bound of ``||M - M_exact||_2`` for a float matrix and its exact rows.
+
+    The difference is formed entry by entry in rational arithmetic (``Fraction``), so the
+    bound includes every rounding of the data (weights, degree sums, gains); its Frobenius
+    norm is returned rounded upwards (a relative ``(k + 4) eps`` allowance for the k
+    floating-point operations of the norm itself).
+
+    Parameters
+    ----------
+    M : ndarray
+        Real float matrix.
+    exact : rows of Fraction (or int)
+        The exact matrix it stands for, same shape.
+    """
+    M = np.asarray(M, dtype=float)
+    d = np.zeros(M.shape)
+    for i, row in enumerate(exact):
+        for j, q in enumerate(row):
+            x = float(M[i, j])
+            if x == 0.0 and q == 0:
+                continue
+            d[i, j] = abs(float(Fraction(x) - Fraction(q)))
+    k = d.size
+    # float(Fraction) rounds to nearest: at most a relative eps / 2 per entry
+    return float(np.linalg.norm(d)) * (1.0 + (k + 4) * _EPS) + 1e-300 if np.any(d) else 0.0
+
+
+def svd_error(M: np.ndarray) -> float:
+    """Bound on the backward error of LAPACK's SVD of ``M``:
+    ``SVD_BACKWARD_CONSTANT * max(m, n) * eps * ||M||_F`` (:data:`SVD_BACKWARD_CONSTANT`).
+
+    Parameters
+    ----------
+    M : ndarray
+    """
+    M = np.asarray(M)
+    if M.size == 0:
+        return 0.0
+    return SVD_BACKWARD_CONSTANT * max(M.shape) * _EPS * float(np.linalg.norm(M)) * (1.0 + M.size * _EPS)
+
+
+def structural_rank(pattern: np.ndarray) -> int:
+    """Structural (term) rank: the size of a maximum matching of the bipartite row-column
+    graph of the nonzero pattern. Every matrix with this pattern (entries outside it are
+    exactly zero; entries inside may be anything, zero included) has rank <= this number,
+    so it is a rigorous upper bound read off the exact support.
+
+    Parameters
+    ----------
+    pattern : ndarray of bool
+        True where an entry may be nonzero.
+    """
+    import scipy.sparse
+    from scipy.sparse.csgraph import maximum_bipartite_matching
+
+    P = np.asarray(pattern, dtype=bool)
+    if P.size == 0 or not P.any():
+        return 0
+    match = maximum_bipartite_matching(scipy.sparse.csr_matrix(P.astype(np.int8)), perm_type="column")
+    return int(np.sum(match >= 0))
+
+
+@dataclass(frozen=True, slots=True)
+class RankBounds:
+    """Certified bounds ``lower <= rank(M_exact) <= upper`` of the exact matrix a float stands for.
+
+    Attributes
+    ----------
+    lower : int
+        Singular values certainly nonzero: sigma_i > ``error_bound`` (Weyl: |sigma_i(M_exact)
+        - sigma_i(computed)| <= ||M - M_exact||_2 + SVD backward error).
+    upper : int
+        Structural rank of the exact support, or a smaller bound given by the caller (from
+        exact kernel vectors); never more than min(m, n).
+    error_bound : float
+        ``||M - M_exact||_2 + svd_error(M)``.
+    singular_values : ndarray
+        Computed singular values, descending.
+    """
+
+    lower: int
+    upper: int
+    error_bound: float
+    singular_values: np.ndarray
+
+    @property
+    def decided(self) -> bool:
+        """The bounds meet: the exact rank is known."""
+        return self.lower == self.upper
+
+    @property
+    def gap(self) -> float:
+        """How far the bound is from separating: the first singular value counted as
+        possibly zero divided by ``error_bound`` (> 1 would have certified it nonzero)."""
+        s = self.singular_values
+        if self.lower >= len(s) or self.error_bound <= 0:
+            return 0.0
+        return float(s[self.lower] / self.error_bound)
+
+
+def rank_bounds(
+    M: np.ndarray,
+    *,
+    input_error: float = 0.0,
+    pattern: np.ndarray | None = None,
+    upper: int | None = None,
+) -> RankBounds:
+    """Certified rank bounds of the exact matrix represented by ``M`` (:class:`RankBounds`).
+
+    Parameters
+    ----------
+    M : ndarray
+        The float matrix (real or complex) as computed.
+    input_error : float
+        Upper bound of ``||M - M_exact||_2`` (:func:`rounding_error`; 0 when M is exact, e.g.
+        a 0/1 selection).
+    pattern : ndarray of bool, optional
+        Exact support of M_exact (default: the nonzeros of M, valid when no nonzero exact
+        entry underflows to 0).
+    upper : int, optional
+        An additional rigorous upper bound (e.g. columns minus exactly known kernel vectors).
+    """
+    M = np.asarray(M)
+    r_max = min(M.shape) if M.size else 0
+    if M.size == 0:
+        return RankBounds(0, 0, 0.0, np.zeros(0))
+    s = np.linalg.svd(M, compute_uv=False)
+    err = float(input_error) + svd_error(M)
+    lo = int(np.sum(s > err))
+    up = structural_rank(M != 0 if pattern is None else pattern)
+    if upper is not None:
+        up = min(up, int(upper))
+    up = min(up, r_max)
+    return RankBounds(min(lo, up), up, err, s)
+
+
+@dataclass(frozen=True, slots=True)
+class HurwitzEnclosure:
+    """Eigenvalue enclosure of an exact matrix from a computed eigen-decomposition.
+
+    Attributes
+    ----------
+    certified : bool or None
+        True: every eigenvalue of the exact matrix has Re < 0; False: some has Re > 0 (an
+        isolated disc right of the axis); None: the enclosure cannot tell.
+    max_real_upper : float
+        max_i Re(lambda_i) + radius: an upper bound of the spectral abscissa.
+    radius : float
+        Every eigenvalue of the exact matrix lies within ``radius`` of a computed one.
+    eigenvalues : ndarray
+        The computed eigenvalues.
+    """
+
+    certified: bool | None
+    max_real_upper: float
+    radius: float
+    eigenvalues: np.ndarray
+
+
+def hurwitz_enclosure(F: np.ndarray, input_error: float = 0.0) -> HurwitzEnclosure:
+    """Certify that the exact matrix F_exact (||F - F_exact||_2 <= ``input_error``) is Hurwitz.
+
+    With the computed eigen-decomposition F V ~ V D, the residual R = F V - V D (bounded
+    including the rounding of its own evaluation, gamma_{n+2} (|F||V| + |V||D|)) gives
+    V^{-1} F_exact V = D + V^{-1}(R + (F_exact - F) V), so by Bauer-Fike every eigenvalue of
+    F_exact lies within
+
+    .. math:: r = \\frac{\\lVert R \\rVert_F + \\delta_R + \\varepsilon_{in}\\,\\sigma_{max}(V)}{\\sigma_{min}(V)}
+
+    of an entry of D, with sigma_min(V) bounded below by its computed value minus
+    :func:`svd_error`. Hurwitz is certified when max Re d_i + r < 0; a failure when some disc
+    lies right of the axis and meets no other disc (a component of one disc holds exactly
+    one eigenvalue).
+
+    Parameters
+    ----------
+    F : ndarray
+        Square float matrix.
+    input_error : float
+        Upper bound of ``||F - F_exact||_2``.
+    """
+    F = np.asarray(F)
+    n = F.shape[0]
+    if n == 0:
+        return HurwitzEnclosure(True, -math.inf, 0.0, np.zeros(0, dtype=complex))
+    w, V = np.linalg.eig(F)
+    R = F @ V - V * w
+    g = (n + 2) * _EPS / (1.0 - (n + 2) * _EPS)
+    dR = g * float(np.linalg.norm(np.abs(F) @ np.abs(V) + np.abs(V) * np.abs(w)))
+    sv = np.linalg.svd(V, compute_uv=False)
+    e = svd_error(V)
+    smin = float(sv[-1]) - e
+    if smin <= 0.0:
+        return HurwitzEnclosure(None, math.inf, math.inf, w)
+    r = (float(np.linalg.norm(R)) * (1.0 + 4 * n * _EPS) + dR + float(input_error) * (float(sv[0]) + e)) / smin
+    r *= 1.0 + 8 * _EPS
+    top = float(np.max(w.real)) + r
+    if top < 0.0:
+        return HurwitzEnclosure(True, top, r, w)
+    for k in range(n):
+        if w[k].real - r > 0.0 and all(abs(w[k] - w[j]) > 2 * r for j in range(n) if j != k):
+            return HurwitzEnclosure(False, top, r, w)
+    return HurwitzEnclosure(None, top, r, w)
