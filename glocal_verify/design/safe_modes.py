@@ -1,0 +1,508 @@
+"""Design safe modes (Theorem III.3) that expose every stealthy attack of an audit.
+
+A candidate safe mode changes one link of the normal graph: it adds a link {i, j} with a
+weight w from a small set, or removes an existing link of weight w. Then
+dL = delta b b^T with b = e_i - e_j and delta = +w (addition) or -w (removal): a rank-one
+update of L_1. Nothing here computes a fresh eigendecomposition per candidate.
+
+Theorem III.3 for one link, from the rank-one structure (proof)
+    Write L_1 = U diag(mu) U^T (mu_1 = 0 < mu_2 < ... < mu_N, certified distinct) and
+    z = U^T b, so z_k = u_k(i) - u_k(j) and z_1 = 0 (u_1 is constant). In the basis U,
+    L_q = diag(mu) + delta z z^T. Suppose z_k != 0 for every k >= 2.
+
+    * (ii) Golub's secular equation: the eigenvalues of L_q other than the deflated 0 are the
+      roots x of f(x) = 1 + delta sum_{k>=2} z_k^2 / (mu_k - x). For delta > 0 they interlace
+      strictly, mu_2 < x_2 < mu_3 < ... < mu_N < x_N, so L_q has N distinct eigenvalues. For
+      delta < 0 the roots satisfy x_2 < mu_2 < x_3 < ... < x_N < mu_N, and f decreases from 1
+      on (-inf, mu_2), so x_2 > 0 = x_1 iff f(0) = 1 - w b^T L_1^+ b > 0, i.e. the removed link
+      is not a bridge (w R_eff(i, j) < 1).
+    * (iii) The eigenvector for the root x_l is v_l = U (diag(mu) - x_l)^{-1} z, and
+      v_l(i) - v_l(j) = b^T v_l = z^T (diag(mu) - x_l)^{-1} z = -1 / delta != 0 by the
+      secular equation: every eigenvector but the constant one separates i and j, for every
+      weight.
+    * Conversely, z_k = 0 for some k >= 2 keeps u_k an eigenvector of L_q with u_k(i) = u_k(j):
+      (iii) fails (or (ii), when its eigenvalue is no longer simple).
+    * (i) Im(dL) = span(b) meets ker S_M only in 0 iff i or j is monitored; then Lemma A.2's
+      coverage holds too.
+
+    So a one-link mode meets (i)-(iii) iff an endpoint is monitored, z_k != 0 for k >= 2 (and,
+    for a removal, w R_eff < 1): O(N) per candidate once U is known, whatever the weight. The
+    numeric test certifies z_k != 0 with the bound |z_k - z_k^*| <= 2 s_k + sqrt(2) eta + 4 eps,
+    s_k the Davis-Kahan bound on the angle of u_k (:meth:`Spectrum.subspace_sine`, vectorised
+    here with the same constants) and eta the loss of orthonormality; a candidate that cannot be
+    certified is skipped (never claimed).
+
+Exposure (Remark III.3.1, ``switching.avoids-attack``)
+    For an attack set F with exponent lambda0 (the audit's), the stealthy kernel Z at lambda0
+    is computed once (:func:`glocal_verify.analysis.avoidance._stealthy_bases`, the possible
+    kernel, orthonormalised in xi). A one-link mode gives dL xi = delta b (b^T xi), so the
+    switch is avoidable iff some c with (b^T X) c = 0 has a nonzero input part B c. For
+    dim Z = 1 this is b^T x = 0; in general one SVD of size dim Z.
+
+Search and verification
+    Greedy set cover over the admissible candidates (each covers the attacks it exposes),
+    at most ``budget`` modes, so the number of modes is within a factor H(n) = 1 + 1/2 + ... +
+    1/n of the fewest one-link modes that expose the n attacks. Every proposed mode is then
+    re-verified by the checkers on the spec with that mode and each attack it claims
+    (``switching.image-kernel``, ``-distinct-eigenvalues``, ``-eigenvector-differences``,
+    ``switching.avoids-attack``), exactly over Q when ``exact`` (default for N <= 40); a
+    claim the checkers do not confirm is dropped and the search continues without it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from dataclasses import dataclass, field
+from fractions import Fraction
+from typing import Any, Iterable, Mapping, Sequence
+
+import numpy as np
+
+from glocal_verify.analysis.avoidance import _split, _stealthy_bases
+from glocal_verify.analysis.zda import _Modal
+from glocal_verify.conditions.registry import verify
+from glocal_verify.errors import NotApplicableError
+from glocal_verify.model import System
+from glocal_verify.numerics.spectrum import EPS
+from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
+from glocal_verify.results import Status
+from glocal_verify.spec.types import AttackSpec, EdgeSpec, Label, ModeSpec, SystemSpec
+
+__all__ = [
+    "LinkCandidate",
+    "ProposedMode",
+    "SafeModeDesign",
+    "default_candidates",
+    "eigenvector_error",
+    "design_safe_modes",
+    "with_modes",
+    "with_attack",
+]
+
+DEFAULT_WEIGHTS = (Fraction(1), Fraction(2), Fraction(3))
+EXACT_MAX_AGENTS = 40
+THEOREM_IDS = ("switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences")
+
+
+@dataclass(frozen=True, slots=True)
+class LinkCandidate:
+    """One admissible link change: add {u, v} with ``weight`` (``remove=False``) or remove it."""
+
+    u: Label
+    v: Label
+    weight: Fraction
+    remove: bool = False
+
+    def describe(self) -> str:
+        """``add 4-7 (w=1)`` or ``remove 4-7``."""
+        return f"remove {self.u}-{self.v}" if self.remove else f"add {self.u}-{self.v} (w={self.weight})"
+
+
+@dataclass(frozen=True, slots=True)
+class ProposedMode:
+    """A designed safe mode and what the checkers confirmed about it.
+
+    Attributes
+    ----------
+    name : str
+    link : LinkCandidate
+    exposes : tuple of attack sets
+        Attacks for which the checkers confirmed (i)-(iii) and ``switching.avoids-attack`` fails.
+    verification : mapping
+        Condition id -> status on the designed mode (the first attack's spec).
+    method : str
+        ``exact`` or ``numeric``.
+    """
+
+    name: str
+    link: LinkCandidate
+    exposes: tuple[tuple[Label, ...], ...]
+    verification: Mapping[str, str] = field(default_factory=dict)
+    method: str = "exact"
+
+    def mode_spec(self) -> ModeSpec:
+        """The mode as a spec table entry."""
+        desc = f"{self.link.describe()}: Theorem III.3 (i)-(iii) hold and the switch touches {len(self.exposes)} audited attack(s)"
+        if self.link.remove:
+            return ModeSpec(self.name, remove=((self.link.u, self.link.v),), description=desc)
+        return ModeSpec(self.name, add=(EdgeSpec(self.link.u, self.link.v, self.link.weight),), description=desc)
+
+
+@dataclass(frozen=True, slots=True)
+class SafeModeDesign:
+    """The result of :func:`design_safe_modes`.
+
+    Attributes
+    ----------
+    modes : tuple of ProposedMode
+    targets : tuple of attack sets
+        The attacks the design had to expose.
+    unexposed : mapping
+        Attack set (as a string) -> why no admissible candidate within the budget exposes it.
+    candidates : int
+        Candidate link changes evaluated.
+    evaluations_per_second : float
+        Candidate evaluations ((i)-(iii) and the touch test against every target) per second.
+    admissible : int
+        Candidates meeting (i)-(iii).
+    """
+
+    modes: tuple[ProposedMode, ...]
+    targets: tuple[tuple[Label, ...], ...]
+    unexposed: Mapping[str, str]
+    candidates: int
+    evaluations_per_second: float
+    admissible: int
+
+    @property
+    def complete(self) -> bool:
+        """Every target is exposed by a verified mode."""
+        return not self.unexposed
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON form."""
+        return {
+            "modes": [
+                {"name": m.name, "change": m.link.describe(), "exposes": [list(F) for F in m.exposes], "verification": dict(m.verification), "method": m.method}
+                for m in self.modes
+            ],
+            "targets": [list(F) for F in self.targets],
+            "unexposed": dict(self.unexposed),
+            "candidates": self.candidates,
+            "admissible": self.admissible,
+            "evaluations_per_second": self.evaluations_per_second,
+        }
+
+
+# ------------------------------------------------------------------------------------------
+# spec helpers
+
+
+def with_modes(spec: SystemSpec, modes: Sequence[ModeSpec], *, keep: bool = True) -> SystemSpec:
+    """``spec`` with ``modes`` appended (``keep``) or replacing its safe modes.
+
+    Parameters
+    ----------
+    spec : SystemSpec
+    modes : sequence of ModeSpec
+    keep : bool
+        Keep the spec's own safe modes.
+    """
+    base = tuple(spec.modes) if keep else ()
+    sw = spec.switching
+    if sw is not None and not keep:
+        sw = None
+    return dataclasses.replace(spec, modes=base + tuple(modes), switching=sw)
+
+
+def with_attack(spec: SystemSpec, actuators: Sequence[Label]) -> SystemSpec:
+    """``spec`` with a ZDA on ``actuators`` (the spec's lambda0 kept).
+
+    Parameters
+    ----------
+    spec : SystemSpec
+    actuators : sequence of labels
+    """
+    lam = spec.attack.lambda0 if spec.attack is not None else None
+    return dataclasses.replace(spec, attack=AttackSpec("zda", tuple(actuators), lambda0=lam))
+
+
+def default_candidates(system: System, weights: Sequence[Fraction] = DEFAULT_WEIGHTS, *, distance: int = 2, removals: bool = True) -> list[LinkCandidate]:
+    """Default candidates: add a link between agents at graph distance 2..``distance``, or remove one.
+
+    Parameters
+    ----------
+    system : System
+    weights : sequence of Fraction
+        Weights tried for an added link.
+    distance : int
+        Largest distance of the endpoints of an added link.
+    removals : bool
+        Also propose removing each existing link.
+    """
+    import networkx as nx
+
+    G = system.graph()
+    out: list[LinkCandidate] = []
+    order = system.index
+    for u in system.labels:
+        near = nx.single_source_shortest_path_length(G, u, cutoff=distance)
+        for v, d in near.items():
+            if d >= 2 and order[v] > order[u]:
+                out += [LinkCandidate(u, v, Fraction(w)) for w in weights]
+    if removals:
+        for key, w in system.edges().items():
+            a, b = sorted(key, key=order.__getitem__)
+            out.append(LinkCandidate(a, b, w, True))
+    return out
+
+
+def eigenvector_error(system: System) -> np.ndarray | None:
+    """Certified bounds e_k >= |(u_k(i) - u_k(j)) - (u_k^*(i) - u_k^*(j))| for every pair (module docstring).
+
+    Parameters
+    ----------
+    system : System
+
+    Returns
+    -------
+    ndarray or None
+        None when the eigenvalues of L_1 are not certified distinct (the one-link theorem then
+        does not apply).
+    """
+    sp = system.spectrum()
+    if any(len(c) > 1 for c in sp.clusters):
+        return None
+    n = sp.size
+    w = np.asarray(sp.values)
+    rho = sp.error_radius
+    gaps = np.diff(w)
+    left = np.concatenate([[math.inf], gaps])
+    right = np.concatenate([gaps, [math.inf]])
+    delta = np.minimum(left, right) - rho
+    k = int(np.max(np.count_nonzero(sp.matrix, axis=1))) if n else 0
+    fro = float(np.linalg.norm(sp.matrix, "fro"))
+    r = np.asarray(sp.residuals) + (k + 2) * EPS * math.sqrt(n) * (fro + np.abs(w)) + sp.input_error
+    r = r * (1.0 + 4.0 * n * EPS)
+    s = np.where(delta > 0, np.minimum(1.0, r / np.where(delta > 0, delta, 1.0)), 1.0)
+    return 2.0 * s + math.sqrt(2.0) * sp.orthogonality_error + 4.0 * EPS
+
+
+# ------------------------------------------------------------------------------------------
+# the search
+
+
+@dataclass(frozen=True)
+class _Target:
+    F: tuple[Label, ...]
+    X: np.ndarray  # xi-orthonormal basis of the possible stealthy kernel (N x r)
+    B: np.ndarray  # its input part (m x r)
+
+
+def _targets(system: System, attacks: Sequence[Sequence[Label]], lambdas: Mapping[tuple[Label, ...], complex], tol: Tolerance) -> list[_Target]:
+    out = []
+    for F in attacks:
+        Ft = tuple(F)
+        md = _Modal(system, Ft, tol)
+        _, zp = _stealthy_bases(md, complex(lambdas[Ft]))
+        sp = _split(zp.x, zp.u, None, [], np.zeros((0, 0)), 0.0)
+        out.append(_Target(Ft, sp.Xo, sp.B))
+    return out
+
+
+def _exposes(t: _Target, i: int, j: int, thr: float) -> bool:
+    """Every stealthy direction with an input has xi_i != xi_j (the switch cannot be avoided)."""
+    a = t.X[i, :] - t.X[j, :]
+    r = a.shape[0]
+    if r == 0:
+        return False
+    if r == 1:
+        return bool(abs(a[0]) > thr and np.linalg.norm(t.B) > thr)
+    na = float(np.linalg.norm(a))
+    if na <= thr:
+        return False
+    _, _, Vh = np.linalg.svd(a.reshape(1, -1))
+    K = Vh[1:].conj().T  # directions with a . c = 0
+    return bool(np.linalg.norm(t.B @ K, 2) <= thr)
+
+
+def _admissible(system: System, cands: Sequence[LinkCandidate], err: np.ndarray | None, chunk: int = 2048) -> np.ndarray:
+    """Boolean mask: (i)-(iii) certified by the one-link theorem (in chunks of ``chunk`` rows)."""
+    if err is None or len(cands) == 0:
+        return np.zeros(len(cands), dtype=bool)
+    U = np.asarray(system.spectrum().vectors)
+    w = np.asarray(system.spectrum().values)
+    M = set(system.monitored)
+    I = np.array([system.index[c.u] for c in cands], dtype=int)
+    J = np.array([system.index[c.v] for c in cands], dtype=int)
+    ok = np.array([(c.u in M) or (c.v in M) for c in cands], dtype=bool)
+    rem = np.array([c.remove for c in cands], dtype=bool)
+    wts = np.array([float(c.weight) for c in cands])
+    U1, e1, w1 = U[:, 1:], err[None, 1:], w[None, 1:]
+    for a in range(0, len(cands), chunk):
+        sl = slice(a, a + chunk)
+        Z = U1[I[sl]] - U1[J[sl]]
+        good = np.all(np.abs(Z) > e1, axis=1)
+        r = rem[sl]
+        if r.any():
+            reff = np.sum(Z[r] ** 2 / w1, axis=1)
+            g = good[r]
+            g &= 1.0 - wts[sl][r] * reff > 1e-6
+            good[r] = g
+        ok[sl] &= good
+    return ok
+
+
+def _blocking(system: System, cands: Sequence[LinkCandidate], err: np.ndarray | None) -> str:
+    """Why no candidate meets (i)-(iii): the reason met most often, with its eigenvector."""
+    if err is None:
+        return "L_1 has eigenvalues that are not certified distinct: the one-link theorem (and Theorem III.3 (ii) after one link) cannot be certified"
+    M = set(system.monitored)
+    near = [c for c in cands if c.u in M or c.v in M]
+    if not near:
+        return "no candidate link has a monitored endpoint, so Theorem III.3 (i) fails for every one-link mode"
+    U = np.asarray(system.spectrum().vectors)
+    counts = np.zeros(system.n, dtype=int)
+    for c in near[:4096]:
+        z = np.abs(U[system.index[c.u], 1:] - U[system.index[c.v], 1:])
+        counts[1:] += z <= err[1:]
+    k = int(np.argmax(counts))
+    if counts[k] == 0:
+        return "every candidate with a monitored endpoint is a bridge removal"
+    supp = [system.labels[i] for i in np.flatnonzero(np.abs(U[:, k]) > 1e-8)]
+    return (
+        f"Theorem III.3 (iii): eigenvector {k + 1} of L_1 (eigenvalue {float(system.spectrum().values[k]):.6g}) has equal entries at "
+        f"{counts[k]} of the {min(len(near), 4096)} candidate pairs with a monitored endpoint (it lives on agents {supp[:12]}); a one-link "
+        "mode keeps it, so only links touching its support can meet (iii)"
+    )
+
+
+def _cover(system: System, cands: Sequence[LinkCandidate], ok: np.ndarray, tg: Sequence[_Target], thr: float) -> list[set[int]]:
+    """For every candidate, the targets it exposes (vectorised for one-dimensional kernels)."""
+    cover: list[set[int]] = [set() for _ in cands]
+    idx = [int(k) for k in np.flatnonzero(ok)]
+    if len(idx) == 0 or not tg:
+        return cover
+    I = np.array([system.index[cands[k].u] for k in idx], dtype=np.int64)
+    J = np.array([system.index[cands[k].v] for k in idx], dtype=np.int64)
+    one = [t for t, x in enumerate(tg) if x.X.shape[1] == 1 and float(np.linalg.norm(x.B)) > thr]
+    if one:
+        X1 = np.column_stack([tg[t].X[:, 0] for t in one])
+        hit = np.abs(X1[I] - X1[J]) > thr
+        for row, k in enumerate(idx):
+            cover[k].update(one[c] for c in np.flatnonzero(hit[row]))
+    multi = [t for t, x in enumerate(tg) if x.X.shape[1] > 1]
+    for t in multi:
+        for row, k in enumerate(idx):
+            if _exposes(tg[t], int(I[row]), int(J[row]), thr):
+                cover[k].add(t)
+    return cover
+
+
+def _confirm(system: System, link: LinkCandidate, name: str, attacks: Sequence[tuple[Label, ...]], exact: bool) -> tuple[list[tuple[Label, ...]], dict[str, str]]:
+    """Re-verify a proposed mode with the checkers; the attacks it is confirmed to expose."""
+    mode = ProposedMode(name, link, ()).mode_spec()
+    base = with_modes(system.spec, [mode], keep=False)
+    confirmed: list[tuple[Label, ...]] = []
+    statuses: dict[str, str] = {}
+    for F in attacks:
+        sub = System(with_attack(base, F))
+        rep = verify(sub, list(THEOREM_IDS) + ["switching.avoids-attack"], exact=exact)
+        th = [r for r in rep.conditions if r.id in THEOREM_IDS]
+        av = [r for r in rep.conditions if r.id == "switching.avoids-attack"]
+        if not statuses:
+            statuses = {r.id: r.status.value for r in th}
+        if all(r.status is Status.HOLDS for r in th) and av and all(r.status is Status.FAILS for r in av):
+            confirmed.append(F)
+        elif not all(r.status is Status.HOLDS for r in th):
+            break
+    return confirmed, statuses
+
+
+def design_safe_modes(
+    system: System,
+    attacks: Iterable[Sequence[Label]] | None = None,
+    candidate_links: Sequence[LinkCandidate] | None = None,
+    budget: int = 3,
+    *,
+    weights: Sequence[Fraction] = DEFAULT_WEIGHTS,
+    lambdas: Mapping[tuple[Label, ...], complex] | None = None,
+    tol: Tolerance = DEFAULT_TOLERANCE,
+    exact: bool | None = None,
+    verify_designs: bool = True,
+) -> SafeModeDesign:
+    """Safe modes of one link change each that meet Theorem III.3 (i)-(iii) and expose the attacks.
+
+    Parameters
+    ----------
+    system : System
+    attacks : iterable of label sequences, optional
+        Attack sets to expose; default the ``undetected`` sets of :func:`glocal_verify.design.audit.audit`
+        with k = 2.
+    candidate_links : sequence of LinkCandidate, optional
+        Allowed changes; default :func:`default_candidates` (distance <= 2, ``weights``, removals).
+    budget : int
+        Largest number of safe modes (= link changes) proposed.
+    weights : sequence of Fraction
+        Weights of added links in the default candidates.
+    lambdas : mapping, optional
+        Exponent per attack set (default: the audit's ``lambda0``, i.e. ``stealthy.zda``'s).
+    tol : Tolerance
+    exact : bool, optional
+        Re-verify over Q (default: N <= 40).
+    verify_designs : bool
+        Re-verify every proposal with the checkers (turn off only for benchmarks).
+
+    Returns
+    -------
+    SafeModeDesign
+        ``unexposed`` says, per attack, why no mode within the budget exposes it.
+
+    Raises
+    ------
+    NotApplicableError
+        An empty candidate set, or budget < 1.
+    """
+    from glocal_verify.design.audit import audit
+
+    if budget < 1:
+        raise NotApplicableError(f"budget: must be at least 1 safe mode, not {budget}")
+    cands = list(candidate_links) if candidate_links is not None else default_candidates(system, weights)
+    if not cands:
+        raise NotApplicableError("candidate_links: the candidate set is empty")
+    for c in cands:
+        system.idx([c.u, c.v])
+    if attacks is None or lambdas is None:
+        res = audit(system, 2) if attacks is None else audit(system, max(len(tuple(F)) for F in attacks), sorted({a for F in attacks for a in F}, key=system.index.__getitem__))
+        rows = {r.actuators: r for r in res.rows}
+        if attacks is None:
+            attacks = [F for F, r in rows.items() if r.verdict == "undetected"]
+        lambdas = {F: r.lambda0 for F, r in rows.items() if r.lambda0 is not None}
+    targets_F = [tuple(sorted(F, key=system.index.__getitem__)) for F in attacks]
+    exact = system.n <= EXACT_MAX_AGENTS if exact is None else exact
+    t0 = time.perf_counter()
+    err = eigenvector_error(system)
+    ok = _admissible(system, cands, err)
+    stealthy = [F for F in targets_F if F in lambdas]
+    tg = _targets(system, stealthy, lambdas, tol)
+    thr = math.sqrt(tol.rtol) * 1e-2
+    cover = _cover(system, cands, ok, tg, thr)
+    rate = len(cands) / max(time.perf_counter() - t0, 1e-9)
+    uncovered = set(range(len(tg)))
+    modes: list[ProposedMode] = []
+    rejected: set[int] = set()
+    while uncovered and len(modes) < budget:
+        best = max((k for k in range(len(cands)) if k not in rejected), key=lambda k: len(cover[k] & uncovered), default=None)
+        if best is None or not (cover[best] & uncovered):
+            break
+        claim = [tg[k].F for k in sorted(cover[best] & uncovered)]
+        name = f"designed-{len(modes) + 1}"
+        if verify_designs:
+            got, statuses = _confirm(system, cands[best], name, claim, exact)
+        else:
+            got, statuses = claim, {}
+        if not got:
+            rejected.add(best)
+            continue
+        modes.append(ProposedMode(name, cands[best], tuple(got), statuses, "exact" if exact else "numeric"))
+        uncovered -= {k for k in range(len(tg)) if tg[k].F in set(got)}
+        rejected.add(best)
+    unexposed: dict[str, str] = {}
+    for F in targets_F:
+        if F not in lambdas:
+            unexposed[",".join(map(str, F))] = "no stealthy ZDA exponent known for this set (not stealthy, or undecided)"
+    blocking = _blocking(system, cands, err) if not ok.any() else ""
+    for k in sorted(uncovered):
+        key = ",".join(map(str, tg[k].F))
+        if blocking:
+            unexposed[key] = "no candidate meets Theorem III.3 (i)-(iii): " + blocking
+        elif not any(k in cv for cv in cover):
+            why = "no admissible one-link change touches every stealthy direction"
+            if tg[k].X.shape[1] > 1:
+                why += f" (the stealthy kernel at lambda0 has dimension {tg[k].X.shape[1]})"
+            unexposed[key] = why
+        else:
+            unexposed[key] = f"the budget of {budget} safe mode(s) is exhausted"
+    return SafeModeDesign(tuple(modes), tuple(targets_F), unexposed, len(cands), rate, int(ok.sum()))
