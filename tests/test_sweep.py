@@ -151,3 +151,16 @@ def test_the_wilson_interval_contains_the_rate_and_narrows_with_more_trials() ->
     lo2, hi2 = wilson_interval(50, 100)
     assert hi2 - lo2 < hi - lo
     assert wilson_interval(0, 0) == (0.0, 1.0)
+
+
+def test_an_audit_through_dask_gives_the_rows_of_the_in_process_audit() -> None:
+    from glocal_verify import System
+    from glocal_verify.design.audit import audit
+    from glocal_verify.design.distributed import dask_executor
+    from glocal_verify.design.generators import random_clustered_spec
+
+    system = System(random_clustered_spec(16, 2, seed=3, attack=False))
+    here = audit(system, 2, chunk_size=40)
+    there = audit(system, 2, chunk_size=40, executor=dask_executor(workers=2))
+    assert [r.to_json() for r in there.rows] == [r.to_json() for r in here.rows]
+    assert len(here.rows) == 16 + 16 * 15 // 2

@@ -59,7 +59,14 @@ def cmd_audit(args: argparse.Namespace) -> int:
     n_cand = len(cands) if cands is not None else system.n
     if args.max_attackers > n_cand:
         raise UsageError(f"--max-attackers: {args.max_attackers} is larger than the number of candidate agents ({n_cand})")
-    result = audit(system, args.max_attackers, cands, sensors, _progress(args.quiet), exact=args.exact)
+    executor = None
+    if args.scheduler or args.workers:
+        from glocal_verify.design.distributed import dask_executor
+
+        if args.workers is not None and args.workers < 1:
+            raise UsageError("--workers must be at least 1")
+        executor = dask_executor(args.scheduler, args.workers or 2)
+    result = audit(system, args.max_attackers, cands, sensors, _progress(args.quiet), exact=args.exact, chunk_size=args.chunk, executor=executor)
     text = json.dumps(result.to_json(), indent=2) + "\n" if args.format == "json" else result.to_markdown()
     out_dir = Path(args.out) if args.out and (Path(args.out).is_dir() or args.out.endswith("/")) else None
     if out_dir is not None:
@@ -86,5 +93,8 @@ def register(sub: Any) -> None:
     p.add_argument("--format", choices=("json", "markdown"), default="markdown")
     p.add_argument("--out", metavar="F", help="file, or a folder (then audit.json|md, audit.svg and audit.png are written)")
     p.add_argument("--figure", metavar="FILE", help="also write the figure (.svg or .png)")
+    p.add_argument("--scheduler", metavar="ADDRESS", help="run the chunks on this Dask scheduler (e.g. tcp://127.0.0.1:8786)")
+    p.add_argument("--workers", type=int, metavar="N", help="run the chunks on an embedded Dask LocalCluster of N workers")
+    p.add_argument("--chunk", type=int, default=200, metavar="M", help="attack sets per task (default 200)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_audit)

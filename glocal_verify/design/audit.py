@@ -61,7 +61,13 @@ import numpy as np
 
 from glocal_verify.analysis.avoidance import _exact_mode, _numeric_mode, _stealthy_bases
 from glocal_verify.analysis.local_cases import LocalCase
-from glocal_verify.analysis.zda import GROWTH_UNBOUNDED, ZdaZero, _Modal, _normalize, zda_analysis
+from glocal_verify.analysis.zda import (
+    GROWTH_UNBOUNDED,
+    ZdaZero,
+    _Modal,
+    _normalize,
+    zda_analysis,
+)
 from glocal_verify.analysis.zda_exact import zda_analysis_exact
 from glocal_verify.conditions.local import uio_verdict
 from glocal_verify.conditions.local_pencil import pencil_verdict, pencil_verdict_exact
@@ -644,6 +650,7 @@ def audit(
     exact_fallback: bool | None = None,
     screen: bool = True,
     chunk_size: int = 200,
+    executor: Callable[[Sequence[AuditChunk]], Sequence[Sequence[AuditRow]]] | None = None,
 ) -> AuditResult:
     """Audit every set of 1..k compromised actuators among the candidates (module docstring).
 
@@ -671,7 +678,11 @@ def audit(
     screen : bool
         Use the separator screen of the module docstring.
     chunk_size : int
-        Sets per chunk (progress granularity).
+        Sets per chunk (progress granularity; the unit of work of an executor).
+    executor : callable, optional
+        Runs the list of :class:`AuditChunk` callables and returns their rows in the same
+        order, e.g. :func:`glocal_verify.design.distributed.dask_executor` (Dask: an embedded
+        LocalCluster or an external scheduler); default: in this process, in order.
 
     Returns
     -------
@@ -681,13 +692,16 @@ def audit(
         system = _without_sensors(system, list(sensors))
     sets = attack_sets(system, max_attackers, candidates)
     chunks = audit_chunks(system, sets, chunk_size, tol=tol, exact=exact, exact_fallback=exact_fallback, screen=screen)
-    out: list[list[AuditRow]] = []
-    done = 0
-    for ch in chunks:
-        out.append(ch())
-        done += len(ch.sets)
-        if progress is not None:
-            progress(done, len(sets))
+    out: list[Sequence[AuditRow]] = []
+    if executor is not None:
+        out = list(executor(chunks))
+    else:
+        done = 0
+        for ch in chunks:
+            out.append(ch())
+            done += len(ch.sets)
+            if progress is not None:
+                progress(done, len(sets))
     modes = chunks[0].shared.modes if chunks else {}
     return merge_chunks(system, int(max_attackers), _candidates(system, candidates), out, modes)
 

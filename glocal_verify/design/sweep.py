@@ -454,7 +454,7 @@ def summarize(rows: Sequence[Mapping[str, Any]], grid: Mapping[str, Sequence[Any
     """
     members = sorted({r["member"] for r in rows})
     errors = [r for r in rows if r.get("status") == "error"]
-    lines = [f"# Sweep summary", "", f"- members: {len(members)}", f"- result rows: {len(rows) - len(errors)}", f"- failed members: {len(errors)}", ""]
+    lines = ["# Sweep summary", "", f"- members: {len(members)}", f"- result rows: {len(rows) - len(errors)}", f"- failed members: {len(errors)}", ""]
     # per member and condition: holds iff every scope holds; undecided if any undecided and none fails
     verdict: dict[tuple[str, str], str] = {}
     for r in rows:
@@ -526,15 +526,6 @@ def _plot_rates(axis: str, values: Sequence[Any], series: Mapping[str, Sequence[
     _atomic_write(path, buf.getvalue().encode("utf-8"))
 
 
-def _client(scheduler: str | None, workers: int) -> tuple[Any, Any]:
-    from distributed import Client, LocalCluster
-
-    if scheduler:
-        return Client(scheduler, timeout="60s"), None
-    cluster = LocalCluster(n_workers=max(1, workers), threads_per_worker=1, processes=True, dashboard_address=None, host="127.0.0.1")
-    return Client(cluster), cluster
-
-
 def run_sweep(
     plan: SweepPlan,
     out: str | Path,
@@ -574,26 +565,23 @@ def run_sweep(
     todo = [m for m in plan.members if m.key not in done]
     resumed = len(plan.members) - len(todo)
     if todo:
-        client, cluster = _client(scheduler, workers)
-        try:
-            from distributed import as_completed
+        from functools import partial
 
+        from glocal_verify.design.distributed import dask_client, run_on_dask
+
+        with dask_client(scheduler, workers) as client:
             chunks = [todo[i : i + max(1, chunk_size)] for i in range(0, len(todo), max(1, chunk_size))]
-            futures = [client.submit(_run_chunk, c, plan.conditions, plan.exact, plan.escalate, pure=False) for c in chunks]
+            tasks = [partial(_run_chunk, c, plan.conditions, plan.exact, plan.escalate) for c in chunks]
             finished = 0
             t0 = time.perf_counter()
-            for fut in as_completed(futures):
-                for key, member_rows in fut.result():
+            for _, chunk_rows in run_on_dask(client, tasks):
+                for key, member_rows in chunk_rows:
                     _atomic_write(parts / f"{key}.json", json.dumps(member_rows, allow_nan=True).encode("utf-8"))
                     finished += 1
                 if progress:
                     rate = finished / max(time.perf_counter() - t0, 1e-9)
                     eta = (len(todo) - finished) / rate if rate > 0 else float("inf")
                     progress(f"{finished}/{len(todo)} members ({resumed} resumed), ETA {eta:.0f} s")
-        finally:
-            client.close()
-            if cluster is not None:
-                cluster.close()
     rows: list[dict[str, Any]] = []
     for m in plan.members:
         rows.extend(json.loads((parts / f"{m.key}.json").read_text(encoding="utf-8")))

@@ -1,0 +1,91 @@
+"""Dask as the executor of work that outgrows one process: sweeps and audits.
+
+:func:`dask_client` opens an embedded ``LocalCluster`` on this machine (worker processes with
+one thread each, on 127.0.0.1, no dashboard) or connects to an existing cluster by its
+scheduler address, unchanged. :func:`run_on_dask` submits independent picklable callables
+(an audit's :class:`~glocal_verify.design.audit.AuditChunk`, a sweep's member chunk) and
+yields their results as they complete, so that the caller writes or merges them at once.
+"""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+from typing import Any, Callable, Iterator, Sequence, TypeVar
+
+__all__ = ["dask_client", "run_on_dask", "dask_executor"]
+
+T = TypeVar("T")
+
+
+@contextmanager
+def dask_client(scheduler: str | None = None, workers: int = 2) -> Iterator[Any]:
+    """A ``distributed.Client``: to ``scheduler`` if given, else to an embedded LocalCluster.
+
+    Parameters
+    ----------
+    scheduler : str, optional
+        Address of an existing scheduler, e.g. ``tcp://127.0.0.1:8786``.
+    workers : int
+        Worker processes of the embedded cluster (one thread each).
+    """
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        client = Client(scheduler, timeout="60s")
+        try:
+            yield client
+        finally:
+            client.close()
+        return
+    cluster = LocalCluster(n_workers=max(1, int(workers)), threads_per_worker=1, processes=True, dashboard_address=None, host="127.0.0.1")
+    client = Client(cluster)
+    try:
+        yield client
+    finally:
+        client.close()
+        cluster.close()
+
+
+def run_on_dask(client: Any, tasks: Sequence[Callable[[], T]]) -> Iterator[tuple[int, T]]:
+    """Run each zero-argument callable on the cluster; yield ``(index, result)`` as they finish.
+
+    Parameters
+    ----------
+    client : distributed.Client
+    tasks : sequence of callables
+        Picklable, independent.
+    """
+    from distributed import as_completed
+
+    futures = {client.submit(_call, t, pure=False): i for i, t in enumerate(tasks)}
+    for fut in as_completed(list(futures)):
+        yield futures[fut], fut.result()
+
+
+def _call(task: Callable[[], T]) -> T:
+    return task()
+
+
+def dask_executor(scheduler: str | None = None, workers: int = 2, progress: Callable[[int, int], None] | None = None) -> Callable[[Sequence[Callable[[], T]]], list[T]]:
+    """An executor for :func:`glocal_verify.design.audit.audit`: runs its chunks on Dask.
+
+    Parameters
+    ----------
+    scheduler : str, optional
+        An existing scheduler's address (default: an embedded LocalCluster).
+    workers : int
+        Worker processes of the embedded cluster.
+    progress : callable, optional
+        ``progress(done, total)`` after each finished chunk.
+    """
+
+    def execute(tasks: Sequence[Callable[[], T]]) -> list[T]:
+        out: list[Any] = [None] * len(tasks)
+        with dask_client(scheduler, workers) as client:
+            for done, (i, res) in enumerate(run_on_dask(client, tasks), start=1):
+                out[i] = res
+                if progress is not None:
+                    progress(done, len(tasks))
+        return out
+
+    return execute
