@@ -1,7 +1,14 @@
 """Design: answers to the defender's inverse questions, built on the checkers.
 
+- :mod:`.audit` -- every set of 1..k compromised actuators: can it hide, who catches it, which
+  safe mode exposes it (:mod:`.audit_figure` draws the summary);
+- :mod:`.safe_modes` -- safe modes (link changes) that satisfy Theorem III.3 and expose the
+  audited attacks, by rank-one updates of the spectrum;
+- :mod:`.monitors` -- smallest velocity-only global monitor sets that keep privacy;
+- :mod:`.network` -- the whole design (monitors, local observers, safe modes) of a spec;
 - :mod:`.placement` -- local observer placement (Remark III.2.1);
-- :mod:`.generators` -- random clustered networks for tests, benchmarks and sweeps.
+- :mod:`.generators` -- random clustered networks for tests, benchmarks and sweeps;
+- :mod:`.sweep`, :mod:`.distributed` -- ensembles of networks and audits on Dask.
 
 Layer: imports :mod:`glocal_verify.conditions` and below.
 """
