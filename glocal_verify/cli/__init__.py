@@ -16,6 +16,7 @@ from __future__ import annotations
 import importlib
 import os
 import sys
+import warnings
 from typing import Sequence
 
 from glocal_verify import __version__
@@ -43,6 +44,7 @@ def build_parser() -> Parser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); return the exit code."""
+    warnings.simplefilter("ignore", RuntimeWarning)  # overflow notes of numpy: a verdict says what they mean
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
@@ -58,6 +60,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted", file=sys.stderr)
         return 130
+    except MemoryError:
+        print(f"{PROG}: error: out of memory: the problem is too large for this machine (see the size limits in docs/spec.md)", file=sys.stderr)
+        return 2
     except Exception as exc:  # a bug of the toolkit: one line for the user, the traceback on request
         if os.environ.get("GLOCAL_DEBUG"):
             raise
