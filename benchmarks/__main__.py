@@ -1,6 +1,10 @@
 """Run every benchmark module and write ``reports/benchmarks.md``.
 
-Usage: ``python -m benchmarks [--quick] [--only NAME[,NAME]] [--out FILE]``
+Usage: ``python -m benchmarks [--quick] [--large] [--only NAME[,NAME]] [--out FILE]``
+
+``--large`` (or ``GLOCAL_BENCH_LARGE=1``) adds the 10,000-agent command rows (tens of minutes).
+``GLOCAL_BENCH_BUDGET`` (seconds, default 420) is how long one command row may run before it
+is killed and reported as not finished.
 """
 
 from __future__ import annotations
@@ -50,7 +54,9 @@ def render(rows: list[Row], elapsed: float, quick: bool) -> str:
         f"- cores: {len(os.sched_getaffinity(0))}, OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}",
         f"- total time: {elapsed:.1f} s",
         "",
-        "Ratio = baseline time / candidate time, both measured in this run (> 1: the candidate is faster).",
+        "Ratio = baseline time / candidate time, both measured in this run (> 1: the candidate is faster). "
+        "Command rows run each command in its own process; their peak MiB is that process's maximum resident memory "
+        "(`os.wait4`), their baseline one `numpy.linalg.eigh` of the same Laplacian.",
         "",
     ]
     groups: list[str] = []
@@ -58,10 +64,10 @@ def render(rows: list[Row], elapsed: float, quick: bool) -> str:
         if r.group not in groups:
             groups.append(r.group)
     for g in groups:
-        lines += [f"## {g}", "", "| case | baseline | baseline s | candidate | candidate s | ratio | note |", "|---|---|---|---|---|---|---|"]
+        lines += [f"## {g}", "", "| case | baseline | baseline s | candidate | candidate s | ratio | peak MiB | note |", "|---|---|---|---|---|---|---|---|"]
         for r in rows:
             if r.group == g:
-                lines.append(f"| {r.case} | {r.baseline} | {_fmt(r.baseline_s)} | {r.candidate} | {_fmt(r.candidate_s)} | {_fmt(r.ratio)} | {r.note} |")
+                lines.append(f"| {r.case} | {r.baseline} | {_fmt(r.baseline_s)} | {r.candidate} | {_fmt(r.candidate_s)} | {_fmt(r.ratio)} | {_fmt(r.peak_mib)} | {r.note} |")
         lines.append("")
     return "\n".join(lines)
 
@@ -71,7 +77,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--quick", action="store_true", help="small sizes only (a smoke run)")
     p.add_argument("--only", help="comma-separated module names (e.g. bench_verify)")
     p.add_argument("--out", default=str(ROOT / "reports" / "benchmarks.md"))
+    p.add_argument("--large", action="store_true", help="add the 10,000-agent command rows (tens of minutes)")
     args = p.parse_args(argv)
+    if args.large:
+        os.environ["GLOCAL_BENCH_LARGE"] = "1"
     names = _modules()
     if args.only:
         wanted = {w.strip() for w in args.only.split(",")}

@@ -1,6 +1,11 @@
 """`glocal-verify verify` on random clustered networks: structured path at scale.
 
 Baselines, measured in the same run:
+- the command line ``glocal-verify verify`` (and ``place-observers``) at N = 1000, 2000,
+  4000 (10,000 with ``python -m benchmarks --large`` or ``GLOCAL_BENCH_LARGE=1``), each in
+  its own process (wall and CPU time, peak resident memory), against one
+  ``numpy.linalg.eigh`` of the same Laplacian timed in this process: the goal is a few
+  eigendecompositions per command;
 - the same structured verification at N = 250 (scaling ratio);
 - the generic dense methods (2N-state pencil for the ZDA, orthogonal staircase for the
   unobservable subspace) against the structured N-sized ones on the same systems;
@@ -9,18 +14,59 @@ Baselines, measured in the same run:
 
 from __future__ import annotations
 
+import os
+import tempfile
+from pathlib import Path
+
 from glocal_verify import System, verify
 from glocal_verify.analysis.unobservable import unobservable_subspace
 from glocal_verify.analysis.zda import zda_analysis
 from glocal_verify.design.generators import random_clustered_spec
 from glocal_verify.numerics.staircase import unobservable_subspace_dense
 
-from .harness import Row, best_time
+from .harness import Row, best_time, cli, eigh_seconds, run_command, write_spec
+
+#: the goal of the scale issue: a command costs at most this many eigendecompositions
+EIGH_GOAL = 5.0
+
+#: longest a command row may run before it is killed and reported as not finished
+COMMAND_BUDGET = float(os.environ.get("GLOCAL_BENCH_BUDGET", "420"))
+
+
+def command_row(group: str, case: str, command: str, argv: list[str], n: int, system: System, budget: float = COMMAND_BUDGET, goal: str = "") -> Row:
+    """One command-line row: ``argv`` in its own process against one eigh of L (N x N)."""
+    t_eigh = eigh_seconds(system.laplacian())
+    m = run_command(argv, timeout=budget)
+    x = m.seconds / t_eigh if t_eigh > 0 else float("nan")
+    status = m.describe(budget)
+    note = f"{status}; {x:.1f} x eigh" + (f"; goal {goal}" if goal else "")
+    return Row(group, case, f"one eigh of L ({n} x {n})", t_eigh, command, m.seconds, note, m.peak_mib)
+
+
+def command_rows(quick: bool) -> list[Row]:
+    """``glocal-verify verify`` and ``place-observers`` at scale (module docstring)."""
+    rows: list[Row] = []
+    sizes = [250, 500] if quick else [1000, 2000, 4000]
+    if os.environ.get("GLOCAL_BENCH_LARGE") and not quick:
+        sizes.append(10_000)
+    group = "user commands at scale (each in its own process; ratio = eigh / command)"
+    with tempfile.TemporaryDirectory() as tmp:
+        for n in sizes:
+            spec = random_clustered_spec(n, 3, seed=7)
+            path = write_spec(spec, Path(tmp), f"rc{n}")
+            goal = "< 5 min, < 8 GiB" if n >= 10_000 else f"<= {EIGH_GOAL:g} x eigh"
+            budget = 1800.0 if n >= 10_000 else COMMAND_BUDGET
+            rows.append(command_row(group, f"verify, N = {n}, 3 clusters", "glocal-verify verify", cli("verify", str(path), "--quiet", "--out", os.path.join(tmp, "r.md")), n, System(spec), budget, goal))
+        n = 250 if quick else 1000
+        spec = random_clustered_spec(n, 3, seed=7)
+        path = write_spec(spec, Path(tmp), f"po{n}")
+        rows.append(command_row(group, f"place-observers, N = {n}, 3 clusters", "glocal-verify place-observers", cli("place-observers", str(path), "--quiet", "--out", os.path.join(tmp, "p.toml")), n, System(spec), goal="< 1 min"))
+    return rows
 
 
 def run(quick: bool) -> list[Row]:
-    rows: list[Row] = []
-    sizes = [250, 500] if quick else [250, 500, 1000, 2000]
+    rows: list[Row] = command_rows(quick)
+    sizes = [250, 500]
     base_t: float | None = None
     for n in sizes:
         spec = random_clustered_spec(n, 3, seed=7)

@@ -2,11 +2,18 @@
 
 from __future__ import annotations
 
+import os
+import resource
+import subprocess
+import sys
 import time
 from dataclasses import dataclass
-from typing import Callable
+from pathlib import Path
+from typing import Callable, Sequence
 
-__all__ = ["Row", "best_time"]
+import numpy as np
+
+__all__ = ["Row", "Measured", "best_time", "run_command", "eigh_seconds", "write_spec", "cli", "self_peak_mib"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -20,6 +27,7 @@ class Row:
     candidate: str
     candidate_s: float
     note: str = ""
+    peak_mib: float | None = None
 
     @property
     def ratio(self) -> float | None:
@@ -40,3 +48,70 @@ def best_time(func: Callable[[], object], repeat: int = 3, budget: float = 20.0)
         if dt * (k + 2) > budget:
             break
     return best
+
+
+@dataclass(frozen=True, slots=True)
+class Measured:
+    """One command run in its own process: wall and CPU seconds, peak resident memory."""
+
+    seconds: float
+    cpu_seconds: float
+    peak_mib: float
+    returncode: int | None
+    timed_out: bool
+
+    def describe(self, budget: float) -> str:
+        """``"12.3 CPU-s"`` or ``"timed out after 600 s"`` / ``"exit 1"``."""
+        if self.timed_out:
+            return f"timed out after {budget:g} s (not finished)"
+        code = f", exit {self.returncode}" if self.returncode not in (0, None) else ""
+        return f"{self.cpu_seconds:.1f} CPU-s{code}"
+
+
+def run_command(argv: Sequence[str], *, timeout: float, cwd: str | None = None) -> Measured:
+    """Run ``argv`` in a child process (stdout and stderr discarded) and measure it.
+
+    Peak memory is the child's own ``ru_maxrss`` from ``os.wait4`` (that process and the
+    descendants it waited for), so every row is measured separately. A child still running
+    after ``timeout`` seconds is killed (by its pid) and reported as timed out.
+    """
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(list(argv), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=cwd)
+    timed_out = False
+    while True:
+        pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
+        if pid == proc.pid:
+            break
+        if time.perf_counter() - t0 > timeout:
+            timed_out = True
+            proc.kill()
+            pid, status, usage = os.wait4(proc.pid, 0)
+            break
+        time.sleep(0.1)
+    proc.returncode = os.waitstatus_to_exitcode(status)  # already reaped: keep Popen quiet
+    dt = time.perf_counter() - t0
+    return Measured(dt, usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024.0, None if timed_out else proc.returncode, timed_out)
+
+
+def eigh_seconds(L: np.ndarray, repeat: int = 1) -> float:
+    """Best wall time of one ``numpy.linalg.eigh`` of ``L`` in this process (the yardstick)."""
+    return best_time(lambda: np.linalg.eigh(L), repeat=repeat, budget=600.0)
+
+
+def write_spec(spec: object, folder: Path, name: str) -> Path:
+    """Write ``spec`` as TOML to ``folder/name.toml`` (for the command-line rows)."""
+    from glocal_verify.spec.writer import dump_spec
+
+    path = folder / f"{name}.toml"
+    path.write_text(dump_spec(spec))  # type: ignore[arg-type]
+    return path
+
+
+def cli(*args: str) -> list[str]:
+    """The command line of ``glocal-verify ARGS`` with this interpreter."""
+    return [sys.executable, "-m", "glocal_verify.cli", *args]
+
+
+def self_peak_mib() -> float:
+    """Peak resident memory of this process so far (MiB)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0

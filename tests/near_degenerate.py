@@ -6,7 +6,7 @@ and eigenvectors with equal entries; a perturbation of relative size 10^-k (k = 
 them off the boundary by less than a modelling tolerance but by far more than the rounding
 error, so a numeric verdict must either match exact arithmetic or say ``undecided``. Weights are
 exact rationals written as strings (``"1000000001/1000000000"``), so the spec is exactly the
-system meant. Weight spreads reach 10^+-30 (the loader accepts them); safe modes change one
+system meant. Weight spreads reach a factor 10^12 (the widest the loader accepts); safe modes change one
 weight by 10^-15 relative, add links of weight 1e-11, or remove and add links (signed dL).
 """
 
@@ -62,9 +62,10 @@ def near_degenerate_specs(draw: st.DrawFn) -> dict[str, Any]:
         e = draw(st.sampled_from(keys))
         k = draw(st.integers(6, 14))
         edges[e] = edges[e] * (1 + Fraction(draw(st.sampled_from([1, -1, 3])), 10**k))
-    if draw(st.integers(0, 3)) == 0:
+    spread = draw(st.integers(0, 3)) == 0
+    if spread:  # the loader's documented domain: weights within a factor 1e12 of each other
         e = draw(st.sampled_from(keys))
-        p = draw(st.sampled_from([-30, -12, -6, 6, 12, 30]))
+        p = draw(st.sampled_from([-6, 6]))
         edges[e] = edges[e] * Fraction(10) ** p
     labels = list(range(1, n + 1))
     mv = draw(st.lists(st.sampled_from(labels), unique=True, min_size=1, max_size=max(1, n // 2)))
@@ -82,7 +83,7 @@ def near_degenerate_specs(draw: st.DrawFn) -> dict[str, Any]:
             add.append([e[0], e[1], rational(edges[e] * (1 + rel))])
         elif kind == "tiny":
             for e in draw(st.lists(st.sampled_from(absent), unique=True, min_size=1, max_size=2)):
-                add.append([e[0], e[1], "1e-11"])
+                add.append([e[0], e[1], "1e-6" if spread else "1e-11"])
         else:  # signed: one link removed, one added
             e = draw(st.sampled_from(keys))
             f = draw(st.sampled_from(absent))

@@ -186,7 +186,7 @@ def test_place_observers_and_simulate_warn_on_a_disconnected_graph(disconnected:
     assert sum("warning: the normal graph is disconnected" in line for line in err.splitlines()) == 1
     # the warning comes before any simulation work: a size refusal afterwards still shows it
     huge = tmp_path / "huge.toml"
-    huge.write_text(spec.read_text().replace("horizon = 8.0\nstep = 0.05", "horizon = 1e9\nstep = 1e-3"))
+    huge.write_text(spec.read_text().replace("horizon = 8.0\nstep = 0.05", "horizon = 1e6\nstep = 0.1"))
     assert main(["simulate", str(huge), "--quiet", "--out", str(tmp_path / "sim")]) == 2
     assert "warning: the normal graph is disconnected" in capsys.readouterr().err
 

@@ -30,12 +30,16 @@ the proofs that they decide (iii), live in :mod:`glocal_verify.analysis.cluster_
 structured ``local.pencil`` checker (:func:`glocal_verify.conditions.local_pencil.pencil_verdict`).
 
 **Search.** Greedy set cover: start from M = dP_i and add the agent whose measurement forces
-the most agents, until zero forcing completes; then drop agents (last added first) while the
-pencil test still holds. For small clusters an exhaustive search by increasing |M| (at most
-``exact_limit`` candidate sets) proves the minimum. The centre is the agent whose closed
-neighbourhood covers most of M (the rest needs extra communication, listed as
-``extra_links``). Every proposal is re-verified with the checkers' own code
-(:mod:`glocal_verify.conditions.local`): (ii), (iii) on the full pencil, and the UIO design.
+the most agents, until zero forcing completes (structural, no arithmetic: O(|P_i|) closures per
+added agent); then drop agents (last added first) while the pencil test still holds (clusters
+of at most :data:`FULL_DELETE_MAX` agents) or while zero forcing still completes (larger ones:
+no dense factorization per candidate; the full test runs once on the result). For small
+clusters an exhaustive search by increasing |M| (at most ``exact_limit`` candidate sets)
+proves the minimum. The centre is the agent whose closed neighbourhood covers most of M (the
+rest needs extra communication, listed as ``extra_links``). Every proposal is re-verified with
+the checkers' own code (:mod:`glocal_verify.conditions.local`): (ii), (iii) on the full pencil,
+and the UIO design; a proposal they cannot confirm is replaced by the greedy zero-forcing set
+(which the structured pencil checker decides combinatorially) before M is grown.
 
 **Impossible requests.** A suspected boundary agent makes (iii) fail at every lam for every
 measured set (two opposite columns of [-B^i, E^i]); :func:`place_observers` raises
@@ -73,9 +77,13 @@ __all__ = [
     "place_cluster",
     "suspected_set",
     "parse_suspected",
+    "connectivity_warnings",
 ]
 
 DEFAULT_EXACT_LIMIT = 2000
+
+#: largest cluster whose greedy reverse delete runs the full (numeric) test on every trial
+FULL_DELETE_MAX = 80
 
 
 @dataclass(frozen=True, slots=True)
@@ -141,12 +149,17 @@ def _toml_list(xs: Iterable[Label]) -> str:
 
 @dataclass(frozen=True, slots=True)
 class Placement:
-    """Proposals for the clusters of a system, with the TOML fragment to paste."""
+    """Proposals for the clusters of a system, with the TOML fragment to paste.
+
+    ``warnings`` are one-line notes about absent premises (e.g. a disconnected graph, from
+    :func:`connectivity_warnings`); the placement is still computed.
+    """
 
     system: str
     suspected: str
     proposals: tuple[ObserverProposal, ...]
     nodes: dict[str, tuple[Label, ...]] = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()
 
     def to_toml(self) -> str:
         """``[[clusters]]`` tables (name, nodes, one observer each) to replace the spec's."""
@@ -172,7 +185,7 @@ class Placement:
         return "\n".join(lines) + "\n"
 
     def to_json(self) -> dict[str, Any]:
-        return {"system": self.system, "suspected": self.suspected, "proposals": [p.to_json() for p in self.proposals]}
+        return {"system": self.system, "suspected": self.suspected, "proposals": [p.to_json() for p in self.proposals], "warnings": list(self.warnings)}
 
 
 # --------------------------------------------------------------------------------------------
@@ -268,29 +281,84 @@ def _holds(pb: _Problem, M: set[int]) -> bool:
     return True
 
 
-def _greedy(pb: _Problem) -> list[int]:
+def _zf_complete(pb: _Problem, M: set[int]) -> bool:
+    """Zero forcing from M reaches every agent: (iii) in the normal mode, proved combinatorially."""
+    return len(M) >= len(set(pb.inputs)) and len(zero_forcing_closure(pb.nbrs, M, pb.inputs)) == len(pb.cm.nodes)
+
+
+def _closure_size_with(nbrs: list[list[int]], Z: set[int], inp: set[int], c: int) -> int:
+    """|closure(Z ∪ {c})| for a zero-forcing-closed Z, by forcing only from c's neighbourhood.
+
+    Zero forcing is monotone and idempotent, so closure(M ∪ {c}) = closure(closure(M) ∪ {c});
+    in a closed Z every agent outside ``inp`` has zero or at least two unknown neighbours, so
+    only c and its known neighbours can force next (then the neighbours of what they force).
+    Same rule as :func:`~glocal_verify.analysis.cluster_pencil.zero_forcing_steps`.
+    """
+    if c in Z:
+        return len(Z)
+    added = {c}
+    active = ([c] if c not in inp else []) + [j for j in nbrs[c] if j in Z and j not in inp]
+    while active:
+        nxt: list[int] = []
+        for r in active:
+            unk = [k for k in nbrs[r] if k not in Z and k not in added]
+            if len(unk) == 1:
+                k = unk[0]
+                added.add(k)
+                if k not in inp:
+                    nxt.append(k)
+                nxt.extend(j for j in nbrs[k] if (j in Z or j in added) and j not in inp)
+        active = list(dict.fromkeys(nxt))
+    return len(Z) + len(added)
+
+
+def _best_addition(pb: _Problem, M: set[int]) -> int:
+    """The unmeasured agent whose measurement forces the most agents (ties: fewest neighbours);
+    one closure of M, then work proportional to each candidate's neighbourhood."""
+    Z = zero_forcing_closure(pb.nbrs, M, pb.inputs)
+    inp = set(pb.inputs)
+    best, best_score = -1, (-1, 0)
+    for c in range(len(pb.cm.nodes)):
+        if c in M:
+            continue
+        size = _closure_size_with(pb.nbrs, Z, inp, c)
+        score = (size, -len(pb.nbrs[c]))
+        if score > best_score:
+            best, best_score = c, score
+    return best
+
+
+def _greedy(pb: _Problem) -> tuple[list[int], list[int]]:
+    """Greedy set cover (module docstring): ``(proposal, zero-forcing set)``.
+
+    Forward, only the structural test (zero forcing, no arithmetic) decides when to stop; the
+    full test (:func:`_holds`: safe-mode UIO existence too) runs once on the result and keeps
+    adding agents only if it fails. The reverse delete uses the full test (reduced pencil when
+    zero forcing is incomplete) for clusters of at most :data:`FULL_DELETE_MAX` agents, and
+    zero forcing alone above (the full test then runs once on the result; on failure the
+    zero-forcing set is kept). The second value is the set before the reverse delete: zero
+    forcing completes on it, so the checkers decide it combinatorially.
+    """
     n = len(pb.cm.nodes)
     M = set(pb.base)
     order: list[int] = []
-    while not _holds(pb, M):
-        if len(M) == n:
-            break
-        best, best_score = -1, (-1, 0)
-        for c in range(n):
-            if c in M:
-                continue
-            size = len(zero_forcing_closure(pb.nbrs, M | {c}, pb.inputs))
-            score = (size, -len(pb.nbrs[c]))
-            if score > best_score:
-                best, best_score = c, score
-        M.add(best)
-        order.append(best)
-    # reverse delete with the full test
+    while len(M) < n and not _zf_complete(pb, M):
+        c = _best_addition(pb, M)
+        M.add(c)
+        order.append(c)
+    while len(M) < n and not _holds(pb, M):
+        c = _best_addition(pb, M)
+        M.add(c)
+        order.append(c)
+    before = sorted(M)
+    full = n <= FULL_DELETE_MAX
     for c in reversed(order):
         trial = M - {c}
-        if _holds(pb, trial):
+        if _holds(pb, trial) if full else _zf_complete(pb, trial):
             M = trial
-    return sorted(M)
+    if not full and sorted(M) != before and not _holds(pb, M):
+        M = set(before)
+    return sorted(M), before
 
 
 def _center(cm: ClusterModel, nbrs: list[list[int]], M: Sequence[int]) -> tuple[int, list[int]]:
@@ -372,7 +440,7 @@ def place_cluster(
     inputs = sorted({idx[a] for a in cm.boundary} | {idx[a] for a in S})
     pb = _Problem(cm, system.alpha, nbrs, inputs, base, tol, safe)
     lower = max(len(inputs), len(base))
-    M = _greedy(pb)
+    M, zf_set = _greedy(pb)
     method, optimal = "greedy", len(M) <= lower
     free = [k for k in range(len(cm.nodes)) if k not in base]
     if not optimal and exact_limit > 0:
@@ -395,13 +463,21 @@ def place_cluster(
             if found is not None:
                 M = found
             method, optimal = "exhaustive", True
-    # verify with the checkers' code; grow M greedily if (unexpectedly) it does not verify
+    # verify with the checkers' code; if they cannot confirm the set (e.g. the numeric pencil
+    # test is undecided), fall back to the greedy zero-forcing set (which they decide
+    # combinatorially), and only then grow M
+    tried_zf = False
     while True:
         c, extra = _center(cm, nbrs, M)
         measured = tuple(cm.nodes[k] for k in M)
         ver = _verify(system, cm, cm.nodes[c], measured, S, tol)
         if all(v == "holds" for v in ver.values()) or len(M) == len(cm.nodes):
             break
+        if not tried_zf and list(M) != zf_set:
+            tried_zf = True
+            M, method, optimal = list(zf_set), "greedy", False
+            continue
+        tried_zf = True
         rest = [k for k in range(len(cm.nodes)) if k not in M]
         M = sorted(set(M) | {rest[0]})
         optimal = False
@@ -457,4 +533,30 @@ def place_observers(
     for name in tqdm(names, desc="clusters", unit="cluster", disable=None if progress and len(names) > 1 else True, leave=False):
         props.append(place_cluster(system, name, suspected, tol=tol, exact_limit=exact_limit, progress=progress))
     label = suspected if isinstance(suspected, str) else ",".join(map(str, suspected))
-    return Placement(system.name, label, tuple(props), {c.name: c.nodes for c in system.clusters})
+    return Placement(system.name, label, tuple(props), {c.name: c.nodes for c in system.clusters}, connectivity_warnings(system))
+
+
+def connectivity_warnings(system: System) -> tuple[str, ...]:
+    """One warning per mode whose communication graph G_q is disconnected.
+
+    Combinatorial (connected components of the spec's positive-weight edges, exact): Lemma
+    III.1 assumes every G_q connected, and on a disconnected graph each component converges to
+    its own average, so "the consensus value" is not one number. Returned, not emitted: the
+    CLI prints them on stderr, a library caller decides.
+
+    Returns
+    -------
+    tuple of str
+        Empty when every mode's graph is connected.
+    """
+    out = []
+    for mode in system.modes:
+        comps = system.components(mode)
+        if len(comps) > 1:
+            shown = "; ".join("{" + ", ".join(map(str, c[:6])) + (", ..." if len(c) > 6 else "") + "}" for c in comps[:4])
+            more = f" and {len(comps) - 4} more" if len(comps) > 4 else ""
+            out.append(
+                f"warning: the {mode} graph is disconnected ({len(comps)} components: {shown}{more}); "
+                "Lemma III.1 assumes a connected graph and each component converges to its own average"
+            )
+    return tuple(out)

@@ -1,7 +1,7 @@
 """Certified numeric verdicts of the global conditions on nearly degenerate networks.
 
 A numeric ``holds``/``fails`` is a proven statement: on systems built to sit next to the
-boundaries (perturbations 10^-k of symmetric graphs, weight spreads up to 10^+-30, safe modes
+boundaries (perturbations 10^-k of symmetric graphs, weight spreads up to a factor 1e12, the loader's domain, safe modes
 that change a weight by 1e-15 relative or add links of weight 1e-11, signed safe modes) the
 numeric status (``escalate="never"``) equals the exact status or is ``undecided`` -- and an
 undecided result names the bound that failed. Exact witnesses are checked at full precision
@@ -73,9 +73,10 @@ NEAR_TWINS = _spec(
     modes=[{"name": "m", "add": [[1, 5, 1]]}], switch=True,
 )
 
-#: found by the strategy: a 10^30 weight makes the Riccati design of central.observer break down
-#: (it raised); numeric is now undecided and exact holds by the pole-placement theorem
-DESIGN_BREAKDOWN = _spec(3, [[1, 2, "1e30"], [2, 3, 1]], [1], modes=[{"name": "m1", "add": [[1, 3, "1e-11"]]}])
+#: found by the strategy: a 10^30 weight made the Riccati design of central.observer break down
+#: (it raised). Weights are now limited to [1e-12, 1e12] at load time (a one-line error for 1e30,
+#: tests/test_spec_bad_input.py); the pinned case keeps the widest spread the loader accepts (a factor 1e12)
+DESIGN_BREAKDOWN = _spec(3, [[1, 2, "1e6"], [2, 3, 1]], [1], modes=[{"name": "m1", "add": [[1, 3, "1e-6"]]}])
 
 
 def _compare(data: dict[str, Any]) -> tuple[dict[Key, ConditionResult], dict[Key, ConditionResult]]:

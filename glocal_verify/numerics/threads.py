@@ -1,0 +1,90 @@
+"""How many BLAS threads a block of code uses (threadpoolctl).
+
+Two regimes, on a machine with few cores shared by several processes:
+
+* loops over many small or thin matrices (per-step products of a few residual rows, 2 x 2
+  modal blocks, cluster-sized SVDs in a greedy search): one thread. Thread start-up and
+  synchronisation cost more than the arithmetic, and oversubscribed cores made such loops
+  10-20x slower under load;
+* a few large dense factorizations and products (an ``eigh`` of an N x N Laplacian, the
+  squarings of a 2N x 2N propagator): every core.
+
+:func:`blas_threads` switches between the two for the ``with`` block and restores the previous
+limits afterwards. It changes no number: BLAS results may differ in the last bits between
+thread counts (a different summation order), which every error bound of the package already
+covers (they are stated per floating-point operation, not for one summation order).
+
+Where it is used: :func:`glocal_verify.simulation.thresholds.attack_free_thresholds` (one
+thread for the per-step row recursion, all cores for the propagator powers at a switch). A
+command-line ``--threads N`` option sets the default through :func:`set_default_threads`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from contextvars import ContextVar
+from typing import Iterator
+
+__all__ = ["available_cores", "blas_threads", "set_default_threads", "default_threads"]
+
+#: the thread count "all cores" means (None: every core this process may run on)
+_DEFAULT: ContextVar[int | None] = ContextVar("glocal_verify_blas_threads", default=None)
+
+
+def available_cores() -> int:
+    """Cores this process may run on (``os.sched_getaffinity`` where available)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not on Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def default_threads() -> int:
+    """The thread count used for ``blas_threads(None)``: :func:`set_default_threads`, else all cores."""
+    n = _DEFAULT.get()
+    return available_cores() if n is None else n
+
+
+def set_default_threads(n: int | None) -> None:
+    """Set what "all cores" means for the rest of this context (``--threads N``; None: every core).
+
+    Parameters
+    ----------
+    n : int or None
+        At least 1.
+
+    Raises
+    ------
+    ValueError
+        For n < 1.
+    """
+    if n is not None and n < 1:
+        raise ValueError(f"the thread count must be at least 1, not {n}")
+    _DEFAULT.set(n)
+
+
+@contextlib.contextmanager
+def blas_threads(n: int | None) -> Iterator[int]:
+    """Limit the BLAS/OpenMP thread pools to ``n`` threads inside the ``with`` block.
+
+    Parameters
+    ----------
+    n : int or None
+        Threads; None means :func:`default_threads` (all cores unless ``--threads`` said
+        otherwise). Values above that are capped to it.
+
+    Yields
+    ------
+    int
+        The thread count in force. Without threadpoolctl installed the block runs unchanged.
+    """
+    cap = default_threads()
+    want = cap if n is None else max(1, min(int(n), cap))
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # pragma: no cover - threadpoolctl is a dependency
+        yield want
+        return
+    with threadpool_limits(limits=want):
+        yield want

@@ -1,0 +1,103 @@
+"""The attack-free envelope by the row (adjoint) recursion against the 2N-column reference."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from glocal_verify import System, load_example, spec_from_dict
+from glocal_verify.design.generators import random_clustered_spec
+from glocal_verify.numerics.threads import available_cores, blas_threads
+from glocal_verify.simulation.engine import simulate
+from glocal_verify.simulation.observer_models import ObserverBank
+from glocal_verify.simulation.schedule import Schedule
+from glocal_verify.simulation.thresholds import attack_free_thresholds, envelope_by_columns
+
+
+@pytest.fixture(scope="module")
+def paper19() -> System:
+    return System(load_example("paper19"))
+
+
+@pytest.fixture(scope="module")
+def bank(paper19: System) -> ObserverBank:
+    return ObserverBank.for_system(paper19)
+
+
+def _tiny() -> System:
+    data: dict[str, Any] = {
+        "format": 1,
+        "name": "tiny4",
+        "graph": {"nodes": 4, "edges": [[1, 2, 1], [2, 3, 2], [3, 4, 1], [1, 4, 1]]},
+        "modes": [{"name": "q", "add": [[1, 3, 1]]}],
+        "clusters": [{"name": "A", "nodes": [1, 2], "observers": [{"center": 1}]}, {"name": "B", "nodes": [3, 4], "observers": [{"center": 4}]}],
+        "monitor": {"velocities": [1, 3]},
+        "simulation": {"horizon": 3.0, "step": 0.05, "seed": 3},
+    }
+    return System(spec_from_dict(data))
+
+
+def _agree(rows: dict[str, np.ndarray], cols: dict[str, np.ndarray]) -> None:
+    assert rows.keys() == cols.keys()
+    for name in rows:
+        scale = max(1.0, float(np.max(cols[name], initial=0.0)))
+        assert rows[name].shape == cols[name].shape, name
+        assert np.max(np.abs(rows[name] - cols[name]), initial=0.0) <= 1e-9 * scale, name
+
+
+def test_rows_and_columns_give_the_same_envelope_with_a_switch_between_samples(paper19: System, bank: ObserverBank) -> None:
+    sched = Schedule.single("case-2", 1.013)
+    th = attack_free_thresholds(paper19, bank, sched, horizon=2.5)
+    t, ref = envelope_by_columns(paper19, bank, sched, horizon=2.5)
+    assert np.array_equal(th.t, t)
+    _agree(dict(th.envelope), ref)
+
+
+def test_rows_and_columns_agree_with_two_switches_on_the_grid_and_a_larger_box() -> None:
+    tiny = _tiny()
+    b = ObserverBank.for_system(tiny)
+    sched = Schedule(((0.0, "normal"), (0.5, "q"), (1.25, "normal")))
+    from glocal_verify.simulation.thresholds import ThresholdRule
+
+    th = attack_free_thresholds(tiny, b, sched, ThresholdRule(box=2.5))
+    _, ref = envelope_by_columns(tiny, b, sched, box=2.5, method="modal")
+    _agree(dict(th.envelope), ref)
+
+
+def test_rows_and_columns_agree_on_a_random_clustered_network_with_mode_matched_observers() -> None:
+    spec = random_clustered_spec(30, 3, seed=7, horizon=2.0, step=0.05)
+    s = System(spec)
+    b = ObserverBank.for_system(s)
+    sched = Schedule.from_spec(s)
+    th = attack_free_thresholds(s, b, sched)
+    _, ref = envelope_by_columns(s, b, sched)
+    _agree(dict(th.envelope), ref)
+
+
+def test_attack_free_runs_at_the_vertices_of_the_box_never_cross_the_row_envelope(paper19: System, bank: ObserverBank) -> None:
+    sched = Schedule.single("case-1", 0.77)
+    th = attack_free_thresholds(paper19, bank, sched, horizon=2.0)
+    X = np.random.default_rng(1).choice([-1.0, 1.0], size=(38, 24))
+    worst = simulate(paper19, schedule=sched, observers=bank, x0=X, horizon=2.0, batch_reduce="max-abs")
+    for name, r in worst.residuals.items():
+        assert np.all(r <= th.bound(name, worst.state_scale)), name
+
+
+def test_progress_prints_one_line_per_phase_when_stderr_is_not_a_terminal(paper19: System, bank: ObserverBank, capsys: pytest.CaptureFixture[str]) -> None:
+    attack_free_thresholds(paper19, bank, Schedule.single("case-2", 0.5), horizon=1.0, progress=True)
+    err = capsys.readouterr().err.splitlines()
+    assert err and all(line.startswith("glocal-verify: thresholds: ") for line in err)
+    assert any("switch at t = 0.5" in line for line in err)
+
+
+def test_blas_threads_never_exceeds_the_cores_and_restores_the_limit() -> None:
+    from threadpoolctl import threadpool_info
+
+    before = [i["num_threads"] for i in threadpool_info()]
+    with blas_threads(10_000) as n:
+        assert 1 <= n <= available_cores()
+    with blas_threads(1) as n:
+        assert n == 1
+    assert [i["num_threads"] for i in threadpool_info()] == before
