@@ -20,7 +20,7 @@ import warnings
 from typing import Sequence
 
 from glocal_verify import __version__
-from glocal_verify.cli.common import PROG, Parser
+from glocal_verify.cli.common import PROG, Parser, UsageError
 from glocal_verify.errors import GlocalVerifyError
 
 __all__ = ["main", "build_parser", "COMMAND_MODULES"]
@@ -36,6 +36,7 @@ def build_parser() -> Parser:
     """The argument parser with every subcommand of :data:`COMMAND_MODULES`."""
     p = Parser(prog=PROG, description="Check the conditions of the glocal attack-detection paper on a concrete network.")
     p.add_argument("--version", action="version", version=f"{PROG} {__version__}")
+    p.add_argument("--threads", type=int, metavar="N", help="BLAS threads for the large factorizations (default: every core; loops over small matrices use one)")
     sub = p.add_subparsers(dest="command", parser_class=Parser)
     for name in COMMAND_MODULES:
         importlib.import_module(f"{__name__}.{name}").register(sub)
@@ -48,6 +49,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
+        if args.threads is not None:
+            if args.threads < 1:
+                raise UsageError(f"--threads: must be at least 1, not {args.threads}")
+            from glocal_verify.numerics.threads import set_default_threads
+
+            set_default_threads(args.threads)
         if not getattr(args, "func", None):
             parser.print_help(sys.stderr)
             return 2

@@ -465,7 +465,7 @@ def run_algorithm1(
     else:
         # pass 1: normal mode only, find the first local detection
         s0 = Schedule()
-        th0 = attack_free_thresholds(system, bank, s0, rule, horizon=horizon, step=step, method=method)
+        th0 = attack_free_thresholds(system, bank, s0, rule, horizon=horizon, step=step, method=method, progress=progress)
         r0 = simulate(system, schedule=s0, attack=atk, observers=bank, x0=xbar, horizon=horizon, step=step, method=method, record_states=False, progress=progress)
         hits = [first_crossing(r0, th0, nm) for nm in local_names]
         hits = [c for c in hits if c.detected]
@@ -490,7 +490,7 @@ def run_algorithm1(
                 notes.append(f"the local detection at t = {first.time:g} leaves no time to switch before the horizon")
                 chosen = None
     ts_ = sched.switch_times[0] if sched.switch_times else None
-    th = attack_free_thresholds(system, bank, sched, rule, horizon=horizon, step=step, method=method)
+    th = attack_free_thresholds(system, bank, sched, rule, horizon=horizon, step=step, method=method, progress=progress)
     res = simulate(system, schedule=sched, attack=atk, observers=bank, x0=xbar, horizon=horizon, step=step, method=method, progress=progress)
     ao = None
     if atk is not None:
