@@ -11,16 +11,46 @@ agents of the first cluster.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 
+from glocal_verify.errors import SpecError
 from glocal_verify.spec import spec_from_dict
-from glocal_verify.spec.types import SystemSpec
+from glocal_verify.spec.types import MAX_EDGES, MAX_MODES, MAX_NODES, TIME_MAX, TIME_MIN, WEIGHT_MAX, SystemSpec
 
 __all__ = [
     "random_clustered_spec",
 ]
+
+def _count(value: Any, name: str, lo: int, hi: int | None = None) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise SpecError(name, f"expected an integer, got {type(value).__name__}")
+    if value < lo or (hi is not None and value > hi):
+        raise SpecError(name, f"must be in [{lo}, {hi if hi is not None else 'inf'}], got {int(value)}")
+
+
+def _check_arguments(
+    n: Any, clusters: Any, seed: Any, chords: Any, cut_edges: Any, monitors: Any, modes: Any,
+    max_weight: Any, observers_per_cluster: Any, horizon: Any, step: Any,
+) -> None:
+    """Refuse arguments of :func:`random_clustered_spec` outside their domain (a :class:`SpecError`)."""
+    _count(clusters, "clusters", 1, MAX_NODES // 2)
+    _count(n, "n", 2 * int(clusters), MAX_NODES)
+    _count(seed, "seed", 0, 2**63 - 1)
+    _count(cut_edges, "cut_edges", 0, MAX_EDGES)
+    if monitors is not None:
+        _count(monitors, "monitors", 0, int(n))
+    _count(modes, "modes", 0, MAX_MODES)
+    _count(max_weight, "max_weight", 1, int(WEIGHT_MAX))
+    _count(observers_per_cluster, "observers_per_cluster", 0, int(n))
+    for name, x, lo, hi in (("chords", chords, 0.0, 100.0), ("horizon", horizon, TIME_MIN, TIME_MAX), ("step", step, TIME_MIN, TIME_MAX)):
+        if isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)) or not math.isfinite(float(x)):
+            raise SpecError(name, f"expected a finite number, got {x!r}"[:120])
+        if not lo <= float(x) <= hi:
+            raise SpecError(name, f"must be in [{lo:g}, {hi:g}], got {float(x):g}")
+
 
 def random_clustered_spec(
     n: int,
@@ -63,9 +93,16 @@ def random_clustered_spec(
         Local observers per cluster, centred at boundary agents first.
     horizon, step : float
         The ``[simulation]`` table.
+
+    Raises
+    ------
+    SpecError
+        For arguments outside their domain (one line naming the argument): ``n`` must be an
+        integer with ``2 * clusters <= n <= MAX_NODES``, ``clusters >= 1``, ``chords`` finite and
+        ``>= 0``, counts ``>= 0``, ``1 <= max_weight <= WEIGHT_MAX``, and ``horizon``/``step`` in
+        the spec's time domain (:mod:`glocal_verify.spec.types`).
     """
-    if n < 2 * clusters:
-        raise ValueError("need at least two agents per cluster")
+    _check_arguments(n, clusters, seed, chords, cut_edges, monitors, modes, max_weight, observers_per_cluster, horizon, step)
     rng = np.random.default_rng(seed)
     bounds = np.linspace(0, n, clusters + 1).round().astype(int)
     members = [list(range(bounds[k] + 1, bounds[k + 1] + 1)) for k in range(clusters)]
@@ -123,6 +160,8 @@ def random_clustered_spec(
     if attack:
         boundary = {a for key in edges for a in key if (a in members[0]) != (next(b for b in key if b != a) in members[0])}
         first = [a for a in members[0] if a not in mon and a not in boundary]
+        if len(first) < 2:
+            raise SpecError("attack", f"the first cluster has {len(first)} interior unmonitored agent(s); a ZDA needs two (use attack=False or more agents)")
         data["attack"] = {"kind": "zda", "actuators": [int(a) for a in rng.choice(first, size=2, replace=False)]}
         if mode_list:
             data["switching"] = {"mode": mode_list[0]["name"], "time": horizon / 3}

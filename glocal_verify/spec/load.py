@@ -12,13 +12,30 @@ Weights and gains are kept as exact rationals (:class:`fractions.Fraction`): an 
 integer, a TOML float is read through its shortest decimal form (``0.1`` is 1/10), and a string
 such as ``"1/3"`` is read as the rational it spells. Exact mode works on these values; numeric
 mode converts them to floats.
+
+Every number is checked against its documented domain and every array against its size limit
+(:mod:`glocal_verify.spec.types`, "Domains and limits"): weights in :math:`[10^{-12}, 10^{12}]`
+within a factor :math:`10^{12}` of each other, gains in :math:`[10^{-12}, 10^{12}]` within a factor :math:`10^{12}`, closed-loop stiffness
+:math:`\\max(\\alpha w_{\\max}, \\gamma^2)/\\min(\\alpha w_{\\min}, \\gamma^2) \\le 10^{12}`, :math:`|\\lambda_0|` parts at most
+:math:`10^6`, observer poles in :math:`[-10^6, -10^{-6}]`, times in :math:`[10^{-6}, 10^6]`, at most
+:math:`10^8` output samples, :math:`N \\le 10^5`, at most :math:`10^6` edges, nesting at most 64
+levels. Number strings are bounded (length, exponent) before they become rationals, so
+``"1e9999999"`` is refused at once. Messages echo values cut to about 80 characters.
+
+Validation is linear in the size of the spec: the mapping is first copied without recursion
+(:func:`glocal_verify.spec.prepare.prepare`), the JSON Schema checks a copy whose long arrays are
+cut to their first item, and plain loops check the rest of those arrays with the schema's
+messages (:func:`glocal_verify.spec.prepare.check_items`); a 10,000-agent spec validates in a
+fraction of a second.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import re
 import tomllib
+from decimal import Decimal
 from fractions import Fraction
 from importlib import resources
 from pathlib import Path
@@ -28,9 +45,41 @@ import jsonschema
 import networkx as nx
 
 from glocal_verify.errors import SpecError
+from glocal_verify.spec.prepare import (
+    MAX_FILE_BYTES,
+    check_items,
+    clip,
+    elide,
+    nesting_site,
+    path_text,
+    plain_scalar,
+    prepare,
+    show,
+)
 from glocal_verify.spec.types import (
+    AMPLITUDE_MAX,
     ATTACK_KINDS,
+    GAIN_MAX,
+    GAIN_MIN,
+    GAIN_RATIO_MAX,
+    LAMBDA0_MAX,
+    MAX_DEPTH,
+    MAX_EXPONENT,
+    MAX_LABEL,
+    MAX_NODES,
+    MAX_NUMBER_TEXT,
+    MAX_SAMPLES,
+    MAX_TEXT,
     NORMAL_MODE,
+    POLE_MAX,
+    POLE_MIN,
+    SEED_MAX,
+    STIFFNESS_MAX,
+    TIME_MAX,
+    TIME_MIN,
+    WEIGHT_MAX,
+    WEIGHT_MIN,
+    WEIGHT_RATIO_MAX,
     AttackSpec,
     ClusterSpec,
     EdgeSpec,
@@ -63,38 +112,28 @@ def _schema() -> dict[str, Any]:
 _SCHEMA: dict[str, Any] | None = None
 
 
-def _path_text(parts: Iterable[Any]) -> str:
-    out = ""
-    for p in parts:
-        if isinstance(p, int):
-            out += f"[{p}]"
-        else:
-            out += f".{p}" if out else str(p)
-    return out
-
-
 def _schema_error(err: jsonschema.ValidationError, source: str | None) -> SpecError:
-    path = _path_text(err.absolute_path)
+    path = clip(path_text(err.absolute_path), 120)
     v = err.validator
     if v == "required":
         missing = [k for k in err.validator_value if k not in (err.instance or {})]
-        return SpecError(path or "<top>", f"missing required key {missing[0]!r}", source)
+        return SpecError(path or "<top>", f"missing required key {show(missing[0])}", source)
     if v == "additionalProperties":
         allowed = sorted((err.schema.get("properties") or {}).keys())
         extra = sorted(set(err.instance) - set(allowed)) if isinstance(err.instance, dict) else []
         key = extra[0] if extra else "?"
         return SpecError(
-            _path_text(list(err.absolute_path) + [key]),
+            clip(path_text(list(err.absolute_path) + [key]), 120),
             f"unknown key (allowed here: {', '.join(allowed)})",
             source,
         )
     if v == "const" and path == "format":
-        return SpecError("format", f"only format 1 is supported, got {err.instance!r}", source)
+        return SpecError("format", f"only format 1 is supported, got {show(err.instance)}", source)
     if v in ("minItems", "maxItems") and path.startswith(("graph.edges", "modes")):
-        return SpecError(path, f"an edge is [i, j] or [i, j, weight], got {err.instance!r}", source)
+        return SpecError(path, f"an edge is [i, j] or [i, j, weight], got {show(err.instance)}", source)
     if v == "anyOf" or v == "type":
-        return SpecError(path or "<top>", f"unexpected value {err.instance!r} ({_expected(err)})", source)
-    return SpecError(path or "<top>", err.message, source)
+        return SpecError(path or "<top>", f"unexpected value {show(err.instance)} ({_expected(err)})", source)
+    return SpecError(path or "<top>", clip(err.message), source)
 
 
 def _expected(err: jsonschema.ValidationError) -> str:
@@ -115,49 +154,109 @@ def _expected(err: jsonschema.ValidationError) -> str:
 def load_spec(path: str | Path) -> SystemSpec:
     """Read and validate a TOML specification file.
 
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file; at most :data:`MAX_FILE_BYTES` bytes of UTF-8 TOML.
+
     Raises
     ------
     SpecError
         If the file cannot be read, is not TOML, or fails validation. The message names
         the file and the key path.
     """
+    if not isinstance(path, (str, Path)):
+        raise SpecError("", f"expected a file name, got {show(path)}")
     p = Path(path)
     try:
+        if p.stat().st_size > MAX_FILE_BYTES:
+            raise SpecError("", f"file too large ({p.stat().st_size} bytes; at most {MAX_FILE_BYTES})", str(p))
         text = p.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise SpecError("", "file not found", str(p)) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SpecError("", f"cannot read file ({exc})", str(p)) from None
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise SpecError("", f"cannot read file ({clip(str(exc))})", str(p)) from None
     return loads_spec(text, source=str(p))
 
 
-def loads_spec(text: str, source: str | None = None) -> SystemSpec:
+def loads_spec(text: str | bytes, source: str | None = None) -> SystemSpec:
     """Parse and validate a TOML specification given as ``text``.
 
-    ``source`` (a file name, optional) prefixes every error message.
+    Parameters
+    ----------
+    text : str or bytes
+        TOML text (bytes are decoded as UTF-8), at most :data:`MAX_FILE_BYTES` characters.
+    source : str, optional
+        A file name; it prefixes every error message.
+
+    Raises
+    ------
+    SpecError
+        For anything but valid TOML text of a valid specification, including text that is not
+        a ``str``, arrays nested deeper than :data:`~glocal_verify.spec.types.MAX_DEPTH` levels
+        and integers too long to read.
     """
+    if isinstance(text, (bytes, bytearray)):
+        try:
+            text = bytes(text).decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise SpecError("", f"not UTF-8 text ({exc})", source) from None
+    if not isinstance(text, str):
+        raise SpecError("", f"expected TOML text (str), got {type(text).__name__}", source)
+    if len(text) > MAX_FILE_BYTES:
+        raise SpecError("", f"text too large ({len(text)} characters; at most {MAX_FILE_BYTES})", source)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise SpecError("", f"not valid TOML ({exc})", source) from None
+        raise SpecError("", f"not valid TOML ({clip(str(exc))})", source) from None
+    except RecursionError:
+        where, line = nesting_site(text)
+        raise SpecError(where, f"arrays or inline tables nested deeper than {MAX_DEPTH} levels (line {line})", source) from None
+    except ValueError as exc:  # an integer literal of more than 4300 digits
+        raise SpecError("", f"not valid TOML ({clip(str(exc).split(';')[0])})", source) from None
     return spec_from_dict(data, source=source)
 
 
 def spec_from_dict(data: Mapping[str, Any], source: str | None = None) -> SystemSpec:
     """Validate a specification given as a mapping ``data`` shaped like the TOML file.
 
-    ``source`` (a file name, optional) prefixes every error message.
+    What a Python caller naturally passes is accepted: tuples for lists, numpy integers and
+    floats (as ``int`` and ``float``), :class:`fractions.Fraction` and :class:`decimal.Decimal`
+    weights and gains (read exactly), numpy integers as node labels.
+
+    Parameters
+    ----------
+    data : mapping
+        The specification (keys as in the TOML file).
+    source : str, optional
+        A file name; it prefixes every error message.
+
+    Raises
+    ------
+    SpecError
+        Naming the key path of the first problem: structure (JSON Schema, on a copy with the
+        long arrays cut to their first item; the rest of each array is checked by plain loops
+        with the same messages), sizes, domains of the numbers (see
+        :mod:`glocal_verify.spec.types`) and semantics.
     """
     global _SCHEMA
+    plain = prepare(data, source)
+    skeleton, arrays = elide(plain, source)
     if _SCHEMA is None:
         _SCHEMA = _schema()
     validator = jsonschema.Draft202012Validator(_SCHEMA)
-    errors = sorted(validator.iter_errors(data), key=lambda e: (len(e.absolute_path), list(map(str, e.absolute_path))))
+    errors = list(validator.iter_errors(skeleton))
     if errors:
         # report the shallowest, most specific problem
         best = jsonschema.exceptions.best_match(errors)
         raise _schema_error(best if best is not None else errors[0], source)
-    return _Builder(data, source).build()
+    for path, items, kind in arrays:
+        check_items(path, items, kind, source)
+    return _Builder(plain, source).build()
+
+
+_EXPONENT = re.compile(r"[eE]\s*([-+]?\d+)")
+_CONTROL = re.compile("\x00")
 
 
 class _Builder:
@@ -171,42 +270,96 @@ class _Builder:
         return SpecError(path, problem, self.source)
 
     # -- scalars ----------------------------------------------------------------------------
-    def rational(self, value: Any, path: str, *, positive: bool = True) -> Fraction:
+    def rational(self, value: Any, path: str, *, lo: Fraction | None = None, hi: Fraction | None = None, positive: bool = True) -> Fraction:
+        """``value`` as an exact rational in ``[lo, hi]`` (and > 0 when ``positive``).
+
+        A string is read only when it has at most :data:`MAX_NUMBER_TEXT` characters and a
+        decimal exponent of at most :data:`MAX_EXPONENT`, so that ``"1e9999999"`` is refused at
+        once instead of being expanded.
+        """
         if isinstance(value, bool):
             raise self.err(path, f"expected a number, got {value!r}")
-        if isinstance(value, int):
+        if isinstance(value, Fraction):
+            q = value
+        elif isinstance(value, int):
             q = Fraction(value)
         elif isinstance(value, float):
             if not math.isfinite(value):
                 raise self.err(path, f"must be a finite number, got {value!r}")
             q = Fraction(repr(value))
+        elif isinstance(value, Decimal):
+            if not value.is_finite():
+                raise self.err(path, f"must be a finite number, got {show(value)}")
+            if abs(value.adjusted()) > MAX_EXPONENT:
+                raise self.err(path, f"{show(value)} is far outside the allowed range")
+            q = Fraction(value)
         elif isinstance(value, str):
-            try:
-                q = Fraction(value.strip())
-            except (ValueError, ZeroDivisionError):
-                raise self.err(path, f"cannot read {value!r} as a rational number") from None
+            q = self.rational_text(value, path)
         else:
-            raise self.err(path, f"expected a number, got {value!r}")
+            raise self.err(path, f"expected a number, got {show(value)}")
         if positive and q <= 0:
-            raise self.err(path, f"must be > 0, got {value!r}")
+            raise self.err(path, f"must be > 0, got {show(value)}")
+        if lo is not None and q < lo:
+            raise self.err(path, f"must be at least {float(lo):g}, got {show(value)}")
+        if hi is not None and q > hi:
+            raise self.err(path, f"must be at most {float(hi):g}, got {show(value)}")
         return q
 
-    def real(self, value: Any, path: str, *, positive: bool = False, nonneg: bool = False) -> float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise self.err(path, f"expected a number, got {value!r}")
-        x = float(value)
-        if not math.isfinite(x):
+    def rational_text(self, value: str, path: str) -> Fraction:
+        """The rational a string spells (``"1/3"``, ``"2.5e-3"``), bounded before conversion."""
+        text = value.strip()
+        if len(text) > MAX_NUMBER_TEXT:
+            raise self.err(path, f"number text too long ({len(text)} characters; at most {MAX_NUMBER_TEXT})")
+        for part in text.split("/"):
+            m = _EXPONENT.search(part)
+            if m is not None and abs(int(m.group(1))) > MAX_EXPONENT:
+                raise self.err(path, f"{show(value)} is far outside the allowed range")
+        try:
+            return Fraction(text)
+        except (ValueError, ZeroDivisionError):
+            raise self.err(path, f"cannot read {show(value)} as a rational number") from None
+
+    def real(
+        self, value: Any, path: str, *, positive: bool = False, nonneg: bool = False, lo: float | None = None, hi: float | None = None
+    ) -> float:
+        """``value`` as a finite float in ``[lo, hi]`` (``> 0`` or ``>= 0`` if asked)."""
+        if isinstance(value, bool) or not isinstance(value, (int, float, Fraction, Decimal)):
+            raise self.err(path, f"expected a number, got {show(value)}")
+        if isinstance(value, Decimal) and not value.is_finite():
+            raise self.err(path, f"must be a finite number, got {show(value)}")
+        if isinstance(value, float) and not math.isfinite(value):
             raise self.err(path, f"must be a finite number, got {value!r}")
-        if positive and x <= 0:
-            raise self.err(path, f"must be > 0, got {value!r}")
-        if nonneg and x < 0:
-            raise self.err(path, f"must be >= 0, got {value!r}")
-        return x
+        if positive and value <= 0:
+            raise self.err(path, f"must be > 0, got {show(value)}")
+        if nonneg and value < 0:
+            raise self.err(path, f"must be >= 0, got {show(value)}")
+        if lo is not None and value < lo:
+            raise self.err(path, f"must be at least {lo:g}, got {show(value)}")
+        if hi is not None and value > hi:
+            raise self.err(path, f"must be at most {hi:g}, got {show(value)}")
+        return float(value)
+
+    def time(self, value: Any, path: str) -> float:
+        """A positive time in ``[TIME_MIN, TIME_MAX]``."""
+        return self.real(value, path, positive=True, lo=TIME_MIN, hi=TIME_MAX)
+
+    def text(self, value: Any, path: str, *, limit: int = MAX_TEXT, name: bool = False) -> str:
+        """A string of at most ``limit`` characters; a name (``name=True``) has no NUL character."""
+        if not isinstance(value, str):
+            raise self.err(path, f"expected a string, got {show(value)}")
+        if len(value) > limit:
+            raise self.err(path, f"too long ({len(value)} characters; at most {limit}): {show(value)}")
+        if name and _CONTROL.search(value):
+            raise self.err(path, f"must not contain NUL characters, got {show(value)}")
+        return value
 
     # -- labels -----------------------------------------------------------------------------
     def node(self, value: Any, path: str) -> Label:
-        if value not in self.node_set or isinstance(value, bool):
-            raise self.err(path, f"node {value!r} is not in the graph")
+        """``value`` as a node of the graph (an ``int`` or ``str`` label that is listed)."""
+        if type(value) not in (int, str):
+            raise self.err(path, f"expected an integer or string label, got {show(value)}")
+        if value not in self.node_set:
+            raise self.err(path, f"node {show(value)} is not in the graph")
         return value
 
     def node_list(self, values: Sequence[Any], path: str, *, unique: bool = True) -> tuple[Label, ...]:
@@ -215,7 +368,7 @@ class _Builder:
         for k, v in enumerate(values):
             n = self.node(v, f"{path}[{k}]")
             if unique and n in seen:
-                raise self.err(f"{path}[{k}]", f"node {v!r} is listed twice")
+                raise self.err(f"{path}[{k}]", f"node {show(v)} is listed twice")
             seen.add(n)
             out.append(n)
         return tuple(out)
@@ -224,21 +377,30 @@ class _Builder:
     def build(self) -> SystemSpec:
         d = self.d
         dyn = d.get("dynamics", {})
-        alpha = self.rational(dyn.get("alpha", 1), "dynamics.alpha")
-        gamma = self.rational(dyn.get("gamma", 1), "dynamics.gamma")
+        alpha = self.rational(dyn.get("alpha", 1), "dynamics.alpha", lo=GAIN_MIN, hi=GAIN_MAX)
+        gamma = self.rational(dyn.get("gamma", 1), "dynamics.gamma", lo=GAIN_MIN, hi=GAIN_MAX)
+        if max(alpha, gamma) > GAIN_RATIO_MAX * min(alpha, gamma):
+            raise self.err(
+                "dynamics.gamma" if gamma < alpha else "dynamics.alpha",
+                f"alpha = {float(alpha):g} and gamma = {float(gamma):g} differ by more than a factor {float(GAIN_RATIO_MAX):g}",
+            )
         nodes = self.nodes(d["graph"]["nodes"])
         self.node_set = set(nodes)
+        self.extreme: list[tuple[Fraction, str]] = []  # (weight, path) of the smallest and largest weight
         edges = self.edges(d["graph"]["edges"], "graph.edges")
         self.edge_keys = {e.key for e in edges}
         modes = self.modes(d.get("modes", []))
+        self.weight_spread()
+        self.stiffness(alpha, gamma)
         clusters = self.clusters(d.get("clusters", []), nodes)
         monitor = self.monitor(d.get("monitor", {}))
         attack = self.attack(d.get("attack"), monitor)
         mode_names = {m.name for m in modes}
         switching = self.switching(d.get("switching"), mode_names)
         simulation = self.simulation(d.get("simulation", {}))
+        name = self.text(d["name"], "name", limit=MAX_LABEL, name=True) if "name" in d else (Path(self.source).stem[:MAX_LABEL] if self.source else "system")
         return SystemSpec(
-            name=str(d.get("name", Path(self.source).stem if self.source else "system")),
+            name=name,
             nodes=nodes,
             edges=edges,
             alpha=alpha,
@@ -249,28 +411,87 @@ class _Builder:
             attack=attack,
             switching=switching,
             simulation=simulation,
-            description=str(d.get("description", "")),
+            description=self.text(d.get("description", ""), "description"),
             source=self.source,
             finding=d.get("finding"),
         )
 
     def nodes(self, value: Any) -> tuple[Label, ...]:
-        if isinstance(value, int):
+        if type(value) is not list:
+            if type(value) is not int:
+                raise self.err("graph.nodes", f"expected an integer count or a list of labels, got {show(value)}")
+            if value > MAX_NODES:
+                raise self.err("graph.nodes", f"too many agents ({show(value)}; at most {MAX_NODES})")
             return tuple(range(1, value + 1))
         seen: set[Any] = set()
+        ints: dict[str, int] = {}
+        strs: dict[str, int] = {}
         for k, v in enumerate(value):
+            p = f"graph.nodes[{k}]"
             if v in seen:
-                raise self.err(f"graph.nodes[{k}]", f"node {v!r} is listed twice")
+                raise self.err(p, f"node {show(v)} is listed twice")
             seen.add(v)
+            if type(v) is str:
+                self.text(v, p, limit=MAX_LABEL, name=True)
+                twin = ints.get(v.strip())
+                strs[v.strip()] = k
+            else:
+                if not -(2**63) <= v < 2**63:
+                    raise self.err(p, f"integer labels must fit in 64 bits, got {show(v)}")
+                twin = strs.get(str(v))
+                ints[str(v)] = k
+            if twin is not None:
+                raise self.err(p, f"label {show(v)} is ambiguous with graph.nodes[{twin}] = {show(value[twin])} (use one kind of label)")
         return tuple(value)
 
     def edge(self, item: Sequence[Any], path: str) -> EdgeSpec:
         u = self.node(item[0], f"{path}[0]")
         v = self.node(item[1], f"{path}[1]")
         if u == v:
-            raise self.err(path, f"self-loop at node {u!r}")
-        w = self.rational(item[2], f"{path}[2]") if len(item) == 3 else Fraction(1)
+            raise self.err(path, f"self-loop at node {show(u)}")
+        if len(item) == 3:
+            wp = f"{path}[2]"
+            w = self.rational(item[2], wp, lo=WEIGHT_MIN, hi=WEIGHT_MAX)
+            ext = self.extreme
+            if not ext:
+                ext += [(w, wp), (w, wp)]
+            elif w < ext[0][0]:
+                ext[0] = (w, wp)
+            elif w > ext[1][0]:
+                ext[1] = (w, wp)
+        else:
+            w = Fraction(1)
+            if not self.extreme:
+                self.extreme += [(w, path), (w, path)]
+            elif w < self.extreme[0][0]:
+                self.extreme[0] = (w, path)
+            elif w > self.extreme[1][0]:
+                self.extreme[1] = (w, path)
         return EdgeSpec(u, v, w)
+
+    def weight_spread(self) -> None:
+        """Refuse weights (normal graph and modes) spread over more than :data:`WEIGHT_RATIO_MAX`."""
+        if len(self.extreme) == 2:
+            (lo, lo_path), (hi, hi_path) = self.extreme
+            if hi > WEIGHT_RATIO_MAX * lo:
+                raise self.err(
+                    hi_path,
+                    f"weight {float(hi):g} is {float(hi / lo):.3g} times the weight {float(lo):g} at {lo_path} "
+                    f"(weights must lie within a factor {float(WEIGHT_RATIO_MAX):g} of each other)",
+                )
+
+    def stiffness(self, alpha: Fraction, gamma: Fraction) -> None:
+        """Refuse gains and weights whose closed-loop eigenvalues would spread over more than
+        :data:`STIFFNESS_MAX`: ``max(alpha w_max, gamma^2) / min(alpha w_min, gamma^2)``."""
+        if len(self.extreme) == 2:
+            lo, hi = alpha * self.extreme[0][0], alpha * self.extreme[1][0]
+            g2 = gamma * gamma
+            if max(hi, g2) > STIFFNESS_MAX * min(lo, g2):
+                raise self.err(
+                    "dynamics.gamma",  # the weights alone spread at most WEIGHT_RATIO_MAX: gamma^2 is the extreme
+                    f"alpha * weight spans [{float(lo):.3g}, {float(hi):.3g}] and gamma^2 = {float(g2):.3g}: the closed-loop "
+                    f"eigenvalues would spread over more than a factor {float(STIFFNESS_MAX):g}",
+                )
 
     def edges(self, items: Sequence[Any], path: str) -> tuple[EdgeSpec, ...]:
         out: list[EdgeSpec] = []
@@ -278,7 +499,7 @@ class _Builder:
         for k, item in enumerate(items):
             e = self.edge(item, f"{path}[{k}]")
             if e.key in seen:
-                raise self.err(f"{path}[{k}]", f"duplicate edge {e.u!r}-{e.v!r} (already {path}[{seen[e.key]}])")
+                raise self.err(f"{path}[{k}]", f"duplicate edge {show(e.u)}-{show(e.v)} (already {path}[{seen[e.key]}])")
             seen[e.key] = k
             out.append(e)
         return tuple(out)
@@ -288,11 +509,11 @@ class _Builder:
         names: dict[str, int] = {}
         for k, m in enumerate(items):
             p = f"modes[{k}]"
-            name = m["name"]
+            name = self.text(m["name"], f"{p}.name", limit=MAX_LABEL, name=True)
             if name == NORMAL_MODE:
                 raise self.err(f"{p}.name", f"{NORMAL_MODE!r} is the name of the unswitched graph")
             if name in names:
-                raise self.err(f"{p}.name", f"mode {name!r} is defined twice (also modes[{names[name]}])")
+                raise self.err(f"{p}.name", f"mode {show(name)} is defined twice (also modes[{names[name]}])")
             names[name] = k
             add = self.edges(m.get("add", []), f"{p}.add")
             removed: list[tuple[Label, Label]] = []
@@ -302,20 +523,20 @@ class _Builder:
                 v = self.node(pair[1], f"{p}.remove[{j}][1]")
                 key = frozenset((u, v))
                 if u == v or key not in self.edge_keys:
-                    raise self.err(f"{p}.remove[{j}]", f"edge {u!r}-{v!r} is not in the graph")
+                    raise self.err(f"{p}.remove[{j}]", f"edge {show(u)}-{show(v)} is not in the graph")
                 if key in rkeys:
-                    raise self.err(f"{p}.remove[{j}]", f"edge {u!r}-{v!r} is removed twice")
+                    raise self.err(f"{p}.remove[{j}]", f"edge {show(u)}-{show(v)} is removed twice")
                 rkeys.add(key)
                 removed.append((u, v))
             for j, e in enumerate(add):
                 if e.key in self.edge_keys and e.key not in rkeys:
                     raise self.err(
                         f"{p}.add[{j}]",
-                        f"edge {e.u!r}-{e.v!r} is already in the graph (remove it too to change its weight)",
+                        f"edge {show(e.u)}-{show(e.v)} is already in the graph (remove it too to change its weight)",
                     )
             if not add and not removed:
-                raise self.err(p, f"mode {name!r} changes no link")
-            out.append(ModeSpec(name, add, tuple(removed), str(m.get("description", ""))))
+                raise self.err(p, f"mode {show(name)} changes no link")
+            out.append(ModeSpec(name, add, tuple(removed), self.text(m.get("description", ""), f"{p}.description")))
         return tuple(out)
 
     def clusters(self, items: Sequence[Mapping[str, Any]], nodes: tuple[Label, ...]) -> tuple[ClusterSpec, ...]:
@@ -326,16 +547,17 @@ class _Builder:
         out = []
         for k, c in enumerate(items):
             p = f"clusters[{k}]"
-            if c["name"] in names:
-                raise self.err(f"{p}.name", f"cluster {c['name']!r} is defined twice")
-            names.add(c["name"])
+            cname = self.text(c["name"], f"{p}.name", limit=MAX_LABEL, name=True)
+            if cname in names:
+                raise self.err(f"{p}.name", f"cluster {show(cname)} is defined twice")
+            names.add(cname)
             if not c["nodes"]:
                 raise self.err(f"{p}.nodes", "a cluster needs at least one node")
             members = self.node_list(c["nodes"], f"{p}.nodes")
             for j, n in enumerate(members):
                 if n in owner:
-                    raise self.err(f"{p}.nodes[{j}]", f"node {n!r} is already in cluster {owner[n]!r}")
-                owner[n] = c["name"]
+                    raise self.err(f"{p}.nodes[{j}]", f"node {show(n)} is already in cluster {show(owner[n])}")
+                owner[n] = cname
             mset = set(members)
             observers = []
             centers: set[Label] = set()
@@ -343,9 +565,9 @@ class _Builder:
                 op = f"{p}.observers[{j}]"
                 center = self.node(o["center"], f"{op}.center")
                 if center not in mset:
-                    raise self.err(f"{op}.center", f"node {center!r} is not in cluster {c['name']!r}")
+                    raise self.err(f"{op}.center", f"node {show(center)} is not in cluster {show(cname)}")
                 if center in centers:
-                    raise self.err(f"{op}.center", f"cluster {c['name']!r} already has an observer at {center!r}")
+                    raise self.err(f"{op}.center", f"cluster {show(cname)} already has an observer at {show(center)}")
                 centers.add(center)
                 meas: dict[str, tuple[Label, ...] | None] = {}
                 for key in ("positions", "velocities"):
@@ -353,21 +575,18 @@ class _Builder:
                         lst = self.node_list(o[key], f"{op}.{key}")
                         for i, n in enumerate(lst):
                             if n not in mset:
-                                raise self.err(f"{op}.{key}[{i}]", f"node {n!r} is outside cluster {c['name']!r}")
+                                raise self.err(f"{op}.{key}[{i}]", f"node {show(n)} is outside cluster {show(cname)}")
                         meas[key] = lst
                     else:
                         meas[key] = None
                 poles = None
                 if "poles" in o:
-                    poles = tuple(self.rational(x, f"{op}.poles[{i}]", positive=False) for i, x in enumerate(o["poles"]))
-                    for i, x in enumerate(poles):
-                        if x >= 0:
-                            raise self.err(f"{op}.poles[{i}]", f"observer poles must be < 0, got {float(x)!r}")
+                    poles = tuple(self.pole(x, f"{op}.poles[{i}]") for i, x in enumerate(o["poles"]))
                 observers.append(ObserverSpec(center, meas["positions"], meas["velocities"], poles))
-            out.append(ClusterSpec(c["name"], members, tuple(observers)))
+            out.append(ClusterSpec(cname, members, tuple(observers)))
         missing = [n for n in nodes if n not in owner]
         if missing:
-            raise self.err("clusters", f"the clusters do not cover node(s) {', '.join(map(repr, missing[:8]))}")
+            raise self.err("clusters", f"the clusters do not cover node(s) {', '.join(map(show, missing[:8]))}{' ...' if len(missing) > 8 else ''}")
         return tuple(out)
 
     def monitor(self, m: Mapping[str, Any]) -> MonitorSpec:
@@ -381,7 +600,7 @@ class _Builder:
             return None
         kind = a["kind"]
         if kind not in ATTACK_KINDS:
-            raise self.err("attack.kind", f"unknown attack kind {kind!r} (expected one of: {', '.join(ATTACK_KINDS)})")
+            raise self.err("attack.kind", f"unknown attack kind {show(kind)} (expected one of: {', '.join(ATTACK_KINDS)})")
         actuators = self.node_list(a["actuators"], "attack.actuators")
         if not actuators:
             raise self.err("attack.actuators", "an attack needs at least one compromised actuator")
@@ -389,21 +608,23 @@ class _Builder:
         monitored = set(monitor.positions) | set(monitor.velocities)
         for k, s in enumerate(sensors):
             if s not in monitored:
-                raise self.err(f"attack.sensors[{k}]", f"node {s!r} has no globally monitored channel to compromise")
+                raise self.err(f"attack.sensors[{k}]", f"node {show(s)} has no globally monitored channel to compromise")
         if sensors and kind == "zda":
             raise self.err("attack.sensors", "a zero-dynamics attack uses no sensor channel (kind = 'covert' does)")
         lam: complex | None = None
         if "lambda0" in a:
             raw = a["lambda0"]
             if isinstance(raw, list):
-                re_, im_ = (self.real(raw[0], "attack.lambda0[0]"), self.real(raw[1], "attack.lambda0[1]"))
+                b = LAMBDA0_MAX
+                re_, im_ = (self.real(raw[0], "attack.lambda0[0]", lo=-b, hi=b), self.real(raw[1], "attack.lambda0[1]", lo=-b, hi=b))
                 lam = complex(re_, im_)
             else:
-                lam = complex(float(self.rational(raw, "attack.lambda0", positive=False)))
-        start = self.real(a.get("start", 0.0), "attack.start", nonneg=True)
+                big = Fraction(LAMBDA0_MAX)
+                lam = complex(float(self.rational(raw, "attack.lambda0", positive=False, lo=-big, hi=big)))
+        start = self.real(a.get("start", 0.0), "attack.start", nonneg=True, hi=TIME_MAX)
         signal = a.get("signal")
         if signal is not None and signal not in ("exponential", "step", "sine"):
-            raise self.err("attack.signal", f"unknown signal {signal!r} (expected exponential, step or sine)")
+            raise self.err("attack.signal", f"unknown signal {show(signal)} (expected exponential, step or sine)")
         return AttackSpec(
             kind,
             actuators,
@@ -411,8 +632,8 @@ class _Builder:
             lam,
             start,
             signal,
-            self.real(a.get("amplitude", 1.0), "attack.amplitude"),
-            self.real(a.get("frequency", 1.0), "attack.frequency", nonneg=True),
+            self.real(a.get("amplitude", 1.0), "attack.amplitude", lo=-AMPLITUDE_MAX, hi=AMPLITUDE_MAX),
+            self.real(a.get("frequency", 1.0), "attack.frequency", nonneg=True, hi=TIME_MAX),
         )
 
     def switching(self, s: Mapping[str, Any] | None, mode_names: set[str]) -> SwitchingSpec | None:
@@ -421,45 +642,88 @@ class _Builder:
         known = mode_names | {NORMAL_MODE}
         mode = s.get("mode")
         if mode is not None and mode not in mode_names:
-            raise self.err("switching.mode", f"no safe mode named {mode!r} (defined: {', '.join(sorted(mode_names)) or 'none'})")
+            raise self.err("switching.mode", f"no safe mode named {show(mode)} (defined: {clip(', '.join(sorted(mode_names)), 80) or 'none'})")
         time = None
         if "time" in s:
-            time = self.real(s["time"], "switching.time", positive=True)
+            time = self.time(s["time"], "switching.time")
         if mode is not None and time is None:
             raise self.err("switching", "missing required key 'time'")
         seq = []
         for k, step in enumerate(s.get("sequence", [])):
             if step["mode"] not in known:
-                raise self.err(f"switching.sequence[{k}].mode", f"no mode named {step['mode']!r}")
-            seq.append(SwitchStep(step["mode"], self.real(step["duration"], f"switching.sequence[{k}].duration", positive=True)))
+                raise self.err(f"switching.sequence[{k}].mode", f"no mode named {show(step['mode'])}")
+            seq.append(SwitchStep(step["mode"], self.time(step["duration"], f"switching.sequence[{k}].duration")))
         return SwitchingSpec(mode, time, tuple(seq))
 
     def simulation(self, s: Mapping[str, Any]) -> SimulationSpec:
-        horizon = self.real(s.get("horizon", 30.0), "simulation.horizon", positive=True)
-        step = self.real(s.get("step", 0.01), "simulation.step", positive=True)
+        horizon = self.time(s.get("horizon", 30.0), "simulation.horizon")
+        step = self.time(s.get("step", 0.01), "simulation.step")
         if step > horizon:
             raise self.err("simulation.step", f"step {step} is longer than the horizon {horizon}")
-        return SimulationSpec(horizon, step, int(s.get("seed", 0)))
+        if horizon / step > MAX_SAMPLES:
+            raise self.err("simulation.step", f"horizon / step = {horizon / step:.3g} samples (at most {MAX_SAMPLES:.0e}); enlarge the step")
+        seed = s.get("seed", 0)
+        if type(seed) is not int:
+            if not (type(seed) is float and seed.is_integer()):
+                raise self.err("simulation.seed", f"expected an integer, got {show(seed)}")
+            seed = int(seed)
+        if not 0 <= seed <= SEED_MAX:
+            raise self.err("simulation.seed", f"must be in [0, 2**63 - 1], got {show(seed)}")
+        return SimulationSpec(horizon, step, seed)
+
+    def pole(self, value: Any, path: str) -> Fraction:
+        """An observer pole: an exact rational in ``[POLE_MIN, POLE_MAX]`` (negative)."""
+        q = self.rational(value, path, positive=False)
+        if q >= 0:
+            raise self.err(path, f"observer poles must be < 0, got {show(value)}")
+        if not POLE_MIN <= q <= POLE_MAX:
+            raise self.err(path, f"observer poles must lie in [{float(POLE_MIN):g}, {float(POLE_MAX):g}], got {show(value)}")
+        return q
 
 
 # --------------------------------------------------------------------------------------------
 # library construction
 
 
-def _label(x: Any) -> Label:
+def _label(x: Any) -> Any:
+    """A node label as the spec writes it: ints and strings stay, integer-like objects (numpy
+    integers) become ``int``, other hashables become their ``str``; anything else is left for
+    the validator to refuse."""
     if isinstance(x, (int, str)) and not isinstance(x, bool):
         return x
+    if isinstance(x, bool) or isinstance(x, (list, dict, set, float, Fraction, Decimal)):
+        return x
     if hasattr(x, "__index__"):
-        return int(x)
-    return str(x)
+        return int(x.__index__())
+    return str(x) if getattr(type(x), "__hash__", None) is not None else x
 
 
 def _number(x: Any) -> Any:
     if isinstance(x, Fraction):
         return str(x)
-    if hasattr(x, "item"):
-        return x.item()
-    return x
+    return plain_scalar(x)
+
+
+def _rows(value: Any, path: str, labels: int) -> list[Any]:
+    """``value`` (an iterable of edges or labels) as lists; the first ``labels`` items of each
+    row are labels, the rest numbers. Raises :class:`SpecError` for what is not iterable."""
+    if isinstance(value, (str, bytes)) or not isinstance(value, Iterable):
+        raise SpecError(path, f"expected a list, got {show(value)}")
+    out: list[Any] = []
+    for k, row in enumerate(value):
+        if labels == 0:
+            out.append(_label(row))
+        elif isinstance(row, (str, bytes)) or not isinstance(row, Iterable):
+            raise SpecError(f"{path}[{k}]", f"expected an edge (i, j[, weight]), got {show(row)}")
+        else:
+            out.append([_label(x) if i < labels else _number(x) for i, x in enumerate(row)])
+    return out
+
+
+def _table(value: Any, path: str) -> dict[str, Any]:
+    if not isinstance(value, Mapping):
+        raise SpecError(path, f"expected a mapping, got {show(value)}")
+    return dict(value)
 
 
 def spec_from_graph(
@@ -511,8 +775,14 @@ def spec_from_graph(
     >>> spec.nodes
     (1, 2, 3)
     """
+    if not isinstance(graph, nx.Graph):
+        raise SpecError("graph", f"expected a networkx.Graph, got {type(graph).__name__}")
     if graph.is_directed():
-        raise SpecError("graph", "the graph must be undirected")
+        raise SpecError("graph", "the graph must be undirected (got a directed graph)")
+    if graph.is_multigraph():
+        raise SpecError("graph", "parallel edges are not supported (got a multigraph); merge them into one weighted edge")
+    for u, v in nx.selfloop_edges(graph):
+        raise SpecError("graph.edges", f"self-loop at node {show(u)}")
     data: dict[str, Any] = {
         "format": 1,
         "name": name,
@@ -522,31 +792,36 @@ def spec_from_graph(
             "edges": [[_label(u), _label(v), _number(d.get(weight, 1))] for u, v, d in graph.edges(data=True)],
         },
         "monitor": {
-            "positions": [_label(n) for n in monitor_positions],
-            "velocities": [_label(n) for n in monitor_velocities],
+            "positions": _rows(monitor_positions, "monitor.positions", 0),
+            "velocities": _rows(monitor_velocities, "monitor.velocities", 0),
         },
     }
     if modes:
-        data["modes"] = [
-            {
-                "name": mname,
-                "add": [[_label(e[0]), _label(e[1])] + ([_number(e[2])] if len(e) > 2 else []) for e in m.get("add", [])],
-                "remove": [[_label(e[0]), _label(e[1])] for e in m.get("remove", [])],
-            }
-            for mname, m in modes.items()
-        ]
+        data["modes"] = []
+        for k, (mname, m) in enumerate(_table(modes, "modes").items()):
+            m = _table(m, f"modes[{k}]")
+            data["modes"].append(
+                {
+                    "name": mname,
+                    "add": _rows(m.get("add", []), f"modes[{k}].add", 2),
+                    "remove": _rows(m.get("remove", []), f"modes[{k}].remove", 2),
+                }
+            )
     if clusters:
         cl = []
-        for cname, members in clusters.items():
-            entry: dict[str, Any] = {"name": cname, "nodes": [_label(n) for n in members]}
-            obs = (observers or {}).get(cname, [])
+        obs_table = _table(observers or {}, "observers")
+        for k, (cname, members) in enumerate(_table(clusters, "clusters").items()):
+            entry: dict[str, Any] = {"name": cname, "nodes": _rows(members, f"clusters[{k}].nodes", 0)}
+            obs = obs_table.get(cname, [])
+            if isinstance(obs, (str, bytes)) or not isinstance(obs, Iterable):
+                raise SpecError(f"clusters[{k}].observers", f"expected a list of centres, got {show(obs)}")
             entry["observers"] = [dict(o) if isinstance(o, Mapping) else {"center": _label(o)} for o in obs]
             cl.append(entry)
         data["clusters"] = cl
     if attack:
-        data["attack"] = dict(attack)
+        data["attack"] = _table(attack, "attack")
     if switching:
-        data["switching"] = dict(switching)
+        data["switching"] = _table(switching, "switching")
     if simulation:
-        data["simulation"] = dict(simulation)
+        data["simulation"] = _table(simulation, "simulation")
     return spec_from_dict(data)

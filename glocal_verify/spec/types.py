@@ -3,13 +3,50 @@
 Weights and gains are exact :class:`fractions.Fraction` values; node labels are ``int`` or
 ``str`` as the user wrote them (:data:`Label`). Instances are produced only by the loaders of
 :mod:`glocal_verify.spec.load`, which validate them.
+
+Domains and limits
+------------------
+Every number a spec holds is checked at load time against a documented domain, chosen so that
+IEEE double precision (unit roundoff :math:`u = 2^{-53} \\approx 1.1 \\cdot 10^{-16}`) can carry
+it through the numeric methods. The certified error bounds of the numeric checks scale like
+:math:`c\\,n\\,u\\,\\|A\\|`; a coefficient :math:`w_{\\min}` is still visible above that level only
+if :math:`w_{\\max} / w_{\\min} \\ll 1/u \\approx 10^{16}`. A spread of at most :math:`10^{12}`
+leaves about four decimal digits above the rounding level, so a verdict can still be certified
+on moderate networks; wider spreads would make nearly every numeric verdict undecided and let
+exponentials and pencils overflow. The closed-loop eigenvalues solve
+:math:`s^2 + \\gamma s + \\alpha\\mu = 0` for the Laplacian eigenvalues :math:`\\mu`, so their magnitudes
+spread over about :math:`\\max(\\alpha w_{\\max}, \\gamma^2) / \\min(\\alpha w_{\\min}, \\gamma^2)`; that
+spread is bounded by :math:`10^{12}` as well (``gamma = 1e12`` with ``alpha = 1`` overflowed the
+switched-observability and observer computations). Hence
+
+========================================  ==============================================================
+weights (``graph.edges``, mode adds)      :math:`10^{-12} \\le w \\le 10^{12}` and
+                                          :math:`\\max w / \\min w \\le 10^{12}` over all modes
+gains ``alpha``, ``gamma``                :math:`10^{-12} \\le \\alpha, \\gamma \\le 10^{12}`,
+                                          :math:`\\max(\\alpha,\\gamma)/\\min(\\alpha,\\gamma) \\le 10^{12}` and
+                                          :math:`\\max(\\alpha w_{\\max}, \\gamma^2) / \\min(\\alpha w_{\\min}, \\gamma^2) \\le 10^{12}`
+``attack.lambda0``                        :math:`|\\mathrm{Re}\\,\\lambda_0|, |\\mathrm{Im}\\,\\lambda_0| \\le 10^{6}`
+observer poles                            :math:`-10^{6} \\le p \\le -10^{-6}`
+times (horizon, switching time, dwell)    :math:`10^{-6} \\le t \\le 10^{6}`; ``start`` in :math:`[0, 10^{6}]`
+``simulation.step``                       :math:`10^{-6} \\le h \\le T` and :math:`T / h \\le 10^{8}` samples
+``attack.amplitude``, ``frequency``       :math:`|a| \\le 10^{12}`; :math:`0 \\le f \\le 10^{6}`
+``simulation.seed``                       :math:`0 \\le s < 2^{63}`
+========================================  ==============================================================
+
+Numbers written as strings (``"1/3"``, ``"2.5e-3"``) are at most :data:`MAX_NUMBER_TEXT`
+characters with a decimal exponent of at most :data:`MAX_EXPONENT` in magnitude, checked before
+the text is turned into a rational. Sizes are bounded too: :data:`MAX_NODES` agents,
+:data:`MAX_EDGES` edges (normal graph plus every mode's changes), :data:`MAX_MODES` safe modes,
+:data:`MAX_SWITCH_STEPS` switching entries, labels and names of at most :data:`MAX_LABEL`
+characters without NUL characters, free text of at most :data:`MAX_TEXT` characters, and
+tables or arrays nested at most :data:`MAX_DEPTH` levels deep.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from fractions import Fraction
-from typing import Any, Mapping
+from typing import Any, Final, Mapping
 
 from glocal_verify.errors import SpecError
 
@@ -26,11 +63,74 @@ __all__ = [
     "SimulationSpec",
     "SystemSpec",
     "NORMAL_MODE",
+    "ATTACK_KINDS",
+    "WEIGHT_MIN",
+    "WEIGHT_MAX",
+    "WEIGHT_RATIO_MAX",
+    "GAIN_MIN",
+    "GAIN_MAX",
+    "GAIN_RATIO_MAX",
+    "STIFFNESS_MAX",
+    "LAMBDA0_MAX",
+    "POLE_MIN",
+    "POLE_MAX",
+    "TIME_MIN",
+    "TIME_MAX",
+    "MAX_SAMPLES",
+    "AMPLITUDE_MAX",
+    "SEED_MAX",
+    "MAX_NODES",
+    "MAX_EDGES",
+    "MAX_MODES",
+    "MAX_SWITCH_STEPS",
+    "MAX_LABEL",
+    "MAX_TEXT",
+    "MAX_DEPTH",
+    "MAX_NUMBER_TEXT",
+    "MAX_EXPONENT",
 ]
 
 Label = int | str
 NORMAL_MODE = "normal"
 ATTACK_KINDS = ("zda", "covert")
+
+# -- domains (see the module docstring for the reasons) ----------------------------------------
+#: smallest and largest edge weight (exact rationals)
+WEIGHT_MIN: Final = Fraction(1, 10**12)
+WEIGHT_MAX: Final = Fraction(10**12)
+#: largest ratio of the largest to the smallest weight, over the normal graph and every mode
+WEIGHT_RATIO_MAX: Final = Fraction(10**12)
+#: range of the gains alpha and gamma, and their largest ratio
+GAIN_MIN: Final = Fraction(1, 10**12)
+GAIN_MAX: Final = Fraction(10**12)
+GAIN_RATIO_MAX: Final = Fraction(10**12)
+#: largest spread max(alpha w_max, gamma^2) / min(alpha w_min, gamma^2) of the closed loop
+STIFFNESS_MAX: Final = Fraction(10**12)
+#: bound on |Re lambda0| and |Im lambda0|
+LAMBDA0_MAX: Final = 1e6
+#: observer poles p satisfy POLE_MIN <= p <= POLE_MAX (< 0)
+POLE_MIN: Final = Fraction(-(10**6))
+POLE_MAX: Final = Fraction(-1, 10**6)
+#: positive times (horizon, step, switching time, dwell times) lie in [TIME_MIN, TIME_MAX]
+TIME_MIN: Final = 1e-6
+TIME_MAX: Final = 1e6
+#: largest number of output samples horizon / step a spec may ask for
+MAX_SAMPLES: Final = 10**8
+#: bound on |attack.amplitude|
+AMPLITUDE_MAX: Final = 1e12
+#: simulation.seed lies in [0, SEED_MAX]
+SEED_MAX: Final = 2**63 - 1
+
+# -- sizes ------------------------------------------------------------------------------------
+MAX_NODES: Final = 100_000
+MAX_EDGES: Final = 1_000_000
+MAX_MODES: Final = 1_000
+MAX_SWITCH_STEPS: Final = 10_000
+MAX_LABEL: Final = 200
+MAX_TEXT: Final = 10_000
+MAX_DEPTH: Final = 64
+MAX_NUMBER_TEXT: Final = 100
+MAX_EXPONENT: Final = 1_000
 
 
 @dataclass(frozen=True, slots=True)
