@@ -426,3 +426,36 @@ def test_the_simulator_refuses_a_run_whose_estimate_exceeds_the_limits_unless_al
     with allow_large():
         check_size(est)
     check_size(estimate_size(19, 30.0, 0.05))
+
+
+def test_a_stiff_network_is_refused_before_simulating_and_switching_detects_says_why(tmp_path: Path) -> None:
+    from glocal_verify import System, spec_from_dict, verify
+    from glocal_verify.results import Status
+
+    data = {
+        "format": 1,
+        "dynamics": {"alpha": 1000000},
+        "graph": {"nodes": 4, "edges": [[1, 2], [2, 3], [3, 4]]},
+        "modes": [{"name": "s", "add": [[1, 3]]}],
+        "monitor": {"velocities": [1]},
+        "switching": {"mode": "s", "time": 1.0},
+        "attack": {"kind": "zda", "actuators": [3]},
+        "simulation": {"horizon": 3.0, "step": 0.05},
+    }
+    (r,) = verify(System(spec_from_dict(data)), ["switching.detects"], options={"simulate": True}).conditions
+    assert r.status is Status.UNDECIDED and "too stiff" in r.witness["note"]
+
+
+def test_a_finding_rule_whose_numerics_overflow_costs_no_verdict(tmp_path: Path) -> None:
+    from glocal_verify import System, spec_from_dict, verify
+
+    data = {
+        "format": 1,
+        "dynamics": {"gamma": 1000000},
+        "graph": {"nodes": 4, "edges": [[1, 2], [2, 3], [3, 4]]},
+        "modes": [{"name": "s", "add": [[1, 3]]}],
+        "monitor": {"velocities": [1]},
+        "switching": {"mode": "s", "time": 1.0},
+    }
+    report = verify(System(spec_from_dict(data)))
+    assert report.results("switched-observability")

@@ -366,7 +366,10 @@ def verify(
         results.extend(rs)
     findings: list[Finding] = []
     for rule in _FINDINGS:
-        findings.extend(rule(system, results))
+        try:
+            findings.extend(rule(system, results))
+        except NUMERICAL_FAILURES:  # a finding is an extra: its numerics failing costs no verdict
+            continue
     info = SystemInfo(system.name, system.n, system.modes, tuple(c.name for c in system.clusters))
     opts = {
         "exact": exact,

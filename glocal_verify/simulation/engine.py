@@ -107,6 +107,7 @@ __all__ = [
     "estimate_size",
     "check_size",
     "simulate",
+    "check_stiffness",
     "taylor_order",
 ]
 
@@ -214,6 +215,50 @@ def check_size(est: SizeEstimate, *, allow: bool | None = None) -> None:
             f"simulation too large: {est.describe()} (limits {MAX_SAMPLES:.0e} samples, {MAX_BYTES / 1024**3:g} GiB); "
             "shorten simulation.horizon, enlarge simulation.step or allow large runs (--allow-large)"
         )
+
+
+#: most internal (Taylor) steps one simulation may take: stiff systems (large alpha * mu or
+#: gamma against the step) need ceil(nu h / RHO_MAX) sub-steps per output step
+MAX_INTERNAL_STEPS = 5 * 10**6
+
+
+def check_stiffness(system: System, horizon: float, step: float, *, allow: bool | None = None) -> int:
+    """Estimate the internal steps of a run before any work; refuse a run that would take too long.
+
+    The propagators split each output step h into ``ceil(nu h / RHO_MAX)`` sub-steps with
+    ``nu >= max over modes and eigenvalues mu of sqrt(1 + (alpha mu)^2 + gamma^2)`` (a bound on
+    the norm of the modal blocks), so the whole run costs about ``(horizon / h) * that`` steps.
+
+    Parameters
+    ----------
+    system : System
+    horizon, step : float
+    allow : bool, optional
+        Skip the refusal (default: inside :func:`allow_large`).
+
+    Returns
+    -------
+    int
+        The estimated number of internal steps.
+
+    Raises
+    ------
+    ModelError
+        Above :data:`MAX_INTERNAL_STEPS`, one line with the estimate.
+    """
+    nu = 0.0
+    for q in system.modes:
+        sp = system.spectrum(q)
+        mu = float(np.max(np.abs(sp.values))) if sp.size else 0.0
+        nu = max(nu, math.sqrt(1.0 + (system.alpha * mu) ** 2 + system.gamma**2))
+    samples = max(1.0, float(horizon) / float(step))
+    steps = samples * max(1.0, math.ceil(nu * float(step) / RHO_MAX))
+    if steps > MAX_INTERNAL_STEPS and not (_ALLOW_LARGE.get() if allow is None else allow):
+        raise ModelError(
+            f"simulation too stiff: about {steps:.3g} internal steps (||A|| ~ {nu:.3g} against step {step:g}; "
+            f"limit {MAX_INTERNAL_STEPS:.0e}); shorten the horizon, lower the gains or allow large runs (--allow-large)"
+        )
+    return int(min(steps, 2**62))
 
 
 @contextlib.contextmanager
@@ -680,6 +725,7 @@ def simulate(
     if not (h > 0 and T > 0 and math.isfinite(T) and math.isfinite(h)):
         raise ModelError(f"horizon {T} and step {h} must be positive and finite")
     check_size(estimate_size(system.n, T, h, channels=0, record_states=False, dim=0), allow=allow_large)
+    check_stiffness(system, T, h, allow=allow_large)
     K = int(math.floor(T / h + 1e-9))
     end = K * h
     X = random_initial_state(system) if x0 is None else np.asarray(x0, dtype=float)

@@ -155,6 +155,13 @@ def attack_free_thresholds(
         Report progress on stderr: a tqdm bar with ETA when stderr is a terminal, else one
         line per phase (observer, segment, propagation to a switch).
     """
+    from glocal_verify.simulation.engine import check_stiffness
+
+    check_stiffness(
+        system,
+        float(system.spec.simulation.horizon if horizon is None else horizon),
+        float(system.spec.simulation.step if step is None else step),
+    )
     if rule.kind == "envelope":
         t, env = _envelope_by_rows(system, observers, schedule, rule.box, horizon, step, _reporter(progress))
         return Thresholds(rule, t, env, schedule)
