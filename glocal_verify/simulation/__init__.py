@@ -3,6 +3,7 @@
 - :mod:`.attacks` -- zero-dynamics and covert attack signals;
 - :mod:`.observer_models` -- the central observer and local UIOs as simulated systems;
 - :mod:`.schedule` -- switching schedules and simulation results;
+- :mod:`.limits` -- samples, bytes and internal steps estimated before a run (refusals);
 - :mod:`.engine` -- the propagators (dense and modal) and :func:`simulate`;
 - :mod:`.thresholds` -- attack-free residual envelopes and crossings;
 - :mod:`.algorithm1` -- Algorithm 1 (``alg:detection_procedure``); the choice of safe mode is

@@ -1,0 +1,152 @@
+"""Limits a simulation checks before it allocates or steps: samples, bytes and internal steps.
+
+The estimates come from the spec alone (horizon, step, sizes, the largest eigenvalue of each
+Laplacian), so a run that would exhaust memory or take hours is refused at once with one line
+giving the estimate; :func:`allow_large` lifts the limits for the runs inside it (the CLI's
+``--allow-large``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from contextvars import ContextVar
+from dataclasses import dataclass
+from typing import Iterator
+
+import numpy as np
+
+from glocal_verify.errors import ModelError
+from glocal_verify.model import System
+
+__all__ = ["MAX_SAMPLES", "MAX_BYTES", "MAX_INTERNAL_STEPS", "RHO_MAX", "SizeEstimate", "estimate_size", "check_size", "check_stiffness", "allow_large"]
+
+#: largest rho = h_int * nu of one internal step of the modal propagator (the Taylor terms of the
+#: observer input then stay below e^2 times the state norm: at most a few ulps of cancellation)
+RHO_MAX = 2.0
+
+#: most output samples (horizon / step + 1) one simulation may store without ``allow_large``
+MAX_SAMPLES = 10**7
+
+#: most bytes (estimate of :func:`estimate_size`) one simulation may allocate without ``allow_large``
+MAX_BYTES = 2 * 1024**3
+
+#: set by :func:`allow_large` for the simulations run inside its ``with`` block
+_ALLOW_LARGE: ContextVar[bool] = ContextVar("glocal_verify_allow_large", default=False)
+
+
+# --------------------------------------------------------------------------------------------
+# size limits
+
+
+@dataclass(frozen=True, slots=True)
+class SizeEstimate:
+    """Samples :math:`\\lfloor T/h \\rfloor + 1` and bytes a simulation would store (:func:`estimate_size`)."""
+
+    samples: float
+    bytes: float
+
+    def describe(self) -> str:
+        """One line, e.g. ``1e+18 samples, about 3.2e+08 GiB``."""
+        return f"{self.samples:.3g} samples, about {self.bytes / 1024**3:.3g} GiB"
+
+
+def estimate_size(n_agents: int, horizon: float, step: float, *, channels: int | None = None, record_states: bool = True, dim: int | None = None, batch: int = 1) -> SizeEstimate:
+    """Estimate, before allocating, what a simulation stores: 8 bytes times (samples x
+    (2 x 2N stored states, counted twice for the modal back-transformation, + residual channels
+    + 3) + 3 x dim x batch for the propagated state and two working copies).
+
+    Parameters
+    ----------
+    n_agents : int
+        N (2N plant states).
+    horizon, step : float
+        T and h.
+    channels : int, optional
+        Residual components per sample (default 2N).
+    record_states : bool
+        Whether the plant states are stored.
+    dim : int, optional
+        Augmented state dimension (default 4N).
+    batch : int
+        Initial states propagated together.
+    """
+    n2 = 2 * n_agents
+    ratio = horizon / step
+    samples = float(math.floor(ratio + 1e-9) + 1) if math.isfinite(ratio) else math.inf
+    per = (2 * n2 if record_states else 0) + (n2 if channels is None else channels) + 3
+    d = 2 * n2 if dim is None else dim
+    return SizeEstimate(samples, 8.0 * (samples * per + 3.0 * d * batch))
+
+
+def check_size(est: SizeEstimate, *, allow: bool | None = None) -> None:
+    """Raise :class:`~glocal_verify.errors.ModelError` (one line with the estimate) above
+    :data:`MAX_SAMPLES` samples or :data:`MAX_BYTES` bytes, unless ``allow`` (default: inside
+    :func:`allow_large`).
+
+    Parameters
+    ----------
+    est : SizeEstimate
+    allow : bool, optional
+    """
+    if _ALLOW_LARGE.get() if allow is None else allow:
+        return
+    if est.samples > MAX_SAMPLES or est.bytes > MAX_BYTES:
+        raise ModelError(
+            f"simulation too large: {est.describe()} (limits {MAX_SAMPLES:.0e} samples, {MAX_BYTES / 1024**3:g} GiB); "
+            "shorten simulation.horizon, enlarge simulation.step or allow large runs (--allow-large)"
+        )
+
+
+#: most internal (Taylor) steps one simulation may take: stiff systems (large alpha * mu or
+#: gamma against the step) need ceil(nu h / RHO_MAX) sub-steps per output step
+MAX_INTERNAL_STEPS = 5 * 10**6
+
+
+def check_stiffness(system: System, horizon: float, step: float, *, allow: bool | None = None) -> int:
+    """Estimate the internal steps of a run before any work; refuse a run that would take too long.
+
+    The propagators split each output step h into ``ceil(nu h / RHO_MAX)`` sub-steps with
+    ``nu >= max over modes and eigenvalues mu of sqrt(1 + (alpha mu)^2 + gamma^2)`` (a bound on
+    the norm of the modal blocks), so the whole run costs about ``(horizon / h) * that`` steps.
+
+    Parameters
+    ----------
+    system : System
+    horizon, step : float
+    allow : bool, optional
+        Skip the refusal (default: inside :func:`allow_large`).
+
+    Returns
+    -------
+    int
+        The estimated number of internal steps.
+
+    Raises
+    ------
+    ModelError
+        Above :data:`MAX_INTERNAL_STEPS`, one line with the estimate.
+    """
+    nu = 0.0
+    for q in system.modes:
+        sp = system.spectrum(q)
+        mu = float(np.max(np.abs(sp.values))) if sp.size else 0.0
+        nu = max(nu, math.sqrt(1.0 + (system.alpha * mu) ** 2 + system.gamma**2))
+    samples = max(1.0, float(horizon) / float(step))
+    steps = samples * max(1.0, math.ceil(nu * float(step) / RHO_MAX))
+    if steps > MAX_INTERNAL_STEPS and not (_ALLOW_LARGE.get() if allow is None else allow):
+        raise ModelError(
+            f"simulation too stiff: about {steps:.3g} internal steps (||A|| ~ {nu:.3g} against step {step:g}; "
+            f"limit {MAX_INTERNAL_STEPS:.0e}); shorten the horizon, lower the gains or allow large runs (--allow-large)"
+        )
+    return int(min(steps, 2**62))
+
+
+@contextlib.contextmanager
+def allow_large() -> Iterator[None]:
+    """Lift the size limits of :func:`simulate` for the simulations run inside the block."""
+    token = _ALLOW_LARGE.set(True)
+    try:
+        yield
+    finally:
+        _ALLOW_LARGE.reset(token)
