@@ -99,7 +99,8 @@ def _numeric_ctx(ctx: CheckContext) -> CheckContext:
 _FALLBACK_NOTE = (
     "exact arithmetic cannot decide this schedule: with more than two modes the switched subspace "
     "depends on transcendental exponentials exp(A_k tau_k) and the exact dwell-time-independent bounds "
-    "disagree; the verdict is the numeric recursion's at rtol, NOT certified by an error bound"
+    "disagree, and no certified floating-point bound decides it either: undecided (the uncertified "
+    "reading of the rtol recursion is in the witness, for information only)"
 )
 
 _CERTIFIED_FALLBACK_NOTE = (
@@ -205,11 +206,12 @@ def check_switched_observability(system: System, ctx: CheckContext) -> list[Cond
         cs = certified_switched(system, seq)
         status = _bounds_status(cs.dim_lower, cs.dim_upper, observable_holds=True)
         certified = status is not Status.UNDECIDED
-        if not certified:
-            status = _status_from_dims(Ssw.dim, Ssw.dim_upper, observable_holds=True)
         witness = dict(base, dim=Ssw.dim, basis=_basis_witness(system, Ssw.basis), exact_bounds=[bounds.dim_lower, bounds.dim_upper],
                        note=_FALLBACK_NOTE if not certified else _CERTIFIED_FALLBACK_NOTE)
-        out.append(result(cid, nctx, status, margin=0.0 if Ssw.dim else Ssw.margin, witness=witness))
+        if not certified:  # neither the exact bounds nor a certified float bound decide: say so
+            witness["uncertified_reading"] = _status_from_dims(Ssw.dim, Ssw.dim_upper, observable_holds=True).value
+        out.append(result(cid, nctx, status, margin=0.0 if Ssw.dim else Ssw.margin, witness=witness, error_bound=cs.error_bound,
+                          note=cs.note if not certified else ""))
         return out
     cs = certified_switched(system, seq)
     status = _bounds_status(cs.dim_lower, cs.dim_upper, observable_holds=True)

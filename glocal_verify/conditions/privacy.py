@@ -204,13 +204,14 @@ def check_privacy_initial_state(system: System, ctx: CheckContext) -> list[Condi
         cs = certified_switched(system, seq)
         status = _bounds_status(cs.dim_lower, cs.dim_upper, observable_holds=False)
         certified = status is not Status.UNDECIDED
-        if not certified:
-            status = _status_from_dims(Ssw.dim, Ssw.dim_upper, observable_holds=False)
         witness = dict(base, dim=Ssw.dim, note=_CERTIFIED_FALLBACK_NOTE if certified else _FALLBACK_NOTE,
                        exact_bounds=[b.dim_lower, b.dim_upper])
+        if not certified:  # neither the exact bounds nor a certified float bound decide: say so
+            witness["uncertified_reading"] = _status_from_dims(Ssw.dim, Ssw.dim_upper, observable_holds=False).value
         if Ssw.dim:
             witness["vector"] = _state_map(system, Ssw.basis[:, 0])
-        out.append(result(cid, _numeric_ctx(ctx), status, margin=Ssw.dim, witness=witness))
+        out.append(result(cid, _numeric_ctx(ctx), status, margin=Ssw.dim, witness=witness, error_bound=cs.error_bound,
+                          note=cs.note if not certified else ""))
         return out
     cs = certified_switched(system, seq)
     status = _bounds_status(cs.dim_lower, cs.dim_upper, observable_holds=False)
