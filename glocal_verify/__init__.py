@@ -20,7 +20,9 @@ registry and checkers), ``design`` (placement, generators), ``reporting`` (rende
 figures, case study, findings) and ``cli``.
 """
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from glocal_verify._lazy import lazy_getattr
 
 if TYPE_CHECKING:  # the names below load on first use (PEP 562): `import glocal_verify` stays light
     from glocal_verify.analysis.covert import covert_required_channels
@@ -139,16 +141,8 @@ _LAZY: dict[str, str] = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    """Import a public name from its module on first access."""
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'glocal_verify' has no attribute {name!r}")
-    import importlib
-
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
+#: ``glocal_verify.X`` loads X from its module on first access
+__getattr__ = lazy_getattr("glocal_verify", _LAZY, globals())
 
 
 def __dir__() -> list[str]:

@@ -11,7 +11,9 @@ Layer: lowest with :mod:`glocal_verify.errors` and :mod:`glocal_verify.results`;
 nothing else of the package.
 """
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from glocal_verify._lazy import lazy_getattr
 
 if TYPE_CHECKING:  # loaded on first use (PEP 562): listing examples never loads the validator
     from glocal_verify.spec.examples import example_names, example_text, load_example
@@ -66,16 +68,8 @@ _LAZY: dict[str, str] = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    """Import a public name from its module on first access."""
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'glocal_verify.spec' has no attribute {name!r}")
-    import importlib
-
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
+#: ``glocal_verify.spec.X`` loads X from its module on first access
+__getattr__ = lazy_getattr("glocal_verify.spec", _LAZY, globals())
 
 __all__ = [
     "ATTACK_KINDS",
