@@ -401,7 +401,6 @@ def _exact_mode(system: System, mode: str, d: ExactZdaZero, source: str, F: Sequ
     exact_xi: tuple[Fraction, ...] | None = None
     exact_u0: tuple[Fraction, ...] | None = None
     avoid_dir: ZdaDirection | None = None
-    Zcols: list[np.ndarray]
     if d.rational is not None:
         rows, dl_rows = _rational_rows(system, F, d.rational, dL, dl_idx)
         K = ex.nullspace(rows + dl_rows, N + m)

@@ -15,7 +15,12 @@ from typing import Any, Sequence
 import flint
 import numpy as np
 
-from glocal_verify.analysis.unobservable import _exact_A, _exact_C, _exact_N, certified_unobservable
+from glocal_verify.analysis.unobservable import (
+    _exact_A,
+    _exact_C,
+    _exact_N,
+    certified_unobservable,
+)
 from glocal_verify.conditions.registry import (
     CheckContext,
     checker,

@@ -65,12 +65,16 @@ from glocal_verify.conditions.registry import (
 )
 from glocal_verify.model import ClusterModel, LocalObserver, System
 from glocal_verify.numerics import exact as ex
+from glocal_verify.numerics.pencil_exact import (
+    hurwitz_enclosure,
+    rank_bounds,
+    rounding_error,
+)
 from glocal_verify.numerics.tolerance import (
     DEFAULT_TOLERANCE,
     Decision,
     Tolerance,
 )
-from glocal_verify.numerics.pencil_exact import hurwitz_enclosure, rank_bounds, rounding_error
 from glocal_verify.observers.uio import design_uio
 from glocal_verify.observers.uio_existence import (
     UIOExistence,

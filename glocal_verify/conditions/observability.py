@@ -39,11 +39,12 @@ from glocal_verify.conditions.registry import (
 )
 from glocal_verify.model import System
 from glocal_verify.numerics.exact_subspace import _kernel, _row_closure
-from glocal_verify.numerics.subspace import decide_with_error
+from glocal_verify.numerics.subspace import Subspace, decide_with_error
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision
 from glocal_verify.results import ConditionResult, Finding, Status
 
 __all__ = [
+    "switched_schedule",
     "check_switched_observability",
     "switched_subspace_not_invariant",
 ]
@@ -122,6 +123,24 @@ def _status_from_dims(dim: int, dim_upper: int, observable_holds: bool) -> Statu
     return Status.UNDECIDED
 
 
+def switched_schedule(system: System, ctx: CheckContext) -> tuple[list[tuple[str, float]], Subspace, dict[str, Any]] | None:
+    """The spec's mode sequence (checked), its switched unobservable subspace and the witness base.
+
+    Shared by ``switched-observability`` and ``privacy.initial-state``; None without a schedule.
+
+    Parameters
+    ----------
+    system : System
+    ctx : CheckContext
+    """
+    seq = mode_sequence(system)
+    if seq is None:
+        return None
+    seq = _check_sequence(system, seq)
+    Ssw = switched_unobservable_subspace(system, seq, ctx.tol)
+    return seq, Ssw, {"sequence": [list(s) for s in seq], "schedule": sequence_text(seq)}
+
+
 @checker("switched-observability")
 def check_switched_observability(system: System, ctx: CheckContext) -> list[ConditionResult]:
     """Lemma II.3 (``lemma:observability``): the switched pair is observable, ``N_1^m = {0}``.
@@ -181,12 +200,10 @@ def check_switched_observability(system: System, ctx: CheckContext) -> list[Cond
             margin = 0.0 if cu.dim_lower else S.margin
             bound, note = cu.error_bound, (cu.note if status is Status.UNDECIDED else "")
         out.append(result(cid, ctx, status, scope={"mode": mode}, margin=margin, witness=witness, error_bound=bound, note=note))
-    seq = mode_sequence(system)
-    if seq is None:
+    schedule = switched_schedule(system, ctx)
+    if schedule is None:
         return out
-    seq = _check_sequence(system, seq)
-    Ssw = switched_unobservable_subspace(system, seq, ctx.tol)
-    base = {"sequence": [list(s) for s in seq], "schedule": sequence_text(seq)}
+    seq, Ssw, base = schedule
     if ctx.exact:
         bounds = switched_unobservable_bounds_exact(system, seq)
         if bounds.dim_upper == 0 or bounds.dim_lower > 0:

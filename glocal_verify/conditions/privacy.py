@@ -35,6 +35,7 @@ from glocal_verify.conditions.observability import (
     _state_map,
     _status_from_dims,
     _structural_witness,
+    switched_schedule,
 )
 from glocal_verify.conditions.registry import CheckContext, checker, result
 from glocal_verify.model import System
@@ -184,12 +185,10 @@ def check_privacy_initial_state(system: System, ctx: CheckContext) -> list[Condi
                 witness["dim_bounds"] = [cu.dim_lower, cu.dim_upper]
             bound, note = cu.error_bound, (cu.note if status is Status.UNDECIDED else "")
         out.append(result(cid, ctx, status, scope={"mode": mode}, margin=dim, witness=witness, error_bound=bound, note=note))
-    seq = mode_sequence(system)
-    if seq is None:
+    schedule = switched_schedule(system, ctx)
+    if schedule is None:
         return out
-    seq = _check_sequence(system, seq)
-    Ssw = switched_unobservable_subspace(system, seq, ctx.tol)
-    base = {"sequence": [list(s) for s in seq], "schedule": sequence_text(seq)}
+    seq, Ssw, base = schedule
     if ctx.exact:
         b = switched_unobservable_bounds_exact(system, seq)
         if b.dim_upper == 0 or b.dim_lower > 0:

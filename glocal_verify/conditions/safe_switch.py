@@ -108,9 +108,9 @@ import numpy as np
 from glocal_verify.analysis.avoidance import (
     Avoidance,
     _exact_mode,
-    avoidance_certificate,
     _numeric_mode,
     _stealthy_bases,
+    avoidance_certificate,
 )
 from glocal_verify.analysis.covert import reachable_agents
 from glocal_verify.analysis.zda import (

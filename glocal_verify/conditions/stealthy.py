@@ -68,7 +68,12 @@ from glocal_verify.analysis.covert import (
     covert_required_channels,
     reachable_agents,
 )
-from glocal_verify.analysis.zda import ZdaAnalysis, ZdaZero, zda_analysis, zda_certificate
+from glocal_verify.analysis.zda import (
+    ZdaAnalysis,
+    ZdaZero,
+    zda_analysis,
+    zda_certificate,
+)
 from glocal_verify.analysis.zda_exact import (
     ExactZdaAnalysis,
     ExactZdaZero,

@@ -317,7 +317,7 @@ def check_distinct_eigenvalues(system: System, ctx: CheckContext) -> list[Condit
     out = []
     for mode in system.safe_modes:
         sp = system.spectrum(mode)
-        w, U = sp.values, sp.vectors
+        w = sp.values
         gaps = np.diff(w)
         k = int(np.argmin(gaps)) if len(gaps) else 0
         margin = float(gaps[k]) if len(gaps) else float("inf")

@@ -92,7 +92,6 @@ def _annihilator(X: flint.fmpq_mat) -> flint.fmpq_mat:
 
 def _cols_closure(X: flint.fmpq_mat, A: flint.fmpq_mat) -> flint.fmpq_mat:
     """Smallest A-invariant subspace containing the columns of X (as columns)."""
-    n = X.nrows()
     if X.ncols() == 0:
         return X
     return _row_basis(_row_closure(X.transpose(), [A.transpose()])).transpose()

@@ -230,7 +230,6 @@ def design_central_observer(
     n = system.n
     blocks = _blocks(system, mode, tol, C)
     N = unobservable_subspace(system, mode, tol)
-    a, g = system.alpha, system.gamma
     obs = [b for b in blocks if b.A.shape[0] > 0]
     obs.sort(key=lambda b: (not b.zero, b.rate))
     fixed = np.concatenate([b.fixed for b in blocks]) if blocks else np.zeros(0, dtype=complex)

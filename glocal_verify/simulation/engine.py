@@ -114,6 +114,7 @@ __all__ = [
     "estimate_size",
     "check_size",
     "simulate",
+    "observer_step_operator",
     "check_stiffness",
     "taylor_order",
 ]
@@ -418,17 +419,7 @@ class _ModalEngine:
         key = ("obs", o.name, dk, round(delta, 13))
         P = self.cache.get(key)
         if P is None:
-            F, G = o.F[dk], o.G[dk]
-            no, p, J = o.order, G.shape[1], self.J
-            dim = no + p * (J + 1)
-            A = np.zeros((dim, dim))
-            A[:no, :no] = F
-            A[:no, no : no + p] = G
-            for j in range(J):
-                r0 = no + j * p
-                A[r0 : r0 + p, r0 + p : r0 + 2 * p] = np.eye(p)
-            E = scipy.linalg.expm(A * delta)
-            P = (E[:no, :no].copy(), E[:no, no:].copy())
+            P = observer_step_operator(o.F[dk], o.G[dk], self.J, delta)
             self.cache[key] = P
         return P
 
@@ -535,6 +526,34 @@ def _events(schedule: Schedule, attack: AttackModel | None, end: float) -> list[
     if attack is not None and 0.0 < attack.start < end:
         times.add(attack.start)
     return sorted(times)
+
+
+def observer_step_operator(F: np.ndarray, G: np.ndarray, J: int, delta: float) -> tuple[np.ndarray, np.ndarray]:
+    """Exact step of an observer ``z' = F z + G y`` over ``delta`` when ``y`` is a polynomial of degree J.
+
+    With the input given by its Taylor coefficients, the observer and the chain of derivatives
+    form one LTI system; ``expm`` of that block matrix gives ``(Phi, Gamma)`` with
+    ``z(t + delta) = Phi z(t) + Gamma [y; y'; ...; y^(J)]``.
+
+    Parameters
+    ----------
+    F, G : ndarray
+        Observer matrices (``no x no`` and ``no x p``).
+    J : int
+        Taylor order of the input.
+    delta : float
+        The step.
+    """
+    no, p = F.shape[0], G.shape[1]
+    dim = no + p * (J + 1)
+    A = np.zeros((dim, dim))
+    A[:no, :no] = F
+    A[:no, no : no + p] = G
+    for j in range(J):
+        r0 = no + j * p
+        A[r0 : r0 + p, r0 + p : r0 + 2 * p] = np.eye(p)
+    E = scipy.linalg.expm(A * delta)
+    return E[:no, :no].copy(), E[:no, no:].copy()
 
 
 def simulate(

@@ -41,7 +41,12 @@ from glocal_verify.errors import ModelError
 from glocal_verify.model import System
 from glocal_verify.numerics.threads import blas_threads
 from glocal_verify.results import jsonable
-from glocal_verify.simulation.engine import RHO_MAX, simulate, taylor_order
+from glocal_verify.simulation.engine import (
+    RHO_MAX,
+    observer_step_operator,
+    simulate,
+    taylor_order,
+)
 from glocal_verify.simulation.observer_models import ObserverBank, ObserverModel
 from glocal_verify.simulation.schedule import Schedule, SimulationResult
 from glocal_verify.spec.types import NORMAL_MODE
@@ -284,16 +289,7 @@ class _Steps:
         key = (dk, round(delta, 13))
         got = self.obs.get(key)
         if got is None:
-            F, G = self.o.F[dk], self.o.G[dk]
-            no, p, J = self.o.order, G.shape[1], self.J
-            A = np.zeros((no + p * (J + 1), no + p * (J + 1)))
-            A[:no, :no] = F
-            A[:no, no : no + p] = G
-            for j in range(J):
-                r0 = no + j * p
-                A[r0 : r0 + p, r0 + p : r0 + 2 * p] = np.eye(p)
-            Ex = scipy.linalg.expm(A * delta)
-            got = (Ex[:no, :no].copy(), Ex[:no, no:].copy())
+            got = observer_step_operator(self.o.F[dk], self.o.G[dk], self.J, delta)
             self.obs[key] = got
         return got
 
