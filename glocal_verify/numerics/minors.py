@@ -1,0 +1,558 @@
+"""Exact full-column-rank certificates for the reduced system pencil, by maximal minors modulo a prime.
+
+The pencils of eq. ``zda_cond`` (the normal mode, inputs F, outputs M) and eq. ``pencil_uio``
+(a cluster, inputs the suspected and boundary agents, outputs the observer's channels) share
+one form. With s = lambda^2 + gamma lambda, a kernel vector at lambda != 0 is
+[xi; lambda xi; u] with S_M xi = 0 and (sI + alpha L) xi = S_I^T u (I the input agents, each
+input a nonzero multiple of one unit vector e_a). So, with U = V \\ M, I' = I ∩ U and
+M' = M \\ I, the kernel is isomorphic to the kernel of the tall polynomial matrix
+
+    T(s) = [ K(s)[U \\ I', :] ; alpha L[M', U] ],     K(s) = sI + alpha L[U, U],
+
+and the pencil has full column rank at every lambda != 0 iff T(s) has full column rank for
+every complex s. Replacing the rows I' of K by k = |I'| rows of alpha L[M'', U] (M'' ⊆ M',
+|M''| = k) gives a maximal minor of T; by the matrix determinant lemma it equals
+
+    alpha^k det(N_{M'', I'}(s)) / det(K(s))^(k-1),   N_{m f}(s) = (L[m, U] adj K(s))_f,
+
+a polynomial (k = 0: det K itself). If these minors have no common root, T(s) has full column
+rank for every s: no zero of the pencil with lambda != 0, and normal full column rank.
+
+Modulo a prime (proof)
+    All data are rationals whose denominators are units modulo p, so every minor is a
+    polynomial over the local ring Z_(p) and reduction modulo p is a ring homomorphism. Let
+    h be a greatest common divisor over Q of the minors used, normalised to be primitive over
+    Z_(p); h divides each of them over Z_(p) (Gauss's lemma), so h mod p divides each
+    reduction. If one minor f has its reduction of the same degree as f itself, the leading
+    coefficient of h divides that of f and is a unit, so deg(h mod p) = deg h. Hence
+    deg h <= deg gcd(reductions): a gcd of degree 0 modulo p proves that the minors have
+    no common root over C. The exact degree of one minor is known from an upper bound that
+    is proved combinatorially (below) and attained by its reduction.
+
+Degree bounds (proof)
+    adj(sI - A) = sum_{k<n} s^k sum_{i<n-k} a_{k+i+1} A^i with det(sI - A) = sum a_j s^j,
+    A = -alpha L[U, U]; the coefficient of s^(n-1-t) in N_{m f} is
+    sum_{i<=t} a_{n-t+i} (r_m A^i)_f with r_m = L[m, U]. (r_m A^i)_f = 0 unless a walk of
+    i + 1 edges leads from m to f with every vertex after m in U, so with d(m, f) the length
+    of the shortest such walk, deg N_{m f} <= n - d(m, f) and the coefficient of s^(n-d) is
+    (r_m A^(d-1))_f. For k = 2 the minor is (N_{m1 a} N_{m2 b} - N_{m1 b} N_{m2 a}) / det K,
+    of degree at most max(deg N_{m1 a} + deg N_{m2 b}, deg N_{m1 b} + deg N_{m2 a}) - n;
+    for general k the same bound over permutations.
+
+Arithmetic
+    The numerators of every (m, f) are computed once per pencil family from one Krylov
+    sequence r_m A^i (sparse A) and the characteristic polynomial (python-flint ``nmod_mat``),
+    as a Hankel product in double precision whose entries stay below 2^52 (the prime is chosen
+    with n p^2 < 2^52), hence exact. Per input set only a few polynomial products, one exact
+    division and a gcd over F_p (python-flint ``nmod_poly``) remain.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Mapping, MutableMapping, Sequence
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+import scipy.sparse
+
+__all__ = ["GroundedTables", "MinorCertificate", "charpoly_mod", "constant_full_rank_mod_p", "full_rank_certificate", "grounded_tables", "prime_for", "twin_modes"]
+
+#: input sets with more than this many unmeasured input agents are not certified here
+MAX_INPUTS = 4
+#: at most this many choices of M'' are tried per input set
+MAX_ROW_CHOICES = 6
+_UNREACHABLE = 1 << 30
+
+
+@dataclass(frozen=True, eq=False)
+class GroundedTables:
+    """Numerators N_{m f} modulo a prime for one pencil family (fixed L, alpha and outputs M).
+
+    Attributes
+    ----------
+    prime : int
+        p, with every denominator of the data a unit modulo p.
+    size : int
+        Number of agents of the family (rows of L).
+    grounded : tuple of int
+        U = V \\ M (agent indices, ascending); position j in U indexes the columns below.
+    position : tuple of int
+        For every agent, its position in U or -1.
+    measured : tuple of int
+        M, the output agents (ascending).
+    charpoly : ndarray of int64
+        det(sI + alpha L[U, U]) modulo p, coefficients from s^0 to s^n (monic).
+    numerators : ndarray of int64, shape (|M|, n, n)
+        ``numerators[i, j, k]``: coefficient of s^k of N_{m_i, U_j} modulo p.
+    distance : ndarray of int64, shape (|M|, n)
+        d(m_i, U_j) of the module docstring (a large number when no walk exists).
+    anchors : tuple of int
+        Positions in U used as extra replaced rows: the row nearest to an output in every
+        component of G[U] (largest first), then the neighbours of the outputs.
+    twins : tuple
+        :func:`twin_modes` of (L, M): ``((mu, pairs), ...)``.
+    twin_roots : tuple of (int, int)
+        Their roots s0 = -alpha mu modulo p with multiplicities.
+    """
+
+    prime: int
+    size: int
+    grounded: tuple[int, ...]
+    position: tuple[int, ...]
+    measured: tuple[int, ...]
+    charpoly: np.ndarray
+    numerators: np.ndarray
+    distance: np.ndarray
+    anchors: tuple[int, ...] = ()
+    twins: tuple[tuple[Fraction, tuple[tuple[int, int], ...]], ...] = ()
+    twin_roots: tuple[tuple[int, int], ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
+class MinorCertificate:
+    """A proof that T(s) has full column rank for every s (module docstring).
+
+    Attributes
+    ----------
+    prime : int
+    minors : tuple of str
+        The maximal minors used, e.g. ``"rows I' -> (7, 12)"``.
+    degree : int
+        Exact degree of the minor whose degree is known.
+    twin_degree : int
+        Degree of the twin-mode factor divided out (0: full column rank is proved).
+    """
+
+    prime: int
+    minors: tuple[str, ...]
+    degree: int
+    twin_degree: int = 0
+
+    def text(self) -> str:
+        """One line for a witness."""
+        if self.twin_degree:
+            return (
+                f"{len(self.minors)} maximal minor(s) of the reduced pencil, divided by the factor of {self.twin_degree} exact twin "
+                f"mode(s) (u = 0), have gcd 1 modulo the prime {self.prime} (one of proved exact degree {self.degree}): "
+                "no kernel vector with an input part at any lambda != 0"
+            )
+        return (
+            f"{len(self.minors)} maximal minor(s) of the reduced pencil have gcd 1 modulo the prime {self.prime} "
+            f"(one of proved exact degree {self.degree}): full column rank for every lambda != 0"
+        )
+
+
+# ------------------------------------------------------------------------------------------
+# construction
+
+
+def _is_prime(q: int) -> bool:
+    if q < 2:
+        return False
+    for d in range(2, math.isqrt(q) + 1):
+        if q % d == 0:
+            return False
+    return True
+
+
+def _primes_below(limit: int) -> Any:
+    q = limit
+    while q > 2:
+        if _is_prime(q):
+            yield q
+        q -= 1
+
+
+def _mod(x: Fraction, p: int) -> int:
+    return (x.numerator % p) * pow(x.denominator % p, -1, p) % p
+
+
+def grounded_tables(size: int, laplacian: Mapping[tuple[int, int], Fraction], alpha: Fraction, measured: Sequence[int]) -> GroundedTables | None:
+    """The numerator tables of the module docstring for one (L, alpha, M).
+
+    Parameters
+    ----------
+    size : int
+        Number of agents n_V.
+    laplacian : mapping
+        The nonzero entries ``{(i, j): L_ij}`` of the (symmetric) Laplacian, diagonal included,
+        as exact rationals.
+    alpha : Fraction
+        The position gain.
+    measured : sequence of int
+        M (rows whose xi is constrained to zero).
+
+    Returns
+    -------
+    GroundedTables or None
+        None when no suitable prime was found (every candidate divides a denominator).
+    """
+    from flint import nmod_mat
+
+    M = tuple(sorted({int(m) for m in measured}))
+    Mset = set(M)
+    U = tuple(i for i in range(size) if i not in Mset)
+    n = len(U)
+    pos = [-1] * size
+    for j, i in enumerate(U):
+        pos[i] = j
+    dens = {abs(int(v.denominator)) for v in laplacian.values()} | {abs(int(alpha.denominator)), abs(int(alpha.numerator))}
+    limit = int(min(2**24, math.isqrt(2**52 // max(n, 1))))
+    p = next((q for q in _primes_below(limit) if all(d % q for d in dens)), None)
+    if p is None:
+        return None
+    a_mod = _mod(alpha, p)
+    # A = -alpha L[U, U] modulo p, sparse; rows r_m = L[m, U]
+    rows, cols, vals = [], [], []
+    R0 = np.zeros((len(M), n))
+    mi = {m: i for i, m in enumerate(M)}
+    nbrs: list[list[int]] = [[] for _ in range(size)]
+    for (i, j), v in laplacian.items():
+        if v == 0:
+            continue
+        if i != j:
+            nbrs[i].append(j)
+        if pos[i] >= 0 and pos[j] >= 0:
+            rows.append(pos[i])
+            cols.append(pos[j])
+            vals.append(float((-a_mod * _mod(v, p)) % p))
+        elif i in mi and pos[j] >= 0:
+            R0[mi[i], pos[j]] = float(_mod(v, p))
+    A = scipy.sparse.csr_matrix((vals, (rows, cols)), shape=(n, n))
+    AT = A.T.tocsr()
+    # characteristic polynomial det(sI - A) = det(sI + alpha L[U, U])
+    dense = np.zeros((n, n), dtype=np.int64)
+    dense[rows, cols] = np.asarray(vals, dtype=np.int64)
+    cp = nmod_mat(n, n, [int(x) for x in dense.ravel()], p).charpoly() if n else None
+    a = np.zeros(n + 1, dtype=np.int64)
+    if cp is not None:
+        co = [int(c) for c in cp.coeffs()]
+        a[: len(co)] = co
+    else:
+        a[0] = 1
+    # Krylov rows r_m A^i, i < n (exact: entries < p, sums below 2^52)
+    R = np.zeros((n, len(M), n))
+    cur = R0
+    for i in range(n):
+        R[i] = cur
+        cur = np.fmod((AT @ cur.T).T, p)
+    H = scipy.linalg.hankel(a[1 : n + 1].astype(float), np.zeros(n)) if n else np.zeros((0, 0))
+    num = np.zeros((len(M), n, n), dtype=np.int64)
+    for k in range(len(M)):
+        num[k] = np.fmod(H @ R[:, k, :], p).astype(np.int64).T
+    # U-restricted distances d(m, U_j)
+    dist = np.full((len(M), n), _UNREACHABLE, dtype=np.int64)
+    for k, m in enumerate(M):
+        frontier = [j for j in nbrs[m] if pos[j] >= 0]
+        seen = set(frontier)
+        d = 1
+        while frontier:
+            for j in frontier:
+                dist[k, pos[j]] = d
+            nxt = []
+            for j in frontier:
+                for q in nbrs[j]:
+                    if pos[q] >= 0 and q not in seen:
+                        seen.add(q)
+                        nxt.append(q)
+            frontier, d = nxt, d + 1
+    # components of G[U] and their rows nearest to an output
+    comp = [-1] * n
+    parts: list[list[int]] = []
+    for j0 in range(n):
+        if comp[j0] >= 0:
+            continue
+        comp[j0] = len(parts)
+        part, stack = [j0], [j0]
+        while stack:
+            j = stack.pop()
+            for q in nbrs[U[j]]:
+                if pos[q] >= 0 and comp[pos[q]] < 0:
+                    comp[pos[q]] = len(parts)
+                    part.append(pos[q])
+                    stack.append(pos[q])
+        parts.append(part)
+    near = dist.min(axis=0) if len(M) else np.zeros(n, dtype=np.int64)
+    anchors: list[int] = [min(part, key=lambda j: (int(near[j]), j)) for part in sorted(parts, key=len, reverse=True)]
+    anchors += [j for j in np.argsort(near, kind="stable").tolist() if near[j] == 1 and j not in anchors]
+    tw = twin_modes(size, laplacian, M)
+    roots = tuple(((-a_mod * _mod(mu, p)) % p, len(pairs)) for mu, pairs in tw)
+    return GroundedTables(p, size, U, tuple(pos), M, a, num, dist, tuple(int(j) for j in anchors), tw, roots)
+
+
+# ------------------------------------------------------------------------------------------
+# one input set
+
+
+def _poly(t: GroundedTables, i: int, j: int, cache: MutableMapping[Any, Any]) -> Any:
+    from flint import nmod_poly
+
+    key = ("N", t, i, j)
+    if key not in cache:
+        cache[key] = nmod_poly([int(c) for c in t.numerators[i, j]], t.prime)
+    return cache[key]
+
+
+def _charpoly(t: GroundedTables, cache: MutableMapping[Any, Any]) -> Any:
+    from flint import nmod_poly
+
+    key = ("K", t)
+    if key not in cache:
+        cache[key] = nmod_poly([int(c) for c in t.charpoly], t.prime)
+    return cache[key]
+
+
+def _det(entries: list[list[Any]]) -> Any:
+    k = len(entries)
+    if k == 1:
+        return entries[0][0]
+    if k == 2:
+        return entries[0][0] * entries[1][1] - entries[0][1] * entries[1][0]
+    total = None
+    for c in range(k):
+        minor = [row[:c] + row[c + 1 :] for row in entries[1:]]
+        term = entries[0][c] * _det(minor)
+        total = term if total is None else (total + term if c % 2 == 0 else total - term)
+    return total
+
+
+def full_rank_certificate(
+    tables: GroundedTables, inputs: Sequence[int], cache: MutableMapping[Any, Any] | None = None, *, modulo_twins: bool = False
+) -> MinorCertificate | None:
+    """Prove that T(s) of the module docstring has full column rank for every s, or return None.
+
+    With ``modulo_twins`` the claim is weaker and is what a stealthy ZDA needs: at every s the
+    kernel of T(s) is spanned by exact twin modes (:func:`twin_modes`, kernel vectors with
+    u = 0), so no kernel vector has an input part. Proof: each twin mode family of dimension t
+    at s0 lies in ker T(s0) for every input set (it is supported on U and an eigenvector of L),
+    so every maximal minor is divisible by (s - s0)^t; if dim ker T(s0) exceeded the twin
+    dimension, every minor would vanish to a higher order and the quotients would share the
+    root s0. Quotients with gcd 1 (modulo p, as above) therefore leave only the twin modes.
+
+    Parameters
+    ----------
+    tables : GroundedTables
+        From :func:`grounded_tables` for the pencil family.
+    inputs : sequence of int
+        I, the agents with an input column (each input a nonzero multiple of one unit vector;
+        an agent listed twice gives a normal-rank deficiency, never a certificate).
+    cache : dict, optional
+        Per-process store of the polynomials built from the tables (python-flint objects).
+    modulo_twins : bool
+        Divide every minor by the twin-mode factor of ``tables.twins`` first.
+
+    Returns
+    -------
+    MinorCertificate or None
+        None when the certificate does not apply (too many unmeasured inputs, fewer output
+        rows than unmeasured inputs) or the minors tried share a root modulo p: nothing is
+        proved then.
+    """
+    if cache is None:
+        cache = {}
+    if len(set(inputs)) != len(inputs):
+        return None
+    Iset = {int(i) for i in inputs}
+    Ip = [tables.position[i] for i in sorted(Iset) if tables.position[i] >= 0]
+    Mp = [k for k, m in enumerate(tables.measured) if m not in Iset]
+    k = len(Ip)
+    n = len(tables.grounded)
+    if k > MAX_INPUTS or len(Mp) < k:
+        return None
+    detK = _charpoly(tables, cache)
+
+    def bound_of(r: int, f: int) -> int:
+        return n - int(tables.distance[r, f]) if tables.distance[r, f] < _UNREACHABLE else -1
+
+    def minor(replaced: Sequence[int], rows: Sequence[int]) -> tuple[Any, int | None, str]:
+        """The maximal minor with the rows ``replaced`` of K taken from alpha L[rows, U]."""
+        r = len(replaced)
+        desc = f"rows {tuple(tables.grounded[f] for f in replaced)} -> {tuple(tables.measured[q] for q in rows)}"
+        if r == 0:
+            return detK, n, "det K"
+        P = _det([[_poly(tables, q, f, cache) for f in replaced] for q in rows])
+        if r > 1:
+            P, rem = divmod(P, detK ** (r - 1))
+            if not rem.is_zero():
+                raise ArithmeticError("a maximal minor is not divisible by det K^(k-1): the numerator tables are inconsistent")
+        terms = [
+            sum(bound_of(q, replaced[c]) for q, c in zip(rows, perm))
+            for perm in itertools.permutations(range(r))
+            if all(bound_of(q, replaced[c]) >= 0 for q, c in zip(rows, perm))
+        ]
+        return P, (max(terms) - (r - 1) * n if terms else None), desc
+
+    def candidates() -> Any:
+        yield from (minor(Ip, rows) for rows in itertools.islice(itertools.combinations(Mp, k), MAX_ROW_CHOICES))
+        if k == 0:
+            yield from (minor([int(np.argmin(tables.distance[q]))], [q]) for q in Mp[:MAX_ROW_CHOICES])
+        # one more replaced row, in another part of U: breaks factors det K_R shared by the
+        # minors above (e.g. a component of G[U] that holds no input)
+        if len(Mp) > k:
+            extra = [j for j in tables.anchors if j not in Ip][:MAX_ROW_CHOICES + 2]
+            for j in extra:
+                yield from (minor(Ip + [j], rows) for rows in itertools.islice(itertools.combinations(Mp, k + 1), 2))
+
+    twin = _twin_factor(tables, cache) if modulo_twins and tables.twins else None
+    g = None
+    used: list[str] = []
+    first: tuple[Any, int | None, str] | None = None
+    for P, b, d in candidates():
+        if P.is_zero():
+            continue
+        if twin is not None:
+            P, rem = divmod(P, twin)
+            if not rem.is_zero():
+                raise ArithmeticError("a maximal minor is not divisible by its twin-mode factor: the twin modes are wrong")
+            b = None if b is None else b - twin.degree()
+        if first is None and b is not None and b >= 0 and P.degree() == b:
+            first = (P, b, d)
+        g = P if g is None else g.gcd(P)
+        used.append(d)
+        if first is not None and g.degree() == 0:
+            break
+    if first is None or g is None or g.degree() != 0:
+        return None
+    return MinorCertificate(tables.prime, tuple(used), int(first[1]), twin.degree() if twin is not None else 0)  # type: ignore[arg-type]
+
+
+def _twin_factor(tables: GroundedTables, cache: MutableMapping[Any, Any]) -> Any:
+    from flint import nmod_poly
+
+    key = ("T", tables)
+    if key not in cache:
+        f = nmod_poly([1], tables.prime)
+        for root, mult in tables.twin_roots:
+            f *= nmod_poly([(-root) % tables.prime, 1], tables.prime) ** mult
+        cache[key] = f
+    return cache[key]
+
+
+def twin_modes(size: int, laplacian: Mapping[tuple[int, int], Fraction], measured: Sequence[int]) -> tuple[tuple[Fraction, tuple[tuple[int, int], ...]], ...]:
+    """Exact eigenvectors e_a - e_r of L that vanish on M (twin agents), grouped by eigenvalue.
+
+    Agents a != r are twins when their rows of L agree off {a, r} and L_aa = L_rr; then
+    L (e_a - e_r) = (L_aa - L_ar)(e_a - e_r) exactly. A class of twins C (one representative r)
+    gives |C| - 1 independent modes; classes are disjoint, so their modes are independent.
+    Only agents outside M count (the mode must vanish on M).
+
+    Parameters
+    ----------
+    size : int
+    laplacian : mapping
+        Nonzero entries of the symmetric matrix (exact).
+    measured : sequence of int
+        M.
+
+    Returns
+    -------
+    tuple
+        ``((mu, ((a, r), ...)), ...)``: the eigenvalue and the pairs of each family.
+    """
+    M = set(measured)
+    rows: list[dict[int, Fraction]] = [{} for _ in range(size)]
+    for (i, j), v in laplacian.items():
+        if v != 0:
+            rows[i][j] = v
+
+    def twins(a: int, r: int) -> bool:
+        if rows[a].get(a, 0) != rows[r].get(r, 0):
+            return False
+        ka = {j: v for j, v in rows[a].items() if j not in (a, r)}
+        kr = {j: v for j, v in rows[r].items() if j not in (a, r)}
+        return ka == kr
+
+    groups: dict[Any, list[int]] = {}
+    for a in range(size):
+        if a in M:
+            continue
+        groups.setdefault(("open", rows[a].get(a, 0), frozenset((j, v) for j, v in rows[a].items() if j != a)), []).append(a)
+    parent = list(range(size))
+
+    def find(x: int) -> int:
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
+    for a in range(size):
+        for b in rows[a]:
+            if b > a and a not in M and b not in M and twins(a, b):
+                parent[find(b)] = find(a)
+    for a in range(size):
+        if a not in M and find(a) != a:
+            groups.setdefault(("closed", find(a)), []).append(a)
+    out: dict[Fraction, list[tuple[int, int]]] = {}
+    for key, members in groups.items():
+        r = key[1] if key[0] == "closed" else members[0]
+        if r not in members:
+            members = [r] + members
+        pairs = [(a, r) for a in members if a != r and twins(a, r)]
+        mus = {rows[r].get(r, Fraction(0)) - rows[r].get(a, Fraction(0)) for a, _ in pairs}
+        if len(mus) != 1:
+            continue  # a class whose pairs disagree is not used
+        out.setdefault(mus.pop(), []).extend(pairs)
+    return tuple((mu, tuple(sorted(pairs))) for mu, pairs in sorted(out.items()))
+
+
+def constant_full_rank_mod_p(rows: Sequence[Sequence[Fraction]], prime: int | None = None) -> bool:
+    """True when the rational matrix has full column rank, proved by its rank modulo a prime.
+
+    rank_p(A mod p) <= rank_Q(A) for every prime not dividing a denominator (a nonzero minor
+    modulo p is nonzero over Q), so full column rank modulo p proves it over Q. False means
+    "not proved" (never "rank deficient").
+
+    Parameters
+    ----------
+    rows : sequence of sequences of Fraction
+    prime : int, optional
+        Default: a prime near 2^30 that divides no denominator.
+    """
+    from flint import nmod_mat
+
+    if not rows:
+        return False
+    ncols = len(rows[0])
+    if ncols == 0:
+        return True
+    if len(rows) < ncols:
+        return False
+    dens = {abs(int(Fraction(x).denominator)) for r in rows for x in r}
+    p = prime if prime is not None else next(q for q in _primes_below(2**30) if all(d % q for d in dens))
+    ent = [_mod(Fraction(x), p) for r in rows for x in r]
+    return int(nmod_mat(len(rows), ncols, ent, p).rank()) == ncols
+
+
+def prime_for(values: Sequence[Fraction], limit: int = 2**30) -> int:
+    """The largest prime below ``limit`` that divides no denominator of ``values``.
+
+    Parameters
+    ----------
+    values : sequence of Fraction
+    limit : int
+    """
+    dens = {abs(int(Fraction(v).denominator)) for v in values}
+    return next(q for q in _primes_below(limit) if all(d % q for d in dens))
+
+
+def charpoly_mod(size: int, entries: Mapping[tuple[int, int], Fraction], prime: int) -> Any:
+    """det(mu I - A) modulo ``prime`` (python-flint ``nmod_poly``) for a rational matrix given by its nonzero entries.
+
+    Parameters
+    ----------
+    size : int
+    entries : mapping
+        ``{(i, j): A_ij}``, exact; denominators must be units modulo ``prime``.
+    prime : int
+    """
+    from flint import nmod_mat
+
+    flat = [0] * (size * size)
+    for (i, j), v in entries.items():
+        flat[i * size + j] = _mod(Fraction(v), prime)
+    return nmod_mat(size, size, flat, prime).charpoly()
