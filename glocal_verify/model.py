@@ -16,9 +16,10 @@ of the boundary agents dP_i, and E^i = [0; S_{dP_i}^T] has one column per bounda
 
 from __future__ import annotations
 
+from collections.abc import Callable, Hashable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import Any, Callable, Hashable, Iterable, Iterator, Sequence, TypeVar
+from typing import Any, TypeVar
 
 import networkx as nx
 import numpy as np
@@ -34,12 +35,12 @@ from glocal_verify.spec.types import (
 )
 
 __all__ = [
-    "System",
     "Analysis",
     "ClusterModel",
     "LocalObserver",
-    "state_matrix",
+    "System",
     "selection",
+    "state_matrix",
 ]
 
 T = TypeVar("T")
@@ -355,15 +356,20 @@ class System:
         return [[a - b for a, b in zip(ra, rb)] for ra, rb in zip(Lq, L1)]
 
     def switching_links(self, mode: str) -> list[tuple[Label, Label, Fraction]]:
-        """Pairs whose weight differs between ``mode`` and the normal mode, with the change."""
-        a, b = self._edges[self.check_mode(mode)], self._edges[NORMAL_MODE]
-        out = []
-        for key in sorted(set(a) | set(b), key=lambda k: sorted(self.index[x] for x in k)):
-            d = a.get(key, Fraction(0)) - b.get(key, Fraction(0))
-            if d != 0:
-                u, v = sorted(key, key=lambda x: self.index[x])
-                out.append((u, v, d))
-        return out
+        """Pairs whose weight differs between ``mode`` and the normal mode, with the change (stored once per mode)."""
+        mode = self.check_mode(mode)
+
+        def build() -> list[tuple[Label, Label, Fraction]]:
+            a, b = self._edges[mode], self._edges[NORMAL_MODE]
+            out = []
+            for key in sorted(set(a) | set(b), key=lambda k: sorted(self.index[x] for x in k)):
+                d = a.get(key, Fraction(0)) - b.get(key, Fraction(0))
+                if d != 0:
+                    u, v = sorted(key, key=lambda x: self.index[x])
+                    out.append((u, v, d))
+            return out
+
+        return list(self.analysis.get(("switching-links", mode), build))
 
     def switching_components(self, mode: str) -> tuple[tuple[Label, ...], ...]:
         """Connected components D_c (>= 2 nodes) of the graph of switching links (Definition A.1).
@@ -570,15 +576,33 @@ class System:
         return model
 
     def cluster_laplacian_exact(self, name: str, mode: str = NORMAL_MODE) -> list[list[Fraction]]:
-        """Principal block L[P_i, P_i] with exact rational entries."""
-        c = self.cluster(name)
-        idx = self.idx(c.nodes)
-        L = self.laplacian_exact(mode)
-        return [[L[i][j] for j in idx] for i in idx]
+        """Principal block L[P_i, P_i] with exact rational entries (a fresh copy of a stored block).
+
+        Built from the cluster's neighbour lists (its degrees count every edge, cut edges
+        included), in time proportional to the cluster and its cut edges.
+        """
+        mode = self.check_mode(mode)
+
+        def build() -> list[list[Fraction]]:
+            nodes = self.cluster(name).nodes
+            loc = {a: i for i, a in enumerate(nodes)}
+            edges = self._edges[mode]
+            adj = self.adjacency(mode)
+            L = [[Fraction(0)] * len(nodes) for _ in nodes]
+            for a in nodes:
+                i = loc[a]
+                for b in adj[a]:
+                    w = edges[frozenset((a, b))]
+                    L[i][i] += w
+                    if b in loc:
+                        L[i][loc[b]] -= w
+            return L
+
+        return [row[:] for row in self.analysis.get(("cluster-laplacian-exact", name, mode), build)]
 
     # -- convenience ------------------------------------------------------------------------
     @classmethod
-    def from_spec_file(cls, path: str) -> "System":
+    def from_spec_file(cls, path: str) -> System:
         from glocal_verify.spec import load_spec
 
         return cls(load_spec(path))

@@ -19,12 +19,12 @@ from glocal_verify.spec.types import NORMAL_MODE, Label
 
 __all__ = [
     "LocalCase",
-    "local_cases",
+    "certify_pencil_verdict",
     "cluster_summary",
+    "full_pencil",
+    "local_cases",
     "pencil_matrices",
     "pencil_matrices_exact",
-    "full_pencil",
-    "certify_pencil_verdict",
 ]
 
 # --------------------------------------------------------------------------------------------
@@ -155,7 +155,7 @@ def _exact_A(system: System, case: LocalCase) -> list[list[Fraction]]:
 
 
 def _exact_int(M: np.ndarray) -> list[list[Fraction]]:
-    return [[Fraction(int(round(float(x)))) for x in row] for row in M]
+    return [[Fraction(round(float(x))) for x in row] for row in M]
 
 
 def pencil_matrices_exact(system: System, case: LocalCase) -> tuple[list[list[Fraction]], list[list[Fraction]], list[list[Fraction]]]:
@@ -220,8 +220,103 @@ def _krawczyk_zero(system: System, case: LocalCase, witness: dict[str, Any]) -> 
     return None
 
 
+def minor_certificate(system: System, case: LocalCase, cache: dict[Any, Any] | None = None) -> str | None:
+    """Prove Proposition III.2 (iii) for every lam by exact maximal minors, or return None.
+
+    lam != 0: the pencil has full column rank iff T(s) = [K(s)[U \\ I', :]; alpha L[M', U]]
+    does for every s (:mod:`glocal_verify.numerics.minors`, with L = L[P_i, P_i], U the
+    cluster agents the observer does not measure, I the suspected and boundary agents);
+    proved by maximal minors without a common root modulo a prime. lam = 0: P(0) has full
+    column rank iff alpha L[P_i \\ I, P_i \\ M_x] does, proved by its rank modulo a prime.
+    Both proofs are exact (reduction modulo p never raises a rank); None proves nothing.
+
+    Parameters
+    ----------
+    system : System
+    case : LocalCase
+    cache : dict, optional
+        Per-process store of the polynomials (see :func:`~glocal_verify.numerics.minors.full_rank_certificate`).
+
+    Returns
+    -------
+    str or None
+        The certificate, one line.
+    """
+    from glocal_verify.numerics.minors import (
+        constant_full_rank_mod_p,
+        full_rank_certificate,
+        grounded_tables,
+    )
+
+    if case.structural:
+        return None
+    cm, obs = case.model, case.observer
+    nodes = cm.nodes
+    idx = {a: k for k, a in enumerate(nodes)}
+    measured = sorted({idx[a] for a in obs.positions} | {idx[a] for a in obs.velocities})
+    L = system.cluster_laplacian_exact(cm.name, case.mode)
+    alpha = Fraction(system.alpha_q)
+
+    def build() -> Any:
+        entries = {(i, j): L[i][j] for i in range(len(nodes)) for j in range(len(nodes)) if L[i][j] != 0}
+        return grounded_tables(len(nodes), entries, alpha, measured)
+
+    tables = system.analysis.get(("grounded-tables", cm.name, case.mode, tuple(measured)), build)
+    if tables is None:
+        return None
+    inputs = [idx[a] for a in case.suspected] + [idx[a] for a in cm.boundary]
+    cert = full_rank_certificate(tables, inputs, cache if cache is not None else {})
+    if cert is None:
+        return None
+    mx = {idx[a] for a in obs.positions}
+    rows = [[alpha * L[i][j] for j in range(len(nodes)) if j not in mx] for i in range(len(nodes)) if i not in set(inputs)]
+    if not constant_full_rank_mod_p(rows, tables.prime if rows and rows[0] else None):
+        return None
+    return cert.text() + "; lam = 0: alpha L[P_i \\ I, P_i \\ M_x] has full column rank modulo the same prime"
+
+
+def twin_failure(system: System, case: LocalCase) -> str | None:
+    """An exact proof that Proposition III.2 (iii) fails: a twin mode the observer cannot see.
+
+    If agents a, r of the cluster are twins of L[P_i, P_i] (equal rows off {a, r}, equal
+    diagonal; :func:`glocal_verify.numerics.minors.twin_modes`) and the observer measures
+    neither, z = e_a - e_r satisfies L[P_i, P_i] z = mu z exactly, so [z; lam z; 0] is a kernel
+    vector of the pencil of eq. ``pencil_uio`` at both roots of lam^2 + gamma lam + alpha mu:
+    the pencil loses column rank there, whatever the suspected set.
+
+    Parameters
+    ----------
+    system : System
+    case : LocalCase
+
+    Returns
+    -------
+    str or None
+        The proof, one line; None proves nothing.
+    """
+    from glocal_verify.numerics.minors import twin_modes
+
+    cm, obs = case.model, case.observer
+    nodes = cm.nodes
+    idx = {a: k for k, a in enumerate(nodes)}
+    measured = sorted({idx[a] for a in obs.positions} | {idx[a] for a in obs.velocities})
+    L = system.cluster_laplacian_exact(cm.name, case.mode)
+    entries = {(i, j): L[i][j] for i in range(len(nodes)) for j in range(len(nodes)) if L[i][j] != 0}
+    modes = system.analysis.get(("twin-modes", cm.name, case.mode, tuple(measured)), lambda: twin_modes(len(nodes), entries, measured))
+    for mu, pairs in modes:
+        a, r = pairs[0]
+        return (
+            f"{nodes[a]} and {nodes[r]} are twins of L[P_i, P_i] unmeasured by the observer: [z; lam z; 0] with "
+            f"z = e_{nodes[a]} - e_{nodes[r]} is an exact kernel vector at the roots of lam^2 + gamma lam + alpha*{mu}"
+        )
+    return None
+
+
 def certify_pencil_verdict(system: System, case: LocalCase, status: Status, witness: dict[str, Any]) -> tuple[Status, dict[str, Any]]:
     """Certify a numeric verdict of Proposition III.2 (iii) for the exact pencil, or make it undecided.
+
+    (Zero forcing first, then the exact maximal-minor certificate of :func:`minor_certificate`,
+    which proves ``holds`` whatever the numeric status was.)
 
     Returns ``(status, witness)`` with ``witness["certificate"]`` (``by``, ``error_bound``,
     ``note``); ``status`` is the numeric one when proved, ``holds`` when zero forcing proves
@@ -252,10 +347,16 @@ def certify_pencil_verdict(system: System, case: LocalCase, status: Status, witn
         Its witness (directions with ``lambda``, ``positions``, ``velocities``,
         ``attack_input``, ``coupling_input``); updated in place.
     """
+    from glocal_verify.analysis.cluster_pencil import (
+        intra_neighbours,
+        zero_forcing_closure,
+    )
     from glocal_verify.analysis.zda import rational_kernel_vector
-    from glocal_verify.numerics.pencil_exact import rank_bounds, rounding_error, structural_rank
-
-    from glocal_verify.analysis.cluster_pencil import intra_neighbours, zero_forcing_closure
+    from glocal_verify.numerics.pencil_exact import (
+        rank_bounds,
+        rounding_error,
+        structural_rank,
+    )
 
     cm = case.model
     idx = {a: k for k, a in enumerate(cm.nodes)}
@@ -275,6 +376,20 @@ def certify_pencil_verdict(system: System, case: LocalCase, status: Status, witn
         if status is not Status.HOLDS:
             witness["certificate"]["note"] = f"the numeric analysis said {status.value}; zero forcing proves full column rank for every lam"
         return Status.HOLDS, witness
+    by = minor_certificate(system, case)
+    if by is not None:
+        cert["by"] = by
+        witness["certificate"] = cert
+        if status is not Status.HOLDS:
+            witness["certificate"]["note"] = f"the numeric analysis said {status.value}; exact minors prove full column rank for every lam"
+        return Status.HOLDS, witness
+    tw = twin_failure(system, case)
+    if tw is not None:
+        cert["by"] = tw
+        witness["certificate"] = cert
+        if status is not Status.FAILS:
+            witness["certificate"]["note"] = f"the numeric analysis said {status.value}; an exact twin mode proves rank loss"
+        return Status.FAILS, witness
     if status is Status.HOLDS:
         if ok:
             rows, pat = _exact_pencil_at(system, case, Fraction(0))

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from glocal_verify.analysis.twins import eigenvector_differences_modular
 from glocal_verify.conditions.registry import CheckContext, checker, result
 from glocal_verify.model import System
 from glocal_verify.numerics import exact as ex
@@ -21,15 +22,15 @@ from glocal_verify.results import ConditionResult, Status
 from glocal_verify.spec.types import Label
 
 __all__ = [
-    "check_image_kernel",
-    "check_distinct_eigenvalues",
-    "check_coverage",
-    "image_kernel_component",
-    "check_eigenvector_differences",
-    "eigenvector_difference_polynomial",
-    "algebraic_root_witness",
-    "svd_rank_bound",
     "SVD_BACKWARD_CONSTANT",
+    "algebraic_root_witness",
+    "check_coverage",
+    "check_distinct_eigenvalues",
+    "check_eigenvector_differences",
+    "check_image_kernel",
+    "eigenvector_difference_polynomial",
+    "image_kernel_component",
+    "svd_rank_bound",
 ]
 
 _EPS = float(np.finfo(float).eps)
@@ -258,7 +259,7 @@ def _unit_floats(v: list[Fraction]) -> np.ndarray:
     return a / np.linalg.norm(a)
 
 
-def _rational_repeated_eigenspaces(system: System, mode: str, g: "ex.flint.fmpq_poly") -> list[tuple[Fraction, list[list[Fraction]]]]:
+def _rational_repeated_eigenspaces(system: System, mode: str, g: ex.flint.fmpq_poly) -> list[tuple[Fraction, list[list[Fraction]]]]:
     """Rational roots of the repeated factor g with an exact orthogonal basis of their eigenspace."""
     L = system.laplacian_exact(mode)
     out = []
@@ -422,7 +423,7 @@ def _pairs(system: System, mode: str) -> list[tuple[Label, Label]]:
     return out
 
 
-def eigenvector_difference_polynomial(L: list[list[Fraction]], i: int, j: int) -> "ex.flint.fmpq_poly":
+def eigenvector_difference_polynomial(L: list[list[Fraction]], i: int, j: int) -> ex.flint.fmpq_poly:
     """q_ij(mu) = (e_i - e_j)^T adj(mu I - L) (e_i - e_j), exactly.
 
     By the matrix determinant lemma, ``det(M + b b^T) = det M + b^T adj(M) b``; with
@@ -579,14 +580,14 @@ def _dyadic(x: Any) -> Fraction:
     return Fraction(m * 2**e) if e >= 0 else Fraction(m, 2 ** (-e))
 
 
-def _eval_q(poly: "ex.flint.fmpz_poly", x: Fraction) -> Fraction:
+def _eval_q(poly: ex.flint.fmpz_poly, x: Fraction) -> Fraction:
     acc = Fraction(0)
     for c in reversed(poly.coeffs()):
         acc = acc * x + int(c)
     return acc
 
 
-def algebraic_root_witness(factor: "ex.flint.fmpq_poly", p0: "ex.flint.fmpq_poly") -> dict[str, Any]:
+def algebraic_root_witness(factor: ex.flint.fmpq_poly, p0: ex.flint.fmpq_poly) -> dict[str, Any]:
     """A real root of ``factor`` (a factor of ``p0``) as an algebraic number with a certified enclosure.
 
     The root is isolated with python-flint's ``complex_roots`` (arb ball arithmetic: each
@@ -671,6 +672,10 @@ def _eigvec_exact(system: System, mode: str, numeric: tuple[Status, float, dict[
     _, margin, nwit, _, _ = numeric
     if not pairs:
         return Status.HOLDS, 1.0, {"note": "the mode changes no link: no pair to check"}
+    fast = eigenvector_differences_modular(system, mode)
+    if fast is not None:
+        st, fwit = fast
+        return st, (margin if st is Status.HOLDS else 0.0), fwit
     L = system.laplacian_exact(mode)
     p = ex.charpoly(L)
     if not ex.is_squarefree(p):
@@ -702,7 +707,7 @@ def _eigvec_exact(system: System, mode: str, numeric: tuple[Status, float, dict[
     if coeffs[0] != 0:  # pragma: no cover - a Laplacian always has the eigenvalue 0
         raise AssertionError("charpoly of a Laplacian must vanish at 0")
     p0 = type(p)(coeffs[1:])  # p(mu) / mu
-    w, U = system.eigh(mode)
+    _w, U = system.eigh(mode)
     for a, b in pairs:
         i, j = system.idx((a, b))
         q = eigenvector_difference_polynomial(L, i, j)
@@ -753,6 +758,9 @@ def check_eigenvector_differences(system: System, ctx: CheckContext) -> list[Con
     ``q_ij(mu_l) = p'(mu_l) (u_l(i) - u_l(j))^2`` and ``p'(mu_l) != 0``, so (iii) fails for (i, j)
     iff ``gcd(p(mu) / mu, q_ij) != 1``.
 
+    Before the exact path, and when the numeric bound cannot decide, :func:`_eigvec_modular`
+    decides exactly by an exact twin mode (fails) or by the two gcds modulo a prime (holds).
+
     Margin
         ``min |u_l(i) - u_l(j)|`` over ``l != 1`` and the pairs (unit eigenvectors; floating
         point in both modes), 0 on failure.
@@ -773,6 +781,12 @@ def check_eigenvector_differences(system: System, ctx: CheckContext) -> list[Con
             bound, note = None, ""
         else:
             status, margin, witness, bound, note = num
+            if status is Status.UNDECIDED:
+                fast = eigenvector_differences_modular(system, mode)
+                if fast is not None:
+                    status, witness = fast
+                    margin = margin if status is Status.HOLDS else 0.0
+                    note = f"{note}; decided exactly: {witness.get('reason') or witness.get('certificate')}"
         out.append(
             result(
                 "switching.eigenvector-differences", ctx, status, scope={"mode": mode}, margin=margin,

@@ -1,0 +1,103 @@
+"""Twin agents: exact eigenvectors e_a - e_r of a Laplacian, and the decisions they settle.
+
+Agents a != r with equal rows of L off {a, r} and equal diagonal entries are *twins*:
+L (e_a - e_r) = (L_aa - L_ar)(e_a - e_r) exactly (:func:`glocal_verify.numerics.minors.twin_modes`).
+Pendant agents hanging on the same neighbour with equal weights are the common case in
+generated networks. They settle, in exact arithmetic and at the cost of a hash per agent,
+questions whose floating-point answers sit on a rounding-level difference:
+Theorem III.3 (iii) fails for a safe mode whose L_q has twins off a switching pair
+(:func:`eigenvector_differences_modular`, which otherwise proves (iii) by two gcds modulo a
+prime). The local and global pencil certificates use the same modes
+(:mod:`glocal_verify.analysis.local_cases`, :mod:`glocal_verify.design.audit`).
+"""
+
+from __future__ import annotations
+
+from fractions import Fraction
+from typing import Any
+
+import numpy as np
+
+from glocal_verify.model import System
+from glocal_verify.numerics.minors import charpoly_mod, prime_for, twin_modes
+from glocal_verify.results import Status
+
+__all__ = ["eigenvector_differences_modular", "laplacian_entries"]
+
+
+def laplacian_entries(system: System, mode: str) -> dict[tuple[int, int], Fraction]:
+    """The nonzero entries of L_q as exact rationals, from the spec's edges (sparse).
+
+    Parameters
+    ----------
+    system : System
+    mode : str
+    """
+    ent: dict[tuple[int, int], Fraction] = {}
+    for key, w in system.edges(mode).items():
+        u, v = (system.index[a] for a in key)
+        ent[(u, v)] = ent.get((u, v), Fraction(0)) - w
+        ent[(v, u)] = ent.get((v, u), Fraction(0)) - w
+        ent[(u, u)] = ent.get((u, u), Fraction(0)) + w
+        ent[(v, v)] = ent.get((v, v), Fraction(0)) + w
+    return ent
+
+
+def eigenvector_differences_modular(system: System, mode: str) -> tuple[Status, dict[str, Any]] | None:
+    """Decide Theorem III.3 (iii) for ``mode`` exactly and cheaply, or return None.
+
+    * fails: an exact twin mode e_a - e_r of L_q (:func:`glocal_verify.numerics.minors.twin_modes`)
+      with {a, r} disjoint from a pair {i, j} of a switching component is an eigenvector with
+      u(i) = u(j) = 0 (for a repeated eigenvalue (iii) fails anyway);
+    * holds: p = charpoly(L_q) squarefree and gcd(p / mu, q_ij) = 1 for every pair
+      (q_ij(mu) = det(mu I - (L - b b^T)) - det(mu I - L), b = e_i - e_j, so that
+      q_ij(mu_l) = p'(mu_l) (u_l(i) - u_l(j))^2 at a simple eigenvalue), both proved modulo a prime: p and p / mu are
+      monic, so their reductions keep their degrees and a gcd of degree 0 modulo p proves
+      gcd 1 over Q (Gauss's lemma, as in :mod:`glocal_verify.numerics.minors`).
+
+    Parameters
+    ----------
+    system : System
+    mode : str
+        A safe mode.
+
+    Returns
+    -------
+    (Status, witness) or None
+    """
+
+    pairs = [(c[x], c[y]) for c in system.switching_components(mode) for x in range(len(c)) for y in range(x + 1, len(c))]
+    if not pairs or len(system.components(mode)) > 1:
+        return None
+    n = system.n
+    ent = laplacian_entries(system, mode)
+    idx = [tuple(system.idx(pr)) for pr in pairs]
+    w_num = system.spectrum(mode).values
+    for mu, tw in twin_modes(n, ent, ()):
+        for a, r in tw:
+            for (i, j), pr in zip(idx, pairs):
+                if {a, r}.isdisjoint((i, j)):
+                    la, lr = system.labels[a], system.labels[r]
+                    l = int(np.argmin(np.abs(w_num - float(mu))))
+                    return Status.FAILS, {
+                        "pair": list(pr), "l": l + 1, "eigenvalue": float(mu), "eigenvalue_exact": mu,
+                        "entries": [0.0, 0.0],
+                        "eigenvector_exact": {la: Fraction(1), lr: Fraction(-1)},
+                        "reason": f"{la} and {lr} are twins in L_q: e_{la} - e_{lr} is an exact eigenvector (eigenvalue {mu}) "
+                        f"whose entries on the pair are both 0",
+                    }
+    p = prime_for(list(ent.values()))
+    P = charpoly_mod(n, ent, p)
+    if P.gcd(P.derivative()).degree() != 0 or int(P.coeffs()[0]) != 0:
+        return None
+    P0 = type(P)([int(c) for c in P.coeffs()[1:]], p)
+    for i, j in idx:
+        e2 = dict(ent)
+        for key, d in (((i, i), -1), ((j, j), -1), ((i, j), 1), ((j, i), 1)):
+            e2[key] = e2.get(key, Fraction(0)) + d
+        if P0.gcd(charpoly_mod(n, e2, p) - P).degree() != 0:
+            return None
+    return Status.HOLDS, {
+        "pairs_checked": len(pairs),
+        "certificate": f"charpoly(L_q) squarefree and gcd(p(mu)/mu, q_ij) = 1 for every pair, modulo the prime {p} (exact)",
+    }
