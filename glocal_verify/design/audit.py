@@ -51,17 +51,25 @@ Chunks
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
-import math
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Callable, Iterable, Mapping, Sequence
+from fractions import Fraction
+from typing import Any
 
 import networkx as nx
 import numpy as np
 
 from glocal_verify.analysis.avoidance import _exact_mode, _numeric_mode, _stealthy_bases
-from glocal_verify.analysis.local_cases import LocalCase
+from glocal_verify.analysis.local_cases import (
+    LocalCase,
+    minor_certificate,
+    twin_failure,
+)
+from glocal_verify.analysis.twins import laplacian_entries
 from glocal_verify.analysis.zda import (
+    GROWTH_PERSISTENT,
     GROWTH_UNBOUNDED,
     ZdaZero,
     _Modal,
@@ -72,165 +80,46 @@ from glocal_verify.analysis.zda_exact import zda_analysis_exact
 from glocal_verify.conditions.local import uio_verdict
 from glocal_verify.conditions.local_pencil import pencil_verdict, pencil_verdict_exact
 from glocal_verify.conditions.registry import verify
+from glocal_verify.design.audit_records import (
+    AUDIT_SCHEMA_ID,
+    AuditResult,
+    AuditRow,
+)
 from glocal_verify.errors import ModelError, NotApplicableError
 from glocal_verify.model import System
+from glocal_verify.numerics.minors import (
+    GroundedTables,
+    full_rank_certificate,
+    grounded_tables,
+)
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
 from glocal_verify.results import Status
-from glocal_verify.spec.types import Label
+from glocal_verify.spec.types import NORMAL_MODE, Label
 
 __all__ = [
     "AUDIT_SCHEMA_ID",
-    "AuditRow",
-    "AuditResult",
     "AuditChunk",
+    "AuditResult",
+    "AuditRow",
+    "LocalSinglesChunk",
+    "attack_sets",
     "audit",
     "audit_chunks",
-    "attack_sets",
+    "disjoint_paths",
+    "local_singles_chunks",
     "merge_chunks",
     "mode_conditions",
-    "disjoint_paths",
+    "seed_chunks",
 ]
 
-AUDIT_SCHEMA_ID = "glocal-verify/audit@1"
 THEOREM_III3 = ("switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences")
 GROWTH_NULL = "null"
-VERDICTS = ("detected", "undetected", "undecided")
 #: by default numeric ``undecided`` parts are re-decided over Q up to this many agents
 EXACT_FALLBACK_MAX_AGENTS = 60
 
 
 # ------------------------------------------------------------------------------------------
 # records
-
-
-@dataclass(frozen=True, slots=True)
-class AuditRow:
-    """The audit of one set F of compromised actuators.
-
-    Attributes
-    ----------
-    actuators : tuple of labels
-        F, in label order.
-    stealthy : bool or None
-        A stealthy ZDA exists (None: undecided).
-    growth : str
-        ``unbounded`` | ``persistent`` | ``decaying`` | ``null`` (no stealthy ZDA) | ``undecided``.
-    lambda0 : complex or None
-        Exponent of the witness direction (that of ``stealthy.zda``).
-    caught_locally_by : tuple of (cluster, centre)
-        Observers for which local.pencil (suspected F ∩ P_i) and local.uio hold.
-    exposed_by_modes : tuple of str
-        Safe modes meeting Theorem III.3 (i)-(iii) that touch every stealthy direction at lambda0.
-    verdict : str
-        ``detected`` | ``undetected`` | ``undecided`` (module docstring).
-    witness : mapping
-        Direction (xi, u0 by label, residual), per-observer and per-mode statuses, the reason.
-    """
-
-    actuators: tuple[Label, ...]
-    stealthy: bool | None
-    growth: str
-    lambda0: complex | None
-    caught_locally_by: tuple[tuple[str, Label], ...]
-    exposed_by_modes: tuple[str, ...]
-    verdict: str
-    witness: Mapping[str, Any] = field(default_factory=dict)
-
-    def to_json(self) -> dict[str, Any]:
-        """The row in the ``glocal-verify/audit@1`` form."""
-        return {
-            "actuators": list(self.actuators),
-            "stealthy": self.stealthy,
-            "growth": self.growth,
-            "lambda0": None if self.lambda0 is None else [self.lambda0.real, self.lambda0.imag],
-            "caught_locally_by": [{"cluster": c, "observer": o} for c, o in self.caught_locally_by],
-            "exposed_by_modes": list(self.exposed_by_modes),
-            "verdict": self.verdict,
-            "witness": _jsonable(dict(self.witness)),
-        }
-
-
-@dataclass(frozen=True, slots=True)
-class AuditResult:
-    """All rows of an audit, with the per-mode Theorem III.3 verdicts it used.
-
-    Attributes
-    ----------
-    system : str
-        Name of the audited system.
-    n : int
-        Number of agents.
-    max_attackers : int
-        k.
-    candidates : tuple of labels
-        Agents whose actuators may be compromised.
-    modes : mapping
-        ``{mode: True | False | None}``: Theorem III.3 (i)-(iii) all hold / some fails / undecided.
-    rows : tuple of AuditRow
-        Sorted by size, then labels.
-    """
-
-    system: str
-    n: int
-    max_attackers: int
-    candidates: tuple[Label, ...]
-    modes: Mapping[str, bool | None]
-    rows: tuple[AuditRow, ...]
-
-    def summary(self) -> dict[str, Any]:
-        """Counts per verdict and size, and the undetected sets first (then the undecided ones)."""
-        counts = {v: sum(1 for r in self.rows if r.verdict == v) for v in VERDICTS}
-        by_size: dict[str, dict[str, int]] = {}
-        for r in self.rows:
-            d = by_size.setdefault(str(len(r.actuators)), {v: 0 for v in VERDICTS})
-            d[r.verdict] += 1
-        return {
-            "sets": len(self.rows),
-            "counts": counts,
-            "by_size": by_size,
-            "stealthy": sum(1 for r in self.rows if r.stealthy),
-            "undetected": [list(r.actuators) for r in self.rows if r.verdict == "undetected"],
-            "undecided": [list(r.actuators) for r in self.rows if r.verdict == "undecided"],
-            "theorem_iii3_modes": dict(self.modes),
-        }
-
-    def to_json(self) -> dict[str, Any]:
-        """``{"schema": "glocal-verify/audit@1", "system", "max_attackers", "candidates", "rows", "summary"}``."""
-        return {
-            "schema": AUDIT_SCHEMA_ID,
-            "system": self.system,
-            "n": self.n,
-            "max_attackers": self.max_attackers,
-            "candidates": list(self.candidates),
-            "rows": [r.to_json() for r in self.rows],
-            "summary": _jsonable(self.summary()),
-        }
-
-    def to_markdown(self) -> str:
-        """A table with one line per set, the undetected sets first."""
-        s = self.summary()
-        c = s["counts"]
-        lines = [
-            f"# Attack audit: {self.system}",
-            "",
-            f"{s['sets']} sets of 1..{self.max_attackers} compromised actuators: {c['detected']} detected, "
-            f"{c['undetected']} undetected, {c['undecided']} undecided; {s['stealthy']} admit a stealthy ZDA.",
-            "",
-            "Safe modes meeting Theorem III.3 (i)-(iii): "
-            + (", ".join(m for m, ok in self.modes.items() if ok) or "none"),
-            "",
-            "| actuators | stealthy | growth | lambda0 | caught locally by | exposed by modes | verdict |",
-            "|---|---|---|---|---|---|---|",
-        ]
-        order = {"undetected": 0, "undecided": 1, "detected": 2}
-        for r in sorted(self.rows, key=lambda r: order[r.verdict]):
-            lam = "-" if r.lambda0 is None else f"{r.lambda0.real:.4g}{'' if r.lambda0.imag == 0 else f'{r.lambda0.imag:+.4g}i'}"
-            caught = ", ".join(f"{cl}@{o}" for cl, o in r.caught_locally_by) or "-"
-            st = "undecided" if r.stealthy is None else ("yes" if r.stealthy else "no")
-            lines.append(
-                f"| {', '.join(map(str, r.actuators))} | {st} | {r.growth} | {lam} | {caught} | {', '.join(r.exposed_by_modes) or '-'} | {r.verdict} |"
-            )
-        return "\n".join(lines) + "\n"
 
 
 # ------------------------------------------------------------------------------------------
@@ -348,6 +237,8 @@ class _Shared:
     exact: bool
     exact_fallback: bool
     screen: bool
+    minors: GroundedTables | None = None
+    local_seed: Mapping[Any, Any] = field(default_factory=dict)
 
 
 def _shared(system: System, tol: Tolerance, exact: bool, exact_fallback: bool | None, screen: bool) -> _Shared:
@@ -355,7 +246,14 @@ def _shared(system: System, tol: Tolerance, exact: bool, exact_fallback: bool | 
         exact_fallback = system.n <= EXACT_FALLBACK_MAX_AGENTS
     system.spectrum()  # the one eigendecomposition of L_1 every set reuses
     lam = system.spec.attack.lambda0 if system.spec.attack is not None else None
-    return _Shared(system, tol, mode_conditions(system, tol, exact=exact), lam, exact, exact_fallback, screen)
+    tables = _global_tables(system) if screen and not exact and system.monitored else None
+    return _Shared(system, tol, mode_conditions(system, tol, exact=exact), lam, exact, exact_fallback, screen, tables)
+
+
+def _global_tables(system: System) -> GroundedTables | None:
+    """The numerator tables of the normal mode's reduced ZDA pencil (outputs M = M_x ∪ M_v)."""
+    entries = laplacian_entries(system, NORMAL_MODE)
+    return grounded_tables(system.n, entries, Fraction(system.alpha_q), system.idx(system.monitored))
 
 
 # ------------------------------------------------------------------------------------------
@@ -390,10 +288,46 @@ class _Zda:
     exact: Any = None
     method: str = "numeric"
     screened: bool = False
+    certificate: str = ""
 
 
-def _zda_part(sh: _Shared, F: tuple[Label, ...]) -> _Zda:
+def _certified_zda(sh: _Shared, F: tuple[Label, ...], cache: dict[Any, Any]) -> _Zda | None:
+    """The ZDA part from the exact minor certificate (no zero with lambda != 0) and lambda = 0.
+
+    When the maximal minors of the reduced pencil have no common root
+    (:func:`glocal_verify.numerics.minors.full_rank_certificate`), the 2N pencil has full
+    column rank at every lambda != 0: left-invertible, and a stealthy ZDA can only have
+    lambda0 = 0. That one point is decided as :func:`glocal_verify.analysis.zda.zda_analysis`
+    decides it (dimension bounds of the kernel of Q_0 and its largest-input vector); None
+    sends the set to the full analysis.
+    """
+    assert sh.minors is not None
+    cert = full_rank_certificate(sh.minors, sh.system.idx(F), cache, modulo_twins=True)
+    if cert is None:
+        return None
+    md = _Modal(sh.system, F, sh.tol)
+    found0, _, lo0, hi0 = md.direction(0j)
+    if hi0 == 0:
+        return _Zda(False, GROWTH_NULL, True, None, "none", certificate=cert.text())
+    if lo0 == 0 or found0 is None:
+        return None
+    xi, u, res, _, du = found0
+    if du is Decision.UNDECIDED:
+        return None
+    if du is Decision.ZERO:
+        return _Zda(False, GROWTH_NULL, True, None, "none", certificate=cert.text())
+    xi_n, u_n = _normalize(xi, u)
+    z = ZdaZero(0j, 0j, xi_n, u_n, res, GROWTH_PERSISTENT, lo0, True)
+    source = "requested lambda0" if sh.lambda0 is not None and complex(sh.lambda0) == 0 else "fastest-growing zero"
+    return _Zda(True, GROWTH_PERSISTENT, True, z, source, certificate=cert.text())
+
+
+def _zda_part(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any] | None = None) -> _Zda:
     system, tol = sh.system, sh.tol
+    if sh.minors is not None:
+        zc = _certified_zda(sh, F, (memo if memo is not None else {}).setdefault("minors", {}))
+        if zc is not None:
+            return zc
     if sh.screen and not sh.exact and sh.lambda0 is not None and disjoint_paths(system, F) < len(F):
         md = _Modal(system, F, tol)
         lam = complex(sh.lambda0)
@@ -407,6 +341,8 @@ def _zda_part(sh: _Shared, F: tuple[Label, ...]) -> _Zda:
         if za.exists or za.decided:
             if not za.exists:
                 growth = GROWTH_NULL
+            elif not za.decided:
+                growth = "undecided"  # left-invertibility or a zero is not certain: the class is not known
             elif not za.left_invertible:
                 growth = GROWTH_UNBOUNDED
             else:
@@ -440,9 +376,12 @@ def _pencil_status(sh: _Shared, cm: Any, obs: Any, sus: tuple[Label, ...], memo:
     if pkey in memo:
         return memo[pkey]  # type: ignore[no-any-return]
     st: Status | None = None
-    if len(sus) > 1 and all(a not in cm.boundary for a in sus):
-        if any(_pencil_status(sh, cm, obs, (a,), memo) is Status.FAILS for a in sus):
-            st = Status.FAILS
+    if len(sus) > 1 and all(a not in cm.boundary for a in sus) and any(_pencil_status(sh, cm, obs, (a,), memo) is Status.FAILS for a in sus):
+        st = Status.FAILS
+    if st is None and twin_failure(sh.system, LocalCase(cm, obs, "attack", sus)) is not None:
+        st = Status.FAILS
+    if st is None and not sh.exact and minor_certificate(sh.system, LocalCase(cm, obs, "attack", sus), memo.setdefault("minors", {})) is not None:
+        st = Status.HOLDS
     if st is None:
         case = LocalCase(cm, obs, "attack", sus)
         if sh.exact:
@@ -533,10 +472,12 @@ def _modes_part(sh: _Shared, F: tuple[Label, ...], z: _Zda) -> tuple[list[str], 
 
 def _audit_set(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any]) -> AuditRow:
     system, tol = sh.system, sh.tol
-    z = _zda_part(sh, F)
+    z = _zda_part(sh, F, memo)
     caught, local_detail, covered = _local_part(sh, F, memo)
     exposed, mode_detail, open_ = _modes_part(sh, F, z)
     witness: dict[str, Any] = {"local": local_detail, "modes": mode_detail, "zda_method": z.method}
+    if z.certificate:
+        witness["zda_certificate"] = z.certificate
     if z.screened:
         witness["separator"] = f"at most {disjoint_paths(system, F)} vertex-disjoint paths from F to M < |F|: not left-invertible"
     if z.left_invertible is not None:
@@ -583,8 +524,66 @@ class AuditChunk:
     sets: tuple[tuple[Label, ...], ...]
 
     def __call__(self) -> list[AuditRow]:
-        memo: dict[Any, Any] = {}
+        memo: dict[Any, Any] = dict(self.shared.local_seed)
         return [_audit_set(self.shared, F, memo) for F in self.sets]
+
+
+@dataclass(frozen=True)
+class LocalSinglesChunk:
+    """Phase one of an audit: the local verdicts of every single candidate of one cluster (picklable).
+
+    Every set's local part is assembled from the verdicts of its members per cluster; the
+    singles are shared by all sets (a pair across two clusters needs nothing else), so they
+    are computed once, then seed the memo of every :class:`AuditChunk`.
+    """
+
+    shared: _Shared
+    cluster: str
+    agents: tuple[Label, ...]
+
+    def __call__(self) -> dict[Any, Any]:
+        memo: dict[Any, Any] = {}
+        for a in self.agents:
+            _local_part(self.shared, (a,), memo)
+        return {k: v for k, v in memo.items() if isinstance(k, tuple)}
+
+
+def local_singles_chunks(chunks: Sequence[AuditChunk], candidates: Sequence[Label]) -> list[LocalSinglesChunk]:
+    """The phase-one tasks of :func:`audit` (one per cluster that holds a candidate).
+
+    Parameters
+    ----------
+    chunks : sequence of AuditChunk
+        From :func:`audit_chunks` (their shared part is used).
+    candidates : sequence of labels
+    """
+    if not chunks:
+        return []
+    sh = chunks[0].shared
+    cand = set(candidates)
+    return [
+        LocalSinglesChunk(sh, c.name, tuple(a for a in c.nodes if a in cand))
+        for c in sh.system.clusters
+        if any(a in cand for a in c.nodes) and sh.system.observers(c.name)
+    ]
+
+
+def seed_chunks(chunks: Sequence[AuditChunk], parts: Iterable[Mapping[Any, Any]]) -> list[AuditChunk]:
+    """The chunks with their memo seeded by the results of :func:`local_singles_chunks`.
+
+    Parameters
+    ----------
+    chunks : sequence of AuditChunk
+    parts : iterable of mappings
+        The phase-one results.
+    """
+    seed: dict[Any, Any] = {}
+    for part in parts:
+        seed.update(part)
+    if not chunks:
+        return []
+    sh = dataclasses.replace(chunks[0].shared, local_seed=seed)
+    return [AuditChunk(sh, ch.sets) for ch in chunks]
 
 
 def audit_chunks(
@@ -650,7 +649,7 @@ def audit(
     exact_fallback: bool | None = None,
     screen: bool = True,
     chunk_size: int = 200,
-    executor: Callable[[Sequence[AuditChunk]], Sequence[Sequence[AuditRow]]] | None = None,
+    executor: Callable[[Sequence[Callable[[], Any]]], Sequence[Any]] | None = None,
 ) -> AuditResult:
     """Audit every set of 1..k compromised actuators among the candidates (module docstring).
 
@@ -680,8 +679,9 @@ def audit(
     chunk_size : int
         Sets per chunk (progress granularity; the unit of work of an executor).
     executor : callable, optional
-        Runs the list of :class:`AuditChunk` callables and returns their rows in the same
-        order, e.g. :func:`glocal_verify.design.distributed.dask_executor` (Dask: an embedded
+        Runs a list of zero-argument callables and returns their results in the same order:
+        first the :class:`LocalSinglesChunk` tasks (the local verdicts of single agents, one per
+        cluster), then the :class:`AuditChunk` tasks (rows), e.g. :func:`glocal_verify.design.distributed.dask_executor` (Dask: an embedded
         LocalCluster or an external scheduler); default: in this process, in order.
 
     Returns
@@ -692,6 +692,8 @@ def audit(
         system = _without_sensors(system, list(sensors))
     sets = attack_sets(system, max_attackers, candidates)
     chunks = audit_chunks(system, sets, chunk_size, tol=tol, exact=exact, exact_fallback=exact_fallback, screen=screen)
+    singles = local_singles_chunks(chunks, _candidates(system, candidates))
+    chunks = seed_chunks(chunks, executor(singles) if executor is not None else [t() for t in singles])
     out: list[Sequence[AuditRow]] = []
     if executor is not None:
         out = list(executor(chunks))
@@ -707,8 +709,6 @@ def audit(
 
 
 def _without_sensors(system: System, sensors: Sequence[Label]) -> System:
-    import dataclasses
-
     bad = [a for a in sensors if a not in system.index]
     if bad:
         raise ModelError(f"--sensors: {', '.join(map(str, bad))} not in the graph")
@@ -718,20 +718,3 @@ def _without_sensors(system: System, sensors: Sequence[Label]) -> System:
         mon, positions=tuple(a for a in mon.positions if a not in s), velocities=tuple(a for a in mon.velocities if a not in s)
     )
     return System(dataclasses.replace(system.spec, monitor=new))
-
-
-def _jsonable(x: Any) -> Any:
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, complex):
-        return [x.real, x.imag]
-    if isinstance(x, (np.floating, float)):
-        f = float(x)
-        return f if math.isfinite(f) else str(f)
-    if isinstance(x, np.integer):
-        return int(x)
-    if isinstance(x, Status):
-        return x.value
-    return x
