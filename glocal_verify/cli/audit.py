@@ -12,6 +12,9 @@ from glocal_verify.cli.common import UsageError, load_system, write_output
 
 __all__ = ["register"]
 
+#: formats of ``--format`` (html: :func:`glocal_verify.reporting.audit_html.audit_to_html`)
+AUDIT_FORMATS = ("json", "markdown", "html")
+
 
 def _labels(system: Any, text: str | None, what: str) -> list[Any] | None:
     if text is None:
@@ -67,10 +70,17 @@ def cmd_audit(args: argparse.Namespace) -> int:
             raise UsageError("--workers must be at least 1")
         executor = dask_executor(args.scheduler, args.workers or 2)
     result = audit(system, args.max_attackers, cands, sensors, _progress(args.quiet), exact=args.exact, chunk_size=args.chunk, executor=executor)
-    text = json.dumps(result.to_json(), indent=2) + "\n" if args.format == "json" else result.to_markdown()
+    if args.format == "json":
+        text = json.dumps(result.to_json(), indent=2) + "\n"
+    elif args.format == "html":
+        from glocal_verify.reporting.audit_html import audit_to_html
+
+        text = audit_to_html(result)
+    else:
+        text = result.to_markdown()
     out_dir = Path(args.out) if args.out and (Path(args.out).is_dir() or args.out.endswith("/")) else None
     if out_dir is not None:
-        name = "audit.json" if args.format == "json" else "audit.md"
+        name = {"json": "audit.json", "html": "audit.html"}.get(args.format, "audit.md")
         write_output(text, str(out_dir / name))
         audit_figure(result, out_dir / "audit.svg")
         audit_figure(result, out_dir / "audit.png")
@@ -90,8 +100,8 @@ def register(sub: Any) -> None:
     p.add_argument("--agents", metavar="LIST", help="comma-separated candidate agents (default all)")
     p.add_argument("--sensors", metavar="LIST", help="agents whose global channels the attacker also owns")
     p.add_argument("--exact", action="store_true", help="decide every row in exact arithmetic")
-    p.add_argument("--format", choices=("json", "markdown"), default="markdown")
-    p.add_argument("--out", metavar="F", help="file, or a folder (then audit.json|md, audit.svg and audit.png are written)")
+    p.add_argument("--format", choices=AUDIT_FORMATS, default="markdown", help="json, markdown (default) or html (one self-contained page)")
+    p.add_argument("--out", metavar="F", help="file, or a folder (then audit.json|md|html, audit.svg and audit.png are written)")
     p.add_argument("--figure", metavar="FILE", help="also write the figure (.svg or .png)")
     p.add_argument("--scheduler", metavar="ADDRESS", help="run the chunks on this Dask scheduler (e.g. tcp://127.0.0.1:8786)")
     p.add_argument("--workers", type=int, metavar="N", help="run the chunks on an embedded Dask LocalCluster of N workers")
