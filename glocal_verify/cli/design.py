@@ -56,7 +56,9 @@ def cmd_design(args: argparse.Namespace) -> int:
         raise UsageError(f"--max-attackers: must be between 1 and the number of agents ({system.n}), not {args.max_attackers}")
     if not args.quiet:
         print("auditing, placing observers, designing safe modes ...", file=sys.stderr)
-    d = design_network(system, budget=args.budget, max_attackers=args.max_attackers, place=not args.no_observers)
+    if args.max_links < 1:
+        raise UsageError(f"--max-links: must be at least 1, not {args.max_links}")
+    d = design_network(system, budget=args.budget, max_attackers=args.max_attackers, place=not args.no_observers, max_links=args.max_links)
     if d.unmet:
         raise UsageError(f"no design within the budget of {args.budget} safe mode(s) meets: {d.unmet[0]}" + (f" (and {len(d.unmet) - 1} more)" if len(d.unmet) > 1 else ""))
     from glocal_verify.model import System
@@ -80,7 +82,8 @@ def register(sub: Any) -> None:
     p.add_argument("spec", nargs="?", help="system specification (TOML, format 1)")
     p.add_argument("--example", metavar="NAME", help="use a bundled example")
     p.add_argument("--out", metavar="DESIGNED.toml", help="write the designed spec here (default stdout)")
-    p.add_argument("--budget", type=int, default=3, metavar="N", help="largest number of designed safe modes (one link change each)")
+    p.add_argument("--budget", type=int, default=3, metavar="N", help="largest number of designed safe modes")
+    p.add_argument("--max-links", type=int, default=2, metavar="K", help="largest number of link changes in one safe mode (one-link modes are tried first; default 2)")
     p.add_argument("--max-attackers", type=int, default=2, metavar="K", help="k of the audit (default 2)")
     p.add_argument("--no-observers", action="store_true", help="keep the spec's local observers")
     p.add_argument("--numeric", action="store_true", help="before/after assessment in floating point (default exact for N <= 60)")

@@ -117,6 +117,7 @@ def design_network(
     weights: Sequence[Any] = DEFAULT_WEIGHTS,
     place: bool = True,
     exact_limit: int = 2000,
+    max_links: int = 2,
 ) -> NetworkDesign:
     """Design monitors, local observers and safe modes for ``system`` (module docstring).
 
@@ -124,7 +125,9 @@ def design_network(
     ----------
     system : System
     budget : int
-        Largest number of designed safe modes (one link change each).
+        Largest number of designed safe modes.
+    max_links : int
+        Largest number of link changes in one safe mode (one-link modes are tried first).
     max_attackers : int
         k of the audits.
     candidates : sequence of labels, optional
@@ -152,7 +155,7 @@ def design_network(
     lambdas = {r.actuators: r.lambda0 for r in mid.rows if r.lambda0 is not None}
     unmet: list[str] = []
     if targets:
-        safe = design_safe_modes(mid_sys, targets, None, budget, weights=weights, lambdas=lambdas)
+        safe = design_safe_modes(mid_sys, targets, None, budget, weights=weights, lambdas=lambdas, max_links=max_links)
     else:
         safe = SafeModeDesign((), (), {}, 0, 0.0, 0)
     for key, why in safe.unexposed.items():
@@ -195,7 +198,7 @@ def design_comments(d: NetworkDesign) -> str:
         )
     for m in d.safe_modes.modes:
         lines.append(
-            f"# [[modes]] {m.name}: {m.link.describe()}; Theorem III.3 (i)-(iii) hold ({m.method}) and it touches every stealthy"
+            f"# [[modes]] {m.name}: {m.describe()}; Theorem III.3 (i)-(iii) hold ({m.method}) and it touches every stealthy"
             f" direction of {len(m.exposes)} audited attack set(s), e.g. {[list(F) for F in m.exposes[:4]]}."
         )
     for u in d.unmet:

@@ -1,6 +1,7 @@
 """Design safe modes (Theorem III.3) that expose every stealthy attack of an audit.
 
-A candidate safe mode changes one link of the normal graph: it adds a link {i, j} with a
+A candidate safe mode changes one link of the normal graph (or, for the attacks no such
+mode exposes, a few links: "Multi-link modes" below): it adds a link {i, j} with a
 weight w from a small set, or removes an existing link of weight w. Then
 dL = delta b b^T with b = e_i - e_j and delta = +w (addition) or -w (removal): a rank-one
 update of L_1. Nothing here computes a fresh eigendecomposition per candidate.
@@ -39,6 +40,31 @@ Exposure (Remark III.3.1, ``switching.avoids-attack``)
     switch is avoidable iff some c with (b^T X) c = 0 has a nonzero input part B c. For
     dim Z = 1 this is b^T x = 0; in general one SVD of size dim Z.
 
+Multi-link modes (attacks no one-link mode exposes)
+    A mode changing s candidate links at once has dL = B D B^T, B = [b_1 .. b_s] and
+    D = diag(delta_1 .. delta_s): a rank-s update of L_1. Only forests of links are
+    searched (no repeated pair, no cycle), so B has full column rank and rank dL = s.
+
+    * (i) rank(S_M dL) = rank(S_M B) (B^T has full row rank, D is invertible), decided over
+      Q from the incidence entries. A tree component with c links needs c monitored agents
+      among its c + 1, so every link needs a monitored endpoint (a pre-filter).
+    * Exposure: dL X c = B D (B^T X) c = 0 iff (B^T X) c = 0, so the switch is unavoidable
+      iff every c in ker(X[I] - X[J]) (an s x r matrix) has B c = 0: one batched SVD over
+      all changes. For dim Z = 1 a change exposes iff one of its links touches the direction;
+      two links can then help only by making (ii)-(iii) hold where each link alone fails
+      them. For dim Z = 2 two links may pin the kernel where one cannot.
+    * (ii)-(iii) screen: s successive rank-one updates in the eigenbasis of L_1 (the secular
+      equation above, deflating z_k = 0, which is how one link failing (iii) on u_k can be
+      repaired by a second link with z_k != 0), carrying the coordinates of every difference
+      e_i - e_j of a pair in one switching component; O(s N^2) per bisection step, no fresh
+      eigendecomposition. The screen is not a proof; it only orders the proposals
+      (:mod:`glocal_verify.design.multilink` holds this machinery and its thresholds).
+
+    Changes are scored against the remaining attacks (at most ``MAX_COMBINATIONS`` per size,
+    size 2 first, then up to ``max_links``), and the best-scoring ones are screened (at most
+    ``MAX_SCREENS`` per chosen mode, fewer for large N: ``MAX_SCREEN_WORK``) and re-verified as below: so a multi-link mode is
+    proposed only for attacks no one-link mode exposes, with as few links as the search finds.
+
 Search and verification
     Greedy set cover over the admissible candidates (each covers the attacks it exposes),
     at most ``budget`` modes, so the number of modes is within a factor H(n) = 1 + 1/2 + ... +
@@ -63,6 +89,12 @@ import numpy as np
 from glocal_verify.analysis.avoidance import _split, _stealthy_bases
 from glocal_verify.analysis.zda import _Modal
 from glocal_verify.conditions.registry import verify
+from glocal_verify.design.multilink import (
+    image_kernel_holds,
+    link_forest,
+    screen_changes,
+    touch_cover,
+)
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.numerics.spectrum import EPS
@@ -108,12 +140,15 @@ class ProposedMode:
     ----------
     name : str
     link : LinkCandidate
+        The (first) link change.
     exposes : tuple of attack sets
         Attacks for which the checkers confirmed (i)-(iii) and ``switching.avoids-attack`` fails.
     verification : mapping
         Condition id -> status on the designed mode (the first attack's spec).
     method : str
         ``exact`` or ``numeric``.
+    also : tuple of LinkCandidate
+        Further link changes of a multi-link mode (empty for one link).
     """
 
     name: str
@@ -121,13 +156,23 @@ class ProposedMode:
     exposes: tuple[tuple[Label, ...], ...]
     verification: Mapping[str, str] = field(default_factory=dict)
     method: str = "exact"
+    also: tuple[LinkCandidate, ...] = ()
+
+    @property
+    def links(self) -> tuple[LinkCandidate, ...]:
+        """Every link change of the mode: ``link`` first, then ``also``."""
+        return (self.link,) + tuple(self.also)
+
+    def describe(self) -> str:
+        """The changes, e.g. ``add 4-7 (w=1) + remove 2-3``."""
+        return " + ".join(c.describe() for c in self.links)
 
     def mode_spec(self) -> ModeSpec:
         """The mode as a spec table entry."""
-        desc = f"{self.link.describe()}: Theorem III.3 (i)-(iii) hold and the switch touches {len(self.exposes)} audited attack(s)"
-        if self.link.remove:
-            return ModeSpec(self.name, remove=((self.link.u, self.link.v),), description=desc)
-        return ModeSpec(self.name, add=(EdgeSpec(self.link.u, self.link.v, self.link.weight),), description=desc)
+        desc = f"{self.describe()}: Theorem III.3 (i)-(iii) hold and the switch touches {len(self.exposes)} audited attack(s)"
+        add = tuple(EdgeSpec(c.u, c.v, c.weight) for c in self.links if not c.remove)
+        remove = tuple((c.u, c.v) for c in self.links if c.remove)
+        return ModeSpec(self.name, add=add, remove=remove, description=desc)
 
 
 @dataclass(frozen=True, slots=True)
@@ -147,6 +192,13 @@ class SafeModeDesign:
         Candidate evaluations ((i)-(iii) and the touch test against every target) per second.
     admissible : int
         Candidates meeting (i)-(iii).
+    combinations : int
+        Multi-link changes (2..``max_links`` candidates) scored against the targets no
+        one-link mode exposes (0 when the one-link search sufficed).
+    combinations_per_second : float
+        Multi-link changes scored per second (the touch test against every remaining target).
+    screened : int
+        Multi-link changes whose (i)-(iii) were screened with the low-rank update.
     """
 
     modes: tuple[ProposedMode, ...]
@@ -155,6 +207,9 @@ class SafeModeDesign:
     candidates: int
     evaluations_per_second: float
     admissible: int
+    combinations: int = 0
+    combinations_per_second: float = 0.0
+    screened: int = 0
 
     @property
     def complete(self) -> bool:
@@ -165,7 +220,14 @@ class SafeModeDesign:
         """JSON form."""
         return {
             "modes": [
-                {"name": m.name, "change": m.link.describe(), "exposes": [list(F) for F in m.exposes], "verification": dict(m.verification), "method": m.method}
+                {
+                    "name": m.name,
+                    "change": m.describe(),
+                    "links": len(m.links),
+                    "exposes": [list(F) for F in m.exposes],
+                    "verification": dict(m.verification),
+                    "method": m.method,
+                }
                 for m in self.modes
             ],
             "targets": [list(F) for F in self.targets],
@@ -173,6 +235,9 @@ class SafeModeDesign:
             "candidates": self.candidates,
             "admissible": self.admissible,
             "evaluations_per_second": self.evaluations_per_second,
+            "combinations": self.combinations,
+            "combinations_per_second": self.combinations_per_second,
+            "screened": self.screened,
         }
 
 
@@ -381,9 +446,9 @@ def _cover(system: System, cands: Sequence[LinkCandidate], ok: np.ndarray, tg: S
     return cover
 
 
-def _confirm(system: System, link: LinkCandidate, name: str, attacks: Sequence[tuple[Label, ...]], exact: bool) -> tuple[list[tuple[Label, ...]], dict[str, str]]:
-    """Re-verify a proposed mode with the checkers; the attacks it is confirmed to expose."""
-    mode = ProposedMode(name, link, ()).mode_spec()
+def _confirm(system: System, links: Sequence[LinkCandidate], name: str, attacks: Sequence[tuple[Label, ...]], exact: bool) -> tuple[list[tuple[Label, ...]], dict[str, str]]:
+    """Re-verify a proposed mode (its link changes) with the checkers; the attacks it is confirmed to expose."""
+    mode = ProposedMode(name, links[0], (), also=tuple(links[1:])).mode_spec()
     base = with_modes(system.spec, [mode], keep=False)
     confirmed: list[tuple[Label, ...]] = []
     statuses: dict[str, str] = {}
@@ -401,6 +466,123 @@ def _confirm(system: System, link: LinkCandidate, name: str, attacks: Sequence[t
     return confirmed, statuses
 
 
+# ------------------------------------------------------------------------------------------
+# multi-link changes (module docstring, "Multi-link modes")
+
+#: at most this many multi-link changes are scored, and this many screened per chosen mode
+MAX_COMBINATIONS = 200_000
+MAX_SCREENS = 4000
+#: and at most about this many entry operations of the screen per chosen mode (64 s N^2 each)
+MAX_SCREEN_WORK = 2e9
+#: changes screened together (one batched secular solve), at most about this many array
+#: entries (B (N - 1)^2) per temporary
+SCREEN_BATCH = 64
+SCREEN_BATCH_ENTRIES = 4e6
+
+
+def _pairs(system: System, links: Sequence[LinkCandidate]) -> list[tuple[int, int]]:
+    return [(system.index[c.u], system.index[c.v]) for c in links]
+
+
+def _multi_combinations(system: System, cands: Sequence[LinkCandidate], tg: Sequence[_Target], todo: Sequence[int], size: int, thr: float) -> list[tuple[int, ...]]:
+    """Forests of ``size`` candidates, each with a monitored endpoint, at least one touching a target in ``todo``."""
+    import itertools
+
+    M = set(system.monitored)
+    pool = [k for k, c in enumerate(cands) if c.u in M or c.v in M]
+    touch = set()
+    for k in pool:
+        i, j = system.index[cands[k].u], system.index[cands[k].v]
+        if any(float(np.linalg.norm(tg[t].X[i] - tg[t].X[j])) > thr for t in todo):
+            touch.add(k)
+    out: list[tuple[int, ...]] = []
+    for a in sorted(touch):  # a is the smallest touching candidate of the combination
+        others = [k for k in pool if k != a and (k not in touch or k > a)]
+        for rest in itertools.combinations(others, size - 1):
+            combo = tuple(sorted((a,) + rest))
+            if link_forest(_pairs(system, [cands[k] for k in combo])) is None:
+                continue
+            out.append(combo)
+            if len(out) >= MAX_COMBINATIONS:
+                return out
+    return out
+
+
+def _multi_search(
+    system: System,
+    cands: Sequence[LinkCandidate],
+    tg: Sequence[_Target],
+    todo: set[int],
+    slots: int,
+    max_links: int,
+    thr: float,
+    exact: bool,
+    verify_designs: bool,
+    first: int,
+) -> tuple[list[ProposedMode], set[int], int, float, int]:
+    """Greedy cover of ``todo`` by changes of 2..``max_links`` links: modes, covered targets, scored, rate, screened."""
+    modes: list[ProposedMode] = []
+    covered: set[int] = set()
+    scored, screened, elapsed = 0, 0, 0.0
+    U, values = np.asarray(system.spectrum().vectors), np.asarray(system.spectrum().values)
+    monitored = {system.index[a] for a in system.monitored}
+    for size in range(2, max_links + 1):
+        left = sorted(todo - covered)
+        if not left or len(modes) >= slots:
+            break
+        t0 = time.perf_counter()
+        combos = _multi_combinations(system, cands, tg, left, size, thr)
+        if not combos:
+            elapsed += time.perf_counter() - t0
+            continue
+        I = np.array([[system.index[cands[k].u] for k in cb] for cb in combos], dtype=np.int64)
+        J = np.array([[system.index[cands[k].v] for k in cb] for cb in combos], dtype=np.int64)
+        C = touch_cover([(tg[t].X, tg[t].B) for t in left], I, J, thr)
+        elapsed += time.perf_counter() - t0
+        scored += len(combos)
+        remaining = np.ones(len(left), dtype=bool)
+        tried: set[int] = set()
+        while remaining.any() and len(modes) < slots:
+            counts = C[:, remaining].sum(axis=1)
+            order = iter([int(p) for p in np.argsort(-counts, kind="stable") if counts[p] > 0 and int(p) not in tried])
+            chosen = None
+            budget = int(min(MAX_SCREENS, max(8, MAX_SCREEN_WORK / (64 * size * system.n**2))))
+            while budget > 0 and chosen is None:
+                batch: list[int] = []
+                for p in order:
+                    if image_kernel_holds(_pairs(system, [cands[k] for k in combos[p]]), monitored):
+                        batch.append(p)
+                    else:
+                        tried.add(p)
+                    if len(batch) >= min(SCREEN_BATCH, budget, max(1, int(SCREEN_BATCH_ENTRIES // system.n**2))):
+                        break
+                if not batch:
+                    break
+                budget -= len(batch)
+                screened += len(batch)
+                signed = [[-float(cands[k].weight) if cands[k].remove else float(cands[k].weight) for k in combos[p]] for p in batch]
+                passed = screen_changes(U, values, [(_pairs(system, [cands[k] for k in combos[p]]), w) for p, w in zip(batch, signed)])
+                tried.update(p for p, ok in zip(batch, passed) if not ok)
+                for p in (q for q, ok in zip(batch, passed) if ok):
+                    tried.add(p)
+                    links = [cands[k] for k in combos[p]]
+                    claim = [tg[left[c]].F for c in np.flatnonzero(C[p] & remaining)]
+                    name = f"designed-{first + len(modes)}"
+                    got, statuses = _confirm(system, links, name, claim, exact) if verify_designs else (claim, {})
+                    if got:
+                        chosen = ProposedMode(name, links[0], tuple(got), statuses, "exact" if exact else "numeric", tuple(links[1:]))
+                        break
+            if chosen is None:
+                break
+            modes.append(chosen)
+            hit = set(chosen.exposes)
+            for c, t in enumerate(left):
+                if tg[t].F in hit:
+                    remaining[c] = False
+                    covered.add(t)
+    return modes, covered, scored, scored / max(elapsed, 1e-9) if scored else 0.0, screened
+
+
 def design_safe_modes(
     system: System,
     attacks: Iterable[Sequence[Label]] | None = None,
@@ -412,8 +594,13 @@ def design_safe_modes(
     tol: Tolerance = DEFAULT_TOLERANCE,
     exact: bool | None = None,
     verify_designs: bool = True,
+    max_links: int = 2,
 ) -> SafeModeDesign:
-    """Safe modes of one link change each that meet Theorem III.3 (i)-(iii) and expose the attacks.
+    """Safe modes of as few link changes as the search finds that meet Theorem III.3 (i)-(iii) and expose the attacks.
+
+    One-link modes first (greedy set cover); the attacks no one-link mode exposes are then
+    covered greedily by changes of 2..``max_links`` candidate links (module docstring,
+    "Multi-link modes"). Every proposal is re-verified by the checkers.
 
     Parameters
     ----------
@@ -424,7 +611,7 @@ def design_safe_modes(
     candidate_links : sequence of LinkCandidate, optional
         Allowed changes; default :func:`default_candidates` (distance <= 2, ``weights``, removals).
     budget : int
-        Largest number of safe modes (= link changes) proposed.
+        Largest number of safe modes proposed.
     weights : sequence of Fraction
         Weights of added links in the default candidates.
     lambdas : mapping, optional
@@ -434,6 +621,8 @@ def design_safe_modes(
         Re-verify over Q (default: N <= 40).
     verify_designs : bool
         Re-verify every proposal with the checkers (turn off only for benchmarks).
+    max_links : int
+        Largest number of link changes in one mode (1: one-link modes only).
 
     Returns
     -------
@@ -443,12 +632,14 @@ def design_safe_modes(
     Raises
     ------
     NotApplicableError
-        An empty candidate set, or budget < 1.
+        An empty candidate set, budget < 1, or max_links < 1.
     """
     from glocal_verify.design.audit import audit
 
     if budget < 1:
         raise NotApplicableError(f"budget: must be at least 1 safe mode, not {budget}")
+    if max_links < 1:
+        raise NotApplicableError(f"max_links: must be at least 1 link change, not {max_links}")
     cands = list(candidate_links) if candidate_links is not None else default_candidates(system, weights)
     if not cands:
         raise NotApplicableError("candidate_links: the candidate set is empty")
@@ -480,7 +671,7 @@ def design_safe_modes(
         claim = [tg[k].F for k in sorted(cover[best] & uncovered)]
         name = f"designed-{len(modes) + 1}"
         if verify_designs:
-            got, statuses = _confirm(system, cands[best], name, claim, exact)
+            got, statuses = _confirm(system, [cands[best]], name, claim, exact)
         else:
             got, statuses = claim, {}
         if not got:
@@ -489,6 +680,13 @@ def design_safe_modes(
         modes.append(ProposedMode(name, cands[best], tuple(got), statuses, "exact" if exact else "numeric"))
         uncovered -= {k for k in range(len(tg)) if tg[k].F in set(got)}
         rejected.add(best)
+    scored, multi_rate, screened = 0, 0.0, 0
+    if uncovered and len(modes) < budget and max_links >= 2 and err is not None:
+        more, done, scored, multi_rate, screened = _multi_search(
+            system, cands, tg, uncovered, budget - len(modes), max_links, thr, exact, verify_designs, len(modes) + 1
+        )
+        modes += more
+        uncovered -= done
     unexposed: dict[str, str] = {}
     for F in targets_F:
         if F not in lambdas:
@@ -500,9 +698,11 @@ def design_safe_modes(
             unexposed[key] = "no candidate meets Theorem III.3 (i)-(iii): " + blocking
         elif not any(k in cv for cv in cover):
             why = "no admissible one-link change touches every stealthy direction"
+            if max_links >= 2:
+                why += f", and the search found no admissible change of 2..{max_links} links that does"
             if tg[k].X.shape[1] > 1:
                 why += f" (the stealthy kernel at lambda0 has dimension {tg[k].X.shape[1]})"
             unexposed[key] = why
         else:
             unexposed[key] = f"the budget of {budget} safe mode(s) is exhausted"
-    return SafeModeDesign(tuple(modes), tuple(targets_F), unexposed, len(cands), rate, int(ok.sum()))
+    return SafeModeDesign(tuple(modes), tuple(targets_F), unexposed, len(cands), rate, int(ok.sum()), scored, multi_rate, screened)
