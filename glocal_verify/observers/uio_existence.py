@@ -11,12 +11,13 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.numerics import exact as ex
+from glocal_verify.numerics.subspace import EPS
 from glocal_verify.numerics.tolerance import (
     DEFAULT_TOLERANCE,
     Decision,
@@ -70,10 +71,18 @@ def observable_split(A: np.ndarray, C: np.ndarray, tol: Tolerance = DEFAULT_TOLE
     undecided. The observability matrix is never formed.
     """
     n = A.shape[0]
-    scale = max(float(np.linalg.norm(A, 2)) if n else 0.0, float(np.linalg.norm(C, 2)) if C.size else 0.0, 1e-300)
+    scale = max(float(np.linalg.norm(A, 2)) if n else 0.0, float(np.linalg.norm(C, 2)) if C.size else 0.0)
+    return _observable_split(A, C, tol, scale)
+
+
+def _observable_split(A: np.ndarray, C: np.ndarray, tol: Tolerance, scale: float) -> ObservableSplit:
+    """:func:`observable_split` with ``scale = max(||A||_2, ||C||_2)`` given by the caller."""
+    n = A.shape[0]
+    scale = max(scale, 1e-300)
     decided = True
     if C.size == 0:
         return ObservableSplit(np.zeros((n, 0)), np.eye(n), True)
+    At = _operator(A.T)
     U, s, _ = np.linalg.svd(C.T, full_matrices=False)
     keep = s > tol.upper * scale
     if np.any((s > tol.rtol * scale) & ~keep):
@@ -87,7 +96,7 @@ def observable_split(A: np.ndarray, C: np.ndarray, tol: Tolerance = DEFAULT_TOLE
     new = Vbuf[:, :k]
     while k < n and new.shape[1] > 0:
         V = Vbuf[:, :k]
-        W = A.T @ new
+        W = At @ new
         W = W - V @ (V.T @ W)
         W = W - V @ (V.T @ W)  # re-orthogonalise
         U, s, _ = np.linalg.svd(W, full_matrices=False)
@@ -104,6 +113,23 @@ def observable_split(A: np.ndarray, C: np.ndarray, tol: Tolerance = DEFAULT_TOLE
     Qfull = np.linalg.qr(V, mode="complete")[0]
     Qu = np.ascontiguousarray(Qfull[:, k:])
     return ObservableSplit(V, Qu, decided)
+
+
+def _operator(A: np.ndarray) -> Any:
+    """A as a CSR matrix when it is sparse (the cluster matrices A_1 are: a few nonzeros per
+    row), else A itself; products A V are then O(nnz(A) k) instead of O(n^2 k) and differ from
+    the dense ones only by rounding (each entry is the same sum of products)."""
+    n = A.shape[0]
+    if n < _SPARSE_MIN or np.count_nonzero(A) > _SPARSE_DENSITY * n * n:
+        return A
+    import scipy.sparse
+
+    return scipy.sparse.csr_matrix(A)
+
+
+#: A^T products go through a CSR matrix for n >= _SPARSE_MIN and density <= _SPARSE_DENSITY
+_SPARSE_MIN = 64
+_SPARSE_DENSITY = 0.05
 
 
 def _keep_threshold(gamma: float) -> float:
@@ -184,9 +210,19 @@ def _slow_schur(Aoo: np.ndarray, gamma: float) -> tuple[np.ndarray, np.ndarray, 
     return T, Q, int(k)
 
 
+@dataclass(frozen=True, slots=True)
+class _Reduction:
+    """Orthogonal Q (n_o x n_o) with Q^T (Aoo - Lo Co)^T Q = [[T11, *], [0, *]], T11 (kept x kept)
+    quasi-triangular; ``sub[i]`` says whether T11[i + 1, i] opens a 2 x 2 block."""
+
+    Q: np.ndarray
+    kept: int
+    sub: np.ndarray
+
+
 def _place_slow(
     Aoo: np.ndarray, Co: np.ndarray, gamma: float, tol: Tolerance, theta: float = 0.9, schur: tuple[np.ndarray, np.ndarray, int] | None = None
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, _Reduction]:
     """Gain Lo moving only the slow modes of Aoo (partial placement through an ordered Schur form).
 
     The real Schur form of Aoo^T is ordered with the kept eigenvalues first:
@@ -196,35 +232,79 @@ def _place_slow(
     small block T22 is reordered once more (its eigenvalues with Re <= -theta sigma join the
     kept ones), so fewer, only the slowest, modes are moved.
 
-    Returns (Lo, requested poles, eigenvalues of Aoo - Lo Co), the last two read off the
-    (block) triangular form instead of a new eigen-decomposition.
+    Returns (Lo, requested poles, eigenvalues of Aoo - Lo Co, the reduction), the eigenvalues
+    read off the (block) triangular form instead of a new eigen-decomposition; the reduction
+    (the orthogonal basis and the size of the untouched quasi-triangular block) lets
+    :func:`_hurwitz_reduced` certify F without a new dense eigen-decomposition.
     """
     import scipy.linalg
 
     no = Aoo.shape[0]
     T, Q, k = schur if schur is not None else _slow_schur(Aoo, gamma)
     kept = _schur_eigvals(T[:k, :k])
+    sub = np.diag(T[:k, :k], -1) != 0.0
     T22, Q2 = T[k:, k:], Q[:, k:]
     if theta < 0.9 and k < no:
         S, Z, j = scipy.linalg.schur(T22, output="real", sort=lambda x, y: x <= -theta * float(gamma) / 2.0)
         j = int(j)
         kept = np.concatenate([kept, _schur_eigvals(S[:j, :j])])
+        if j:
+            sub = np.concatenate([sub, [False] if k else [], np.diag(S[:j, :j], -1) != 0.0]).astype(bool)
         T22, Q2 = S[j:, j:], (Q2 @ Z)[:, j:]
+        Q = np.hstack([Q[:, :k], Q[:, k:] @ Z])
+        k += j
+    red = _Reduction(Q, k, sub)
     if T22.shape[0] == 0:
-        return np.zeros((no, Co.shape[0])), default_poles(kept, gamma), kept
+        return np.zeros((no, Co.shape[0])), default_poles(kept, gamma), kept, red
     Y2 = Q2.T @ Co.T
     want = default_poles(_schur_eigvals(T22), gamma)
     G = _place_dual(T22, Y2, want, tol)
     placed = np.concatenate([kept, np.linalg.eigvals(T22 - Y2 @ G)])
-    return np.asarray(Q2 @ G.T), np.concatenate([kept, np.asarray(want, dtype=complex)]), placed
+    return np.asarray(Q2 @ G.T), np.concatenate([kept, np.asarray(want, dtype=complex)]), placed, red
+
+
+def _placed(M: np.ndarray, p: np.ndarray) -> bool:
+    """Every requested pole is within 1e-8 max(1, max |p|) of an eigenvalue of M."""
+    got = np.linalg.eigvals(M)
+    return bool(max(float(np.min(np.abs(got - z))) for z in p) <= 1e-8 * max(1.0, float(np.max(np.abs(p)))))
+
+
+def _place_square(X: np.ndarray, B: np.ndarray, p: np.ndarray) -> np.ndarray | None:
+    """G = B^{-1} (X - Lambda) for B square and invertible: X - B G = Lambda, the real block
+    diagonal matrix of the poles (real ones ascending, then each pair re +- i im, ascending, as
+    the block [[re, |im|], [-|im|, re]]), the choice :func:`scipy.signal.place_poles` makes for
+    full-rank B.
+    None when the poles are not closed under conjugation."""
+    real = np.sort(p[p.imag == 0.0].real)
+    pairs = np.sort(p[p.imag < 0.0])
+    ns = X.shape[0]
+    if len(real) + 2 * len(pairs) != ns:
+        return None
+    Lam = np.zeros((ns, ns))
+    Lam[np.arange(len(real)), np.arange(len(real))] = real
+    for j, z in enumerate(pairs):
+        i = len(real) + 2 * j
+        Lam[i : i + 2, i : i + 2] = [[z.real, -z.imag], [z.imag, z.real]]  # z.imag < 0
+    return np.asarray(np.linalg.lstsq(B, X - Lam, rcond=None)[0])
 
 
 def _place_dual(X: np.ndarray, Y: np.ndarray, poles: np.ndarray, tol: Tolerance) -> np.ndarray:
-    """G with eig(X - Y G) = poles (Y compressed to full column rank first)."""
+    """G with eig(X - Y G) = poles (Y compressed to full column rank r first).
+
+    When r equals the number of states (compressed Y square and invertible) G is the closed
+    form of :func:`_place_square`, checked by recomputing the eigenvalues; otherwise (or if
+    that check fails) :func:`scipy.signal.place_poles` (method YT).
+    """
     U, s, Vh = np.linalg.svd(Y, full_matrices=False)
     r = int(np.sum(s > tol.upper * max(float(s[0]) if len(s) else 0.0, 1e-300)))
     Bp = U[:, :r] * s[:r]
     p = np.asarray(poles, dtype=complex)
+    if r == X.shape[0] and r > 0:
+        # the slow blocks of the default design usually have as many outputs as states: the
+        # closed form below is what place_poles computes then, without importing scipy.signal
+        Gs = _place_square(X, Bp, p)
+        if Gs is not None and np.all(np.isfinite(Gs)) and _placed(X - Bp @ Gs, p):
+            return np.asarray(Vh[:r].T @ Gs)
     if np.all(p.imag == 0):
         p = p.real
     try:
@@ -272,6 +352,126 @@ def _hurwitz(F: np.ndarray, tol: Tolerance) -> tuple[Status, float, np.ndarray]:
     kappa = 1.0 / np.maximum(np.abs(np.sum(vl.conj() * vr, axis=0)), 1e-300)
     rho = kappa * tol.rtol * max(_norm2(F), 1e-300)
     ratio = -w.real / rho
+    worst = float(np.min(ratio))
+    if np.all(ratio > tol.band):
+        return Status.HOLDS, worst, w
+    if np.any(ratio < -tol.band):
+        return Status.FAILS, worst, w
+    return Status.UNDECIDED, worst, w
+
+
+def _real_to_complex_schur(S: np.ndarray) -> np.ndarray:
+    """Complex upper triangular unitarily similar to the real quasi-triangular S (each 2 x 2
+    block split by a Givens rotation, as :func:`scipy.linalg.rsf2csf`, without the basis)."""
+    T = S.astype(complex)
+    n = T.shape[0]
+    for m in range(n - 1, 0, -1):
+        if T[m, m - 1] != 0.0:
+            mu = np.linalg.eigvals(T[m - 1 : m + 1, m - 1 : m + 1]) - T[m, m]
+            r = float(np.hypot(abs(mu[0]), abs(T[m, m - 1])))
+            c, sn = mu[0] / r, T[m, m - 1] / r
+            G = np.array([[np.conj(c), sn], [-sn, c]])
+            T[m - 1 : m + 1, m - 1 :] = G @ T[m - 1 : m + 1, m - 1 :]
+            T[: m + 1, m - 1 : m + 1] = T[: m + 1, m - 1 : m + 1] @ G.conj().T
+        T[m, m - 1] = 0.0
+    return T
+
+
+def _triangular_kappa(T: np.ndarray, twin: np.ndarray | None = None) -> np.ndarray:
+    """Condition numbers kappa_i = ||x_i|| ||y_i|| / |y_i^H x_i| of the eigenvalues T[i, i] of an
+    upper triangular T, from its right (x_i) and left (y_i) eigenvectors by back substitution.
+
+    x_i has x_i[i] = 1 and zeros below i, y_i^H has y_i[i] = 1 and zeros before i, so
+    y_i^H x_i = 1. A divisor T[j, j] - T[i, i] smaller than u (|Re| + |Im|) of T[i, i] is
+    replaced by that value (the perturbation of LAPACK's xTREVC); a non-finite result gives
+    kappa = inf (nothing can be certified from it). ``twin[i]`` True means that T[i, i] is the
+    conjugate of T[i - 1, i - 1] in a T unitarily similar to a real matrix: its condition number
+    is the same (conjugate eigenvectors of the real matrix) and is not computed again.
+    """
+    n = T.shape[0]
+    lam = np.diag(T).copy()
+    smin = np.maximum(EPS / 2 * (np.abs(lam.real) + np.abs(lam.imag)), np.finfo(float).tiny)
+    tw = np.zeros(n, dtype=bool) if twin is None else np.asarray(twin, dtype=bool)
+    cols = np.flatnonzero(~tw)  # ascending; the eigenvalues whose vectors are computed
+    nc = len(cols)
+    lc, sc = lam[cols], smin[cols]
+
+    def guard(d: np.ndarray, m: np.ndarray) -> np.ndarray:
+        return np.where(np.abs(d) < m, m, d)
+
+    X = np.zeros((n, nc), dtype=complex)  # columns: right eigenvectors of T[cols, cols]
+    Yh = np.zeros((nc, n), dtype=complex)  # rows: left eigenvectors (conjugated)
+    X[cols, np.arange(nc)] = 1.0
+    Yh[np.arange(nc), cols] = 1.0
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        for j in range(n - 2, -1, -1):
+            a = int(np.searchsorted(cols, j + 1))  # columns c with cols[c] > j
+            if a < nc:
+                X[j, a:] = -(T[j, j + 1 :] @ X[j + 1 :, a:]) / guard(T[j, j] - lc[a:], sc[a:])
+        for j in range(1, n):
+            b = int(np.searchsorted(cols, j))  # rows c with cols[c] < j
+            if b:
+                Yh[:b, j] = -(Yh[:b, :j] @ T[:j, j]) / guard(T[j, j] - lc[:b], sc[:b])
+        kc = np.linalg.norm(X, axis=0) * np.linalg.norm(Yh, axis=1)
+    kappa = np.empty(n)
+    kappa[cols] = kc
+    for i in np.flatnonzero(tw):
+        kappa[i] = kappa[i - 1]
+    return np.where(np.isfinite(kappa), kappa, np.inf)
+
+
+#: the reduced certificate is used when the trailing (moved and unobservable) block is at most
+#: this large and the entries it drops are at most rtol ||F||_2 (else the dense one)
+_REDUCED_TAIL = 400
+
+
+def _hurwitz_reduced(F: np.ndarray, W: np.ndarray, kept: int, sub: np.ndarray, tol: Tolerance) -> tuple[Status, float, np.ndarray] | None:
+    """:func:`_hurwitz` from a known block triangularisation of F^T; None when it does not apply.
+
+    W (n x n, orthonormal columns) is such that R = W^T F^T W is block upper triangular with a
+    quasi-triangular leading block of size ``kept`` (2 x 2 blocks where ``sub`` is True): for
+    the UIO, W = [Qo Q, Qu] with Q the ordered Schur basis of the default design (the kept
+    eigenvalues stay, the moved ones and the unobservable ones form the trailing block). The
+    trailing block is brought to real Schur form, the rest of R is kept upper quasi-triangular
+    and the entries dropped below it (rounding, and the part of A_1 Qu outside Qu that the
+    numerical observable split leaves) have Frobenius norm ``d``. Then F^T is within d (plus
+    the rounding of orthogonal transformations, far below rtol ||F||_2) of a matrix similar to
+    the quasi-triangular S, and the certificate of :func:`hurwitz_certificate` is applied to
+    the eigenvalues of S (its diagonal blocks) and their condition numbers
+    (:func:`_triangular_kappa`, invariant under the unitary similarities) with
+    delta = rtol ||F||_2 + d, never smaller than the dense certificate's. Used only when
+    d <= rtol ||F||_2 and the trailing block has at most :data:`_REDUCED_TAIL` states.
+    """
+    import scipy.linalg
+
+    n = F.shape[0]
+    m = n - kept
+    if n == 0 or m > _REDUCED_TAIL or W.shape != (n, n) or len(sub) != max(kept - 1, 0):
+        return None
+    R = W.T @ np.asarray(_operator(F.T) @ W)
+    if m:
+        S2, Z2 = scipy.linalg.schur(R[kept:, kept:], output="real")
+        R[:, kept:] = R[:, kept:] @ Z2
+        R[kept:, :] = Z2.T @ R[kept:, :]
+        R[kept:, kept:] = S2
+    keep_sub = np.zeros(max(n - 1, 0), dtype=bool)
+    keep_sub[: max(kept - 1, 0)] = sub
+    if m:
+        keep_sub[kept:] = np.diag(R[kept:, kept:], -1) != 0.0
+    S = np.triu(R)
+    i = np.flatnonzero(keep_sub)
+    S[i + 1, i] = R[i + 1, i]
+    dropped = float(np.linalg.norm(R - S))
+    delta = tol.rtol * max(_norm2(F), 1e-300)
+    if not dropped <= delta:
+        return None
+    Tc = _real_to_complex_schur(S)
+    w = np.diag(Tc).copy()
+    twin = np.zeros(n, dtype=bool)
+    twin[i + 1] = True  # the second eigenvalue of every 2 x 2 block: the conjugate of the first
+    rho = _triangular_kappa(Tc, twin) * (delta + dropped)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = np.where(np.isfinite(rho), -w.real / rho, 0.0)
     worst = float(np.min(ratio))
     if np.all(ratio > tol.band):
         return Status.HOLDS, worst, w
@@ -351,10 +551,10 @@ def uio_existence(A: np.ndarray, E: np.ndarray, C: np.ndarray, tol: Tolerance = 
     if h is None:
         return UIOExistence(rank_st if rank_st is Status.UNDECIDED else Status.FAILS, rank_st, Status.FAILS if rank_st is Status.FAILS else Status.UNDECIDED, None, None, None, None, empty, None, -np.inf)
     T = np.eye(n) - h @ C
-    A1 = T @ A
-    split = observable_split(A1, C, tol)
-    Qu = split.Qu
+    A1 = A - h @ (C @ A)  # = T A, in O(n^2 p) instead of a dense n^3 product
     scale = max(float(np.linalg.norm(A1, 2)), 1e-300)
+    split = _observable_split(A1, C, tol, max(scale, float(np.linalg.norm(C, 2)) if C.size else 0.0))
+    Qu = split.Qu
     if Qu.shape[1] == 0:
         det = Status.HOLDS if split.decided else Status.UNDECIDED
         return UIOExistence(det, rank_st, det, h, T, A1, split, empty, None, np.inf)
