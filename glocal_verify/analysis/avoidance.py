@@ -27,11 +27,12 @@ from glocal_verify.analysis.zda_exact import (
     _exact_zero,
     _fq,
     _q_matrix,
+    transfer_kernel,
     zda_analysis_exact,
 )
 from glocal_verify.model import System
 from glocal_verify.numerics import exact as ex
-from glocal_verify.numerics.pencil_exact import kernel_over_field, rank_over_field
+from glocal_verify.numerics.pencil_exact import RootEnclosures, eval_at_root, kernel_over_field, rank_over_field
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
 from glocal_verify.results import Status
 from glocal_verify.spec.types import Label
@@ -422,7 +423,8 @@ def _exact_mode(system: System, mode: str, d: ExactZdaZero, source: str, F: Sequ
         Q = _q_matrix(system, F, system.idx(system.monitored), s_poly)
         zero = flint.fmpq_poly(0)
         dl_p = [[flint.fmpq_poly(_fq(dL[i][j])) for j in range(N)] + [zero] * m for i in dl_idx]
-        Kf = kernel_over_field(Q + dl_p, g, N + m).basis
+        tk = transfer_kernel(system, F, g, s_poly, system.idx(system.monitored), [dL[i] for i in dl_idx])
+        Kf = tuple(tk[0]) if tk is not None else kernel_over_field(Q + dl_p, g, N + m).basis
         urows_f = [list(v[N:]) for v in Kf]
         dim = rank_over_field(urows_f, g, m) if urows_f else 0
         pick_f = next((v for v in Kf if any(not e.is_zero() for e in v[N:])), None)
@@ -430,7 +432,11 @@ def _exact_mode(system: System, mode: str, d: ExactZdaZero, source: str, F: Sequ
             avoid_dir = _exact_zero(system, g, pick_f, d.value, d.real_sign, True, 1, m).direction()
 
         def z_basis() -> list[np.ndarray]:
-            return kernel_over_field(Q, g, N + m).evaluate(d.value)
+            tz = transfer_kernel(system, F, g, s_poly, system.idx(system.monitored))
+            if tz is None:
+                return kernel_over_field(Q, g, N + m).evaluate(d.value)
+            enc = RootEnclosures(g)
+            return [eval_at_root(v, g, d.value, enc) for v in tz[0]]
 
     if touched == [] and dim == 0:  # pragma: no cover - a theorem, kept as a self-check
         raise AssertionError("the chosen ZDA direction avoids the switch but the stacked kernel has no input; please report")

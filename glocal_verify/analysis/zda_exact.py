@@ -23,6 +23,7 @@ from glocal_verify.numerics.pencil_exact import (
     RootEnclosures,
     analyze_pencil_exact,
     classify_real_parts,
+    _inv_mod,
     eval_at_root,
     kernel_over_field,
 )
@@ -33,6 +34,7 @@ __all__ = [
     "ExactZdaAnalysis",
     "zda_analysis_exact",
     "exact_witness",
+    "transfer_kernel",
 ]
 
 # ------------------------------------------------------------------------------------------
@@ -150,9 +152,100 @@ def _q_matrix(system: System, F: Sequence[int], rows_out: Sequence[int], s_poly:
     return rows
 
 
+def _transfer(system: System, F: Sequence[int]) -> tuple[Any, list[list[Any]]]:
+    """d(s) = det(sI + alpha L) and the numerators P(s) = adj(sI + alpha L) S_F^T (N x m, in s).
+
+    Faddeev-LeVerrier on the input columns only: with A = -alpha L and d(s) = sum_j c_j s^j,
+    adj(sI - A) = sum_{j<N} s^j B_j, B_{N-1} = I, B_{j-1} = A B_j + c_j I; so W_j = B_j S_F^T
+    costs N products of A with an N x m matrix over Q. Kept on ``system.analysis``.
+    """
+    key = ("zda-exact-transfer", tuple(F))
+    cache = system.analysis
+    if key in cache:
+        return cache[key]  # type: ignore[no-any-return]
+    N, m = system.n, len(F)
+    L = system.laplacian_exact()
+    a = system.alpha_q
+    A = flint.fmpq_mat(N, N, [_fq(-a * L[i][j]) for i in range(N) for j in range(N)])
+    d = A.charpoly()
+    c = d.coeffs()
+    EF = flint.fmpq_mat(N, m, [int(F[k] == i) for i in range(N) for k in range(m)])
+    W = EF
+    Ws = [W]
+    for j in range(N - 1, 0, -1):
+        W = A * W + EF * c[j]
+        Ws.append(W)
+    Ws.reverse()  # Ws[j] = B_j S_F^T
+    P = [[flint.fmpq_poly([Wj[i, k] for Wj in Ws]) for k in range(m)] for i in range(N)]
+    cache[key] = (d, P)
+    return d, P
+
+
+def transfer_kernel(
+    system: System, F: Sequence[int], g: Any, s_poly: Any, rows_out: Sequence[int], extra: Sequence[Sequence[Fraction]] = (), first_only: bool = False
+) -> tuple[list[tuple[Any, ...]], int] | None:
+    """Kernel over Q[x]/(g) of [Q(s(x)); extra 0] through the transfer function, or None at a pole.
+
+    When d(s(x)) = det(s(x) I + alpha L) is a unit of the field (g does not divide d(s(x))),
+    (s I + alpha L) xi = S_F^T u0 gives xi = P(s) u0 / d(s) (:func:`_transfer`), so the kernel is
+    {(P u0 / d, u0) : [S_out P; extra P] u0 = 0}: a (|rows_out| + |extra|) x m elimination
+    instead of an (N + p) x (N + m) one. Every kernel vector has u0 != 0, so its last nonzero
+    entry lies in the u0 part and the reduced basis (identity at the free columns, as
+    :func:`~glocal_verify.numerics.pencil_exact.kernel_over_field` returns it) is the lift of
+    the reduced kernel basis of the small matrix: the result is the same vectors, exactly.
+
+    Parameters
+    ----------
+    system : System
+    F : sequence of int
+        Attacked agent indices.
+    g : fmpq_poly
+        Monic irreducible polynomial in x (= lambda).
+    s_poly : fmpq_poly
+        s(x) = x^2 + gamma x.
+    rows_out : sequence of int
+        The monitored rows S_out.
+    extra : rows of rationals (length N)
+        Further rows acting on xi only (e.g. dL_q[D, :]).
+    first_only : bool
+        Lift only the first basis vector (the others are counted).
+
+    Returns
+    -------
+    (basis, dim) or None
+        The lifted basis vectors (``fmpq_poly`` residues mod g, xi then u0) and the kernel
+        dimension; None when g divides d(s(x)) (then use the full elimination).
+    """
+    d, P = _transfer(system, F)
+    N, m = system.n, len(F)
+    dg = d(s_poly) % g
+    if dg.is_zero():
+        return None
+    rows: list[list[Any]] = [[P[r][k](s_poly) % g for k in range(m)] for r in rows_out]
+    for er in extra:
+        rows.append([sum((P[j][k] * _fq(er[j]) for j in range(N) if er[j] != 0), flint.fmpq_poly(0))(s_poly) % g for k in range(m)])
+    K = kernel_over_field(rows, g, m)
+    dinv = _inv_mod(dg, g)
+    lifted = []
+    for u in K.basis[: 1 if first_only else len(K.basis)]:
+        xi = []
+        for i in range(N):
+            acc = flint.fmpq_poly(0)
+            for k in range(m):
+                if not u[k].is_zero():
+                    acc += P[i][k](s_poly) * u[k]
+            xi.append(acc * dinv % g)
+        lifted.append((*xi, *u))
+    return lifted, len(K.basis)
+
+
 def _exact_at(system: System, F: Sequence[int], g: Any, s_poly: Any, zero_lambda: bool) -> tuple[bool, Any | None, int]:
     """(attack?, chosen kernel vector over Q[x]/g, kernel dimension) of Q at the roots of g."""
     rows_out = system.idx(system.monitored_positions) if zero_lambda else system.idx(system.monitored)
+    tk = transfer_kernel(system, F, g, s_poly, rows_out, first_only=True)
+    if tk is not None:
+        basis, dim = tk
+        return bool(basis), basis[0] if basis else None, dim
     Q = _q_matrix(system, F, rows_out, s_poly)
     N = system.n
     K = kernel_over_field(Q, g, N + len(F))

@@ -26,6 +26,7 @@ __all__ = [
     "repeated_factor",
     "poly_str",
     "matvec",
+    "at_rational_root",
 ]
 
 Rows = Sequence[Sequence[Fraction | int]]
@@ -125,3 +126,19 @@ def repeated_factor(p: flint.fmpq_poly) -> flint.fmpq_poly:
 def poly_str(p: flint.fmpq_poly | flint.fmpz_poly) -> str:
     """Readable form of a polynomial in ``mu``."""
     return str(p).replace("x", "mu")
+
+
+def at_rational_root(M: Sequence[Sequence[flint.fmpq_poly]], f: flint.fmpq_poly, ncols: int) -> flint.fmpq_mat:
+    """A matrix of polynomials evaluated at the root -f_0 / f_1 of the linear ``f``, over Q.
+
+    Parameters
+    ----------
+    M : rows of ``fmpq_poly``
+    f : fmpq_poly
+        Of degree 1.
+    ncols : int
+        Number of columns (needed when M has no rows).
+    """
+    c = f.coeffs()
+    r = -c[0] / c[1]
+    return flint.fmpq_mat(len(M), ncols, [e(r) for row in M for e in row])

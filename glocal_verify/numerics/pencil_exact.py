@@ -231,8 +231,11 @@ def rank_over_field(M: Sequence[Sequence[Any]], f: Any, ncols: int) -> int:
     """
     if not M:
         return 0
+    if f.degree() == 1:
+        return int(ex.at_rational_root(M, f, ncols).rank())
     _, piv = _echelon_mod(M, f, ncols)
     return len(piv)
+
 
 
 @dataclass(frozen=True)
@@ -356,6 +359,9 @@ def kernel_over_field(M: Sequence[Sequence[Any]], f: Any, ncols: int) -> FieldKe
     """
     if not M:
         return FieldKernel(f, tuple(tuple(flint.fmpq_poly(int(i == j)) for i in range(ncols)) for j in range(ncols)))
+    if f.degree() == 1:  # Q[x]/(f) = Q: flint's RREF over Q (the RREF is unique, so the same basis)
+        Kq = _kernel(ex.at_rational_root(M, f, ncols))
+        return FieldKernel(f, tuple(tuple(flint.fmpq_poly(Kq[i, c]) for i in range(ncols)) for c in range(Kq.ncols())))
     R, piv = _echelon_mod(M, f, ncols)
     free = [j for j in range(ncols) if j not in piv]
     basis = []
