@@ -1,0 +1,56 @@
+"""Sweep throughput on Dask: the same ensemble with an embedded LocalCluster of 1 and of 2 workers.
+
+Baseline: the members run one after the other in this process (``run_member``, no Dask);
+candidates: ``run_sweep`` with 1 and 2 worker processes (one thread each), start-up of the
+cluster included. Members per second are in the note; on this 2-core machine 2 workers can at
+best halve the time of the members themselves.
+"""
+
+from __future__ import annotations
+
+import tempfile
+import time
+from pathlib import Path
+
+from glocal_verify.design.distributed import dask_client
+from glocal_verify.design.sweep import SweepPlan, plan_from_dict, run_member, run_sweep
+
+from .harness import Row
+
+
+def _plan(agents: int, count: int) -> SweepPlan:
+    return plan_from_dict(
+        {
+            "ensemble": {"generator": "random-clustered", "agents": [agents], "clusters": [2, 3], "seeds": {"start": 0, "count": count}},
+            "compute": {"conditions": ["privacy.*", "switching.*"]},
+        }
+    )
+
+
+def run(quick: bool) -> list[Row]:
+    """The rows of this module (``quick``: a smaller ensemble)."""
+    agents, count = (20, 4) if quick else (50, 12)
+    plan = _plan(agents, count)
+    members = list(plan.members)
+    conditions = plan.conditions
+    t0 = time.perf_counter()
+    for m in members:
+        run_member(m, conditions)
+    serial = time.perf_counter() - t0
+    rows: list[Row] = []
+    group = f"sweep throughput: {len(members)} random clustered networks, N = {agents}, privacy.* and switching.*"
+    for workers in (1, 2):
+        t0 = time.perf_counter()
+        with dask_client(None, workers):
+            pass
+        startup = time.perf_counter() - t0
+        with tempfile.TemporaryDirectory() as tmp:
+            t0 = time.perf_counter()
+            run_sweep(plan, Path(tmp) / "r.parquet", workers=workers, chunk_size=2, figures=False)
+            dt = time.perf_counter() - t0
+        rows.append(
+            Row(group, f"{workers} worker(s)", "in-process loop (no Dask)", serial, f"Dask LocalCluster, {workers} worker process(es)", dt,
+                f"{len(members) / dt:.3g} members/s with start-up, {len(members) / max(dt - startup, 1e-9):.3g}/s without "
+                f"(an empty cluster starts and stops in {startup:.2g} s); in-process {len(members) / serial:.3g}/s")
+        )
+    return rows
