@@ -232,7 +232,7 @@ class _Modal:
         self.M = system.idx(system.monitored)
         self.Mx = system.idx(system.monitored_positions)
         self.Mv = system.idx(system.monitored_velocities)
-        self.L = scipy.sparse.csr_matrix(system.laplacian())
+        self.L = system.analysis.get(("laplacian-csr", "normal"), lambda: scipy.sparse.csr_matrix(system.laplacian()))
         self.mu_scale = max(self.alpha * float(np.max(np.abs(self.mu), initial=0.0)), 1.0)
         # ||A||_2 bound used for growth decisions and lambda ~ 0 decisions
         self.A_scale = float(self._blocks_norm(0.0))
