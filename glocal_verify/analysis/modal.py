@@ -87,7 +87,8 @@ class EigenGroupPart:
     zero : Decision
         Is ``mu = 0`` (decided at ``rtol * ||L_q||_2``)?
     E : ndarray
-        ``N x k`` orthonormal eigenbasis of the group.
+        ``N x k`` orthonormal eigenbasis of the group: a column slice (view) of the cached
+        eigenvector matrix, or the exact component indicators for ``mu = 0``.
     W : ndarray
         Orthonormal basis of ``W_mu = E ∩ ker S_M`` (lower reading).
     W_upper : ndarray
@@ -195,44 +196,96 @@ def _group_parts(
     residuals: np.ndarray,
     kernel_basis: np.ndarray | None,
 ) -> tuple[EigenGroupPart, ...]:
+    """The parts of every group of ``partition`` (consecutive index runs) as views of ``U``.
+
+    Memory: ``E`` is the column slice ``U[:, a:b+1]`` (a view, no copy); ``W``/``Wx`` are ``E``
+    itself for a simple eigenvalue in the kernel (or a monitor set with no rows), an empty
+    slice when the kernel is ``{0}``, and a new ``N x r`` array only for a multiple group with a
+    nonzero kernel; decided readings share one array. The rows of the
+    monitors, ``U[M, :]`` and ``U[M_x, :]`` (``|M| x N``), are taken once; a simple eigenvalue
+    needs only the norm of its column there (no SVD), so the loop is O(|M| N) in all plus one
+    small SVD per multiple group.
+    """
     n = len(w)
     rmax = float(np.max(residuals)) if len(residuals) else 0.0
+    Um = U[m, :]
+    Umx = U[mx, :]
+    col_m = np.linalg.norm(Um, axis=0) if len(m) else np.zeros(n)
+    col_mx = np.linalg.norm(Umx, axis=0) if len(mx) else np.zeros(n)
     out = []
     for gi, g in enumerate(partition):
-        lo = w[g[0]]
-        hi = w[g[-1]]
+        a, b = g[0], g[-1] + 1
+        lo = w[a]
+        hi = w[b - 1]
         gap_left = lo - w[partition[gi - 1][-1]] if gi > 0 else math.inf
         gap_right = w[partition[gi + 1][0]] - hi if gi + 1 < len(partition) else math.inf
         gap = min(gap_left, gap_right) - 2.0 * rmax
-        value = float(np.mean(w[g]))
+        value = float(w[a]) if b - a == 1 else float(np.mean(w[a:b]))
         zero = tol.decide(value, scale)
-        k = len(g)
+        k = b - a
         if zero is Decision.ZERO and kernel_basis is not None and kernel_basis.shape[1] == k:
             # ker L is spanned by the component indicators: known exactly
             E = kernel_basis
             err = math.sqrt(n) * EPS
+            W, W_up, sv = _kernel_of(E, E[m, :], k, err, tol)
+            Wx, Wx_up, svx = _kernel_of(E, E[mx, :], k, err, tol)
         else:
-            E = U[:, g]
-            rg = float(np.linalg.norm(residuals[g]))
+            E = U[:, a:b]
+            rg = float(abs(residuals[a])) if k == 1 else float(np.linalg.norm(residuals[a:b]))
             err = (rg / gap if gap > 0 else math.inf) + math.sqrt(n) * EPS
-        ker_lo, ker_hi, sv, _ = _kernel_readings(E[m, :], k, err, tol)
-        kx_lo, kx_hi, svx, _ = _kernel_readings(E[mx, :], k, err, tol)
+            if k == 1:
+                W, W_up, sv = _simple_kernel(E, float(col_m[a]), len(m), err, tol)
+                Wx, Wx_up, svx = _simple_kernel(E, float(col_mx[a]), len(mx), err, tol)
+            else:
+                W, W_up, sv = _kernel_of(E, Um[:, a:b], k, err, tol)
+                Wx, Wx_up, svx = _kernel_of(E, Umx[:, a:b], k, err, tol)
         out.append(
             EigenGroupPart(
                 value=value,
-                indices=tuple(g),
+                indices=tuple(range(a, b)),
                 zero=zero,
                 E=E,
-                W=E @ ker_lo,
-                W_upper=E @ ker_hi,
-                Wx=E @ kx_lo,
-                Wx_upper=E @ kx_hi,
+                W=W,
+                W_upper=W_up,
+                Wx=Wx,
+                Wx_upper=Wx_up,
                 sv=sv,
                 svx=svx,
                 error=err,
             )
         )
     return tuple(out)
+
+
+def _simple_kernel(E: np.ndarray, s: float, rows: int, err: float, tol: Tolerance) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Both readings of ``span(E) ∩ ker S`` for one column ``E`` with ``||S E|| = s`` (no copy).
+
+    The singular value of the ``rows x 1`` matrix ``S E`` is its norm; the kernel is ``E`` or
+    ``{0}`` (same decision as :func:`_kernel_readings`; ``S`` with no rows has kernel ``E``).
+    """
+    if rows == 0:
+        return E, E, np.zeros(1)
+    d = decide_with_error(s, err, tol)
+    if d is Decision.UNDECIDED:
+        return E[:, :0], E, np.array([s])
+    part = E if d is Decision.ZERO else E[:, :0]
+    return part, part, np.array([s])  # decided: one array for both readings
+
+
+def _kernel_of(E: np.ndarray, SE: np.ndarray, k: int, err: float, tol: Tolerance) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Both readings of ``span(E) ∩ ker S`` from ``SE = S E`` (``E`` itself when the kernel is everything)."""
+    ker_lo, ker_hi, sv, _ = _kernel_readings(SE, k, err, tol)
+
+    def basis(ker: np.ndarray) -> np.ndarray:
+        if ker.shape[1] == 0:
+            return E[:, :0]
+        if SE.shape[0] == 0:  # no rows: the kernel is the identity, E @ I = E
+            return E
+        return E @ ker
+
+    lower = basis(ker_lo)
+    # decided: both readings keep the same singular vectors, so they share one array
+    return lower, (lower if ker_hi.shape[1] == ker_lo.shape[1] else basis(ker_hi)), sv
 
 
 def eigen_residuals(system: System, mode: str = NORMAL_MODE) -> np.ndarray:
@@ -275,6 +328,17 @@ def modal_decomposition(system: System, mode: str = NORMAL_MODE, tol: Tolerance 
         Mode whose Laplacian is decomposed.
     tol : Tolerance
         Tolerance of the eigenvalue grouping and of the kernel decisions (module docstring).
+
+    Notes
+    -----
+    Cost and memory: after the cached ``eigh``, O(|M| N) time for the simple eigenvalues (the
+    singular value of ``S_M u_i`` is the norm of the monitored rows of column ``u_i``) plus a
+    ``|M| x k`` SVD per multiple group; memory O(|M| N) beyond the eigenvector matrix ``U``.
+    Groups are runs of consecutive indices, so every ``E`` is a view ``U[:, a:b]`` (no copy) and
+    ``W``, ``W^x`` are ``E`` itself, an empty slice, or (a multiple group with a nonzero
+    kernel) a new ``N x r`` array: the new parts of all groups together are at most four
+    ``N x N`` arrays (the kernel dimensions of each of ``W``, ``W^x`` and their upper readings sum
+    to at most N) on top of ``U``, and O(|M| N) when the multiple groups are few or observed.
     """
     key = ("modal", mode, tol.rtol, tol.band)
     cache = system.analysis

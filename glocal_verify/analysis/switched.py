@@ -96,13 +96,17 @@ def _orth_readings(X: np.ndarray) -> tuple[np.ndarray, float]:
 
 
 def _intersect(P: np.ndarray, V: np.ndarray, err: float, tol: Tolerance, upper: bool) -> tuple[np.ndarray, bool, float]:
-    """span(P) ∩ span(V) for orthonormal P, V: kernel of ``(I - P P^T) V`` (sines of principal angles)."""
+    """span(P) ∩ span(V) for orthonormal P, V: kernel of ``(I - P P^T) V`` (sines of principal angles).
+
+    Memory: ``P^T V`` (``k_P x k``), one ``2N x k`` residual and its SVD factors; nothing ``2N x 2N``.
+    """
     k = V.shape[1]
     if k == 0:
         return V, True, 1.0
     if P.shape[1] == 0:
         return V[:, :0], True, 1.0
-    R = V - P @ (P.T @ V)
+    R = P @ (P.T @ V)
+    np.subtract(V, R, out=R)  # R = V - P P^T V in place: one 2N x k temporary, not two
     _, s, Vh = np.linalg.svd(R, full_matrices=False)
     sp = np.zeros(k)
     sp[: len(s)] = s
@@ -147,6 +151,11 @@ def switched_unobservable_subspace(
     ``err <- kappa (err + N eps (1 + alpha ||L_k|| tau_k + gamma tau_k))``.
     The dwell time of the last mode does not matter.
 
+    Memory: O(N d) with ``d`` the largest dimension met (``2N x d`` bases, their residual and SVD
+    factors, and the ``N x d`` modal coordinates of :func:`modal_exponential`), on top of the
+    cached ``U`` of each mode; no ``2N x 2N`` array. When every input and every intersection is
+    decided, the upper reading is the lower one and is not recomputed.
+
     Parameters
     ----------
     system : System
@@ -176,11 +185,15 @@ def _switched_recursion(
     """Uncached body of :func:`switched_unobservable_subspace`."""
     seq = _check_sequence(system, sequence)
     subs = {m: unobservable_subspace(system, m, tol) for m, _ in seq}
-    results = {}
+    results: dict[bool, tuple[np.ndarray, float]] = {}
     decided = all(subs[m].decided for m, _ in seq)
     margin = 1.0
     steps: list[dict[str, Any]] = []
     for upper in (False, True):
+        if upper and decided and all(subs[m].upper is subs[m].basis for m, _ in seq):
+            # every input and every intersection decided: the upper pass would repeat the lower one
+            results[True] = results[False]
+            break
         last = subs[seq[-1][0]]
         V = last.upper if upper else last.basis
         err = last.error

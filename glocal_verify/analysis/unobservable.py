@@ -38,31 +38,31 @@ __all__ = [
 ]
 
 def _assemble(n: int, groups: Sequence[EigenGroupPart], upper: bool) -> tuple[np.ndarray, bool]:
-    """Basis of (W^x_0 x W_0) ⊕ ⊕_{mu>0} (W_mu x W_mu) for one reading; also 'zero decisions certain'."""
-    cols: list[np.ndarray] = []
+    """Basis of (W^x_0 x W_0) ⊕ ⊕_{mu>0} (W_mu x W_mu) for one reading; also 'zero decisions certain'.
+
+    The ``2N x d`` result (``d`` the dimension of the reading) is allocated once and filled in
+    place: no per-column temporaries.
+    """
     certain = True
+    parts: list[tuple[np.ndarray, np.ndarray]] = []
     for g in groups:
         W = g.W_upper if upper else g.W
         Wx = g.Wx_upper if upper else g.Wx
         if g.zero is Decision.UNDECIDED:
             certain = False
         as_zero = g.zero is Decision.ZERO or (upper and g.zero is Decision.UNDECIDED)
-        if as_zero:
-            # W^x_0 in the position slot; W_0 (a subspace of W^x_0) in the velocity slot
-            for j in range(Wx.shape[1]):
-                c = np.zeros(2 * n)
-                c[:n] = Wx[:, j]
-                cols.append(c)
-        else:
-            for j in range(W.shape[1]):
-                c = np.zeros(2 * n)
-                c[:n] = W[:, j]
-                cols.append(c)
-        for j in range(W.shape[1]):
-            c = np.zeros(2 * n)
-            c[n:] = W[:, j]
-            cols.append(c)
-    B = np.column_stack(cols) if cols else np.zeros((2 * n, 0))
+        # W^x_0 in the position slot for mu = 0 (W_0, a subspace of it, in the velocity slot)
+        pos = Wx if as_zero else W
+        if pos.shape[1] or W.shape[1]:
+            parts.append((pos, W))
+    d = sum(p.shape[1] + v.shape[1] for p, v in parts)
+    B = np.zeros((2 * n, d))
+    j = 0
+    for pos, W in parts:
+        B[:n, j : j + pos.shape[1]] = pos
+        j += pos.shape[1]
+        B[n:, j : j + W.shape[1]] = W
+        j += W.shape[1]
     return B, certain
 
 
@@ -76,7 +76,10 @@ def unobservable_subspace(system: System, mode: str = NORMAL_MODE, tol: Toleranc
 
     (``docs/conditions.md``, "Modal structure"; the double root ``gamma^2 = 4 alpha mu`` needs no
     special case: the formula does not involve the eigenvalues of A_q). Cost: one ``eigh`` of
-    L_q (cached by the system) and an SVD of ``S_M E_mu`` per eigen-group; no 2N x 2N matrix.
+    L_q (cached by the system), a column norm of ``S_M u_i`` per simple eigenvalue and an SVD
+    of ``S_M E_mu`` per multiple group; no 2N x 2N matrix. Memory beyond ``U``: the two bases,
+    ``2N x d`` and ``2N x d'`` (``d <= d'`` the dimensions of the readings); when every decision
+    is decided they are one shared array.
 
     Parameters
     ----------
@@ -103,7 +106,11 @@ def unobservable_subspace(system: System, mode: str = NORMAL_MODE, tol: Toleranc
     md = modal_decomposition(system, mode, tol)
     n = system.n
     lower, certain_lo = _assemble(n, md.groups, upper=False)
-    upper, certain_hi = _assemble(n, md.merged, upper=True)
+    # every decision decided: the upper reading is the lower one (shared, not rebuilt)
+    same = md.merged is md.groups and all(
+        g.W_upper is g.W and g.Wx_upper is g.Wx and g.zero is not Decision.UNDECIDED for g in md.groups
+    )
+    upper, certain_hi = (lower, certain_lo) if same else _assemble(n, md.merged, upper=True)
     margin = 1.0
     largest_zero = 0.0
     for g in md.groups:
@@ -265,14 +272,16 @@ def structural_basis(system: System, comps: Sequence[Sequence[object]]) -> tuple
     mx = set(system.monitored_positions)
     m = set(system.monitored)
     out: list[tuple[Fraction, ...]] = []
-    for c in comps:
+    members = [set(c) for c in comps]
+    zero, one = Fraction(0), Fraction(1)
+    for c in members:
         if not mx.intersection(c):
-            ind = [Fraction(int(lab in c)) for lab in system.labels]
-            out.append(tuple(ind + [Fraction(0)] * n))
-    for c in comps:
+            ind = [one if lab in c else zero for lab in system.labels]
+            out.append(tuple(ind + [zero] * n))
+    for c in members:
         if not m.intersection(c):
-            ind = [Fraction(int(lab in c)) for lab in system.labels]
-            out.append(tuple([Fraction(0)] * n + ind))
+            ind = [one if lab in c else zero for lab in system.labels]
+            out.append(tuple([zero] * n + ind))
     return tuple(out)
 
 
@@ -297,6 +306,10 @@ def certified_unobservable(system: System, mode: str = NORMAL_MODE) -> Certified
     cluster that fails the test adds at most ``2 |g|`` to the upper bound. A cluster that
     straddles 0 and a positive eigenvalue (``w <= rho``) is treated the same way, with the
     exact zero eigenvalues removed from it (they are known exactly).
+
+    Cost and memory (after the cached spectrum and its bounds): O(N^2) once per mode for the
+    rounding constants, the monitored rows ``U[M, :]`` (``|M| x N``) and, per cluster, a
+    column norm (simple) or a ``|M| x k`` SVD; no ``N x N`` array is formed.
 
     Parameters
     ----------
@@ -323,30 +336,38 @@ def certified_unobservable(system: System, mode: str = NORMAL_MODE) -> Certified
     nz = len(comps)
     rho = sp.error_radius
     eta = sp.orthogonality_error
+    # per-mode constants of the residual rounding bound (O(N^2) once, not per cluster)
+    k_row = int(np.max(np.count_nonzero(sp.matrix, axis=1))) if n else 0
+    fro = float(np.linalg.norm(sp.matrix, "fro"))
+    Um = U[m, :]  # |M| x N: the only rows of U the certificate needs
+    col_m = np.linalg.norm(Um, axis=0)
     extra = 0
     worst_err = 0.0
     slack_min = 1.0
     note = ""
     for c in sp.clusters:
-        g = [i for i in c if i >= nz]
-        if not g:
+        if c[-1] < nz:
             continue
-        a, b = g[0], g[-1]
+        a, b = max(c[0], nz), c[-1]
+        g = range(a, b + 1)
         # distance of the cluster's Ritz values to the other exact eigenvalues: the exact zeros are 0,
         # the others lie within rho of their computed values (Weyl, index pairing)
         left = (w[a] if a - 1 < nz else w[a] - w[a - 1] - rho) if a > 0 else math.inf
         right = w[b + 1] - w[b] - rho if b + 1 < n else math.inf
         delta = float(min(left, right))
         if delta > 0:
-            r = float(np.linalg.norm(sp.residuals[g]))
-            k = int(np.max(np.count_nonzero(sp.matrix, axis=1)))
-            r += (k + 2) * EPS * math.sqrt(n) * (float(np.linalg.norm(sp.matrix, "fro")) + float(np.max(np.abs(w[g])))) + sp.input_error
+            r = float(abs(sp.residuals[a])) if a == b else float(np.linalg.norm(sp.residuals[a : b + 1]))
+            r += (k_row + 2) * EPS * math.sqrt(n) * (fro + float(np.max(np.abs(w[a : b + 1])))) + sp.input_error
             s = min(1.0, r * (1.0 + 4.0 * n * EPS) / delta)
         else:
             s = math.inf
-        Ug = U[:, g]
-        sv = np.linalg.svd(Ug[m, :], compute_uv=False) if len(m) else np.zeros(0)
-        smin = float(sv[-1]) if len(sv) == len(g) else 0.0
+        if a == b:
+            # simple: the singular value of the |M| x 1 matrix S_M u_a is its norm, rounded by at
+            # most (|M| / 2 + 1) u, which the 2 N eps inside eta covers
+            smin = float(col_m[a])
+        else:
+            sv = np.linalg.svd(Um[:, a : b + 1], compute_uv=False)
+            smin = float(sv[-1]) if len(sv) == len(g) else 0.0
         e = eta + 2.0 * len(g) * EPS
         slack = smin * math.sqrt(max(0.0, 1.0 - s * s)) - s - e if math.isfinite(s) else -math.inf
         worst_err = max(worst_err, s)
@@ -355,7 +376,7 @@ def certified_unobservable(system: System, mode: str = NORMAL_MODE) -> Certified
             extra += 2 * len(g)
             if not note:
                 note = (
-                    f"mode {mode}: eigenvalue cluster {a + 1}..{b + 1} (mu ~ {float(np.mean(w[g])):.6g}): "
+                    f"mode {mode}: eigenvalue cluster {a + 1}..{b + 1} (mu ~ {float(np.mean(w[a : b + 1])):.6g}): "
                     f"sigma_min(S_M U_g) = {smin:.3g} does not exceed its certified error "
                     f"(Davis-Kahan sine {s:.3g} + {e:.2g}); whether an unobservable eigenvector exists there is not proven"
                 )
