@@ -43,6 +43,8 @@ __all__ = ["Spectrum", "EPS"]
 
 #: unit roundoff doubled: the spacing of doubles at 1 (2^-52)
 EPS = float(np.finfo(float).eps)
+#: columns per block of the a-posteriori products (bounded temporaries)
+_BLOCK = 256
 
 
 @dataclass(frozen=True, eq=False)
@@ -65,8 +67,10 @@ class Spectrum:
     matrix: np.ndarray
 
     def __post_init__(self) -> None:
-        M = np.array(self.matrix, dtype=float)
-        M.setflags(write=False)
+        M = np.asarray(self.matrix, dtype=float)
+        if M.flags.writeable:
+            M = M.copy()  # a caller's writable array is copied once; read-only ones (System's) are shared
+            M.setflags(write=False)
         object.__setattr__(self, "matrix", M)
 
     @cached_property
@@ -101,8 +105,11 @@ class Spectrum:
     def residuals(self) -> np.ndarray:
         """Residual norms ``||L u_i - w_i u_i||_2`` of the computed eigenpairs (read-only)."""
         L = scipy.sparse.csr_matrix(self.matrix)
-        R = L @ self.vectors - self.vectors * self.values[None, :]
-        r = np.linalg.norm(R, axis=0)
+        U, w = self.vectors, self.values
+        r = np.empty(self.size)
+        for a in range(0, self.size, _BLOCK):  # column blocks: O(N b) temporaries
+            b = min(a + _BLOCK, self.size)
+            r[a:b] = np.linalg.norm(L @ U[:, a:b] - U[:, a:b] * w[None, a:b], axis=0)
         r.setflags(write=False)
         return r
 
@@ -129,7 +136,13 @@ class Spectrum:
         if n == 0:
             return 0.0
         U = self.vectors
-        return float(np.linalg.norm(U.T @ U - np.eye(n), "fro")) + 2.0 * n * EPS
+        total = 0.0
+        for a in range(0, n, _BLOCK):  # ||U^T U - I||_F over column blocks: O(N b) temporaries
+            b = min(a + _BLOCK, n)
+            G = U.T @ U[:, a:b]
+            G[np.arange(a, b), np.arange(b - a)] -= 1.0
+            total += float(np.sum(G * G))
+        return math.sqrt(total) + 2.0 * n * EPS
 
     @cached_property
     def error_radius(self) -> float:
