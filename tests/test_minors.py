@@ -35,34 +35,43 @@ def _q(x: Fraction) -> flint.fmpq:
     return flint.fmpq(x.numerator, x.denominator)
 
 
-def _exact_full_rank_everywhere(n: int, L: dict[tuple[int, int], Fraction], alpha: Fraction, M: list[int], inputs: list[int]) -> bool:
-    """gcd over Q of all maximal minors of T(s) is a nonzero constant."""
+def _maximal_minors(n: int, L: dict[tuple[int, int], Fraction], alpha: Fraction, M: list[int], inputs: list[int]) -> list[flint.fmpq_poly]:
+    """Every nonzero maximal minor of T(s), interpolated over Q from exact determinants."""
     rows = [i for i in range(n) if i not in inputs]
     cols = [j for j in range(n) if j not in M]
-    if len(rows) < len(cols):
-        return False
-    if not cols:
-        return True
     pts = list(range(len(cols) + 1))
-    g = None
+    out = []
     for R in itertools.combinations(rows, len(cols)):
         vals = []
         for s in pts:
             ent = [_q((Fraction(s) if (i == j) else Fraction(0)) + alpha * L.get((i, j), Fraction(0))) for i in R for j in cols]
             vals.append(flint.fmpq_mat(len(cols), len(cols), ent).det())
-        # Lagrange interpolation over Q
         P = flint.fmpq_poly([0])
-        for a, va in zip(pts, vals):
+        for a, va in zip(pts, vals):  # Lagrange interpolation over Q
             term = flint.fmpq_poly([va])
             for b in pts:
                 if b != a:
                     term *= flint.fmpq_poly([-b, 1]) / (a - b)
             P += term
-        if P == 0:
-            continue
+        if P != 0:
+            out.append(P)
+    return out
+
+
+def _gcd(polys: list[flint.fmpq_poly]) -> flint.fmpq_poly | None:
+    g = None
+    for P in polys:
         g = P if g is None else g.gcd(P)
-        if g.degree() == 0:
-            return True
+    return g
+
+
+def _exact_full_rank_everywhere(n: int, L: dict[tuple[int, int], Fraction], alpha: Fraction, M: list[int], inputs: list[int]) -> bool:
+    """gcd over Q of all maximal minors of T(s) is a nonzero constant."""
+    if n - len(inputs) < n - len(M):
+        return False
+    if len(M) == n:
+        return True
+    g = _gcd(_maximal_minors(n, L, alpha, M, inputs))
     return g is not None and g.degree() == 0
 
 
@@ -122,28 +131,12 @@ def test_the_constant_rank_test_proves_only_full_column_rank(rows: list[list[obj
 def _exact_gcd_and_kernel(n: int, L: dict[tuple[int, int], Fraction], alpha: Fraction, M: list[int], inputs: list[int]) -> tuple[object, object]:
     rows = [i for i in range(n) if i not in inputs]
     cols = [j for j in range(n) if j not in M]
-    pts = list(range(len(cols) + 1))
-    g = None
-    for R in itertools.combinations(rows, len(cols)):
-        vals = []
-        for s in pts:
-            ent = [_q((Fraction(s) if (i == j) else Fraction(0)) + alpha * L.get((i, j), Fraction(0))) for i in R for j in cols]
-            vals.append(flint.fmpq_mat(len(cols), len(cols), ent).det())
-        P = flint.fmpq_poly([0])
-        for a, va in zip(pts, vals):
-            term = flint.fmpq_poly([va])
-            for b in pts:
-                if b != a:
-                    term *= flint.fmpq_poly([-b, 1]) / (a - b)
-            P += term
-        if P != 0:
-            g = P if g is None else g.gcd(P)
 
     def kernel_dim(s0: Fraction) -> int:
         ent = [_q((s0 if (i == j) else Fraction(0)) + alpha * L.get((i, j), Fraction(0))) for i in rows for j in cols]
         return len(cols) - flint.fmpq_mat(len(rows), len(cols), ent).rank()
 
-    return g, kernel_dim
+    return _gcd(_maximal_minors(n, L, alpha, M, inputs)), kernel_dim
 
 
 def test_a_certificate_modulo_twin_modes_leaves_only_twin_modes_in_the_kernel() -> None:

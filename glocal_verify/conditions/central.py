@@ -32,6 +32,7 @@ from glocal_verify.observers.central import (
     CentralObserver,
     certify_observable_stability,
     design_central_observer,
+    routh_hurwitz_poly,
 )
 from glocal_verify.results import ConditionResult, Finding, Status
 
@@ -39,37 +40,6 @@ __all__ = [
     "check_central_observer",
     "hurwitz_infeasible_finding",
 ]
-
-def _routh_hurwitz_poly(q: flint.fmpq_poly) -> bool:
-    """:func:`~glocal_verify.observers.central.routh_hurwitz` on an ``fmpq_poly``, row by row in C.
-
-    The same Routh array (first column nonzero with the sign of the leading coefficient iff
-    Hurwitz): a row r_k is the polynomial sum_j r_k[j] t^j and the next row is
-    r_{k+1} = (r_{k-1} - (r_{k-1}[0] / r_k[0]) r_k) / t, of length len(r_{k-1}) - 1 with trailing
-    zeros dropped -- exactly the recurrence of ``routh_hurwitz``, in exact rationals.
-    """
-    c = list(reversed(q.coeffs()))
-    if not c:
-        return False
-    if len(c) == 1:
-        return True
-    sign = 1 if c[0] > 0 else -1
-    c = [sign * x for x in c]
-    if any(x <= 0 for x in c):
-        return False
-    r0, n0 = flint.fmpq_poly(c[0::2]), len(c[0::2])
-    r1, n1 = flint.fmpq_poly(c[1::2]), len(c[1::2])
-    while n1:
-        if r1[0] <= 0:
-            return False
-        nxt, nn = (r0 - r1 * (r0[0] / r1[0])).truncate(n0).right_shift(1), n0 - 1
-        while nn > 1 and nxt[nn - 1] == 0:
-            nn -= 1
-        if nn and nxt.is_zero():
-            return False
-        r0, n0, r1, n1 = r1, n1, nxt, nn
-    return bool(r0[0] > 0)
-
 
 def _exact_observable_hurwitz(system: System, obsv: CentralObserver) -> tuple[bool, str]:
     """Exactly: is the observable part of A_1 - H C Hurwitz, for H rounded to its binary rationals?"""
@@ -91,7 +61,7 @@ def _exact_observable_hurwitz(system: System, obsv: CentralObserver) -> tuple[bo
             return False, "internal: the unobservable characteristic polynomial does not divide"
     else:
         q = chi
-    ok = _routh_hurwitz_poly(q)
+    ok = routh_hurwitz_poly(q)
     return ok, f"observable characteristic polynomial of degree {q.degree()} {'is' if ok else 'is not'} Hurwitz (Routh)"
 
 

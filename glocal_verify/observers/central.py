@@ -45,7 +45,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 import scipy.linalg
@@ -62,6 +62,7 @@ __all__ = [
     "CentralObserver",
     "design_central_observer",
     "routh_hurwitz",
+    "routh_hurwitz_poly",
     "StabilityCertificate",
     "certify_observable_stability",
     "CERTIFY_MAX_STATES",
@@ -303,15 +304,35 @@ def routh_hurwitz(coeffs: Sequence[Fraction]) -> bool:
     ``coeffs`` are rational, highest degree first. A polynomial is Hurwitz iff every entry of
     the first column of its Routh array is nonzero and has the sign of the leading coefficient;
     a zero entry already implies a root with ``Re >= 0``, so no epsilon trick is needed.
+    Computed by :func:`routh_hurwitz_poly`.
 
     Parameters
     ----------
     coeffs : sequence of Fraction
         Coefficients ``a_n, ..., a_0`` with ``a_n != 0``.
     """
+    import flint
+
     c = [Fraction(x) for x in coeffs]
     while c and c[0] == 0:
         c.pop(0)
+    return routh_hurwitz_poly(flint.fmpq_poly([flint.fmpq(x.numerator, x.denominator) for x in reversed(c)]))
+
+
+def routh_hurwitz_poly(q: Any) -> bool:
+    """The Routh-Hurwitz test of :func:`routh_hurwitz` on a python-flint ``fmpq_poly``, row by row in C.
+
+    A row r_k is the polynomial sum_j r_k[j] t^j and the next row is
+    r_{k+1} = (r_{k-1} - (r_{k-1}[0] / r_k[0]) r_k) / t, of length len(r_{k-1}) - 1 with trailing
+    zeros dropped: the Routh recurrence in exact rationals.
+
+    Parameters
+    ----------
+    q : flint.fmpq_poly
+    """
+    import flint
+
+    c = list(reversed(q.coeffs()))
     if not c:
         return False
     if len(c) == 1:
@@ -320,19 +341,18 @@ def routh_hurwitz(coeffs: Sequence[Fraction]) -> bool:
     c = [sign * x for x in c]
     if any(x <= 0 for x in c):
         return False
-    r0 = c[0::2]
-    r1 = c[1::2]
-    while r1:
+    r0, n0 = flint.fmpq_poly(c[0::2]), len(c[0::2])
+    r1, n1 = flint.fmpq_poly(c[1::2]), len(c[1::2])
+    while n1:
         if r1[0] <= 0:
             return False
-        r1p = r1 + [Fraction(0)] * (len(r0) - len(r1))
-        nxt = [(r1p[0] * r0[j + 1] - r0[0] * r1p[j + 1]) / r1p[0] for j in range(len(r0) - 1)]
-        r0, r1 = r1, nxt
-        while r1 and len(r1) > 1 and r1[-1] == 0:
-            r1.pop()
-        if r1 and all(x == 0 for x in r1):
+        nxt, nn = (r0 - r1 * (r0[0] / r1[0])).truncate(n0).right_shift(1), n0 - 1
+        while nn > 1 and nxt[nn - 1] == 0:
+            nn -= 1
+        if nn and nxt.is_zero():
             return False
-    return r0[0] > 0
+        r0, n0, r1, n1 = r1, n1, nxt, nn
+    return bool(r0[0] > 0)
 
 
 # --------------------------------------------------------------------------------------------
