@@ -11,8 +11,16 @@ import pytest
 
 from glocal_verify import System
 from glocal_verify.analysis.zda_exact import _q_matrix, transfer_kernel
-from glocal_verify.numerics.exact_subspace import _lift_closure, _row_closure, _row_closure_direct
-from glocal_verify.numerics.pencil_exact import _echelon_mod, kernel_over_field, rank_over_field
+from glocal_verify.numerics.exact_subspace import (
+    _lift_closure,
+    _row_closure,
+    _row_closure_direct,
+)
+from glocal_verify.numerics.pencil_exact import (
+    _echelon_mod,
+    kernel_over_field,
+    rank_over_field,
+)
 from glocal_verify.spec import load_example
 
 

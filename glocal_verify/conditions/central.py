@@ -9,8 +9,9 @@ reported in the witness. With privacy (``[1; 0]`` in ``ker C``), ``0`` is an eig
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from fractions import Fraction
-from typing import Any, Sequence
+from typing import Any
 
 import flint
 import numpy as np
@@ -135,7 +136,7 @@ def check_central_observer(system: System, ctx: CheckContext) -> list[ConditionR
         },
         "slowest_observable_eigenvalues": slow,
         "fixed_eigenvalues": [_cplx(z) for z in obsv.fixed_eigenvalues[:12]],
-        "fixed_count": int(len(obsv.fixed_eigenvalues)),
+        "fixed_count": len(obsv.fixed_eigenvalues),
     }
     if not system.monitored_positions:
         e = np.zeros(2 * n)

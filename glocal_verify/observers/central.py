@@ -43,15 +43,19 @@ monitors take a few seconds, dominated by ``eigh``.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 import scipy.linalg
 
 from glocal_verify.analysis.modal import EigenGroupPart, modal_decomposition
-from glocal_verify.analysis.unobservable import certified_unobservable, unobservable_subspace
+from glocal_verify.analysis.unobservable import (
+    certified_unobservable,
+    unobservable_subspace,
+)
 from glocal_verify.model import System
 from glocal_verify.numerics.spectrum import EPS
 from glocal_verify.numerics.subspace import Subspace
@@ -59,13 +63,13 @@ from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolera
 from glocal_verify.spec.types import NORMAL_MODE
 
 __all__ = [
+    "CERTIFY_MAX_STATES",
     "CentralObserver",
+    "StabilityCertificate",
+    "certify_observable_stability",
     "design_central_observer",
     "routh_hurwitz",
     "routh_hurwitz_poly",
-    "StabilityCertificate",
-    "certify_observable_stability",
-    "CERTIFY_MAX_STATES",
 ]
 
 #: largest observable part (states) for the dense Bauer-Fike certificate
@@ -262,7 +266,9 @@ def design_central_observer(
         Cs = np.hstack([b.C for b in design])
         Os = np.hstack([b.basis for b in design])
         if poles is not None:
-            from scipy.signal import place_poles  # lazily: importing scipy.signal costs seconds
+            from scipy.signal import (
+                place_poles,  # lazily: importing scipy.signal costs seconds
+            )
 
             res = place_poles(As.T, Cs.T, np.asarray(poles))
             Hs = np.asarray(res.gain_matrix).T
