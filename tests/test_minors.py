@@ -172,3 +172,19 @@ def test_a_certificate_modulo_twin_modes_leaves_only_twin_modes_in_the_kernel() 
             assert rest.degree() == 0, (n, M, F, g)
             assert kernel_dim(s0) == sum(len(p) for _, p in tw)
     assert issued > 10
+
+
+def test_an_invariant_subspace_is_accepted_only_when_exactly_invariant_and_zero_on_the_outputs() -> None:
+    from glocal_verify.numerics.minors import verified_invariant_subspace
+
+    # star with centre 0 and leaves 1, 2, 3 (equal weights): e1 - e2 and e2 - e3 span an eigenspace
+    L = _laplacian(4, {(0, 1): Fraction(1), (0, 2): Fraction(1), (0, 3): Fraction(1)})
+    good = [[Fraction(0), Fraction(1), Fraction(-1), Fraction(0)], [Fraction(0), Fraction(0), Fraction(1), Fraction(-1)]]
+    ver = verified_invariant_subspace(4, L, [0], good)
+    assert ver is not None
+    W, B = ver
+    for w, b in zip(W, B):
+        Lw = [sum((L.get((i, j), Fraction(0)) * w[j] for j in range(4)), Fraction(0)) for i in range(4)]
+        assert Lw == [sum((b[t] * W[t][i] for t in range(len(W))), Fraction(0)) for i in range(4)]
+    assert verified_invariant_subspace(4, L, [1], good) is None  # not zero on the output 1
+    assert verified_invariant_subspace(4, L, [0], [[Fraction(0), Fraction(1), Fraction(0), Fraction(0)]]) is None  # e1 is not invariant

@@ -60,6 +60,7 @@ from typing import Any
 
 import networkx as nx
 import numpy as np
+import scipy.linalg
 
 from glocal_verify.analysis.avoidance import _exact_mode, _numeric_mode, _stealthy_bases
 from glocal_verify.analysis.local_cases import (
@@ -91,6 +92,7 @@ from glocal_verify.numerics.minors import (
     GroundedTables,
     full_rank_certificate,
     grounded_tables,
+    verified_invariant_subspace,
 )
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
 from glocal_verify.results import Status
@@ -251,11 +253,51 @@ def _shared(system: System, tol: Tolerance, exact: bool, exact_fallback: bool | 
 
 
 def _global_tables(system: System) -> GroundedTables | None:
-    """The numerator tables of the normal mode's reduced ZDA pencil (outputs M = M_x ∪ M_v)."""
+    """The numerator tables of the normal mode's reduced ZDA pencil (outputs M = M_x ∪ M_v).
+
+    The unobservable modes the certificate divides out come from floating point (eigenvectors
+    of L_1 that vanish on M to 1e-9), rationalised, and are used only after
+    :func:`~glocal_verify.numerics.minors.verified_invariant_subspace` proves them exactly.
+    """
     entries = laplacian_entries(system, NORMAL_MODE)
-    return grounded_tables(system.n, entries, Fraction(system.alpha_q), system.idx(system.monitored))
+    M = system.idx(system.monitored)
+    cands = _unobservable_candidates(system, M)
+    tables = grounded_tables(system.n, entries, Fraction(system.alpha_q), M, cands) if cands else None
+    if tables is not None and not tables.unobservable_factor and cands:
+        # the whole candidate space did not verify: keep the groups that do, one by one
+        kept: list[list[Fraction]] = []
+        for group in _unobservable_candidates(system, M, grouped=True):
+            if verified_invariant_subspace(system.n, entries, M, kept + group) is not None:
+                kept += group
+        tables = grounded_tables(system.n, entries, Fraction(system.alpha_q), M, kept or None)
+    return tables if tables is not None else grounded_tables(system.n, entries, Fraction(system.alpha_q), M)
 
 
+def _unobservable_candidates(system: System, M: Sequence[int], grouped: bool = False) -> Any:
+    """Rationalised reduced-echelon bases of E_mu ∩ ker S_M per eigenvalue group (floating point)."""
+    sp = system.spectrum()
+    U = np.asarray(sp.vectors)
+    out: list[list[list[Fraction]]] = []
+    for g in sp.clusters:
+        E = U[:, list(g)]
+        S = E[list(M), :]
+        if S.size:
+            _, sv, vh = np.linalg.svd(S)
+            r = int(np.sum(sv > 1e-9))
+            null = vh[r:].conj().T
+        else:
+            null = np.eye(len(g))
+        if null.shape[1] == 0:
+            continue
+        Wt = (E @ null).T  # k x N
+        _, _, piv = scipy.linalg.qr(Wt, pivoting=True, mode="economic")
+        P = piv[: Wt.shape[0]]
+        R = np.linalg.solve(Wt[:, P], Wt)
+        rows = [[Fraction(0) if abs(x) < 1e-9 else Fraction(float(x)).limit_denominator(10**6) for x in row] for row in R]
+        out.append(rows)
+    if grouped:
+        return out
+    return [r for grp in out for r in grp]
 # ------------------------------------------------------------------------------------------
 # one set
 

@@ -66,6 +66,8 @@ __all__ = ["GroundedTables", "MinorCertificate", "charpoly_mod", "constant_full_
 MAX_INPUTS = 4
 #: at most this many choices of M'' are tried per input set
 MAX_ROW_CHOICES = 6
+#: at most this many extra replaced rows (anchors) per input set
+MAX_EXTRA_ROWS = 80
 _UNREACHABLE = 1 << 30
 
 
@@ -98,6 +100,12 @@ class GroundedTables:
         :func:`twin_modes` of (L, M): ``((mu, pairs), ...)``.
     twin_roots : tuple of (int, int)
         Their roots s0 = -alpha mu modulo p with multiplicities.
+    unobservable_factor : tuple of int
+        det(sI + alpha B) modulo p (low to high) for an exactly verified L-invariant subspace W
+        of ker S_M with L W = W B (:func:`verified_invariant_subspace`); empty when none was
+        given. It contains the twin modes when W does and replaces their factor.
+    unobservable_dim : int
+        dim W.
     """
 
     prime: int
@@ -111,6 +119,8 @@ class GroundedTables:
     anchors: tuple[int, ...] = ()
     twins: tuple[tuple[Fraction, tuple[tuple[int, int], ...]], ...] = ()
     twin_roots: tuple[tuple[int, int], ...] = ()
+    unobservable_factor: tuple[int, ...] = ()
+    unobservable_dim: int = 0
 
 
 @dataclass(frozen=True, slots=True)
@@ -172,7 +182,13 @@ def _mod(x: Fraction, p: int) -> int:
     return (x.numerator % p) * pow(x.denominator % p, -1, p) % p
 
 
-def grounded_tables(size: int, laplacian: Mapping[tuple[int, int], Fraction], alpha: Fraction, measured: Sequence[int]) -> GroundedTables | None:
+def grounded_tables(
+    size: int,
+    laplacian: Mapping[tuple[int, int], Fraction],
+    alpha: Fraction,
+    measured: Sequence[int],
+    unobservable: Sequence[Sequence[Fraction]] | None = None,
+) -> GroundedTables | None:
     """The numerator tables of the module docstring for one (L, alpha, M).
 
     Parameters
@@ -186,6 +202,9 @@ def grounded_tables(size: int, laplacian: Mapping[tuple[int, int], Fraction], al
         The position gain.
     measured : sequence of int
         M (rows whose xi is constrained to zero).
+    unobservable : sequence of rational rows, optional
+        A candidate basis of unobservable modes (e.g. rationalised from floating point); it is
+        used only if :func:`verified_invariant_subspace` proves it exactly.
 
     Returns
     -------
@@ -282,7 +301,15 @@ def grounded_tables(size: int, laplacian: Mapping[tuple[int, int], Fraction], al
     anchors += [j for j in np.argsort(near, kind="stable").tolist() if near[j] == 1 and j not in anchors]
     tw = twin_modes(size, laplacian, M)
     roots = tuple(((-a_mod * _mod(mu, p)) % p, len(pairs)) for mu, pairs in tw)
-    return GroundedTables(p, size, U, tuple(pos), M, a, num, dist, tuple(int(j) for j in anchors), tw, roots)
+    ufac: tuple[int, ...] = ()
+    udim = 0
+    ver = verified_invariant_subspace(size, laplacian, M, unobservable) if unobservable else None
+    if ver is not None and all(d % p for r in ver[1] for x in r for d in (abs(int(Fraction(x).denominator)),)):
+        B = ver[1]
+        udim = len(B)
+        ent = {(i, j): -alpha * B[i][j] for i in range(udim) for j in range(udim) if B[i][j] != 0}
+        ufac = tuple(int(c) for c in charpoly_mod(udim, ent, p).coeffs())
+    return GroundedTables(p, size, U, tuple(pos), M, a, num, dist, tuple(int(j) for j in anchors), tw, roots, ufac, udim)
 
 
 # ------------------------------------------------------------------------------------------
@@ -394,9 +421,11 @@ def full_rank_certificate(
         # one more replaced row, in another part of U: breaks factors det K_R shared by the
         # minors above (e.g. a component of G[U] that holds no input)
         if len(Mp) > k:
-            extra = [j for j in tables.anchors if j not in Ip][:MAX_ROW_CHOICES + 2]
-            for j in extra:
-                yield from (minor(Ip + [j], rows) for rows in itertools.islice(itertools.combinations(Mp, k + 1), 2))
+            extra = [j for j in tables.anchors if j not in Ip][:MAX_EXTRA_ROWS]
+            for j in extra:  # one per component of G[U] first (each breaks that component's det K_c)
+                yield from (minor(Ip + [j], rows) for rows in itertools.islice(itertools.combinations(Mp, k + 1), 1))
+            for j in extra[:MAX_ROW_CHOICES]:
+                yield from (minor(Ip + [j], rows) for rows in itertools.islice(itertools.combinations(Mp, k + 1), 1, 3))
 
     twin = _twin_factor(tables, cache) if modulo_twins and tables.twins else None
     g = None
@@ -426,11 +455,65 @@ def _twin_factor(tables: GroundedTables, cache: MutableMapping[Any, Any]) -> Any
 
     key = ("T", tables)
     if key not in cache:
-        f = nmod_poly([1], tables.prime)
-        for root, mult in tables.twin_roots:
-            f *= nmod_poly([(-root) % tables.prime, 1], tables.prime) ** mult
+        if tables.unobservable_factor:
+            f = nmod_poly(list(tables.unobservable_factor), tables.prime)
+        else:
+            f = nmod_poly([1], tables.prime)
+            for root, mult in tables.twin_roots:
+                f *= nmod_poly([(-root) % tables.prime, 1], tables.prime) ** mult
         cache[key] = f
     return cache[key]
+
+
+def verified_invariant_subspace(
+    size: int, laplacian: Mapping[tuple[int, int], Fraction], measured: Sequence[int], rows: Sequence[Sequence[Fraction]]
+) -> tuple[list[list[Fraction]], list[list[Fraction]]] | None:
+    """Prove that span(rows) is L-invariant and vanishes on M, exactly; return (W, B) or None.
+
+    W is the reduced row echelon basis of span(rows) (pivot entries 1) and B the matrix with
+    L w_i = sum_j B_ij w_j, checked in exact rationals for every basis vector (residual exactly
+    0, and w_i = 0 on every agent of M). Then W lies in the unobservable subspace of (L, S_M)
+    and, L being symmetric, det(sI + alpha B) = prod (s + alpha mu)^dim(W ∩ E_mu).
+
+    Parameters
+    ----------
+    size : int
+    laplacian : mapping
+        Nonzero entries of L (exact).
+    measured : sequence of int
+        M.
+    rows : sequence of rational rows
+        Candidate spanning vectors (length ``size``).
+    """
+    from flint import fmpq, fmpq_mat
+
+    if not rows:
+        return None
+    X = fmpq_mat(len(rows), size, [fmpq(Fraction(x).numerator, Fraction(x).denominator) for r in rows for x in r])
+    R, rank = X.rref()
+    if rank == 0:
+        return None
+    W = [[Fraction(int(R[i, j].p), int(R[i, j].q)) for j in range(size)] for i in range(rank)]
+    piv = [next(j for j in range(size) if W[i][j] != 0) for i in range(rank)]
+    if any(W[i][m] != 0 for i in range(rank) for m in measured):
+        return None
+    cols: dict[int, list[tuple[int, Fraction]]] = {}
+    for (i, j), v in laplacian.items():
+        if v != 0:
+            cols.setdefault(j, []).append((i, v))
+    B: list[list[Fraction]] = []
+    for w in W:
+        Lw = [Fraction(0)] * size
+        for j, x in enumerate(w):
+            if x != 0:
+                for i, v in cols.get(j, ()):
+                    Lw[i] += v * x
+        c = [Lw[p_] for p_ in piv]
+        for k in range(size):
+            if Lw[k] != sum((c[t] * W[t][k] for t in range(rank) if W[t][k] != 0), Fraction(0)):
+                return None
+        B.append(c)
+    return W, B
 
 
 def twin_modes(size: int, laplacian: Mapping[tuple[int, int], Fraction], measured: Sequence[int]) -> tuple[tuple[Fraction, tuple[tuple[int, int], ...]], ...]:
