@@ -18,16 +18,19 @@ from glocal_verify.analysis.zda import (
     _lambda_request,
     _normalize,
 )
+from glocal_verify.analysis.twins import laplacian_entries
 from glocal_verify.model import System
+from glocal_verify.numerics.minors import GroundedTables, MinorCertificate, full_rank_certificate, grounded_tables
 from glocal_verify.numerics.pencil_exact import (
     RootEnclosures,
     analyze_pencil_exact,
     classify_real_parts,
     _inv_mod,
+    _kernel,
     eval_at_root,
     kernel_over_field,
 )
-from glocal_verify.spec.types import Label
+from glocal_verify.spec.types import NORMAL_MODE, Label
 
 __all__ = [
     "ExactZdaZero",
@@ -274,13 +277,156 @@ def _exact_zero(
     return ExactZdaZero(root, rational, str(g), sign, attack, xi, u, xf, g, mult, uf)
 
 
+# ------------------------------------------------------------------------------------------
+# fast path: the minor certificate (no zero with an input direction at lambda != 0)
+
+
+def _minor_tables(system: System) -> GroundedTables | None:
+    """Numerator tables of the normal mode's reduced pencil with outputs M = M_x ∪ M_v (kept on ``system.analysis``)."""
+    if not system.monitored:
+        return None
+    return system.analysis.get(
+        ("zda-exact-minor-tables",),
+        lambda: grounded_tables(system.n, laplacian_entries(system, NORMAL_MODE), Fraction(system.alpha_q), system.idx(system.monitored)),
+    )
+
+
+def _twin_vectors_hold(L: Sequence[Sequence[Fraction]], mu: Fraction, pairs: Sequence[tuple[int, int]], M: set[int]) -> bool:
+    """L (e_a - e_r) = mu (e_a - e_r) exactly and a, r outside M, for every pair (an exact re-check of the twin modes)."""
+    for a, r in pairs:
+        if a in M or r in M or a == r:
+            return False
+        for i in range(len(L)):
+            want = mu * ((i == a) - (i == r))
+            if L[i][a] - L[i][r] != want:
+                return False
+    return True
+
+
+def _first_reduced_kernel_vector(vectors: Sequence[Sequence[Fraction]], ncols: int) -> tuple[Any, ...]:
+    """The first vector of the reduced kernel basis that :func:`kernel_over_field` returns, given the kernel's span.
+
+    :func:`kernel_over_field` (and its rational branch) returns, for each free column f of the
+    RREF of the matrix (ascending), the kernel vector with 1 at f and 0 at the other free
+    columns. Column j is free iff some kernel vector has its last nonzero entry at j; these
+    are the pivots of the RREF of a spanning set with the column order reversed, whose rows
+    are those same vectors (RREF is unique). The first one belongs to the smallest free column.
+    """
+    t = len(vectors)
+    W = flint.fmpq_mat(t, ncols, [_fq(Fraction(v[ncols - 1 - j])) for v in vectors for j in range(ncols)])
+    R, r = W.rref()
+    row = int(r) - 1  # pivots ascend in the reversed order: the last row has the smallest free column
+    return tuple(flint.fmpq_poly(R[row, ncols - 1 - j]) for j in range(ncols))
+
+
+def _zero_lambda_kernel(system: System, F: Sequence[int]) -> tuple[bool, Any | None, int]:
+    """(attack?, chosen kernel vector, kernel dimension) at lambda = 0, exactly as :func:`_exact_at` decides them.
+
+    At lambda = 0 the kernel is that of Q_0 = [[alpha L, -S_F^T], [S_{M_x}, 0]] over Q
+    (det(alpha L) = 0, so :func:`transfer_kernel` never applies there and the general path
+    eliminates Q_0 with flint's RREF, :func:`kernel_over_field`); the same RREF basis is
+    computed here from an ``fmpq_mat`` built directly (no polynomial entries).
+    """
+    N, m = system.n, len(F)
+    L = system.laplacian_exact()
+    a = system.alpha_q
+    rows_out = system.idx(system.monitored_positions)
+    ent: list[Any] = []
+    for i in range(N):
+        ent.extend(_fq(a * L[i][j]) for j in range(N))
+        ent.extend(flint.fmpq(-1 if F[k] == i else 0) for k in range(m))
+    for r in rows_out:
+        ent.extend(flint.fmpq(int(j == r)) for j in range(N + m))
+    Kq = _kernel(flint.fmpq_mat(N + len(rows_out), N + m, ent))
+    basis = [tuple(flint.fmpq_poly(Kq[i, c]) for i in range(N + m)) for c in range(Kq.ncols())]
+    pick = next((v for v in basis if any(not e.is_zero() for e in v[N:])), None)
+    return pick is not None, pick if pick is not None else (basis[0] if basis else None), len(basis)
+
+
+def _certified_analysis(system: System, F_lab: tuple[Label, ...], F: Sequence[int], lam_req: complex | None) -> ExactZdaAnalysis | None:
+    """The exact analysis from the maximal-minor certificate, or None (then the general path runs).
+
+    When :func:`~glocal_verify.numerics.minors.full_rank_certificate` (``modulo_twins=True``)
+    holds for F, every kernel vector of the N-sized pencil P(s) = [[sI + alpha L, -S_F^T],
+    [S_M, 0]] at every s is an exact twin mode (u = 0), and the order of vanishing of a
+    maximal minor at s0 = -alpha mu is exactly the twin dimension t_mu. Hence P is
+    left-invertible (full normal column rank, 2N pencil of normal rank 2N + m), its zero
+    polynomial (gcd of the maximal minors = the monic characteristic polynomial of A + BK on
+    V*, the general path's ``s_zero_polynomial``) is prod_mu (s + alpha mu)^(t_mu), and
+    ker P(s0) is spanned by the twin modes of mu. So every factor g of
+    z(lambda^2 + gamma lambda) is unobservable, with the kernel vector the reduced basis of
+    the twin span (:func:`_first_reduced_kernel_vector`), and a stealthy ZDA can only have
+    lambda0 = 0, decided over Q (:func:`_zero_lambda_kernel`). The selection of the direction
+    is the general path's (requested lambda0, else the fastest-growing zero). Every field
+    equals the general path's (tests/test_zda_exact_fast.py compares them).
+    """
+    tables = _minor_tables(system)
+    if tables is None or any(mu == 0 for mu, _ in tables.twins):
+        return None  # s0 = 0 (isolated twins) would put a twin factor at lambda = 0: general path
+    cache: dict[Any, Any] = system.analysis.get(("zda-exact-minor-cache",), dict)
+    cert: MinorCertificate | None = full_rank_certificate(tables, F, cache, modulo_twins=True)
+    if cert is None:
+        return None
+    Mset = set(system.idx(system.monitored))
+    Lq = system.laplacian_exact()
+    if not all(_twin_vectors_hold(Lq, mu, pairs, Mset) for mu, pairs in tables.twins):  # pragma: no cover - a theorem
+        return None
+    N, m = system.n, len(F)
+    a = _fq(system.alpha_q)
+    x = flint.fmpq_poly([0, 1])
+    s_poly = x * x + _fq(system.gamma_q) * x
+    z = flint.fmpq_poly(1)
+    for mu, pairs in tables.twins:
+        z *= flint.fmpq_poly([a * _fq(mu), 1]) ** len(pairs)
+    attack: list[ExactZdaZero] = []
+    unobs: list[ExactZdaZero] = []
+    if z.degree() > 0:
+        _, facs = z(s_poly).factor()
+        for g, mult in facs:
+            g = g / g.leading_coefficient()
+            fam = [(mu, pairs) for mu, pairs in tables.twins if ((s_poly + a * _fq(mu)) % g).is_zero()]
+            if g == x or len(fam) != 1:  # pragma: no cover - excluded above (mu != 0; distinct mu give coprime factors)
+                return None
+            mu, pairs = fam[0]
+            vecs = [[Fraction(int(i == a_) - int(i == r_)) for i in range(N + m)] for a_, r_ in pairs]
+            vec = _first_reduced_kernel_vector(vecs, N + m)
+            enclosures = RootEnclosures(g)
+            for root, sign in classify_real_parts(g):
+                unobs.append(_exact_zero(system, g, vec, root, sign, False, int(mult), m, enclosures))
+    is_attack0, vec0, kdim0 = _zero_lambda_kernel(system, F)
+    if kdim0 > 0:
+        (attack if is_attack0 else unobs).append(_exact_zero(system, x, vec0, 0j, 0, is_attack0, kdim0, m))
+    attack.sort(key=lambda zz: (-zz.value.real, -abs(zz.value.imag)))
+    unobs.sort(key=lambda zz: (-zz.value.real, -abs(zz.value.imag)))
+    notes: list[str] = []
+    direction: ExactZdaZero | None = None
+    source = "none"
+    if lam_req is not None:
+        if lam_req == 0 and is_attack0:  # lambda0 != 0 carries no input direction (the certificate)
+            direction, source = _exact_zero(system, x, vec0, 0j, 0, True, 1, m), "requested lambda0"
+        else:
+            notes.append(f"no stealthy ZDA at the requested lambda0 = {lam_req}")
+    if direction is None and attack:
+        direction, source = attack[0], "fastest-growing zero"
+    return ExactZdaAnalysis(F_lab, True, 2 * N + m, 0, str(z), tuple(attack), tuple(unobs), direction, source, tuple(notes))
+
+
 def zda_analysis_exact(
     system: System,
     actuators: Iterable[Label] | None = None,
     *,
     lambda0: complex | float | Sequence[float] | None = None,
+    _general: bool = False,
 ) -> ExactZdaAnalysis:
     """Exact version of :func:`zda_analysis` (rational weights and gains; no tolerance).
+
+    Fast path: when the maximal minors of the reduced pencil prove (exactly, modulo a prime,
+    :func:`glocal_verify.numerics.minors.full_rank_certificate` with ``modulo_twins``) that no
+    kernel vector at any lambda != 0 has an input part, the pencil is left-invertible, the
+    only zeros with lambda != 0 are the exact twin modes (u = 0; lambda^2 + gamma lambda +
+    alpha mu = 0) and a stealthy ZDA can only have lambda0 = 0, one rational kernel over Q
+    (:func:`_certified_analysis`). The result is the one the general path returns, field by
+    field; the general path (dense V* iteration over Q, O(N^4) and more) runs otherwise.
 
     Parameters
     ----------
@@ -291,6 +437,8 @@ def zda_analysis_exact(
     lambda0 : complex, float or [re, im], optional
         Exponent for the witness (default the spec's ``attack.lambda0``); its real and
         imaginary parts are read as exact binary rationals.
+    _general : bool
+        Private: skip the certificate fast path (tests compare both paths).
 
     Returns
     -------
@@ -299,6 +447,10 @@ def zda_analysis_exact(
     F_lab = _actuators(system, actuators)
     F = system.idx(F_lab)
     lam_req = _lambda_request(system, lambda0)
+    if not _general:
+        fast = _certified_analysis(system, F_lab, F, lam_req)
+        if fast is not None:
+            return fast
     N, m = system.n, len(F)
     L = system.laplacian_exact()
     a = system.alpha_q

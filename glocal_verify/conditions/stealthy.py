@@ -49,7 +49,11 @@ Exact path (:func:`zda_analysis_exact`)
     left-invertibility and the zero polynomial z(s); the lambda-zeros are the roots of
     z(lambda^2 + gamma lambda) factored over Q, and for each irreducible factor g the kernel
     of Q(lambda^2 + gamma lambda) is computed exactly in Q[lambda]/(g), which decides whether
-    an input direction exists and gives the direction.
+    an input direction exists and gives the direction. First, when the maximal minors of the
+    reduced pencil prove (modulo a prime, :mod:`glocal_verify.numerics.minors`) that no
+    kernel vector at any lambda != 0 has an input part, the same answer is assembled from the
+    exact twin modes and the one rational kernel at lambda = 0 (no V* iteration; the result
+    equals the general path's field by field).
 
 Covert attacks (eqs. ``ym_solution``-``covert_trajec_post``)
     u_s = C x~ cancels u_a iff the attacker owns every monitored channel that u_a reaches;
