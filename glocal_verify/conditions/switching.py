@@ -675,6 +675,8 @@ def _eigvec_exact(system: System, mode: str, numeric: tuple[Status, float, dict[
     fast = eigenvector_differences_modular(system, mode)
     if fast is not None:
         st, fwit = fast
+        if st is Status.HOLDS:
+            fwit = {**fwit, "closest": nwit.get("closest")}
         return st, (margin if st is Status.HOLDS else 0.0), fwit
     L = system.laplacian_exact(mode)
     p = ex.charpoly(L)
