@@ -370,26 +370,22 @@ def certify_pencil_verdict(system: System, case: LocalCase, status: Status, witn
     ok0 = ok if mx == measured else len(zero_forcing_closure(nbrs, mx, inputs)) == n
     ncols = 2 * n + len(case.suspected) + len(cm.boundary)
     cert: dict[str, Any] = {"error_bound": None}
-    if ok and ok0:
-        cert["by"] = "zero forcing from the measured agents on the exact support (every lam)"
-        witness["certificate"] = cert
-        if status is not Status.HOLDS:
-            witness["certificate"]["note"] = f"the numeric analysis said {status.value}; zero forcing proves full column rank for every lam"
-        return Status.HOLDS, witness
-    by = minor_certificate(system, case)
-    if by is not None:
+
+    def proved(status_now: Status, by: str, how: str) -> tuple[Status, dict[str, Any]]:
         cert["by"] = by
         witness["certificate"] = cert
-        if status is not Status.HOLDS:
-            witness["certificate"]["note"] = f"the numeric analysis said {status.value}; exact minors prove full column rank for every lam"
-        return Status.HOLDS, witness
+        if status is not status_now:
+            cert["note"] = f"the numeric analysis said {status.value}; {how}"
+        return status_now, witness
+
+    if ok and ok0:
+        return proved(Status.HOLDS, "zero forcing from the measured agents on the exact support (every lam)", "zero forcing proves full column rank for every lam")
+    by = minor_certificate(system, case)
+    if by is not None:
+        return proved(Status.HOLDS, by, "exact minors prove full column rank for every lam")
     tw = twin_failure(system, case)
     if tw is not None:
-        cert["by"] = tw
-        witness["certificate"] = cert
-        if status is not Status.FAILS:
-            witness["certificate"]["note"] = f"the numeric analysis said {status.value}; an exact twin mode proves rank loss"
-        return Status.FAILS, witness
+        return proved(Status.FAILS, tw, "an exact twin mode proves rank loss")
     if status is Status.HOLDS:
         if ok:
             rows, pat = _exact_pencil_at(system, case, Fraction(0))

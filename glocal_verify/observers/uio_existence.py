@@ -352,12 +352,7 @@ def _hurwitz(F: np.ndarray, tol: Tolerance) -> tuple[Status, float, np.ndarray]:
     kappa = 1.0 / np.maximum(np.abs(np.sum(vl.conj() * vr, axis=0)), 1e-300)
     rho = kappa * tol.rtol * max(_norm2(F), 1e-300)
     ratio = -w.real / rho
-    worst = float(np.min(ratio))
-    if np.all(ratio > tol.band):
-        return Status.HOLDS, worst, w
-    if np.any(ratio < -tol.band):
-        return Status.FAILS, worst, w
-    return Status.UNDECIDED, worst, w
+    return _decide_ratios(ratio, tol), float(np.min(ratio)), w
 
 
 def _real_to_complex_schur(S: np.ndarray) -> np.ndarray:
@@ -472,12 +467,7 @@ def _hurwitz_reduced(F: np.ndarray, W: np.ndarray, kept: int, sub: np.ndarray, t
     rho = _triangular_kappa(Tc, twin) * (delta + dropped)
     with np.errstate(invalid="ignore", divide="ignore"):
         ratio = np.where(np.isfinite(rho), -w.real / rho, 0.0)
-    worst = float(np.min(ratio))
-    if np.all(ratio > tol.band):
-        return Status.HOLDS, worst, w
-    if np.any(ratio < -tol.band):
-        return Status.FAILS, worst, w
-    return Status.UNDECIDED, worst, w
+    return _decide_ratios(ratio, tol), float(np.min(ratio)), w
 
 
 def _norm2(M: np.ndarray) -> float:
@@ -728,3 +718,12 @@ def uio_existence_exact(A: ex.Rows, E: ex.Rows, C: ex.Rows) -> _ExactExistence:
     coeffs = [ex.to_fraction(p[k]) for k in range(p.degree() + 1)]
     st = Status.HOLDS if is_hurwitz_exact(coeffs) else Status.FAILS
     return _ExactExistence(st, Status.HOLDS, rE, rCE, len(N), coeffs, hq)
+
+
+def _decide_ratios(ratio: np.ndarray, tol: Tolerance) -> Status:
+    """Hurwitz from the ratios -Re(w_i) / rho_i: holds when all exceed the band, fails when one is below -band."""
+    if np.all(ratio > tol.band):
+        return Status.HOLDS
+    if np.any(ratio < -tol.band):
+        return Status.FAILS
+    return Status.UNDECIDED
