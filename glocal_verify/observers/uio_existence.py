@@ -9,9 +9,10 @@ exact by Routh-Hurwitz) and :func:`uio_existence` / :func:`uio_existence_exact`.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -27,16 +28,16 @@ from glocal_verify.numerics.tolerance import (
 from glocal_verify.results import Status
 
 __all__ = [
+    "SLOW_LADDER",
     "ObservableSplit",
     "UIOExistence",
-    "observable_split",
+    "cluster_detectability",
     "default_poles",
     "hurwitz_certificate",
+    "is_hurwitz_exact",
+    "observable_split",
     "uio_existence",
     "uio_existence_exact",
-    "cluster_detectability",
-    "SLOW_LADDER",
-    "is_hurwitz_exact",
 ]
 
 # --------------------------------------------------------------------------------------------
@@ -310,7 +311,9 @@ def _place_dual(X: np.ndarray, Y: np.ndarray, poles: np.ndarray, tol: Tolerance)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)  # YT convergence is about robustness, not accuracy
-            from scipy.signal import place_poles  # lazily: importing scipy.signal costs seconds
+            from scipy.signal import (
+                place_poles,  # lazily: importing scipy.signal costs seconds
+            )
 
             res = place_poles(X, Bp, p, method="YT", maxiter=10)
     except ValueError as exc:
