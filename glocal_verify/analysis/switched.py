@@ -429,7 +429,7 @@ def certified_switched(system: System, sequence: Sequence[tuple[str, float]]) ->
     modes = [m for m, _ in seq]
     inner = structural_basis(system, union_components(system, modes))
     per = {m: certified_unobservable(system, m) for m in dict.fromkeys(modes)}
-    all_structural = all(c.dim_upper == c.dim_lower for c in per.values())
+    all_structural = all(c.dim_upper == len(c.structural) for c in per.values())
     upper = min(c.dim_upper for c in per.values())
     if all_structural:
         upper = min(upper, len(inner))

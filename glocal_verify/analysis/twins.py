@@ -7,7 +7,8 @@ generated networks. They settle, in exact arithmetic and at the cost of a hash p
 questions whose floating-point answers sit on a rounding-level difference:
 Theorem III.3 (iii) fails for a safe mode whose L_q has twins off a switching pair
 (:func:`eigenvector_differences_modular`, which otherwise proves (iii) by two gcds modulo a
-prime). The local and global pencil certificates use the same modes
+prime), and Theorem III.3 (ii) fails when two independent twin modes share an eigenvalue
+(:func:`distinct_eigenvalues_modular`, which otherwise proves (ii) by one gcd modulo a prime). The local and global pencil certificates use the same modes
 (:mod:`glocal_verify.analysis.local_cases`, :mod:`glocal_verify.design.audit`).
 """
 
@@ -22,7 +23,7 @@ from glocal_verify.model import System
 from glocal_verify.numerics.minors import charpoly_mod, prime_for, twin_modes
 from glocal_verify.results import Status
 
-__all__ = ["eigenvector_differences_modular", "laplacian_entries"]
+__all__ = ["distinct_eigenvalues_modular", "eigenvector_differences_modular", "laplacian_entries"]
 
 
 def laplacian_entries(system: System, mode: str) -> dict[tuple[int, int], Fraction]:
@@ -101,3 +102,57 @@ def eigenvector_differences_modular(system: System, mode: str) -> tuple[Status, 
         "pairs_checked": len(pairs),
         "certificate": f"charpoly(L_q) squarefree and gcd(p(mu)/mu, q_ij) = 1 for every pair, modulo the prime {p} (exact)",
     }
+
+
+def distinct_eigenvalues_modular(system: System, mode: str) -> tuple[Status, dict[str, Any]] | None:
+    """Decide Theorem III.3 (ii) for ``mode`` exactly and cheaply, or return None.
+
+    * fails: two independent exact twin modes e_a - e_r of L_q with the same eigenvalue mu
+      (:func:`glocal_verify.numerics.minors.twin_modes`): mu is repeated; the witness gives
+      them orthogonalised in exact arithmetic (their number is a lower bound on the
+      multiplicity);
+    * holds: gcd(p, p') has degree 0 modulo a prime, p = charpoly(D L_q) for the common
+      denominator D (monic with integer coefficients): a repeated factor over Q would divide
+      p and p' modulo every prime (Gauss's lemma), so p is squarefree and the N eigenvalues
+      are distinct.
+
+    Parameters
+    ----------
+    system : System
+    mode : str
+        A safe mode (any mode of the spec).
+
+    Returns
+    -------
+    (Status, witness) or None
+        None when neither certificate applies (the prime may divide a discriminant that is
+        not 0 over Q); the caller keeps its undecided verdict and escalates.
+    """
+    n = system.n
+    ent = laplacian_entries(system, mode)
+    for mu, tw in twin_modes(n, ent, ()):
+        if len(tw) < 2:
+            continue
+        (a1, r1), (a2, r2) = tw[0], tw[1]
+        v1 = [Fraction(0)] * n
+        v2 = [Fraction(0)] * n
+        v1[a1], v1[r1] = Fraction(1), Fraction(-1)
+        v2[a2] += 1
+        v2[r2] -= 1
+        c = sum((x * y for x, y in zip(v1, v2)), Fraction(0)) / 2
+        v2 = [y - c * x for x, y in zip(v1, v2)]
+        unit = [np.array([float(x) for x in v]) for v in (v1, v2)]
+        names = ", ".join(f"{system.labels[a]} ~ {system.labels[r]}" for a, r in tw[:4])
+        return Status.FAILS, {
+            "eigenvalue": float(mu),
+            "eigenvalue_exact": mu,
+            "multiplicity_at_least": len(tw),
+            "reason": f"twin agents ({names}) give {len(tw)} independent exact eigenvectors e_a - e_r of L_q with eigenvalue {mu}",
+            "rational_eigenvectors": [system.vector_by_label(v) for v in (v1, v2)],
+            "eigenvectors": [system.vector_by_label(u / np.linalg.norm(u)) for u in unit],
+        }
+    p = prime_for(list(ent.values()))
+    P = charpoly_mod(n, ent, p)
+    if P.gcd(P.derivative()).degree() != 0:
+        return None
+    return Status.HOLDS, {"certificate": f"charpoly(L_q) squarefree modulo the prime {p}: gcd(p, p') = 1 (exact)"}

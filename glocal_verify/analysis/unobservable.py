@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import flint
 import numpy as np
+import scipy.linalg
 
 from glocal_verify.analysis.modal import EigenGroupPart, modal_decomposition
 from glocal_verify.model import System
@@ -35,6 +36,7 @@ __all__ = [
     "CertifiedUnobservable",
     "certified_unobservable",
     "structural_basis",
+    "rational_unobservable_candidates",
 ]
 
 def _assemble(n: int, groups: Sequence[EigenGroupPart], upper: bool) -> tuple[np.ndarray, bool]:
@@ -242,6 +244,12 @@ class CertifiedUnobservable:
     slack : float
         Smallest certified ``sigma_min(S_M U_g) sqrt(1 - s^2) - s - e`` over the clusters (the
         quantity whose positivity proves injectivity; 1.0 when there is none).
+    verified : tuple of tuple of Fraction
+        Exact rational basis (length 2N) of a part ``W x W`` of the summands ``mu > 0``: W is
+        rationalised from the floating-point clusters where S_M is numerically singular, then
+        proven L_q-invariant, zero on M and free of ``ker L_q`` in exact arithmetic
+        (:func:`~glocal_verify.numerics.minors.verified_invariant_subspace`). Counted in
+        ``dim_lower``; empty when no cluster needed it.
     """
 
     mode: str
@@ -251,6 +259,12 @@ class CertifiedUnobservable:
     error_bound: float
     note: str
     slack: float
+    verified: tuple[tuple[Fraction, ...], ...] = ()
+
+    @property
+    def exact_basis(self) -> tuple[tuple[Fraction, ...], ...]:
+        """``structural + verified``: an exact basis of a subspace of N of dimension ``dim_lower``."""
+        return self.structural + self.verified
 
     @property
     def decided(self) -> bool:
@@ -283,6 +297,85 @@ def structural_basis(system: System, comps: Sequence[Sequence[object]]) -> tuple
             ind = [one if lab in c else zero for lab in system.labels]
             out.append(tuple([zero] * n + ind))
     return tuple(out)
+
+
+#: singular values of S_M U_g below this are read as numerically zero when rationalising
+#: unobservable candidates (a candidate is only used after its exact proof)
+CANDIDATE_ZERO = 1e-9
+
+#: most candidate vectors the exact verification of :func:`certified_unobservable` takes on
+MAX_VERIFIED_CANDIDATES = 400
+
+
+def rational_unobservable_candidates(E: np.ndarray, measured: Sequence[int]) -> list[list[Fraction]]:
+    """Rationalised echelon rows spanning ``span(E) ∩ ker S_M`` (floating point, unproven).
+
+    ``E`` (N x k) is the computed basis of an eigenvalue cluster; the right singular vectors
+    of ``E[M, :]`` with singular value <= :data:`CANDIDATE_ZERO` give the numerical null
+    space; its basis is brought to reduced echelon form (pivoted QR, then a solve) and each
+    entry rounded to the nearest fraction with denominator <= 10^6 (entries below 1e-9 to 0).
+    Twin modes come out exact; the caller must prove whatever it uses.
+
+    Parameters
+    ----------
+    E : ndarray (N, k)
+    measured : sequence of int
+        M.
+    """
+    S = E[list(measured), :]
+    if S.size:
+        _, sv, vh = np.linalg.svd(S)
+        r = int(np.sum(sv > CANDIDATE_ZERO))
+        null = vh[r:].conj().T
+    else:
+        null = np.eye(E.shape[1])
+    if null.shape[1] == 0:
+        return []
+    Wt = (E @ null).T  # k x N
+    _, _, piv = scipy.linalg.qr(Wt, pivoting=True, mode="economic")
+    P = piv[: Wt.shape[0]]
+    R = np.linalg.solve(Wt[:, P], Wt)
+    return [[Fraction(0) if abs(x) < 1e-9 else Fraction(float(x)).limit_denominator(10**6) for x in row] for row in R]
+
+
+def _verified_singular_part(
+    system: System, mode: str, U: np.ndarray, M: Sequence[int], singular: Sequence[tuple[int, int, float, float, np.ndarray]]
+) -> tuple[tuple[tuple[Fraction, ...], ...], int]:
+    """Exact ``W x W`` basis (length 2N) from the numerically singular clusters, and the upper bound on dim W.
+
+    W: the candidates of :func:`rational_unobservable_candidates`, cluster by cluster, kept
+    when :func:`~glocal_verify.numerics.minors.verified_invariant_subspace` proves them (with
+    the ones kept before) L_q-invariant and zero on M, and the restriction B of L_q to them
+    is exactly nonsingular (so W meets ``ker L_q`` only in 0). Upper bound: per cluster,
+    ``k - #{i : sigma_i(S_M U_g) sqrt(1 - s^2) - s - e > 0}`` (the i-th singular value of
+    S_M on the exact spectral subspace exceeds the same bound as the smallest one does in
+    :func:`certified_unobservable`; Weyl for singular values), summed.
+    """
+    from glocal_verify.analysis.twins import laplacian_entries
+    from glocal_verify.numerics.minors import verified_invariant_subspace
+
+    upper_w = 0
+    for a, b, s, e, sv in singular:
+        proven = int(np.sum(sv * math.sqrt(max(0.0, 1.0 - s * s)) - s - e > 0)) if math.isfinite(s) else 0
+        upper_w += (b - a + 1) - proven
+    if upper_w > MAX_VERIFIED_CANDIDATES or any(float(sv[-1]) > CANDIDATE_ZERO for *_, sv in singular):
+        return (), upper_w
+    entries = laplacian_entries(system, mode)
+    kept: list[list[Fraction]] = []
+    B: list[list[Fraction]] = []
+    for a, b, *_ in singular:
+        rows = rational_unobservable_candidates(U[:, a : b + 1], M)
+        if not rows:
+            continue
+        ver = verified_invariant_subspace(system.n, entries, M, kept + rows)
+        if ver is not None:
+            kept, B = ver
+    if not kept or flint.fmpq_mat(len(B), len(B), [flint.fmpq(x.numerator, x.denominator) for row in B for x in row]).det() == 0:
+        return (), upper_w
+    n = system.n
+    zero = [Fraction(0)] * n
+    basis = tuple(tuple(wv) + tuple(zero) for wv in kept) + tuple(tuple(zero) + tuple(wv) for wv in kept)
+    return basis, upper_w
 
 
 def certified_unobservable(system: System, mode: str = NORMAL_MODE) -> CertifiedUnobservable:
@@ -345,6 +438,8 @@ def certified_unobservable(system: System, mode: str = NORMAL_MODE) -> Certified
     worst_err = 0.0
     slack_min = 1.0
     note = ""
+    # clusters where S_M is numerically singular: (first index, last index, sine, error, singular values)
+    singular: list[tuple[int, int, float, float, np.ndarray]] = []
     for c in sp.clusters:
         if c[-1] < nz:
             continue
@@ -364,16 +459,19 @@ def certified_unobservable(system: System, mode: str = NORMAL_MODE) -> Certified
         if a == b:
             # simple: the singular value of the |M| x 1 matrix S_M u_a is its norm, rounded by at
             # most (|M| / 2 + 1) u, which the 2 N eps inside eta covers
-            smin = float(col_m[a])
+            sv = col_m[a : a + 1]
         else:
             sv = np.linalg.svd(Um[:, a : b + 1], compute_uv=False)
-            smin = float(sv[-1]) if len(sv) == len(g) else 0.0
+            if len(sv) < len(g):
+                sv = np.concatenate([sv, np.zeros(len(g) - len(sv))])
+        smin = float(sv[-1])
         e = eta + 2.0 * len(g) * EPS
         slack = smin * math.sqrt(max(0.0, 1.0 - s * s)) - s - e if math.isfinite(s) else -math.inf
         worst_err = max(worst_err, s)
         slack_min = min(slack_min, slack)
         if not slack > 0:
             extra += 2 * len(g)
+            singular.append((a, b, s, e, sv))
             if not note:
                 note = (
                     f"mode {mode}: eigenvalue cluster {a + 1}..{b + 1} (mu ~ {float(np.mean(w[a : b + 1])):.6g}): "
@@ -381,6 +479,16 @@ def certified_unobservable(system: System, mode: str = NORMAL_MODE) -> Certified
                     f"(Davis-Kahan sine {s:.3g} + {e:.2g}); whether an unobservable eigenvector exists there is not proven"
                 )
     base = len(struct)
-    cu = CertifiedUnobservable(mode, base, min(2 * n, base + extra), struct, worst_err, note, slack_min)
+    verified: tuple[tuple[Fraction, ...], ...] = ()
+    upper = base + extra
+    if singular:
+        verified, upper_w = _verified_singular_part(system, mode, U, m, singular)
+        if verified:
+            upper = base + 2 * upper_w  # every cluster that failed the injectivity test is in `singular`
+            if len(verified) > upper - base:  # pragma: no cover - a contradiction is a bug
+                raise RuntimeError(f"internal: mode {mode}: an exactly verified unobservable part exceeds its certified upper bound")
+            if base + len(verified) == upper:
+                note = ""
+    cu = CertifiedUnobservable(mode, base + len(verified), min(2 * n, upper), struct, worst_err, note, slack_min, verified)
     cache[key] = cu
     return cu

@@ -191,7 +191,7 @@ def check_switched_observability(system: System, ctx: CheckContext) -> list[Cond
             cu = certified_unobservable(system, mode)
             status = _bounds_status(cu.dim_lower, cu.dim_upper, observable_holds=True)
             if cu.dim_lower:
-                witness = {"dim": cu.dim_lower, "basis": _structural_witness(system, cu.structural)}
+                witness = {"dim": cu.dim_lower, "basis": _structural_witness(system, cu.exact_basis)}
             else:
                 witness = {"dim": 0, "basis": []}
             if not cu.decided:

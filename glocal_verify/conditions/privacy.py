@@ -178,7 +178,7 @@ def check_privacy_initial_state(system: System, ctx: CheckContext) -> list[Condi
             status = _bounds_status(cu.dim_lower, cu.dim_upper, observable_holds=False)
             dim = cu.dim_lower
             if dim:
-                witness = {"dim": dim, "vector": _structural_witness(system, cu.structural, 1)[0]}
+                witness = {"dim": dim, "vector": _structural_witness(system, cu.exact_basis, 1)[0]}
             else:
                 witness = {"dim": 0, "observability_margin": S.margin}
             if not cu.decided:

@@ -12,8 +12,6 @@ import dataclasses
 import difflib
 import importlib
 import math
-import signal
-import threading
 import time
 from dataclasses import dataclass, field
 from typing import Any, Callable, Iterable, Mapping, Sequence
@@ -24,6 +22,7 @@ import scipy.linalg
 from glocal_verify.conditions.catalogue import CATALOGUE, ConditionInfo
 from glocal_verify.errors import GlocalVerifyError, ModelError, UnknownConditionError
 from glocal_verify.model import System
+from glocal_verify.numerics.deadline import DeadlineExceeded, call_with_deadline
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
 from glocal_verify.results import (
     ALIASES,
@@ -205,59 +204,37 @@ def resolve_ids(ids: Iterable[str]) -> list[str]:
     return out
 
 
-class _BudgetExceeded(Exception):
-    """The exact re-decision of an escalated condition ran out of its time budget."""
-
-
-def _with_budget(seconds: float | None, compute: Callable[[], list[ConditionResult]]) -> list[ConditionResult] | None:
-    """``compute()`` within ``seconds`` of wall time, or None when the budget ran out.
-
-    The budget is enforced with a real-time interval timer (``SIGALRM``), available in the
-    main thread on POSIX; elsewhere the computation runs without a budget.
-    """
-    usable = seconds is not None and seconds > 0 and hasattr(signal, "setitimer") and threading.current_thread() is threading.main_thread()
-    if not usable:
-        return compute()
-
-    def alarm(signum: int, frame: Any) -> None:
-        raise _BudgetExceeded
-
-    old = signal.signal(signal.SIGALRM, alarm)
-    signal.setitimer(signal.ITIMER_REAL, float(seconds))  # type: ignore[arg-type]
-    try:
-        return compute()
-    except _BudgetExceeded:
-        return None
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0.0)
-        signal.signal(signal.SIGALRM, old)
-
-
 def _scope_key(r: ConditionResult) -> tuple[tuple[str, str], ...]:
     return tuple(sorted((str(k), repr(v)) for k, v in r.scope.items()))
 
 
 def _escalate(
-    system: System, cid: str, numeric: list[ConditionResult], ctx: CheckContext, budget: float | None
+    system: System, cid: str, numeric: list[ConditionResult], ctx: CheckContext, budget: float | None, spent_note: str = ""
 ) -> list[ConditionResult]:
     """Re-decide the undecided results of one checker in exact arithmetic (rational weights).
 
     Decided numeric results are kept (they are certified); each undecided one is replaced by
-    the exact result of the same scope. When the exact run exceeds ``budget`` seconds the
-    undecided results stay, with a note saying so.
+    the exact result of the same scope. The exact run is stopped after ``budget`` seconds
+    (:func:`~glocal_verify.numerics.deadline.call_with_deadline`, a hard limit); the
+    undecided results then stay, with a note saying so. ``budget == 0`` means the run's
+    budget is already spent: nothing is computed and ``spent_note`` says why.
     """
     if not any(r.status is Status.UNDECIDED for r in numeric):
         return numeric
+
+    def keep(note: str) -> list[ConditionResult]:
+        return [dataclasses.replace(r, note=f"{r.note}; {note}" if r.note else note) if r.status is Status.UNDECIDED else r for r in numeric]
+
+    if budget is not None and budget <= 0:
+        return keep(spent_note or "undecided numerically; no time was left for an exact re-decision (--exact-budget)")
     exact_ctx = CheckContext(exact=True, tol=ctx.tol, options=ctx.options, fragile_below=ctx.fragile_below, escalated=True)
     t0 = time.perf_counter()
     try:
-        exact = _with_budget(budget, lambda: _run_checker(system, cid, exact_ctx))
+        exact = call_with_deadline(lambda: _run_checker(system, cid, exact_ctx), budget)
+    except DeadlineExceeded:
+        return keep(f"undecided numerically; the exact re-decision was stopped after {budget:.3g} s, its share of --exact-budget (raise it, or run --exact)")
     except ModelError as exc:
-        note = f"undecided numerically; the exact re-decision failed too ({exc})"
-        return [dataclasses.replace(r, note=f"{r.note}; {note}" if r.note else note) if r.status is Status.UNDECIDED else r for r in numeric]
-    if exact is None:
-        note = f"undecided numerically; the exact re-decision exceeded its budget of {budget:g} s (--exact-budget)"
-        return [dataclasses.replace(r, note=f"{r.note}; {note}" if r.note else note) if r.status is Status.UNDECIDED else r for r in numeric]
+        return keep(f"undecided numerically; the exact re-decision failed too ({exc})")
     took = time.perf_counter() - t0
     if len(numeric) == 1 and "numerical_failure" in numeric[0].witness:
         why = numeric[0].note
@@ -307,6 +284,36 @@ def _run_checker(system: System, cid: str, ctx: CheckContext) -> list[ConditionR
         return [result(cid, ctx, Status.UNDECIDED, note=note, witness={"numerical_failure": why})]
 
 
+#: exact re-decisions whose cost grows fastest with N (dense rational characteristic
+#: polynomials, the exact V* of a pencil with genuine zeros): escalated after the others, so
+#: that they cannot spend the budget the cheap ones need
+_COSTLY_EXACT = {"central.observer": 2, "stealthy.zda": 1, "switching.avoids-attack": 1}
+
+#: checkers whose undecided result is not re-decided exactly (the simulation is the evidence)
+_NOT_ESCALATED = frozenset({"switching.detects"})
+
+
+def _escalate_all(
+    system: System,
+    per_checker: dict[str, list[ConditionResult]],
+    ctx: CheckContext,
+    budget: float | None,
+    progress: Callable[[str], None] | None,
+) -> None:
+    """Escalate every undecided checker in place, within one total ``budget`` (``verify``)."""
+    pending = [cid for cid, rs in per_checker.items() if cid not in _NOT_ESCALATED and any(r.status is Status.UNDECIDED for r in rs)]
+    pending.sort(key=lambda cid: _COSTLY_EXACT.get(cid, 0))
+    end = None if budget is None else time.perf_counter() + budget
+    for i, cid in enumerate(pending):
+        share: float | None = None
+        if end is not None:
+            share = max(0.0, (end - time.perf_counter()) / (len(pending) - i))
+        spent = f"undecided numerically; the exact budget of {budget:g} s (--exact-budget) was spent on other escalations" if budget is not None else ""
+        if progress and (share is None or share > 0):
+            progress(f"{cid} (exact re-decision" + (f", up to {share:.0f} s)" if share is not None else ")"))
+        per_checker[cid] = _escalate(system, cid, per_checker[cid], ctx, share, spent)
+
+
 def verify(
     system: System,
     only: Iterable[str] | None = None,
@@ -340,7 +347,10 @@ def verify(
         spec's weights are rational), within ``exact_budget``; the result then says
         ``method: exact (escalated)``.
     exact_budget : float or None
-        Seconds of wall time allowed to each escalated exact run (None: no limit).
+        Seconds of wall time for all escalated exact runs of this call together (None: no
+        limit). They run after every numeric checker, the cheap ones first; each gets a fair
+        share of what is left (what it does not use passes on) and is stopped, not merely
+        warned, at the end of its share.
     fragile_below : float
         Robustness tolerance: a verdict whose relative margin is below it is ``fragile`` (a
         warning; the status never changes).
@@ -354,16 +364,16 @@ def verify(
     _load()
     ids = resolve_ids(only) if only is not None else implemented_ids()
     ctx = CheckContext(exact=exact, tol=tol, options=dict(options or {}), fragile_below=fragile_below)
-    results: list[ConditionResult] = []
+    per_checker: dict[str, list[ConditionResult]] = {}
     for cid in ids:
         if cid not in _CHECKERS:
             continue
         if progress:
             progress(cid)
-        rs = _run_checker(system, cid, ctx)
-        if not exact and escalate == "auto" and cid != "switching.detects":
-            rs = _escalate(system, cid, rs, ctx, exact_budget)
-        results.extend(rs)
+        per_checker[cid] = _run_checker(system, cid, ctx)
+    if not exact and escalate == "auto":
+        _escalate_all(system, per_checker, ctx, exact_budget, progress)
+    results = [r for rs in per_checker.values() for r in rs]
     findings: list[Finding] = []
     for rule in _FINDINGS:
         try:

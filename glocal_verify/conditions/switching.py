@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from glocal_verify.analysis.twins import eigenvector_differences_modular
+from glocal_verify.analysis.twins import distinct_eigenvalues_modular, eigenvector_differences_modular
 from glocal_verify.conditions.registry import CheckContext, checker, result
 from glocal_verify.model import System
 from glocal_verify.numerics import exact as ex
@@ -302,6 +302,10 @@ def check_distinct_eigenvalues(system: System, ctx: CheckContext) -> list[Condit
     (``error_bound = 2 rho``; escalation decides exactly), except where structure proves a
     repeated eigenvalue: a disconnected graph (from the exact edge set) has 0 with
     multiplicity = number of components (fails, with the component indicators as witness).
+    Before it is undecided, :func:`~glocal_verify.analysis.twins.distinct_eigenvalues_modular`
+    tries two exact certificates at the cost of a hash per agent and one characteristic
+    polynomial modulo a prime: two twin modes with one eigenvalue (fails) or gcd(p, p') = 1
+    modulo the prime (holds).
     Exact: the characteristic polynomial p is squarefree, gcd(p, p') = 1 over Q.
 
     Margin
@@ -356,6 +360,12 @@ def check_distinct_eigenvalues(system: System, ctx: CheckContext) -> list[Condit
             elif all(len(c) == 1 for c in sp.clusters):
                 status = Status.HOLDS
                 witness = dict(closest, certified_radius=rho)
+            elif (decided := distinct_eigenvalues_modular(system, mode)) is not None:
+                status, witness = decided
+                if status is Status.FAILS:
+                    margin = 0.0
+                else:
+                    witness = dict(closest, **witness)
             else:
                 status = Status.UNDECIDED
                 c = next(c for c in sp.clusters if len(c) > 1)

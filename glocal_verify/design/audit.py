@@ -60,7 +60,6 @@ from typing import Any
 
 import networkx as nx
 import numpy as np
-import scipy.linalg
 
 from glocal_verify.analysis.avoidance import _exact_mode, _numeric_mode, _stealthy_bases
 from glocal_verify.analysis.local_cases import (
@@ -69,6 +68,7 @@ from glocal_verify.analysis.local_cases import (
     twin_failure,
 )
 from glocal_verify.analysis.twins import laplacian_entries
+from glocal_verify.analysis.unobservable import rational_unobservable_candidates
 from glocal_verify.analysis.zda import (
     GROWTH_PERSISTENT,
     GROWTH_UNBOUNDED,
@@ -277,24 +277,7 @@ def _unobservable_candidates(system: System, M: Sequence[int], grouped: bool = F
     """Rationalised reduced-echelon bases of E_mu ∩ ker S_M per eigenvalue group (floating point)."""
     sp = system.spectrum()
     U = np.asarray(sp.vectors)
-    out: list[list[list[Fraction]]] = []
-    for g in sp.clusters:
-        E = U[:, list(g)]
-        S = E[list(M), :]
-        if S.size:
-            _, sv, vh = np.linalg.svd(S)
-            r = int(np.sum(sv > 1e-9))
-            null = vh[r:].conj().T
-        else:
-            null = np.eye(len(g))
-        if null.shape[1] == 0:
-            continue
-        Wt = (E @ null).T  # k x N
-        _, _, piv = scipy.linalg.qr(Wt, pivoting=True, mode="economic")
-        P = piv[: Wt.shape[0]]
-        R = np.linalg.solve(Wt[:, P], Wt)
-        rows = [[Fraction(0) if abs(x) < 1e-9 else Fraction(float(x)).limit_denominator(10**6) for x in row] for row in R]
-        out.append(rows)
+    out = [rows for g in sp.clusters if (rows := rational_unobservable_candidates(U[:, list(g)], M))]
     if grouped:
         return out
     return [r for grp in out for r in grp]

@@ -493,26 +493,36 @@ def verified_invariant_subspace(
     R, rank = X.rref()
     if rank == 0:
         return None
-    W = [[Fraction(int(R[i, j].p), int(R[i, j].q)) for j in range(size)] for i in range(rank)]
-    piv = [next(j for j in range(size) if W[i][j] != 0) for i in range(rank)]
-    if any(W[i][m] != 0 for i in range(rank) for m in measured):
+    # sparse rows of the echelon basis: twin modes and most verified modes have few nonzeros
+    sparse: list[dict[int, Fraction]] = []
+    for i in range(rank):
+        row = {j: Fraction(int(R[i, j].p), int(R[i, j].q)) for j in range(size) if R[i, j] != 0}
+        sparse.append(row)
+    piv = [min(r) for r in sparse]
+    measured_set = set(measured)
+    if any(measured_set.intersection(r) for r in sparse):
         return None
     cols: dict[int, list[tuple[int, Fraction]]] = {}
     for (i, j), v in laplacian.items():
         if v != 0:
             cols.setdefault(j, []).append((i, v))
     B: list[list[Fraction]] = []
-    for w in W:
-        Lw = [Fraction(0)] * size
-        for j, x in enumerate(w):
-            if x != 0:
-                for i, v in cols.get(j, ()):
-                    Lw[i] += v * x
-        c = [Lw[p_] for p_ in piv]
-        for k in range(size):
-            if Lw[k] != sum((c[t] * W[t][k] for t in range(rank) if W[t][k] != 0), Fraction(0)):
-                return None
+    for w in sparse:
+        Lw: dict[int, Fraction] = {}
+        for j, x in w.items():
+            for i, v in cols.get(j, ()):
+                Lw[i] = Lw.get(i, Fraction(0)) + v * x
+        # W is in reduced echelon form: L w lies in span(W) iff L w = sum_t (L w)[piv_t] w_t
+        c = [Lw.get(p_, Fraction(0)) for p_ in piv]
+        res = {k: x for k, x in Lw.items() if x != 0}
+        for t, ct in enumerate(c):
+            if ct != 0:
+                for k, x in sparse[t].items():
+                    res[k] = res.get(k, Fraction(0)) - ct * x
+        if any(x != 0 for x in res.values()):
+            return None
         B.append(c)
+    W = [[r.get(j, Fraction(0)) for j in range(size)] for r in sparse]
     return W, B
 
 

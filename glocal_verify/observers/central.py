@@ -390,8 +390,9 @@ class StabilityCertificate:
 def certify_observable_stability(system: System, obsv: CentralObserver) -> StabilityCertificate:
     """Is ``A_1 - H C`` (exact A_1, the float gain H) Hurwitz on ``R^2N / N(A_1, C)``? Certified.
 
-    Needs a proven unobservable subspace: ``N = W^x_0 x W_0`` with exact rational basis
-    (:func:`~glocal_verify.analysis.unobservable.certified_unobservable` decided); N is
+    Needs a proven unobservable subspace with an exact rational basis (``W^x_0 x W_0`` and the
+    exactly verified parts ``W x W`` of
+    :func:`~glocal_verify.analysis.unobservable.certified_unobservable`, decided); N is
     ``(A_1 - H C)``-invariant (it is A_1-invariant and in ker C), so the observable eigenvalues
     are those of ``M_o = Q^T (A_1 - H C) Q`` for an orthonormal basis Q of ``N^perp``. With the
     computed ``M_o = V diag(lam) V^{-1} + R V^{-1}`` (``R`` the eigen-residual), the exact
@@ -426,7 +427,7 @@ def certify_observable_stability(system: System, obsv: CentralObserver) -> Stabi
         return StabilityCertificate(
             "undecided", math.nan, math.inf, f"the observable part has {k} states, more than the dense certificate handles ({CERTIFY_MAX_STATES})"
         )
-    Nb = np.array([[float(x) for x in b] for b in cu.structural]).T if cu.structural else np.zeros((2 * n, 0))
+    Nb = np.array([[float(x) for x in b] for b in cu.exact_basis]).T if cu.exact_basis else np.zeros((2 * n, 0))
     if Nb.shape[1]:
         Nb = Nb / np.linalg.norm(Nb, axis=0)
         Qf, _ = np.linalg.qr(np.hstack([Nb, np.eye(2 * n)]))
