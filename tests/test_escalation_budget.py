@@ -138,3 +138,21 @@ def test_results_keep_the_catalogue_order_after_escalation() -> None:
     assert [r.id for r in rep.conditions] == [r.id for r in verify(s, ids, escalate="never").conditions]
     [r] = [r for r in rep.conditions if r.id == "switching.distinct-eigenvalues"]
     assert r.status is Status.FAILS  # the 6-cycle repeats eigenvalues; escalated within the budget
+
+
+def test_an_escalation_estimated_beyond_its_share_is_not_started(monkeypatch: pytest.MonkeyPatch) -> None:
+    real = registry._run_checker
+
+    def fake(system: System, cid: str, ctx: registry.CheckContext) -> list[ConditionResult]:
+        if cid != "central.observer":
+            return real(system, cid, ctx)
+        if ctx.exact:
+            raise AssertionError("the exact run must not start")
+        return [registry.result(cid, ctx, Status.UNDECIDED, note="too large for the dense certificate")]
+
+    monkeypatch.setattr(registry, "_run_checker", fake)
+    monkeypatch.setitem(registry._EXACT_SECONDS, "central.observer", lambda system: 1e6)
+    s = System(spec_from_graph(nx.path_graph(range(1, 5)), monitor_velocities=[1]))
+    [r] = verify(s, ["central.observer"], exact_budget=30.0).conditions
+    assert r.status is Status.UNDECIDED
+    assert "not started" in r.note and "1e+06 s" in r.note and "--exact" in r.note

@@ -548,6 +548,11 @@ def avoidance_certificate(
     if not exact_lambda or lam.imag != 0:
         # a computed lambda0 is the fastest-growing zero found numerically: neither the zero nor
         # the choice (no faster zero was missed) has a floating-point proof
+        if not exact_lambda and lam == 0:
+            return False, None, (
+                "lambda0 = 0 was chosen as the fastest-growing zero of a numeric zero set that is not certified complete "
+                "(a faster zero may have been missed); give attack.lambda0 = 0 in the spec to certify the verdict at 0"
+            )
         return False, None, (
             f"lambda0 = {lam:.6g} is a computed (irrational or complex) zero chosen as the fastest-growing one: "
             "neither its kernel nor the completeness of the zero set has a floating-point certificate"

@@ -30,7 +30,7 @@ from glocal_verify.numerics.pencil import (
 from glocal_verify.numerics.pencil_exact import rank_bounds, rounding_error, structural_rank
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
 from glocal_verify.results import Status
-from glocal_verify.spec.types import Label
+from glocal_verify.spec.types import NORMAL_MODE, Label
 
 __all__ = [
     "ZdaZero",
@@ -657,14 +657,39 @@ def exact_q_rows(
     s : Fraction or None
     extra : rows of Fraction
     """
+    from glocal_verify.analysis.twins import laplacian_entries
+
     N, m = system.n, len(F)
-    L = system.laplacian_exact()
-    a = system.alpha_q
-    sq = Fraction(0) if s is None else s
-    rows = [[a * L[i][j] + (sq if i == j else 0) for j in range(N)] + [Fraction(-1 if F[k] == i else 0) for k in range(m)] for i in range(N)]
-    rows += [[Fraction(int(j == r)) for j in range(N)] + [Fraction(0)] * m for r in rows_out]
-    rows += [[Fraction(x) for x in row] + [Fraction(0)] * m for row in extra]
-    pat = np.array([[x != 0 for x in row] for row in rows], dtype=bool).reshape(len(rows), N + m)
+    a = Fraction(system.alpha_q)
+    sq = Fraction(0) if s is None else Fraction(s)
+    zero, one = Fraction(0), Fraction(1)
+    n_rows = N + len(rows_out) + len(extra)
+    # built from the sparse exact entries of L_1: O(N^2) list slots, O(E) rational operations
+    rows = [[zero] * (N + m) for _ in range(N)]
+    cand: list[list[int]] = [[i] for i in range(N)]
+    for (i, j), v in laplacian_entries(system, NORMAL_MODE).items():
+        rows[i][j] = a * v
+        if j != i:
+            cand[i].append(j)
+    if sq:
+        for i in range(N):
+            rows[i][i] = rows[i][i] + sq
+    for k, f in enumerate(F):
+        rows[f][N + k] = rows[f][N + k] - one
+        cand[f].append(N + k)
+    pat = np.zeros((n_rows, N + m), dtype=bool)
+    for i in range(N):
+        nz = [j for j in cand[i] if rows[i][j] != 0]  # exact: a diagonal entry may cancel
+        pat[i, nz] = True
+    for t, r in enumerate(rows_out):
+        row = [zero] * (N + m)
+        row[r] = one
+        rows.append(row)
+        pat[N + t, r] = True
+    for t, ex_row in enumerate(extra):
+        row = [Fraction(x) for x in ex_row] + [zero] * m
+        rows.append(row)
+        pat[N + len(rows_out) + t, [j for j, x in enumerate(row) if x != 0]] = True
     if s is None:
         pat[np.arange(N), np.arange(N)] = True
     return rows, pat
@@ -688,9 +713,13 @@ def u_direction_certificate(rows: Sequence[Sequence[Fraction]], pattern: np.ndar
         Columns of K_xi and of K_u.
     xi_upper : int, optional
     """
-    K = np.array([[float(x) for x in r] for r in rows]).reshape(len(rows), N + m)
-    bk = rank_bounds(K, input_error=rounding_error(K, rows), pattern=pattern)
-    bx = rank_bounds(K[:, :N], input_error=rounding_error(K[:, :N], [r[:N] for r in rows]), pattern=pattern[:, :N], upper=xi_upper)
+    K = np.zeros((len(rows), N + m))
+    ii, jj = np.nonzero(pattern)
+    K[ii, jj] = [float(rows[i][j]) for i, j in zip(ii.tolist(), jj.tolist())]
+    err = rounding_error(K, rows, support=pattern)
+    bk = rank_bounds(K, input_error=err, pattern=pattern)
+    # K_xi is a column block of K: its rounding error is at most that of K
+    bx = rank_bounds(K[:, :N], input_error=err, pattern=pattern[:, :N], upper=xi_upper)
     bound = max(bk.error_bound, bx.error_bound)
     if bk.upper < bx.lower + m:
         return True, bound

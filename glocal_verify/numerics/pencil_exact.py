@@ -644,7 +644,7 @@ _EPS = float(np.finfo(float).eps)
 SVD_BACKWARD_CONSTANT = 8.0
 
 
-def rounding_error(M: np.ndarray, exact: Sequence[Sequence[Any]]) -> float:
+def rounding_error(M: np.ndarray, exact: Sequence[Sequence[Any]], support: np.ndarray | None = None) -> float:
     """Rigorous upper bound of ``||M - M_exact||_2`` for a float matrix and its exact rows.
 
     The difference is formed entry by entry in rational arithmetic (``Fraction``), so the
@@ -658,15 +658,15 @@ def rounding_error(M: np.ndarray, exact: Sequence[Sequence[Any]]) -> float:
         Real float matrix.
     exact : rows of Fraction (or int)
         The exact matrix it stands for, same shape.
+    support : ndarray of bool, optional
+        A superset of the exact nonzeros: only these and the nonzeros of M are compared.
     """
     M = np.asarray(M, dtype=float)
     d = np.zeros(M.shape)
-    for i, row in enumerate(exact):
-        for j, q in enumerate(row):
-            x = float(M[i, j])
-            if x == 0.0 and q == 0:
-                continue
-            d[i, j] = abs(float(Fraction(x) - Fraction(q)))
+    where = np.ones(M.shape, dtype=bool) if support is None else np.asarray(support, dtype=bool) | (M != 0)
+    for i, j in zip(*(ix.tolist() for ix in np.nonzero(where))):
+        if M[i, j] != 0.0 or exact[i][j] != 0:
+            d[i, j] = abs(float(Fraction(float(M[i, j])) - Fraction(exact[i][j])))
     k = d.size
     # float(Fraction) rounds to nearest: at most a relative eps / 2 per entry
     return float(np.linalg.norm(d)) * (1.0 + (k + 4) * _EPS) + 1e-300 if np.any(d) else 0.0
