@@ -47,6 +47,7 @@ import numpy as np
 from glocal_verify.analysis.local_cases import (
     LocalCase,
     _exact_int,
+    exact_A_float,
     local_cases,
     pencil_matrices_exact,
 )
@@ -70,6 +71,7 @@ from glocal_verify.numerics.pencil_exact import (
     rank_bounds,
     rounding_error,
 )
+from glocal_verify.numerics.threads import single_threaded
 from glocal_verify.numerics.tolerance import (
     DEFAULT_TOLERANCE,
     Decision,
@@ -376,14 +378,13 @@ def _uio_certificate(system: System, case: LocalCase, cm: ClusterModel, C: np.nd
     h = E @ CE.T if CE.shape[1] else np.zeros((n, C.shape[0]))
     P = np.eye(n) - h @ C
     sub = LocalCase(cm, case.observer, case.kind, case.suspected, mode)
-    A_ex, _, _ = pencil_matrices_exact(system, sub)
-    A = np.array([[float(x) for x in r] for r in A_ex]).reshape(n, n)
+    A_ex, A, support = exact_A_float(system, sub)
     eps = float(np.finfo(float).eps)
     g = n * eps / (1.0 - n * eps)
     A1 = P @ A
     K1C = K1 @ C
     Fm = A1 - K1C
-    dA = rounding_error(A, A_ex)
+    dA = rounding_error(A, A_ex, support=support)
     delta = float(np.linalg.norm(P, 2)) * dA * (1 + 4 * eps) + g * float(np.linalg.norm(np.abs(P) @ np.abs(A))) + g * float(np.linalg.norm(np.abs(K1) @ np.abs(C)))
     delta = (delta + eps * float(np.linalg.norm(Fm))) * (1.0 + 8 * eps)
     enc = hurwitz_enclosure(Fm, delta)
@@ -417,6 +418,7 @@ def _uio_certify_negative(case: LocalCase, cm: ClusterModel, C: np.ndarray, st: 
     return Status.UNDECIDED, mg, w
 
 
+@single_threaded
 def _uio_one_uncached(system: System, case: LocalCase, cm: ClusterModel, C: np.ndarray, mode: str, tol: Tolerance, exact: bool) -> tuple[Status, float, dict[str, Any]]:
     obs = case.observer
     w: dict[str, Any] = {}

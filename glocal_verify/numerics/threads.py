@@ -14,22 +14,33 @@ limits afterwards. It changes no number: BLAS results may differ in the last bit
 thread counts (a different summation order), which every error bound of the package already
 covers (they are stated per floating-point operation, not for one summation order).
 
+A third case is measured, not guessed: the nonsymmetric eigensolvers (``schur``, ``eig``:
+Hessenberg QR, mostly level-2 BLAS) gain little from a second thread on an idle machine
+(0.67 s -> 0.58 s for a 700 x 700 Schur form) and lose 20x with one other busy process
+(18 s with two threads, 0.85 s with one). Functions built on them are :func:`single_threaded`.
+
 Where it is used: :func:`glocal_verify.simulation.thresholds.attack_free_thresholds` (one
-thread for the per-step row recursion, all cores for the propagator powers at a switch). A
+thread for the per-step row recursion, all cores for the propagator powers at a switch); the
+observer designs and Hurwitz certificates (:func:`single_threaded`). A
 command-line ``--threads N`` option sets the default through :func:`set_default_threads`.
 """
 
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 from contextvars import ContextVar
-from typing import Iterator
+from typing import Any, Callable, Iterator, TypeVar
 
-__all__ = ["available_cores", "blas_threads", "set_default_threads", "default_threads"]
+_F = TypeVar("_F", bound=Callable[..., Any])
+
+__all__ = ["available_cores", "blas_threads", "set_default_threads", "default_threads", "single_threaded"]
 
 #: the thread count "all cores" means (None: every core this process may run on)
 _DEFAULT: ContextVar[int | None] = ContextVar("glocal_verify_blas_threads", default=None)
+#: inside a :func:`single_threaded` call (nested calls then skip the 0.5 ms re-limit)
+_SINGLE: ContextVar[bool] = ContextVar("glocal_verify_single_thread", default=False)
 
 
 def available_cores() -> int:
@@ -88,3 +99,25 @@ def blas_threads(n: int | None) -> Iterator[int]:
         return
     with threadpool_limits(limits=want):
         yield want
+
+
+def single_threaded(func: _F) -> _F:
+    """Run ``func`` with one BLAS thread (see the module docstring); nested calls cost nothing.
+
+    Parameters
+    ----------
+    func : callable
+    """
+
+    @functools.wraps(func)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        if _SINGLE.get():
+            return func(*args, **kwargs)
+        token = _SINGLE.set(True)
+        try:
+            with blas_threads(1):
+                return func(*args, **kwargs)
+        finally:
+            _SINGLE.reset(token)
+
+    return wrapper  # type: ignore[return-value]

@@ -59,6 +59,7 @@ from glocal_verify.analysis.unobservable import (
 from glocal_verify.model import System
 from glocal_verify.numerics.spectrum import EPS
 from glocal_verify.numerics.subspace import Subspace
+from glocal_verify.numerics.threads import single_threaded
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
 from glocal_verify.spec.types import NORMAL_MODE
 
@@ -194,6 +195,7 @@ def _group_block(grp: EigenGroupPart, n: int, a: float, g: float, C: np.ndarray)
     return _Block(basis, A, C @ basis, fixed, rate, False)
 
 
+@single_threaded
 def design_central_observer(
     system: System,
     poles: Sequence[complex] | None = None,
@@ -387,6 +389,7 @@ class StabilityCertificate:
     note: str
 
 
+@single_threaded
 def certify_observable_stability(system: System, obsv: CentralObserver) -> StabilityCertificate:
     """Is ``A_1 - H C`` (exact A_1, the float gain H) Hurwitz on ``R^2N / N(A_1, C)``? Certified.
 

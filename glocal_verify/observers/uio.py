@@ -52,6 +52,7 @@ import numpy as np
 
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import LocalObserver, System
+from glocal_verify.numerics.threads import single_threaded
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
 from glocal_verify.observers.uio_existence import (
     _LADDER_GAIN,
@@ -200,6 +201,7 @@ def _certify(F: np.ndarray, Qo: np.ndarray, Qu: np.ndarray, red: _Reduction | No
     return _hurwitz(F, tol)
 
 
+@single_threaded
 def design_uio(
     A: np.ndarray,
     E: np.ndarray,

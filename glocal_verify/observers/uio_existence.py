@@ -19,6 +19,7 @@ import numpy as np
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.numerics import exact as ex
 from glocal_verify.numerics.subspace import EPS
+from glocal_verify.numerics.threads import single_threaded
 from glocal_verify.numerics.tolerance import (
     DEFAULT_TOLERANCE,
     Decision,
@@ -530,6 +531,7 @@ def _decoupling(E: np.ndarray, C: np.ndarray, tol: Tolerance) -> tuple[Status, n
     return Status.HOLDS, h
 
 
+@single_threaded
 def uio_existence(A: np.ndarray, E: np.ndarray, C: np.ndarray, tol: Tolerance = DEFAULT_TOLERANCE) -> UIOExistence:
     """Decide UIO existence numerically (Chen, Patton & Zhang 1996, Theorem 1).
 
@@ -569,6 +571,7 @@ def uio_existence(A: np.ndarray, E: np.ndarray, C: np.ndarray, tol: Tolerance = 
     return UIOExistence(det, rank_st, det, h, T, A1, split, mu, mode, float(-mu[worst].real))
 
 
+@single_threaded
 def cluster_detectability(
     L: np.ndarray, boundary: Sequence[int], positions: Sequence[int], tol: Tolerance = DEFAULT_TOLERANCE
 ) -> tuple[Status, np.ndarray | None, str]:
