@@ -292,7 +292,7 @@ _COSTLY_EXACT = {"central.observer": 2, "stealthy.zda": 1, "switching.avoids-att
 #: a lower estimate of the seconds an exact re-decision takes, for the checkers whose exact
 #: cost is one dense rational computation of known size: central.observer's characteristic
 #: polynomial of the 2N x 2N closed loop (277 s measured at N = 200; the estimate is a quarter
-#: of that, scaled by N^4). An escalation whose estimate exceeds its share is not started.
+#: of that, scaled by N^4). An escalation whose estimate exceeds the budget is not started.
 _EXACT_SECONDS: dict[str, Callable[[System], float]] = {
     "central.observer": lambda system: 70.0 * (system.n / 200.0) ** 4,
 }
@@ -311,20 +311,21 @@ def _escalate_all(
     """Escalate every undecided checker in place, within one total ``budget`` (``verify``)."""
     pending = [cid for cid, rs in per_checker.items() if cid not in _NOT_ESCALATED and any(r.status is Status.UNDECIDED for r in rs)]
     pending.sort(key=lambda cid: _COSTLY_EXACT.get(cid, 0))
+    if budget is not None:
+        # an escalation estimated beyond the whole budget is not started, and takes no share
+        for cid in [c for c in pending if c in _EXACT_SECONDS and _EXACT_SECONDS[c](system) > budget]:
+            note = (
+                f"undecided numerically; an exact re-decision would take at least about {_EXACT_SECONDS[cid](system):.3g} s at "
+                f"N = {system.n} (estimate), more than --exact-budget ({budget:g} s), so it was not started (run --exact, or raise --exact-budget)"
+            )
+            per_checker[cid] = _escalate(system, cid, per_checker[cid], ctx, 0.0, note)
+            pending.remove(cid)
     end = None if budget is None else time.perf_counter() + budget
     for i, cid in enumerate(pending):
         share: float | None = None
         if end is not None:
             share = max(0.0, (end - time.perf_counter()) / (len(pending) - i))
         spent = f"undecided numerically; the exact budget of {budget:g} s (--exact-budget) was spent on other escalations" if budget is not None else ""
-        estimate = _EXACT_SECONDS[cid](system) if cid in _EXACT_SECONDS else 0.0
-        if share is not None and share > 0 and estimate > share:
-            note = (
-                f"undecided numerically; an exact re-decision would take at least about {estimate:.3g} s at N = {system.n} "
-                f"(estimate), more than its share of --exact-budget ({share:.3g} s), so it was not started (run --exact, or raise --exact-budget)"
-            )
-            per_checker[cid] = _escalate(system, cid, per_checker[cid], ctx, 0.0, note)
-            continue
         if progress and (share is None or share > 0):
             progress(f"{cid} (exact re-decision" + (f", up to {share:.0f} s)" if share is not None else ")"))
         per_checker[cid] = _escalate(system, cid, per_checker[cid], ctx, share, spent)
@@ -367,7 +368,8 @@ def verify(
         limit). They run after every numeric checker, the cheap ones first; each gets a fair
         share of what is left (what it does not use passes on) and is stopped, not merely
         warned, at the end of its share. One whose estimated cost (``_EXACT_SECONDS``)
-        exceeds its share is not started; its note gives the estimate.
+        exceeds the whole budget is not started and takes no share; its note gives the
+        estimate.
     fragile_below : float
         Robustness tolerance: a verdict whose relative margin is below it is ``fragile`` (a
         warning; the status never changes).
