@@ -97,3 +97,17 @@ def test_twin_agents_off_the_switching_pair_make_theorem_iii3_iii_fail_with_an_e
         assert Lv == [mu * x for x in vec]
         i, j = (system.index[a] for a in res.witness["pair"])
         assert vec[i] == vec[j]
+
+
+def test_the_lazy_exact_fallback_gives_the_verdicts_of_the_full_one() -> None:
+    from glocal_verify.design.generators import random_clustered_spec
+
+    # N = 32 (default "verdicts"): agent 26's ZDA growth is undecided numerically, but a local
+    # observer catches it, so its exact analysis is skipped; the verdict must not change
+    s = System(random_clustered_spec(32, 3, seed=7))
+    lazy = audit(s, 2, candidates=[26, 1, 2])
+    full = audit(s, 2, candidates=[26, 1, 2], exact_fallback=True)
+    assert {r.actuators: r.verdict for r in lazy.rows} == {r.actuators: r.verdict for r in full.rows}
+    skipped = [r for r in lazy.rows if r.growth == "undecided"]
+    assert skipped and all(r.verdict != "undecided" for r in skipped)
+    assert all(r.growth != "undecided" for r in full.rows)

@@ -40,8 +40,9 @@ Structural screen (proof)
 Tolerances and exactness
     Every numeric decision is the checkers' (``DEFAULT_TOLERANCE`` unless given). A numeric
     ``undecided`` part of a row is re-decided in exact arithmetic (the spec's weights are
-    rational) when ``exact_fallback`` is on (default for N <= 60), as ``verify`` escalates; ``exact=True`` decides every
-    row over Q.
+    rational) when ``exact_fallback`` is on (default for N <= 20; for N <= 60 only where the
+    row's verdict depends on it), as ``verify`` escalates; ``exact=True`` decides every row
+    over Q.
 
 Chunks
     :func:`audit_chunks` splits the sets into picklable callables (:class:`AuditChunk`) that
@@ -118,6 +119,9 @@ THEOREM_III3 = ("switching.image-kernel", "switching.distinct-eigenvalues", "swi
 GROWTH_NULL = "null"
 #: by default numeric ``undecided`` parts are re-decided over Q up to this many agents
 EXACT_FALLBACK_MAX_AGENTS = 60
+#: above this many agents (and up to :data:`EXACT_FALLBACK_MAX_AGENTS`) the default re-decides
+#: the ZDA and safe-mode parts over Q only for rows whose verdict they leave undecided
+EXACT_FALLBACK_FULL_AGENTS = 20
 
 
 # ------------------------------------------------------------------------------------------
@@ -241,15 +245,24 @@ class _Shared:
     screen: bool
     minors: GroundedTables | None = None
     local_seed: Mapping[Any, Any] = field(default_factory=dict)
+    #: ZDA and safe-mode parts fall back to exact arithmetic only when the row's verdict is
+    #: otherwise undecided (``exact_fallback="verdicts"``)
+    lazy_zda: bool = False
+    #: the exact fallback of the ZDA and safe-mode parts is allowed in this pass
+    zda_fallback: bool = True
 
 
-def _shared(system: System, tol: Tolerance, exact: bool, exact_fallback: bool | None, screen: bool) -> _Shared:
+def _shared(system: System, tol: Tolerance, exact: bool, exact_fallback: bool | str | None, screen: bool) -> _Shared:
     if exact_fallback is None:
-        exact_fallback = system.n <= EXACT_FALLBACK_MAX_AGENTS
+        n = system.n
+        exact_fallback = True if n <= EXACT_FALLBACK_FULL_AGENTS else "verdicts" if n <= EXACT_FALLBACK_MAX_AGENTS else False
+    if exact_fallback not in (True, False, "verdicts"):
+        raise NotApplicableError(f"exact_fallback: must be True, False or 'verdicts', not {exact_fallback!r}")
+    lazy = exact_fallback == "verdicts"
     system.spectrum()  # the one eigendecomposition of L_1 every set reuses
     lam = system.spec.attack.lambda0 if system.spec.attack is not None else None
     tables = _global_tables(system) if screen and not exact and system.monitored else None
-    return _Shared(system, tol, mode_conditions(system, tol, exact=exact), lam, exact, exact_fallback, screen, tables)
+    return _Shared(system, tol, mode_conditions(system, tol, exact=exact), lam, exact, bool(exact_fallback), screen, tables, lazy_zda=lazy)
 
 
 def _global_tables(system: System) -> GroundedTables | None:
@@ -372,9 +385,9 @@ def _zda_part(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any] | None = N
                 growth = GROWTH_UNBOUNDED
             else:
                 growth = max((z.growth for z in za.zeros), key=_growth_rank, default="undecided")
-            if growth != "undecided" or not sh.exact_fallback:
+            if growth != "undecided" or not (sh.exact_fallback and sh.zda_fallback):
                 return _Zda(za.exists, growth, za.left_invertible, za.direction, za.direction_source)
-        if not sh.exact_fallback:
+        if not (sh.exact_fallback and sh.zda_fallback):
             return _Zda(None, "undecided", None, None, "undecided")
     ea = zda_analysis_exact(system, F, lambda0=sh.lambda0)
     if not ea.exists:
@@ -477,7 +490,7 @@ def _modes_part(sh: _Shared, F: tuple[Label, ...], z: _Zda) -> tuple[list[str], 
                 bases = _stealthy_bases(md, z.direction.value)
             assert bases is not None
             av = _numeric_mode(system, mode, md, z.direction, z.source, bases)
-            if av.status is Status.UNDECIDED and sh.exact_fallback:
+            if av.status is Status.UNDECIDED and sh.exact_fallback and sh.zda_fallback:
                 ea = zda_analysis_exact(system, F, lambda0=sh.lambda0)
                 if ea.direction is not None:
                     av = _exact_mode(system, mode, ea.direction, ea.direction_source, system.idx(F), sh.tol)
@@ -496,6 +509,11 @@ def _modes_part(sh: _Shared, F: tuple[Label, ...], z: _Zda) -> tuple[list[str], 
 
 
 def _audit_set(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any]) -> AuditRow:
+    if sh.lazy_zda and sh.zda_fallback and sh.exact_fallback and not sh.exact:
+        # the exact ZDA analysis costs seconds per set: run it only when the verdict needs it
+        row = _audit_set(dataclasses.replace(sh, zda_fallback=False), F, memo)
+        if row.verdict != "undecided":
+            return row
     system, tol = sh.system, sh.tol
     z = _zda_part(sh, F, memo)
     caught, local_detail, covered = _local_part(sh, F, memo)
@@ -618,7 +636,7 @@ def audit_chunks(
     *,
     tol: Tolerance = DEFAULT_TOLERANCE,
     exact: bool = False,
-    exact_fallback: bool | None = None,
+    exact_fallback: bool | str | None = None,
     screen: bool = True,
 ) -> list[AuditChunk]:
     """Split an audit into independent callables (for a distributed executor).
@@ -671,7 +689,7 @@ def audit(
     *,
     tol: Tolerance = DEFAULT_TOLERANCE,
     exact: bool = False,
-    exact_fallback: bool | None = None,
+    exact_fallback: bool | str | None = None,
     screen: bool = True,
     chunk_size: int = 200,
     executor: Callable[[Sequence[Callable[[], Any]]], Sequence[Any]] | None = None,
@@ -695,10 +713,13 @@ def audit(
         The checkers' numeric tolerance.
     exact : bool
         Decide every row over Q.
-    exact_fallback : bool, optional
-        Re-decide numeric ``undecided`` parts over Q (as ``verify`` escalates); default on for
-        N <= :data:`EXACT_FALLBACK_MAX_AGENTS` (exact ZDA analysis grows fast with N), else the
-        part stays ``undecided``.
+    exact_fallback : bool or "verdicts", optional
+        Re-decide numeric ``undecided`` parts over Q (as ``verify`` escalates). ``"verdicts"``:
+        the local parts as with True, the ZDA and safe-mode parts only for rows whose verdict
+        is otherwise undecided (a row caught by a local observer keeps growth ``undecided``).
+        Default: True for N <= :data:`EXACT_FALLBACK_FULL_AGENTS`, ``"verdicts"`` up to
+        :data:`EXACT_FALLBACK_MAX_AGENTS` (the exact ZDA analysis grows fast with N), else
+        False (the part stays ``undecided``).
     screen : bool
         Use the separator screen of the module docstring.
     chunk_size : int
