@@ -38,6 +38,7 @@ __all__ = [
     "zda_analysis_exact",
     "exact_witness",
     "transfer_kernel",
+    "has_fast_exact_path",
 ]
 
 # ------------------------------------------------------------------------------------------
@@ -289,6 +290,28 @@ def _minor_tables(system: System) -> GroundedTables | None:
         ("zda-exact-minor-tables",),
         lambda: grounded_tables(system.n, laplacian_entries(system, NORMAL_MODE), Fraction(system.alpha_q), system.idx(system.monitored)),
     )
+
+
+def has_fast_exact_path(system: System, actuators: Iterable[Label] | None = None) -> bool:
+    """Whether :func:`zda_analysis_exact` will take its fast path (the minor certificate) for F.
+
+    Cheap (the certificate modulo a prime, cached on ``system.analysis``); used to estimate
+    the cost of an exact re-decision before it starts. False means the general path (dense
+    V* iteration over Q) would run.
+
+    Parameters
+    ----------
+    system : System
+    actuators : iterable of labels, optional
+        F; default the spec's attacked actuators.
+    """
+    attack = system.spec.attack
+    labels = tuple(actuators) if actuators is not None else (attack.actuators if attack is not None else ())
+    tables = _minor_tables(system)
+    if not labels or tables is None or any(mu == 0 for mu, _ in tables.twins):
+        return False
+    cache: dict[Any, Any] = system.analysis.get(("zda-exact-minor-cache",), dict)
+    return full_rank_certificate(tables, system.idx(labels), cache, modulo_twins=True) is not None
 
 
 def _twin_vectors_hold(L: Sequence[Sequence[Fraction]], mu: Fraction, pairs: Sequence[tuple[int, int]], M: set[int]) -> bool:
