@@ -32,7 +32,12 @@ from glocal_verify.analysis.zda_exact import (
 )
 from glocal_verify.model import System
 from glocal_verify.numerics import exact as ex
-from glocal_verify.numerics.pencil_exact import RootEnclosures, eval_at_root, kernel_over_field, rank_over_field
+from glocal_verify.numerics.pencil_exact import (
+    RootEnclosures,
+    eval_at_root,
+    kernel_over_field,
+    rank_over_field,
+)
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
 from glocal_verify.results import Status
 from glocal_verify.spec.types import Label
@@ -518,13 +523,13 @@ def avoidance_certificate(
     With s0 = lambda0^2 + gamma lambda0, Q = [[s0 I + alpha L_1, -S_F^T], [S_out, 0]] and
     K = [Q; [dL_q, 0]] (exact rows), ``holds`` (an avoiding stealthy direction) means ker K
     holds a vector with u0 != 0, ``fails`` means ker Q does and ker K does not. Both are decided
-    by :func:`~glocal_verify.analysis.zda.u_direction_certificate` (Weyl lower bounds with the
+    by :func:`~glocal_verify.analysis.zda_certificate.u_direction_certificate` (Weyl lower bounds with the
     SVD backward error and the rounding of the rational data against structural upper bounds
     of the exact support). Only a real lambda0 that is exactly the requested rational (the
     spec's ``attack.lambda0`` or the ``lambda0`` option, read as an exact binary rational)
     can be certified this way; the exponent of an irrational zero cannot. A ``holds`` is also
     proved by the avoiding direction ``candidate`` = (xi, u0) when it rationalises to an exact
-    kernel vector of K with u0 != 0 (:func:`~glocal_verify.analysis.zda.rational_kernel_vector`).
+    kernel vector of K with u0 != 0 (:func:`~glocal_verify.analysis.zda_certificate.rational_kernel_vector`).
     Returns (certified, error bound, note saying which bound failed).
 
     Parameters
@@ -543,7 +548,11 @@ def avoidance_certificate(
     candidate : ndarray, optional
         The avoiding direction [xi; u0] of a numeric ``holds``.
     """
-    from glocal_verify.analysis.zda import exact_q_rows, rational_kernel_vector, u_direction_certificate
+    from glocal_verify.analysis.zda_certificate import (
+        exact_q_rows,
+        rational_kernel_vector,
+        u_direction_certificate,
+    )
 
     if not exact_lambda or lam.imag != 0:
         # a computed lambda0 is the fastest-growing zero found numerically: neither the zero nor

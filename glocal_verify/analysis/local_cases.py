@@ -378,7 +378,7 @@ def certify_pencil_verdict(system: System, case: LocalCase, status: Status, witn
         intra_neighbours,
         zero_forcing_closure,
     )
-    from glocal_verify.analysis.zda import rational_kernel_vector
+    from glocal_verify.analysis.zda_certificate import rational_kernel_vector
     from glocal_verify.numerics.pencil_exact import (
         rank_bounds,
         rounding_error,

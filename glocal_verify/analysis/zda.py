@@ -12,7 +12,6 @@ from __future__ import annotations
 import cmath
 import math
 from dataclasses import dataclass, field
-from fractions import Fraction
 from typing import Any, Iterable, Sequence
 
 import numpy as np
@@ -27,10 +26,8 @@ from glocal_verify.numerics.pencil import (
     direction_at,
     pencil_matrix,
 )
-from glocal_verify.numerics.pencil_exact import rank_bounds, rounding_error, structural_rank
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
-from glocal_verify.results import Status
-from glocal_verify.spec.types import NORMAL_MODE, Label
+from glocal_verify.spec.types import Label
 
 __all__ = [
     "ZdaZero",
@@ -38,11 +35,6 @@ __all__ = [
     "ZdaAnalysis",
     "zda_analysis",
     "zda_direction",
-    "ZdaCertificate",
-    "exact_q_rows",
-    "u_direction_certificate",
-    "rational_kernel_vector",
-    "zda_certificate",
 ]
 
 #: growth classes of a zero-dynamics attack by Re(lambda0)
@@ -319,13 +311,87 @@ class _Modal:
             cands.append((eta, u))
         return cands, lo, hi
 
+    def _screen(self, lam: complex, eta: np.ndarray, u: np.ndarray) -> tuple[Decision, Decision, float] | None:
+        """:meth:`verify`'s two decisions from modal coordinates in O(N (m + p)), or None when unsure.
+
+        With xi = U eta, L U = U diag(mu) + R and U^T U = I + E (||E||_F <= eta_U):
+        ||r_dyn|| differs from ||(s + alpha mu) eta - U_F^T u|| by at most
+        eta_U (||.|| + ||u||) + alpha ||R||_F ||eta||, the outputs xi[M] = U[M, :] eta are
+        formed directly, and ||xi|| = ||eta|| up to a factor sqrt(1 +- eta_U). A decision is
+        returned only when both ends of the resulting interval decide alike; the caller then
+        verifies the chosen vector on the full pencil anyway.
+        """
+        sp = self.system.spectrum()
+        ortho = sp.orthogonality_error
+        if not ortho < 0.5:
+            return None
+        s = lam * lam + self.gamma * lam
+        r_m = (s + self.alpha * self.mu) * eta - self.U[self.F, :].T @ u
+        out = np.concatenate([self.U[self.Mx, :] @ eta, lam * (self.U[self.Mv, :] @ eta)])
+        e_n, u_n, rm_n = float(np.linalg.norm(eta)), float(np.linalg.norm(u)), float(np.linalg.norm(r_m))
+        num = math.hypot(rm_n, float(np.linalg.norm(out)))
+        vnorm = math.sqrt((1.0 + abs(lam) ** 2) * e_n**2 + u_n**2)
+        if vnorm == 0.0:
+            return None
+        r_fro = float(np.linalg.norm(sp.residuals))
+        err_num = ortho * (rm_n + u_n) + self.alpha * r_fro * e_n + 1e-14 * (num + vnorm)
+        pnl = self.pencil_norm_lb(lam)
+        lo = max(0.0, num - err_num) / (pnl * vnorm * math.sqrt(1.0 + ortho))
+        hi = (num + err_num) / (pnl * vnorm * math.sqrt(max(1.0 - ortho, 1e-300)))
+        dres = self.tol.decide(lo, 1.0)
+        if self.tol.decide(hi, 1.0) is not dres:
+            return None
+        v_lo = math.sqrt((1.0 + abs(lam) ** 2) * e_n**2 * (1.0 - ortho) + u_n**2)
+        v_hi = math.sqrt((1.0 + abs(lam) ** 2) * e_n**2 * (1.0 + ortho) + u_n**2)
+        du = self.tol.decide(u_n, v_hi)
+        if self.tol.decide(u_n, v_lo) is not du:
+            return None
+        return dres, du, u_n / max(e_n, 1e-300)
+
     def direction(self, lam: complex) -> tuple[tuple[np.ndarray, np.ndarray, float, Decision, Decision] | None, Decision, int, int]:
         """The verified kernel vector with the largest input part at ``lam``.
 
         Returns ((xi, u, residual, residual decision, input decision) or None, best residual
         decision seen, dim_lo, dim_hi) -- the dimension bounds of the pass that keeps only
         the modes with s + alpha mu_k certainly zero.
+
+        The candidates are screened in modal coordinates (:meth:`_screen`, O(N (m + p)) each
+        instead of two O(N^2) products) and only the chosen one is verified on the full
+        pencil; when a screen is unsure, or the full verification of the chosen vector does
+        not confirm its screened decisions, every candidate is verified in full
+        (:meth:`_direction_full`), so the result is the full method's.
         """
+        best_c: tuple[np.ndarray, np.ndarray, float, Decision, Decision] | None = None
+        best_dec = Decision.NONZERO
+        lo = hi = 0
+        for near_band in (False, True):
+            cands, lo_, hi_ = self.kernel(lam, near_band)
+            if not near_band:
+                lo, hi = lo_, hi_
+            for eta, u in cands:
+                sc = self._screen(lam, eta, u)
+                if sc is None:
+                    return self._direction_full(lam)
+                dres, du, frac = sc
+                if dres is Decision.ZERO:
+                    best_dec = Decision.ZERO
+                    if best_c is None or frac > best_c[2]:
+                        best_c = (eta, u, frac, dres, du)
+                    if du is Decision.NONZERO:
+                        break
+                elif dres is Decision.UNDECIDED and best_dec is Decision.NONZERO:
+                    best_dec = Decision.UNDECIDED
+            if best_c is not None:
+                break
+        if best_c is None:
+            return None, best_dec, lo, hi
+        xi, u2, res, dres, du = self.verify(lam, best_c[0], best_c[1])
+        if dres is not best_c[3] or du is not best_c[4]:
+            return self._direction_full(lam)
+        return (xi, u2, res, dres, du), best_dec, lo, hi
+
+    def _direction_full(self, lam: complex) -> tuple[tuple[np.ndarray, np.ndarray, float, Decision, Decision] | None, Decision, int, int]:
+        """:meth:`direction` with every candidate verified on the full pencil (the reference)."""
         best: tuple[np.ndarray, np.ndarray, float, Decision, Decision] | None = None
         best_dec = Decision.NONZERO
         lo = hi = 0
@@ -610,235 +676,3 @@ def zda_direction(system: System, lambda0: complex | None = None, tol: Tolerance
         return ZdaDirection(lam, xi_n, u_n, np.concatenate([xi_n, lam * xi_n]), found[2])
     za = zda_analysis(system, tol)
     return za.direction.direction() if za.direction is not None else None
-
-
-# ------------------------------------------------------------------------------------------
-# certificates of the numeric verdict (rigorous; see :func:`zda_certificate`)
-
-
-@dataclass(frozen=True, slots=True)
-class ZdaCertificate:
-    """What floating point (with rigorous bounds) or the exact support proves about stealthy ZDAs.
-
-    Attributes
-    ----------
-    status : Status or None
-        ``HOLDS`` (a stealthy ZDA certainly exists), ``FAILS`` (certainly none), or None (no
-        certificate: the numeric verdict must be undecided).
-    by : str
-        The certificate used.
-    error_bound : float or None
-        The floating-point error bound of the decided quantity (Weyl bounds), when one was used.
-    note : str
-        Which bound failed and how far, when ``status`` is None.
-    """
-
-    status: Status | None
-    by: str = ""
-    error_bound: float | None = None
-    note: str = ""
-
-
-def exact_q_rows(
-    system: System, F: Sequence[int], rows_out: Sequence[int], s: Fraction | None, extra: Sequence[Sequence[Fraction]] = ()
-) -> tuple[list[list[Fraction]], np.ndarray]:
-    """[[s I + alpha L_1, -S_F^T], [S_out, 0], [extra, 0]] as exact rows and its exact support.
-
-    ``s=None`` gives the generic pattern (the diagonal of s I + alpha L counted as nonzero,
-    entries at s = 0). ``extra`` rows (N entries each, e.g. dL_q) are padded with zeros.
-
-    Parameters
-    ----------
-    system : System
-    F : sequence of int
-        Attacked agents (indices).
-    rows_out : sequence of int
-        Measured agents (indices) whose rows S_out holds.
-    s : Fraction or None
-    extra : rows of Fraction
-    """
-    from glocal_verify.analysis.twins import laplacian_entries
-
-    N, m = system.n, len(F)
-    a = Fraction(system.alpha_q)
-    sq = Fraction(0) if s is None else Fraction(s)
-    zero, one = Fraction(0), Fraction(1)
-    n_rows = N + len(rows_out) + len(extra)
-    # built from the sparse exact entries of L_1: O(N^2) list slots, O(E) rational operations
-    rows = [[zero] * (N + m) for _ in range(N)]
-    cand: list[list[int]] = [[i] for i in range(N)]
-    for (i, j), v in laplacian_entries(system, NORMAL_MODE).items():
-        rows[i][j] = a * v
-        if j != i:
-            cand[i].append(j)
-    if sq:
-        for i in range(N):
-            rows[i][i] = rows[i][i] + sq
-    for k, f in enumerate(F):
-        rows[f][N + k] = rows[f][N + k] - one
-        cand[f].append(N + k)
-    pat = np.zeros((n_rows, N + m), dtype=bool)
-    for i in range(N):
-        nz = [j for j in cand[i] if rows[i][j] != 0]  # exact: a diagonal entry may cancel
-        pat[i, nz] = True
-    for t, r in enumerate(rows_out):
-        row = [zero] * (N + m)
-        row[r] = one
-        rows.append(row)
-        pat[N + t, r] = True
-    for t, ex_row in enumerate(extra):
-        row = [Fraction(x) for x in ex_row] + [zero] * m
-        rows.append(row)
-        pat[N + len(rows_out) + t, [j for j, x in enumerate(row) if x != 0]] = True
-    if s is None:
-        pat[np.arange(N), np.arange(N)] = True
-    return rows, pat
-
-
-def u_direction_certificate(rows: Sequence[Sequence[Fraction]], pattern: np.ndarray, N: int, m: int, xi_upper: int | None = None) -> tuple[bool | None, float]:
-    """Is there a kernel vector (xi, u) of the exact matrix K = [K_xi, K_u] with u != 0?
-
-    Such a vector exists iff rank K < rank K_xi + m. With certified bounds
-    (:func:`~glocal_verify.numerics.pencil_exact.rank_bounds`: Weyl lower bounds from the SVD
-    backward error plus the rounding of the rational data, structural upper bounds from the
-    exact support, ``xi_upper`` an extra upper bound of rank K_xi from exactly known kernel
-    vectors): True when upper(K) < lower(K_xi) + m, False when lower(K) >= upper(K_xi) + m,
-    None otherwise. Returns the verdict and the error bound used.
-
-    Parameters
-    ----------
-    rows : exact rows of K
-    pattern : exact support of K
-    N, m : int
-        Columns of K_xi and of K_u.
-    xi_upper : int, optional
-    """
-    K = np.zeros((len(rows), N + m))
-    ii, jj = np.nonzero(pattern)
-    K[ii, jj] = [float(rows[i][j]) for i, j in zip(ii.tolist(), jj.tolist())]
-    err = rounding_error(K, rows, support=pattern)
-    bk = rank_bounds(K, input_error=err, pattern=pattern)
-    # K_xi is a column block of K: its rounding error is at most that of K
-    bx = rank_bounds(K[:, :N], input_error=err, pattern=pattern[:, :N], upper=xi_upper)
-    bound = max(bk.error_bound, bx.error_bound)
-    if bk.upper < bx.lower + m:
-        return True, bound
-    if bk.lower >= bx.upper + m:
-        return False, bound
-    return None, bound
-
-
-def rational_kernel_vector(rows: Sequence[Sequence[Fraction]], v: np.ndarray, max_denominator: int = 10**6) -> list[Fraction] | None:
-    """An exact rational kernel vector of ``rows`` recovered from the float candidate ``v``, or None.
-
-    v is scaled so that its largest entry is 1, each entry is replaced by the nearest fraction
-    with denominator <= ``max_denominator`` (continued fractions) and ``rows @ q = 0`` is
-    checked in exact arithmetic: a True check is a proof (no tolerance), a failed one proves
-    nothing.
-
-    Parameters
-    ----------
-    rows : exact rows
-    v : ndarray
-        Candidate (real, or complex with a zero imaginary part after scaling).
-    max_denominator : int
-    """
-    v = np.asarray(v, dtype=complex)
-    if v.size == 0 or not np.all(np.isfinite(v)):
-        return None
-    k = int(np.argmax(np.abs(v)))
-    if v[k] == 0:
-        return None
-    v = v / v[k]
-    if np.any(np.abs(v.imag) > 1e-9):
-        return None
-    q = [Fraction(float(x)).limit_denominator(max_denominator) for x in v.real]
-    for r in rows:
-        if sum((r[j] * q[j] for j in range(len(q)) if r[j] != 0 and q[j] != 0), Fraction(0)) != 0:
-            return None
-    return q
-
-
-def zda_certificate(
-    system: System,
-    actuators: Iterable[Label] | None = None,
-    candidate: tuple[complex, np.ndarray, np.ndarray] | None = None,
-    zeros: Sequence[tuple[complex, np.ndarray, np.ndarray]] = (),
-) -> ZdaCertificate:
-    """Certify the existence or absence of a stealthy ZDA of (A_1, B, C, 0), or say why not.
-
-    Reduction (module docstring): a stealthy direction at lambda != 0 is a kernel vector of
-    Q_M(s) = [[s I + alpha L, -S_F^T], [S_M, 0]] with u0 != 0 (s = lambda^2 + gamma lambda
-    covers every complex s), at lambda = 0 one of Q_{M_x}(0). Certificates:
-
-    * exists -- the structural rank of the generic pattern of Q_M is below N + m (not
-      left-invertible: a ZDA at every lambda0), or at lambda = 0
-      :func:`u_direction_certificate` proves a kernel vector with u0 != 0 (a persistent ZDA);
-    * none -- zero forcing from M on the exact graph (:func:`~glocal_verify.analysis.cluster_pencil.zero_forcing_closure`,
-      rows of attacked agents never force) reaches every agent, so ker Q_M(s) = {0} for every
-      s; and lambda = 0 is settled by zero forcing from M_x or by
-      :func:`u_direction_certificate` with rank [alpha L; S_{M_x}] <= N - (components without
-      a position-monitored agent) (their indicator vectors are exact kernel vectors).
-
-    * exists -- a candidate direction (lambda0, xi, u0) at a real lambda0 given exactly (the
-      requested exponent) rationalises to an exact kernel vector with u0 != 0
-      (:func:`rational_kernel_vector`), or a computed zero (s, xi, u0) of Q_M is proved by
-      the Krawczyk test in ball arithmetic (:func:`~glocal_verify.analysis.cluster_pencil.krawczyk_kernel`:
-      an exact kernel vector of Q_M(s) = P0 + s P1 inside certified enclosures, its u0 part
-      excluding 0; any s is reached by some lambda != 0).
-
-    Anything else -- in particular a zero at an irrational lambda0 found by the deflation, or
-    the absence of zeros found by QZ -- has no floating-point proof: ``status`` None and a
-    note; the checker is then undecided (and the registry escalates to exact arithmetic).
-
-    Parameters
-    ----------
-    system : System
-    actuators : iterable of labels, optional
-        F; default the spec's attacked actuators.
-    """
-    from glocal_verify.analysis.cluster_pencil import intra_neighbours, zero_forcing_closure
-
-    F = system.idx(_actuators(system, actuators))
-    N, m = system.n, len(F)
-    M = system.idx(system.monitored)
-    Mx = system.idx(system.monitored_positions)
-    _, pat = exact_q_rows(system, F, M, None)
-    if structural_rank(pat) < N + m:
-        return ZdaCertificate(Status.HOLDS, "structural rank of the exact support of Q_M(s) < N + m: not left-invertible, a ZDA at every lambda0")
-    rows0, pat0 = exact_q_rows(system, F, Mx, Fraction(0))
-    mx = set(Mx)
-    free = sum(1 for c in system.components() if not any(system.index[a] in mx for a in c))
-    at0, bound = u_direction_certificate(rows0, pat0, N, m, xi_upper=N - free)
-    if at0 is True:
-        return ZdaCertificate(Status.HOLDS, "Weyl/structural rank bounds at lambda0 = 0: rank Q_{M_x}(0) < rank [alpha L; S_{M_x}] + m (a persistent ZDA)", bound)
-    if candidate is not None and candidate[0].imag == 0:
-        lq = Fraction(candidate[0].real)
-        rows_c, _ = exact_q_rows(system, F, Mx if lq == 0 else M, lq * lq + system.gamma_q * lq)
-        qv = rational_kernel_vector(rows_c, np.concatenate([candidate[1], candidate[2]]))
-        if qv is not None and any(x != 0 for x in qv[N:]):
-            return ZdaCertificate(Status.HOLDS, f"the direction at lambda0 = {lq} rationalises to an exact kernel vector with u0 != 0 (checked over Q)")
-    if zeros:
-        from glocal_verify.analysis.cluster_pencil import krawczyk_kernel
-
-        P0, _ = exact_q_rows(system, F, M, Fraction(0))
-        P1 = [[Fraction(int(i == j and i < N)) for j in range(N + m)] for i in range(len(P0))]
-        for s_val, xi, u0 in zeros[:12]:
-            enc = krawczyk_kernel(P0, P1, complex(s_val), np.concatenate([xi, u0]))
-            if enc is not None and enc.nonzero(range(N, N + m)):
-                return ZdaCertificate(Status.HOLDS, f"Krawczyk test: Q_M(s) has an exact kernel vector with u0 != 0 at s in {enc.lam} (ball arithmetic)")
-    nbrs = intra_neighbours(system.laplacian_exact())
-    zf = zero_forcing_closure(nbrs, M, F)
-    if len(zf) == N:
-        zf0 = len(zero_forcing_closure(nbrs, Mx, F)) == N
-        if zf0 or at0 is False:
-            by = "zero forcing from M on the exact graph (every lambda != 0) and " + ("from M_x (lambda = 0)" if zf0 else "certified rank bounds at lambda = 0")
-            return ZdaCertificate(Status.FAILS, by, None if zf0 else bound)
-        return ZdaCertificate(None, "", bound, f"zero forcing excludes every lambda != 0, but the rank bounds at lambda = 0 do not separate (error bound {bound:.3g})")
-    return ZdaCertificate(
-        None,
-        "",
-        bound,
-        f"no structural certificate: zero forcing from M leaves {N - len(zf)} of {N} agents unforced, and the zeros (or their absence) "
-        "found by the deflation are floating-point statements a small residual cannot prove",
-    )

@@ -293,6 +293,10 @@ _COSTLY_EXACT = {"central.observer": 2, "stealthy.zda": 1, "switching.avoids-att
 #: cost is one dense rational computation of known size: central.observer's characteristic
 #: polynomial of the 2N x 2N closed loop (277 s measured at N = 200; the estimate is a quarter
 #: of that, scaled by N^4). An escalation whose estimate exceeds the budget is not started.
+#: what an estimate may raise; it then gives no estimate (the budget alone limits the run)
+_ESTIMATE_FAILURES: tuple[type[BaseException], ...] = (GlocalVerifyError, *NUMERICAL_FAILURES)
+
+
 #: stealthy.zda and switching.avoids-attack: the minor certificate (a characteristic polynomial
 #: modulo a prime, 46 s measured at N = 2000, scaled by N^3), then nothing more when it gives
 #: the exact ZDA analysis its fast path, else the dense V* iteration over Q (> 150 s at
@@ -306,7 +310,7 @@ def _zda_exact_seconds(system: System) -> float:
         return certificate
     try:
         fast = has_fast_exact_path(system)
-    except (GlocalVerifyError, *NUMERICAL_FAILURES):
+    except _ESTIMATE_FAILURES:
         return 0.0  # no estimate: the budget alone limits it
     return 0.0 if fast else certificate + 40.0 * (system.n / 200.0) ** 4
 

@@ -120,8 +120,8 @@ from glocal_verify.analysis.zda import (
     ZdaDirection,
     _Modal,
     zda_analysis,
-    zda_certificate,
 )
+from glocal_verify.analysis.zda_certificate import zda_certificate
 from glocal_verify.analysis.zda_exact import zda_analysis_exact
 from glocal_verify.conditions.registry import (
     CheckContext,
@@ -387,7 +387,7 @@ def check_safe(system: System, ctx: CheckContext) -> list[ConditionResult]:
         rounding of the rational data) against structural upper bounds of the exact
         support, or the avoiding direction rationalised to an exact kernel vector; the
         vacuous ``holds`` needs a certified absence of ZDAs
-        (:func:`~glocal_verify.analysis.zda.zda_certificate`). The exponent of a computed
+        (:func:`~glocal_verify.analysis.zda_certificate.zda_certificate`). The exponent of a computed
         (irrational) zero cannot be certified: ``undecided`` with ``error_bound`` and
         ``note``, escalated to exact arithmetic by ``verify``. The margin below stays a
         relative distance (robustness), not part of the decision.

@@ -76,8 +76,8 @@ from glocal_verify.analysis.zda import (
     ZdaAnalysis,
     ZdaZero,
     zda_analysis,
-    zda_certificate,
 )
+from glocal_verify.analysis.zda_certificate import zda_certificate
 from glocal_verify.analysis.zda_exact import (
     ExactZdaAnalysis,
     ExactZdaZero,
@@ -173,7 +173,7 @@ def check_zda(system: System, ctx: CheckContext) -> list[ConditionResult]:
 
     Certification (numeric)
         The tolerance of the deflation only *finds* candidates; a numeric ``holds``/``fails``
-        is reported only when :func:`~glocal_verify.analysis.zda.zda_certificate` proves it
+        is reported only when :func:`~glocal_verify.analysis.zda_certificate.zda_certificate` proves it
         for the exact system: ``holds`` by the structural rank of the exact support (not
         left-invertible), by Weyl lower bounds (SVD backward error 8 max(m, n) eps ||M||_F
         plus the rounding of the rational data) against structural upper bounds at lambda0 =
