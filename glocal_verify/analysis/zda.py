@@ -225,6 +225,8 @@ class _Modal:
         self.Mx = system.idx(system.monitored_positions)
         self.Mv = system.idx(system.monitored_velocities)
         self.L = system.analysis.get(("laplacian-csr", "normal"), lambda: scipy.sparse.csr_matrix(system.laplacian()))
+        # the rows of U every kernel and screen reads (copied once, not per candidate)
+        self.UF, self.UM, self.UMx, self.UMv = (self.U[idx, :] for idx in (self.F, self.M, self.Mx, self.Mv))
         self.mu_scale = max(self.alpha * float(np.max(np.abs(self.mu), initial=0.0)), 1.0)
         # ||A||_2 bound used for growth decisions and lambda ~ 0 decisions
         self.A_scale = float(self._blocks_norm(0.0))
@@ -272,8 +274,8 @@ class _Modal:
         J = np.flatnonzero(near_mask)
         far = np.flatnonzero(~near_mask)
         m, p, nJ = len(self.F), len(rows_out), len(J)
-        UF = self.U[self.F, :]
-        UO = self.U[rows_out, :]
+        UF = self.UF
+        UO = self.UMx if lam == 0 else self.UM
         Gf = (UO[:, far] / d[far]) @ UF[:, far].T if len(far) else np.zeros((p, m), dtype=complex)
         K = np.zeros((nJ + p, nJ + m), dtype=complex)
         K[:nJ, nJ:] = UF[:, J].T
@@ -326,8 +328,8 @@ class _Modal:
         if not ortho < 0.5:
             return None
         s = lam * lam + self.gamma * lam
-        r_m = (s + self.alpha * self.mu) * eta - self.U[self.F, :].T @ u
-        out = np.concatenate([self.U[self.Mx, :] @ eta, lam * (self.U[self.Mv, :] @ eta)])
+        r_m = (s + self.alpha * self.mu) * eta - self.UF.T @ u
+        out = np.concatenate([self.UMx @ eta, lam * (self.UMv @ eta)])
         e_n, u_n, rm_n = float(np.linalg.norm(eta)), float(np.linalg.norm(u)), float(np.linalg.norm(r_m))
         num = math.hypot(rm_n, float(np.linalg.norm(out)))
         vnorm = math.sqrt((1.0 + abs(lam) ** 2) * e_n**2 + u_n**2)
