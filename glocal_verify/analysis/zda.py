@@ -363,37 +363,31 @@ class _Modal:
         not confirm its screened decisions, every candidate is verified in full
         (:meth:`_direction_full`), so the result is the full method's.
         """
-        best_c: tuple[np.ndarray, np.ndarray, float, Decision, Decision] | None = None
-        best_dec = Decision.NONZERO
-        lo = hi = 0
-        for near_band in (False, True):
-            cands, lo_, hi_ = self.kernel(lam, near_band)
-            if not near_band:
-                lo, hi = lo_, hi_
-            for eta, u in cands:
-                sc = self._screen(lam, eta, u)
-                if sc is None:
-                    return self._direction_full(lam)
-                dres, du, frac = sc
-                if dres is Decision.ZERO:
-                    best_dec = Decision.ZERO
-                    if best_c is None or frac > best_c[2]:
-                        best_c = (eta, u, frac, dres, du)
-                    if du is Decision.NONZERO:
-                        break
-                elif dres is Decision.UNDECIDED and best_dec is Decision.NONZERO:
-                    best_dec = Decision.UNDECIDED
-            if best_c is not None:
-                break
-        if best_c is None:
+        picked = self._select(lam, screened=True)
+        if picked is None:
+            return self._direction_full(lam)
+        best, best_dec, lo, hi = picked
+        if best is None:
             return None, best_dec, lo, hi
-        xi, u2, res, dres, du = self.verify(lam, best_c[0], best_c[1])
-        if dres is not best_c[3] or du is not best_c[4]:
+        eta, u, _, dres_s, du_s = best
+        xi, u2, res, dres, du = self.verify(lam, eta, u)
+        if dres is not dres_s or du is not du_s:
             return self._direction_full(lam)
         return (xi, u2, res, dres, du), best_dec, lo, hi
 
     def _direction_full(self, lam: complex) -> tuple[tuple[np.ndarray, np.ndarray, float, Decision, Decision] | None, Decision, int, int]:
         """:meth:`direction` with every candidate verified on the full pencil (the reference)."""
+        picked = self._select(lam, screened=False)
+        assert picked is not None
+        best, best_dec, lo, hi = picked
+        if best is None:
+            return None, best_dec, lo, hi
+        eta, u, _, _, _ = best
+        return self.verify(lam, eta, u), best_dec, lo, hi
+
+    def _select(self, lam: complex, screened: bool) -> tuple[Any, Decision, int, int] | None:
+        """The candidate (eta, u, input fraction, residual decision, input decision) with the
+        largest input part among those whose residual is zero; None when a screen is unsure."""
         best: tuple[np.ndarray, np.ndarray, float, Decision, Decision] | None = None
         best_dec = Decision.NONZERO
         lo = hi = 0
@@ -402,12 +396,18 @@ class _Modal:
             if not near_band:
                 lo, hi = lo_, hi_
             for eta, u in cands:
-                xi, u2, res, dres, du = self.verify(lam, eta, u)
+                if screened:
+                    sc = self._screen(lam, eta, u)
+                    if sc is None:
+                        return None
+                    dres, du, frac = sc
+                else:
+                    xi, u2, _, dres, du = self.verify(lam, eta, u)
+                    frac = float(np.linalg.norm(u2)) / max(float(np.linalg.norm(xi)), 1e-300)
                 if dres is Decision.ZERO:
                     best_dec = Decision.ZERO
-                    frac = float(np.linalg.norm(u2)) / max(float(np.linalg.norm(xi)), 1e-300)
-                    if best is None or frac > float(np.linalg.norm(best[1])) / max(float(np.linalg.norm(best[0])), 1e-300):
-                        best = (xi, u2, res, dres, du)
+                    if best is None or frac > best[2]:
+                        best = (eta, u, frac, dres, du)
                     if du is Decision.NONZERO:
                         break  # the first candidate is the largest-input vector of the certain kernel
                 elif dres is Decision.UNDECIDED and best_dec is Decision.NONZERO:
