@@ -87,8 +87,7 @@ def eigenvector_differences_modular(system: System, mode: str) -> tuple[Status, 
                         "reason": f"{la} and {lr} are twins in L_q: e_{la} - e_{lr} is an exact eigenvector (eigenvalue {mu}) "
                         f"whose entries on the pair are both 0",
                     }
-    p = prime_for(list(ent.values()))
-    P = charpoly_mod(n, ent, p)
+    p, P = _charpoly_mod(system, mode, ent)
     if P.gcd(P.derivative()).degree() != 0 or int(P.coeffs()[0]) != 0:
         return None
     P0 = type(P)([int(c) for c in P.coeffs()[1:]], p)
@@ -102,6 +101,16 @@ def eigenvector_differences_modular(system: System, mode: str) -> tuple[Status, 
         "pairs_checked": len(pairs),
         "certificate": f"charpoly(L_q) squarefree and gcd(p(mu)/mu, q_ij) = 1 for every pair, modulo the prime {p} (exact)",
     }
+
+
+def _charpoly_mod(system: System, mode: str, ent: dict[tuple[int, int], Fraction]) -> tuple[int, Any]:
+    """(p, charpoly(L_q) modulo p) for a prime p that divides no entry's denominator; kept on
+    ``system.analysis`` (both Theorem III.3 deciders of a mode read it)."""
+    def compute() -> tuple[int, Any]:
+        p = prime_for(list(ent.values()))
+        return p, charpoly_mod(system.n, ent, p)
+
+    return system.analysis.get(("charpoly-mod", mode), compute)  # type: ignore[no-any-return]
 
 
 def distinct_eigenvalues_modular(system: System, mode: str) -> tuple[Status, dict[str, Any]] | None:
@@ -151,8 +160,7 @@ def distinct_eigenvalues_modular(system: System, mode: str) -> tuple[Status, dic
             "rational_eigenvectors": [system.vector_by_label(v) for v in (v1, v2)],
             "eigenvectors": [system.vector_by_label(u / np.linalg.norm(u)) for u in unit],
         }
-    p = prime_for(list(ent.values()))
-    P = charpoly_mod(n, ent, p)
+    p, P = _charpoly_mod(system, mode, ent)
     if P.gcd(P.derivative()).degree() != 0:
         return None
     return Status.HOLDS, {"certificate": f"charpoly(L_q) squarefree modulo the prime {p}: gcd(p, p') = 1 (exact)"}

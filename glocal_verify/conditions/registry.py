@@ -289,10 +289,6 @@ def _run_checker(system: System, cid: str, ctx: CheckContext) -> list[ConditionR
 #: that they cannot spend the budget the cheap ones need
 _COSTLY_EXACT = {"central.observer": 2, "stealthy.zda": 1, "switching.avoids-attack": 1}
 
-#: a lower estimate of the seconds an exact re-decision takes, for the checkers whose exact
-#: cost is one dense rational computation of known size: central.observer's characteristic
-#: polynomial of the 2N x 2N closed loop (277 s measured at N = 200; the estimate is a quarter
-#: of that, scaled by N^4). An escalation whose estimate exceeds the budget is not started.
 #: what an estimate may raise; it then gives no estimate (the budget alone limits the run)
 _ESTIMATE_FAILURES: tuple[type[BaseException], ...] = (GlocalVerifyError, *NUMERICAL_FAILURES)
 
@@ -315,6 +311,11 @@ def _zda_exact_seconds(system: System) -> float:
     return 0.0 if fast else certificate + 40.0 * (system.n / 200.0) ** 4
 
 
+#: a lower estimate of the seconds an exact re-decision takes, for the checkers whose exact
+#: cost is one dense rational computation of known size: central.observer's characteristic
+#: polynomial of the 2N x 2N closed loop (277 s measured at N = 200; the estimate is a quarter
+#: of that, scaled by N^4), and :func:`_zda_exact_seconds`. An escalation whose estimate
+#: exceeds the budget is not started.
 _EXACT_SECONDS: dict[str, Callable[[System], float]] = {
     "central.observer": lambda system: 70.0 * (system.n / 200.0) ** 4,
     "stealthy.zda": _zda_exact_seconds,
@@ -337,9 +338,10 @@ def _escalate_all(
     pending.sort(key=lambda cid: _COSTLY_EXACT.get(cid, 0))
     if budget is not None:
         # an escalation estimated beyond the whole budget is not started, and takes no share
-        for cid in [c for c in pending if c in _EXACT_SECONDS and _EXACT_SECONDS[c](system) > budget]:
+        estimates = {c: _EXACT_SECONDS[c](system) for c in pending if c in _EXACT_SECONDS}
+        for cid in [c for c, est in estimates.items() if est > budget]:
             note = (
-                f"undecided numerically; an exact re-decision would take at least about {_EXACT_SECONDS[cid](system):.3g} s at "
+                f"undecided numerically; an exact re-decision would take at least about {estimates[cid]:.3g} s at "
                 f"N = {system.n} (estimate), more than --exact-budget ({budget:g} s), so it was not started (run --exact, or raise --exact-budget)"
             )
             per_checker[cid] = _escalate(system, cid, per_checker[cid], ctx, 0.0, note)

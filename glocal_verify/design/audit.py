@@ -245,11 +245,9 @@ class _Shared:
     screen: bool
     minors: GroundedTables | None = None
     local_seed: Mapping[Any, Any] = field(default_factory=dict)
-    #: ZDA and safe-mode parts fall back to exact arithmetic only when the row's verdict is
-    #: otherwise undecided (``exact_fallback="verdicts"``)
-    lazy_zda: bool = False
-    #: the exact fallback of the ZDA and safe-mode parts is allowed in this pass
-    zda_fallback: bool = True
+    #: the exact fallback of the ZDA and safe-mode parts: "always" (with ``exact_fallback``),
+    #: "verdicts" (only for rows whose verdict is otherwise undecided) or "never" (this pass)
+    zda_fallback: str = "always"
 
 
 def _shared(system: System, tol: Tolerance, exact: bool, exact_fallback: bool | str | None, screen: bool) -> _Shared:
@@ -258,11 +256,11 @@ def _shared(system: System, tol: Tolerance, exact: bool, exact_fallback: bool | 
         exact_fallback = True if n <= EXACT_FALLBACK_FULL_AGENTS else "verdicts" if n <= EXACT_FALLBACK_MAX_AGENTS else False
     if exact_fallback not in (True, False, "verdicts"):
         raise NotApplicableError(f"exact_fallback: must be True, False or 'verdicts', not {exact_fallback!r}")
-    lazy = exact_fallback == "verdicts"
     system.spectrum()  # the one eigendecomposition of L_1 every set reuses
     lam = system.spec.attack.lambda0 if system.spec.attack is not None else None
     tables = _global_tables(system) if screen and not exact and system.monitored else None
-    return _Shared(system, tol, mode_conditions(system, tol, exact=exact), lam, exact, bool(exact_fallback), screen, tables, lazy_zda=lazy)
+    return _Shared(system, tol, mode_conditions(system, tol, exact=exact), lam, exact, bool(exact_fallback), screen, tables,
+                   zda_fallback="verdicts" if exact_fallback == "verdicts" else "always")
 
 
 def _global_tables(system: System) -> GroundedTables | None:
@@ -385,9 +383,9 @@ def _zda_part(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any] | None = N
                 growth = GROWTH_UNBOUNDED
             else:
                 growth = max((z.growth for z in za.zeros), key=_growth_rank, default="undecided")
-            if growth != "undecided" or not (sh.exact_fallback and sh.zda_fallback):
+            if growth != "undecided" or not _zda_fallback(sh):
                 return _Zda(za.exists, growth, za.left_invertible, za.direction, za.direction_source)
-        if not (sh.exact_fallback and sh.zda_fallback):
+        if not _zda_fallback(sh):
             return _Zda(None, "undecided", None, None, "undecided")
     ea = zda_analysis_exact(system, F, lambda0=sh.lambda0)
     if not ea.exists:
@@ -397,6 +395,11 @@ def _zda_part(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any] | None = N
     assert d is not None
     z = ZdaZero(d.value, d.value**2 + system.gamma * d.value, d.xi, d.u0, 0.0, d.growth)
     return _Zda(True, growth, ea.left_invertible, z, ea.direction_source, ea, "exact")
+
+
+def _zda_fallback(sh: _Shared) -> bool:
+    """Whether this pass re-decides an undecided ZDA or safe-mode part over Q."""
+    return sh.exact_fallback and sh.zda_fallback != "never"
 
 
 def _growth_rank(g: str) -> int:
@@ -490,7 +493,7 @@ def _modes_part(sh: _Shared, F: tuple[Label, ...], z: _Zda) -> tuple[list[str], 
                 bases = _stealthy_bases(md, z.direction.value)
             assert bases is not None
             av = _numeric_mode(system, mode, md, z.direction, z.source, bases)
-            if av.status is Status.UNDECIDED and sh.exact_fallback and sh.zda_fallback:
+            if av.status is Status.UNDECIDED and _zda_fallback(sh):
                 ea = zda_analysis_exact(system, F, lambda0=sh.lambda0)
                 if ea.direction is not None:
                     av = _exact_mode(system, mode, ea.direction, ea.direction_source, system.idx(F), sh.tol)
@@ -509,11 +512,12 @@ def _modes_part(sh: _Shared, F: tuple[Label, ...], z: _Zda) -> tuple[list[str], 
 
 
 def _audit_set(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any]) -> AuditRow:
-    if sh.lazy_zda and sh.zda_fallback and sh.exact_fallback and not sh.exact:
+    if sh.zda_fallback == "verdicts" and sh.exact_fallback and not sh.exact:
         # the exact ZDA analysis costs seconds per set: run it only when the verdict needs it
-        row = _audit_set(dataclasses.replace(sh, zda_fallback=False), F, memo)
+        row = _audit_set(dataclasses.replace(sh, zda_fallback="never"), F, memo)
         if row.verdict != "undecided":
             return row
+        sh = dataclasses.replace(sh, zda_fallback="always")
     system, tol = sh.system, sh.tol
     z = _zda_part(sh, F, memo)
     caught, local_detail, covered = _local_part(sh, F, memo)
