@@ -156,3 +156,19 @@ def test_an_escalation_estimated_beyond_its_share_is_not_started(monkeypatch: py
     [r] = verify(s, ["central.observer"], exact_budget=30.0).conditions
     assert r.status is Status.UNDECIDED
     assert "not started" in r.note and "1e+06 s" in r.note and "--exact" in r.note
+
+
+def test_the_cheap_exact_certificates_agree_with_exact_arithmetic() -> None:
+    from glocal_verify.analysis.unobservable import unobservable_subspace_exact
+
+    twins = System(spec_from_graph(_graph_with_twin_leaves(), monitor_velocities=[5], modes={"safe": {"add": [(5, 1)]}}))
+    path = System(spec_from_graph(nx.path_graph(range(1, 9)), monitor_velocities=[8], modes={"longer": {"remove": [(7, 8)], "add": [(1, 8)]}}))
+    for s, ids in ((twins, ["switching.distinct-eigenvalues", "privacy.unobservable", "switched-observability", "central.observer"]),
+                   (path, ["switching.distinct-eigenvalues"])):
+        numeric = {(r.id, repr(r.scope)): r.status for r in verify(s, ids, escalate="never").conditions}
+        exact = {(r.id, repr(r.scope)): r.status for r in verify(s, ids, exact=True).conditions}
+        for key, st in numeric.items():
+            assert st is Status.UNDECIDED or st is exact[key], (key, st, exact[key])
+    # the proven dimension is the exact one
+    cu = certified_unobservable(twins)
+    assert cu.decided and cu.dim_lower == len(unobservable_subspace_exact(twins))
