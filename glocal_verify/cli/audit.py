@@ -32,16 +32,32 @@ def _labels(system: Any, text: str | None, what: str) -> list[Any] | None:
     return out
 
 
-def _progress(quiet: bool) -> Callable[[int, int], None] | None:
-    if quiet or not sys.stderr.isatty():
+def _progress(quiet: bool, unit: str = "attack sets") -> Callable[[int, int], None] | None:
+    """A bar with ETA on a terminal; otherwise one line per chunk (at most one per 10 s) on stderr."""
+    if quiet:
         return None
+    if not sys.stderr.isatty():
+        import time
+
+        start = time.monotonic()
+        last = [0.0]
+
+        def line(done: int, total: int) -> None:
+            now = time.monotonic() - start
+            if done < total and now - last[0] < 10.0:
+                return
+            last[0] = now
+            eta = now / done * (total - done) if done else float("nan")
+            print(f"audit: {done}/{total} {unit}, {now:.0f} s elapsed, about {eta:.0f} s left", file=sys.stderr, flush=True)
+
+        return line
     from tqdm import tqdm
 
     bar: dict[str, Any] = {}
 
     def tick(done: int, total: int) -> None:
-        if "bar" not in bar:
-            bar["bar"] = tqdm(total=total, desc="attack sets", unit="set", leave=False)
+        if "bar" not in bar or bar["bar"].total != total or bar["bar"].n > done:
+            bar["bar"] = tqdm(total=total, desc=unit, leave=False)
         b = bar["bar"]
         b.update(done - b.n)
         if done >= total:
@@ -68,8 +84,10 @@ def cmd_audit(args: argparse.Namespace) -> int:
 
         if args.workers is not None and args.workers < 1:
             raise UsageError("--workers must be at least 1")
-        executor = dask_executor(args.scheduler, args.workers or 2)
-    result = audit(system, args.max_attackers, cands, sensors, _progress(args.quiet), exact=args.exact, chunk_size=args.chunk, executor=executor)
+        executor = dask_executor(args.scheduler, args.workers or 2, progress=_progress(args.quiet, "tasks"))
+    result = audit(
+        system, args.max_attackers, cands, sensors, _progress(args.quiet), exact=args.exact, growth=args.growth, chunk_size=args.chunk, executor=executor
+    )
     if args.format == "json":
         text = json.dumps(result.to_json(), indent=2) + "\n"
     elif args.format == "html":
@@ -105,6 +123,12 @@ def register(sub: Any) -> None:
     p.add_argument("--figure", metavar="FILE", help="also write the figure (.svg or .png)")
     p.add_argument("--scheduler", metavar="ADDRESS", help="run the chunks on this Dask scheduler (e.g. tcp://127.0.0.1:8786)")
     p.add_argument("--workers", type=int, metavar="N", help="run the chunks on an embedded Dask LocalCluster of N workers")
+    p.add_argument(
+        "--growth",
+        choices=("full", "verdict"),
+        help="full: the whole zero set of every stealthy set (growth class, fastest zero); verdict: only where a verdict needs it, "
+        "else one proven ZDA and a lower bound on the growth (default: full up to 60 agents, verdict above)",
+    )
     p.add_argument("--chunk", type=int, default=200, metavar="M", help="attack sets per task (default 200)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_audit)

@@ -21,21 +21,10 @@ Problem 2 with the checkers' own analyses, reusing one spectral decomposition pe
   when a stealthy ZDA exists and every one of these tests is decided against detection;
   ``undecided`` otherwise.
 
-Structural screen (proof)
-    Let X be a vertex set separating F from M = M_x ∪ M_v in the graph (every path from F to
-    M meets X; X may contain agents of F or M). Split the vertices into Y (reachable from M
-    without meeting X), X and Z (the rest); there is no edge between Y and Z, so
-    (sI + alpha L)[Y, Z] = 0. For s outside the finitely many eigenvalues of -alpha L[Y, Y],
-    the solution w of (sI + alpha L) w = S_F^T u satisfies on the rows Y (none of them in F)
-    (sI + alpha L)[Y, Y] w_Y + (sI + alpha L)[Y, X] w_X = 0, so w_Y, and hence
-    w_M = S_M w, is a linear function of w_X: rank G(s) <= |X| with
-    G(s) = S_M (sI + alpha L)^{-1} S_F^T. Since Q(s) = [[sI + alpha L, -S_F^T], [S_M, 0]]
-    has normal rank N + nrank G, a separator with |X| < |F| makes the system not
-    left-invertible, for every choice of the weights: a stealthy ZDA exists at every lambda0.
-    By Menger's theorem the smallest separator is the largest number of vertex-disjoint paths
-    from F to M (computed with networkx). The screen only proves existence; it saves the
-    N-sized QZ of ``stealthy.zda`` when the spec fixes lambda0 (the witness is then the
-    direction at lambda0, the rule of :func:`glocal_verify.analysis.zda.zda_analysis`).
+Structural screen
+    A separator of fewer than |F| agents between F and M proves the system not
+    left-invertible for every choice of the weights
+    (:func:`glocal_verify.design.audit_screens.disjoint_paths`, with the proof).
 
 Tolerances and exactness
     Every numeric decision is the checkers' (``DEFAULT_TOLERANCE`` unless given). A numeric
@@ -56,10 +45,8 @@ import dataclasses
 import itertools
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from fractions import Fraction
 from typing import Any
 
-import networkx as nx
 import numpy as np
 
 from glocal_verify.analysis.avoidance import _exact_mode, _numeric_mode, _stealthy_bases
@@ -68,12 +55,11 @@ from glocal_verify.analysis.local_cases import (
     minor_certificate,
     twin_failure,
 )
-from glocal_verify.analysis.twins import laplacian_entries
-from glocal_verify.analysis.unobservable import rational_unobservable_candidates
 from glocal_verify.analysis.zda import (
     GROWTH_PERSISTENT,
     GROWTH_UNBOUNDED,
     ZdaZero,
+    _growth,
     _Modal,
     _normalize,
     zda_analysis,
@@ -87,17 +73,16 @@ from glocal_verify.design.audit_records import (
     AuditResult,
     AuditRow,
 )
+from glocal_verify.design.audit_screens import disjoint_paths, global_tables
 from glocal_verify.errors import ModelError, NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.numerics.minors import (
     GroundedTables,
     full_rank_certificate,
-    grounded_tables,
-    verified_invariant_subspace,
 )
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
 from glocal_verify.results import Status
-from glocal_verify.spec.types import NORMAL_MODE, Label
+from glocal_verify.spec.types import Label
 
 __all__ = [
     "AUDIT_SCHEMA_ID",
@@ -122,6 +107,13 @@ EXACT_FALLBACK_MAX_AGENTS = 60
 #: above this many agents (and up to :data:`EXACT_FALLBACK_MAX_AGENTS`) the default re-decides
 #: the ZDA and safe-mode parts over Q only for rows whose verdict they leave undecided
 EXACT_FALLBACK_FULL_AGENTS = 20
+#: up to this many agents every stealthy set gets its whole zero set by default (``growth="full"``)
+GROWTH_FULL_MAX_AGENTS = 60
+#: above this many agents a row's witness direction leaves out xi (N entries per row)
+WITNESS_XI_MAX_AGENTS = 100
+#: with ``growth="verdict"`` and a proven witness, the minor certificate stops after this many
+#: minors in a row leave the gcd's degree unchanged
+WITNESS_CERTIFICATE_PATIENCE = 1
 
 
 # ------------------------------------------------------------------------------------------
@@ -202,36 +194,6 @@ def mode_conditions(system: System, tol: Tolerance = DEFAULT_TOLERANCE, *, exact
     return out
 
 
-def disjoint_paths(system: System, F: Sequence[Label]) -> int:
-    """Largest number of vertex-disjoint paths from F to M (Menger; the structural screen).
-
-    Parameters
-    ----------
-    system : System
-    F : sequence of labels
-        The actuators.
-
-    Returns
-    -------
-    int
-        When smaller than |F| the system is not left-invertible for any weights (module docstring).
-    """
-    M = set(system.monitored)
-    if not M:
-        return 0
-    G = nx.Graph()
-    G.add_nodes_from(system.labels)
-    for key in system.edges():
-        u, v = tuple(key)
-        G.add_edge(u, v)
-    src, snk = ("__source__",), ("__sink__",)
-    for f in F:
-        G.add_edge(src, f)
-    for m in M:
-        G.add_edge(m, snk)
-    return int(nx.algorithms.connectivity.local_node_connectivity(G, src, snk))
-
-
 @dataclass(frozen=True)
 class _Shared:
     """What every set reuses: the system, its mode verdicts, options."""
@@ -248,9 +210,16 @@ class _Shared:
     #: the exact fallback of the ZDA and safe-mode parts: "always" (with ``exact_fallback``),
     #: "verdicts" (only for rows whose verdict is otherwise undecided) or "never" (this pass)
     zda_fallback: str = "always"
+    #: "full": every stealthy set gets its whole zero set (growth, fastest zero); "verdict":
+    #: only when the verdict depends on it (see :func:`audit`)
+    growth: str = "full"
 
 
-def _shared(system: System, tol: Tolerance, exact: bool, exact_fallback: bool | str | None, screen: bool) -> _Shared:
+def _shared(system: System, tol: Tolerance, exact: bool, exact_fallback: bool | str | None, screen: bool, growth: str | None = None) -> _Shared:
+    if growth is None:
+        growth = "full" if system.n <= GROWTH_FULL_MAX_AGENTS else "verdict"
+    if growth not in ("full", "verdict"):
+        raise NotApplicableError(f"growth: must be 'full' or 'verdict', not {growth!r}")
     if exact_fallback is None:
         n = system.n
         exact_fallback = True if n <= EXACT_FALLBACK_FULL_AGENTS else "verdicts" if n <= EXACT_FALLBACK_MAX_AGENTS else False
@@ -258,51 +227,25 @@ def _shared(system: System, tol: Tolerance, exact: bool, exact_fallback: bool | 
         raise NotApplicableError(f"exact_fallback: must be True, False or 'verdicts', not {exact_fallback!r}")
     system.spectrum()  # the one eigendecomposition of L_1 every set reuses
     lam = system.spec.attack.lambda0 if system.spec.attack is not None else None
-    tables = _global_tables(system) if screen and not exact and system.monitored else None
+    tables = global_tables(system) if screen and not exact and system.monitored else None
     return _Shared(system, tol, mode_conditions(system, tol, exact=exact), lam, exact, bool(exact_fallback), screen, tables,
-                   zda_fallback="verdicts" if exact_fallback == "verdicts" else "always")
+                   zda_fallback="verdicts" if exact_fallback == "verdicts" else "always", growth=growth)
 
 
-def _global_tables(system: System) -> GroundedTables | None:
-    """The numerator tables of the normal mode's reduced ZDA pencil (outputs M = M_x ∪ M_v).
-
-    The unobservable modes the certificate divides out come from floating point (eigenvectors
-    of L_1 that vanish on M to 1e-9), rationalised, and are used only after
-    :func:`~glocal_verify.numerics.minors.verified_invariant_subspace` proves them exactly.
-    """
-    entries = laplacian_entries(system, NORMAL_MODE)
-    M = system.idx(system.monitored)
-    cands = _unobservable_candidates(system, M)
-    tables = grounded_tables(system.n, entries, Fraction(system.alpha_q), M, cands) if cands else None
-    if tables is not None and not tables.unobservable_factor and cands:
-        # the whole candidate space did not verify: keep the groups that do, one by one
-        kept: list[list[Fraction]] = []
-        for group in _unobservable_candidates(system, M, grouped=True):
-            if verified_invariant_subspace(system.n, entries, M, kept + group) is not None:
-                kept += group
-        tables = grounded_tables(system.n, entries, Fraction(system.alpha_q), M, kept or None)
-    return tables if tables is not None else grounded_tables(system.n, entries, Fraction(system.alpha_q), M)
-
-
-def _unobservable_candidates(system: System, M: Sequence[int], grouped: bool = False) -> Any:
-    """Rationalised reduced-echelon bases of E_mu ∩ ker S_M per eigenvalue group (floating point)."""
-    sp = system.spectrum()
-    U = np.asarray(sp.vectors)
-    out = [rows for g in sp.clusters if (rows := rational_unobservable_candidates(U[:, list(g)], M))]
-    if grouped:
-        return out
-    return [r for grp in out for r in grp]
 # ------------------------------------------------------------------------------------------
 # one set
 
 
 def _xi_json(system: System, xi: np.ndarray, tol: Tolerance) -> dict[str, Any]:
-    big = float(np.max(np.abs(xi), initial=0.0))
+    """The entries of xi that are not zero at the tolerance (relative to its largest), by label."""
+    mag = np.abs(xi)
+    big = float(np.max(mag, initial=0.0))
     out: dict[str, Any] = {}
-    for lab, x in zip(system.labels, xi):
-        if big > 0 and tol.decide(abs(x), big) is not Decision.ZERO:
-            c = complex(x)
-            out[str(lab)] = c.real if c.imag == 0 else [c.real, c.imag]
+    if big <= 0.0 or not np.isfinite(big):
+        return out
+    for k in np.flatnonzero(mag / big > tol.rtol):  # Tolerance.decide(|x|, big) is not ZERO
+        c = complex(xi[k])
+        out[str(system.labels[k])] = c.real if c.imag == 0 else [c.real, c.imag]
     return out
 
 
@@ -325,9 +268,15 @@ class _Zda:
     method: str = "numeric"
     screened: bool = False
     certificate: str = ""
+    #: False when the zero set was not computed (``growth="verdict"``): ``direction`` is a
+    #: proven stealthy ZDA but not necessarily the fastest one, and ``growth`` is only exact
+    #: when it is ``unbounded``
+    complete: bool = True
+    #: the growth class of ``direction`` (a lower bound on the fastest ZDA) when not complete
+    growth_at_least: str = ""
 
 
-def _certified_zda(sh: _Shared, F: tuple[Label, ...], cache: dict[Any, Any]) -> _Zda | None:
+def _certified_zda(sh: _Shared, F: tuple[Label, ...], cache: dict[Any, Any], patience: int | None = None) -> _Zda | None:
     """The ZDA part from the exact minor certificate (no zero with lambda != 0) and lambda = 0.
 
     When the maximal minors of the reduced pencil have no common root
@@ -338,7 +287,7 @@ def _certified_zda(sh: _Shared, F: tuple[Label, ...], cache: dict[Any, Any]) -> 
     sends the set to the full analysis.
     """
     assert sh.minors is not None
-    cert = full_rank_certificate(sh.minors, sh.system.idx(F), cache, modulo_twins=True)
+    cert = full_rank_certificate(sh.minors, sh.system.idx(F), cache, modulo_twins=True, patience=patience)
     if cert is None:
         return None
     md = _Modal(sh.system, F, sh.tol)
@@ -360,8 +309,18 @@ def _certified_zda(sh: _Shared, F: tuple[Label, ...], cache: dict[Any, Any]) -> 
 
 def _zda_part(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any] | None = None) -> _Zda:
     system, tol = sh.system, sh.tol
+    cache = (memo if memo is not None else {}).setdefault("minors", {})
+    if sh.growth == "verdict" and not sh.exact:
+        zw = _witness_zda(sh, F)
+        if zw is not None:
+            # stealthy is proven: the certificate would only make the growth exact, so it
+            # gets a small effort (a common factor that survives a few minors is usually
+            # a genuine zero)
+            try_cert = sh.minors is not None and not zw.screened and all(_single_certified(sh, a, memo) for a in F)
+            zc = _certified_zda(sh, F, cache, WITNESS_CERTIFICATE_PATIENCE) if try_cert else None
+            return zc if zc is not None else zw
     if sh.minors is not None:
-        zc = _certified_zda(sh, F, (memo if memo is not None else {}).setdefault("minors", {}))
+        zc = _certified_zda(sh, F, cache)
         if zc is not None:
             return zc
     if sh.screen and not sh.exact and sh.lambda0 is not None and disjoint_paths(system, F) < len(F):
@@ -395,6 +354,58 @@ def _zda_part(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any] | None = N
     assert d is not None
     z = ZdaZero(d.value, d.value**2 + system.gamma * d.value, d.xi, d.u0, 0.0, d.growth)
     return _Zda(True, growth, ea.left_invertible, z, ea.direction_source, ea, "exact")
+
+
+def _witness_zda(sh: _Shared, F: tuple[Label, ...]) -> _Zda | None:
+    """One proven stealthy ZDA without the zero set (``growth="verdict"``), or None.
+
+    The exponent is the spec's lambda0 when given (the witness rule of ``stealthy.zda`` then
+    picks that direction too); else lambda0 = 1 when the separator screen proves the system
+    not left-invertible (growth ``unbounded``, exact: a ZDA exists at every lambda0), else
+    lambda0 = 0 (a persistent ZDA: velocity-only monitors do not see a constant position
+    offset). The direction is the checker's verified kernel vector of the 2N pencil with
+    u0 != 0 (:meth:`glocal_verify.analysis.zda._Modal.direction`).
+    """
+    system, tol = sh.system, sh.tol
+    not_li = sh.screen and disjoint_paths(system, F) < len(F)
+    lam = complex(sh.lambda0) if sh.lambda0 is not None else (1.0 + 0j if not_li else 0j)
+    md = _Modal(system, F, tol)
+    found, _, _, _ = md.direction(lam)
+    if found is None or found[3] is not Decision.ZERO or found[4] is not Decision.NONZERO:
+        return None
+    xi, u = _normalize(found[0], found[1])
+    g = GROWTH_UNBOUNDED if not_li else _growth(lam, md.A_scale, tol)
+    if g == "undecided":
+        return None
+    z = ZdaZero(lam, lam * lam + system.gamma * lam, xi, u, found[2], g)
+    if sh.lambda0 is not None:
+        source = "requested lambda0"
+    elif not_li:
+        source = "lambda0 = 1 (not left-invertible: a ZDA exists at every lambda0)"
+    else:
+        source = f"lambda0 = {lam.real:g} (a proven ZDA; the zero set was not computed)"
+    return _Zda(True, GROWTH_UNBOUNDED if g == GROWTH_UNBOUNDED else "undecided", False if not_li else None, z, source,
+                screened=not_li, complete=False, growth_at_least=g)
+
+
+def _single_certified(sh: _Shared, a: Label, memo: dict[Any, Any] | None) -> bool:
+    """Whether the minor certificate proves the single set {a} (memoised per agent).
+
+    A kernel vector of T(s) for {a} is one for every F containing a (a zero input on F \ {a}),
+    so when {a} keeps a common root the certificate of F cannot succeed in practice: with
+    ``growth="verdict"`` it is then not tried (the row keeps its proven witness).
+    """
+    assert sh.minors is not None
+    store = memo if memo is not None else {}
+    key = ("single-certificate", a)
+    if key not in store:
+        store[key] = full_rank_certificate(sh.minors, sh.system.idx((a,)), store.setdefault("minors", {}), modulo_twins=True) is not None
+    return bool(store[key])
+
+
+def _exposure_possible(sh: _Shared) -> bool:
+    """Whether some safe mode may expose a set: Theorem III.3 is not decided to fail for it."""
+    return any(ok is not False for ok in sh.modes.values())
 
 
 def _zda_fallback(sh: _Shared) -> bool:
@@ -485,6 +496,11 @@ def _modes_part(sh: _Shared, F: tuple[Label, ...], z: _Zda) -> tuple[list[str], 
     md = bases = None
     for mode in system.safe_modes:
         ok = sh.modes.get(mode)
+        if (sh.growth == "verdict" and ok is False) or (not z.complete and z.source != "requested lambda0"):
+            # a mode that fails Theorem III.3 exposes nothing; and without the zero set the touch
+            # test would be about a direction that is not the checker's witness
+            detail[mode] = {"theorem_iii3": ok, "switching.avoids-attack": "not evaluated", "touches_attack": None, "touched_agents": []}
+            continue
         if z.exact is not None:
             av = _exact_mode(system, mode, z.exact.direction, z.source, system.idx(F), sh.tol)
         else:
@@ -521,6 +537,9 @@ def _audit_set(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any]) -> Audit
     system, tol = sh.system, sh.tol
     z = _zda_part(sh, F, memo)
     caught, local_detail, covered = _local_part(sh, F, memo)
+    if not z.complete and _exposure_possible(sh) and z.source != "requested lambda0":
+        # the exposure test needs the witness of stealthy.zda (the fastest zero): compute it
+        z = _zda_part(dataclasses.replace(sh, growth="full"), F, memo)
     exposed, mode_detail, open_ = _modes_part(sh, F, z)
     witness: dict[str, Any] = {"local": local_detail, "modes": mode_detail, "zda_method": z.method}
     if z.certificate:
@@ -529,15 +548,22 @@ def _audit_set(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any]) -> Audit
         witness["separator"] = f"at most {disjoint_paths(system, F)} vertex-disjoint paths from F to M < |F|: not left-invertible"
     if z.left_invertible is not None:
         witness["left_invertible"] = z.left_invertible
+    if not z.complete:
+        witness["growth_at_least"] = z.growth_at_least
+        witness["zero_set"] = "not computed: the verdict does not depend on it (growth='verdict'; growth='full' computes it)"
     if z.direction is not None:
         d = z.direction
         witness["direction"] = {
             "lambda0": [d.value.real, d.value.imag],
             "source": z.source,
-            "xi": _xi_json(system, d.xi, tol),
+            "xi": _xi_json(system, d.xi, tol) if system.n <= WITNESS_XI_MAX_AGENTS else None,
             "u0": _u_json(F, d.u0),
             "residual": float(d.residual),
         }
+        if system.n > WITNESS_XI_MAX_AGENTS:
+            witness["direction"]["xi_note"] = (
+                f"xi (N entries) omitted above {WITNESS_XI_MAX_AGENTS} agents; verify on this attack with this lambda0 reports it"
+            )
     if z.stealthy is False:
         verdict, reason = "detected", "no stealthy ZDA: every attack through F shows in the global residual"
     elif covered is True:
@@ -581,7 +607,9 @@ class LocalSinglesChunk:
 
     Every set's local part is assembled from the verdicts of its members per cluster; the
     singles are shared by all sets (a pair across two clusters needs nothing else), so they
-    are computed once, then seed the memo of every :class:`AuditChunk`.
+    are computed once, then seed the memo of every :class:`AuditChunk`. With
+    ``growth="verdict"`` the phase also records whether the minor certificate proves each
+    single (a set with an unproven member does not try it).
     """
 
     shared: _Shared
@@ -592,6 +620,8 @@ class LocalSinglesChunk:
         memo: dict[Any, Any] = {}
         for a in self.agents:
             _local_part(self.shared, (a,), memo)
+            if self.shared.growth == "verdict" and self.shared.minors is not None and not self.shared.exact:
+                _single_certified(self.shared, a, memo)
         return {k: v for k, v in memo.items() if isinstance(k, tuple)}
 
 
@@ -642,6 +672,7 @@ def audit_chunks(
     exact: bool = False,
     exact_fallback: bool | str | None = None,
     screen: bool = True,
+    growth: str | None = None,
 ) -> list[AuditChunk]:
     """Split an audit into independent callables (for a distributed executor).
 
@@ -656,12 +687,12 @@ def audit_chunks(
         e.g. :func:`attack_sets`.
     chunk_size : int
         Sets per chunk (>= 1).
-    tol, exact, exact_fallback, screen
+    tol, exact, exact_fallback, screen, growth
         As in :func:`audit`.
     """
     if chunk_size < 1:
         raise NotApplicableError(f"chunk_size must be at least 1, not {chunk_size}")
-    sh = _shared(system, tol, exact, exact_fallback, screen)
+    sh = _shared(system, tol, exact, exact_fallback, screen, growth)
     norm = [tuple(sorted(F, key=system.index.__getitem__)) for F in sets]
     return [AuditChunk(sh, tuple(norm[i : i + chunk_size])) for i in range(0, len(norm), chunk_size)]
 
@@ -695,6 +726,7 @@ def audit(
     exact: bool = False,
     exact_fallback: bool | str | None = None,
     screen: bool = True,
+    growth: str | None = None,
     chunk_size: int = 200,
     executor: Callable[[Sequence[Callable[[], Any]]], Sequence[Any]] | None = None,
 ) -> AuditResult:
@@ -726,6 +758,18 @@ def audit(
         False (the part stays ``undecided``).
     screen : bool
         Use the separator screen of the module docstring.
+    growth : {"full", "verdict"}, optional
+        ``"full"``: every stealthy set gets the whole zero set of ``stealthy.zda`` (its growth
+        class and fastest zero; one N-sized pencil analysis, O(N^3), when the minor
+        certificate does not settle it). ``"verdict"``: a set whose stealthiness is proven by
+        one ZDA (at the spec's lambda0, at lambda0 = 1 when the separator screen proves it not
+        left-invertible, else at lambda0 = 0) skips the zero set unless the exposure test
+        needs the fastest zero (some safe mode is not known to fail Theorem III.3); its growth
+        is then ``undecided`` (``unbounded`` when proven) and the witness gives
+        ``growth_at_least``; the touch test of a mode that fails Theorem III.3 is not
+        evaluated. Verdicts, catching observers and exposing modes are those of ``"full"``.
+        Default ``"full"`` up to
+        :data:`GROWTH_FULL_MAX_AGENTS` agents, ``"verdict"`` above.
     chunk_size : int
         Sets per chunk (progress granularity; the unit of work of an executor).
     executor : callable, optional
@@ -741,7 +785,7 @@ def audit(
     if sensors is not None:
         system = _without_sensors(system, list(sensors))
     sets = attack_sets(system, max_attackers, candidates)
-    chunks = audit_chunks(system, sets, chunk_size, tol=tol, exact=exact, exact_fallback=exact_fallback, screen=screen)
+    chunks = audit_chunks(system, sets, chunk_size, tol=tol, exact=exact, exact_fallback=exact_fallback, screen=screen, growth=growth)
     singles = local_singles_chunks(chunks, _candidates(system, candidates))
     chunks = seed_chunks(chunks, executor(singles) if executor is not None else [t() for t in singles])
     out: list[Sequence[AuditRow]] = []

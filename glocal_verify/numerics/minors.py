@@ -349,7 +349,12 @@ def _det(entries: list[list[Any]]) -> Any:
 
 
 def full_rank_certificate(
-    tables: GroundedTables, inputs: Sequence[int], cache: MutableMapping[Any, Any] | None = None, *, modulo_twins: bool = False
+    tables: GroundedTables,
+    inputs: Sequence[int],
+    cache: MutableMapping[Any, Any] | None = None,
+    *,
+    modulo_twins: bool = False,
+    patience: int | None = None,
 ) -> MinorCertificate | None:
     """Prove that T(s) of the module docstring has full column rank for every s, or return None.
 
@@ -372,6 +377,10 @@ def full_rank_certificate(
         Per-process store of the polynomials built from the tables (python-flint objects).
     modulo_twins : bool
         Divide every minor by the twin-mode factor of ``tables.twins`` first.
+    patience : int or None
+        Give up after this many consecutive minors that do not lower the degree of the gcd
+        (a common factor that survives them is usually a genuine zero, e.g. zero dynamics
+        in a part of the graph no monitor sees); None tries every candidate minor.
 
     Returns
     -------
@@ -431,6 +440,7 @@ def full_rank_certificate(
     g = None
     used: list[str] = []
     first: tuple[Any, int | None, str] | None = None
+    stale = 0
     for P, b, d in candidates():
         if P.is_zero():
             continue
@@ -441,9 +451,13 @@ def full_rank_certificate(
             b = None if b is None else b - twin.degree()
         if first is None and b is not None and b >= 0 and P.degree() == b:
             first = (P, b, d)
-        g = P if g is None else g.gcd(P)
+        g_new = P if g is None else g.gcd(P)
+        stale = stale + 1 if g is not None and g_new.degree() == g.degree() else 0
+        g = g_new
         used.append(d)
         if first is not None and g.degree() == 0:
+            break
+        if patience is not None and stale >= patience:
             break
     if first is None or g is None or g.degree() != 0:
         return None
