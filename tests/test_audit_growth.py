@@ -115,3 +115,16 @@ def test_rows_whose_zero_set_was_computed_are_those_of_the_full_audit(both: tupl
 def test_an_unknown_growth_option_is_refused(generated: System) -> None:
     with pytest.raises(GlocalVerifyError, match="growth"):
         audit(generated, 1, growth="fast")
+
+
+def test_candidate_zeros_on_one_vertical_line_cluster_as_the_pairwise_rule_says() -> None:
+    from glocal_verify.numerics.pencil import _cluster
+
+    # many candidates share the real part -gamma / 2 (complex zeros of s = lambda^2 + gamma lambda)
+    pts = [complex(-0.5, y) for y in np.linspace(-4.0, 4.0, 801)] + [complex(-0.5, 0.0) + 1e-7, complex(3.0, 0.0)]
+    groups = _cluster(pts, 1e-6)
+    close = {(i, j) for i in range(len(pts)) for j in range(len(pts)) if i < j and abs(pts[i] - pts[j]) <= 1e-6}
+    label = {i: g for g, grp in enumerate(groups) for i in grp}
+    assert sorted(i for grp in groups for i in grp) == list(range(len(pts)))
+    assert all(label[i] == label[j] for i, j in close)
+    assert all(len(grp) == 1 or any((min(i, j), max(i, j)) in close for i in grp for j in grp if i != j) for grp in groups)

@@ -367,25 +367,28 @@ def _direction(
 
 
 def _cluster(values: Sequence[complex], radius: float) -> list[list[int]]:
-    """Single-linkage clusters of points closer than ``radius`` (sweep over the real part)."""
-    order = sorted(range(len(values)), key=lambda i: (values[i].real, values[i].imag))
-    parent = list(range(len(values)))
+    """Single-linkage clusters of points closer than ``radius`` (Euclidean, in the complex plane).
 
-    def find(i: int) -> int:
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
+    The close pairs come from a k-d tree (``scipy.spatial.cKDTree.query_pairs``), the
+    clusters from the connected components of the pair graph: O(n log n + pairs), also when
+    many points share one real part (a sweep over the real part is quadratic then). Groups
+    and their members are ordered by (real, imag).
+    """
+    import scipy.sparse
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
 
-    for a_pos, i in enumerate(order):
-        for j in order[a_pos + 1 :]:
-            if values[j].real - values[i].real > radius:
-                break
-            if abs(values[i] - values[j]) <= radius:
-                parent[find(j)] = find(i)
+    n = len(values)
+    if n == 0:
+        return []
+    order = sorted(range(n), key=lambda i: (values[i].real, values[i].imag))
+    pts = np.array([[complex(v).real, complex(v).imag] for v in values], dtype=float)
+    pairs = cKDTree(pts).query_pairs(radius, output_type="ndarray") if n > 1 and radius >= 0 else np.zeros((0, 2), int)
+    g = scipy.sparse.coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n)) if len(pairs) else scipy.sparse.coo_matrix((n, n))
+    _, labels = connected_components(g, directed=False)
     groups: dict[int, list[int]] = {}
     for i in order:
-        groups.setdefault(find(i), []).append(i)
+        groups.setdefault(int(labels[i]), []).append(i)
     return list(groups.values())
 
 
