@@ -678,7 +678,9 @@ def audit_chunks(
 
     Each :class:`AuditChunk` carries the system (its spectrum of L_1 computed once here, so a
     local executor shares it) and the per-mode Theorem III.3 verdicts; ``chunk()`` returns its
-    rows, in the order of ``sets``. Assemble them with :func:`merge_chunks`.
+    rows. The sets are dealt round robin (chunk i holds sets i, i + c, i + 2c, ... of the c
+    chunks), so the sets of one size are spread evenly; :func:`merge_chunks` puts the rows back
+    in order.
 
     Parameters
     ----------
@@ -694,7 +696,10 @@ def audit_chunks(
         raise NotApplicableError(f"chunk_size must be at least 1, not {chunk_size}")
     sh = _shared(system, tol, exact, exact_fallback, screen, growth)
     norm = [tuple(sorted(F, key=system.index.__getitem__)) for F in sets]
-    return [AuditChunk(sh, tuple(norm[i : i + chunk_size])) for i in range(0, len(norm), chunk_size)]
+    count = -(-len(norm) // chunk_size)
+    # round robin: the costly sets (singles need the whole pencil analysis more often) are
+    # spread over the chunks instead of filling the first one
+    return [AuditChunk(sh, tuple(norm[i::count])) for i in range(count)]
 
 
 def merge_chunks(system: System, max_attackers: int, candidates: Sequence[Label], rows: Iterable[Sequence[AuditRow]], modes: Mapping[str, bool | None]) -> AuditResult:
