@@ -4,6 +4,7 @@ the same rows as computing each member in-process; failures are rows; interrupte
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import os
 import shutil
@@ -164,3 +165,39 @@ def test_an_audit_through_dask_gives_the_rows_of_the_in_process_audit() -> None:
     there = audit(system, 2, chunk_size=40, executor=dask_executor(workers=2))
     assert [r.to_json() for r in there.rows] == [r.to_json() for r in here.rows]
     assert len(here.rows) == 16 + 16 * 15 // 2
+
+
+def test_tasks_sharing_one_object_send_it_once_not_once_per_task() -> None:
+    import cloudpickle
+    from distributed import Client, LocalCluster
+
+    from glocal_verify.design.distributed import run_on_dask
+
+    @dataclasses.dataclass(frozen=True)
+    class SharedTask:  # local: pickled by value, so workers need not import the tests
+        shared: Any
+        k: int
+
+        def __call__(self) -> tuple[int, int]:
+            return self.k, len(self.shared["big"])
+
+    class Recording:
+        def __init__(self, client: Any) -> None:
+            self.client, self.scattered, self.sizes = client, 0, []
+
+        def scatter(self, *args: Any, **kwargs: Any) -> Any:
+            self.scattered += 1
+            return self.client.scatter(*args, **kwargs)
+
+        def submit(self, fn: Any, *args: Any, **kwargs: Any) -> Any:
+            self.sizes.append(len(cloudpickle.dumps(args[-1])))
+            return self.client.submit(fn, *args, **kwargs)
+
+    payload = {"big": list(range(50_000))}
+    tasks = [SharedTask(payload, k) for k in range(8)]
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, Client(cluster) as client:
+        rec = Recording(client)
+        out = dict(run_on_dask(rec, tasks))
+    assert out == {k: (k, 50_000) for k in range(8)}
+    assert rec.scattered == 1
+    assert max(rec.sizes) < len(cloudpickle.dumps(payload)) / 20
