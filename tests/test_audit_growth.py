@@ -16,14 +16,13 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from strategies import clustered_systems
 
 from glocal_verify import System
 from glocal_verify.design.audit import audit
 from glocal_verify.design.audit_screens import disjoint_paths
 from glocal_verify.design.generators import random_clustered_spec
 from glocal_verify.errors import GlocalVerifyError
-
-from strategies import clustered_systems
 
 _RANK = {"null": 0, "decaying": 1, "persistent": 2, "unbounded": 4}
 
@@ -84,7 +83,7 @@ def both(generated: System) -> tuple[Any, Any]:
 
 def test_verdict_growth_gives_every_verdict_of_the_full_audit(both: tuple[Any, Any]) -> None:
     lazy, full = both
-    key = lambda r: (r.stealthy, r.verdict, r.caught_locally_by, r.exposed_by_modes)  # noqa: E731
+    key = lambda r: (r.stealthy, r.verdict, r.caught_locally_by, r.exposed_by_modes)
     assert {r.actuators: key(r) for r in lazy.rows} == {r.actuators: key(r) for r in full.rows}
 
 

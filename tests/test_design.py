@@ -132,3 +132,32 @@ def test_bad_design_requests_get_one_line_and_exit_2(args: list[str], needle: st
     assert main(["design", "--example", "paper19", "--quiet", *args]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and needle in err[0]
+
+
+def test_a_set_no_mode_exposes_gets_a_velocity_monitor_where_its_direction_lives_and_then_a_mode() -> None:
+    from glocal_verify.design.audit import audit
+    from glocal_verify.design.network import _monitor_unexposed
+    from glocal_verify.design.safe_modes import DEFAULT_WEIGHTS, SafeModeDesign
+    from glocal_verify.spec.load import spec_from_dict
+
+    # 8 is a leaf of 4: {4} separates {4, 8} from the monitors, and no link with a monitored
+    # endpoint touches the stealthy direction, which lives at the leaf
+    data = {
+        "format": 1,
+        "name": "leaf",
+        "graph": {"nodes": 8, "edges": [[1, 2, 1], [2, 3, 1], [3, 4, 1], [4, 5, 1], [5, 6, 1], [6, 7, 1], [4, 8, 1], [1, 3, 2], [5, 7, 3]]},
+        "clusters": [{"name": "P1", "nodes": [1, 2, 3, 4, 8], "observers": [{"center": 1}]}, {"name": "P2", "nodes": [5, 6, 7], "observers": [{"center": 6}]}],
+        "monitor": {"velocities": [1, 7]},
+    }
+    system = System(spec_from_dict(data))
+    (before,) = [r for r in audit(system, 2, [4, 8]).rows if r.actuators == (4, 8)]
+    assert before.verdict == "undetected"
+    spec, added, safe = _monitor_unexposed(system.spec, [(4, 8)], 1, SafeModeDesign((), (), {}, 0, 0.0, 0), 1, DEFAULT_WEIGHTS, 2)
+    assert added == [(8, (4, 8))]
+    assert spec.monitor.positions == () and set(spec.monitor.velocities) == {1, 7, 8}
+    after = System(spec)
+    (row,) = [r for r in audit(after, 2, [4, 8]).rows if r.actuators == (4, 8)]
+    assert row.verdict == "detected" and row.exposed_by_modes == tuple(m.name for m in safe.modes)
+    # the checkers confirm: privacy holds with velocity-only monitors
+    priv = verify(after, ["privacy.*"]).conditions
+    assert priv and all(r.status.value == "holds" for r in priv)

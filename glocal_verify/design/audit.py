@@ -389,7 +389,7 @@ def _witness_zda(sh: _Shared, F: tuple[Label, ...]) -> _Zda | None:
 
 
 def _single_certified(sh: _Shared, a: Label, memo: dict[Any, Any] | None) -> bool:
-    """Whether the minor certificate proves the single set {a} (memoised per agent).
+    r"""Whether the minor certificate proves the single set {a} (memoised per agent).
 
     A kernel vector of T(s) for {a} is one for every F containing a (a zero input on F \ {a}),
     so when {a} keeps a common root the certificate of F cannot succeed in practice: with

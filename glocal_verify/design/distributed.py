@@ -10,10 +10,11 @@ yields their results as they complete, so that the caller writes or merges them 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
-from typing import Any, Callable, Iterator, Sequence, TypeVar
+from typing import Any, TypeVar
 
-__all__ = ["dask_client", "run_on_dask", "dask_executor"]
+__all__ = ["dask_client", "dask_executor", "run_on_dask"]
 
 T = TypeVar("T")
 

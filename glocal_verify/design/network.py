@@ -13,11 +13,18 @@
    its ``undetected`` sets are the targets;
 4. **safe modes** exposing the targets (:func:`glocal_verify.design.safe_modes.design_safe_modes`,
    re-verified by the checkers, exactly for small N), appended to the spec's modes;
-5. **monitor check** -- :func:`glocal_verify.design.monitors.design_monitors` with the audited
+5. **monitors for what no mode exposes** -- a target that no safe mode within the budget
+   exposes gets one more velocity monitor, at the agent where its stealthy direction deviates
+   most from its median; the safe modes are designed again for the targets left (the new
+   monitor makes more links meet Theorem III.3 (i)), until every target is detected or
+   ``monitor_budget`` monitors were added. Another output only removes zeros (a kernel vector
+   of the pencil with the new row is one without it) and keeps positions private, so no
+   audited verdict gets worse;
+6. **monitor check** -- :func:`glocal_verify.design.monitors.design_monitors` with the audited
    monitors required, so Theorem III.3 (i) and Lemma A.2 hold for the designed modes and
    privacy is re-verified (monitors are not removed: fewer monitors would create new stealthy
    attacks the audit did not see);
-6. **re-audit** of the designed spec: every target must now be ``detected``.
+7. **re-audit** of the designed spec: every target must now be ``detected``.
 
 What no design within the budget achieves is listed in :attr:`NetworkDesign.unmet`, one line each.
 """
@@ -25,18 +32,30 @@ What no design within the budget achieves is listed in :attr:`NetworkDesign.unme
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any
 
 from glocal_verify.design.audit import AuditResult, audit
 from glocal_verify.design.monitors import MonitorDesign, design_monitors
 from glocal_verify.design.placement import ObserverProposal, place_cluster
-from glocal_verify.design.safe_modes import DEFAULT_WEIGHTS, SafeModeDesign, design_safe_modes, with_modes
+from glocal_verify.design.safe_modes import (
+    DEFAULT_WEIGHTS,
+    SafeModeDesign,
+    design_safe_modes,
+    with_modes,
+)
 from glocal_verify.errors import GlocalVerifyError
 from glocal_verify.model import System
-from glocal_verify.spec.types import ClusterSpec, Label, MonitorSpec, ObserverSpec, SystemSpec
+from glocal_verify.spec.types import (
+    ClusterSpec,
+    Label,
+    MonitorSpec,
+    ObserverSpec,
+    SystemSpec,
+)
 
-__all__ = ["NetworkDesign", "design_network", "design_comments"]
+__all__ = ["NetworkDesign", "design_comments", "design_network"]
 
 
 @dataclass(frozen=True)
@@ -49,6 +68,8 @@ class NetworkDesign:
         The complete designed specification.
     monitors : MonitorDesign
     observers : tuple of ObserverProposal
+    added_monitors : tuple of (label, attack set)
+        Velocity monitors added in step 5, each with the target whose stealthy direction chose it.
         Observers added (one per covered cluster).
     safe_modes : SafeModeDesign
     before, after : AuditResult
@@ -68,6 +89,7 @@ class NetworkDesign:
     after: AuditResult
     targets: tuple[tuple[Label, ...], ...]
     unmet: tuple[str, ...] = ()
+    added_monitors: tuple[tuple[Label, tuple[Label, ...]], ...] = ()
     notes: tuple[str, ...] = field(default_factory=tuple)
 
     @property
@@ -118,6 +140,7 @@ def design_network(
     place: bool = True,
     exact_limit: int = 2000,
     max_links: int = 2,
+    monitor_budget: int = 3,
 ) -> NetworkDesign:
     """Design monitors, local observers and safe modes for ``system`` (module docstring).
 
@@ -138,6 +161,8 @@ def design_network(
         Add local observers (step 2).
     exact_limit : int
         Exhaustive-search limit of the observer placement.
+    monitor_budget : int
+        Largest number of velocity monitors step 5 adds.
 
     Returns
     -------
@@ -158,9 +183,11 @@ def design_network(
         safe = design_safe_modes(mid_sys, targets, None, budget, weights=weights, lambdas=lambdas, max_links=max_links)
     else:
         safe = SafeModeDesign((), (), {}, 0, 0.0, 0)
-    for key, why in safe.unexposed.items():
-        unmet.append(f"attack on {key}: {why}")
     spec = with_modes(spec, [m.mode_spec() for m in safe.modes], keep=True)
+    added: list[tuple[Label, tuple[Label, ...]]] = []
+    if safe.unexposed and monitor_budget > 0:
+        pending = [F for F in targets if ",".join(map(str, F)) in safe.unexposed]
+        spec, added, safe = _monitor_unexposed(spec, pending, monitor_budget, safe, budget, weights, max_links)
     final = System(spec)
     mon = design_monitors(final, required=spec.monitor.velocities)
     if mon.velocities != spec.monitor.velocities:
@@ -171,9 +198,70 @@ def design_network(
     after = audit(final, max_attackers, candidates)
     for F in targets:
         row = next(r for r in after.rows if r.actuators == F)
-        if row.verdict != "detected" and not any(",".join(map(str, F)) in u for u in unmet):
-            unmet.append(f"attack on {','.join(map(str, F))}: still {row.verdict} after the design")
-    return NetworkDesign(spec, mon, tuple(props), safe, before, after, targets, tuple(unmet), tuple(notes))
+        key = ",".join(map(str, F))
+        if row.verdict != "detected":
+            why = safe.unexposed.get(key, f"still {row.verdict} after the design")
+            more = f"; {len(added)} added velocity monitor(s) did not remove its ZDA" if added and key in safe.unexposed else ""
+            unmet.append(f"attack on {key}: {why}{more}")
+    return NetworkDesign(spec, mon, tuple(props), safe, before, after, targets, tuple(unmet), notes=tuple(notes), added_monitors=tuple(added))
+
+
+def _monitor_unexposed(
+    spec: SystemSpec, targets: Sequence[tuple[Label, ...]], budget: int, safe: SafeModeDesign, mode_budget: int, weights: Sequence[Any], max_links: int
+) -> tuple[SystemSpec, list[tuple[Label, tuple[Label, ...]]], SafeModeDesign]:
+    """Step 5 of :func:`design_network`: velocity monitors where the unexposed ZDAs live.
+
+    The agent chosen is the unmonitored one where the targets' stealthy directions xi deviate
+    most from their medians, summed over the targets left (each scaled to its largest
+    deviation), so one monitor serves every set that shares an agent. A ZDA at lambda0 != 0 that is nonzero there disappears; one at
+    lambda0 = 0 (which no velocity monitor sees) is often constant off a small region (e.g.
+    xi = L^+ (e_a - e_b) for a leaf b of a), and the new monitor makes the links at that region
+    meet Theorem III.3 (i), so the safe modes are designed again for what is left.
+    """
+    import numpy as np
+
+    from glocal_verify.analysis.zda import zda_analysis
+    from glocal_verify.design.audit import audit_chunks, merge_chunks
+
+    added: list[tuple[Label, tuple[Label, ...]]] = []
+    left = list(targets)
+    while left and len(added) < budget:
+        system = System(spec)
+        chunks = audit_chunks(system, left, chunk_size=max(1, len(left)))
+        rows = merge_chunks(system, max(len(F) for F in left), system.labels, [c() for c in chunks], chunks[0].shared.modes).rows
+        left = [r.actuators for r in rows if r.verdict != "detected"]
+        if not left:
+            break
+        watched = set(spec.monitor.velocities)
+        score = np.zeros(system.n)
+        first_of: dict[int, tuple[Label, ...]] = {}
+        for F in left:
+            direction = zda_analysis(system, actuators=F).direction
+            if direction is None:
+                continue
+            dev = np.abs(direction.xi - np.median(direction.xi.real))
+            dev[[system.index[a] for a in watched]] = 0.0
+            top = float(np.max(dev, initial=0.0))
+            if top > 1e-9:
+                score += dev / top
+                first_of.setdefault(int(np.argmax(dev)), F)
+        if not np.any(score > 0):
+            break
+        best = int(np.argmax(score))
+        agent = system.labels[best]
+        F = first_of.get(best, left[0])
+        idx = {a: i for i, a in enumerate(spec.nodes)}
+        spec = dataclasses.replace(spec, monitor=MonitorSpec((), tuple(sorted(watched | {agent}, key=idx.__getitem__))))
+        added.append((agent, F))
+        room = mode_budget - len(safe.modes)
+        if room > 0:
+            more = design_safe_modes(System(spec), left, None, room, weights=weights, max_links=max_links)
+            first = len(safe.modes) + 1
+            renamed = tuple(dataclasses.replace(m, name=f"designed-{first + i}") for i, m in enumerate(more.modes))
+            spec = with_modes(spec, [m.mode_spec() for m in renamed], keep=True)
+            exposed = {",".join(map(str, F2)) for m in renamed for F2 in m.exposes}
+            safe = dataclasses.replace(safe, modes=safe.modes + renamed, unexposed={k: v for k, v in safe.unexposed.items() if k not in exposed})
+    return spec, added, safe
 
 
 def design_comments(d: NetworkDesign) -> str:
@@ -201,6 +289,8 @@ def design_comments(d: NetworkDesign) -> str:
             f"# [[modes]] {m.name}: {m.describe()}; Theorem III.3 (i)-(iii) hold ({m.method}) and it touches every stealthy"
             f" direction of {len(m.exposes)} audited attack set(s), e.g. {[list(F) for F in m.exposes[:4]]}."
         )
+    for agent, F in d.added_monitors:
+        lines.append(f"# [monitor] velocity of {agent} added: the stealthy direction of the attack on {list(F)} (no safe mode within the budget touches it) is largest there.")
     for u in d.unmet:
         lines.append(f"# NOT MET: {u}")
     return "\n".join(lines) + "\n"
