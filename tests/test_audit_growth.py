@@ -127,3 +127,19 @@ def test_candidate_zeros_on_one_vertical_line_cluster_as_the_pairwise_rule_says(
     assert sorted(i for grp in groups for i in grp) == list(range(len(pts)))
     assert all(label[i] == label[j] for i, j in close)
     assert all(len(grp) == 1 or any((min(i, j), max(i, j)) in close for i in grp for j in grp if i != j) for grp in groups)
+
+
+@settings(max_examples=5, deadline=None)
+@given(clustered_systems(max_n=8))
+def test_verdict_growth_never_contradicts_the_exact_audit(system: System) -> None:
+    lazy = audit(system, 2, growth="verdict", exact_fallback=False)
+    exact = audit(system, 2, exact=True)
+    by = {r.actuators: r for r in exact.rows}
+    for r in lazy.rows:
+        e = by[r.actuators]
+        if r.stealthy is not None and e.stealthy is not None:
+            assert r.stealthy == e.stealthy
+        if r.verdict != "undecided" and e.verdict != "undecided":
+            assert r.verdict == e.verdict
+        if r.growth == "unbounded" and e.growth != "undecided":
+            assert e.growth == "unbounded"
