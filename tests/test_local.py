@@ -379,3 +379,15 @@ def test_a_star_of_equal_leaves_gives_a_multiple_zero_found_by_the_symmetric_ana
     for z in ws["zeros"]:
         assert z["verified"] is True
         _check_direction(case, z)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_exact_pencil_pattern_read_from_the_support_equals_the_pattern_of_the_rational_rows(seed: int) -> None:
+    from glocal_verify.analysis.local_cases import _exact_pattern_at, _exact_pencil_at
+    from glocal_verify.design.generators import random_clustered_spec
+
+    for system in (System(random_clustered_spec(24, 2, seed=seed)), System(load_example("paper19"))):
+        for case in local_cases(system):
+            for lam in (None, Fraction(0), -system.gamma_q, Fraction(3, 7)):
+                _, want = _exact_pencil_at(system, case, lam)
+                assert np.array_equal(_exact_pattern_at(system, case, lam), want)

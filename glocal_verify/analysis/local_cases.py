@@ -216,6 +216,27 @@ def _exact_pencil_at(system: System, case: LocalCase, lam: Fraction | None) -> t
     return rows, pat
 
 
+def _exact_pattern_at(system: System, case: LocalCase, lam: Fraction | None) -> np.ndarray:
+    """The exact support of the pencil of eq. ``pencil_uio`` at a rational lam, without forming
+    its rational entries (:func:`_exact_pencil_at` gives the same pattern with the rows).
+
+    Off the diagonal of lam I - A^i the support is that of A^i (from the nonzeros of the exact
+    cluster Laplacian, :func:`exact_A_float`); on it, lam - A^i_jj is compared exactly (lam
+    None: the generic pattern, every diagonal entry counted as nonzero); G and C_loc hold
+    integers (their rounded values, as :func:`pencil_matrices_exact` reads them).
+    """
+    A, _, support = exact_A_float(system, case)
+    _, G, C = pencil_matrices(case)
+    n = len(A)
+    top = support.copy()
+    diag = np.arange(n)
+    if lam is None:
+        top[diag, diag] = True
+    else:
+        top[diag, diag] = [lam != A[i][i] for i in range(n)]
+    return np.vstack([np.hstack([top, np.round(G) != 0]), np.hstack([np.round(C) != 0, np.zeros((C.shape[0], G.shape[1]), dtype=bool)])])
+
+
 def _witness_vector(case: LocalCase, d: dict[str, Any]) -> np.ndarray:
     """The full-pencil vector [x; u_B; u_E] of a direction witness (labels -> values)."""
     nodes = case.model.nodes
@@ -234,9 +255,13 @@ def _krawczyk_zero(system: System, case: LocalCase, witness: dict[str, Any]) -> 
 
     A, G, C = pencil_matrices_exact(system, case)
     n, m = len(A), (len(G[0]) if G else 0)
-    P0 = [[-A[i][j] for j in range(n)] + [-G[i][k] for k in range(m)] for i in range(n)]
-    P0 += [[Fraction(c) for c in C[r]] + [Fraction(0)] * m for r in range(len(C))]
-    P1 = [[Fraction(int(i == j and i < n)) for j in range(n + m)] for i in range(len(P0))]
+    zero, one = Fraction(0), Fraction(1)
+    # Fractions are immutable: the (many) zeros and ones are shared, not constructed per entry
+    P0 = [[-x if x else zero for x in A[i]] + [-x if x else zero for x in G[i]] for i in range(n)]
+    P0 += [[Fraction(c) if c else zero for c in C[r]] + [zero] * m for r in range(len(C))]
+    P1 = [[zero] * (n + m) for _ in range(len(P0))]
+    for i in range(n):
+        P1[i][i] = one
     cands = list(witness.get("zeros", []))[:12]
     if isinstance(witness.get("direction"), dict) and "lambda" in witness["direction"]:
         cands.append(witness["direction"])
@@ -432,13 +457,13 @@ def certify_pencil_verdict(system: System, case: LocalCase, status: Status, witn
         witness["certificate"] = cert
         return Status.UNDECIDED, witness
     if status is Status.FAILS:
-        _, pat = _exact_pencil_at(system, case, None)
+        pat = _exact_pattern_at(system, case, None)
         if structural_rank(pat) < ncols:
             cert["by"] = "structural rank of the exact support below the column count (normal-rank deficiency)"
             witness["certificate"] = cert
             return Status.FAILS, witness
         for lam in (Fraction(0), -system.gamma_q):
-            _, pat = _exact_pencil_at(system, case, lam)
+            pat = _exact_pattern_at(system, case, lam)
             if structural_rank(pat) < ncols:
                 cert["by"] = f"structural rank of the exact support of P({lam}) below the column count"
                 witness["certificate"] = cert

@@ -64,6 +64,7 @@ from glocal_verify.analysis.zda import (
     _normalize,
     zda_analysis,
 )
+from glocal_verify.analysis.zda_batch import batch_directions
 from glocal_verify.analysis.zda_exact import zda_analysis_exact
 from glocal_verify.conditions.local import uio_verdict
 from glocal_verify.conditions.local_pencil import pencil_verdict, pencil_verdict_exact
@@ -276,22 +277,21 @@ class _Zda:
     growth_at_least: str = ""
 
 
-def _certified_zda(sh: _Shared, F: tuple[Label, ...], cache: dict[Any, Any], patience: int | None = None) -> _Zda | None:
+def _certified_zda(sh: _Shared, F: tuple[Label, ...], cache: dict[Any, Any], patience: int | None = None, at0: Any = None) -> _Zda | None:
     """The ZDA part from the exact minor certificate (no zero with lambda != 0) and lambda = 0.
 
     When the maximal minors of the reduced pencil have no common root
     (:func:`glocal_verify.numerics.minors.full_rank_certificate`), the 2N pencil has full
     column rank at every lambda != 0: left-invertible, and a stealthy ZDA can only have
     lambda0 = 0. That one point is decided as :func:`glocal_verify.analysis.zda.zda_analysis`
-    decides it (dimension bounds of the kernel of Q_0 and its largest-input vector); None
-    sends the set to the full analysis.
+    decides it (dimension bounds of the kernel of Q_0 and its largest-input vector; ``at0``:
+    that direction when the caller has it); None sends the set to the full analysis.
     """
     assert sh.minors is not None
     cert = full_rank_certificate(sh.minors, sh.system.idx(F), cache, modulo_twins=True, patience=patience)
     if cert is None:
         return None
-    md = _Modal(sh.system, F, sh.tol)
-    found0, _, lo0, hi0 = md.direction(0j)
+    found0, _, lo0, hi0 = at0 if at0 is not None else _Modal(sh.system, F, sh.tol).direction(0j)
     if hi0 == 0:
         return _Zda(False, GROWTH_NULL, True, None, "none", certificate=cert.text())
     if lo0 == 0 or found0 is None:
@@ -311,13 +311,14 @@ def _zda_part(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any] | None = N
     system, tol = sh.system, sh.tol
     cache = (memo if memo is not None else {}).setdefault("minors", {})
     if sh.growth == "verdict" and not sh.exact:
-        zw = _witness_zda(sh, F)
+        zw, at = _witness_zda(sh, F, memo)
         if zw is not None:
             # stealthy is proven: the certificate would only make the growth exact, so it
             # gets a small effort (a common factor that survives a few minors is usually
             # a genuine zero)
             try_cert = sh.minors is not None and not zw.screened and all(_single_certified(sh, a, memo) for a in F)
-            zc = _certified_zda(sh, F, cache, WITNESS_CERTIFICATE_PATIENCE) if try_cert else None
+            at0 = at if zw.direction is not None and zw.direction.value == 0 else None
+            zc = _certified_zda(sh, F, cache, WITNESS_CERTIFICATE_PATIENCE, at0) if try_cert else None
             return zc if zc is not None else zw
     if sh.minors is not None:
         zc = _certified_zda(sh, F, cache)
@@ -356,7 +357,28 @@ def _zda_part(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any] | None = N
     return _Zda(True, growth, ea.left_invertible, z, ea.direction_source, ea, "exact")
 
 
-def _witness_zda(sh: _Shared, F: tuple[Label, ...]) -> _Zda | None:
+def _witness_lambda(sh: _Shared, F: tuple[Label, ...]) -> tuple[complex, bool]:
+    """The exponent of :func:`_witness_zda` for F, and whether the separator proves F not left-invertible."""
+    not_li = sh.screen and disjoint_paths(sh.system, F) < len(F)
+    return (complex(sh.lambda0) if sh.lambda0 is not None else (1.0 + 0j if not_li else 0j)), not_li
+
+
+def batch_witnesses(sh: _Shared, sets: Sequence[tuple[Label, ...]], memo: dict[Any, Any]) -> None:
+    """The witness directions of :func:`_witness_zda` for many sets at once, into ``memo``.
+
+    Sets are grouped by their exponent and handed to
+    :func:`glocal_verify.analysis.zda_batch.batch_directions` (the per-set method's decisions,
+    vectorised over the sets); a set it leaves open is decided by :func:`_witness_zda` alone.
+    """
+    groups: dict[complex, list[tuple[Label, ...]]] = {}
+    for F in sets:
+        groups.setdefault(_witness_lambda(sh, F)[0], []).append(F)
+    for lam, Fs in groups.items():
+        for F, d in zip(Fs, batch_directions(sh.system, sh.tol, lam, Fs)):
+            memo[("witness-direction", F)] = d
+
+
+def _witness_zda(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any] | None = None) -> tuple[_Zda | None, Any]:
     """One proven stealthy ZDA without the zero set (``growth="verdict"``), or None.
 
     The exponent is the spec's lambda0 when given (the witness rule of ``stealthy.zda`` then
@@ -364,19 +386,29 @@ def _witness_zda(sh: _Shared, F: tuple[Label, ...]) -> _Zda | None:
     not left-invertible (growth ``unbounded``, exact: a ZDA exists at every lambda0), else
     lambda0 = 0 (a persistent ZDA: velocity-only monitors do not see a constant position
     offset). The direction is the checker's verified kernel vector of the 2N pencil with
-    u0 != 0 (:meth:`glocal_verify.analysis.zda._Modal.direction`).
+    u0 != 0 (:meth:`glocal_verify.analysis.zda._Modal.direction`, or its batched form when
+    :func:`batch_witnesses` put it in ``memo``). Returns the row part and the direction tuple
+    of that method (None when no ZDA is proven).
     """
     system, tol = sh.system, sh.tol
-    not_li = sh.screen and disjoint_paths(system, F) < len(F)
-    lam = complex(sh.lambda0) if sh.lambda0 is not None else (1.0 + 0j if not_li else 0j)
-    md = _Modal(system, F, tol)
-    found, _, _, _ = md.direction(lam)
+    lam, not_li = _witness_lambda(sh, F)
+    pre = None if memo is None else memo.get(("witness-direction", F))
+    at = pre.as_found() if pre is not None else _Modal(system, F, tol).direction(lam)
+    found = at[0]
     if found is None or found[3] is not Decision.ZERO or found[4] is not Decision.NONZERO:
-        return None
+        return None, at
     xi, u = _normalize(found[0], found[1])
-    g = GROWTH_UNBOUNDED if not_li else _growth(lam, md.A_scale, tol)
+    if not_li:
+        g = GROWTH_UNBOUNDED
+    else:
+        scale = None if memo is None else memo.get(("A-scale",))
+        if scale is None:
+            scale = _Modal(system, F, tol).A_scale
+            if memo is not None:
+                memo[("A-scale",)] = scale
+        g = _growth(lam, scale, tol)
     if g == "undecided":
-        return None
+        return None, at
     z = ZdaZero(lam, lam * lam + system.gamma * lam, xi, u, found[2], g)
     if sh.lambda0 is not None:
         source = "requested lambda0"
@@ -384,8 +416,9 @@ def _witness_zda(sh: _Shared, F: tuple[Label, ...]) -> _Zda | None:
         source = "lambda0 = 1 (not left-invertible: a ZDA exists at every lambda0)"
     else:
         source = f"lambda0 = {lam.real:g} (a proven ZDA; the zero set was not computed)"
-    return _Zda(True, GROWTH_UNBOUNDED if g == GROWTH_UNBOUNDED else "undecided", False if not_li else None, z, source,
-                screened=not_li, complete=False, growth_at_least=g)
+    zw = _Zda(True, GROWTH_UNBOUNDED if g == GROWTH_UNBOUNDED else "undecided", False if not_li else None, z, source,
+              screened=not_li, complete=False, growth_at_least=g)
+    return zw, at
 
 
 def _single_certified(sh: _Shared, a: Label, memo: dict[Any, Any] | None) -> bool:
@@ -598,6 +631,8 @@ class AuditChunk:
 
     def __call__(self) -> list[AuditRow]:
         memo: dict[Any, Any] = dict(self.shared.local_seed)
+        if self.shared.growth == "verdict" and not self.shared.exact:
+            batch_witnesses(self.shared, self.sets, memo)
         return [_audit_set(self.shared, F, memo) for F in self.sets]
 
 

@@ -321,7 +321,7 @@ def _poly(t: GroundedTables, i: int, j: int, cache: MutableMapping[Any, Any]) ->
 
     key = ("N", t, i, j)
     if key not in cache:
-        cache[key] = nmod_poly([int(c) for c in t.numerators[i, j]], t.prime)
+        cache[key] = nmod_poly(np.asarray(t.numerators[i, j]).tolist(), t.prime)
     return cache[key]
 
 
@@ -405,15 +405,19 @@ def full_rank_certificate(
     def bound_of(r: int, f: int) -> int:
         return n - int(tables.distance[r, f]) if tables.distance[r, f] < _UNREACHABLE else -1
 
-    def minor(replaced: Sequence[int], rows: Sequence[int]) -> tuple[Any, int | None, str]:
-        """The maximal minor with the rows ``replaced`` of K taken from alpha L[rows, U]."""
+    def minor(replaced: Sequence[int], rows: Sequence[int]) -> tuple[Any, int | None, Any]:
+        """The maximal minor with the rows ``replaced`` of K taken from alpha L[rows, U]
+        (its description is formatted only when the certificate quotes it)."""
         r = len(replaced)
-        desc = f"rows {tuple(tables.grounded[f] for f in replaced)} -> {tuple(tables.measured[q] for q in rows)}"
         if r == 0:
             return detK, n, "det K"
+        desc = (tuple(replaced), tuple(rows))
         P = _det([[_poly(tables, q, f, cache) for f in replaced] for q in rows])
         if r > 1:
-            P, rem = divmod(P, detK ** (r - 1))
+            pkey = ("K^", tables, r - 1)
+            if pkey not in cache:
+                cache[pkey] = detK ** (r - 1)
+            P, rem = divmod(P, cache[pkey])
             if not rem.is_zero():
                 raise ArithmeticError("a maximal minor is not divisible by det K^(k-1): the numerator tables are inconsistent")
         terms = [
@@ -438,7 +442,7 @@ def full_rank_certificate(
 
     twin = _twin_factor(tables, cache) if modulo_twins and tables.twins else None
     g = None
-    used: list[str] = []
+    used: list[Any] = []
     first: tuple[Any, int | None, str] | None = None
     stale = 0
     for P, b, d in candidates():
@@ -461,7 +465,10 @@ def full_rank_certificate(
             break
     if first is None or g is None or g.degree() != 0:
         return None
-    return MinorCertificate(tables.prime, tuple(used), int(first[1]), twin.degree() if twin is not None else 0)  # type: ignore[arg-type]
+    texts = tuple(
+        d if isinstance(d, str) else f"rows {tuple(tables.grounded[f] for f in d[0])} -> {tuple(tables.measured[q] for q in d[1])}" for d in used
+    )
+    return MinorCertificate(tables.prime, texts, int(first[1]), twin.degree() if twin is not None else 0)  # type: ignore[arg-type]
 
 
 def _twin_factor(tables: GroundedTables, cache: MutableMapping[Any, Any]) -> Any:
