@@ -508,16 +508,17 @@ class System:
         return list(self.adjacency(mode)[label])
 
     def observers(self, cluster: str | None = None) -> list[LocalObserver]:
-        """Local observers with their measured sets resolved (default: centre + neighbours in P_i)."""
-        out = []
-        for c in self.spec.clusters:
-            if cluster is not None and c.name != cluster:
-                continue
-            for o in c.observers:
-                out.append(self.resolve_observer(c, o))
+        """Local observers with their measured sets resolved (default: centre + neighbours in P_i).
+
+        Resolved once per cluster (kept on ``analysis``); each call returns a new list.
+        """
         if cluster is not None:
             self.cluster(cluster)
-        return out
+
+        def resolve() -> tuple[LocalObserver, ...]:
+            return tuple(self.resolve_observer(c, o) for c in self.spec.clusters if cluster is None or c.name == cluster for o in c.observers)
+
+        return list(self.analysis.get(("observers", cluster), resolve))
 
     def resolve_observer(self, cluster: ClusterSpec, obs: ObserverSpec) -> LocalObserver:
         near = set(self.neighbours(obs.center))

@@ -391,3 +391,23 @@ def test_the_exact_pencil_pattern_read_from_the_support_equals_the_pattern_of_th
             for lam in (None, Fraction(0), -system.gamma_q, Fraction(3, 7)):
                 _, want = _exact_pencil_at(system, case, lam)
                 assert np.array_equal(_exact_pattern_at(system, case, lam), want)
+
+
+def test_the_krawczyk_test_encloses_a_known_zero_of_a_rational_pencil_and_refuses_a_point_that_is_not_one() -> None:
+    from glocal_verify.analysis.cluster_pencil import krawczyk_kernel
+
+    # P(lam) = P0 + lam P1 = [[lam - 2, 1], [0, lam - 3]]: zeros 2 (kernel (1, 0)) and 3 (kernel (1, 1))
+    q = Fraction
+    P0 = [[q(-2), q(1)], [q(0), q(-3)]]
+    P1 = [[q(1), q(0)], [q(0), q(1)]]
+    pat = np.array([[True, True], [False, True]])
+    for nonzero in (None, pat):
+        enc = krawczyk_kernel(P0, P1, 2.0 + 1e-9j, np.array([1.0, 1e-14]), nonzero=nonzero)
+        assert enc is not None and enc.lam.contains(2) and enc.nonzero([0])
+        enc3 = krawczyk_kernel(P0, P1, 3.0, np.array([1.0, 1.0]), nonzero=nonzero)  # (1, 1) at lam = 3: -1 + 1 = 0
+        assert enc3 is not None and enc3.lam.contains(3)
+    # a constant pencil of full rank has no zero: nothing is proved
+    I0 = [[q(1), q(0)], [q(0), q(1)]]
+    Z1 = [[q(0), q(0)], [q(0), q(0)]]
+    for nonzero in (None, np.eye(2, dtype=bool)):
+        assert krawczyk_kernel(I0, Z1, 0.5, np.array([1.0, 0.0]), nonzero=nonzero) is None

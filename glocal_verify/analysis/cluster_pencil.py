@@ -629,7 +629,12 @@ class KernelEnclosure:
 
 
 def krawczyk_kernel(
-    P0: Sequence[Sequence[Fraction]], P1: Sequence[Sequence[Fraction]], lam: complex, v: np.ndarray, prec: int = 128
+    P0: Sequence[Sequence[Fraction]],
+    P1: Sequence[Sequence[Fraction]],
+    lam: complex,
+    v: np.ndarray,
+    prec: int = 128,
+    nonzero: np.ndarray | None = None,
 ) -> KernelEnclosure | None:
     """Prove, by the Krawczyk test in ball arithmetic, that P(lam) = P0 + lam P1 (exact
     rational rows) has a kernel vector near the float candidate (lam, v); None if the test fails.
@@ -657,6 +662,9 @@ def krawczyk_kernel(
         Candidate kernel vector.
     prec : int
         Working precision in bits.
+    nonzero : ndarray of bool, optional
+        The exact support of P0 or P1 (entry (i, j) True when P0[i][j] or P1[i][j] is nonzero),
+        when the caller tests several candidates on one pencil; default: read from the rows.
     """
     import flint
 
@@ -669,7 +677,10 @@ def krawczyk_kernel(
         return None
     v = v / v[k]
     S = [j for j in range(ncol) if abs(v[j]) > 1e-13]
-    R = [i for i in range(len(P0)) if any(P0[i][j] != 0 or P1[i][j] != 0 for j in S)]
+    if nonzero is not None:
+        R = np.flatnonzero(np.any(nonzero[:, S], axis=1)).tolist()
+    else:
+        R = [i for i in range(len(P0)) if any(P0[i][j] != 0 or P1[i][j] != 0 for j in S)]
     if len(R) != len(S):
         return None
     free = [j for j in S if j != k]
@@ -731,16 +742,13 @@ def krawczyk_kernel(
                 rows.append(row)
             return rows
 
-        Ya = [[flint.acb(complex(Y[a, b])) for b in range(n)] for a in range(n)]
-        fx = f_at(xt)
-        JX = j_at(X)
-        Kx = []
-        for a in range(n):
-            acc = xt[a] - sum(Ya[a][b] * fx[b] for b in range(n))
-            for c in range(n):
-                m_ac = (1 if a == c else 0) - sum(Ya[a][b] * JX[b][c] for b in range(n))
-                acc += m_ac * (X[c] - xt[c])
-            Kx.append(acc)
+        # K(X) = x~ - Y f(x~) + (I - Y J(X)) (X - x~), the products in ball matrix arithmetic
+        Ya = flint.acb_mat([[flint.acb(complex(Y[a, b])) for b in range(n)] for a in range(n)])
+        fx = flint.acb_mat(n, 1, f_at(xt))
+        JX = flint.acb_mat(j_at(X))
+        dX = flint.acb_mat(n, 1, [X[c] - xt[c] for c in range(n)])
+        Kv = flint.acb_mat(n, 1, xt) - Ya * fx + (flint.acb_mat(n, n, [flint.acb(int(a == c)) for a in range(n) for c in range(n)]) - Ya * JX) * dX
+        Kx = [Kv[a, 0] for a in range(n)]
         if not all(X[a].contains_interior(Kx[a]) for a in range(n)):
             return None
         w = [flint.acb(0)] * ncol

@@ -265,8 +265,9 @@ def _krawczyk_zero(system: System, case: LocalCase, witness: dict[str, Any]) -> 
     cands = list(witness.get("zeros", []))[:12]
     if isinstance(witness.get("direction"), dict) and "lambda" in witness["direction"]:
         cands.append(witness["direction"])
+    nonzero = np.array([[bool(a) or bool(b) for a, b in zip(r0, r1)] for r0, r1 in zip(P0, P1)], dtype=bool).reshape(len(P0), n + m)
     for d in cands:
-        enc = krawczyk_kernel(P0, P1, complex(d["lambda"]), _witness_vector(case, d))
+        enc = krawczyk_kernel(P0, P1, complex(d["lambda"]), _witness_vector(case, d), nonzero=nonzero)
         if enc is not None:
             return enc
     return None

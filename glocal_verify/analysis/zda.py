@@ -194,15 +194,20 @@ def _growth(lam: complex, scale: float, tol: Tolerance) -> str:
 
 
 def _normalize(xi: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(xi, u) / xi_k with k the largest entry of xi; real when the imaginary parts are below
+    1e-14 of the largest entry."""
     k = int(np.argmax(np.abs(xi)))
     c = xi[k]
     if c == 0:
         return xi, u
-    xi, u = xi / c, u / c
-    big = max(float(np.max(np.abs(xi))), float(np.max(np.abs(u), initial=0.0)))
-    if np.iscomplexobj(xi) and float(np.max(np.abs(xi.imag), initial=0.0)) <= 1e-14 * big and float(np.max(np.abs(u.imag), initial=0.0)) <= 1e-14 * big:
-        xi, u = xi.real.copy(), u.real.copy()
-    return xi, u
+    if not np.iscomplexobj(xi):
+        return xi / c, u / c
+    v = np.concatenate([xi, u]) / c
+    if np.iscomplexobj(v):
+        big = float(np.abs(v).max())
+        if float(np.abs(v.imag).max()) <= 1e-14 * big:
+            v = v.real.copy()
+    return v[: len(xi)], v[len(xi) :]
 
 
 # ------------------------------------------------------------------------------------------

@@ -277,7 +277,9 @@ class _Zda:
     growth_at_least: str = ""
 
 
-def _certified_zda(sh: _Shared, F: tuple[Label, ...], cache: dict[Any, Any], patience: int | None = None, at0: Any = None) -> _Zda | None:
+def _certified_zda(
+    sh: _Shared, F: tuple[Label, ...], cache: dict[Any, Any], patience: int | None = None, at0: Any = None, normalized: tuple[np.ndarray, np.ndarray] | None = None
+) -> _Zda | None:
     """The ZDA part from the exact minor certificate (no zero with lambda != 0) and lambda = 0.
 
     When the maximal minors of the reduced pencil have no common root
@@ -285,7 +287,8 @@ def _certified_zda(sh: _Shared, F: tuple[Label, ...], cache: dict[Any, Any], pat
     column rank at every lambda != 0: left-invertible, and a stealthy ZDA can only have
     lambda0 = 0. That one point is decided as :func:`glocal_verify.analysis.zda.zda_analysis`
     decides it (dimension bounds of the kernel of Q_0 and its largest-input vector; ``at0``:
-    that direction when the caller has it); None sends the set to the full analysis.
+    that direction when the caller has it, ``normalized`` its scaled (xi, u0)); None sends the
+    set to the full analysis.
     """
     assert sh.minors is not None
     cert = full_rank_certificate(sh.minors, sh.system.idx(F), cache, modulo_twins=True, patience=patience)
@@ -301,7 +304,7 @@ def _certified_zda(sh: _Shared, F: tuple[Label, ...], cache: dict[Any, Any], pat
         return None
     if du is Decision.ZERO:
         return _Zda(False, GROWTH_NULL, True, None, "none", certificate=cert.text())
-    xi_n, u_n = _normalize(xi, u)
+    xi_n, u_n = normalized if normalized is not None else _normalize(xi, u)
     z = ZdaZero(0j, 0j, xi_n, u_n, res, GROWTH_PERSISTENT, lo0, True)
     source = "requested lambda0" if sh.lambda0 is not None and complex(sh.lambda0) == 0 else "fastest-growing zero"
     return _Zda(True, GROWTH_PERSISTENT, True, z, source, certificate=cert.text())
@@ -317,8 +320,9 @@ def _zda_part(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any] | None = N
             # gets a small effort (a common factor that survives a few minors is usually
             # a genuine zero)
             try_cert = sh.minors is not None and not zw.screened and all(_single_certified(sh, a, memo) for a in F)
-            at0 = at if zw.direction is not None and zw.direction.value == 0 else None
-            zc = _certified_zda(sh, F, cache, WITNESS_CERTIFICATE_PATIENCE, at0) if try_cert else None
+            d0 = zw.direction if zw.direction is not None and zw.direction.value == 0 else None
+            at0, nz = (at, (d0.xi, d0.u0)) if d0 is not None else (None, None)
+            zc = _certified_zda(sh, F, cache, WITNESS_CERTIFICATE_PATIENCE, at0, nz) if try_cert else None
             return zc if zc is not None else zw
     if sh.minors is not None:
         zc = _certified_zda(sh, F, cache)
@@ -357,9 +361,17 @@ def _zda_part(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any] | None = N
     return _Zda(True, growth, ea.left_invertible, z, ea.direction_source, ea, "exact")
 
 
-def _witness_lambda(sh: _Shared, F: tuple[Label, ...]) -> tuple[complex, bool]:
-    """The exponent of :func:`_witness_zda` for F, and whether the separator proves F not left-invertible."""
-    not_li = sh.screen and disjoint_paths(sh.system, F) < len(F)
+def _witness_lambda(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any] | None = None) -> tuple[complex, bool]:
+    """The exponent of :func:`_witness_zda` for F, and whether the separator proves F not left-invertible.
+
+    With ``memo``: the separator's answer is kept for the next call on F (which removes it).
+    """
+    if memo is not None and ("not-left-invertible", F) in memo:
+        not_li = memo.pop(("not-left-invertible", F))
+    else:
+        not_li = sh.screen and disjoint_paths(sh.system, F) < len(F)
+        if memo is not None:
+            memo[("not-left-invertible", F)] = not_li
     return (complex(sh.lambda0) if sh.lambda0 is not None else (1.0 + 0j if not_li else 0j)), not_li
 
 
@@ -372,7 +384,7 @@ def batch_witnesses(sh: _Shared, sets: Sequence[tuple[Label, ...]], memo: dict[A
     """
     groups: dict[complex, list[tuple[Label, ...]]] = {}
     for F in sets:
-        groups.setdefault(_witness_lambda(sh, F)[0], []).append(F)
+        groups.setdefault(_witness_lambda(sh, F, memo)[0], []).append(F)
     for lam, Fs in groups.items():
         for F, d in zip(Fs, batch_directions(sh.system, sh.tol, lam, Fs)):
             memo[("witness-direction", F)] = d
@@ -391,8 +403,8 @@ def _witness_zda(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any] | None 
     of that method (None when no ZDA is proven).
     """
     system, tol = sh.system, sh.tol
-    lam, not_li = _witness_lambda(sh, F)
-    pre = None if memo is None else memo.get(("witness-direction", F))
+    lam, not_li = _witness_lambda(sh, F, memo)
+    pre = None if memo is None else memo.pop(("witness-direction", F), None)
     at = pre.as_found() if pre is not None else _Modal(system, F, tol).direction(lam)
     found = at[0]
     if found is None or found[3] is not Decision.ZERO or found[4] is not Decision.NONZERO:
@@ -630,7 +642,14 @@ class AuditChunk:
     sets: tuple[tuple[Label, ...], ...]
 
     def __call__(self) -> list[AuditRow]:
-        memo: dict[Any, Any] = dict(self.shared.local_seed)
+        return self.run(dict(self.shared.local_seed))
+
+    def run(self, memo: dict[Any, Any]) -> list[AuditRow]:
+        """The rows, with ``memo`` (seeded by phase one) shared with other chunks of this process.
+
+        What it keeps between sets is per agent, observer or suspected set (the minor tables'
+        polynomials, local verdicts); per-set entries are removed once used.
+        """
         if self.shared.growth == "verdict" and not self.shared.exact:
             batch_witnesses(self.shared, self.sets, memo)
         return [_audit_set(self.shared, F, memo) for F in self.sets]
@@ -833,8 +852,9 @@ def audit(
         out = list(executor(chunks))
     else:
         done = 0
+        memo: dict[Any, Any] = dict(chunks[0].shared.local_seed) if chunks else {}
         for ch in chunks:
-            out.append(ch())
+            out.append(ch.run(memo))
             done += len(ch.sets)
             if progress is not None:
                 progress(done, len(sets))

@@ -402,8 +402,13 @@ def full_rank_certificate(
         return None
     detK = _charpoly(tables, cache)
 
+    bkey = ("bounds", tables)
+    if bkey not in cache:
+        cache[bkey] = np.where(tables.distance < _UNREACHABLE, n - tables.distance.astype(np.int64), -1).tolist()
+    bounds: list[list[int]] = cache[bkey]
+
     def bound_of(r: int, f: int) -> int:
-        return n - int(tables.distance[r, f]) if tables.distance[r, f] < _UNREACHABLE else -1
+        return bounds[r][f]
 
     def minor(replaced: Sequence[int], rows: Sequence[int]) -> tuple[Any, int | None, Any]:
         """The maximal minor with the rows ``replaced`` of K taken from alpha L[rows, U]

@@ -56,6 +56,7 @@ from glocal_verify.simulation.schedule import (
     SimulationResult,
     random_initial_state,
 )
+from glocal_verify.simulation.step_operators import StepOperators
 from glocal_verify.simulation.thresholds import (
     Crossing,
     ThresholdRule,
@@ -456,6 +457,7 @@ def run_algorithm1(
     if trig not in ("schedule", "local", "none"):
         raise ModelError(f"unknown trigger {trigger!r} (expected auto, schedule or local)")
     local_names = [o.name for o in bank if o.kind == "local"]
+    ops = StepOperators()  # observer step operators shared by every run below
     chosen: str | None = None
     if trig == "none":
         sched = Schedule()
@@ -465,8 +467,8 @@ def run_algorithm1(
     else:
         # pass 1: normal mode only, find the first local detection
         s0 = Schedule()
-        th0 = attack_free_thresholds(system, bank, s0, rule, horizon=horizon, step=step, method=method, progress=progress)
-        r0 = simulate(system, schedule=s0, attack=atk, observers=bank, x0=xbar, horizon=horizon, step=step, method=method, record_states=False, progress=progress)
+        r0 = simulate(system, schedule=s0, attack=atk, observers=bank, x0=xbar, horizon=horizon, step=step, method=method, record_states=False, progress=progress, step_operators=ops)
+        th0 = attack_free_thresholds(system, bank, s0, rule, horizon=horizon, step=step, method=method, progress=progress, step_operators=ops)
         hits = [first_crossing(r0, th0, nm) for nm in local_names]
         hits = [c for c in hits if c.detected]
         if not hits:
@@ -490,11 +492,13 @@ def run_algorithm1(
                 notes.append(f"the local detection at t = {first.time:g} leaves no time to switch before the horizon")
                 chosen = None
     ts_ = sched.switch_times[0] if sched.switch_times else None
-    th = attack_free_thresholds(system, bank, sched, rule, horizon=horizon, step=step, method=method, progress=progress)
-    res = simulate(system, schedule=sched, attack=atk, observers=bank, x0=xbar, horizon=horizon, step=step, method=method, progress=progress)
+    # the simulations first: their Taylor order is at least the envelope's (the exosystem adds to
+    # the norm bound), so the envelope reuses their observer step operators (step_operators.py)
+    res = simulate(system, schedule=sched, attack=atk, observers=bank, x0=xbar, horizon=horizon, step=step, method=method, progress=progress, step_operators=ops)
     ao = None
     if atk is not None:
-        ao = simulate(system, schedule=sched, attack=atk, observers=bank, x0=np.zeros(2 * system.n), horizon=horizon, step=step, method=method, progress=progress)
+        ao = simulate(system, schedule=sched, attack=atk, observers=bank, x0=np.zeros(2 * system.n), horizon=horizon, step=step, method=method, progress=progress, step_operators=ops)
+    th = attack_free_thresholds(system, bank, sched, rule, horizon=horizon, step=step, method=method, progress=progress, step_operators=ops)
     split = ts_ if ts_ is not None else math.inf
     local = {nm: first_crossing(res, th, nm, 0.0, split) for nm in local_names}
     local_after = {nm: first_crossing(res, th, nm, split) for nm in local_names} if ts_ is not None else {}

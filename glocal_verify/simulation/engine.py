@@ -103,6 +103,7 @@ from glocal_verify.simulation.schedule import (
     SimulationResult,
     random_initial_state,
 )
+from glocal_verify.simulation.step_operators import StepOperators, observer_step_operator
 from glocal_verify.spec.types import NORMAL_MODE
 
 __all__ = [
@@ -115,6 +116,7 @@ __all__ = [
     "check_size",
     "simulate",
     "observer_step_operator",
+    "StepOperators",
     "check_stiffness",
     "taylor_order",
 ]
@@ -282,8 +284,9 @@ class _ModalEngine:
 
     method = "modal"
 
-    def __init__(self, st: _Setup, batch: int, h: float, modes: Sequence[str]) -> None:
+    def __init__(self, st: _Setup, batch: int, h: float, modes: Sequence[str], ops: StepOperators) -> None:
         self.st = st
+        self.ops = ops
         n = st.n
         self.batch = batch
         self.w = np.zeros((st.m, batch))
@@ -416,12 +419,7 @@ class _ModalEngine:
     def _obs_prop(self, o: ObserverModel, delta: float) -> tuple[np.ndarray, np.ndarray]:
         assert self.mode is not None
         dk = o.dynamics_key(self.mode)
-        key = ("obs", o.name, dk, round(delta, 13))
-        P = self.cache.get(key)
-        if P is None:
-            P = observer_step_operator(o.F[dk], o.G[dk], self.J, delta)
-            self.cache[key] = P
-        return P
+        return self.ops.get(o.F[dk], o.G[dk], self.J, delta)
 
     # -- stepping -------------------------------------------------------------------------------
     def _derivatives(self) -> tuple[np.ndarray, ...]:
@@ -528,34 +526,6 @@ def _events(schedule: Schedule, attack: AttackModel | None, end: float) -> list[
     return sorted(times)
 
 
-def observer_step_operator(F: np.ndarray, G: np.ndarray, J: int, delta: float) -> tuple[np.ndarray, np.ndarray]:
-    """Exact step of an observer ``z' = F z + G y`` over ``delta`` when ``y`` is a polynomial of degree J.
-
-    With the input given by its Taylor coefficients, the observer and the chain of derivatives
-    form one LTI system; ``expm`` of that block matrix gives ``(Phi, Gamma)`` with
-    ``z(t + delta) = Phi z(t) + Gamma [y; y'; ...; y^(J)]``.
-
-    Parameters
-    ----------
-    F, G : ndarray
-        Observer matrices (``no x no`` and ``no x p``).
-    J : int
-        Taylor order of the input.
-    delta : float
-        The step.
-    """
-    no, p = F.shape[0], G.shape[1]
-    dim = no + p * (J + 1)
-    A = np.zeros((dim, dim))
-    A[:no, :no] = F
-    A[:no, no : no + p] = G
-    for j in range(J):
-        r0 = no + j * p
-        A[r0 : r0 + p, r0 + p : r0 + 2 * p] = np.eye(p)
-    E = scipy.linalg.expm(A * delta)
-    return E[:no, :no].copy(), E[:no, no:].copy()
-
-
 def simulate(
     system: System,
     *,
@@ -570,6 +540,7 @@ def simulate(
     batch_reduce: str | None = None,
     progress: bool = False,
     allow_large: bool | None = None,
+    step_operators: StepOperators | None = None,
 ) -> SimulationResult:
     """Simulate plant, attack and observers exactly (module docstring) on a uniform grid.
 
@@ -600,6 +571,10 @@ def simulate(
     allow_large : bool, optional
         Lift the size limits (module docstring); default: lifted only inside
         :func:`allow_large` blocks.
+    step_operators : StepOperators, optional
+        Observer step operators shared with other runs of the same system and step
+        (:class:`~glocal_verify.simulation.step_operators.StepOperators`; modal method only).
+        Default: a fresh cache for this run.
 
     Returns
     -------
@@ -647,7 +622,7 @@ def simulate(
     if meth == "dense":
         engine = _DenseEngine(st, B)
     else:
-        engine = _ModalEngine(st, B, h, sched.modes)
+        engine = _ModalEngine(st, B, h, sched.modes, step_operators if step_operators is not None else StepOperators())
     want_x = record_states and not batch
     t_grid = np.arange(K + 1) * h
     res_arr = {o.name: np.full((K + 1, len(o.channels)), np.nan) for o in bank}

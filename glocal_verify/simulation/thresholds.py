@@ -12,18 +12,20 @@ Over the box :math:`\\|\\bar x_0\\|_\\infty \\le b` the supremum of :math:`|r_k(
 
 :func:`attack_free_thresholds` computes :math:`\\Psi(t)` row-wise (the adjoint recursion):
 inside a segment of constant mode q starting at :math:`\\tau`,
-:math:`\\Psi(\\tau + s) = Q(s)\\,P_\\tau` with :math:`Q(s) = R\\,e^{M_q s}` (q rows, advanced
-one output step at a time by right multiplication, :math:`Q(s + h) = Q(s)\\,e^{M_q h}`: the
-exponentials of one constant matrix commute) and :math:`P_\\tau = \\Phi(\\tau, 0) E_0` (the
-2N unit initial states at the segment start, obtained at a switch by binary powers of the step
-propagator: :math:`O(\\log(\\tau/h))` dense products instead of one per step). The plant is
-kept in the eigenbasis of :math:`L_q` (2 x 2 modal blocks) and the observer input over a step
-is its Taylor polynomial with the a priori remainder bound of the modal simulator
-(:mod:`glocal_verify.simulation.engine`: same J, same internal steps), so every step
-propagator is the one the simulator applies, to rounding. Cost per output step and observer:
-:math:`O(q (N + n_o) (2N + n_o))` instead of :math:`O((2N + n_o)^2 \\cdot 2N)` for
-propagating the 2N unit states (:func:`envelope_by_columns`, the former computation, kept as
-the reference the tests compare with).
+:math:`\\Psi(\\tau + s) = Q(s)\\,P_\\tau` with :math:`Q(s) = R\\,e^{M_q s}` (q rows,
+:math:`Q(s + h) = Q(s)\\,e^{M_q h}`: the exponentials of one constant matrix commute) and
+:math:`P_\\tau = \\Phi(\\tau, 0) E_0` (the 2N unit initial states at the segment start, obtained
+at a switch by binary powers of the step propagator: :math:`O(\\log(\\tau/h))` dense products
+instead of one per step). The plant is kept in the eigenbasis of :math:`L_q` (2 x 2 modal
+blocks) and the observer input over a step is its Taylor polynomial with the a priori
+remainder bound of the modal simulator (:mod:`glocal_verify.simulation.engine`: same J, same
+internal steps), so every step propagator is the one the simulator applies, to rounding. How
+the rows and columns are computed (the rank-:math:`p(J+1)` input map, blocks of rows by powers
+of the observer step, modal columns) is in :mod:`glocal_verify.simulation.envelope`. Cost per
+output step and observer: about :math:`O(q\\,n_o^2 + q\\,(2N + n_o)\\,2N)` instead of
+:math:`O((2N + n_o)^2 \\cdot 2N)` for propagating the 2N unit states
+(:func:`envelope_by_columns`, the former computation, kept as the reference the tests compare
+with).
 """
 
 from __future__ import annotations
@@ -32,24 +34,18 @@ import math
 import sys
 import time
 from dataclasses import dataclass
-from typing import Any, Callable, Mapping
+from typing import Any, Mapping
 
 import numpy as np
-import scipy.linalg
 
 from glocal_verify.errors import ModelError
 from glocal_verify.model import System
-from glocal_verify.numerics.threads import blas_threads
 from glocal_verify.results import jsonable
-from glocal_verify.simulation.engine import (
-    RHO_MAX,
-    observer_step_operator,
-    simulate,
-    taylor_order,
-)
-from glocal_verify.simulation.observer_models import ObserverBank, ObserverModel
+from glocal_verify.simulation.engine import simulate
+from glocal_verify.simulation.envelope import Reporter, envelope_by_rows
+from glocal_verify.simulation.observer_models import ObserverBank
 from glocal_verify.simulation.schedule import Schedule, SimulationResult
-from glocal_verify.spec.types import NORMAL_MODE
+from glocal_verify.simulation.step_operators import StepOperators
 
 __all__ = [
     "ThresholdRule",
@@ -140,6 +136,7 @@ def attack_free_thresholds(
     step: float | None = None,
     method: str = "auto",
     progress: bool = False,
+    step_operators: StepOperators | None = None,
 ) -> Thresholds:
     """Attack-free residual envelopes for ``schedule`` (module docstring).
 
@@ -159,6 +156,9 @@ def attack_free_thresholds(
     progress : bool
         Report progress on stderr: a tqdm bar with ETA when stderr is a terminal, else one
         line per phase (observer, segment, propagation to a switch).
+    step_operators : StepOperators, optional
+        Observer step operators shared with the simulations of the same system and step
+        (:class:`~glocal_verify.simulation.step_operators.StepOperators`).
     """
     from glocal_verify.simulation.engine import check_stiffness
 
@@ -168,13 +168,13 @@ def attack_free_thresholds(
         float(system.spec.simulation.step if step is None else step),
     )
     if rule.kind == "envelope":
-        t, env = _envelope_by_rows(system, observers, schedule, rule.box, horizon, step, _reporter(progress))
+        t, env = envelope_by_rows(system, observers, schedule, rule.box, horizon, step, _reporter(progress), step_operators)
         return Thresholds(rule, t, env, schedule)
     if rule.kind == "calibrated":
         n2 = 2 * system.n
         rng = np.random.default_rng(rule.seed)
         X = rng.uniform(-rule.box, rule.box, size=(n2, rule.runs))
-        res = simulate(system, schedule=schedule, observers=observers, x0=X, horizon=horizon, step=step, method=method, batch_reduce="max-abs", progress=progress and sys.stderr.isatty())
+        res = simulate(system, schedule=schedule, observers=observers, x0=X, horizon=horizon, step=step, method=method, batch_reduce="max-abs", progress=progress and sys.stderr.isatty(), step_operators=step_operators)
         env = {k: rule.factor * v for k, v in res.residuals.items()}
         return Thresholds(rule, res.t, env, schedule)
     raise ModelError(f"unknown threshold rule {rule.kind!r} (expected envelope or calibrated)")
@@ -216,133 +216,9 @@ def envelope_by_columns(
 
 
 # --------------------------------------------------------------------------------------------
-# the row recursion
+# progress
 
 
-@dataclass(frozen=True, slots=True)
-class _Step:
-    """One exact step of plant + observer in (modal plant, observer) coordinates.
-
-    :math:`\\xi_l \\leftarrow E_l \\xi_l` per modal block l (:math:`\\xi_l = (p_l, v_l)`),
-    :math:`z \\leftarrow \\Phi z + X_p p + X_v v`.
-    """
-
-    E: np.ndarray  # (N, 2, 2)
-    Xp: np.ndarray  # (n_o, N)
-    Xv: np.ndarray  # (n_o, N)
-    Phi: np.ndarray  # (n_o, n_o)
-
-
-def _compose(b: _Step, a: _Step) -> _Step:
-    """b after a."""
-    Ea = a.E
-    return _Step(
-        np.matmul(b.E, Ea),
-        b.Xp * Ea[:, 0, 0] + b.Xv * Ea[:, 1, 0] + b.Phi @ a.Xp,
-        b.Xp * Ea[:, 0, 1] + b.Xv * Ea[:, 1, 1] + b.Phi @ a.Xv,
-        b.Phi @ a.Phi,
-    )
-
-
-def _apply_rows(op: _Step, Qa: np.ndarray, Qb: np.ndarray, Qz: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Rows times the step: the adjoint recursion Q <- Q L."""
-    E = op.E
-    return (
-        Qa * E[:, 0, 0] + Qb * E[:, 1, 0] + Qz @ op.Xp,
-        Qa * E[:, 0, 1] + Qb * E[:, 1, 1] + Qz @ op.Xv,
-        Qz @ op.Phi,
-    )
-
-
-def _apply_cols(op: _Step, Pp: np.ndarray, Pv: np.ndarray, Pz: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The step times columns: P <- L P."""
-    E = op.E
-    return (
-        E[:, 0, 0, None] * Pp + E[:, 0, 1, None] * Pv,
-        E[:, 1, 0, None] * Pp + E[:, 1, 1, None] * Pv,
-        op.Phi @ Pz + op.Xp @ Pp + op.Xv @ Pv,
-    )
-
-
-class _Steps:
-    """Step propagators of one observer, cached per (mode, step); J and internal steps as in the
-    modal simulator (:class:`~glocal_verify.simulation.engine._ModalEngine`)."""
-
-    def __init__(self, system: System, o: ObserverModel, h: float, modes: tuple[str, ...]) -> None:
-        self.system, self.o, self.n = system, o, system.n
-        nu = 0.0
-        for q in set(modes) | {NORMAL_MODE}:
-            mu = system.eigh(q)[0]
-            nu = max(nu, float(np.max(np.sqrt(1.0 + (system.alpha * mu) ** 2 + system.gamma**2))))
-        self.n_sub = max(1, int(math.ceil(nu * h / RHO_MAX - 1e-12)))
-        self.J = taylor_order(nu * h / self.n_sub)
-        self.cache: dict[tuple[str, float], _Step] = {}
-        self.obs: dict[tuple[str, float], tuple[np.ndarray, np.ndarray]] = {}
-
-    def output_rows(self, mode: str) -> tuple[np.ndarray, np.ndarray]:
-        """The observer's measurement in the modal basis of ``mode``: (C_p U, C_v U)."""
-        U = self.system.eigh(mode)[1]
-        n = self.n
-        return self.o.C[:, :n] @ U, self.o.C[:, n:] @ U
-
-    def _observer(self, dk: str, delta: float) -> tuple[np.ndarray, np.ndarray]:
-        key = (dk, round(delta, 13))
-        got = self.obs.get(key)
-        if got is None:
-            got = observer_step_operator(self.o.F[dk], self.o.G[dk], self.J, delta)
-            self.obs[key] = got
-        return got
-
-    def sub(self, mode: str, delta: float) -> _Step:
-        """One internal step of length ``delta`` in ``mode`` (exponentials, Taylor input model)."""
-        key = (mode, round(delta, 13))
-        op = self.cache.get(key)
-        if op is None:
-            sy = self.system
-            mu = sy.eigh(mode)[0]
-            n = self.n
-            A = np.zeros((n, 2, 2))
-            A[:, 0, 1] = 1.0
-            A[:, 1, 0] = -sy.alpha * mu
-            A[:, 1, 1] = -sy.gamma
-            E = scipy.linalg.expm(A * delta)
-            Phi, W = self._observer(self.o.dynamics_key(mode), delta)
-            # D = [C_mod; C_mod A_xi; ...; C_mod A_xi^J] (the Taylor coefficients of y), row-wise
-            cp, cv = self.output_rows(mode)
-            p = cp.shape[0]
-            Xp = np.zeros((self.o.order, n))
-            Xv = np.zeros((self.o.order, n))
-            for j in range(self.J + 1):
-                Wj = W[:, j * p : (j + 1) * p]
-                Xp += Wj @ cp
-                Xv += Wj @ cv
-                cp, cv = -sy.alpha * mu * cv, cp - sy.gamma * cv
-            op = _Step(E, Xp, Xv, Phi)
-            self.cache[key] = op
-        return op
-
-    def step(self, mode: str, delta: float) -> list[_Step]:
-        """The internal steps of one step of length ``delta`` (as the simulator splits it)."""
-        return [self.sub(mode, delta / self.n_sub)] * self.n_sub
-
-
-def _power_cols(ops: list[_Step], m: int, P: tuple[np.ndarray, np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(product of ``ops``)^m applied to the columns P, by binary powers."""
-    if m <= 0:
-        return P
-    base = ops[0]
-    for op in ops[1:]:
-        base = _compose(op, base)
-    while True:
-        if m & 1:
-            P = _apply_cols(base, *P)
-        m >>= 1
-        if not m:
-            return P
-        base = _compose(base, base)
-
-
-Reporter = Callable[[str, int], None]
 
 
 def _reporter(progress: bool) -> Reporter:
@@ -376,112 +252,6 @@ def _reporter(progress: bool) -> Reporter:
             print(f"glocal-verify: thresholds: {phase} ({time.perf_counter() - t0:.1f} s)", file=sys.stderr, flush=True)
 
     return line
-
-
-def _envelope_by_rows(
-    system: System,
-    bank: ObserverBank,
-    schedule: Schedule,
-    box: float,
-    horizon: float | None,
-    step: float | None,
-    report: Reporter,
-) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    """The envelope by the row recursion (module docstring): (t, {observer: (K + 1, q)})."""
-    for _, m in schedule.segments:
-        system.check_mode(m)
-    T = float(system.spec.simulation.horizon if horizon is None else horizon)
-    h = float(system.spec.simulation.step if step is None else step)
-    if not (h > 0 and T > 0 and math.isfinite(T) and math.isfinite(h)):
-        raise ModelError(f"horizon {T} and step {h} must be positive and finite")
-    K = int(math.floor(T / h + 1e-9))
-    end = K * h
-    tol = 1e-9 * h
-    t_grid = np.arange(K + 1) * h
-    events = sorted(t for t in schedule.switch_times if 0.0 < t < end)
-    starts, stops = [0.0] + events, events + [end]
-    modes = [schedule.mode_at(a + 1e-12 * max(1.0, a)) for a in starts]
-    n = system.n
-    # samples of each segment: t_k in [start, stop), the last segment up to the end
-    seg_k: list[list[int]] = []
-    for j, (a, b) in enumerate(zip(starts, stops)):
-        last = j == len(starts) - 1
-        seg_k.append([k for k in range(K + 1) if t_grid[k] >= a - tol and (t_grid[k] < b - tol or (last and t_grid[k] <= end + tol))])
-    report(f"total:{(K + 1) * len(bank)}", 0)
-    out: dict[str, np.ndarray] = {}
-    chunk = 128
-    for i_obs, o in enumerate(bank):
-        q = len(o.channels)
-        env = np.zeros((K + 1, q))
-        out[o.name] = env
-        if q == 0:
-            report(f"{o.name}: no residual", K + 1)
-            continue
-        steps = _Steps(system, o, h, tuple(modes))
-        U0 = system.eigh(modes[0])[1]
-        # the unit initial states at the segment start (None: the first segment, P = [U^T, 0; 0, U^T; Z0])
-        P: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-        z0_zero = not np.any(o.Z0)
-        for j, (a, b) in enumerate(zip(starts, stops)):
-            mode, ks = modes[j], seg_k[j]
-            report(f"{o.name} ({i_obs + 1}/{len(bank)}), segment {j + 1}/{len(starts)} ({mode})", 0)
-            cp, cv = steps.output_rows(mode)
-            with blas_threads(1):
-                Qa, Qb, Qz = o.Ry @ cp, o.Ry @ cv, -np.array(o.Rz, dtype=float)
-                d0 = (t_grid[ks[0]] - a) if ks else 0.0
-                if ks and d0 > tol:
-                    for op in steps.step(mode, d0):
-                        Qa, Qb, Qz = _apply_rows(op, Qa, Qb, Qz)
-                buf: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
-                kbuf: list[int] = []
-                hstep = steps.step(mode, h)
-                for i, k in enumerate(ks):
-                    if i:
-                        for op in hstep:
-                            Qa, Qb, Qz = _apply_rows(op, Qa, Qb, Qz)
-                    buf.append((Qa, Qb, Qz))
-                    kbuf.append(k)
-                    if len(buf) == chunk or i == len(ks) - 1:
-                        A_ = np.vstack([x[0] for x in buf])
-                        B_ = np.vstack([x[1] for x in buf])
-                        Z_ = np.vstack([x[2] for x in buf])
-                        if P is None:
-                            psi = np.hstack([A_ @ U0.T, B_ @ U0.T])
-                            if not z0_zero:
-                                psi += Z_ @ o.Z0
-                        else:
-                            psi = A_ @ P[0] + B_ @ P[1] + Z_ @ P[2]
-                        env[kbuf] = box * np.abs(psi).sum(axis=1).reshape(len(kbuf), q)
-                        report("", len(kbuf))
-                        buf, kbuf = [], []
-            if j == len(starts) - 1:
-                break
-            # the unit initial states at the next switch: binary powers of the step propagator
-            report(f"{o.name}: the 2N unit states to the switch at t = {b:g} s", 0)
-            with blas_threads(None):
-                if P is None:
-                    Pp = np.hstack([U0.T, np.zeros((n, n))])
-                    Pv = np.hstack([np.zeros((n, n)), U0.T])
-                    P = (Pp, Pv, np.array(o.Z0, dtype=float))
-                if not ks:
-                    if b - a > tol:
-                        for op in steps.step(mode, b - a):
-                            P = _apply_cols(op, *P)
-                else:
-                    if d0 > tol:
-                        for op in steps.step(mode, d0):
-                            P = _apply_cols(op, *P)
-                    P = _power_cols(hstep, len(ks) - 1, P)
-                    rest = b - t_grid[ks[-1]]
-                    if rest > tol:
-                        for op in steps.step(mode, h if abs(rest - h) <= tol else rest):
-                            P = _apply_cols(op, *P)
-                nxt = modes[j + 1]
-                if nxt != mode:
-                    Tb = system.eigh(nxt)[1].T @ system.eigh(mode)[1]
-                    P = (Tb @ P[0], Tb @ P[1], P[2])
-    report("done", 0)
-    return t_grid, out
 
 
 # --------------------------------------------------------------------------------------------
