@@ -1,0 +1,501 @@
+"""The attack-free envelope by the row (adjoint) recursion, with binary powers of the step.
+
+:func:`envelope_by_rows` computes, for every observer, :math:`\\Psi(t) = R\\,\\Phi(t, 0)\\,E_0`
+(module docstring of :mod:`glocal_verify.simulation.thresholds`) and the envelope
+:math:`b \\sum_j |\\Psi_{kj}(t)|`. Coordinates: the plant in the eigenbasis of the active
+:math:`L_q` (2 x 2 blocks :math:`E_l` per mode l), the observer state z as it is.
+
+**The step.** One output step h of plant + observer is the product of the ``n_sub`` internal
+steps of the modal simulator (same J, same internal steps, the same observer operator
+:math:`(\\Phi, \\Gamma)` from :func:`~glocal_verify.simulation.step_operators.observer_step_operator`):
+:math:`\\xi_l \\leftarrow E_l \\xi_l`, :math:`z \\leftarrow \\Phi z + \\Gamma (D_p p + D_v v)`, where
+:math:`D = [C; C A; \\dots; C A^J]` are the Taylor coefficients of the observer input in the
+modal basis (row-wise). :math:`X = \\Gamma D` has rank at most :math:`p (J + 1)`, so a row
+step costs :math:`O(q\\,n_o (n_o + p J) + q\\,p J\\,N)` instead of :math:`O(q\\,n_o (n_o + 2N))`.
+This is the simulator's step to rounding: only the association of the products differs.
+
+**Rows.** Inside a segment of mode q the rows at the samples are
+:math:`Q_k = Q_0 L^k`. Their observer part is the Krylov sequence
+:math:`Z_k = Z_0 \\Phi^k`; it is computed in blocks of :math:`B = 2^s` samples
+(:math:`Z_{k + B} = Z_k \\Phi^B`, the first block by doubling) when the powers
+:math:`\\Phi^{2^i}` are needed anyway for the columns or already known (the same observer
+dynamics in another segment), else step by step. The plant part follows exactly:
+:math:`(Q_a, Q_b)_{k+1} = (Q_a, Q_b)_k E + (Z_k \\Gamma) D` (2 x 2 blocks, O(qN) per step).
+
+**Columns.** The 2N unit initial states at a switch, :math:`P_\\tau = \\Phi(\\tau, 0) E_0`, by
+binary powers :math:`L^{2^i}` (each a product of powers of the step propagator). Before the
+first change of basis the columns are taken in modal coordinates, so their plant part stays
+2 x 2 block-diagonal and a power is applied at the cost of one :math:`\\Phi^{2^i} P_z`; the
+basis change to the original coordinates is undone once, at the switch. The powers
+:math:`\\Phi^{2^i}` are shared with the rows and across segments and modes with the same
+observer dynamics.
+
+Rounding: every quantity is a product of the simulator's step propagators, evaluated in a
+different order (powers by squaring, :math:`(Z \\Gamma) D` for :math:`Z (\\Gamma D)`); the
+errors are of order the unit roundoff times the products of the norms involved, as for the
+column propagation of :func:`~glocal_verify.simulation.thresholds.envelope_by_columns` (the
+reference the tests compare with).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable, Iterator
+
+import numpy as np
+import scipy.linalg
+
+from glocal_verify.errors import ModelError
+from glocal_verify.model import System
+from glocal_verify.numerics.threads import blas_threads
+from glocal_verify.simulation.limits import RHO_MAX
+from glocal_verify.simulation.observer_models import ObserverBank, ObserverModel
+from glocal_verify.simulation.schedule import Schedule
+from glocal_verify.simulation.step_operators import StepOperators
+from glocal_verify.spec.types import NORMAL_MODE
+
+__all__ = ["Reporter", "envelope_by_rows"]
+
+#: ``report(phase, samples_done)``: progress of :func:`envelope_by_rows`
+Reporter = Callable[[str, int], None]
+
+#: samples per chunk of rows (one dense product with the columns per chunk); a power of two
+_CHUNK = 64
+
+
+# --------------------------------------------------------------------------------------------
+# steps
+
+
+@dataclass(frozen=True, slots=True)
+class _Step:
+    """One exact transition of plant + observer in (modal plant, observer) coordinates.
+
+    :math:`\\xi_l \\leftarrow E_l \\xi_l` per modal block l (:math:`\\xi_l = (p_l, v_l)`),
+    :math:`z \\leftarrow \\Phi z + X_p p + X_v v` with :math:`X = \\Gamma [D_p, D_v]`, or
+    :math:`X = [D_p, D_v]` when ``Gam`` is None (a composed step stored densely).
+    """
+
+    E: np.ndarray  # (N, 2, 2)
+    Gam: np.ndarray | None  # (n_o, r) or None
+    Dp: np.ndarray  # (r, N), or (n_o, N) when Gam is None
+    Dv: np.ndarray
+    Phi: np.ndarray  # (n_o, n_o)
+
+    def dense(self) -> tuple[np.ndarray, np.ndarray]:
+        """:math:`(X_p, X_v)`."""
+        if self.Gam is None:
+            return self.Dp, self.Dv
+        return self.Gam @ self.Dp, self.Gam @ self.Dv
+
+
+def _after(b: _Step, a: _Step, phi: np.ndarray | None = None) -> _Step:
+    """The step ``b`` after ``a`` (``phi``: :math:`\\Phi_b \\Phi_a` when already known).
+
+    Kept factored, :math:`X = [\\Gamma_b, \\Phi_b \\Gamma_a] [D_b E_a; D_a]`, while the rank is
+    below the size at which the factors stop paying; dense otherwise.
+    """
+    Ea = a.E
+    bDp = b.Dp * Ea[:, 0, 0] + b.Dv * Ea[:, 1, 0]
+    bDv = b.Dp * Ea[:, 0, 1] + b.Dv * Ea[:, 1, 1]
+    E = np.matmul(b.E, Ea)
+    no, n = b.Phi.shape[0], b.E.shape[0]
+    if b.Gam is not None and a.Gam is not None:
+        r = b.Gam.shape[1] + a.Gam.shape[1]
+        if r * (no + 2 * n) < no * 2 * n:
+            return _Step(E, np.hstack([b.Gam, b.Phi @ a.Gam]), np.vstack([bDp, a.Dp]), np.vstack([bDv, a.Dv]), b.Phi @ a.Phi if phi is None else phi)
+    aXp, aXv = a.dense()
+    if phi is None:
+        prod = b.Phi @ np.hstack([a.Phi, aXp, aXv])
+        phi, pXp, pXv = prod[:, :no], prod[:, no : no + n], prod[:, no + n :]
+    else:
+        prod = b.Phi @ np.hstack([aXp, aXv])
+        pXp, pXv = prod[:, :n], prod[:, n:]
+    if b.Gam is not None:
+        pXp += b.Gam @ bDp
+        pXv += b.Gam @ bDv
+    else:
+        pXp += bDp
+        pXv += bDv
+    return _Step(E, None, pXp, pXv, phi)
+
+
+def _rows_after(op: _Step, Qa: np.ndarray, Qb: np.ndarray, Qz: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rows times the step, :math:`Q \\leftarrow Q L` (the adjoint recursion)."""
+    E = op.E
+    C = Qz @ op.Gam if op.Gam is not None else Qz
+    return (
+        Qa * E[:, 0, 0] + Qb * E[:, 1, 0] + C @ op.Dp,
+        Qa * E[:, 0, 1] + Qb * E[:, 1, 1] + C @ op.Dv,
+        Qz @ op.Phi,
+    )
+
+
+@dataclass(frozen=True, slots=True)
+class _Modal:
+    """The unit initial states in modal coordinates of the first segment's basis.
+
+    Column l is the unit modal position :math:`p_l`, column N + l the unit velocity
+    :math:`v_l`; the plant part is 2 x 2 block-diagonal, ``B[l] @ (1, 0)`` and
+    ``B[l] @ (0, 1)`` being the plant state of mode l of those two columns. ``Pz`` (n_o, 2N),
+    None while it is zero.
+    """
+
+    B: np.ndarray  # (N, 2, 2)
+    Pz: np.ndarray | None
+
+
+@dataclass(frozen=True, slots=True)
+class _Dense:
+    """The unit initial states in the original coordinates (columns), plant in the modal basis."""
+
+    Pp: np.ndarray  # (N, 2N)
+    Pv: np.ndarray  # (N, 2N)
+    Pz: np.ndarray  # (n_o, 2N)
+
+
+def _cols_after(op: _Step, P: _Modal | _Dense) -> _Modal | _Dense:
+    """The step times the columns, :math:`P \\leftarrow L P`."""
+    E = op.E
+    if isinstance(P, _Modal):
+        B = P.B
+        # X p + X v of each column: column scalings of D (modal columns)
+        Sp = np.hstack([op.Dp * B[:, 0, 0] + op.Dv * B[:, 1, 0], op.Dp * B[:, 0, 1] + op.Dv * B[:, 1, 1]])
+        Sv = op.Gam @ Sp if op.Gam is not None else Sp
+        Pz = Sv if P.Pz is None else op.Phi @ P.Pz + Sv
+        return _Modal(np.matmul(E, B), Pz)
+    Pp, Pv = P.Pp, P.Pv
+    if op.Gam is not None:
+        inp = op.Gam @ (op.Dp @ Pp + op.Dv @ Pv)
+    else:
+        inp = op.Dp @ Pp + op.Dv @ Pv
+    return _Dense(
+        E[:, 0, 0, None] * Pp + E[:, 0, 1, None] * Pv,
+        E[:, 1, 0, None] * Pp + E[:, 1, 1, None] * Pv,
+        op.Phi @ P.Pz + inp,
+    )
+
+
+class _Steps:
+    """Step propagators of one observer and their powers; J and internal steps as in the modal
+    simulator (:class:`~glocal_verify.simulation.engine._ModalEngine`)."""
+
+    def __init__(self, system: System, o: ObserverModel, h: float, modes: tuple[str, ...], ops: StepOperators) -> None:
+        from glocal_verify.simulation.engine import taylor_order
+
+        self.system, self.o, self.n, self.h, self.ops = system, o, system.n, h, ops
+        nu = 0.0
+        for q in set(modes) | {NORMAL_MODE}:
+            mu = system.eigh(q)[0]
+            nu = max(nu, float(np.max(np.sqrt(1.0 + (system.alpha * mu) ** 2 + system.gamma**2))))
+        self.n_sub = max(1, int(math.ceil(nu * h / RHO_MAX - 1e-12)))
+        self.J = taylor_order(nu * h / self.n_sub)
+        self._sub: dict[tuple[str, float], _Step] = {}
+        self._full: dict[tuple[str, float], _Step] = {}
+        #: powers Phi^(2^i) of the full step h, per observer dynamics (shared across modes)
+        self._phi: dict[str, list[np.ndarray]] = {}
+        #: powers L^(2^i) of the full step h, per mode
+        self._pow: dict[str, list[_Step]] = {}
+
+    def output_rows(self, mode: str) -> tuple[np.ndarray, np.ndarray]:
+        """The observer's measurement in the modal basis of ``mode``: (C_p U, C_v U)."""
+        U = self.system.eigh(mode)[1]
+        n = self.n
+        return self.o.C[:, :n] @ U, self.o.C[:, n:] @ U
+
+    def sub(self, mode: str, delta: float) -> _Step:
+        """One internal step of length ``delta`` in ``mode`` (exponentials, Taylor input model)."""
+        key = (mode, round(delta, 13))
+        op = self._sub.get(key)
+        if op is None:
+            sy = self.system
+            mu = sy.eigh(mode)[0]
+            n = self.n
+            A = np.zeros((n, 2, 2))
+            A[:, 0, 1] = 1.0
+            A[:, 1, 0] = -sy.alpha * mu
+            A[:, 1, 1] = -sy.gamma
+            E = scipy.linalg.expm(A * delta)
+            dk = self.o.dynamics_key(mode)
+            Phi, W = self.ops.get(self.o.F[dk], self.o.G[dk], self.J, delta)
+            # D = [C_mod; C_mod A_xi; ...; C_mod A_xi^J] (the Taylor coefficients of y), row-wise
+            cp, cv = self.output_rows(mode)
+            dp, dv = [], []
+            for _ in range(self.J + 1):
+                dp.append(cp)
+                dv.append(cv)
+                cp, cv = -sy.alpha * mu * cv, cp - sy.gamma * cv
+            op = _Step(E, np.ascontiguousarray(W), np.vstack(dp), np.vstack(dv), Phi)
+            self._sub[key] = op
+        return op
+
+    def step(self, mode: str, delta: float) -> _Step:
+        """One step of length ``delta``: the ``n_sub`` internal steps of the simulator, composed."""
+        key = (mode, round(delta, 13))
+        op = self._full.get(key)
+        if op is None:
+            s = self.sub(mode, delta / self.n_sub)
+            op = s
+            for _ in range(self.n_sub - 1):
+                op = _after(s, op)
+            self._full[key] = op
+        return op
+
+    def phi_powers(self, mode: str) -> list[np.ndarray]:
+        """The known powers :math:`\\Phi^{2^i}` of the full step in ``mode`` (shared by every mode with
+        the same observer dynamics)."""
+        dk = self.o.dynamics_key(mode)
+        got = self._phi.get(dk)
+        if got is None:
+            got = [self.step(mode, self.h).Phi]
+            self._phi[dk] = got
+        return got
+
+    def phi_power(self, mode: str, i: int) -> np.ndarray:
+        """:math:`\\Phi^{2^i}` of the full step, by squaring."""
+        ph = self.phi_powers(mode)
+        while len(ph) <= i:
+            ph.append(ph[-1] @ ph[-1])
+        return ph[i]
+
+    def power(self, mode: str, i: int) -> _Step:
+        """:math:`L^{2^i}` of the full step, by squaring (the observer part shared with :meth:`phi_power`)."""
+        pw = self._pow.get(mode)
+        if pw is None:
+            pw = [self.step(mode, self.h)]
+            self._pow[mode] = pw
+        ph = self.phi_powers(mode)
+        while len(pw) <= i:
+            j = len(pw)
+            known = ph[j] if len(ph) > j else None
+            nxt = _after(pw[-1], pw[-1], known)
+            if known is None:
+                ph.append(nxt.Phi)
+            pw.append(nxt)
+        return pw[i]
+
+    def cols_power(self, mode: str, m: int, P: _Modal | _Dense) -> _Modal | _Dense:
+        """:math:`L^m P` by binary powers."""
+        i = 0
+        while m:
+            if m & 1:
+                P = _cols_after(self.power(mode, i), P)
+            m >>= 1
+            i += 1
+        return P
+
+
+# --------------------------------------------------------------------------------------------
+# rows of one segment
+
+
+def _doublings(steps: _Steps, mode: str, m: int, q: int, cols_after: int) -> int:
+    """How many squarings of :math:`\\Phi` the rows of ``m`` samples use (block size 2^s).
+
+    Free: the powers the columns need afterwards (``cols_after`` steps) and those already known.
+    Extra squarings (:math:`n_o^3` each) are bought when the steps they make blocked
+    (:math:`m q n_o^2` at the low rate of thin products) cost more.
+    """
+    if m < 2:
+        return 0
+    want = min(int(math.log2(_CHUNK)), int(math.log2(m)))
+    free = len(steps.phi_powers(mode)) - 1
+    if cols_after > 1:
+        free = max(free, int(math.log2(cols_after)))
+    if free >= want:
+        return want
+    no = steps.o.order
+    return want if 2 * m * q >= (want - free) * no else free
+
+
+def _segment_rows(
+    steps: _Steps, mode: str, start: tuple[np.ndarray, np.ndarray, np.ndarray], m: int, s: int
+) -> Iterator[tuple[int, np.ndarray, np.ndarray, np.ndarray]]:
+    """Rows at the m samples of a segment, in chunks: ``(first sample, Qa, Qb, Qz)`` with the
+    rows of each sample stacked (sample-major), starting from the rows ``start`` at its first
+    sample; blocks of 2^s samples for the observer part (module docstring)."""
+    op = steps.step(mode, steps.h)
+    Qa, Qb, Z0 = start
+    q = Z0.shape[0]
+    B = 1 << s
+    blk: np.ndarray | None = None  # observer rows of the last block of B samples
+    done = 0
+    E00, E01, E10, E11 = op.E[:, 0, 0], op.E[:, 0, 1], op.E[:, 1, 0], op.E[:, 1, 1]
+    while done < m:
+        c = min(_CHUNK, m - done)
+        # observer rows of the chunk
+        parts: list[np.ndarray] = []
+        got = 0
+        while got < c:
+            if blk is None:
+                blk = Z0
+                for i in range(s):
+                    blk = np.vstack([blk, blk @ steps.phi_power(mode, i)])
+            elif B == 1:
+                blk = blk @ op.Phi
+            else:
+                blk = blk @ steps.phi_power(mode, s)
+            take = min(B, c - got)
+            parts.append(blk[: take * q])
+            got += take
+        Zc = np.vstack(parts) if len(parts) > 1 else parts[0]
+        # plant rows: (Qa, Qb)_{k+1} = (Qa, Qb)_k E + (Z_k Gamma) D
+        Cc = Zc @ op.Gam if op.Gam is not None else Zc
+        Yp, Yv = Cc @ op.Dp, Cc @ op.Dv
+        A_ = np.empty((c * q, Qa.shape[1]))
+        B_ = np.empty_like(A_)
+        for i in range(c):
+            A_[i * q : (i + 1) * q] = Qa
+            B_[i * q : (i + 1) * q] = Qb
+            Qa, Qb = Qa * E00 + Qb * E10 + Yp[i * q : (i + 1) * q], Qa * E01 + Qb * E11 + Yv[i * q : (i + 1) * q]
+        yield done, A_, B_, Zc
+        done += c
+
+
+# --------------------------------------------------------------------------------------------
+# the envelope
+
+
+def _nonzero_cols(M: np.ndarray) -> np.ndarray:
+    return np.flatnonzero(np.any(M != 0.0, axis=0))
+
+
+def envelope_by_rows(
+    system: System,
+    bank: ObserverBank,
+    schedule: Schedule,
+    box: float,
+    horizon: float | None,
+    step: float | None,
+    report: Reporter,
+    step_operators: StepOperators | None = None,
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """The attack-free envelope by the row recursion (module docstring).
+
+    Parameters
+    ----------
+    system, bank, schedule : System, ObserverBank, Schedule
+    box : float
+        Half-width b of the box of initial states.
+    horizon, step : float or None
+        Default: the spec's simulation settings.
+    report : Reporter
+        Progress (``"total:<samples>"`` once, then phases and samples done, ``"done"``).
+    step_operators : StepOperators, optional
+        Observer step operators shared with the simulations of the same step.
+
+    Returns
+    -------
+    (t, envelope)
+        Sample times and, per observer, the (K + 1, q) bound :math:`b \\sum_j |\\Psi_{kj}(t)|`.
+    """
+    for _, m in schedule.segments:
+        system.check_mode(m)
+    T = float(system.spec.simulation.horizon if horizon is None else horizon)
+    h = float(system.spec.simulation.step if step is None else step)
+    if not (h > 0 and T > 0 and math.isfinite(T) and math.isfinite(h)):
+        raise ModelError(f"horizon {T} and step {h} must be positive and finite")
+    ops = step_operators if step_operators is not None else StepOperators()
+    K = int(math.floor(T / h + 1e-9))
+    end = K * h
+    tol = 1e-9 * h
+    t_grid = np.arange(K + 1) * h
+    events = sorted(t for t in schedule.switch_times if 0.0 < t < end)
+    starts, stops = [0.0] + events, events + [end]
+    modes = [schedule.mode_at(a + 1e-12 * max(1.0, a)) for a in starts]
+    n = system.n
+    # samples of each segment: t_k in [start, stop), the last segment up to the end
+    seg_k: list[list[int]] = []
+    for j, (a, b) in enumerate(zip(starts, stops)):
+        last = j == len(starts) - 1
+        seg_k.append([k for k in range(K + 1) if t_grid[k] >= a - tol and (t_grid[k] < b - tol or (last and t_grid[k] <= end + tol))])
+    report(f"total:{(K + 1) * len(bank)}", 0)
+    out: dict[str, np.ndarray] = {}
+    for i_obs, o in enumerate(bank):
+        q = len(o.channels)
+        env = np.zeros((K + 1, q))
+        out[o.name] = env
+        if q == 0:
+            report(f"{o.name}: no residual", K + 1)
+            continue
+        steps = _Steps(system, o, h, tuple(modes), ops)
+        U0 = system.eigh(modes[0])[1]
+        Z0 = np.asarray(o.Z0, dtype=float)
+        z0c = _nonzero_cols(Z0)
+        # the unit initial states at the segment start (None: the first segment)
+        P: _Modal | _Dense | None = None
+        for j, (a, b) in enumerate(zip(starts, stops)):
+            mode, ks = modes[j], seg_k[j]
+            last = j == len(starts) - 1
+            report(f"{o.name} ({i_obs + 1}/{len(bank)}), segment {j + 1}/{len(starts)} ({mode})", 0)
+            cp, cv = steps.output_rows(mode)
+            start = (o.Ry @ cp, o.Ry @ cv, -np.array(o.Rz, dtype=float))
+            d0 = (t_grid[ks[0]] - a) if ks else 0.0
+            if ks and d0 > tol:
+                with blas_threads(1):
+                    start = _rows_after(steps.step(mode, d0), *start)
+            # steps of the uniform part the columns take to the switch
+            n_pow = 0
+            if ks and not last:
+                n_pow = len(ks) - 1 + (1 if abs(b - t_grid[ks[-1]] - h) <= tol else 0)
+            s = _doublings(steps, mode, len(ks), q, n_pow)
+            with blas_threads(None if s else 1):
+                for i0, A_, B_, Z_ in _segment_rows(steps, mode, start, len(ks), s):
+                    kk = ks[i0 : i0 + A_.shape[0] // q]
+                    with blas_threads(None):
+                        if P is None:
+                            psi = np.hstack([A_ @ U0.T, B_ @ U0.T])
+                            if len(z0c):
+                                psi[:, z0c] += Z_ @ Z0[:, z0c]
+                        elif isinstance(P, _Dense):
+                            psi = A_ @ P.Pp + B_ @ P.Pv + Z_ @ P.Pz
+                        else:  # pragma: no cover - modal columns are converted at every switch
+                            raise AssertionError("modal columns after the first segment")
+                    env[kk] = box * np.abs(psi).sum(axis=1).reshape(len(kk), q)
+                    report("", len(kk))
+            if last:
+                break
+            # the unit initial states at the next switch: binary powers of the step propagator
+            report(f"{o.name}: the 2N unit states to the switch at t = {b:g} s", 0)
+            with blas_threads(None):
+                if P is None:
+                    Pz0 = None
+                    if len(z0c):
+                        r0 = z0c[z0c < n]
+                        r1 = z0c[z0c >= n]
+                        Pz0 = np.hstack([Z0[:, r0] @ U0[r0, :], Z0[:, r1] @ U0[r1 - n, :]])
+                    P = _Modal(np.broadcast_to(np.eye(2), (n, 2, 2)).copy(), Pz0)
+                if not ks:
+                    if b - a > tol:
+                        P = _cols_after(steps.step(mode, b - a), P)
+                else:
+                    if d0 > tol:
+                        P = _cols_after(steps.step(mode, d0), P)
+                    P = steps.cols_power(mode, n_pow, P)
+                    rest = b - t_grid[ks[-1]]
+                    if rest > tol and abs(rest - h) > tol:
+                        P = _cols_after(steps.step(mode, rest), P)
+                P = _to_dense(system, P, U0, o.order, mode, modes[j + 1])
+    report("done", 0)
+    return t_grid, out
+
+
+def _to_dense(system: System, P: _Modal | _Dense, U0: np.ndarray, no: int, mode: str, nxt: str) -> _Dense:
+    """The columns in original coordinates (``U0``: the basis of the modal columns), the plant in
+    the modal basis of ``nxt`` (``no``: observer order)."""
+    n = system.n
+    if isinstance(P, _Modal):
+        B = P.B
+        Ut = U0.T
+        Pp = np.hstack([B[:, 0, 0, None] * Ut, B[:, 0, 1, None] * Ut])
+        Pv = np.hstack([B[:, 1, 0, None] * Ut, B[:, 1, 1, None] * Ut])
+        if P.Pz is None:  # no step before the switch
+            Pz = np.zeros((no, 2 * n))
+        else:
+            Pz = np.hstack([P.Pz[:, :n] @ Ut, P.Pz[:, n:] @ Ut])
+        P = _Dense(Pp, Pv, Pz)
+    if nxt != mode:
+        Tb = system.eigh(nxt)[1].T @ system.eigh(mode)[1]
+        P = _Dense(Tb @ P.Pp, Tb @ P.Pv, P.Pz)
+    return P
