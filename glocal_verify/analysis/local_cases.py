@@ -153,11 +153,18 @@ def exact_A_float(system: System, case: LocalCase) -> tuple[list[list[Fraction]]
     Built from the nonzeros of the cluster Laplacian: O(n^2) list slots but only O(nnz)
     rational products and conversions (a 333-agent cluster: 0.5 M fewer multiplications).
 
+    Kept on ``system.analysis`` per cluster and mode: the returned lists and arrays are shared
+    by every caller and must not be modified.
+
     Parameters
     ----------
     system : System
     case : LocalCase
     """
+    return system.analysis.get(("exact-A", case.model.name, case.mode), lambda: _exact_A_float(system, case))  # type: ignore[no-any-return]
+
+
+def _exact_A_float(system: System, case: LocalCase) -> tuple[list[list[Fraction]], np.ndarray, np.ndarray]:
     L = system.cluster_laplacian_exact(case.model.name, case.mode)
     n = len(L)
     zero, one = Fraction(0), Fraction(1)
@@ -178,6 +185,8 @@ def exact_A_float(system: System, case: LocalCase) -> tuple[list[list[Fraction]]
     support[np.arange(n), np.arange(n, 2 * n)] = True
     if g:
         support[np.arange(n, 2 * n), np.arange(n, 2 * n)] = True
+    Af.setflags(write=False)
+    support.setflags(write=False)
     return A, Af, support
 
 

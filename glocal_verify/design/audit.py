@@ -413,11 +413,11 @@ def _witness_zda(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any] | None 
     if not_li:
         g = GROWTH_UNBOUNDED
     else:
-        scale = None if memo is None else memo.get(("A-scale",))
+        scale = None if memo is None else memo.get("A-scale")
         if scale is None:
             scale = _Modal(system, F, tol).A_scale
             if memo is not None:
-                memo[("A-scale",)] = scale
+                memo["A-scale"] = scale
         g = _growth(lam, scale, tol)
     if g == "undecided":
         return None, at
@@ -494,17 +494,24 @@ def _pencil_status(sh: _Shared, cm: Any, obs: Any, sus: tuple[Label, ...], memo:
 def _local_part(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any]) -> tuple[list[tuple[str, Label]], dict[str, Any], bool | None]:
     """Catching observers, their statuses, and whether every cluster F meets is covered."""
     system = sh.system
-    Fs = set(F)
+    clusters = system.clusters
+    place = memo.get("cluster-place")
+    if place is None:
+        # agent -> (cluster index, position in the cluster): F is split by cluster in O(|F|)
+        place = memo["cluster-place"] = {a: (ci, j) for ci, c in enumerate(clusters) for j, a in enumerate(c.nodes)}
+        memo["cluster-observers"] = [(system.cluster_model(c.name), system.observers(c.name)) for c in clusters]
+    per_cluster: dict[int, list[Label]] = {}
+    for a in sorted((a for a in F if a in place), key=place.__getitem__):
+        per_cluster.setdefault(place[a][0], []).append(a)
     caught: list[tuple[str, Label]] = []
     detail: dict[str, Any] = {}
     covered: list[bool | None] = []
-    for c in system.clusters:
-        sus = tuple(a for a in c.nodes if a in Fs)
-        if not sus:
-            continue
-        cm = system.cluster_model(c.name)
+    for ci, members in per_cluster.items():
+        c = clusters[ci]
+        sus = tuple(members)
+        cm, observers = memo["cluster-observers"][ci]
         cluster_ok: bool | None = False
-        for obs in system.observers(c.name):
+        for obs in observers:
             key = (c.name, obs.center, sus)
             if key not in memo:
                 ps = _pencil_status(sh, cm, obs, sus, memo)

@@ -325,6 +325,21 @@ def _poly(t: GroundedTables, i: int, j: int, cache: MutableMapping[Any, Any]) ->
     return cache[key]
 
 
+class _PolyTable:
+    """Row q of the numerator polynomials N_{m_q, U_f}, converted on first use (``table[q][f]``)."""
+
+    def __init__(self, t: GroundedTables, cache: MutableMapping[Any, Any]) -> None:
+        self.t, self.cache = t, cache
+        self.rows: list[list[Any]] = [[None] * len(t.grounded) for _ in t.measured]
+
+    def __getitem__(self, q: int) -> list[Any]:
+        return self.rows[q]
+
+    def fill(self, q: int, f: int) -> Any:
+        p = self.rows[q][f] = _poly(self.t, q, f, self.cache)
+        return p
+
+
 def _charpoly(t: GroundedTables, cache: MutableMapping[Any, Any]) -> Any:
     from flint import nmod_poly
 
@@ -410,6 +425,11 @@ def full_rank_certificate(
     def bound_of(r: int, f: int) -> int:
         return bounds[r][f]
 
+    pkey0 = ("N-table", tables)
+    if pkey0 not in cache:
+        cache[pkey0] = _PolyTable(tables, cache)
+    polys = cache[pkey0]
+
     def minor(replaced: Sequence[int], rows: Sequence[int]) -> tuple[Any, int | None, Any]:
         """The maximal minor with the rows ``replaced`` of K taken from alpha L[rows, U]
         (its description is formatted only when the certificate quotes it)."""
@@ -417,7 +437,7 @@ def full_rank_certificate(
         if r == 0:
             return detK, n, "det K"
         desc = (tuple(replaced), tuple(rows))
-        P = _det([[_poly(tables, q, f, cache) for f in replaced] for q in rows])
+        P = _det([[polys[q][f] or polys.fill(q, f) for f in replaced] for q in rows])
         if r > 1:
             pkey = ("K^", tables, r - 1)
             if pkey not in cache:

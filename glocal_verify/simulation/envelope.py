@@ -216,7 +216,8 @@ class _Steps:
             A[:, 0, 1] = 1.0
             A[:, 1, 0] = -sy.alpha * mu
             A[:, 1, 1] = -sy.gamma
-            E = scipy.linalg.expm(A * delta)
+            with blas_threads(1):  # N exponentials of 2 x 2 blocks
+                E = scipy.linalg.expm(A * delta)
             dk = self.o.dynamics_key(mode)
             Phi, W = self.ops.get(self.o.F[dk], self.o.G[dk], self.J, delta)
             # D = [C_mod; C_mod A_xi; ...; C_mod A_xi^J] (the Taylor coefficients of y), row-wise
