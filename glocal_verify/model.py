@@ -413,8 +413,12 @@ class System:
     @property
     def monitored(self) -> tuple[Label, ...]:
         """M = M_x union M_v, in label order."""
-        s = set(self.monitored_positions) | set(self.monitored_velocities)
-        return tuple(lab for lab in self.labels if lab in s)
+
+        def compute() -> tuple[Label, ...]:
+            s = set(self.monitored_positions) | set(self.monitored_velocities)
+            return tuple(lab for lab in self.labels if lab in s)
+
+        return self.analysis.get(("monitored",), compute)  # type: ignore[no-any-return]
 
     @property
     def attacked(self) -> tuple[Label, ...]:

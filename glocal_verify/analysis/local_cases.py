@@ -362,9 +362,13 @@ def twin_failure(system: System, case: LocalCase) -> str | None:
     nodes = cm.nodes
     idx = {a: k for k, a in enumerate(nodes)}
     measured = sorted({idx[a] for a in obs.positions} | {idx[a] for a in obs.velocities})
-    L = system.cluster_laplacian_exact(cm.name, case.mode)
-    entries = {(i, j): L[i][j] for i in range(len(nodes)) for j in range(len(nodes)) if L[i][j] != 0}
-    modes = system.analysis.get(("twin-modes", cm.name, case.mode, tuple(measured)), lambda: twin_modes(len(nodes), entries, measured))
+
+    def compute() -> Any:
+        L = system.cluster_laplacian_exact(cm.name, case.mode)
+        entries = {(i, j): L[i][j] for i in range(len(nodes)) for j in range(len(nodes)) if L[i][j] != 0}
+        return twin_modes(len(nodes), entries, measured)
+
+    modes = system.analysis.get(("twin-modes", cm.name, case.mode, tuple(measured)), compute)
     for mu, pairs in modes:
         a, r = pairs[0]
         return (
