@@ -370,6 +370,7 @@ def full_rank_certificate(
     *,
     modulo_twins: bool = False,
     patience: int | None = None,
+    extra_rows: int | None = None,
 ) -> MinorCertificate | None:
     """Prove that T(s) of the module docstring has full column rank for every s, or return None.
 
@@ -396,6 +397,9 @@ def full_rank_certificate(
         Give up after this many consecutive minors that do not lower the degree of the gcd
         (a common factor that survives them is usually a genuine zero, e.g. zero dynamics
         in a part of the graph no monitor sees); None tries every candidate minor.
+    extra_rows : int or None
+        Try at most this many minors with an extra replaced row (the costlier (k + 1)-sized
+        ones, which break factors of a part of G[U] without inputs); None: every one.
 
     Returns
     -------
@@ -460,10 +464,14 @@ def full_rank_certificate(
         # minors above (e.g. a component of G[U] that holds no input)
         if len(Mp) > k:
             extra = [j for j in tables.anchors if j not in Ip][:MAX_EXTRA_ROWS]
-            for j in extra:  # one per component of G[U] first (each breaks that component's det K_c)
-                yield from (minor(Ip + [j], rows) for rows in itertools.islice(itertools.combinations(Mp, k + 1), 1))
-            for j in extra[:MAX_ROW_CHOICES]:
-                yield from (minor(Ip + [j], rows) for rows in itertools.islice(itertools.combinations(Mp, k + 1), 1, 3))
+
+            def with_extra() -> Any:
+                for j in extra:  # one per component of G[U] first (each breaks that component's det K_c)
+                    yield from (minor(Ip + [j], rows) for rows in itertools.islice(itertools.combinations(Mp, k + 1), 1))
+                for j in extra[:MAX_ROW_CHOICES]:
+                    yield from (minor(Ip + [j], rows) for rows in itertools.islice(itertools.combinations(Mp, k + 1), 1, 3))
+
+            yield from (with_extra() if extra_rows is None else itertools.islice(with_extra(), extra_rows))
 
     twin = _twin_factor(tables, cache) if modulo_twins and tables.twins else None
     g = None
