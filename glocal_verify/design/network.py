@@ -220,7 +220,6 @@ def _monitor_unexposed(
     """
     import numpy as np
 
-    from glocal_verify.analysis.zda import zda_analysis
     from glocal_verify.design.audit import audit_chunks, merge_chunks
 
     added: list[tuple[Label, tuple[Label, ...]]] = []
@@ -235,11 +234,12 @@ def _monitor_unexposed(
         watched = set(spec.monitor.velocities)
         score = np.zeros(system.n)
         first_of: dict[int, tuple[Label, ...]] = {}
+        xis = _witness_xis(system, [r for r in rows if r.verdict != "detected"])
         for F in left:
-            direction = zda_analysis(system, actuators=F).direction
-            if direction is None:
+            xi = xis.get(F)
+            if xi is None:
                 continue
-            dev = np.abs(direction.xi - np.median(direction.xi.real))
+            dev = np.abs(xi - np.median(xi.real))
             dev[[system.index[a] for a in watched]] = 0.0
             top = float(np.max(dev, initial=0.0))
             if top > 1e-9:
@@ -262,6 +262,34 @@ def _monitor_unexposed(
             exposed = {",".join(map(str, F2)) for m in renamed for F2 in m.exposes}
             safe = dataclasses.replace(safe, modes=safe.modes + renamed, unexposed={k: v for k, v in safe.unexposed.items() if k not in exposed})
     return spec, added, safe
+
+
+def _witness_xis(system: System, rows: Sequence[Any]) -> dict[tuple[Label, ...], Any]:
+    """The position part xi of each row's witness ZDA (the proven direction at the row's lambda0).
+
+    Rows keep xi out of their witness above 100 agents, so it is computed again: for all rows
+    of one lambda0 at once (:func:`glocal_verify.analysis.zda_batch.batch_directions`), the
+    per-set method for the sets the batch leaves open. Not a fresh zero set per set (an O(N^3)
+    pencil analysis each, minutes for thousands of targets at N = 200).
+    """
+    from glocal_verify.analysis.zda import _Modal
+    from glocal_verify.analysis.zda_batch import batch_directions
+    from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision
+
+    groups: dict[complex, list[tuple[Label, ...]]] = {}
+    for r in rows:
+        if r.lambda0 is not None and r.stealthy:
+            groups.setdefault(complex(r.lambda0), []).append(r.actuators)
+    out: dict[tuple[Label, ...], Any] = {}
+    for lam, sets in groups.items():
+        for F, d in zip(sets, batch_directions(system, DEFAULT_TOLERANCE, lam, sets)):
+            if d is not None:
+                out[F] = d.xi
+                continue
+            found = _Modal(system, F, DEFAULT_TOLERANCE).direction(lam)[0]
+            if found is not None and found[3] is Decision.ZERO and found[4] is Decision.NONZERO:
+                out[F] = found[0]
+    return out
 
 
 def design_comments(d: NetworkDesign) -> str:
