@@ -49,7 +49,7 @@ from glocal_verify.errors import ModelError
 from glocal_verify.model import System
 from glocal_verify.results import Status, jsonable
 from glocal_verify.simulation.attacks import AttackModel, attack_from_spec
-from glocal_verify.simulation.engine import simulate
+from glocal_verify.simulation.engine import simulate, simulate_runs
 from glocal_verify.simulation.observer_models import ObserverBank
 from glocal_verify.simulation.schedule import (
     Schedule,
@@ -64,6 +64,7 @@ from glocal_verify.simulation.thresholds import (
     attack_free_thresholds,
     first_crossing,
 )
+from glocal_verify.spec.types import NORMAL_MODE
 
 __all__ = [
     "Event",
@@ -386,6 +387,19 @@ def _maxima(res: SimulationResult, ao: SimulationResult | None, ts: float | None
     return out
 
 
+def _modes_entered(system: System, trig: str, mode: str | None, ranking: Sequence[ModeRanking]) -> tuple[str, ...]:
+    """The modes a run of :func:`run_algorithm1` can enter (the local observers get a mode-matched
+    design for these only): the schedule's, or the normal mode and the one safe mode the local
+    trigger would switch to (``mode``, else the best-ranked eligible one)."""
+    if trig == "none":
+        return (NORMAL_MODE,)
+    if trig == "schedule":
+        return tuple(dict.fromkeys((NORMAL_MODE,) + tuple(Schedule.from_spec(system, mode).modes)))
+    if mode is not None:
+        return tuple(dict.fromkeys((NORMAL_MODE, system.check_mode(mode))))
+    return (NORMAL_MODE,) + tuple(r.mode for r in ranking if r.eligible)[:1]
+
+
 def run_algorithm1(
     system: System,
     ranking: Sequence[ModeRanking],
@@ -443,7 +457,6 @@ def run_algorithm1(
     """
     atk: AttackModel | None
     atk = attack_from_spec(system) if isinstance(attack, str) else attack
-    bank = observers if observers is not None else ObserverBank.for_system(system)
     xbar = random_initial_state(system, rule.box) if x0 is None else np.asarray(x0, dtype=float)
     h = float(system.spec.simulation.step if step is None else step)
     notes: list[str] = []
@@ -456,6 +469,7 @@ def run_algorithm1(
         trig = "schedule" if (sw is not None and (sw.time is not None or sw.sequence)) else "local"
     if trig not in ("schedule", "local", "none"):
         raise ModelError(f"unknown trigger {trigger!r} (expected auto, schedule or local)")
+    bank = observers if observers is not None else ObserverBank.for_system(system, modes=_modes_entered(system, trig, mode, ranking))
     local_names = [o.name for o in bank if o.kind == "local"]
     ops = StepOperators()  # observer step operators shared by every run below
     chosen: str | None = None
@@ -493,11 +507,12 @@ def run_algorithm1(
                 chosen = None
     ts_ = sched.switch_times[0] if sched.switch_times else None
     # the simulations first: their Taylor order is at least the envelope's (the exosystem adds to
-    # the norm bound), so the envelope reuses their observer step operators (step_operators.py)
-    res = simulate(system, schedule=sched, attack=atk, observers=bank, x0=xbar, horizon=horizon, step=step, method=method, progress=progress, step_operators=ops)
-    ao = None
-    if atk is not None:
-        ao = simulate(system, schedule=sched, attack=atk, observers=bank, x0=np.zeros(2 * system.n), horizon=horizon, step=step, method=method, progress=progress, step_operators=ops)
+    # the norm bound), so the envelope reuses their observer step operators (step_operators.py);
+    # the attacked run and the attack-only run (x0_bar = 0) propagate together
+    x0s = [xbar] if atk is None else [xbar, np.zeros(2 * system.n)]
+    runs = simulate_runs(system, x0s, schedule=sched, attack=atk, observers=bank, horizon=horizon, step=step, method=method, progress=progress, step_operators=ops)
+    res = runs[0]
+    ao = runs[1] if atk is not None else None
     th = attack_free_thresholds(system, bank, sched, rule, horizon=horizon, step=step, method=method, progress=progress, step_operators=ops)
     split = ts_ if ts_ is not None else math.inf
     local = {nm: first_crossing(res, th, nm, 0.0, split) for nm in local_names}

@@ -115,6 +115,7 @@ __all__ = [
     "estimate_size",
     "check_size",
     "simulate",
+    "simulate_runs",
     "observer_step_operator",
     "StepOperators",
     "check_stiffness",
@@ -275,7 +276,7 @@ class _DenseEngine:
     def sample(self, want_x: bool) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray | None]:
         r = {name: R @ self.s for name, R in self.R.items()}
         scale = np.linalg.norm(self.s[self.scale_rows], axis=0)
-        x = self.s[self.ox : self.ox + 2 * self.st.n, 0].copy() if want_x else None
+        x = self.s[self.ox : self.ox + 2 * self.st.n].copy() if want_x else None
         return r, scale, x
 
 
@@ -511,7 +512,7 @@ class _ModalEngine:
             sq += np.sum(z**2, axis=0)
         x = None
         if want_x:
-            x = np.concatenate([self.p[:, 0], self.v[:, 0]])
+            x = np.concatenate([self.p, self.v])
         return r, np.sqrt(sq), x
 
 
@@ -588,6 +589,71 @@ def simulate(
     KeyboardInterrupt
         Ctrl-C during the run (nothing partial is returned).
     """
+    X = random_initial_state(system) if x0 is None else np.asarray(x0, dtype=float)
+    batch = X.ndim == 2
+    if batch and batch_reduce not in ("abs-sum", "max-abs"):
+        raise ModelError("a batch of initial states needs batch_reduce='abs-sum' or 'max-abs'")
+    return _run(system, schedule, attack, observers, X if batch else X[:, None], horizon, step, method, record_states, batch_reduce if batch else "single", progress, allow_large, step_operators)[0]
+
+
+def simulate_runs(
+    system: System,
+    x0: Sequence[np.ndarray],
+    *,
+    schedule: Schedule | None = None,
+    attack: AttackModel | None = None,
+    observers: ObserverBank | None = None,
+    horizon: float | None = None,
+    step: float | None = None,
+    method: str = "auto",
+    record_states: bool = True,
+    progress: bool = False,
+    allow_large: bool | None = None,
+    step_operators: StepOperators | None = None,
+) -> tuple[SimulationResult, ...]:
+    """Several single runs that differ only in the initial state, propagated as one batch.
+
+    Each result is the one :func:`simulate` returns for that initial state (same propagators;
+    only the rounding of the batched products may differ in the last bits): the step
+    operators are computed once and every step costs one product with a few columns instead
+    of several matrix-vector products.
+
+    Parameters
+    ----------
+    system : System
+    x0 : sequence of ndarray
+        Attack-free initial states :math:`\bar x_0`, each (2N,).
+    schedule, attack, observers, horizon, step, method, record_states, progress, allow_large, step_operators
+        As for :func:`simulate`.
+
+    Returns
+    -------
+    tuple of SimulationResult
+        One per initial state, in order.
+    """
+    X = np.column_stack([np.asarray(x, dtype=float) for x in x0]) if len(x0) else np.zeros((2 * system.n, 0))
+    if X.shape[1] == 0:
+        return ()
+    return tuple(_run(system, schedule, attack, observers, X, horizon, step, method, record_states, "separate", progress, allow_large, step_operators))
+
+
+def _run(
+    system: System,
+    schedule: Schedule | None,
+    attack: AttackModel | None,
+    observers: ObserverBank | None,
+    X0: np.ndarray,
+    horizon: float | None,
+    step: float | None,
+    method: str,
+    record_states: bool,
+    batch_mode: str | None,
+    progress: bool,
+    allow_large: bool | None,
+    step_operators: StepOperators | None,
+) -> list[SimulationResult]:
+    """The driver of :func:`simulate` and :func:`simulate_runs` (``batch_mode``: ``"single"``,
+    ``"abs-sum"``, ``"max-abs"`` or ``"separate"``)."""
     bank = observers if observers is not None else ObserverBank(())
     sched = schedule if schedule is not None else Schedule()
     for _, m in sched.segments:
@@ -600,19 +666,17 @@ def simulate(
     check_stiffness(system, T, h, allow=allow_large)
     K = int(math.floor(T / h + 1e-9))
     end = K * h
-    X = random_initial_state(system) if x0 is None else np.asarray(x0, dtype=float)
-    batch = X.ndim == 2
-    X0 = X if batch else X[:, None]
     if X0.shape[0] != 2 * system.n:
         raise ModelError(f"x0 has {X0.shape[0]} rows, expected 2N = {2 * system.n}")
-    if batch and batch_reduce not in ("abs-sum", "max-abs"):
-        raise ModelError("a batch of initial states needs batch_reduce='abs-sum' or 'max-abs'")
+    separate = batch_mode in ("single", "separate")
     B = X0.shape[1]
+    runs = B if separate else 1
     st = _Setup(system, attack, bank)
     dim = st.m + (2 * system.n if st.copy else 0) + 2 * system.n + sum(o.order for o in bank)
     n_channels = sum(len(o.channels) for o in bank)
-    want_states = record_states and not batch
-    check_size(estimate_size(system.n, T, h, channels=n_channels, record_states=want_states, dim=dim, batch=B), allow=allow_large)
+    want_states = record_states and separate
+    est = estimate_size(system.n, T, h, channels=n_channels, record_states=want_states, dim=dim, batch=B)
+    check_size(SizeEstimate(est.samples, est.bytes * runs), allow=allow_large)
     meth = method
     if meth == "auto":
         meth = "dense" if dim <= DENSE_LIMIT else "modal"
@@ -623,23 +687,24 @@ def simulate(
         engine = _DenseEngine(st, B)
     else:
         engine = _ModalEngine(st, B, h, sched.modes, step_operators if step_operators is not None else StepOperators())
-    want_x = record_states and not batch
+    want_x = want_states
     t_grid = np.arange(K + 1) * h
-    res_arr = {o.name: np.full((K + 1, len(o.channels)), np.nan) for o in bank}
-    scale_arr = np.full(K + 1, np.nan)
-    x_arr = np.full((K + 1, 2 * system.n), np.nan) if want_x else None
+    # per run: residuals (K + 1, q, runs), state norms, states (K + 1, 2N, runs)
+    res_arr = {o.name: np.full((K + 1, len(o.channels), runs), np.nan) for o in bank}
+    scale_arr = np.full((K + 1, runs), np.nan)
+    x_arr = np.full((K + 1, 2 * system.n, runs), np.nan) if want_x else None
     x_basis: list[str | None] = [None] * (K + 1)
 
     def record(k: int) -> None:
         r, sc, x = engine.sample(want_x)
         for name, val in r.items():
-            if not batch:
-                res_arr[name][k] = val[:, 0]
-            elif batch_reduce == "abs-sum":
-                res_arr[name][k] = np.sum(np.abs(val), axis=1)
+            if separate:
+                res_arr[name][k] = val
+            elif batch_mode == "abs-sum":
+                res_arr[name][k, :, 0] = np.sum(np.abs(val), axis=1)
             else:
-                res_arr[name][k] = np.max(np.abs(val), axis=1)
-        scale_arr[k] = float(np.max(sc))
+                res_arr[name][k, :, 0] = np.max(np.abs(val), axis=1)
+        scale_arr[k] = sc if separate else float(np.max(sc))
         if x_arr is not None and x is not None:
             x_arr[k] = x
             if isinstance(engine, _ModalEngine):
@@ -695,24 +760,32 @@ def simulate(
         # Ctrl-C propagates (no partial result); only the progress bar needs closing
         if bar is not None:
             bar.close()
-    if x_arr is not None and isinstance(engine, _ModalEngine):
-        x_arr = _from_modal(system, x_arr, x_basis)
-    notes = list(bank.notes)
-    return SimulationResult(
-        t_grid,
-        x_arr,
-        res_arr,
-        {o.name: o.channels for o in bank},
-        scale_arr,
-        system.labels,
-        sched,
-        attack,
-        meth,
-        engine.J if isinstance(engine, _ModalEngine) else None,
-        engine.n_sub if isinstance(engine, _ModalEngine) else 1,
-        False,
-        tuple(notes),
-    )
+    notes = tuple(bank.notes)
+    out: list[SimulationResult] = []
+    for b in range(runs):
+        xb = None
+        if x_arr is not None:
+            xb = np.ascontiguousarray(x_arr[:, :, b])
+            if isinstance(engine, _ModalEngine):
+                xb = _from_modal(system, xb, x_basis)
+        out.append(
+            SimulationResult(
+                t_grid,
+                xb,
+                {name: np.ascontiguousarray(v[:, :, b]) for name, v in res_arr.items()},
+                {o.name: o.channels for o in bank},
+                np.ascontiguousarray(scale_arr[:, b]),
+                system.labels,
+                sched,
+                attack,
+                meth,
+                engine.J if isinstance(engine, _ModalEngine) else None,
+                engine.n_sub if isinstance(engine, _ModalEngine) else 1,
+                False,
+                notes,
+            )
+        )
+    return out
 
 
 def _from_modal(system: System, xm: np.ndarray, basis: list[str | None]) -> np.ndarray:

@@ -73,61 +73,56 @@ class _Step:
     """One exact transition of plant + observer in (modal plant, observer) coordinates.
 
     :math:`\\xi_l \\leftarrow E_l \\xi_l` per modal block l (:math:`\\xi_l = (p_l, v_l)`),
-    :math:`z \\leftarrow \\Phi z + X_p p + X_v v` with :math:`X = \\Gamma [D_p, D_v]`, or
-    :math:`X = [D_p, D_v]` when ``Gam`` is None (a composed step stored densely).
+    :math:`z \\leftarrow \\Phi z + X [p; v]` with :math:`X = \\Gamma D`, or :math:`X = D` when
+    ``Gam`` is None (a composed step stored densely); the first N columns of D act on p.
     """
 
     E: np.ndarray  # (N, 2, 2)
     Gam: np.ndarray | None  # (n_o, r) or None
-    Dp: np.ndarray  # (r, N), or (n_o, N) when Gam is None
-    Dv: np.ndarray
+    D: np.ndarray  # (r, 2N), or (n_o, 2N) when Gam is None
     Phi: np.ndarray  # (n_o, n_o)
 
-    def dense(self) -> tuple[np.ndarray, np.ndarray]:
-        """:math:`(X_p, X_v)`."""
-        if self.Gam is None:
-            return self.Dp, self.Dv
-        return self.Gam @ self.Dp, self.Gam @ self.Dv
+    def dense(self) -> np.ndarray:
+        """:math:`X = [X_p, X_v]` (n_o, 2N)."""
+        return self.D if self.Gam is None else self.Gam @ self.D
+
+
+def _times_blocks(D: np.ndarray, E: np.ndarray) -> np.ndarray:
+    """:math:`D\\,\\mathrm{blockdiag}(E_l)` for D acting on [p; v] (column scalings, O(rN))."""
+    n = E.shape[0]
+    Dp, Dv = D[:, :n], D[:, n:]
+    return np.hstack([Dp * E[:, 0, 0] + Dv * E[:, 1, 0], Dp * E[:, 0, 1] + Dv * E[:, 1, 1]])
 
 
 def _after(b: _Step, a: _Step, phi: np.ndarray | None = None) -> _Step:
     """The step ``b`` after ``a`` (``phi``: :math:`\\Phi_b \\Phi_a` when already known).
 
-    Kept factored, :math:`X = [\\Gamma_b, \\Phi_b \\Gamma_a] [D_b E_a; D_a]`, while the rank is
-    below the size at which the factors stop paying; dense otherwise.
+    :math:`X = X_b E_a + \\Phi_b X_a`; kept factored,
+    :math:`X = [\\Gamma_b, \\Phi_b \\Gamma_a] [D_b E_a; D_a]`, while the rank is below the size at
+    which the factors stop paying, dense otherwise.
     """
-    Ea = a.E
-    bDp = b.Dp * Ea[:, 0, 0] + b.Dv * Ea[:, 1, 0]
-    bDv = b.Dp * Ea[:, 0, 1] + b.Dv * Ea[:, 1, 1]
-    E = np.matmul(b.E, Ea)
-    no, n = b.Phi.shape[0], b.E.shape[0]
+    bD = _times_blocks(b.D, a.E)
+    E = np.matmul(b.E, a.E)
+    no, n2 = b.Phi.shape[0], b.D.shape[1]
+    if phi is None:
+        phi = b.Phi @ a.Phi
     if b.Gam is not None and a.Gam is not None:
         r = b.Gam.shape[1] + a.Gam.shape[1]
-        if r * (no + 2 * n) < no * 2 * n:
-            return _Step(E, np.hstack([b.Gam, b.Phi @ a.Gam]), np.vstack([bDp, a.Dp]), np.vstack([bDv, a.Dv]), b.Phi @ a.Phi if phi is None else phi)
-    aXp, aXv = a.dense()
-    if phi is None:
-        prod = b.Phi @ np.hstack([a.Phi, aXp, aXv])
-        phi, pXp, pXv = prod[:, :no], prod[:, no : no + n], prod[:, no + n :]
-    else:
-        prod = b.Phi @ np.hstack([aXp, aXv])
-        pXp, pXv = prod[:, :n], prod[:, n:]
-    if b.Gam is not None:
-        pXp += b.Gam @ bDp
-        pXv += b.Gam @ bDv
-    else:
-        pXp += bDp
-        pXv += bDv
-    return _Step(E, None, pXp, pXv, phi)
+        if r * (no + n2) < no * n2:
+            return _Step(E, np.hstack([b.Gam, b.Phi @ a.Gam]), np.vstack([bD, a.D]), phi)
+    X = b.Phi @ a.dense()
+    X += b.Gam @ bD if b.Gam is not None else bD
+    return _Step(E, None, X, phi)
 
 
 def _rows_after(op: _Step, Qa: np.ndarray, Qb: np.ndarray, Qz: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Rows times the step, :math:`Q \\leftarrow Q L` (the adjoint recursion)."""
     E = op.E
-    C = Qz @ op.Gam if op.Gam is not None else Qz
+    n = E.shape[0]
+    Y = (Qz @ op.Gam if op.Gam is not None else Qz) @ op.D
     return (
-        Qa * E[:, 0, 0] + Qb * E[:, 1, 0] + C @ op.Dp,
-        Qa * E[:, 0, 1] + Qb * E[:, 1, 1] + C @ op.Dv,
+        Qa * E[:, 0, 0] + Qb * E[:, 1, 0] + Y[:, :n],
+        Qa * E[:, 0, 1] + Qb * E[:, 1, 1] + Y[:, n:],
         Qz @ op.Phi,
     )
 
@@ -158,22 +153,24 @@ class _Dense:
 def _cols_after(op: _Step, P: _Modal | _Dense) -> _Modal | _Dense:
     """The step times the columns, :math:`P \\leftarrow L P`."""
     E = op.E
+    n = E.shape[0]
     if isinstance(P, _Modal):
-        B = P.B
-        # X p + X v of each column: column scalings of D (modal columns)
-        Sp = np.hstack([op.Dp * B[:, 0, 0] + op.Dv * B[:, 1, 0], op.Dp * B[:, 0, 1] + op.Dv * B[:, 1, 1]])
-        Sv = op.Gam @ Sp if op.Gam is not None else Sp
-        Pz = Sv if P.Pz is None else op.Phi @ P.Pz + Sv
-        return _Modal(np.matmul(E, B), Pz)
+        # X [p; v] of the modal columns: column scalings of D
+        S = _times_blocks(op.D, P.B)
+        if op.Gam is not None:
+            S = op.Gam @ S
+        if P.Pz is not None:
+            S += op.Phi @ P.Pz
+        return _Modal(np.matmul(E, P.B), S)
     Pp, Pv = P.Pp, P.Pv
+    inp = op.D[:, :n] @ Pp + op.D[:, n:] @ Pv
     if op.Gam is not None:
-        inp = op.Gam @ (op.Dp @ Pp + op.Dv @ Pv)
-    else:
-        inp = op.Dp @ Pp + op.Dv @ Pv
+        inp = op.Gam @ inp
+    inp += op.Phi @ P.Pz
     return _Dense(
         E[:, 0, 0, None] * Pp + E[:, 0, 1, None] * Pv,
         E[:, 1, 0, None] * Pp + E[:, 1, 1, None] * Pv,
-        op.Phi @ P.Pz + inp,
+        inp,
     )
 
 
@@ -222,12 +219,11 @@ class _Steps:
             Phi, W = self.ops.get(self.o.F[dk], self.o.G[dk], self.J, delta)
             # D = [C_mod; C_mod A_xi; ...; C_mod A_xi^J] (the Taylor coefficients of y), row-wise
             cp, cv = self.output_rows(mode)
-            dp, dv = [], []
+            rows = []
             for _ in range(self.J + 1):
-                dp.append(cp)
-                dv.append(cv)
+                rows.append(np.hstack([cp, cv]))
                 cp, cv = -sy.alpha * mu * cv, cp - sy.gamma * cv
-            op = _Step(E, np.ascontiguousarray(W), np.vstack(dp), np.vstack(dv), Phi)
+            op = _Step(E, np.ascontiguousarray(W), np.vstack(rows), Phi)
             self._sub[key] = op
         return op
 
@@ -277,13 +273,16 @@ class _Steps:
         return pw[i]
 
     def cols_power(self, mode: str, m: int, P: _Modal | _Dense) -> _Modal | _Dense:
-        """:math:`L^m P` by binary powers."""
+        """:math:`L^m P` by binary powers up to :math:`L^{64}`, applied as often as needed
+        (a higher power would cost two products, an application one)."""
+        top = int(math.log2(_CHUNK))
         i = 0
-        while m:
-            if m & 1:
+        while m >> i and i < top:
+            if (m >> i) & 1:
                 P = _cols_after(self.power(mode, i), P)
-            m >>= 1
             i += 1
+        for _ in range(m >> top):
+            P = _cols_after(self.power(mode, top), P)
         return P
 
 
@@ -318,7 +317,7 @@ def _segment_rows(
     sample; blocks of 2^s samples for the observer part (module docstring)."""
     op = steps.step(mode, steps.h)
     Qa, Qb, Z0 = start
-    q = Z0.shape[0]
+    q, n = Z0.shape[0], Qa.shape[1]
     B = 1 << s
     blk: np.ndarray | None = None  # observer rows of the last block of B samples
     done = 0
@@ -342,8 +341,8 @@ def _segment_rows(
             got += take
         Zc = np.vstack(parts) if len(parts) > 1 else parts[0]
         # plant rows: (Qa, Qb)_{k+1} = (Qa, Qb)_k E + (Z_k Gamma) D
-        Cc = Zc @ op.Gam if op.Gam is not None else Zc
-        Yp, Yv = Cc @ op.Dp, Cc @ op.Dv
+        Y = (Zc @ op.Gam if op.Gam is not None else Zc) @ op.D
+        Yp, Yv = Y[:, :n], Y[:, n:]
         A_ = np.empty((c * q, Qa.shape[1]))
         B_ = np.empty_like(A_)
         for i in range(c):
@@ -413,6 +412,8 @@ def envelope_by_rows(
         seg_k.append([k for k in range(K + 1) if t_grid[k] >= a - tol and (t_grid[k] < b - tol or (last and t_grid[k] <= end + tol))])
     report(f"total:{(K + 1) * len(bank)}", 0)
     out: dict[str, np.ndarray] = {}
+    U0 = system.eigh(modes[0])[1]
+    plant = _PlantColumns(system, U0)
     for i_obs, o in enumerate(bank):
         q = len(o.channels)
         env = np.zeros((K + 1, q))
@@ -421,7 +422,6 @@ def envelope_by_rows(
             report(f"{o.name}: no residual", K + 1)
             continue
         steps = _Steps(system, o, h, tuple(modes), ops)
-        U0 = system.eigh(modes[0])[1]
         Z0 = np.asarray(o.Z0, dtype=float)
         z0c = _nonzero_cols(Z0)
         # the unit initial states at the segment start (None: the first segment)
@@ -446,7 +446,9 @@ def envelope_by_rows(
                     kk = ks[i0 : i0 + A_.shape[0] // q]
                     with blas_threads(None):
                         if P is None:
-                            psi = np.hstack([A_ @ U0.T, B_ @ U0.T])
+                            psi = np.empty((A_.shape[0], 2 * n))
+                            np.matmul(A_, U0.T, out=psi[:, :n])
+                            np.matmul(B_, U0.T, out=psi[:, n:])
                             if len(z0c):
                                 psi[:, z0c] += Z_ @ Z0[:, z0c]
                         elif isinstance(P, _Dense):
@@ -477,26 +479,50 @@ def envelope_by_rows(
                     rest = b - t_grid[ks[-1]]
                     if rest > tol and abs(rest - h) > tol:
                         P = _cols_after(steps.step(mode, rest), P)
-                P = _to_dense(system, P, U0, o.order, mode, modes[j + 1])
+                P = _to_dense(plant, j, P, o.order, mode, modes[j + 1])
     report("done", 0)
     return t_grid, out
 
 
-def _to_dense(system: System, P: _Modal | _Dense, U0: np.ndarray, no: int, mode: str, nxt: str) -> _Dense:
-    """The columns in original coordinates (``U0``: the basis of the modal columns), the plant in
-    the modal basis of ``nxt`` (``no``: observer order)."""
-    n = system.n
+class _PlantColumns:
+    """The plant part of the unit states at each switch, in the next mode's basis: the same for
+    every observer (a pure function of the plant's step propagators), so computed once."""
+
+    def __init__(self, system: System, U0: np.ndarray) -> None:
+        self.system, self.U0 = system, U0
+        self._at: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+    def at_switch(self, j: int, P: _Modal | _Dense, mode: str, nxt: str) -> tuple[np.ndarray, np.ndarray]:
+        """(Pp, Pv) of ``P`` at the end of segment j, original columns, plant in the basis of ``nxt``."""
+        src = P.B if isinstance(P, _Modal) else np.hstack([P.Pp, P.Pv])
+        got = self._at.get(j)
+        if got is not None and np.array_equal(got[0], src):
+            return got[1], got[2]
+        if isinstance(P, _Modal):
+            B, Ut = P.B, self.U0.T
+            Pp = np.hstack([B[:, 0, 0, None] * Ut, B[:, 0, 1, None] * Ut])
+            Pv = np.hstack([B[:, 1, 0, None] * Ut, B[:, 1, 1, None] * Ut])
+        else:
+            Pp, Pv = P.Pp, P.Pv
+        if nxt != mode:
+            Tb = self.system.eigh(nxt)[1].T @ self.system.eigh(mode)[1]
+            Pp, Pv = Tb @ Pp, Tb @ Pv
+        self._at[j] = (src, Pp, Pv)
+        return Pp, Pv
+
+
+def _to_dense(plant: _PlantColumns, j: int, P: _Modal | _Dense, no: int, mode: str, nxt: str) -> _Dense:
+    """The columns at the end of segment j in original coordinates, the plant in the modal basis
+    of ``nxt`` (``no``: observer order)."""
+    n = plant.system.n
+    Pp, Pv = plant.at_switch(j, P, mode, nxt)
     if isinstance(P, _Modal):
-        B = P.B
-        Ut = U0.T
-        Pp = np.hstack([B[:, 0, 0, None] * Ut, B[:, 0, 1, None] * Ut])
-        Pv = np.hstack([B[:, 1, 0, None] * Ut, B[:, 1, 1, None] * Ut])
+        Ut = plant.U0.T
         if P.Pz is None:  # no step before the switch
             Pz = np.zeros((no, 2 * n))
         else:
-            Pz = np.hstack([P.Pz[:, :n] @ Ut, P.Pz[:, n:] @ Ut])
-        P = _Dense(Pp, Pv, Pz)
-    if nxt != mode:
-        Tb = system.eigh(nxt)[1].T @ system.eigh(mode)[1]
-        P = _Dense(Tb @ P.Pp, Tb @ P.Pv, P.Pz)
-    return P
+            Pz = np.empty((no, 2 * n))
+            np.matmul(P.Pz[:, :n], Ut, out=Pz[:, :n])
+            np.matmul(P.Pz[:, n:], Ut, out=Pz[:, n:])
+        return _Dense(Pp, Pv, Pz)
+    return _Dense(Pp, Pv, P.Pz)
