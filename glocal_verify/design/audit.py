@@ -64,7 +64,6 @@ from glocal_verify.analysis.zda import (
     _normalize,
     zda_analysis,
 )
-from glocal_verify.analysis.zda_batch import batch_directions
 from glocal_verify.analysis.zda_exact import zda_analysis_exact
 from glocal_verify.conditions.local import uio_verdict
 from glocal_verify.conditions.local_pencil import pencil_verdict, pencil_verdict_exact
@@ -74,7 +73,7 @@ from glocal_verify.design.audit_records import (
     AuditResult,
     AuditRow,
 )
-from glocal_verify.design.audit_screens import disjoint_paths, global_tables
+from glocal_verify.design.audit_screens import _witness_lambda, _without_sensors, batch_witnesses, disjoint_paths, global_tables
 from glocal_verify.errors import ModelError, NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.numerics.minors import (
@@ -361,35 +360,6 @@ def _zda_part(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any] | None = N
     assert d is not None
     z = ZdaZero(d.value, d.value**2 + system.gamma * d.value, d.xi, d.u0, 0.0, d.growth)
     return _Zda(True, growth, ea.left_invertible, z, ea.direction_source, ea, "exact")
-
-
-def _witness_lambda(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any] | None = None) -> tuple[complex, bool]:
-    """The exponent of :func:`_witness_zda` for F, and whether the separator proves F not left-invertible.
-
-    With ``memo``: the separator's answer is kept for the next call on F (which removes it).
-    """
-    if memo is not None and ("not-left-invertible", F) in memo:
-        not_li = memo.pop(("not-left-invertible", F))
-    else:
-        not_li = sh.screen and disjoint_paths(sh.system, F) < len(F)
-        if memo is not None:
-            memo[("not-left-invertible", F)] = not_li
-    return (complex(sh.lambda0) if sh.lambda0 is not None else (1.0 + 0j if not_li else 0j)), not_li
-
-
-def batch_witnesses(sh: _Shared, sets: Sequence[tuple[Label, ...]], memo: dict[Any, Any]) -> None:
-    """The witness directions of :func:`_witness_zda` for many sets at once, into ``memo``.
-
-    Sets are grouped by their exponent and handed to
-    :func:`glocal_verify.analysis.zda_batch.batch_directions` (the per-set method's decisions,
-    vectorised over the sets); a set it leaves open is decided by :func:`_witness_zda` alone.
-    """
-    groups: dict[complex, list[tuple[Label, ...]]] = {}
-    for F in sets:
-        groups.setdefault(_witness_lambda(sh, F, memo)[0], []).append(F)
-    for lam, Fs in groups.items():
-        for F, d in zip(Fs, batch_directions(sh.system, sh.tol, lam, Fs)):
-            memo[("witness-direction", F)] = d
 
 
 def _witness_zda(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any] | None = None) -> tuple[_Zda | None, Any]:
@@ -869,15 +839,3 @@ def audit(
                 progress(done, len(sets))
     modes = chunks[0].shared.modes if chunks else {}
     return merge_chunks(system, int(max_attackers), _candidates(system, candidates), out, modes)
-
-
-def _without_sensors(system: System, sensors: Sequence[Label]) -> System:
-    bad = [a for a in sensors if a not in system.index]
-    if bad:
-        raise ModelError(f"--sensors: {', '.join(map(str, bad))} not in the graph")
-    s = set(sensors)
-    mon = system.spec.monitor
-    new = dataclasses.replace(
-        mon, positions=tuple(a for a in mon.positions if a not in s), velocities=tuple(a for a in mon.velocities if a not in s)
-    )
-    return System(dataclasses.replace(system.spec, monitor=new))

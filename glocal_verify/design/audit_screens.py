@@ -21,6 +21,7 @@ Structural screen (proof)
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from fractions import Fraction
 from typing import Any
@@ -29,6 +30,8 @@ import numpy as np
 
 from glocal_verify.analysis.twins import laplacian_entries
 from glocal_verify.analysis.unobservable import rational_unobservable_candidates
+from glocal_verify.analysis.zda_batch import batch_directions
+from glocal_verify.errors import ModelError
 from glocal_verify.model import System
 from glocal_verify.numerics.minors import (
     GroundedTables,
@@ -187,3 +190,44 @@ def _unobservable_candidates(system: System, M: Sequence[int], grouped: bool = F
     if grouped:
         return out
     return [r for grp in out for r in grp]
+
+
+def _witness_lambda(sh: Any, F: tuple[Label, ...], memo: dict[Any, Any] | None = None) -> tuple[complex, bool]:
+    """The exponent of :func:`_witness_zda` for F, and whether the separator proves F not left-invertible.
+
+    With ``memo``: the separator's answer is kept for the next call on F (which removes it).
+    """
+    if memo is not None and ("not-left-invertible", F) in memo:
+        not_li = memo.pop(("not-left-invertible", F))
+    else:
+        not_li = sh.screen and disjoint_paths(sh.system, F) < len(F)
+        if memo is not None:
+            memo[("not-left-invertible", F)] = not_li
+    return (complex(sh.lambda0) if sh.lambda0 is not None else (1.0 + 0j if not_li else 0j)), not_li
+
+
+def batch_witnesses(sh: Any, sets: Sequence[tuple[Label, ...]], memo: dict[Any, Any]) -> None:
+    """The witness directions of :func:`_witness_zda` for many sets at once, into ``memo``.
+
+    Sets are grouped by their exponent and handed to
+    :func:`glocal_verify.analysis.zda_batch.batch_directions` (the per-set method's decisions,
+    vectorised over the sets); a set it leaves open is decided by :func:`_witness_zda` alone.
+    """
+    groups: dict[complex, list[tuple[Label, ...]]] = {}
+    for F in sets:
+        groups.setdefault(_witness_lambda(sh, F, memo)[0], []).append(F)
+    for lam, Fs in groups.items():
+        for F, d in zip(Fs, batch_directions(sh.system, sh.tol, lam, Fs)):
+            memo[("witness-direction", F)] = d
+
+
+def _without_sensors(system: System, sensors: Sequence[Label]) -> System:
+    bad = [a for a in sensors if a not in system.index]
+    if bad:
+        raise ModelError(f"--sensors: {', '.join(map(str, bad))} not in the graph")
+    s = set(sensors)
+    mon = system.spec.monitor
+    new = dataclasses.replace(
+        mon, positions=tuple(a for a in mon.positions if a not in s), velocities=tuple(a for a in mon.velocities if a not in s)
+    )
+    return System(dataclasses.replace(system.spec, monitor=new))
