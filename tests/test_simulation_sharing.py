@@ -111,6 +111,27 @@ def test_envelope_rows_match_columns_on_a_random_network_whose_observers_keep_th
     assert ops.computed == used
 
 
+@pytest.mark.parametrize("switch", [0.5, 1.0, 1.93])
+def test_envelope_rows_continued_across_a_switch_on_the_grid_match_columns(monkeypatch: pytest.MonkeyPatch, switch: float) -> None:
+    s = System(load_example("paper19"))
+    bank = ObserverBank.for_system(s)
+    used: list[str] = []
+    across = envelope_module._across_the_switch
+
+    def counted(steps: Any, *args: Any) -> None:
+        used.append(steps.o.name)
+        across(steps, *args)
+
+    monkeypatch.setattr(envelope_module, "_across_the_switch", counted)
+    sched = Schedule.single("case-2", switch)
+    th = attack_free_thresholds(s, bank, sched, horizon=2.0)
+    _, ref = envelope_by_columns(s, bank, sched, horizon=2.0)
+    _agree(dict(th.envelope), ref)
+    # the observers whose dynamics do not change: the central one and a UIO with z(0) != 0
+    assert set(used) == {"central", "P2@10", "P3@13"}
+    assert np.any(bank["P2@10"].Z0)
+
+
 # --------------------------------------------------------------------------------------------
 # shared step operators
 

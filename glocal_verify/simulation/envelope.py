@@ -30,6 +30,15 @@ basis change to the original coordinates is undone once, at the switch. The powe
 :math:`\\Phi^{2^i}` are shared with the rows and across segments and modes with the same
 observer dynamics.
 
+**Across one switch without columns.** When the schedule has one switch, on the output grid,
+and the observer's step is the same in both modes (the centralized observer keeps the
+normal-mode model; a UIO without a mode-matched design), the observer rows after the switch
+are those before it, :math:`Z'_j = Z_j`, and the observer part of :math:`\\Psi` after the switch
+is :math:`Z_j P_{z,\\tau} = Z_{j+m} P_{z,0} + \\sum_{i<m} (Z_{j+m-1-i} X) E^i` (m steps to the
+switch, modal columns): the Krylov sequence continued to the horizon and sums over windows of
+m samples (prefix and suffix sums of blocks, no subtraction) replace the powers of the step
+applied to the 2N columns (:func:`_across_the_switch`).
+
 Rounding: every quantity is a product of the simulator's step propagators, evaluated in a
 different order (powers by squaring, :math:`(Z \\Gamma) D` for :math:`Z (\\Gamma D)`); the
 errors are of order the unit roundoff times the products of the norms involved, as for the
@@ -309,6 +318,48 @@ def _doublings(steps: _Steps, mode: str, m: int, q: int, cols_after: int) -> int
     return want if 2 * m * q >= (want - free) * no else free
 
 
+def _z_rows(steps: _Steps, mode: str, Z0: np.ndarray, m: int, s: int) -> Iterator[np.ndarray]:
+    """The observer rows :math:`Z_k = Z_0 \\Phi^k`, k < m, in chunks of :data:`_CHUNK` samples
+    (sample-major), computed in blocks of 2^s samples (the first by doubling, each next one
+    from the last by :math:`\\Phi^{2^s}`; s = 0: step by step)."""
+    q = Z0.shape[0]
+    B = 1 << s
+    blk: np.ndarray | None = None  # the last block of B samples
+    done = 0
+    while done < m:
+        c = min(_CHUNK, m - done)
+        parts: list[np.ndarray] = []
+        got = 0
+        while got < c:
+            if blk is None:
+                blk = Z0
+                for i in range(s):
+                    blk = np.vstack([blk, blk @ steps.phi_power(mode, i)])
+            else:
+                blk = blk @ steps.phi_power(mode, s)
+            take = min(B, c - got)
+            parts.append(blk[: take * q])
+            got += take
+        yield np.vstack(parts) if len(parts) > 1 else parts[0]
+        done += c
+
+
+def _plant_rows(op: _Step, Qa: np.ndarray, Qb: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Plant rows of the samples of a chunk, :math:`(Q_a, Q_b)_{k+1} = (Q_a, Q_b)_k E + Y_k` with
+    :math:`Y_k = Z_k X` (``Y``: the chunk's, sample-major): (rows of the chunk, rows after it)."""
+    q, n = Qa.shape
+    c = Y.shape[0] // q
+    E00, E01, E10, E11 = op.E[:, 0, 0], op.E[:, 0, 1], op.E[:, 1, 0], op.E[:, 1, 1]
+    A_ = np.empty((c * q, n))
+    B_ = np.empty_like(A_)
+    for i in range(c):
+        A_[i * q : (i + 1) * q] = Qa
+        B_[i * q : (i + 1) * q] = Qb
+        y = Y[i * q : (i + 1) * q]
+        Qa, Qb = Qa * E00 + Qb * E10 + y[:, :n], Qa * E01 + Qb * E11 + y[:, n:]
+    return A_, B_, Qa, Qb
+
+
 def _segment_rows(
     steps: _Steps, mode: str, start: tuple[np.ndarray, np.ndarray, np.ndarray], m: int, s: int
 ) -> Iterator[tuple[int, np.ndarray, np.ndarray, np.ndarray]]:
@@ -317,40 +368,11 @@ def _segment_rows(
     sample; blocks of 2^s samples for the observer part (module docstring)."""
     op = steps.step(mode, steps.h)
     Qa, Qb, Z0 = start
-    q, n = Z0.shape[0], Qa.shape[1]
-    B = 1 << s
-    blk: np.ndarray | None = None  # observer rows of the last block of B samples
     done = 0
-    E00, E01, E10, E11 = op.E[:, 0, 0], op.E[:, 0, 1], op.E[:, 1, 0], op.E[:, 1, 1]
-    while done < m:
-        c = min(_CHUNK, m - done)
-        # observer rows of the chunk
-        parts: list[np.ndarray] = []
-        got = 0
-        while got < c:
-            if blk is None:
-                blk = Z0
-                for i in range(s):
-                    blk = np.vstack([blk, blk @ steps.phi_power(mode, i)])
-            elif B == 1:
-                blk = blk @ op.Phi
-            else:
-                blk = blk @ steps.phi_power(mode, s)
-            take = min(B, c - got)
-            parts.append(blk[: take * q])
-            got += take
-        Zc = np.vstack(parts) if len(parts) > 1 else parts[0]
-        # plant rows: (Qa, Qb)_{k+1} = (Qa, Qb)_k E + (Z_k Gamma) D
-        Y = (Zc @ op.Gam if op.Gam is not None else Zc) @ op.D
-        Yp, Yv = Y[:, :n], Y[:, n:]
-        A_ = np.empty((c * q, Qa.shape[1]))
-        B_ = np.empty_like(A_)
-        for i in range(c):
-            A_[i * q : (i + 1) * q] = Qa
-            B_[i * q : (i + 1) * q] = Qb
-            Qa, Qb = Qa * E00 + Qb * E10 + Yp[i * q : (i + 1) * q], Qa * E01 + Qb * E11 + Yv[i * q : (i + 1) * q]
+    for Zc in _z_rows(steps, mode, Z0, m, s):
+        A_, B_, Qa, Qb = _plant_rows(op, Qa, Qb, (Zc @ op.Gam if op.Gam is not None else Zc) @ op.D)
         yield done, A_, B_, Zc
-        done += c
+        done += A_.shape[0] // Z0.shape[0]
 
 
 # --------------------------------------------------------------------------------------------
@@ -424,6 +446,15 @@ def envelope_by_rows(
         steps = _Steps(system, o, h, tuple(modes), ops)
         Z0 = np.asarray(o.Z0, dtype=float)
         z0c = _nonzero_cols(Z0)
+        m1 = len(seg_k[0])
+        if len(starts) == 2 and m1 and seg_k[1] == list(range(m1, K + 1)) and abs(t_grid[m1] - stops[0]) <= tol:
+            with blas_threads(1):
+                op0, op1 = steps.step(modes[0], h), steps.step(modes[1], h)
+            if _same_observer_step(op0, op1):
+                label = f"{o.name} ({i_obs + 1}/{len(bank)})"
+                report(f"{label}: rows continued across the switch at t = {stops[0]:g} s ({modes[0]} -> {modes[1]})", 0)
+                _across_the_switch(steps, (modes[0], modes[1]), m1, K, box, env, plant, report)
+                continue
         # the unit initial states at the segment start (None: the first segment)
         P: _Modal | _Dense | None = None
         for j, (a, b) in enumerate(zip(starts, stops)):
@@ -484,6 +515,170 @@ def envelope_by_rows(
     return t_grid, out
 
 
+def _same_observer_step(a: _Step, b: _Step) -> bool:
+    """Whether two steps move the observer alike (same :math:`\\Phi` and :math:`\\Gamma`, factored)."""
+    if a.Gam is None or b.Gam is None or a.Gam.shape != b.Gam.shape:
+        return False
+    return (a.Phi is b.Phi or np.array_equal(a.Phi, b.Phi)) and (a.Gam is b.Gam or np.array_equal(a.Gam, b.Gam))
+
+
+def _blocks_each(Y: np.ndarray, Ec: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """:math:`Y_i\\,\\mathrm{blockdiag}(E_i)` into ``out`` for a stack Y (T, q, 2N); ``Ec`` (2, 2, T, N)
+    holds the entries of the E_i."""
+    n = Ec.shape[3]
+    Yp, Yv = Y[..., :n], Y[..., n:]
+    tmp = np.empty_like(Yp)
+    np.multiply(Yp, Ec[0, 0][:, None, :], out=out[..., :n])
+    np.multiply(Yv, Ec[1, 0][:, None, :], out=tmp)
+    out[..., :n] += tmp
+    np.multiply(Yp, Ec[0, 1][:, None, :], out=out[..., n:])
+    np.multiply(Yv, Ec[1, 1][:, None, :], out=tmp)
+    out[..., n:] += tmp
+    return out
+
+
+def _window_sums(C: np.ndarray, op: _Step, q: int, m: int, K: int) -> np.ndarray:
+    """:math:`W_j = \\sum_{i < m} Y_{j+m-1-i} E^i`, j = 0..K-m, with :math:`Y_k = C_k D` (q rows each).
+
+    Sums over windows of m samples by the prefix/suffix scheme of blocks of length m (van Herk,
+    Gil-Werman): every window is a suffix of one block (propagated by a power of E) plus a prefix
+    of the next, so no term is subtracted and each costs O(q N). The modes are independent (2 x 2
+    blocks): they are taken a few hundred at a time, so the working arrays stay small.
+    """
+    n = op.E.shape[0]
+    W = np.empty((K - m + 1, q, 2 * n))
+    width = max(1, min(n, (1 << 19) // max(1, m * q * 2)))  # working arrays of about 4 MiB
+    for l0 in range(0, n, width):
+        l1 = min(n, l0 + width)
+        part = _window_sums_of(C, np.hstack([op.D[:, l0:l1], op.D[:, n + l0 : n + l1]]), op.E[l0:l1], q, m, K)
+        W[:, :, l0:l1] = part[:, :, : l1 - l0]
+        W[:, :, n + l0 : n + l1] = part[:, :, l1 - l0 :]
+    return W
+
+
+def _window_sums_of(C: np.ndarray, D: np.ndarray, E: np.ndarray, q: int, m: int, K: int) -> np.ndarray:
+    """:func:`_window_sums` for the modes of ``E`` (D: their columns, p then v)."""
+    n2 = D.shape[1]
+    M2 = K - m + 1
+    Ep = np.empty((m + 1,) + E.shape)
+    Ep[0] = np.eye(2)
+    for i in range(m):
+        Ep[i + 1] = np.matmul(Ep[i], E)
+    Ec = np.ascontiguousarray(Ep.transpose(2, 3, 0, 1))  # (2, 2, m + 1, modes)
+    Er = np.ascontiguousarray(Ec[:, :, m - 1 :: -1])  # E^(m-1), ..., E^0
+    W = np.empty((M2, q, n2))
+    suf = np.empty((m, q, n2))
+    work = np.empty((m, q, n2))
+    have_suf = False
+    c = 0
+    while c * m < K:
+        lo, hi = c * m, min((c + 1) * m, K)
+        Yb = (C[lo * q : hi * q] @ D).reshape(hi - lo, q, n2)
+        T = min(m, M2 - (c - 1) * m, hi - lo + 1) if (c >= 1 and have_suf) else 0
+        # prefix(i) = sum_{i' <= i} Y_i' E^(i - i') inside the block, written where it is used
+        acc = Yb[0].copy()
+        for i in range(hi - lo):
+            if i:
+                acc = _times_blocks(acc, E)
+                acc += Yb[i]
+            if i < T - 1:
+                W[(c - 1) * m + 1 + i] = acc
+            if i == m - 1 and lo < M2:
+                W[lo] = acc
+        if T > 1:
+            W[(c - 1) * m + 1 : (c - 1) * m + T] += _blocks_each(suf[1:T], Ec[:, :, 1:T], work[: T - 1])
+        have_suf = hi - lo == m
+        if have_suf:
+            # suffix(i) = sum_{i' >= i in the block} Y_i' E^(block end - i')
+            _blocks_each(Yb, Er, suf)
+            np.cumsum(suf[::-1], axis=0, out=suf[::-1])
+        c += 1
+    return W
+
+
+def _across_the_switch(
+    steps: _Steps, modes: tuple[str, str], m: int, K: int, box: float, env: np.ndarray, plant: "_PlantColumns", report: Reporter
+) -> None:
+    """The envelope of one observer across one switch on the grid when its step is the same in
+    both modes (:func:`_same_observer_step`): no columns of the observer state at all.
+
+    With :math:`\\Phi' = \\Phi`, the observer rows after the switch are those before it,
+    :math:`Z'_j = Z_j`, so the observer part of :math:`\\Psi` after the switch is
+    :math:`Z_j P_{z,\\tau} = Z_{j+m} P_{z,0} + \\sum_{i<m} Y_{j+m-1-i} E^i` with
+    :math:`Y_k = Z_k X` (the modal columns, m steps to the switch): the continued Krylov
+    sequence and window sums (:func:`_window_sums`) replace the binary powers of the step
+    applied to the 2N columns. Rows from t = 0 to the horizon, in modal columns of the first
+    basis, converted once per chunk.
+    """
+    sy, o = steps.system, steps.o
+    n, q = sy.n, len(o.channels)
+    mode0, mode1 = modes
+    op0, op1 = steps.step(mode0, steps.h), steps.step(mode1, steps.h)
+    assert op0.Gam is not None
+    U0 = plant.U0
+    Z0 = np.asarray(o.Z0, dtype=float)
+    z0c = _nonzero_cols(Z0)
+    nz = K + 1 if len(z0c) else K  # Z_K only for the initial observer state's term
+    r = op0.Gam.shape[1]
+    C = np.empty((nz * q, r))
+    G = np.empty((nz * q, len(z0c)))
+    cp, cv = steps.output_rows(mode0)
+    Qa, Qb = o.Ry @ cp, o.Ry @ cv
+    s = _doublings(steps, mode0, nz, q, 0)
+    done = 0
+    with blas_threads(None if s else 1):
+        for Zc in _z_rows(steps, mode0, -np.array(o.Rz, dtype=float), nz, s):
+            c = Zc.shape[0] // q
+            C[done * q : (done + c) * q] = Zc @ op0.Gam
+            if len(z0c):
+                G[done * q : (done + c) * q] = Zc @ Z0[:, z0c]
+            c1 = min(c, m - done)
+            if c1 > 0:  # samples before the switch
+                A_, B_, Qa, Qb = _plant_rows(op0, Qa, Qb, C[done * q : (done + c1) * q] @ op0.D)
+                with blas_threads(None):
+                    psi = np.empty((c1 * q, 2 * n))
+                    np.matmul(A_, U0.T, out=psi[:, :n])
+                    np.matmul(B_, U0.T, out=psi[:, n:])
+                    if len(z0c):
+                        psi[:, z0c] += G[done * q : (done + c1) * q]
+                env[done : done + c1] = box * np.abs(psi).sum(axis=1).reshape(c1, q)
+                report("", c1)
+            done += c
+    report(f"{o.name}: window sums over the {m} steps to the switch", 0)
+    W = _window_sums(C, op0, q, m, K)
+    # the plant part of the unit states at the switch: E^m blocks, seen in the next basis
+    B = np.broadcast_to(np.eye(2), (n, 2, 2)).copy()
+    steps_e = m
+    base = op0.E.copy()
+    while steps_e:
+        if steps_e & 1:
+            B = np.matmul(base, B)
+        steps_e >>= 1
+        if steps_e:
+            base = np.matmul(base, base)
+    Tb = plant.basis_change(mode0, mode1)
+    cp, cv = steps.output_rows(mode1)
+    Qa, Qb = o.Ry @ cp, o.Ry @ cv
+    M2 = K - m + 1
+    j0 = 0
+    while j0 < M2:
+        c = min(_CHUNK, M2 - j0)
+        A_, B_, Qa, Qb = _plant_rows(op1, Qa, Qb, C[j0 * q : (j0 + c) * q] @ op1.D)
+        with blas_threads(None):
+            At, Bt = A_ @ Tb, B_ @ Tb
+            Wc = W[j0 : j0 + c].reshape(c * q, 2 * n)
+            mp = At * B[:, 0, 0] + Bt * B[:, 1, 0] + Wc[:, :n]
+            mv = At * B[:, 0, 1] + Bt * B[:, 1, 1] + Wc[:, n:]
+            psi = np.empty((c * q, 2 * n))
+            np.matmul(mp, U0.T, out=psi[:, :n])
+            np.matmul(mv, U0.T, out=psi[:, n:])
+            if len(z0c):
+                psi[:, z0c] += G[(j0 + m) * q : (j0 + m + c) * q]
+        env[m + j0 : m + j0 + c] = box * np.abs(psi).sum(axis=1).reshape(c, q)
+        report("", c)
+        j0 += c
+
+
 class _PlantColumns:
     """The plant part of the unit states at each switch, in the next mode's basis: the same for
     every observer (a pure function of the plant's step propagators), so computed once."""
@@ -491,6 +686,7 @@ class _PlantColumns:
     def __init__(self, system: System, U0: np.ndarray) -> None:
         self.system, self.U0 = system, U0
         self._at: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        self._tb: list[tuple[str, str, np.ndarray]] = []
 
     def at_switch(self, j: int, P: _Modal | _Dense, mode: str, nxt: str) -> tuple[np.ndarray, np.ndarray]:
         """(Pp, Pv) of ``P`` at the end of segment j, original columns, plant in the basis of ``nxt``."""
@@ -505,10 +701,19 @@ class _PlantColumns:
         else:
             Pp, Pv = P.Pp, P.Pv
         if nxt != mode:
-            Tb = self.system.eigh(nxt)[1].T @ self.system.eigh(mode)[1]
+            Tb = self.basis_change(mode, nxt)
             Pp, Pv = Tb @ Pp, Tb @ Pv
         self._at[j] = (src, Pp, Pv)
         return Pp, Pv
+
+    def basis_change(self, mode: str, nxt: str) -> np.ndarray:
+        """:math:`U_{nxt}^T U_{mode}`: modal coordinates of ``mode`` to those of ``nxt``."""
+        for a, b, T in self._tb:
+            if a == mode and b == nxt:
+                return T
+        T = self.system.eigh(nxt)[1].T @ self.system.eigh(mode)[1]
+        self._tb.append((mode, nxt, T))
+        return T
 
 
 def _to_dense(plant: _PlantColumns, j: int, P: _Modal | _Dense, no: int, mode: str, nxt: str) -> _Dense:
