@@ -262,7 +262,8 @@ class _Steps:
         """:math:`\\Phi^{2^i}` of the full step, by squaring."""
         ph = self.phi_powers(mode)
         while len(ph) <= i:
-            ph.append(ph[-1] @ ph[-1])
+            with blas_threads(None):  # n_o^3: every core
+                ph.append(ph[-1] @ ph[-1])
         return ph[i]
 
     def power(self, mode: str, i: int) -> _Step:
@@ -275,7 +276,8 @@ class _Steps:
         while len(pw) <= i:
             j = len(pw)
             known = ph[j] if len(ph) > j else None
-            nxt = _after(pw[-1], pw[-1], known)
+            with blas_threads(None):  # n_o^2 (n_o + 2N): every core
+                nxt = _after(pw[-1], pw[-1], known)
             if known is None:
                 ph.append(nxt.Phi)
             pw.append(nxt)
@@ -285,13 +287,10 @@ class _Steps:
         """:math:`L^m P` by binary powers up to :math:`L^{64}`, applied as often as needed
         (a higher power would cost two products, an application one)."""
         top = int(math.log2(_CHUNK))
-        i = 0
-        while m >> i and i < top:
-            if (m >> i) & 1:
-                P = _cols_after(self.power(mode, i), P)
-            i += 1
-        for _ in range(m >> top):
-            P = _cols_after(self.power(mode, top), P)
+        ops = [self.power(mode, i) for i in range(top) if (m >> i) & 1] + [self.power(mode, top)] * (m >> top)
+        with blas_threads(None):  # n_o^2 2N each: every core
+            for op in ops:
+                P = _cols_after(op, P)
         return P
 
 
@@ -299,23 +298,33 @@ class _Steps:
 # rows of one segment
 
 
-def _doublings(steps: _Steps, mode: str, m: int, q: int, cols_after: int) -> int:
-    """How many squarings of :math:`\\Phi` the rows of ``m`` samples use (block size 2^s).
+#: rows at which a product (rows x n_o) times (n_o x n_o) runs at half the peak rate of BLAS
+#: (measured on 2-core AMD EPYC, n_o = 2000: 10 rows 14, 80 rows 43, 640 rows 48 GFlop/s)
+_HALF_RATE_ROWS = 23
 
-    Free: the powers the columns need afterwards (``cols_after`` steps) and those already known.
-    Extra squarings (:math:`n_o^3` each) are bought when the steps they make blocked
-    (:math:`m q n_o^2` at the low rate of thin products) cost more.
+
+def _doublings(steps: _Steps, mode: str, m: int, q: int, cols_after: int) -> int:
+    """How many squarings of :math:`\\Phi` the rows of ``m`` samples use (blocks of 2^s samples).
+
+    Cost model in units of :math:`2 n_o^2` flops at the peak rate: the squarings not yet known
+    (:math:`n_o` each; free: those the columns need afterwards, ``cols_after`` steps, and those
+    already computed) plus the row products, :math:`m q (1 + r_{1/2} / (2^s q))` with the rate
+    of a product of :math:`2^s q` rows taken as :math:`\\text{rows} / (\\text{rows} + r_{1/2})`
+    of the peak (:data:`_HALF_RATE_ROWS`). The choice changes only the order of the products.
     """
     if m < 2:
         return 0
-    want = min(int(math.log2(_CHUNK)), int(math.log2(m)))
+    top = min(int(math.log2(_CHUNK)), int(math.log2(m)))
     free = len(steps.phi_powers(mode)) - 1
     if cols_after > 1:
-        free = max(free, int(math.log2(cols_after)))
-    if free >= want:
-        return want
+        free = max(free, min(int(math.log2(_CHUNK)), int(math.log2(cols_after))))
     no = steps.o.order
-    return want if 2 * m * q >= (want - free) * no else free
+
+    def cost(s: int) -> float:
+        need = s if m > (1 << s) else s - 1  # index of the highest power used
+        return max(0, need - free) * no + _HALF_RATE_ROWS * m / (1 << s)
+
+    return min(range(top + 1), key=cost)
 
 
 def _z_rows(steps: _Steps, mode: str, Z0: np.ndarray, m: int, s: int) -> Iterator[np.ndarray]:
@@ -426,7 +435,6 @@ def envelope_by_rows(
     events = sorted(t for t in schedule.switch_times if 0.0 < t < end)
     starts, stops = [0.0] + events, events + [end]
     modes = [schedule.mode_at(a + 1e-12 * max(1.0, a)) for a in starts]
-    n = system.n
     # samples of each segment: t_k in [start, stop), the last segment up to the end
     seg_k: list[list[int]] = []
     for j, (a, b) in enumerate(zip(starts, stops)):
@@ -444,75 +452,92 @@ def envelope_by_rows(
             report(f"{o.name}: no residual", K + 1)
             continue
         steps = _Steps(system, o, h, tuple(modes), ops)
-        Z0 = np.asarray(o.Z0, dtype=float)
-        z0c = _nonzero_cols(Z0)
-        m1 = len(seg_k[0])
-        if len(starts) == 2 and m1 and seg_k[1] == list(range(m1, K + 1)) and abs(t_grid[m1] - stops[0]) <= tol:
-            with blas_threads(1):
-                op0, op1 = steps.step(modes[0], h), steps.step(modes[1], h)
-            if _same_observer_step(op0, op1):
-                label = f"{o.name} ({i_obs + 1}/{len(bank)})"
-                report(f"{label}: rows continued across the switch at t = {stops[0]:g} s ({modes[0]} -> {modes[1]})", 0)
-                _across_the_switch(steps, (modes[0], modes[1]), m1, K, box, env, plant, report)
-                continue
-        # the unit initial states at the segment start (None: the first segment)
-        P: _Modal | _Dense | None = None
-        for j, (a, b) in enumerate(zip(starts, stops)):
-            mode, ks = modes[j], seg_k[j]
-            last = j == len(starts) - 1
-            report(f"{o.name} ({i_obs + 1}/{len(bank)}), segment {j + 1}/{len(starts)} ({mode})", 0)
-            cp, cv = steps.output_rows(mode)
-            start = (o.Ry @ cp, o.Ry @ cv, -np.array(o.Rz, dtype=float))
-            d0 = (t_grid[ks[0]] - a) if ks else 0.0
-            if ks and d0 > tol:
-                with blas_threads(1):
-                    start = _rows_after(steps.step(mode, d0), *start)
-            # steps of the uniform part the columns take to the switch
-            n_pow = 0
-            if ks and not last:
-                n_pow = len(ks) - 1 + (1 if abs(b - t_grid[ks[-1]] - h) <= tol else 0)
-            s = _doublings(steps, mode, len(ks), q, n_pow)
-            with blas_threads(None if s else 1):
-                for i0, A_, B_, Z_ in _segment_rows(steps, mode, start, len(ks), s):
-                    kk = ks[i0 : i0 + A_.shape[0] // q]
-                    with blas_threads(None):
-                        if P is None:
-                            psi = np.empty((A_.shape[0], 2 * n))
-                            np.matmul(A_, U0.T, out=psi[:, :n])
-                            np.matmul(B_, U0.T, out=psi[:, n:])
-                            if len(z0c):
-                                psi[:, z0c] += Z_ @ Z0[:, z0c]
-                        elif isinstance(P, _Dense):
-                            psi = A_ @ P.Pp + B_ @ P.Pv + Z_ @ P.Pz
-                        else:  # pragma: no cover - modal columns are converted at every switch
-                            raise AssertionError("modal columns after the first segment")
-                    env[kk] = box * np.abs(psi).sum(axis=1).reshape(len(kk), q)
-                    report("", len(kk))
-            if last:
-                break
-            # the unit initial states at the next switch: binary powers of the step propagator
-            report(f"{o.name}: the 2N unit states to the switch at t = {b:g} s", 0)
-            with blas_threads(None):
-                if P is None:
-                    Pz0 = None
-                    if len(z0c):
-                        r0 = z0c[z0c < n]
-                        r1 = z0c[z0c >= n]
-                        Pz0 = np.hstack([Z0[:, r0] @ U0[r0, :], Z0[:, r1] @ U0[r1 - n, :]])
-                    P = _Modal(np.broadcast_to(np.eye(2), (n, 2, 2)).copy(), Pz0)
-                if not ks:
-                    if b - a > tol:
-                        P = _cols_after(steps.step(mode, b - a), P)
-                else:
-                    if d0 > tol:
-                        P = _cols_after(steps.step(mode, d0), P)
-                    P = steps.cols_power(mode, n_pow, P)
-                    rest = b - t_grid[ks[-1]]
-                    if rest > tol and abs(rest - h) > tol:
-                        P = _cols_after(steps.step(mode, rest), P)
-                P = _to_dense(plant, j, P, o.order, mode, modes[j + 1])
+        label = f"{o.name} ({i_obs + 1}/{len(bank)})"
+        # one thread for the row and column products; the n_o^3 powers take every core
+        with blas_threads(1):
+            m1 = len(seg_k[0])
+            if len(starts) == 2 and m1 and seg_k[1] == list(range(m1, K + 1)) and abs(t_grid[m1] - stops[0]) <= tol:
+                if _same_observer_step(steps.step(modes[0], h), steps.step(modes[1], h)):
+                    report(f"{label}: rows continued across the switch at t = {stops[0]:g} s ({modes[0]} -> {modes[1]})", 0)
+                    _across_the_switch(steps, (modes[0], modes[1]), m1, K, box, env, plant, report)
+                    continue
+            _segments(steps, label, starts, stops, modes, seg_k, t_grid, box, env, plant, report)
     report("done", 0)
     return t_grid, out
+
+
+def _segments(
+    steps: _Steps,
+    label: str,
+    starts: list[float],
+    stops: list[float],
+    modes: list[str],
+    seg_k: list[list[int]],
+    t_grid: np.ndarray,
+    box: float,
+    env: np.ndarray,
+    plant: "_PlantColumns",
+    report: Reporter,
+) -> None:
+    """The envelope of one observer, segment by segment: rows inside, columns at each switch."""
+    o, n, h = steps.o, steps.n, steps.h
+    q = len(o.channels)
+    tol = 1e-9 * h
+    U0 = plant.U0
+    Z0 = np.asarray(o.Z0, dtype=float)
+    z0c = _nonzero_cols(Z0)
+    # the unit initial states at the segment start (None: the first segment)
+    P: _Modal | _Dense | None = None
+    for j, (a, b) in enumerate(zip(starts, stops)):
+        mode, ks = modes[j], seg_k[j]
+        last = j == len(starts) - 1
+        report(f"{label}, segment {j + 1}/{len(starts)} ({mode})", 0)
+        cp, cv = steps.output_rows(mode)
+        start = (o.Ry @ cp, o.Ry @ cv, -np.array(o.Rz, dtype=float))
+        d0 = (t_grid[ks[0]] - a) if ks else 0.0
+        if ks and d0 > tol:
+            start = _rows_after(steps.step(mode, d0), *start)
+        # steps of the uniform part the columns take to the switch
+        n_pow = 0
+        if ks and not last:
+            n_pow = len(ks) - 1 + (1 if abs(b - t_grid[ks[-1]] - h) <= tol else 0)
+        s = _doublings(steps, mode, len(ks), q, n_pow)
+        for i0, A_, B_, Z_ in _segment_rows(steps, mode, start, len(ks), s):
+            kk = ks[i0 : i0 + A_.shape[0] // q]
+            if P is None:
+                psi = np.empty((A_.shape[0], 2 * n))
+                np.matmul(A_, U0.T, out=psi[:, :n])
+                np.matmul(B_, U0.T, out=psi[:, n:])
+                if len(z0c):
+                    psi[:, z0c] += Z_ @ Z0[:, z0c]
+            elif isinstance(P, _Dense):
+                psi = A_ @ P.Pp + B_ @ P.Pv + Z_ @ P.Pz
+            else:  # pragma: no cover - modal columns are converted at every switch
+                raise AssertionError("modal columns after the first segment")
+            env[kk] = box * np.abs(psi).sum(axis=1).reshape(len(kk), q)
+            report("", len(kk))
+        if last:
+            break
+        # the unit initial states at the next switch: binary powers of the step propagator
+        report(f"{o.name}: the 2N unit states to the switch at t = {b:g} s", 0)
+        if P is None:
+            Pz0 = None
+            if len(z0c):
+                r0 = z0c[z0c < n]
+                r1 = z0c[z0c >= n]
+                Pz0 = np.hstack([Z0[:, r0] @ U0[r0, :], Z0[:, r1] @ U0[r1 - n, :]])
+            P = _Modal(np.broadcast_to(np.eye(2), (n, 2, 2)).copy(), Pz0)
+        if not ks:
+            if b - a > tol:
+                P = _cols_after(steps.step(mode, b - a), P)
+        else:
+            if d0 > tol:
+                P = _cols_after(steps.step(mode, d0), P)
+            P = steps.cols_power(mode, n_pow, P)
+            rest = b - t_grid[ks[-1]]
+            if rest > tol and abs(rest - h) > tol:
+                P = _cols_after(steps.step(mode, rest), P)
+        P = _to_dense(plant, j, P, o.order, mode, modes[j + 1])
 
 
 def _same_observer_step(a: _Step, b: _Step) -> bool:
@@ -626,24 +651,22 @@ def _across_the_switch(
     Qa, Qb = o.Ry @ cp, o.Ry @ cv
     s = _doublings(steps, mode0, nz, q, 0)
     done = 0
-    with blas_threads(None if s else 1):
-        for Zc in _z_rows(steps, mode0, -np.array(o.Rz, dtype=float), nz, s):
-            c = Zc.shape[0] // q
-            C[done * q : (done + c) * q] = Zc @ op0.Gam
+    for Zc in _z_rows(steps, mode0, -np.array(o.Rz, dtype=float), nz, s):
+        c = Zc.shape[0] // q
+        C[done * q : (done + c) * q] = Zc @ op0.Gam
+        if len(z0c):
+            G[done * q : (done + c) * q] = Zc @ Z0[:, z0c]
+        c1 = min(c, m - done)
+        if c1 > 0:  # samples before the switch
+            A_, B_, Qa, Qb = _plant_rows(op0, Qa, Qb, C[done * q : (done + c1) * q] @ op0.D)
+            psi = np.empty((c1 * q, 2 * n))
+            np.matmul(A_, U0.T, out=psi[:, :n])
+            np.matmul(B_, U0.T, out=psi[:, n:])
             if len(z0c):
-                G[done * q : (done + c) * q] = Zc @ Z0[:, z0c]
-            c1 = min(c, m - done)
-            if c1 > 0:  # samples before the switch
-                A_, B_, Qa, Qb = _plant_rows(op0, Qa, Qb, C[done * q : (done + c1) * q] @ op0.D)
-                with blas_threads(None):
-                    psi = np.empty((c1 * q, 2 * n))
-                    np.matmul(A_, U0.T, out=psi[:, :n])
-                    np.matmul(B_, U0.T, out=psi[:, n:])
-                    if len(z0c):
-                        psi[:, z0c] += G[done * q : (done + c1) * q]
-                env[done : done + c1] = box * np.abs(psi).sum(axis=1).reshape(c1, q)
-                report("", c1)
-            done += c
+                psi[:, z0c] += G[done * q : (done + c1) * q]
+            env[done : done + c1] = box * np.abs(psi).sum(axis=1).reshape(c1, q)
+            report("", c1)
+        done += c
     report(f"{o.name}: window sums over the {m} steps to the switch", 0)
     W = _window_sums(C, op0, q, m, K)
     # the plant part of the unit states at the switch: E^m blocks, seen in the next basis
@@ -664,16 +687,15 @@ def _across_the_switch(
     while j0 < M2:
         c = min(_CHUNK, M2 - j0)
         A_, B_, Qa, Qb = _plant_rows(op1, Qa, Qb, C[j0 * q : (j0 + c) * q] @ op1.D)
-        with blas_threads(None):
-            At, Bt = A_ @ Tb, B_ @ Tb
-            Wc = W[j0 : j0 + c].reshape(c * q, 2 * n)
-            mp = At * B[:, 0, 0] + Bt * B[:, 1, 0] + Wc[:, :n]
-            mv = At * B[:, 0, 1] + Bt * B[:, 1, 1] + Wc[:, n:]
-            psi = np.empty((c * q, 2 * n))
-            np.matmul(mp, U0.T, out=psi[:, :n])
-            np.matmul(mv, U0.T, out=psi[:, n:])
-            if len(z0c):
-                psi[:, z0c] += G[(j0 + m) * q : (j0 + m + c) * q]
+        At, Bt = A_ @ Tb, B_ @ Tb
+        Wc = W[j0 : j0 + c].reshape(c * q, 2 * n)
+        mp = At * B[:, 0, 0] + Bt * B[:, 1, 0] + Wc[:, :n]
+        mv = At * B[:, 0, 1] + Bt * B[:, 1, 1] + Wc[:, n:]
+        psi = np.empty((c * q, 2 * n))
+        np.matmul(mp, U0.T, out=psi[:, :n])
+        np.matmul(mv, U0.T, out=psi[:, n:])
+        if len(z0c):
+            psi[:, z0c] += G[(j0 + m) * q : (j0 + m + c) * q]
         env[m + j0 : m + j0 + c] = box * np.abs(psi).sum(axis=1).reshape(c, q)
         report("", c)
         j0 += c
