@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 from typing import Any, Callable
 
-from glocal_verify.cli.common import UsageError, load_system, write_output
+from glocal_verify.cli.common import UsageError, add_allow_large, check_cost, load_system, write_output
 
 __all__ = ["register"]
 
@@ -78,6 +78,11 @@ def cmd_audit(args: argparse.Namespace) -> int:
     n_cand = len(cands) if cands is not None else system.n
     if args.max_attackers > n_cand:
         raise UsageError(f"--max-attackers: {args.max_attackers} is larger than the number of candidate agents ({n_cand})")
+    from glocal_verify.conditions.cost import SpecSizes, estimate_audit
+
+    # a remote --scheduler's size is unknown here: the estimate counts one worker
+    est = estimate_audit(SpecSizes.from_spec(system.spec), args.max_attackers, n_cand, exact=args.exact, workers=max(1, args.workers or 1))
+    check_cost(est, args, how=("fewer --agents, a smaller --max-attackers or more --workers",))
     executor = None
     if args.scheduler or args.workers:
         from glocal_verify.design.distributed import dask_executor
@@ -131,4 +136,5 @@ def register(sub: Any) -> None:
     )
     p.add_argument("--chunk", type=int, default=200, metavar="M", help="attack sets per task (default 200)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_allow_large(p)
     p.set_defaults(func=cmd_audit)

@@ -11,6 +11,7 @@ from glocal_verify.errors import GlocalVerifyError
 from glocal_verify.reporting.output import check_output_dir, check_output_file, write_text_atomic
 
 if TYPE_CHECKING:
+    from glocal_verify.conditions.cost import CostEstimate
     from glocal_verify.model import System
 
 __all__ = [
@@ -24,6 +25,8 @@ __all__ = [
     "check_out_dir",
     "wrote",
     "write_output",
+    "add_allow_large",
+    "check_cost",
 ]
 
 PROG = "glocal-verify"
@@ -104,3 +107,49 @@ def write_output(text: str, out: str | None, *, inputs: Iterable[str] = ()) -> N
         sys.stdout.write(text)
 
 
+
+
+#: help of ``--allow-large`` (``simulate`` has its own: its limits are samples and bytes)
+ALLOW_LARGE_HELP = "run even when the estimated time or memory exceeds the limits (10 min; min(8 GiB, 80%% of the available memory))"
+
+
+def add_allow_large(parser: argparse.ArgumentParser) -> None:
+    """Add ``--allow-large`` (see :func:`check_cost`) to a subcommand's parser.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+    """
+    parser.add_argument("--allow-large", action="store_true", help=ALLOW_LARGE_HELP)
+
+
+def check_cost(est: CostEstimate, args: argparse.Namespace, *, how: Iterable[str] = ()) -> None:
+    """Refuse a run whose estimate exceeds the limits, or announce a long one, before it starts.
+
+    Above the limits of :func:`glocal_verify.conditions.cost.default_limits` (unless
+    ``--allow-large``) this raises :class:`~glocal_verify.conditions.cost.SizeLimitError`: one
+    line on stderr, exit code 2. Otherwise, when the estimate exceeds
+    :data:`~glocal_verify.conditions.cost.NOTICE_SECONDS` (or a limit, with ``--allow-large``),
+    one line with the estimate goes to stderr, unless ``--quiet``.
+
+    Parameters
+    ----------
+    est : CostEstimate
+        From :mod:`glocal_verify.conditions.cost` (``estimate_verify`` ...).
+    args : argparse.Namespace
+        Reads ``allow_large`` and ``quiet``.
+    how : iterable of str
+        Further ways out for the refusal line (``"--only CONDITION to run fewer checkers"``).
+    """
+    from glocal_verify.conditions import cost
+
+    limits = cost.default_limits()
+    allow = bool(getattr(args, "allow_large", False))
+    cost.check_limits(est, limits, allow=allow, how=tuple(how))
+    if getattr(args, "quiet", False):
+        return
+    over = cost.refusal(est, limits)
+    if over is not None:
+        print(f"{PROG}: {est.command} of {est.n} agents: estimated {est.describe()}, above the {over} limit; running anyway (--allow-large)", file=sys.stderr, flush=True)
+    elif est.seconds > limits.notice_seconds:
+        print(f"{PROG}: {est.command} of {est.n} agents: estimated {est.describe()}", file=sys.stderr, flush=True)

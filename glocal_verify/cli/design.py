@@ -6,7 +6,7 @@ import argparse
 import sys
 from typing import Any
 
-from glocal_verify.cli.common import UsageError, load_system, write_output
+from glocal_verify.cli.common import UsageError, add_allow_large, check_cost, load_system, write_output
 
 __all__ = ["register"]
 
@@ -54,10 +54,15 @@ def cmd_design(args: argparse.Namespace) -> int:
         raise UsageError(f"--budget: must be at least 1 safe mode, not {args.budget}")
     if args.max_attackers < 1 or args.max_attackers > system.n:
         raise UsageError(f"--max-attackers: must be between 1 and the number of agents ({system.n}), not {args.max_attackers}")
-    if not args.quiet:
-        print("auditing, placing observers, designing safe modes ...", file=sys.stderr)
     if args.max_links < 1:
         raise UsageError(f"--max-links: must be at least 1, not {args.max_links}")
+    from glocal_verify.conditions.cost import SpecSizes, estimate_design
+
+    exact = not args.numeric and system.n <= 60
+    est = estimate_design(SpecSizes.from_spec(system.spec), max_attackers=args.max_attackers, place=not args.no_observers, exact_assessment=exact)
+    check_cost(est, args, how=("a smaller --max-attackers",))
+    if not args.quiet:
+        print("auditing, placing observers, designing safe modes ...", file=sys.stderr)
     d = design_network(system, budget=args.budget, max_attackers=args.max_attackers, place=not args.no_observers, max_links=args.max_links)
     if d.unmet:
         raise UsageError(f"no design within the budget of {args.budget} safe mode(s) meets: {d.unmet[0]}" + (f" (and {len(d.unmet) - 1} more)" if len(d.unmet) > 1 else ""))
@@ -66,7 +71,6 @@ def cmd_design(args: argparse.Namespace) -> int:
 
     text = design_comments(d) + dump_spec(d.spec)
     write_output(text, args.out)
-    exact = not args.numeric and system.n <= 60
     b, a = d.before.summary()["counts"], d.after.summary()["counts"]
     lines = [f"audit before: {b['undetected']} undetected, {b['undecided']} undecided of {d.before.summary()['sets']} sets"]
     lines += [f"audit after:  {a['undetected']} undetected, {a['undecided']} undecided of {d.after.summary()['sets']} sets"]
@@ -88,4 +92,5 @@ def register(sub: Any) -> None:
     p.add_argument("--no-observers", action="store_true", help="keep the spec's local observers")
     p.add_argument("--numeric", action="store_true", help="before/after assessment in floating point (default exact for N <= 60)")
     p.add_argument("--quiet", action="store_true")
+    add_allow_large(p)
     p.set_defaults(func=cmd_design)

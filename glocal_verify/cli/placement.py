@@ -6,7 +6,7 @@ import argparse
 import sys
 from typing import Any
 
-from glocal_verify.cli.common import PROG, check_out_file, load_system, spec_inputs, write_output
+from glocal_verify.cli.common import PROG, add_allow_large, check_cost, check_out_file, load_system, spec_inputs, write_output
 
 __all__ = ["register"]
 
@@ -19,6 +19,10 @@ def cmd_place_observers(args: argparse.Namespace) -> int:
     check_out_file(args)  # a bad --out fails before the search
     system = load_system(args)
     suspected = parse_suspected(system, args.suspected)
+    if system.clusters:  # without clusters place_observers says so at once
+        from glocal_verify.conditions.cost import SpecSizes, estimate_place_observers
+
+        check_cost(estimate_place_observers(SpecSizes.from_spec(system.spec), args.cluster), args, how=() if args.cluster else ("--cluster NAME to place one cluster's observers",))
     placement = place_observers(system, args.cluster, suspected, exact_limit=args.exact_limit, progress=not args.quiet)
     for line in placement.warnings:
         print(f"{PROG}: {line}", file=sys.stderr)
@@ -39,5 +43,6 @@ def register(sub: Any) -> None:
     po.add_argument("--format", choices=("toml", "json"), default="toml", help="toml: the spec fragment to paste (default)")
     po.add_argument("--out", metavar="FILE", help="write to FILE instead of stdout")
     po.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    add_allow_large(po)
     po.set_defaults(func=cmd_place_observers)
 

@@ -9,6 +9,8 @@ from typing import TYPE_CHECKING, Any, Callable
 from glocal_verify.cli.common import (
     PROG,
     UsageError,
+    add_allow_large,
+    check_cost,
     check_out_file,
     ids_arg,
     load_system,
@@ -111,6 +113,11 @@ def cmd_verify(args: argparse.Namespace) -> int:
     from glocal_verify.conditions.detects import DETECTS_MAX_AGENTS
 
     simulate = args.simulate == "always" or (args.simulate == "auto" and system.n <= DETECTS_MAX_AGENTS)
+    from glocal_verify.conditions.cost import SpecSizes, estimate_verify
+
+    budget = args.exact_budget if (args.escalate == "auto" and args.exact_budget > 0) else None
+    est = estimate_verify(SpecSizes.from_spec(system.spec), only, exact=args.exact, simulate=simulate, exact_budget=budget)
+    check_cost(est, args, how=("--only CONDITION to run fewer checkers",) if only is None else ())
     report = verify(
         system,
         only,
@@ -192,6 +199,7 @@ def register(sub: Any) -> None:
     v.add_argument("--exact-budget", type=float, default=30.0, metavar="SECONDS", help="time for each exact escalation (default 30; 0: no limit)")
     v.add_argument("--fragile-below", type=float, default=1e-9, metavar="X", help="mark a verdict fragile when its margin is below X (default 1e-9)")
     v.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    add_allow_large(v)
     v.set_defaults(func=cmd_verify)
 
     e = sub.add_parser("example", help="print a bundled example specification")

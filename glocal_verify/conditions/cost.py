@@ -1,0 +1,657 @@
+"""What a command will cost, estimated from the spec's sizes before any computation.
+
+A run of ``verify``, ``place-observers``, ``audit`` or ``design`` is dominated by dense
+:math:`O(N^3)` factorizations of N x N Laplacians and by the dense linear algebra of each
+cluster's :math:`2 n_i`-state model. Both are predictable from the sizes alone: N, the cluster
+sizes :math:`n_i`, the local observers, the safe modes (and which clusters they change), the
+monitored channels and the attack. This module turns those sizes into an estimate of seconds
+and peak memory (:class:`CostEstimate`), and compares it with :class:`Limits` so that a run
+that would take hours or exhaust memory is refused at once with one line giving the estimate
+(:func:`check_limits`, :class:`SizeLimitError`); the command line lifts the limits with
+``--allow-large``.
+
+Nothing here builds a :class:`~glocal_verify.model.System`'s spectra: :meth:`SpecSizes.from_spec`
+reads the :class:`~glocal_verify.spec.types.SystemSpec` in time linear in its size, so the
+estimate of a 20,000-agent spec is instant. Every function is pure; the only input read from
+the machine is the available memory of :func:`default_limits`.
+
+The constants (``C_*``) were measured on a 2-core x86_64 machine with
+``OPENBLAS_NUM_THREADS=1`` (``glocal-verify verify SPEC --quiet`` on
+``random_clustered_spec(N, 3, seed=7)`` for N = 250 ... 3000, its checkers timed one by one,
+peak memory as ``ru_maxrss``) and rounded up; ``docs/performance.md`` ("Size limits and
+estimates") lists the measurements. Expect the seconds within a factor of about two on such a
+machine; the memory is meant to err high.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+from typing import Iterable, Sequence
+
+from glocal_verify.conditions.catalogue import CATALOGUE
+from glocal_verify.errors import ModelError
+from glocal_verify.spec.types import SystemSpec
+
+__all__ = [
+    "SizeLimitError",
+    "SpecSizes",
+    "CostEstimate",
+    "Limits",
+    "default_limits",
+    "estimate_verify",
+    "estimate_place_observers",
+    "estimate_audit",
+    "estimate_design",
+    "refusal",
+    "check_limits",
+    "format_seconds",
+    "format_bytes",
+]
+
+GIB = 1024.0**3
+MIB = 1024.0**2
+
+# --------------------------------------------------------------------------------------------
+# constants (seconds per flop-like unit on one core; arrays counted at the peak)
+
+#: start-up of a command (imports, loading, report): seconds
+C_START = 3.0
+#: resident memory of a command before its matrices (interpreter, numpy, scipy): bytes
+B_BASE = 250 * MIB
+
+#: global checkers: seconds per N^3 for the normal mode (eigh, certified bounds, the two SVDs of
+#: Q(0) of stealthy.zda, ...) and per N^3 for each safe mode (its eigh and modal tests).
+#: Measured at N = 2000: 9.4 s with no safe mode, 23-29 s with two, 23 s with four.
+C_GLOBAL = 1.6e-9
+C_GLOBAL_MODE = 0.8e-9
+#: dense N x N float64 arrays the global checkers hold at their peak: 12 + 2.5 per safe mode
+#: (measured 11.4 + 2.1 per mode at N = 2000); local checkers alone hold one (the Laplacian)
+A_GLOBAL = 12.0
+A_GLOBAL_MODE = 2.5
+A_LOCAL_ONLY = 1.0
+
+#: local.uio: seconds per (2 n_i)^3 per observer design (one per observer and distinct cluster
+#: block: the normal mode and every safe mode that changes the cluster). Measured 9.8-13.4 s per
+#: design at 2 n_i = 1334 (4.1e-9 - 5.7e-9), 2.1 s at 2 n_i = 667 (6.9e-9).
+C_UIO = 6.5e-9
+#: arrays of (2 n_i)^2 doubles each design keeps until the checker ends (measured 6.3 beside
+#: the global arrays, 12 alone, at N = 2000 and 3000)
+A_UIO = 10.0
+#: local.pencil: seconds per (2 n_i)^3 per case (an observer and one suspected set: "attack"
+#: when the spec has one, and "all"). Measured 1.5 s per case at 2 n_i = 1334, 0.26 s at 667.
+C_PENCIL = 8e-10
+
+#: switching.detects with simulation (``--simulate always`` above 150 agents): seconds per N^3
+#: per safe mode (61 s for one N = 1000 run, reports/benchmarks.md)
+C_SIMULATE = 6.1e-8
+
+#: exact arithmetic (``--exact``): central.observer's rational characteristic polynomial,
+#: seconds per N^4 (measured 10.2 s at N = 120, 2.0 s at N = 80)
+C_EXACT_CENTRAL = 6e-8
+#: stealthy.zda and switching.avoids-attack in exact arithmetic, each: seconds per N^3. Which
+#: path runs is not known from the sizes: the dense V* iteration when the minor certificate
+#: fails took 104 s each at N = 80 (2.0e-4), the certificate's fast path 16 s at N = 120
+#: (9.3e-6); the constant is about their geometric mean
+C_EXACT_ZDA = 5e-5
+#: the other exact global checkers (switched-observability, privacy.*): seconds per N^3
+#: (1.1 s at N = 120)
+C_EXACT_GLOBAL = 1e-6
+#: exact local.uio per design and local.pencil per case: seconds per (2 n_i)^3 (3.6 s for 5
+#: designs, 1.7 s for 6 cases at 2 n_i = 80)
+C_EXACT_UIO = 2e-6
+C_EXACT_PENCIL = 6e-7
+#: exact memory: bytes per N^2 (rational entries; 833 MiB peak at N = 120)
+B_EXACT = 48_000.0
+
+#: place-observers: seconds per (2 n_i)^3 and per (2 n_i)^2 for each cluster searched (fit to
+#: 21.5 s per cluster at 2 n_i = 1334, 3.4 s at 667, 0.16 s at 200); memory: N x N arrays and
+#: (2 n_i)^2 arrays per cluster, kept (peak 1.0 GiB at N = 2000 with 3 clusters)
+C_PLACE = 9e-9
+C_PLACE_SQ = 2.5e-6
+A_PLACE = 5.0
+A_PLACE_CLUSTER = 18.0
+
+#: audit: each candidate agent costs its part of the first phase (its local verdicts: 25 ms at
+#: N = 200, 59 ms at N = 1000) plus its single-actuator row, seconds per N^3 (8 ms at N = 200
+#: and 3.4 s at N = 1000 on the benchmark's 20-agent clusters, where the minor certificate fails
+#: and the whole pencil is analysed; 0.08 s for both together at N = 500 on 3 clusters); each
+#: larger set a + b N^2 seconds (2.0 ms at N = 200, 6.5 ms at N = 1000)
+C_AUDIT_AGENT = 0.02
+C_AUDIT_SINGLE = 2e-9
+C_AUDIT_SET = 1.8e-3
+C_AUDIT_SET_SQ = 4.7e-9
+#: audit memory: N x N arrays (eigenvectors, minor tables: 136 MB at N = 1000) and bytes per row
+#: held until the report is written (9.9 GB for 500,500 rows at N = 1000)
+A_AUDIT = 20.0
+B_AUDIT_ROW = 20_000.0
+#: exact audit rows (``--exact``): a factor on the per-set seconds
+F_AUDIT_EXACT = 10.0
+
+#: default limits: seconds, and bytes as min(8 GiB, 80 % of the available memory)
+MAX_SECONDS = 600.0
+MAX_BYTES = 8 * GIB
+MEMORY_FRACTION = 0.8
+#: above this many seconds (and below the limit) a command says what it expects before starting
+NOTICE_SECONDS = 30.0
+
+#: condition ids of the cluster-level checkers (the rest need the global spectra)
+LOCAL_CHEAP = frozenset({"local.k-connected", "local.rank"})
+
+
+class SizeLimitError(ModelError):
+    """A run whose estimated time or memory exceeds the limits (:func:`check_limits`).
+
+    Attributes
+    ----------
+    estimate : CostEstimate
+    limits : Limits
+    """
+
+    def __init__(self, message: str, estimate: CostEstimate, limits: Limits) -> None:
+        super().__init__(message)
+        self.estimate = estimate
+        self.limits = limits
+
+
+# --------------------------------------------------------------------------------------------
+# sizes
+
+
+@dataclass(frozen=True, slots=True)
+class SpecSizes:
+    """The sizes an estimate needs, read from a spec without any linear algebra.
+
+    Attributes
+    ----------
+    n : int
+        Agents N.
+    cluster_sizes : tuple of int
+        n_i of every cluster, in spec order.
+    cluster_names : tuple of str
+    observers : tuple of int
+        Local observers of every cluster.
+    changed_by_modes : tuple of int
+        For every cluster, the safe modes whose link changes touch one of its agents (its
+        block L[P_i, P_i] changes, so its observer is designed again).
+    modes : int
+        Safe modes (the normal mode not counted).
+    channels : int
+        Globally monitored channels |M_x| + |M_v|.
+    attack : bool
+        Whether the spec has an attack (local checkers then run two suspected sets).
+    """
+
+    n: int
+    cluster_sizes: tuple[int, ...] = ()
+    cluster_names: tuple[str, ...] = ()
+    observers: tuple[int, ...] = ()
+    changed_by_modes: tuple[int, ...] = ()
+    modes: int = 0
+    channels: int = 0
+    attack: bool = False
+
+    @classmethod
+    def from_spec(cls, spec: SystemSpec) -> SpecSizes:
+        """The sizes of ``spec``, in time linear in its nodes, edges and link changes.
+
+        Parameters
+        ----------
+        spec : SystemSpec
+        """
+        touched: list[set[object]] = []
+        for m in spec.modes:
+            nodes: set[object] = set()
+            for e in m.add:
+                nodes.update((e.u, e.v))
+            for u, v in m.remove:
+                nodes.update((u, v))
+            touched.append(nodes)
+        changed = []
+        for c in spec.clusters:
+            members = set(c.nodes)
+            changed.append(sum(1 for t in touched if not members.isdisjoint(t)))
+        return cls(
+            n=len(spec.nodes),
+            cluster_sizes=tuple(len(c.nodes) for c in spec.clusters),
+            cluster_names=tuple(c.name for c in spec.clusters),
+            observers=tuple(len(c.observers) for c in spec.clusters),
+            changed_by_modes=tuple(changed),
+            modes=len(spec.modes),
+            channels=len(spec.monitor.positions) + len(spec.monitor.velocities),
+            attack=spec.attack is not None,
+        )
+
+    def only_cluster(self, name: str | None) -> SpecSizes:
+        """The same sizes with only cluster ``name`` (all clusters when None or unknown).
+
+        Parameters
+        ----------
+        name : str, optional
+        """
+        if name is None or name not in self.cluster_names:
+            return self
+        i = self.cluster_names.index(name)
+        return SpecSizes(
+            self.n, (self.cluster_sizes[i],), (name,), (self.observers[i],), (self.changed_by_modes[i],), self.modes, self.channels, self.attack
+        )
+
+
+# --------------------------------------------------------------------------------------------
+# estimates
+
+
+@dataclass(frozen=True, slots=True)
+class CostEstimate:
+    """Estimated seconds and peak memory of one command (:func:`estimate_verify` and friends).
+
+    Attributes
+    ----------
+    command : str
+        ``verify``, ``place-observers``, ``audit`` or ``design``.
+    n : int
+        Agents.
+    seconds : float
+        Estimated wall time on one core.
+    bytes : float
+        Estimated peak resident memory.
+    dense_arrays : float
+        N x N float64 arrays counted in ``bytes`` (8 N^2 bytes each).
+    phases : tuple of (str, float)
+        Seconds of each phase, largest first.
+    extra_seconds : float
+        Time the run may add on top, bounded by an option (``verify``'s exact re-decisions,
+        ``--exact-budget``); counted against the time limit, not in ``seconds``.
+    """
+
+    command: str
+    n: int
+    seconds: float
+    bytes: float
+    dense_arrays: float = 0.0
+    phases: tuple[tuple[str, float], ...] = field(default_factory=tuple)
+    extra_seconds: float = 0.0
+
+    @property
+    def bound_seconds(self) -> float:
+        """``seconds + extra_seconds``: what the time limit is compared with."""
+        return self.seconds + self.extra_seconds
+
+    def describe(self) -> str:
+        """``"3.6 h and 36 GiB (12 dense 20000 x 20000 arrays; mostly global spectra)"``."""
+        parts = []
+        if self.dense_arrays >= 1:
+            parts.append(f"{self.dense_arrays:.3g} dense {self.n} x {self.n} arrays")
+        if self.phases and self.phases[0][1] > 0:
+            parts.append(f"mostly {self.phases[0][0]}")
+        extra = f" (+ up to {format_seconds(self.extra_seconds)} of exact re-decisions)" if self.extra_seconds > 0 else ""
+        inner = f" ({'; '.join(parts)})" if parts else ""
+        return f"{format_seconds(self.seconds)}{extra} and {format_bytes(self.bytes)}{inner}"
+
+
+def _estimate(command: str, n: int, phases: dict[str, float], nbytes: float, arrays: float, extra: float = 0.0) -> CostEstimate:
+    ordered = tuple(sorted(((k, float(v)) for k, v in phases.items() if v > 0), key=lambda kv: -kv[1]))
+    return CostEstimate(command, n, C_START + sum(v for _, v in ordered), float(nbytes), float(arrays), ordered, float(extra))
+
+
+def _dense(n: int) -> float:
+    return 8.0 * float(n) ** 2
+
+
+def _designs(s: SpecSizes) -> list[tuple[int, int]]:
+    """(2 n_i, UIO designs) of every cluster: observers x (1 + safe modes changing it)."""
+    return [(2 * ni, obs * (1 + ch)) for ni, obs, ch in zip(s.cluster_sizes, s.observers, s.changed_by_modes)]
+
+
+def _cases(s: SpecSizes) -> list[tuple[int, int]]:
+    """(2 n_i, local cases) of every cluster: observers x suspected sets (attack and all)."""
+    per = 2 if s.attack else 1
+    return [(2 * ni, obs * per) for ni, obs in zip(s.cluster_sizes, s.observers)]
+
+
+def estimate_verify(
+    sizes: SpecSizes,
+    only: Iterable[str] | None = None,
+    *,
+    exact: bool = False,
+    simulate: bool = False,
+    exact_budget: float | None = 30.0,
+) -> CostEstimate:
+    """Seconds and peak memory of ``verify`` (every checker, or those of ``only``).
+
+    With N agents, S safe modes, clusters of :math:`n_i` agents, :math:`d_i` UIO designs
+    (observers times one plus the safe modes that change the cluster) and :math:`c_i` local
+    cases (observers times the suspected sets):
+
+    .. math::
+
+        t = C_{start} + [\\text{global}]\\, (C_g + C_{g,m} S) N^3
+            + [\\texttt{local.uio}] \\sum_i C_{uio} d_i (2 n_i)^3
+            + [\\texttt{local.pencil}] \\sum_i C_{pencil} c_i (2 n_i)^3
+
+        m = B_{base} + 8 N^2 a + \\sum_i 8 (2 n_i)^2 A_{uio} d_i,\\quad
+            a = A_g + A_{g,m} S \\ (\\text{a global checker selected, else } 1)
+
+    plus, with ``simulate``, :math:`C_{sim} N^3 \\max(1, S)` for ``switching.detects`` above
+    150 agents, and with ``exact`` the rational terms (:data:`C_EXACT_CENTRAL` N^4,
+    :data:`C_EXACT_ZDA` N^3 for each of ``stealthy.zda`` and ``switching.avoids-attack``, between
+    their fast and slow paths, :data:`C_EXACT_GLOBAL` N^3, :data:`C_EXACT_UIO` and :data:`C_EXACT_PENCIL` per
+    design and case, :data:`B_EXACT` N^2 bytes). Constants: :data:`C_START` = 3 s,
+    :data:`C_GLOBAL` = 1.6e-9, :data:`C_GLOBAL_MODE` = 0.8e-9, :data:`C_UIO` = 6.5e-9,
+    :data:`C_PENCIL` = 8e-10 s, :data:`A_GLOBAL` = 12, :data:`A_GLOBAL_MODE` = 2.5,
+    :data:`A_UIO` = 10, :data:`B_BASE` = 250 MiB; measured as the module docstring says.
+
+    Parameters
+    ----------
+    sizes : SpecSizes
+    only : iterable of str, optional
+        Resolved condition ids to run (default: the whole catalogue). ``local.*`` ids cost their
+        clusters; any other id costs the global spectra (all of it: the global checkers share
+        them).
+    exact : bool
+        ``--exact``: every checker in rational arithmetic.
+    simulate : bool
+        ``switching.detects`` simulates (``--simulate always``, or auto up to 150 agents).
+    exact_budget : float, optional
+        ``--exact-budget`` of a numeric run (None or 0: no limit, then not counted); becomes
+        :attr:`CostEstimate.extra_seconds`.
+
+    Returns
+    -------
+    CostEstimate
+    """
+    ids = set(CATALOGUE) if only is None else set(only)
+    n, S = sizes.n, sizes.modes
+    phases: dict[str, float] = {}
+    glob = any(not c.startswith("local.") and c != "switching.detects" for c in ids)
+    uio, pencil = "local.uio" in ids, "local.pencil" in ids
+    n3 = float(n) ** 3
+    if glob:
+        phases["global spectra"] = (C_GLOBAL + C_GLOBAL_MODE * S) * n3
+    if uio:
+        phases["local.uio"] = sum(C_UIO * d * float(m) ** 3 for m, d in _designs(sizes))
+    if pencil:
+        phases["local.pencil"] = sum(C_PENCIL * c * float(m) ** 3 for m, c in _cases(sizes))
+    if simulate and "switching.detects" in ids and n > 150:
+        phases["switching.detects simulations"] = C_SIMULATE * n3 * max(1, S)
+    arrays = (A_GLOBAL + A_GLOBAL_MODE * S) if glob else A_LOCAL_ONLY
+    nbytes = B_BASE + arrays * _dense(n)
+    if uio:
+        nbytes += sum(A_UIO * d * _dense(m) for m, d in _designs(sizes))
+    if exact:
+        if "central.observer" in ids:
+            phases["exact central.observer"] = C_EXACT_CENTRAL * float(n) ** 4
+        zda = sum(1 for c in ("stealthy.zda", "switching.avoids-attack") if c in ids)
+        if zda:
+            phases["exact ZDA analysis"] = zda * C_EXACT_ZDA * n3
+        if glob:
+            phases["exact global checkers"] = C_EXACT_GLOBAL * n3
+        if uio:
+            phases["exact local.uio"] = sum(C_EXACT_UIO * d * float(m) ** 3 for m, d in _designs(sizes))
+        if pencil:
+            phases["exact local.pencil"] = sum(C_EXACT_PENCIL * c * float(m) ** 3 for m, c in _cases(sizes))
+        nbytes += B_EXACT * float(n) ** 2
+    extra = float(exact_budget) if (not exact and exact_budget) else 0.0
+    return _estimate("verify", n, phases, nbytes, arrays, extra)
+
+
+def estimate_place_observers(sizes: SpecSizes, cluster: str | None = None) -> CostEstimate:
+    """Seconds and peak memory of ``place-observers`` (every cluster, or ``cluster``).
+
+    .. math::
+
+        t = C_{start} + \\sum_i \\big(C_{place} (2 n_i)^3 + C_{place,2} (2 n_i)^2\\big),\\quad
+        m = B_{base} + 8 N^2 A_{place} + \\sum_i 8 (2 n_i)^2 A_{place,i}
+
+    with :data:`C_PLACE` = 9e-9 s, :data:`C_PLACE_SQ` = 2.5e-6 s, :data:`A_PLACE` = 5,
+    :data:`A_PLACE_CLUSTER` = 18. The exhaustive search (``--exact-limit``) is not a term: at
+    N = 2000 the run took the same time with the limit 0 and 2000.
+
+    Parameters
+    ----------
+    sizes : SpecSizes
+    cluster : str, optional
+        ``--cluster``: only this cluster.
+
+    Returns
+    -------
+    CostEstimate
+    """
+    s = sizes.only_cluster(cluster)
+    secs = sum(C_PLACE * (2.0 * ni) ** 3 + C_PLACE_SQ * (2.0 * ni) ** 2 for ni in s.cluster_sizes)
+    arrays = A_PLACE if s.cluster_sizes else 0.0  # no cluster: refused before any matrix
+    nbytes = B_BASE + arrays * _dense(s.n) + sum(A_PLACE_CLUSTER * _dense(2 * ni) for ni in s.cluster_sizes)
+    return _estimate("place-observers", s.n, {"cluster observer searches": secs}, nbytes, arrays)
+
+
+def _sets(candidates: int, k: int) -> tuple[int, int]:
+    """(singles, larger sets) among the sets of 1..k of ``candidates`` agents."""
+    k = max(0, min(int(k), int(candidates)))
+    larger = sum(math.comb(candidates, j) for j in range(2, k + 1))
+    return (candidates if k >= 1 else 0), larger
+
+
+def estimate_audit(sizes: SpecSizes, k: int, candidates: int | None = None, *, exact: bool = False, workers: int = 1) -> CostEstimate:
+    """Seconds and peak memory of ``audit`` of every set of 1..k of ``candidates`` actuators.
+
+    With :math:`M` candidates, :math:`R = \\sum_{j=1}^k \\binom{M}{j}` rows and W workers:
+
+    .. math::
+
+        t = C_{start} + C_g N^3 + \\frac{(C_{agent} + C_{single} N^3) M + (a + b N^2)(R - M)}{W},\\quad
+        m = B_{base} + 8 N^2 A_{audit} + B_{row} R
+
+    with :data:`C_GLOBAL` = 1.6e-9 s (the spectrum of L_1), :data:`C_AUDIT_AGENT` = 0.02 s,
+    :data:`C_AUDIT_SINGLE` = 2e-9 s,
+    :data:`C_AUDIT_SET` = a = 1.8e-3 s, :data:`C_AUDIT_SET_SQ` = b = 4.7e-9 s,
+    :data:`A_AUDIT` = 20, :data:`B_AUDIT_ROW` = 20 kB; ``exact`` multiplies the per-set seconds
+    by :data:`F_AUDIT_EXACT`. A candidate's cost varies with the network (0.08 s at N = 500 on
+    3 clusters, 3.5 s at N = 1000 on the benchmark's 50 clusters): the constants lie between,
+    within a factor of about 3.5 of both.
+
+    Parameters
+    ----------
+    sizes : SpecSizes
+    k : int
+        ``--max-attackers``.
+    candidates : int, optional
+        ``--agents`` count (default N).
+    exact : bool
+        ``--exact``.
+    workers : int
+        Processes sharing the sets (``--workers``; a remote ``--scheduler`` counts as one).
+
+    Returns
+    -------
+    CostEstimate
+    """
+    n = sizes.n
+    m = n if candidates is None else int(candidates)
+    singles, larger = _sets(m, k)
+    f = F_AUDIT_EXACT if exact else 1.0
+    w = max(1, int(workers))
+    phases = {
+        "the spectrum of L_1": C_GLOBAL * float(n) ** 3,
+        "single actuators": f * (C_AUDIT_AGENT + C_AUDIT_SINGLE * float(n) ** 3) * singles / w,
+        f"{larger} sets of 2..{k} actuators": f * (C_AUDIT_SET + C_AUDIT_SET_SQ * float(n) ** 2) * larger / w,
+    }
+    nbytes = B_BASE + A_AUDIT * _dense(n) + B_AUDIT_ROW * (singles + larger)
+    return _estimate("audit", n, phases, nbytes, A_AUDIT)
+
+
+def estimate_design(sizes: SpecSizes, *, max_attackers: int = 2, place: bool = True, exact_assessment: bool | None = None) -> CostEstimate:
+    """Seconds and peak memory of ``design``: two audits, the placement, two assessments.
+
+    .. math::
+
+        t = 2\\, t_{audit}(k, N) + t_{place} + 2\\, t_{verify}(\\text{assessment ids}),\\quad
+        m = \\max(m_{audit}, m_{place}, m_{verify})
+
+    (each term without its own :data:`C_START`, which is counted once). The safe-mode search
+    (a rank-one test per candidate link, about 1 microsecond each) is not a term.
+
+    Parameters
+    ----------
+    sizes : SpecSizes
+    max_attackers : int
+        ``--max-attackers`` (k of both audits).
+    place : bool
+        Observers are placed (not ``--no-observers``).
+    exact_assessment : bool, optional
+        The assessments run exactly (default: N <= 60, as ``design`` does without ``--numeric``).
+
+    Returns
+    -------
+    CostEstimate
+    """
+    exact = sizes.n <= 60 if exact_assessment is None else exact_assessment
+    ids = (
+        "privacy.initial-state",
+        "privacy.consensus-value",
+        "stealthy.zda",
+        "local.pencil",
+        "local.uio",
+        "switching.image-kernel",
+        "switching.distinct-eigenvalues",
+        "switching.eigenvector-differences",
+        "switching.avoids-attack",
+    )
+    parts = [(2.0, estimate_audit(sizes, max_attackers)), (2.0, estimate_verify(sizes, ids, exact=exact, exact_budget=None))]
+    if place:
+        parts.append((1.0, estimate_place_observers(sizes)))
+    phases: dict[str, float] = {}
+    for times, est in parts:
+        for name, secs in est.phases:
+            key = f"{est.command}: {name}"
+            phases[key] = phases.get(key, 0.0) + times * secs
+    peak = max(parts, key=lambda p: p[1].bytes)[1]
+    return _estimate("design", sizes.n, phases, peak.bytes, peak.dense_arrays)
+
+
+# --------------------------------------------------------------------------------------------
+# limits
+
+
+@dataclass(frozen=True, slots=True)
+class Limits:
+    """Largest estimate a command runs without ``--allow-large``.
+
+    Attributes
+    ----------
+    seconds : float
+    bytes : float
+    notice_seconds : float
+        Above this (and within the limits) the command prints its estimate before starting.
+    """
+
+    seconds: float = MAX_SECONDS
+    bytes: float = MAX_BYTES
+    notice_seconds: float = NOTICE_SECONDS
+
+
+def available_memory() -> float | None:
+    """``MemAvailable`` of ``/proc/meminfo`` in bytes (None where there is no such file)."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) * 1024.0
+    except (OSError, ValueError, IndexError):
+        return None
+    try:
+        return float(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def default_limits(available: float | None = None) -> Limits:
+    """:data:`MAX_SECONDS` (10 min) and min(:data:`MAX_BYTES`, 80 % of the available memory).
+
+    Parameters
+    ----------
+    available : float, optional
+        Available memory in bytes (default :func:`available_memory`, read now).
+    """
+    avail = available_memory() if available is None else available
+    cap = MAX_BYTES if avail is None else min(MAX_BYTES, MEMORY_FRACTION * avail)
+    return Limits(MAX_SECONDS, cap)
+
+
+def refusal(est: CostEstimate, limits: Limits) -> str | None:
+    """Why ``est`` exceeds ``limits`` (``"time"``, ``"memory"`` or ``"time and memory"``), or None.
+
+    Parameters
+    ----------
+    est : CostEstimate
+    limits : Limits
+    """
+    over = [w for w, bad in (("time", est.bound_seconds > limits.seconds), ("memory", est.bytes > limits.bytes)) if bad]
+    return " and ".join(over) if over else None
+
+
+def check_limits(est: CostEstimate, limits: Limits | None = None, *, allow: bool = False, how: Sequence[str] = ()) -> None:
+    """Raise :class:`SizeLimitError` when ``est`` exceeds ``limits`` (unless ``allow``).
+
+    The message is one line: the command, N, the estimate, the limits, and how to proceed,
+    e.g. ``verify of 20000 agents: estimated 3.6 h and 36 GiB (12 dense 20000 x 20000 arrays;
+    mostly global spectra; limits 10 min, 8 GiB); rerun with --allow-large to run it anyway,
+    or --only CONDITION to run fewer checkers``.
+
+    Parameters
+    ----------
+    est : CostEstimate
+    limits : Limits, optional
+        Default :func:`default_limits`.
+    allow : bool
+        Never refuse (``--allow-large``).
+    how : sequence of str
+        Further ways out, appended after ``--allow-large`` (e.g. ``"--only CONDITION to run
+        fewer checkers"``).
+    """
+    if allow:
+        return
+    lim = default_limits() if limits is None else limits
+    if refusal(est, lim) is None:
+        return
+    text = est.describe()
+    limits_text = f"limits {format_seconds(lim.seconds)}, {format_bytes(lim.bytes)}"
+    text = text[:-1] + f"; {limits_text})" if text.endswith(")") else f"{text} ({limits_text})"
+    ways = ", or ".join(["rerun with --allow-large to run it anyway", *how])
+    raise SizeLimitError(f"{est.command} of {est.n} agents: estimated {text}; {ways}", est, lim)
+
+
+def format_seconds(seconds: float) -> str:
+    """``"45 s"``, ``"12 min"``, ``"3.6 h"``, ``"4.2 days"``.
+
+    Parameters
+    ----------
+    seconds : float
+    """
+    if not math.isfinite(seconds):
+        return "forever"
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    if seconds < 90 * 60:
+        return f"{seconds / 60:.0f} min"
+    if seconds < 48 * 3600:
+        return f"{_short(seconds / 3600)} h"
+    return f"{_short(seconds / 86400)} days"
+
+
+def format_bytes(nbytes: float) -> str:
+    """``"850 MiB"``, ``"9.6 GiB"``.
+
+    Parameters
+    ----------
+    nbytes : float
+    """
+    if nbytes < GIB:
+        return f"{nbytes / MIB:.0f} MiB"
+    return f"{_short(nbytes / GIB)} GiB"
+
+
+def _short(x: float) -> str:
+    """One decimal below 10, none above: ``3.6``, ``36``, ``1234``."""
+    text = f"{x:.1f}" if x < 9.95 else f"{x:.0f}"
+    return text[:-2] if text.endswith(".0") else text
