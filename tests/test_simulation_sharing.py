@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from envelope_checks import assert_envelopes_agree
 from glocal_verify import System, load_example, spec_from_dict
 from glocal_verify.simulation import envelope as envelope_module
 from glocal_verify.simulation.attacks import attack_from_spec
@@ -43,14 +44,6 @@ def tiny_bank(tiny: System) -> ObserverBank:
     return ObserverBank.for_system(tiny)
 
 
-def _agree(rows: dict[str, np.ndarray], cols: dict[str, np.ndarray]) -> None:
-    assert rows.keys() == cols.keys()
-    for name in rows:
-        scale = max(1.0, float(np.max(cols[name], initial=0.0)))
-        assert rows[name].shape == cols[name].shape, name
-        assert np.max(np.abs(rows[name] - cols[name]), initial=0.0) <= 1e-9 * scale, name
-
-
 # --------------------------------------------------------------------------------------------
 # the row envelope
 
@@ -59,14 +52,14 @@ def test_envelope_rows_match_columns_across_two_switches_between_samples(tiny: S
     sched = Schedule(((0.0, "normal"), (0.512, "q"), (1.237, "normal")))
     th = attack_free_thresholds(tiny, tiny_bank, sched, ThresholdRule(box=1.5))
     _, ref = envelope_by_columns(tiny, tiny_bank, sched, box=1.5, method="modal")
-    _agree(dict(th.envelope), ref)
+    assert_envelopes_agree(dict(th.envelope), ref)
 
 
 def test_envelope_rows_match_columns_when_a_segment_holds_no_sample(tiny: System, tiny_bank: ObserverBank) -> None:
     sched = Schedule(((0.0, "normal"), (0.51, "q"), (0.53, "normal"), (2.0, "q")))
     th = attack_free_thresholds(tiny, tiny_bank, sched)
     _, ref = envelope_by_columns(tiny, tiny_bank, sched, method="modal")
-    _agree(dict(th.envelope), ref)
+    assert_envelopes_agree(dict(th.envelope), ref)
 
 
 def test_envelope_rows_match_columns_with_several_internal_steps_per_output_step() -> None:
@@ -77,7 +70,7 @@ def test_envelope_rows_match_columns_with_several_internal_steps_per_output_step
     assert res.internal_steps > 1
     th = attack_free_thresholds(stiff, bank, sched)
     _, ref = envelope_by_columns(stiff, bank, sched, method="modal")
-    _agree(dict(th.envelope), ref)
+    assert_envelopes_agree(dict(th.envelope), ref)
 
 
 @pytest.mark.parametrize("doublings", [0, 1, 6])
@@ -91,7 +84,7 @@ def test_envelope_rows_match_columns_step_by_step_and_in_blocks_of_powers(
     sched = Schedule(((0.0, "normal"), (1.0, "q")))
     th = attack_free_thresholds(tiny, tiny_bank, sched)
     _, ref = envelope_by_columns(tiny, tiny_bank, sched, method="modal")
-    _agree(dict(th.envelope), ref)
+    assert_envelopes_agree(dict(th.envelope), ref)
 
 
 def test_envelope_rows_match_columns_on_a_random_network_whose_observers_keep_their_dynamics_after_the_switch() -> None:
@@ -103,7 +96,7 @@ def test_envelope_rows_match_columns_on_a_random_network_whose_observers_keep_th
     ops = StepOperators()
     th = attack_free_thresholds(s, bank, sched, step_operators=ops)
     _, ref = envelope_by_columns(s, bank, sched)
-    _agree(dict(th.envelope), ref)
+    assert_envelopes_agree(dict(th.envelope), ref)
     # one exponential per observer and dynamics in use: the central observer keeps A_1 after the
     # switch, a local observer without a mode-matched design keeps its own
     used = sum(len({o.dynamics_key(m) for m in ("normal", "safe-1")}) for o in bank)
@@ -126,7 +119,7 @@ def test_envelope_rows_continued_across_a_switch_on_the_grid_match_columns(monke
     sched = Schedule.single("case-2", switch)
     th = attack_free_thresholds(s, bank, sched, horizon=2.0)
     _, ref = envelope_by_columns(s, bank, sched, horizon=2.0)
-    _agree(dict(th.envelope), ref)
+    assert_envelopes_agree(dict(th.envelope), ref)
     # the observers whose dynamics do not change: the central one and a UIO with z(0) != 0
     assert set(used) == {"central", "P2@10", "P3@13"}
     assert np.any(bank["P2@10"].Z0)

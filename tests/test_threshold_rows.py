@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from envelope_checks import assert_envelopes_agree
 from glocal_verify import System, load_example, spec_from_dict
 from glocal_verify.design.generators import random_clustered_spec
 from glocal_verify.numerics.threads import available_cores, blas_threads
@@ -39,20 +40,12 @@ def _tiny() -> System:
     return System(spec_from_dict(data))
 
 
-def _agree(rows: dict[str, np.ndarray], cols: dict[str, np.ndarray]) -> None:
-    assert rows.keys() == cols.keys()
-    for name in rows:
-        scale = max(1.0, float(np.max(cols[name], initial=0.0)))
-        assert rows[name].shape == cols[name].shape, name
-        assert np.max(np.abs(rows[name] - cols[name]), initial=0.0) <= 1e-9 * scale, name
-
-
 def test_rows_and_columns_give_the_same_envelope_with_a_switch_between_samples(paper19: System, bank: ObserverBank) -> None:
     sched = Schedule.single("case-2", 1.013)
     th = attack_free_thresholds(paper19, bank, sched, horizon=2.5)
     t, ref = envelope_by_columns(paper19, bank, sched, horizon=2.5)
     assert np.array_equal(th.t, t)
-    _agree(dict(th.envelope), ref)
+    assert_envelopes_agree(dict(th.envelope), ref)
 
 
 def test_rows_and_columns_agree_with_two_switches_on_the_grid_and_a_larger_box() -> None:
@@ -63,7 +56,7 @@ def test_rows_and_columns_agree_with_two_switches_on_the_grid_and_a_larger_box()
 
     th = attack_free_thresholds(tiny, b, sched, ThresholdRule(box=2.5))
     _, ref = envelope_by_columns(tiny, b, sched, box=2.5, method="modal")
-    _agree(dict(th.envelope), ref)
+    assert_envelopes_agree(dict(th.envelope), ref)
 
 
 def test_rows_and_columns_agree_on_a_random_clustered_network_with_mode_matched_observers() -> None:
@@ -73,7 +66,7 @@ def test_rows_and_columns_agree_on_a_random_clustered_network_with_mode_matched_
     sched = Schedule.from_spec(s)
     th = attack_free_thresholds(s, b, sched)
     _, ref = envelope_by_columns(s, b, sched)
-    _agree(dict(th.envelope), ref)
+    assert_envelopes_agree(dict(th.envelope), ref)
 
 
 def test_attack_free_runs_at_the_vertices_of_the_box_never_cross_the_row_envelope(paper19: System, bank: ObserverBank) -> None:

@@ -13,23 +13,10 @@ __all__ = ["register"]
 
 def _assessment_lines(system: Any, label: str, exact: bool) -> list[str]:
     """Privacy and detection lines of the assessment of ``verify`` (when the reporting layer has it)."""
+    from glocal_verify.conditions.catalogue import DESIGN_ASSESSMENT_IDS
     from glocal_verify.conditions.registry import verify
 
-    rep = verify(
-        system,
-        [
-            "privacy.initial-state",
-            "privacy.consensus-value",
-            "stealthy.zda",
-            "local.pencil",
-            "local.uio",
-            "switching.image-kernel",
-            "switching.distinct-eigenvalues",
-            "switching.eigenvector-differences",
-            "switching.avoids-attack",
-        ],
-        exact=exact,
-    )
+    rep = verify(system, list(DESIGN_ASSESSMENT_IDS), exact=exact)
     try:
         from glocal_verify.reporting.assessment import assess
     except ImportError:  # pragma: no cover - the reporting layer is optional here

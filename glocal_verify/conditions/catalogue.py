@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 from glocal_verify.results import Status
 
-__all__ = ["ConditionInfo", "CATALOGUE"]
+__all__ = ["ConditionInfo", "CATALOGUE", "DESIGN_ASSESSMENT_IDS"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -73,3 +73,17 @@ _ENTRIES = [
 
 
 CATALOGUE: dict[str, ConditionInfo] = {e[0]: ConditionInfo(*e) for e in _ENTRIES}
+
+#: the conditions of a design's before/after assessment (``glocal-verify design``): privacy,
+#: stealthy ZDA, the local observers and Theorem III.3 with the attack's avoidance
+DESIGN_ASSESSMENT_IDS: tuple[str, ...] = (
+    "privacy.initial-state",
+    "privacy.consensus-value",
+    "stealthy.zda",
+    "local.pencil",
+    "local.uio",
+    "switching.image-kernel",
+    "switching.distinct-eigenvalues",
+    "switching.eigenvector-differences",
+    "switching.avoids-attack",
+)

@@ -30,7 +30,7 @@ import os
 from dataclasses import dataclass, field
 from typing import Iterable, Sequence
 
-from glocal_verify.conditions.catalogue import CATALOGUE
+from glocal_verify.conditions.catalogue import CATALOGUE, DESIGN_ASSESSMENT_IDS
 from glocal_verify.errors import ModelError
 from glocal_verify.spec.types import SystemSpec
 
@@ -506,18 +506,7 @@ def estimate_design(sizes: SpecSizes, *, max_attackers: int = 2, place: bool = T
     CostEstimate
     """
     exact = sizes.n <= 60 if exact_assessment is None else exact_assessment
-    ids = (
-        "privacy.initial-state",
-        "privacy.consensus-value",
-        "stealthy.zda",
-        "local.pencil",
-        "local.uio",
-        "switching.image-kernel",
-        "switching.distinct-eigenvalues",
-        "switching.eigenvector-differences",
-        "switching.avoids-attack",
-    )
-    parts = [(2.0, estimate_audit(sizes, max_attackers)), (2.0, estimate_verify(sizes, ids, exact=exact, exact_budget=None))]
+    parts = [(2.0, estimate_audit(sizes, max_attackers)), (2.0, estimate_verify(sizes, DESIGN_ASSESSMENT_IDS, exact=exact, exact_budget=None))]
     if place:
         parts.append((1.0, estimate_place_observers(sizes)))
     phases: dict[str, float] = {}

@@ -96,6 +96,7 @@ from glocal_verify.simulation.limits import (
     check_size,
     check_stiffness,
     estimate_size,
+    horizon_and_step,
 )
 from glocal_verify.simulation.observer_models import ObserverBank, ObserverModel
 from glocal_verify.simulation.schedule import (
@@ -658,10 +659,7 @@ def _run(
     sched = schedule if schedule is not None else Schedule()
     for _, m in sched.segments:
         system.check_mode(m)
-    T = float(system.spec.simulation.horizon if horizon is None else horizon)
-    h = float(system.spec.simulation.step if step is None else step)
-    if not (h > 0 and T > 0 and math.isfinite(T) and math.isfinite(h)):
-        raise ModelError(f"horizon {T} and step {h} must be positive and finite")
+    T, h = horizon_and_step(system, horizon, step)
     check_size(estimate_size(system.n, T, h, channels=0, record_states=False, dim=0), allow=allow_large)
     check_stiffness(system, T, h, allow=allow_large)
     K = int(math.floor(T / h + 1e-9))

@@ -55,10 +55,9 @@ from typing import Callable, Iterator
 import numpy as np
 import scipy.linalg
 
-from glocal_verify.errors import ModelError
 from glocal_verify.model import System
 from glocal_verify.numerics.threads import blas_threads
-from glocal_verify.simulation.limits import RHO_MAX
+from glocal_verify.simulation.limits import RHO_MAX, horizon_and_step
 from glocal_verify.simulation.observer_models import ObserverBank, ObserverModel
 from glocal_verify.simulation.schedule import Schedule
 from glocal_verify.simulation.step_operators import StepOperators
@@ -423,10 +422,7 @@ def envelope_by_rows(
     """
     for _, m in schedule.segments:
         system.check_mode(m)
-    T = float(system.spec.simulation.horizon if horizon is None else horizon)
-    h = float(system.spec.simulation.step if step is None else step)
-    if not (h > 0 and T > 0 and math.isfinite(T) and math.isfinite(h)):
-        raise ModelError(f"horizon {T} and step {h} must be positive and finite")
+    T, h = horizon_and_step(system, horizon, step)
     ops = step_operators if step_operators is not None else StepOperators()
     K = int(math.floor(T / h + 1e-9))
     end = K * h

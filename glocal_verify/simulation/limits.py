@@ -19,7 +19,7 @@ import numpy as np
 from glocal_verify.errors import ModelError
 from glocal_verify.model import System
 
-__all__ = ["MAX_SAMPLES", "MAX_BYTES", "MAX_INTERNAL_STEPS", "RHO_MAX", "SizeEstimate", "estimate_size", "check_size", "check_stiffness", "allow_large"]
+__all__ = ["MAX_SAMPLES", "MAX_BYTES", "MAX_INTERNAL_STEPS", "RHO_MAX", "SizeEstimate", "estimate_size", "check_size", "check_stiffness", "allow_large", "horizon_and_step"]
 
 #: largest rho = h_int * nu of one internal step of the modal propagator (the Taylor terms of the
 #: observer input then stay below e^2 times the state norm: at most a few ulps of cancellation)
@@ -150,3 +150,27 @@ def allow_large() -> Iterator[None]:
         yield
     finally:
         _ALLOW_LARGE.reset(token)
+
+
+def horizon_and_step(system: System, horizon: float | None, step: float | None) -> tuple[float, float]:
+    """The horizon T and output step h of a run: the arguments, else the spec's ``[simulation]``.
+
+    Parameters
+    ----------
+    system : System
+    horizon, step : float, optional
+
+    Returns
+    -------
+    (T, h)
+
+    Raises
+    ------
+    ModelError
+        Unless both are positive and finite.
+    """
+    T = float(system.spec.simulation.horizon if horizon is None else horizon)
+    h = float(system.spec.simulation.step if step is None else step)
+    if not (h > 0 and T > 0 and math.isfinite(T) and math.isfinite(h)):
+        raise ModelError(f"horizon {T} and step {h} must be positive and finite")
+    return T, h
