@@ -179,3 +179,32 @@ def test_audit_command_writes_json_and_figures_into_a_folder(tmp_path: Any) -> N
     jsonschema.validate(doc, _schema())
     assert len(doc["rows"]) == 3
     assert (out / "audit.svg").stat().st_size > 0 and (out / "audit.png").stat().st_size > 0
+
+
+def test_an_undecided_row_names_every_undecided_part_and_what_would_decide_it() -> None:
+    from glocal_verify.design.audit_records import undecided_reason
+
+    local = {"P1@5": {"local.pencil": "holds", "local.uio": "undecided"}, "P2@9": {"local.pencil": "fails", "local.uio": "fails"}}
+    modes = {"case-2": {"theorem_iii3": True, "switching.avoids-attack": "undecided"}, "case-3": {"theorem_iii3": None}, "case-4": {"theorem_iii3": False}}
+    text = undecided_reason(None, local, modes, exact=False, exact_fallback=False)
+    assert text.startswith("undecided: whether a stealthy ZDA exists; local.uio of P1@5; switching.avoids-attack of case-2; Theorem III.3 for case-3")
+    assert "P2@9" not in text and "case-4" not in text
+    assert "audit --exact" in text
+    assert "exact re-decision" in undecided_reason(True, local, {}, exact=False, exact_fallback=True)
+
+
+def test_every_undecided_row_of_a_near_degenerate_audit_says_which_part_is_open() -> None:
+    from glocal_verify.design.generators import random_clustered_spec
+
+    # without the exact fallback these networks keep rows the floating-point bounds cannot settle
+    undecided = []
+    for n, seed in ((30, 5), (40, 2)):
+        result = audit(System(random_clustered_spec(n, 3, seed=seed)), 1, exact_fallback=False)
+        undecided += [r for r in result.rows if r.verdict == "undecided"]
+    assert undecided
+    for r in undecided:
+        reason = r.witness["reason"]
+        assert reason.startswith("undecided: ") and "a part of the row" not in reason and "audit --exact" in reason, reason
+        if r.stealthy is not None:
+            open_local = [f"{cid} of {name}" for name, d in r.witness["local"].items() for cid in ("local.pencil", "local.uio") if d[cid] == "undecided"]
+            assert open_local and all(part in reason for part in open_local), reason

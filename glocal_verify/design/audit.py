@@ -68,11 +68,7 @@ from glocal_verify.analysis.zda_exact import zda_analysis_exact
 from glocal_verify.conditions.local import uio_verdict
 from glocal_verify.conditions.local_pencil import pencil_verdict, pencil_verdict_exact
 from glocal_verify.conditions.registry import verify
-from glocal_verify.design.audit_records import (
-    AUDIT_SCHEMA_ID,
-    AuditResult,
-    AuditRow,
-)
+from glocal_verify.design.audit_records import AUDIT_SCHEMA_ID, AuditResult, AuditRow, undecided_reason
 from glocal_verify.design.audit_screens import _witness_lambda, _without_sensors, batch_witnesses, disjoint_paths, global_tables
 from glocal_verify.errors import ModelError, NotApplicableError
 from glocal_verify.model import System
@@ -597,7 +593,8 @@ def _audit_set(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any]) -> Audit
     elif z.stealthy is True and covered is False and not open_:
         verdict, reason = "undetected", "a stealthy ZDA exists, no local observer catches it and no admissible safe mode touches it"
     else:
-        verdict, reason = "undecided", "some test is undecided at the tolerance"
+        verdict = "undecided"
+        reason = undecided_reason(z.stealthy, local_detail, mode_detail, exact=sh.exact, exact_fallback=sh.exact_fallback)
     witness["reason"] = reason
     return AuditRow(F, z.stealthy, z.growth, None if z.direction is None else complex(z.direction.value), tuple(caught), tuple(exposed), verdict, witness)
 

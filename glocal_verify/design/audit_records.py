@@ -16,7 +16,7 @@ import numpy as np
 from glocal_verify.results import Status
 from glocal_verify.spec.types import Label
 
-__all__ = ["AUDIT_SCHEMA_ID", "VERDICTS", "AuditResult", "AuditRow"]
+__all__ = ["AUDIT_SCHEMA_ID", "VERDICTS", "AuditResult", "AuditRow", "undecided_reason"]
 
 AUDIT_SCHEMA_ID = "glocal-verify/audit@1"
 VERDICTS = ("detected", "undetected", "undecided")
@@ -150,6 +150,55 @@ class AuditResult:
                 f"| {', '.join(map(str, r.actuators))} | {st} | {r.growth} | {lam} | {caught} | {', '.join(r.exposed_by_modes) or '-'} | {r.verdict} |"
             )
         return "\n".join(lines) + "\n"
+
+
+def undecided_reason(stealthy: bool | None, local: Mapping[str, Any], modes: Mapping[str, Any], *, exact: bool, exact_fallback: bool) -> str:
+    """Why a row is ``undecided``: every part that is, and what would decide it.
+
+    A row is undecided when no part proves ``detected`` and the parts that could are not all
+    decided: the existence of a stealthy ZDA, the local pencil (iii) or the UIO of an observer
+    of a cluster F meets, Theorem III.3 or the touch test of a safe mode.
+
+    Parameters
+    ----------
+    stealthy : bool or None
+        Whether a stealthy ZDA exists (None: undecided).
+    local : mapping
+        The row's witness ``local``: ``{"P1@5": {"local.pencil": ..., "local.uio": ...}}``.
+    modes : mapping
+        The row's witness ``modes``: ``{"case-2": {"theorem_iii3": ..., "switching.avoids-attack": ...}}``.
+    exact : bool
+        The audit ran in exact arithmetic.
+    exact_fallback : bool
+        Numeric undecided parts were re-decided over Q.
+
+    Returns
+    -------
+    str
+        One sentence, e.g. ``"undecided: local.uio of P2@17; switching.avoids-attack of case-2
+        (the certified floating-point bounds do not separate the cases; audit --exact decides
+        them)"``.
+    """
+    parts = []
+    if stealthy is None:
+        parts.append("whether a stealthy ZDA exists")
+    for name, d in local.items():
+        for cid in ("local.pencil", "local.uio"):
+            if d.get(cid) == Status.UNDECIDED.value:
+                parts.append(f"{cid} of {name}")
+    for mode, d in modes.items():
+        if d.get("theorem_iii3") is None:
+            parts.append(f"Theorem III.3 for {mode}")
+        elif d.get("theorem_iii3") and d.get("switching.avoids-attack") == Status.UNDECIDED.value:
+            parts.append(f"switching.avoids-attack of {mode}")
+    what = "; ".join(parts) if parts else "a part of the row"
+    if exact:
+        how = "exact arithmetic left it open (a switching schedule of three or more modes)"
+    elif exact_fallback:
+        how = "neither the certified floating-point bounds nor the exact re-decision settled it"
+    else:
+        how = "the certified floating-point bounds do not separate the cases; audit --exact (rational weights) decides them"
+    return f"undecided: {what} ({how})"
 
 
 def _jsonable(x: Any) -> Any:
