@@ -113,19 +113,36 @@ C_PLACE_SQ = 2.5e-6
 A_PLACE = 5.0
 A_PLACE_CLUSTER = 18.0
 
-#: audit: each candidate agent costs its part of the first phase (its local verdicts: 25 ms at
-#: N = 200, 59 ms at N = 1000) plus its single-actuator row, seconds per N^3 (8 ms at N = 200
-#: and 3.4 s at N = 1000 on the benchmark's 20-agent clusters, where the minor certificate fails
-#: and the whole pencil is analysed; 0.08 s for both together at N = 500 on 3 clusters); each
-#: larger set a + b N^2 seconds (2.0 ms at N = 200, 6.5 ms at N = 1000)
-C_AUDIT_AGENT = 0.02
-C_AUDIT_SINGLE = 2e-9
-C_AUDIT_SET = 1.8e-3
-C_AUDIT_SET_SQ = 4.7e-9
+#: audit, measured in CPU seconds on random_clustered_spec(N, c, seed=1) (N = 200 / 10
+#: clusters, 300 / 3, 500 / 10, 1000 / 50), samples of singles, pairs inside one cluster and
+#: pairs across clusters:
+#: - set-up (spectrum, minor tables, Theorem III.3 per mode): C_AUDIT_SETUP N^3 (0.15 s at
+#:   N = 200, 9.2 s at N = 1000);
+#: - per candidate, its local verdicts: C_AUDIT_AGENT + C_AUDIT_AGENT_N N + C_AUDIT_AGENT_LOCAL
+#:   (2 n_c)^3 with n_c its cluster's size (5.3 ms at n_c = 20, 20 ms at 50, 0.34 s at 100);
+#: - per single actuator, its ZDA: C_AUDIT_SINGLE_0 + C_AUDIT_SINGLE N^3 (7.4 ms at N = 200,
+#:   0.27 s at N = 1000);
+#: - per larger set C_AUDIT_SET + C_AUDIT_SET_SQ N^2 (0.1-0.3 ms), plus C_AUDIT_SET_INTRA +
+#:   C_AUDIT_SET_LOCAL (2 n_c)^3 when two of its agents share a cluster (0.8 ms at n_c = 20,
+#:   3.2 ms at 50, 43 ms at 100).
+#: A set whose minor certificate fails gets the whole O(N^3) zero-set analysis when a safe mode
+#: may expose it; how many do is not known from the sizes (none on the 50-cluster network, a
+#: fifth of the pairs on the 3-cluster N = 300 one, whose audit the estimate puts 3x low).
+C_AUDIT_SETUP = 1.2e-8
+C_AUDIT_AGENT = 3e-3
+C_AUDIT_AGENT_N = 1.3e-5
+C_AUDIT_AGENT_LOCAL = 4.5e-8
+C_AUDIT_SINGLE_0 = 5e-3
+C_AUDIT_SINGLE = 3e-10
+C_AUDIT_SET = 2e-4
+C_AUDIT_SET_SQ = 1e-10
+C_AUDIT_SET_INTRA = 4e-4
+C_AUDIT_SET_LOCAL = 4e-9
 #: audit memory: N x N arrays (eigenvectors, minor tables: 136 MB at N = 1000) and bytes per row
-#: held until the report is written (9.9 GB for 500,500 rows at N = 1000)
+#: held until the report is written (3.5 kB per row with the shared memo, traced at N = 200 and
+#: 1000, and the JSON or Markdown text built from them)
 A_AUDIT = 20.0
-B_AUDIT_ROW = 20_000.0
+B_AUDIT_ROW = 8_000.0
 #: exact audit rows (``--exact``): a factor on the per-set seconds
 F_AUDIT_EXACT = 10.0
 
@@ -435,20 +452,28 @@ def _sets(candidates: int, k: int) -> tuple[int, int]:
 def estimate_audit(sizes: SpecSizes, k: int, candidates: int | None = None, *, exact: bool = False, workers: int = 1) -> CostEstimate:
     """Seconds and peak memory of ``audit`` of every set of 1..k of ``candidates`` actuators.
 
-    With :math:`M` candidates, :math:`R = \\sum_{j=1}^k \\binom{M}{j}` rows and W workers:
+    With :math:`M` candidates, :math:`R = \\sum_{j=1}^k \\binom{M}{j}` rows, W workers,
+    clusters of :math:`n_c` agents, :math:`\\pi = \\sum_c n_c (n_c - 1) / (N (N - 1))` the
+    chance that two agents share a cluster (a set of j agents: :math:`\\min(1, \\binom{j}{2} \\pi)`)
+    and averages over the agents of a cluster (:math:`E_a`) or over such pairs (:math:`E_p`):
 
     .. math::
 
-        t = C_{start} + C_g N^3 + \\frac{(C_{agent} + C_{single} N^3) M + (a + b N^2)(R - M)}{W},\\quad
+        t = C_{start} + C_{setup} N^3 + \\frac{1}{W}\\Big[M \\big(C_a + C_{a,N} N + C_{a,loc} E_a (2 n_c)^3
+            + C_{s,0} + C_s N^3\\big)
+            + \\sum_{j \\ge 2} \\binom{M}{j} \\big(C_{set} + C_{set,2} N^2 + \\pi_j (C_{in} + C_{loc} E_p (2 n_c)^3)\\big)\\Big]
+
         m = B_{base} + 8 N^2 A_{audit} + B_{row} R
 
-    with :data:`C_GLOBAL` = 1.6e-9 s (the spectrum of L_1), :data:`C_AUDIT_AGENT` = 0.02 s,
-    :data:`C_AUDIT_SINGLE` = 2e-9 s,
-    :data:`C_AUDIT_SET` = a = 1.8e-3 s, :data:`C_AUDIT_SET_SQ` = b = 4.7e-9 s,
-    :data:`A_AUDIT` = 20, :data:`B_AUDIT_ROW` = 20 kB; ``exact`` multiplies the per-set seconds
-    by :data:`F_AUDIT_EXACT`. A candidate's cost varies with the network (0.08 s at N = 500 on
-    3 clusters, 3.5 s at N = 1000 on the benchmark's 50 clusters): the constants lie between,
-    within a factor of about 3.5 of both.
+    with the constants of this module (:data:`C_AUDIT_SETUP` = 1.2e-8, :data:`C_AUDIT_AGENT` =
+    3e-3, :data:`C_AUDIT_AGENT_N` = 1.3e-5, :data:`C_AUDIT_AGENT_LOCAL` = 4.5e-8,
+    :data:`C_AUDIT_SINGLE_0` = 5e-3, :data:`C_AUDIT_SINGLE` = 3e-10, :data:`C_AUDIT_SET` = 2e-4,
+    :data:`C_AUDIT_SET_SQ` = 1e-10, :data:`C_AUDIT_SET_INTRA` = 4e-4, :data:`C_AUDIT_SET_LOCAL`
+    = 4e-9 s, :data:`A_AUDIT` = 20, :data:`B_AUDIT_ROW` = 8 kB); ``exact`` multiplies the
+    per-set seconds by :data:`F_AUDIT_EXACT`. Measured totals: 8 s at N = 200 (10 clusters,
+    estimate 8.6 s), 109 s at N = 500 (10 clusters, 131 s), 7.3 min at N = 1000 (50 clusters,
+    8.2 min); 27 min at N = 300 on 3 clusters, where a fifth of the pairs need the whole zero
+    set (estimate 10 min).
 
     Parameters
     ----------
@@ -456,7 +481,8 @@ def estimate_audit(sizes: SpecSizes, k: int, candidates: int | None = None, *, e
     k : int
         ``--max-attackers``.
     candidates : int, optional
-        ``--agents`` count (default N).
+        ``--agents`` count (default N); the candidates are taken to lie in the clusters as all
+        agents do.
     exact : bool
         ``--exact``.
     workers : int
@@ -471,10 +497,24 @@ def estimate_audit(sizes: SpecSizes, k: int, candidates: int | None = None, *, e
     singles, larger = _sets(m, k)
     f = F_AUDIT_EXACT if exact else 1.0
     w = max(1, int(workers))
+    nf = float(max(n, 1))
+    cs = [float(c) for c in sizes.cluster_sizes]
+    agent_local = sum(c * (2.0 * c) ** 3 for c in cs) / nf  # E_a over all agents (0 outside clusters)
+    same = sum(c * (c - 1.0) for c in cs)
+    pi = same / (nf * max(nf - 1.0, 1.0))
+    pair_local = sum(c * (c - 1.0) * (2.0 * c) ** 3 for c in cs) / same if same else 0.0
+    per_agent = C_AUDIT_AGENT + C_AUDIT_AGENT_N * n + C_AUDIT_AGENT_LOCAL * agent_local
+    per_single = C_AUDIT_SINGLE_0 + C_AUDIT_SINGLE * float(n) ** 3
+    kk = max(0, min(int(k), m))
+    sets_secs = sum(
+        math.comb(m, j) * (C_AUDIT_SET + C_AUDIT_SET_SQ * float(n) ** 2 + min(1.0, math.comb(j, 2) * pi) * (C_AUDIT_SET_INTRA + C_AUDIT_SET_LOCAL * pair_local))
+        for j in range(2, kk + 1)
+    )
     phases = {
-        "the spectrum of L_1": C_GLOBAL * float(n) ** 3,
-        "single actuators": f * (C_AUDIT_AGENT + C_AUDIT_SINGLE * float(n) ** 3) * singles / w,
-        f"{larger} sets of 2..{k} actuators": f * (C_AUDIT_SET + C_AUDIT_SET_SQ * float(n) ** 2) * larger / w,
+        "the spectrum, minor tables and safe-mode verdicts": C_AUDIT_SETUP * float(n) ** 3,
+        "local verdicts of each candidate": f * per_agent * (m if kk >= 1 else 0) / w,
+        "single actuators": f * per_single * singles / w,
+        f"{larger} sets of 2..{k} actuators": f * sets_secs / w,
     }
     nbytes = B_BASE + A_AUDIT * _dense(n) + B_AUDIT_ROW * (singles + larger)
     return _estimate("audit", n, phases, nbytes, A_AUDIT)
