@@ -208,3 +208,18 @@ def test_every_undecided_row_of_a_near_degenerate_audit_says_which_part_is_open(
         if r.stealthy is not None:
             open_local = [f"{cid} of {name}" for name, d in r.witness["local"].items() for cid in ("local.pencil", "local.uio") if d[cid] == "undecided"]
             assert open_local and all(part in reason for part in open_local), reason
+
+
+def test_the_audit_progress_line_weighs_singles_above_pairs_in_its_estimate_of_the_time_left(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    import time
+
+    from glocal_verify.cli.audit import _progress, _set_work
+
+    clock = iter([0.0, 100.0, 100.0])
+    monkeypatch.setattr(time, "monotonic", lambda: next(clock))
+    # 10 singles of 1 s each, then 1000 pairs of 0.01 s: after the singles 10 s of work are left
+    line = _progress(False, work=_set_work(10, 1.0, 0.01))
+    assert line is not None
+    line(10, 1010)
+    err = capsys.readouterr().err
+    assert "10/1010 attack sets, 100 s elapsed, about 100 s left" in err, err

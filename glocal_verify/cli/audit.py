@@ -32,14 +32,26 @@ def _labels(system: Any, text: str | None, what: str) -> list[Any] | None:
     return out
 
 
-def _progress(quiet: bool, unit: str = "attack sets") -> Callable[[int, int], None] | None:
-    """A bar with ETA on a terminal; otherwise one line per chunk (at most one per 10 s) on stderr."""
+def _progress(quiet: bool, unit: str = "attack sets", work: Callable[[int], float] | None = None) -> Callable[[int, int], None] | None:
+    """A bar with ETA on a terminal; otherwise one line per chunk (at most one per 10 s) on stderr.
+
+    ``work(d)``: the estimated seconds of the first d units (the sets come singles first, and a
+    single costs far more than a pair); the ETA is the time so far scaled by the estimated work
+    left over the estimated work done. Without it every unit weighs the same.
+    """
     if quiet:
         return None
-    if not sys.stderr.isatty():
-        import time
+    import time
 
-        start = time.monotonic()
+    start = time.monotonic()
+    weigh = work if work is not None else float
+
+    def eta(done: int, total: int) -> float:
+        now = time.monotonic() - start
+        w_done, w_all = weigh(done), weigh(total)
+        return now / w_done * (w_all - w_done) if w_done > 0 else float("nan")
+
+    if not sys.stderr.isatty():
         last = [0.0]
 
         def line(done: int, total: int) -> None:
@@ -47,8 +59,7 @@ def _progress(quiet: bool, unit: str = "attack sets") -> Callable[[int, int], No
             if done < total and now - last[0] < 10.0:
                 return
             last[0] = now
-            eta = now / done * (total - done) if done else float("nan")
-            print(f"audit: {done}/{total} {unit}, {now:.0f} s elapsed, about {eta:.0f} s left", file=sys.stderr, flush=True)
+            print(f"audit: {done}/{total} {unit}, {now:.0f} s elapsed, about {eta(done, total):.0f} s left", file=sys.stderr, flush=True)
 
         return line
     from tqdm import tqdm
@@ -57,13 +68,26 @@ def _progress(quiet: bool, unit: str = "attack sets") -> Callable[[int, int], No
 
     def tick(done: int, total: int) -> None:
         if "bar" not in bar or bar["bar"].total != total or bar["bar"].n > done:
-            bar["bar"] = tqdm(total=total, desc=unit, leave=False)
+            # tqdm's own remaining time assumes units of equal cost: show the weighted one
+            bar["bar"] = tqdm(total=total, desc=unit, leave=False, bar_format="{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} [{elapsed}{postfix}]")
         b = bar["bar"]
         b.update(done - b.n)
+        left = eta(done, total)
+        if left == left:  # not NaN
+            b.set_postfix_str(f"about {left:.0f} s left", refresh=True)
         if done >= total:
             b.close()
 
     return tick
+
+
+def _set_work(singles: int, per_single: float, per_larger: float) -> Callable[[int], float]:
+    """Estimated work of the first d attack sets, singles first (:func:`_progress`)."""
+
+    def work(d: int) -> float:
+        return per_single * min(d, singles) + per_larger * max(0, d - singles)
+
+    return work
 
 
 def cmd_audit(args: argparse.Namespace) -> int:
@@ -78,7 +102,7 @@ def cmd_audit(args: argparse.Namespace) -> int:
     n_cand = len(cands) if cands is not None else system.n
     if args.max_attackers > n_cand:
         raise UsageError(f"--max-attackers: {args.max_attackers} is larger than the number of candidate agents ({n_cand})")
-    from glocal_verify.conditions.cost import SpecSizes, estimate_audit
+    from glocal_verify.conditions.cost import SpecSizes, audit_set_seconds, estimate_audit
 
     # a remote --scheduler's size is unknown here: the estimate counts one worker
     est = estimate_audit(SpecSizes.from_spec(system.spec), args.max_attackers, n_cand, exact=args.exact, workers=max(1, args.workers or 1))
@@ -90,8 +114,10 @@ def cmd_audit(args: argparse.Namespace) -> int:
         if args.workers is not None and args.workers < 1:
             raise UsageError("--workers must be at least 1")
         executor = dask_executor(args.scheduler, args.workers or 2, progress=_progress(args.quiet, "tasks"))
+    per_agent, per_single, per_larger = audit_set_seconds(SpecSizes.from_spec(system.spec), args.max_attackers, n_cand)
+    progress = _progress(args.quiet, work=_set_work(n_cand, per_agent + per_single, per_larger))
     result = audit(
-        system, args.max_attackers, cands, sensors, _progress(args.quiet), exact=args.exact, growth=args.growth, chunk_size=args.chunk, executor=executor
+        system, args.max_attackers, cands, sensors, progress, exact=args.exact, growth=args.growth, chunk_size=args.chunk, executor=executor
     )
     if args.format == "json":
         text = json.dumps(result.to_json(), indent=2) + "\n"

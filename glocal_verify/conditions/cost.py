@@ -43,6 +43,7 @@ __all__ = [
     "estimate_verify",
     "estimate_place_observers",
     "estimate_audit",
+    "audit_set_seconds",
     "estimate_design",
     "refusal",
     "check_limits",
@@ -449,6 +450,44 @@ def _sets(candidates: int, k: int) -> tuple[int, int]:
     return (candidates if k >= 1 else 0), larger
 
 
+def audit_set_seconds(sizes: SpecSizes, k: int, candidates: int | None = None) -> tuple[float, float, float]:
+    """Estimated seconds of one candidate's local verdicts, one single set, and one larger set on average.
+
+    The terms of :func:`estimate_audit` (one worker, numeric): the audit's progress line weighs
+    the sets done by them, since a single costs far more than a pair.
+
+    Parameters
+    ----------
+    sizes : SpecSizes
+    k : int
+        ``--max-attackers``.
+    candidates : int, optional
+        Number of candidate agents (default N).
+
+    Returns
+    -------
+    (per_agent, per_single, per_larger) : tuple of float
+        ``per_larger`` averages over the sets of 2..k (0 when k < 2).
+    """
+    n = sizes.n
+    m = n if candidates is None else int(candidates)
+    nf = float(max(n, 1))
+    cs = [float(c) for c in sizes.cluster_sizes]
+    agent_local = sum(c * (2.0 * c) ** 3 for c in cs) / nf  # E_a over all agents (0 outside clusters)
+    same = sum(c * (c - 1.0) for c in cs)
+    pi = same / (nf * max(nf - 1.0, 1.0))
+    pair_local = sum(c * (c - 1.0) * (2.0 * c) ** 3 for c in cs) / same if same else 0.0
+    per_agent = C_AUDIT_AGENT + C_AUDIT_AGENT_N * n + C_AUDIT_AGENT_LOCAL * agent_local
+    per_single = C_AUDIT_SINGLE_0 + C_AUDIT_SINGLE * float(n) ** 3
+    kk = max(0, min(int(k), m))
+    counts = [math.comb(m, j) for j in range(2, kk + 1)]
+    secs = sum(
+        c * (C_AUDIT_SET + C_AUDIT_SET_SQ * float(n) ** 2 + min(1.0, math.comb(j, 2) * pi) * (C_AUDIT_SET_INTRA + C_AUDIT_SET_LOCAL * pair_local))
+        for j, c in zip(range(2, kk + 1), counts)
+    )
+    return per_agent, per_single, (secs / sum(counts) if counts else 0.0)
+
+
 def estimate_audit(sizes: SpecSizes, k: int, candidates: int | None = None, *, exact: bool = False, workers: int = 1) -> CostEstimate:
     """Seconds and peak memory of ``audit`` of every set of 1..k of ``candidates`` actuators.
 
@@ -497,24 +536,12 @@ def estimate_audit(sizes: SpecSizes, k: int, candidates: int | None = None, *, e
     singles, larger = _sets(m, k)
     f = F_AUDIT_EXACT if exact else 1.0
     w = max(1, int(workers))
-    nf = float(max(n, 1))
-    cs = [float(c) for c in sizes.cluster_sizes]
-    agent_local = sum(c * (2.0 * c) ** 3 for c in cs) / nf  # E_a over all agents (0 outside clusters)
-    same = sum(c * (c - 1.0) for c in cs)
-    pi = same / (nf * max(nf - 1.0, 1.0))
-    pair_local = sum(c * (c - 1.0) * (2.0 * c) ** 3 for c in cs) / same if same else 0.0
-    per_agent = C_AUDIT_AGENT + C_AUDIT_AGENT_N * n + C_AUDIT_AGENT_LOCAL * agent_local
-    per_single = C_AUDIT_SINGLE_0 + C_AUDIT_SINGLE * float(n) ** 3
-    kk = max(0, min(int(k), m))
-    sets_secs = sum(
-        math.comb(m, j) * (C_AUDIT_SET + C_AUDIT_SET_SQ * float(n) ** 2 + min(1.0, math.comb(j, 2) * pi) * (C_AUDIT_SET_INTRA + C_AUDIT_SET_LOCAL * pair_local))
-        for j in range(2, kk + 1)
-    )
+    per_agent, per_single, per_larger = audit_set_seconds(sizes, k, m)
     phases = {
         "the spectrum, minor tables and safe-mode verdicts": C_AUDIT_SETUP * float(n) ** 3,
-        "local verdicts of each candidate": f * per_agent * (m if kk >= 1 else 0) / w,
+        "local verdicts of each candidate": f * per_agent * singles / w,
         "single actuators": f * per_single * singles / w,
-        f"{larger} sets of 2..{k} actuators": f * sets_secs / w,
+        f"{larger} sets of 2..{k} actuators": f * per_larger * larger / w,
     }
     nbytes = B_BASE + A_AUDIT * _dense(n) + B_AUDIT_ROW * (singles + larger)
     return _estimate("audit", n, phases, nbytes, A_AUDIT)
