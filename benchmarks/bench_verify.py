@@ -5,7 +5,9 @@ Baselines, measured in the same run:
   4000 (10,000 with ``python -m benchmarks --large`` or ``GLOCAL_BENCH_LARGE=1``), each in
   its own process (wall and CPU time, peak resident memory), against one
   ``numpy.linalg.eigh`` of the same Laplacian timed in this process: the goal is a few
-  eigendecompositions per command;
+  eigendecompositions per command (the 10,000-agent row passes ``--allow-large``: verify
+  refuses it otherwise); ``verify --exact`` at N = 200; ``verify`` on a 20,000-agent path
+  graph, which must finish in 10 min or be refused at once with its estimate;
 - the same structured verification at N = 250 (scaling ratio);
 - the generic dense methods (2N-state pencil for the ZDA, orthogonal staircase for the
   unobservable subspace) against the structured N-sized ones on the same systems;
@@ -18,7 +20,9 @@ import os
 import tempfile
 from pathlib import Path
 
-from glocal_verify import System, verify
+import networkx as nx
+
+from glocal_verify import System, spec_from_graph, verify
 from glocal_verify.analysis.unobservable import unobservable_subspace
 from glocal_verify.analysis.zda import zda_analysis
 from glocal_verify.design.generators import random_clustered_spec
@@ -56,7 +60,23 @@ def command_rows(quick: bool) -> list[Row]:
             path = write_spec(spec, Path(tmp), f"rc{n}")
             goal = "< 5 min, < 8 GiB" if n >= 10_000 else f"<= {EIGH_GOAL:g} x eigh"
             budget = 1800.0 if n >= 10_000 else COMMAND_BUDGET
-            rows.append(command_row(group, f"verify, N = {n}, 3 clusters", "glocal-verify verify", cli("verify", str(path), "--quiet", "--out", os.path.join(tmp, "r.md")), n, System(spec), budget, goal))
+            # above the size limits verify refuses at once: the opt-in row runs it anyway
+            large = ["--allow-large"] if n >= 10_000 else []
+            argv = cli("verify", str(path), "--quiet", "--out", os.path.join(tmp, "r.md"), *large)
+            rows.append(command_row(group, f"verify, N = {n}, 3 clusters", "glocal-verify verify" + (" --allow-large" if large else ""), argv, n, System(spec), budget, goal))
+        if not quick:
+            spec = random_clustered_spec(200, 3, seed=7)
+            path = write_spec(spec, Path(tmp), "rc200")
+            argv = cli("verify", str(path), "--exact", "--quiet", "--out", os.path.join(tmp, "r.md"))
+            rows.append(command_row(group, "verify --exact, N = 200, 3 clusters", "glocal-verify verify --exact", argv, 200, System(spec), goal="< 60 s per condition"))
+        # a path graph of 20,000 agents: finish in < 10 min or refuse at once with the estimate
+        path = write_spec(spec_from_graph(nx.path_graph(range(1, 20_001)), name="path20000", monitor_velocities=[1, 20_000]), Path(tmp), "path20000")
+        m = run_command(cli("verify", str(path), "--quiet", "--out", os.path.join(tmp, "r.md")), timeout=600.0)
+        refused = m.returncode == 2
+        rows.append(
+            Row(group, "verify, path graph of 20,000 agents", "-", None, "glocal-verify verify (refused by the size estimate)" if refused else "glocal-verify verify",
+                m.seconds, f"{m.describe(600.0)}; {'refused at once with the estimate' if refused else 'ran'}; goal: finish < 10 min or refuse at once", m.peak_mib)
+        )
         n = 250 if quick else 1000
         spec = random_clustered_spec(n, 3, seed=7)
         path = write_spec(spec, Path(tmp), f"po{n}")
