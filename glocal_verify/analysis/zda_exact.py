@@ -20,7 +20,7 @@ from glocal_verify.analysis.zda import (
 )
 from glocal_verify.analysis.twins import laplacian_entries
 from glocal_verify.model import System
-from glocal_verify.numerics.minors import GroundedTables, MinorCertificate, full_rank_certificate, grounded_tables
+from glocal_verify.numerics.minors import GroundedTables, MinorCertificate, full_rank_certificate, grounded_tables, twin_modes
 from glocal_verify.numerics.pencil_exact import (
     RootEnclosures,
     analyze_pencil_exact,
@@ -30,6 +30,7 @@ from glocal_verify.numerics.pencil_exact import (
     eval_at_root,
     kernel_over_field,
 )
+from glocal_verify.numerics.zero_polynomial import left_invertible_zero_polynomial
 from glocal_verify.spec.types import NORMAL_MODE, Label
 
 __all__ = [
@@ -156,19 +157,20 @@ def _q_matrix(system: System, F: Sequence[int], rows_out: Sequence[int], s_poly:
     return rows
 
 
-def _transfer(system: System, F: Sequence[int]) -> tuple[Any, list[list[Any]]]:
-    """d(s) = det(sI + alpha L) and the numerators P(s) = adj(sI + alpha L) S_F^T (N x m, in s).
+def _transfer(system: System, F: Sequence[int], mode: str = NORMAL_MODE) -> tuple[Any, list[list[Any]]]:
+    """d(s) = det(sI + alpha L_q) and the numerators P(s) = adj(sI + alpha L_q) S_F^T (N x m, in s).
 
-    Faddeev-LeVerrier on the input columns only: with A = -alpha L and d(s) = sum_j c_j s^j,
+    Faddeev-LeVerrier on the input columns only: with A = -alpha L_q and d(s) = sum_j c_j s^j,
     adj(sI - A) = sum_{j<N} s^j B_j, B_{N-1} = I, B_{j-1} = A B_j + c_j I; so W_j = B_j S_F^T
-    costs N products of A with an N x m matrix over Q. Kept on ``system.analysis``.
+    costs N products of A with an N x m matrix over Q. Kept on ``system.analysis``; the
+    mode q is the normal one unless given.
     """
-    key = ("zda-exact-transfer", tuple(F))
+    key = ("zda-exact-transfer", tuple(F)) if mode == NORMAL_MODE else ("zda-exact-transfer", tuple(F), mode)
     cache = system.analysis
     if key in cache:
         return cache[key]  # type: ignore[no-any-return]
     N, m = system.n, len(F)
-    L = system.laplacian_exact()
+    L = system.laplacian_exact(mode)
     a = system.alpha_q
     A = flint.fmpq_mat(N, N, [_fq(-a * L[i][j]) for i in range(N) for j in range(N)])
     d = A.charpoly()
@@ -243,13 +245,35 @@ def transfer_kernel(
     return lifted, len(K.basis)
 
 
-def _exact_at(system: System, F: Sequence[int], g: Any, s_poly: Any, zero_lambda: bool) -> tuple[bool, Any | None, int]:
-    """(attack?, chosen kernel vector over Q[x]/g, kernel dimension) of Q at the roots of g."""
+def _exact_at(
+    system: System, F: Sequence[int], g: Any, s_poly: Any, zero_lambda: bool, z: Any | None = None
+) -> tuple[bool, Any | None, int]:
+    """(attack?, chosen kernel vector over Q[x]/g, kernel dimension) of Q at the roots of g.
+
+    Off the poles the transfer function decides (:func:`transfer_kernel`). At a pole
+    s0 = -alpha mu of a twin family of t modes (exact eigenvectors e_a - e_r of L vanishing
+    on M, :func:`_twins`), when the zero polynomial ``z`` (in s, exact) has s + alpha mu to
+    the power t, the kernel is exactly the twin span: it holds the t twin modes, and its
+    dimension is at most ord_{s0}(z) (the pencil being left-invertible, every invariant factor
+    that vanishes at s0 contributes at least one; ``z`` is given only then), so u = 0 on all of it and the kernel vector is the reduced
+    basis of the span (:func:`_first_reduced_kernel_vector`), the vector the elimination
+    over Q[x]/(g) returns. Otherwise the (N + p) x (N + m) pencil is eliminated over Q[x]/(g).
+    """
     rows_out = system.idx(system.monitored_positions) if zero_lambda else system.idx(system.monitored)
     tk = transfer_kernel(system, F, g, s_poly, rows_out, first_only=True)
     if tk is not None:
         basis, dim = tk
         return bool(basis), basis[0] if basis else None, dim
+    if z is not None and zero_lambda and g == flint.fmpq_poly([0, 1]):
+        return _zero_lambda_kernel(system, F)
+    if z is not None and not zero_lambda:
+        a = _fq(system.alpha_q)
+        for mu, pairs in _twins(system):
+            lin = flint.fmpq_poly([a * _fq(mu), 1])
+            if ((s_poly + a * _fq(mu)) % g).is_zero() and _order(z, lin) == len(pairs):
+                N, m = system.n, len(F)
+                vecs = [[Fraction(int(i == a_) - int(i == r_)) for i in range(N + m)] for a_, r_ in pairs]
+                return False, _first_reduced_kernel_vector(vecs, N + m), len(pairs)
     Q = _q_matrix(system, F, rows_out, s_poly)
     N = system.n
     K = kernel_over_field(Q, g, N + len(F))
@@ -276,6 +300,46 @@ def _exact_zero(
         xf = tuple(vec[:N])
     uf: tuple[Any, ...] = () if vec is None else tuple(vec[N:])
     return ExactZdaZero(root, rational, str(g), sign, attack, xi, u, xf, g, mult, uf)
+
+
+def _order(z: Any, g: Any) -> int:
+    """The multiplicity of the factor g in z."""
+    k = 0
+    while z.degree() > 0 and (z % g).is_zero():
+        z, k = z // g, k + 1
+    return k
+
+
+def _twins(system: System) -> tuple[tuple[Fraction, tuple[tuple[int, int], ...]], ...]:
+    """The twin modes of (L_1, M) (:func:`~glocal_verify.numerics.minors.twin_modes`), each family re-checked exactly."""
+
+    def build() -> tuple[tuple[Fraction, tuple[tuple[int, int], ...]], ...]:
+        M = system.idx(system.monitored)
+        Lq = system.laplacian_exact()
+        fams = twin_modes(system.n, laplacian_entries(system, NORMAL_MODE), M)
+        return tuple((mu, pairs) for mu, pairs in fams if _twin_vectors_hold(Lq, mu, pairs, set(M)))
+
+    return system.analysis.get(("zda-exact-twins",), build)  # type: ignore[no-any-return]
+
+
+def _proved_zero_polynomial(system: System, F: Sequence[int]) -> Any | None:
+    """z(s) of the N-sized pencil, proved by the bounds of :mod:`glocal_verify.numerics.zero_polynomial`, or None.
+
+    The system is (A, B, C) = (-alpha L_1, S_F^T, S_M) with the transfer numerators of
+    :func:`_transfer`; the twin modes (an exact L-invariant subspace of ker S_M) supply the
+    factor prod (s + alpha mu)^t of the lower bound. None when the system is not shown
+    left-invertible or the bounds do not meet (the dense V* iteration then runs).
+    """
+    if not F or not system.monitored:
+        return None
+    d, P = _transfer(system, F)
+    a = system.alpha_q
+    A = {k: -a * v for k, v in laplacian_entries(system, NORMAL_MODE).items() if v != 0}
+    inv = flint.fmpq_poly(1)
+    for mu, pairs in _twins(system):
+        inv *= flint.fmpq_poly([_fq(a * mu), 1]) ** len(pairs)
+    proof = left_invertible_zero_polynomial(system.n, A, F, system.idx(system.monitored), d, P, inv)
+    return None if proof is None else proof.zero_polynomial
 
 
 # ------------------------------------------------------------------------------------------
@@ -440,6 +504,7 @@ def zda_analysis_exact(
     *,
     lambda0: complex | float | Sequence[float] | None = None,
     _general: bool = False,
+    _dense: bool = False,
 ) -> ExactZdaAnalysis:
     """Exact version of :func:`zda_analysis` (rational weights and gains; no tolerance).
 
@@ -462,6 +527,11 @@ def zda_analysis_exact(
         imaginary parts are read as exact binary rationals.
     _general : bool
         Private: skip the certificate fast path (tests compare both paths).
+    _dense : bool
+        Private: with ``_general``, take the zero polynomial from the dense V* iteration
+        (:func:`~glocal_verify.numerics.pencil_exact.analyze_pencil_exact`, the reference)
+        instead of its proof by minors and kernels (:func:`_proved_zero_polynomial`), and no
+        twin shortcut at the poles.
 
     Returns
     -------
@@ -475,18 +545,24 @@ def zda_analysis_exact(
         if fast is not None:
             return fast
     N, m = system.n, len(F)
-    L = system.laplacian_exact()
-    a = system.alpha_q
-    As = [[-a * L[i][j] for j in range(N)] for i in range(N)]
-    Bs = [[Fraction(int(F[k] == i)) for k in range(m)] for i in range(N)]
-    M = system.idx(system.monitored)
-    Cs = [[Fraction(int(j == r)) for j in range(N)] for r in M]
-    es = analyze_pencil_exact(As, Bs, Cs, directions=False, n_inputs=m)
-    k0 = N + m - es.normal_rank
+    z_proved = None if _dense else _proved_zero_polynomial(system, F)
+    if z_proved is not None:  # left-invertible: normal rank N + m, z from its proof
+        left_inv, normal_rank, z_s = True, N + m, z_proved
+    else:
+        L = system.laplacian_exact()
+        a = system.alpha_q
+        As = [[-a * L[i][j] for j in range(N)] for i in range(N)]
+        Bs = [[Fraction(int(F[k] == i)) for k in range(m)] for i in range(N)]
+        M = system.idx(system.monitored)
+        Cs = [[Fraction(int(j == r)) for j in range(N)] for r in M]
+        es = analyze_pencil_exact(As, Bs, Cs, directions=False, n_inputs=m)
+        left_inv, normal_rank, z_s = es.left_invertible, es.normal_rank, es.zero_polynomial
+    z_hint = z_s if left_inv and not _dense else None  # the twin shortcut of _exact_at needs full normal column rank
+    k0 = N + m - normal_rank
     g_q = _fq(system.gamma_q)
     x = flint.fmpq_poly([0, 1])
     s_poly = x * x + g_q * x
-    Z = es.zero_polynomial(s_poly) if es.zero_polynomial.degree() > 0 else flint.fmpq_poly(1)
+    Z = z_s(s_poly) if z_s.degree() > 0 else flint.fmpq_poly(1)
     attack: list[ExactZdaZero] = []
     unobs: list[ExactZdaZero] = []
     notes: list[str] = []
@@ -496,7 +572,7 @@ def zda_analysis_exact(
             g = g / g.leading_coefficient()
             if g == x:
                 continue
-            is_attack, vec, kdim = _exact_at(system, F, g, s_poly, False)
+            is_attack, vec, kdim = _exact_at(system, F, g, s_poly, False, z_hint)
             if kdim <= k0:  # pragma: no cover - a theorem, kept as a self-check
                 raise AssertionError(f"root of {g} is not a zero of the pencil; please report")
             enclosures = RootEnclosures(g)
@@ -505,7 +581,7 @@ def zda_analysis_exact(
                 (attack if is_attack else unobs).append(zz)
     # lambda = 0
     g0 = x
-    is_attack0, vec0, kdim0 = _exact_at(system, F, g0, s_poly, True)
+    is_attack0, vec0, kdim0 = _exact_at(system, F, g0, s_poly, True, z_hint)
     if kdim0 > k0:
         zz = _exact_zero(system, g0, vec0, 0j, 0, is_attack0, kdim0 - k0, m)
         (attack if is_attack0 else unobs).append(zz)
@@ -518,7 +594,7 @@ def zda_analysis_exact(
             g = x - _fq(re)
         else:
             g = (x - _fq(re)) ** 2 + _fq(im) ** 2
-        is_att, vec, _ = _exact_at(system, F, g, s_poly, lam == 0)
+        is_att, vec, _ = _exact_at(system, F, g, s_poly, lam == 0, z_hint)
         if not is_att:
             return None
         sign = (re > 0) - (re < 0)
@@ -535,13 +611,13 @@ def zda_analysis_exact(
             notes.append(f"no stealthy ZDA at the requested lambda0 = {lam_req}")
     if direction is None:
         best = attack[0] if attack else None
-        if not es.left_invertible and (best is None or best.real_sign <= 0):
+        if not left_inv and (best is None or best.real_sign <= 0):
             direction = at(1 + 0j)
             source = "lambda0 = 1 (not left-invertible: a ZDA exists at every lambda0)"
         if direction is None and best is not None:
             direction, source = best, "fastest-growing zero"
     return ExactZdaAnalysis(
-        F_lab, es.left_invertible, N + es.normal_rank, k0, str(es.zero_polynomial), tuple(attack), tuple(unobs), direction, source, tuple(notes)
+        F_lab, left_inv, N + normal_rank, k0, str(z_s), tuple(attack), tuple(unobs), direction, source, tuple(notes)
     )
 
 

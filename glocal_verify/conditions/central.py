@@ -33,6 +33,7 @@ from glocal_verify.observers.central import (
     CentralObserver,
     certify_observable_stability,
     design_central_observer,
+    observer_charpoly_exact,
     routh_hurwitz_poly,
 )
 from glocal_verify.results import ConditionResult, Finding, Status
@@ -49,8 +50,7 @@ def _exact_observable_hurwitz(system: System, obsv: CentralObserver) -> tuple[bo
     C = _exact_C(system)
     p = C.nrows()
     Hq = flint.fmpq_mat(n2, p, [flint.fmpq(*Fraction(float(x)).as_integer_ratio()) for x in obsv.H.ravel()])
-    M = A - Hq * C if p else A
-    chi = M.charpoly()
+    chi = observer_charpoly_exact(system, Hq, obsv.mode)  # det(sI - A + Hq C) by the modal structure
     X = _exact_N(system, obsv.mode)
     if X.ncols():
         # A X = X B: B = (X^T X)^{-1} X^T A X, the restriction of A (= A - HC) to N
@@ -91,9 +91,11 @@ def check_central_observer(system: System, ctx: CheckContext) -> list[ConditionR
     in ``Re < 0``, fails iff an isolated disc lies in ``Re > 0``, undecided otherwise (and
     when the unobservable subspace is not proven), with ``error_bound`` = the radius. A small
     stability margin is robustness (``margin``), never a failure by itself. Exact: the gain is rounded to its binary rationals; the characteristic
-    polynomial of ``A_1 - H C`` over Q divided by that of A_1 on the rational unobservable
-    subspace is tested with the exact Routh-Hurwitz criterion (the Routh array of
-    :func:`~glocal_verify.observers.central.routh_hurwitz`, computed row by row on flint polynomials).
+    polynomial of ``A_1 - H C`` over Q (:func:`~glocal_verify.observers.central.observer_charpoly_exact`:
+    the matrix determinant lemma on the N-sized transfer numerators, no 2N x 2N matrix)
+    divided by that of A_1 on the rational unobservable subspace is tested with the exact
+    Routh-Hurwitz criterion (the Routh array of
+    :func:`~glocal_verify.observers.central.routh_hurwitz`, on integer rows with their contents removed).
 
     Margin
         The stability margin ``-max Re`` on the observable part (floating point).

@@ -8,7 +8,9 @@
   its a-posteriori error bounds;
 - :mod:`.staircase` -- the generic orthogonal staircase for any (A, C);
 - :mod:`.pencil`, :mod:`.pencil_exact` -- the Rosenbrock system pencil, numeric and exact;
-- :mod:`.exact`, :mod:`.exact_subspace` -- python-flint helpers over Q.
+- :mod:`.exact`, :mod:`.exact_subspace` -- python-flint helpers over Q;
+- :mod:`.zero_polynomial` -- the zero polynomial of a left-invertible selection system,
+  proved by minors modulo a prime and exact kernels (no V* iteration).
 
 Layer: imports only :mod:`glocal_verify.errors` (and :mod:`glocal_verify.results` for the
 status enum); everything here takes matrices, never a ``System``.

@@ -56,11 +56,13 @@ from glocal_verify.analysis.unobservable import (
     certified_unobservable,
     unobservable_subspace,
 )
+from glocal_verify.analysis.zda_exact import _transfer
 from glocal_verify.model import System
 from glocal_verify.numerics.spectrum import EPS
 from glocal_verify.numerics.subspace import Subspace
 from glocal_verify.numerics.threads import single_threaded
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
+from glocal_verify.numerics.zero_polynomial import poly_det
 from glocal_verify.spec.types import NORMAL_MODE
 
 __all__ = [
@@ -69,6 +71,7 @@ __all__ = [
     "StabilityCertificate",
     "certify_observable_stability",
     "design_central_observer",
+    "observer_charpoly_exact",
     "routh_hurwitz",
     "routh_hurwitz_poly",
 ]
@@ -328,11 +331,64 @@ def routh_hurwitz(coeffs: Sequence[Fraction]) -> bool:
 
 
 def routh_hurwitz_poly(q: Any) -> bool:
-    """The Routh-Hurwitz test of :func:`routh_hurwitz` on a python-flint ``fmpq_poly``, row by row in C.
+    """The Routh-Hurwitz test of :func:`routh_hurwitz` on a python-flint ``fmpq_poly``, fraction-free.
 
-    A row r_k is the polynomial sum_j r_k[j] t^j and the next row is
-    r_{k+1} = (r_{k-1} - (r_{k-1}[0] / r_k[0]) r_k) / t, of length len(r_{k-1}) - 1 with trailing
-    zeros dropped: the Routh recurrence in exact rationals.
+    A row r_k is the polynomial sum_j r_k[j] t^j. The Routh recurrence
+    R_{k+1} = (R_k[0] R_{k-1} - R_{k-1}[0] R_k) / (t R_k[0]) is run on the integer rows
+    F_k = Delta_{k-1} R_k (Delta_k the Hurwitz determinants, F_k[0] = Delta_k for k >= 1,
+    F_0 = R_0, F_1 = R_1 for the integer coefficients):
+
+    .. math:: F_{k+1} = \frac{F_k[0] F_{k-1} - F_{k-1}[0] F_k}{t\, c_{k-1}},\qquad
+              c_0 = c_1 = 1,\ c_j = F_{j-1}[0]\ (j \ge 2),
+
+    an exact integer division (Bareiss-like; a division that is not exact sends the
+    polynomial to the rational reference, :func:`_routh_hurwitz_rational`). The test stops at
+    the first F_k[0] <= 0; before that every c_k is positive, so the signs of the first
+    column and which rows vanish are those of the rational Routh array, without a gcd per
+    rational entry (the cost that dominated at degree 400).
+
+    Parameters
+    ----------
+    q : flint.fmpq_poly
+    """
+    import flint
+
+    if q.is_zero():
+        return False
+    c = [flint.fmpz(int(x.p)) for x in reversed((q * q.denom()).coeffs())]
+    if len(c) == 1:
+        return True
+    sign = 1 if c[0] > 0 else -1
+    c = [sign * x for x in c]
+    if any(x <= 0 for x in c):
+        return False
+    r0, n0 = flint.fmpz_poly(c[0::2]), len(c[0::2])
+    r1, n1 = flint.fmpz_poly(c[1::2]), len(c[1::2])
+    lead = [flint.fmpz(1), flint.fmpz(1), r1[0]]  # c_0, c_1 (= Delta_0), Delta_1, Delta_2, ...
+    while n1:
+        if r1[0] <= 0:
+            return False
+        nxt, nn = (r0 * r1[0] - r1 * r0[0]).truncate(n0).right_shift(1), n0 - 1
+        div = lead[-3]
+        if div != 1:
+            quo = [x // div for x in nxt.coeffs()]
+            if any(a * div != x for a, x in zip(quo, nxt.coeffs())):  # pragma: no cover - Sylvester's identity
+                return _routh_hurwitz_rational(q)
+            nxt = flint.fmpz_poly(quo)
+        while nn > 1 and nxt[nn - 1] == 0:
+            nn -= 1
+        if nn and nxt.is_zero():
+            return False
+        r0, n0, r1, n1 = r1, n1, nxt, nn
+        lead.append(r1[0] if n1 else flint.fmpz(0))
+    return bool(r0[0] > 0)
+
+
+def _routh_hurwitz_rational(q: Any) -> bool:
+    """The Routh array in exact rationals, row by row (the reference of :func:`routh_hurwitz_poly`).
+
+    r_{k+1} = (r_{k-1} - (r_{k-1}[0] / r_k[0]) r_k) / t, of length len(r_{k-1}) - 1 with
+    trailing zeros dropped.
 
     Parameters
     ----------
@@ -361,6 +417,66 @@ def routh_hurwitz_poly(q: Any) -> bool:
             return False
         r0, n0, r1, n1 = r1, n1, nxt, nn
     return bool(r0[0] > 0)
+
+
+def observer_charpoly_exact(system: System, H: Any, mode: str = NORMAL_MODE) -> Any:
+    """det(sI - (A_q - H C)) over Q through the modal structure, without the 2N x 2N matrix.
+
+    .. math::
+
+        \det(sI - A + HC) = \det(sI - A)\,\det\big(I_p + C (sI - A)^{-1} H\big),\qquad
+        (sI - A)^{-1} = \begin{bmatrix} (s + \gamma) K^{-1} & K^{-1} \\ t K^{-1} - I & s K^{-1} \end{bmatrix}
+
+    with t = s^2 + gamma s and K = t I + alpha L_q (matrix determinant lemma; the lower left
+    block is -alpha L K^{-1} = t K^{-1} - I), so det(sI - A) = d(t) = det(tI + alpha L_q) and
+    only the rows of K^{-1} at the monitored agents enter: d(t) K^{-1} S^T = adj(K) S^T, the N
+    x |M| transfer numerators in t (Faddeev-LeVerrier over Q). With Y = d (I + C (sI - A)^{-1}
+    H), a p x p polynomial matrix, the result is det(Y) / d^(p - 1), an exact division. Cost:
+    the N-sized numerators and a p x p determinant, instead of a 2N x 2N rational
+    characteristic polynomial. Tests compare it with ``charpoly`` of the dense matrix.
+
+    Parameters
+    ----------
+    system : System
+    H : fmpq_mat
+        The 2N x p gain, exact (rows: positions then velocities of the states; columns: the
+        rows of C, position monitors first).
+    mode : str
+        The mode q of A_q.
+    """
+    import flint
+
+    n = system.n
+    pos = system.idx(system.monitored_positions)
+    vel = system.idx(system.monitored_velocities)
+    rows = pos + vel
+    p = len(rows)
+    agents = sorted(set(rows))
+    d_t, Nm = _transfer(system, agents, mode)
+    col = {a: k for k, a in enumerate(agents)}
+    gq = flint.fmpq(system.gamma_q.numerator, system.gamma_q.denominator)
+    sx = flint.fmpq_poly([0, 1])
+    t_of_s = flint.fmpq_poly([0, gq, 1])
+    d = d_t(t_of_s)
+    if p == 0:
+        return d
+    Nx = [[sum((Nm[i][col[r]] * H[i, c] for i in range(n) if not H[i, c] == 0), flint.fmpq_poly(0)) for c in range(p)] for r in agents]
+    Nv = [[sum((Nm[i][col[r]] * H[n + i, c] for i in range(n) if not H[n + i, c] == 0), flint.fmpq_poly(0)) for c in range(p)] for r in agents]
+    Y: list[list[Any]] = []
+    for k, r in enumerate(rows):
+        a = col[r]
+        if k < len(pos):  # d e_r^T [(s + gamma) K^-1 H_x + K^-1 H_v]
+            entries = [(sx + gq) * Nx[a][c](t_of_s) + Nv[a][c](t_of_s) for c in range(p)]
+        else:  # d e_r^T [(t K^-1 - I) H_x + s K^-1 H_v]
+            entries = [t_of_s * Nx[a][c](t_of_s) - d * H[r, c] + sx * Nv[a][c](t_of_s) for c in range(p)]
+        Y.append([e + (d if c == k else 0) for c, e in enumerate(entries)])
+    num = poly_det(Y)
+    if p == 1:
+        return num
+    q, rem = divmod(num, d ** (p - 1))
+    if not rem.is_zero():  # pragma: no cover - the matrix determinant lemma
+        raise ArithmeticError("det(Y) is not divisible by d^(p-1); please report")
+    return q
 
 
 # --------------------------------------------------------------------------------------------
