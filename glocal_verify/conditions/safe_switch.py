@@ -123,6 +123,7 @@ from glocal_verify.analysis.zda import (
 )
 from glocal_verify.analysis.zda_certificate import zda_certificate
 from glocal_verify.analysis.zda_exact import zda_analysis_exact
+from glocal_verify.analysis.zero_touch import touch_at_zero
 from glocal_verify.conditions.registry import (
     CheckContext,
     checker,
@@ -311,6 +312,9 @@ def _zda_results(system: System, ctx: CheckContext) -> list[ConditionResult]:
     exact_lambda = za.direction_source == "requested lambda0"
     for mode in system.safe_modes:
         av, cert = _certified(system, F, _numeric_mode(system, mode, md, d_num, za.direction_source, bases), exact_lambda)
+        if av.status is Status.UNDECIDED and (ex0 := touch_at_zero(system, mode, d_num, za.direction_source, system.idx(F))) is not None:
+            # lambda0 = 0 with no monitored position: decided over Q from the attack's potentials
+            av, cert = ex0, {"certified": True, "error_bound": None, "by": ex0.notes[-1], "note": ""}
         out.append(_avoidance_result(system, ctx, F, av, cert=cert))
     return out
 

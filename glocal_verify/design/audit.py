@@ -50,6 +50,7 @@ from typing import Any
 import numpy as np
 
 from glocal_verify.analysis.avoidance import _exact_mode, _numeric_mode, _stealthy_bases
+from glocal_verify.analysis.zero_touch import touch_at_zero
 from glocal_verify.analysis.local_cases import (
     LocalCase,
     minor_certificate,
@@ -68,7 +69,7 @@ from glocal_verify.analysis.zda_exact import zda_analysis_exact
 from glocal_verify.conditions.local import uio_verdict
 from glocal_verify.conditions.local_pencil import pencil_verdict, pencil_verdict_exact
 from glocal_verify.conditions.registry import verify
-from glocal_verify.design.audit_records import AUDIT_SCHEMA_ID, AuditResult, AuditRow, undecided_reason
+from glocal_verify.design.audit_records import AUDIT_SCHEMA_ID, AuditResult, AuditRow, exposure_fragility, undecided_reason
 from glocal_verify.design.audit_screens import _witness_lambda, _without_sensors, batch_witnesses, disjoint_paths, global_tables
 from glocal_verify.errors import ModelError, NotApplicableError
 from glocal_verify.model import System
@@ -523,6 +524,8 @@ def _modes_part(sh: _Shared, F: tuple[Label, ...], z: _Zda) -> tuple[list[str], 
             continue
         if z.exact is not None:
             av = _exact_mode(system, mode, z.exact.direction, z.source, system.idx(F), sh.tol)
+        elif (av0 := touch_at_zero(system, mode, z.direction, z.source, system.idx(F))) is not None:
+            av = av0  # lambda0 = 0: decided over Q from the attack's potentials
         else:
             if md is None:
                 md = _Modal(system, F, sh.tol)
@@ -539,6 +542,7 @@ def _modes_part(sh: _Shared, F: tuple[Label, ...], z: _Zda) -> tuple[list[str], 
             "switching.avoids-attack": av.status.value,
             "touches_attack": touches,
             "touched_agents": [str(a) for a in av.chosen_touched_agents],
+            "touch_margin": float(av.margin),
         }
         if ok and touches:
             exposed.append(mode)
@@ -590,6 +594,7 @@ def _audit_set(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any]) -> Audit
         verdict, reason = "detected", "every cluster F meets has an observer whose pencil (iii) and UIO hold"
     elif exposed:
         verdict, reason = "detected", f"the switch to {exposed[0]} meets Theorem III.3 (i)-(iii) and touches every stealthy direction"
+        witness.update(exposure_fragility(mode_detail, exposed))
     elif z.stealthy is True and covered is False and not open_:
         verdict, reason = "undetected", "a stealthy ZDA exists, no local observer catches it and no admissible safe mode touches it"
     else:

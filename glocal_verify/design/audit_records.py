@@ -16,7 +16,7 @@ import numpy as np
 from glocal_verify.results import Status
 from glocal_verify.spec.types import Label
 
-__all__ = ["AUDIT_SCHEMA_ID", "VERDICTS", "AuditResult", "AuditRow", "undecided_reason"]
+__all__ = ["AUDIT_SCHEMA_ID", "VERDICTS", "AuditResult", "AuditRow", "FRAGILE_BELOW", "exposure_fragility", "undecided_reason"]
 
 AUDIT_SCHEMA_ID = "glocal-verify/audit@1"
 VERDICTS = ("detected", "undetected", "undecided")
@@ -150,6 +150,34 @@ class AuditResult:
                 f"| {', '.join(map(str, r.actuators))} | {st} | {r.growth} | {lam} | {caught} | {', '.join(r.exposed_by_modes) or '-'} | {r.verdict} |"
             )
         return "\n".join(lines) + "\n"
+
+
+#: an exposure whose touch margin (||dL_q xi|| / (||dL_q|| ||xi||)) is below this is marked fragile
+#: (the value of ``verify --fragile-below``'s default)
+FRAGILE_BELOW = 1e-9
+
+
+def exposure_fragility(modes: Mapping[str, Any], exposed: list[str], below: float = FRAGILE_BELOW) -> dict[str, str]:
+    """``{"fragile": note}`` when every exposing mode touches the attack only by a tiny relative signal, else ``{}``.
+
+    The touch test is decided exactly (or certified), so a tiny margin never changes the
+    verdict: it says the switch exposes the attack by a residual of that relative size, which
+    noise or rounding in a real network would hide.
+
+    Parameters
+    ----------
+    modes : mapping
+        The row's witness ``modes`` (each with ``touch_margin``).
+    exposed : list of str
+        The exposing modes.
+    below : float
+        The fragility threshold.
+    """
+    margins = [float(modes[q].get("touch_margin", math.inf)) for q in exposed]
+    best = max(margins, default=math.inf)
+    if not exposed or not best < below:
+        return {}
+    return {"fragile": f"detected only by exposure, and every exposing switch touches the attack by a relative signal of at most {best:.2g} (below {below:g})"}
 
 
 def undecided_reason(stealthy: bool | None, local: Mapping[str, Any], modes: Mapping[str, Any], *, exact: bool, exact_fallback: bool) -> str:

@@ -331,7 +331,7 @@ def routh_hurwitz(coeffs: Sequence[Fraction]) -> bool:
 
 
 def routh_hurwitz_poly(q: Any) -> bool:
-    """The Routh-Hurwitz test of :func:`routh_hurwitz` on a python-flint ``fmpq_poly``, fraction-free.
+    r"""The Routh-Hurwitz test of :func:`routh_hurwitz` on a python-flint ``fmpq_poly``, fraction-free.
 
     A row r_k is the polynomial sum_j r_k[j] t^j. The Routh recurrence
     R_{k+1} = (R_k[0] R_{k-1} - R_{k-1}[0] R_k) / (t R_k[0]) is run on the integer rows
@@ -420,7 +420,7 @@ def _routh_hurwitz_rational(q: Any) -> bool:
 
 
 def observer_charpoly_exact(system: System, H: Any, mode: str = NORMAL_MODE) -> Any:
-    """det(sI - (A_q - H C)) over Q through the modal structure, without the 2N x 2N matrix.
+    r"""det(sI - (A_q - H C)) over Q through the modal structure, without the 2N x 2N matrix.
 
     .. math::
 

@@ -1,0 +1,140 @@
+"""The exact touch test at lambda0 = 0: a safe mode avoids the attack iff the attack's potentials agree across its links."""
+
+from __future__ import annotations
+
+from fractions import Fraction
+from typing import Any
+
+import networkx as nx
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from glocal_verify import System, spec_from_dict, spec_from_graph
+from glocal_verify.analysis import zero_touch as zt_module
+from glocal_verify.analysis.zda import ZdaZero
+from glocal_verify.analysis.zero_touch import touch_at_zero, zero_touch
+from glocal_verify.design.audit import audit
+from glocal_verify.design.audit_records import exposure_fragility
+from glocal_verify.numerics import exact as ex
+from glocal_verify.results import Status
+from strategies import graphs
+
+
+def _definition(system: System, F: list[int], mode: str) -> bool:
+    """Some (xi, u0) with alpha L_1 xi = S_F^T u0, dL_q xi = 0 and u0 != 0, over Q (the generic nullspace)."""
+    N, m = system.n, len(F)
+    L = system.laplacian_exact()
+    dL = system.delta_laplacian_exact(mode)
+    a = system.alpha_q
+    rows = [[a * L[i][j] for j in range(N)] + [Fraction(-1 if F[k] == i else 0) for k in range(m)] for i in range(N)]
+    rows += [list(dL[i]) + [Fraction(0)] * m for i in range(N) if any(x != 0 for x in dL[i])]
+    K = ex.nullspace(rows, N + m)
+    return any(any(x != 0 for x in v[N:]) for v in K)
+
+
+@st.composite
+def touch_cases(draw: st.DrawFn) -> tuple[System, list[int], str]:
+    n, edges = draw(graphs(min_n=4, max_n=11, connected=True))
+    labels = list(range(1, n + 1))
+    present = {frozenset(e[:2]) for e in edges}
+    pairs = [(u, v) for u in labels for v in labels if u < v]
+    change = draw(st.lists(st.sampled_from(pairs), unique=True, min_size=1, max_size=2))
+    add = [[u, v, draw(st.sampled_from([1, 2, "1/2"]))] for u, v in change if frozenset((u, v)) not in present]
+    remove = [[u, v] for u, v in change if frozenset((u, v)) in present]
+    mode: dict[str, Any] = {"name": "q"}
+    if add:
+        mode["add"] = add
+    if remove:
+        mode["remove"] = remove
+    mv = draw(st.lists(st.sampled_from(labels), unique=True, min_size=1, max_size=3))
+    data = {"format": 1, "name": "touch", "graph": {"nodes": n, "edges": edges}, "modes": [mode], "monitor": {"velocities": mv}}
+    system = System(spec_from_dict(data))
+    F = draw(st.lists(st.sampled_from(range(n)), unique=True, min_size=2, max_size=3))
+    return system, F, "q"
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(touch_cases())
+def test_the_touch_test_at_zero_agrees_with_the_exact_definition_on_random_networks(case: tuple[System, list[int], str]) -> None:
+    system, F, mode = case
+    if len(system.components("q")) != 1:
+        return  # a safe mode that disconnects G_q fails privacy.connected anyway; the test is about L_1
+    (t,) = zero_touch(system, F, [mode]) or [None]
+    assert t is not None
+    assert t.avoids == _definition(system, F, mode)
+    L, dL, a = system.laplacian_exact(), system.delta_laplacian_exact(mode), system.alpha_q
+    if t.avoids:  # the witness against the definition
+        assert t.xi is not None and t.u0 is not None and any(x != 0 for x in t.u0)
+        for i in range(system.n):
+            lhs = sum((a * L[i][j] * t.xi[j] for j in range(system.n)), Fraction(0))
+            rhs = sum((t.u0[k] for k in range(len(F)) if F[k] == i), Fraction(0))
+            assert lhs == rhs
+            assert sum((dL[i][j] * t.xi[j] for j in range(system.n)), Fraction(0)) == 0
+    else:
+        assert t.rank == t.inputs == len(F) - 1
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(touch_cases())
+def test_the_modular_screen_and_the_exact_solve_give_the_same_answer(case: tuple[System, list[int], str]) -> None:
+    system, F, mode = case
+    if len(system.components("q")) != 1:
+        return
+    fast = zero_touch(system, F, [mode])
+    slow_system = System(system.spec)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(zt_module, "_inverse_mod", lambda s: None)
+        slow = zero_touch(slow_system, F, [mode])
+    assert fast is not None and slow is not None
+    assert [(t.avoids, t.rank, set(t.touched_agents)) for t in fast] == [(t.avoids, t.rank, set(t.touched_agents)) for t in slow]
+
+
+def test_a_link_beyond_the_attacked_segment_of_a_path_is_exactly_untouched() -> None:
+    # potentials of a current between 1 and 2 are constant on 2..8: adding 5-7 changes nothing
+    spec = spec_from_graph(nx.path_graph(range(1, 9)), name="path8", modes={"q": {"add": [[5, 7]]}}, monitor_velocities=[8])
+    system = System(spec)
+    (t,) = zero_touch(system, system.idx((1, 2)), ["q"]) or [None]
+    assert t is not None and t.avoids and t.touched_agents == ()
+    (u,) = zero_touch(system, system.idx((1, 3)), ["q"]) or [None]
+    assert u is not None and u.avoids
+
+
+def test_the_test_does_not_apply_with_a_monitored_position_or_a_single_actuator() -> None:
+    data = {"format": 1, "name": "p", "graph": {"nodes": 4, "edges": [[1, 2], [2, 3], [3, 4]]}, "modes": [{"name": "q", "add": [[1, 3]]}],
+            "monitor": {"positions": [4]}}
+    assert zero_touch(System(spec_from_dict(data)), [0, 1], ["q"]) is None
+    data["monitor"] = {"velocities": [4]}
+    assert zero_touch(System(spec_from_dict(data)), [0], ["q"]) is None
+
+
+def test_an_undecided_numeric_touch_becomes_an_exact_verdict_with_its_margin() -> None:
+    # two triangles joined by a bridge: the attack on 1-2 drives a current that crosses into the
+    # far triangle only through the bridge, so a link there sees no potential difference
+    data = {"format": 1, "name": "bridge", "graph": {"nodes": 6, "edges": [[1, 2], [2, 3], [1, 3], [3, 4], [4, 5], [5, 6], [4, 6]]},
+            "modes": [{"name": "far", "add": [[5, 3]]}, {"name": "near", "remove": [[1, 3]]}], "monitor": {"velocities": [6]}}
+    system = System(spec_from_dict(data))
+    z = ZdaZero(0j, 0j, np.ones(6), np.array([1.0, -1.0]), 0.0, "persistent")
+    far = touch_at_zero(system, "far", z, "test", system.idx((1, 2)))
+    near = touch_at_zero(system, "near", z, "test", system.idx((1, 2)))
+    assert far is not None and far.status is Status.HOLDS and far.direction is not None and far.exact_xi is not None
+    assert near is not None and near.status is Status.FAILS and set(near.chosen_touched_agents) == {1, 3}
+    assert near.margin > 1e-3 and far.margin < 1e-12  # the float potentials agree across 3-5 up to rounding
+
+
+def test_an_exposure_by_a_tiny_signal_is_marked_fragile_but_stays_detected() -> None:
+    modes = {"a": {"touch_margin": 3e-13}, "b": {"touch_margin": 2e-11}}
+    assert "2e-11" in exposure_fragility(modes, ["a", "b"])["fragile"]
+    assert exposure_fragility({"a": {"touch_margin": 1e-3}}, ["a"]) == {}
+    assert exposure_fragility(modes, []) == {}
+
+
+def test_audit_rows_report_the_touch_margin_of_every_evaluated_mode() -> None:
+    from glocal_verify.spec import load_example
+
+    result = audit(System(load_example("paper19")), 2)
+    for r in result.rows:
+        for d in r.witness["modes"].values():
+            if d["switching.avoids-attack"] in ("holds", "fails"):
+                assert "touch_margin" in d
