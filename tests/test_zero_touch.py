@@ -138,3 +138,26 @@ def test_audit_rows_report_the_touch_margin_of_every_evaluated_mode() -> None:
         for d in r.witness["modes"].values():
             if d["switching.avoids-attack"] in ("holds", "fails"):
                 assert "touch_margin" in d
+
+
+def _ladder(rungs: int, lambda0: bool) -> System:
+    """A ladder of ``rungs`` rungs; the attack drives a current across the first rung, the safe mode adds a diagonal at the last."""
+    G = nx.relabel_nodes(nx.ladder_graph(rungs), lambda v: v + 1)
+    far = [rungs - 1, 2 * rungs]  # a diagonal of the last square
+    attack: dict[str, Any] = {"kind": "zda", "actuators": [1, rungs + 1]}
+    if lambda0:
+        attack["lambda0"] = 0
+    return System(spec_from_graph(G, name="ladder", modes={"q": {"add": [far]}}, monitor_velocities=[rungs // 2], attack=attack))
+
+
+def test_verify_decides_a_far_switch_over_q_when_the_numeric_touch_test_cannot() -> None:
+    from glocal_verify import verify
+
+    system = _ladder(24, lambda0=True)
+    (t,) = zero_touch(system, system.idx((1, 25)), ["q"]) or [None]
+    assert t is not None and not t.avoids and t.ratio < 1e-9  # touched, by a potential difference below the tolerance
+    (r,) = verify(system, ["switching.avoids-attack"]).results("switching.avoids-attack")
+    assert r.status is Status.FAILS
+    assert "decided over Q" in r.witness["certificate"]["by"]
+    assert r.margin is not None and r.margin < 1e-9
+

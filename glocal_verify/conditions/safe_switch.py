@@ -313,8 +313,12 @@ def _zda_results(system: System, ctx: CheckContext) -> list[ConditionResult]:
     for mode in system.safe_modes:
         av, cert = _certified(system, F, _numeric_mode(system, mode, md, d_num, za.direction_source, bases), exact_lambda)
         if av.status is Status.UNDECIDED and (ex0 := touch_at_zero(system, mode, d_num, za.direction_source, system.idx(F))) is not None:
-            # lambda0 = 0 with no monitored position: decided over Q from the attack's potentials
-            av, cert = ex0, {"certified": True, "error_bound": None, "by": ex0.notes[-1], "note": ""}
+            # lambda0 = 0 with no monitored position: the touch test over Q from the attack's potentials
+            if exact_lambda:
+                av, cert = ex0, {"certified": True, "error_bound": None, "by": ex0.notes[-1], "note": ""}
+            else:  # the exponent itself is the numeric fastest zero: say what Q says at 0, stay undecided
+                what = "avoids the attack" if ex0.status is Status.HOLDS else "touches every stealthy direction"
+                cert = {**cert, "note": f"{cert.get('note', '')}; over Q the switch {what} at lambda0 = 0 (attack.lambda0 = 0 in the spec makes this the verdict)"}
         out.append(_avoidance_result(system, ctx, F, av, cert=cert))
     return out
 
