@@ -206,8 +206,10 @@ def test_every_undecided_row_of_a_near_degenerate_audit_says_which_part_is_open(
         reason = r.witness["reason"]
         assert reason.startswith("undecided: ") and "a part of the row" not in reason and "audit --exact" in reason, reason
         if r.stealthy is not None:
-            open_local = [f"{cid} of {name}" for name, d in r.witness["local"].items() for cid in ("local.pencil", "local.uio") if d[cid] == "undecided"]
-            assert open_local and all(part in reason for part in open_local), reason
+            open_parts = [f"{cid} of {name}" for name, d in r.witness["local"].items() for cid in ("local.pencil", "local.uio") if d[cid] == "undecided"]
+            open_parts += [f"switching.avoids-attack of {q}" for q, d in r.witness["modes"].items() if d["theorem_iii3"] and d["switching.avoids-attack"] == "undecided"]
+            open_parts += [f"Theorem III.3 for {q}" for q, d in r.witness["modes"].items() if d["theorem_iii3"] is None]
+            assert open_parts and all(part in reason for part in open_parts), reason
 
 
 def test_the_audit_progress_line_weighs_singles_above_pairs_in_its_estimate_of_the_time_left(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:

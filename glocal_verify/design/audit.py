@@ -70,7 +70,7 @@ from glocal_verify.conditions.local import uio_verdict
 from glocal_verify.conditions.local_pencil import pencil_verdict, pencil_verdict_exact
 from glocal_verify.conditions.registry import verify
 from glocal_verify.design.audit_records import AUDIT_SCHEMA_ID, AuditResult, AuditRow, exposure_fragility, undecided_reason
-from glocal_verify.design.audit_screens import _witness_lambda, _without_sensors, batch_witnesses, disjoint_paths, global_tables
+from glocal_verify.design.audit_screens import _witness_lambda, _without_sensors, batch_witnesses, certified_touch, disjoint_paths, global_tables
 from glocal_verify.errors import ModelError, NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.numerics.minors import (
@@ -531,7 +531,7 @@ def _modes_part(sh: _Shared, F: tuple[Label, ...], z: _Zda) -> tuple[list[str], 
                 md = _Modal(system, F, sh.tol)
                 bases = _stealthy_bases(md, z.direction.value)
             assert bases is not None
-            av = _numeric_mode(system, mode, md, z.direction, z.source, bases)
+            av = certified_touch(system, F, _numeric_mode(system, mode, md, z.direction, z.source, bases), z.source == "requested lambda0" or bool(z.screened))
             if av.status is Status.UNDECIDED and _zda_fallback(sh):
                 ea = zda_analysis_exact(system, F, lambda0=sh.lambda0)
                 if ea.direction is not None:

@@ -231,3 +231,22 @@ def _without_sensors(system: System, sensors: Sequence[Label]) -> System:
         mon, positions=tuple(a for a in mon.positions if a not in s), velocities=tuple(a for a in mon.velocities if a not in s)
     )
     return System(dataclasses.replace(system.spec, monitor=new))
+
+
+def certified_touch(system: System, F: Sequence[Label], av: Any, exact_lambda: bool) -> Any:
+    """A numeric touch verdict (``switching.avoids-attack`` of one mode) if certified for the exact system, else ``undecided``.
+
+    As ``verify`` certifies it
+    (:func:`~glocal_verify.analysis.avoidance.avoidance_certificate`: Weyl lower bounds against
+    structural upper bounds at an exact real lambda0, or the avoiding direction rationalised
+    to an exact kernel vector). ``exact_lambda``: the witness exponent is exact (the spec's
+    lambda0, or lambda0 = 1 for a system proved not left-invertible); a computed zero is not.
+    """
+    from glocal_verify.analysis.avoidance import avoidance_certificate
+    from glocal_verify.results import Status
+
+    if av.status is Status.UNDECIDED:
+        return av
+    cand = None if av.direction is None else np.concatenate([av.direction.xi, av.direction.u0])
+    ok, _, note = avoidance_certificate(system, av.mode, system.idx(F), av.lambda0, av.status, exact_lambda, cand)
+    return av if ok else dataclasses.replace(av, status=Status.UNDECIDED, notes=(*av.notes, f"numeric {av.status.value} not certified: {note}"))
