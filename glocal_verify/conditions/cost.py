@@ -88,14 +88,16 @@ C_PENCIL = 8e-10
 #: per safe mode (61 s for one N = 1000 run, reports/benchmarks.md)
 C_SIMULATE = 6.1e-8
 
-#: exact arithmetic (``--exact``): central.observer's rational characteristic polynomial,
-#: seconds per N^4 (measured 10.2 s at N = 120, 2.0 s at N = 80)
-C_EXACT_CENTRAL = 6e-8
-#: stealthy.zda and switching.avoids-attack in exact arithmetic, each: seconds per N^3. Which
-#: path runs is not known from the sizes: the dense V* iteration when the minor certificate
-#: fails took 104 s each at N = 80 (2.0e-4), the certificate's fast path 16 s at N = 120
-#: (9.3e-6); the constant is about their geometric mean
-C_EXACT_ZDA = 5e-5
+#: exact arithmetic (``--exact``): central.observer's rational characteristic polynomial from
+#: the matrix determinant lemma and its fraction-free Routh test, seconds per N^4 (24 s of CPU at
+#: N = 200, 2.8 s at N = 100, random_clustered_spec(N, 3, seed=7))
+C_EXACT_CENTRAL = 2.5e-8
+#: stealthy.zda and switching.avoids-attack in exact arithmetic, each: seconds per N^3 on the
+#: proved zero polynomial (1.8-2.6 s of CPU at N = 200, 1.2-1.4 s at N = 100). Which path runs
+#: is not known from the sizes: a pencil that is not left-invertible, or a zero whose
+#: multiplicity the two bounds do not settle, takes the dense V* iteration over Q (104 s at
+#: N = 80, hours at N = 200), which this estimate does not foresee
+C_EXACT_ZDA = 1e-6
 #: the other exact global checkers (switched-observability, privacy.*): seconds per N^3
 #: (1.1 s at N = 120)
 C_EXACT_GLOBAL = 1e-6
