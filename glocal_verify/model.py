@@ -16,6 +16,7 @@ of the boundary agents dP_i, and E^i = [0; S_{dP_i}^T] has one column per bounda
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Hashable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
@@ -113,6 +114,35 @@ class Analysis:
     def __repr__(self) -> str:
         inner = ", ".join(f"{k}: {v}" for k, v in self.kinds().items())
         return f"Analysis({inner})"
+
+    def __getstate__(self) -> dict[str, Any]:
+        """The portable results only: a system sent to another process (a Dask worker) keeps
+        its spectra and tables, and recomputes what holds python-flint objects (which do not
+        pickle)."""
+        return {"_store": {k: v for k, v in self._store.items() if _portable(v)}}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self._store = dict(state["_store"])
+
+
+def _portable(value: Any, depth: int = 0) -> bool:
+    """Whether ``value`` pickles: plain data, numpy and scipy arrays, and containers or
+    dataclasses of them (python-flint objects are not)."""
+    if value is None or isinstance(value, (bool, int, float, complex, str, bytes, Fraction)):
+        return True
+    if isinstance(value, np.ndarray):
+        return value.dtype != object or all(_portable(x, depth + 1) for x in value.ravel()[:64])
+    if type(value).__module__.startswith("flint"):
+        return False
+    if depth > 6:
+        return True  # deep structures are plain data here; pickling will say otherwise
+    if isinstance(value, (tuple, list, set, frozenset)):
+        return all(_portable(x, depth + 1) for x in value)
+    if isinstance(value, dict):
+        return all(_portable(k, depth + 1) and _portable(v, depth + 1) for k, v in value.items())
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return all(_portable(getattr(value, f.name), depth + 1) for f in dataclasses.fields(value))
+    return True
 
 
 def selection(indices: Sequence[int], n: int) -> np.ndarray:

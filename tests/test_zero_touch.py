@@ -161,3 +161,20 @@ def test_verify_decides_a_far_switch_over_q_when_the_numeric_touch_test_cannot()
     assert "decided over Q" in r.witness["certificate"]["by"]
     assert r.margin is not None and r.margin < 1e-9
 
+
+
+def test_a_system_holding_flint_results_pickles_without_them_and_keeps_its_arrays() -> None:
+    import pickle
+
+    import flint
+
+    system = _ladder(6, lambda0=True)
+    system.eigh()
+    zero_touch(system, system.idx((1, 7)), ["q"])
+    system.analysis[("test-flint",)] = {"poly": flint.fmpq_poly([1, 2])}
+    copy = pickle.loads(pickle.dumps(system))
+    assert ("test-flint",) not in copy.analysis
+    assert ("grounded-laplacian-inverse-mod", "normal") in copy.analysis  # a plain int64 array
+    (a,) = zero_touch(copy, copy.idx((1, 7)), ["q"]) or [None]
+    (b,) = zero_touch(system, system.idx((1, 7)), ["q"]) or [None]
+    assert a == b

@@ -84,15 +84,16 @@ class ZeroTouch:
 
 
 def _grounded(system: System) -> Any:
-    """The grounded Laplacian L_1 without its last row and column, as an fmpq_mat (stored on the system)."""
+    """The grounded Laplacian L_1 without its last row and column, as an fmpq_mat.
+
+    Built per call (it is only needed when the modular screen does not prove a touch): flint
+    matrices do not pickle, and the system's analysis store travels to Dask workers.
+    """
     from flint import fmpq, fmpq_mat
 
-    def build() -> Any:
-        L = system.laplacian_exact(NORMAL_MODE)
-        n = system.n - 1
-        return fmpq_mat(n, n, [fmpq(L[i][j].numerator, L[i][j].denominator) for i in range(n) for j in range(n)])
-
-    return system.analysis.get(("grounded-laplacian-exact", NORMAL_MODE), build)
+    L = system.laplacian_exact(NORMAL_MODE)
+    n = system.n - 1
+    return fmpq_mat(n, n, [fmpq(L[i][j].numerator, L[i][j].denominator) for i in range(n) for j in range(n)])
 
 
 #: the modular screen inverts the grounded Laplacian modulo a prime (O(N^3) once per system) up
@@ -100,8 +101,8 @@ def _grounded(system: System) -> Any:
 MODULAR_MAX_AGENTS = 2000
 
 
-def _inverse_mod(system: System) -> tuple[int, Any] | None:
-    """(p, L_g^{-1} mod p) for a prime p below 2^62 that divides no weight denominator and not det L_g.
+def _inverse_mod(system: System) -> tuple[int, np.ndarray] | None:
+    """(p, L_g^{-1} mod p as an int64 array) for a prime p below 2^62 that divides no weight denominator and not det L_g.
 
     Reduction modulo p is a ring homomorphism on the rationals whose denominators are units
     modulo p, and L_g^{-1} = adj(L_g) / det(L_g) with det(L_g) a unit: so (L_g^{-1} b) mod p is
@@ -122,9 +123,11 @@ def _inverse_mod(system: System) -> tuple[int, Any] | None:
             entries = [(L[i][j].numerator % q) * pow(L[i][j].denominator % q, -1, q) % q if L[i][j] != 0 else 0 for i in range(n) for j in range(n)]
             M = nmod_mat(n, n, entries, q)
             try:
-                return q, M.inv()
+                inv = M.inv()
             except ZeroDivisionError:  # det L_g = 0 modulo q: the next prime
                 continue
+            # a plain array (entries < 2^62 fit int64): flint matrices do not pickle
+            return q, np.array([[int(inv[i, j]) for j in range(n)] for i in range(n)], dtype=np.int64)
         return None
 
     if system.n - 1 > MODULAR_MAX_AGENTS:
