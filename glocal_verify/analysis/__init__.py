@@ -6,7 +6,8 @@
 - :mod:`.zda`, :mod:`.zda_exact` -- zero-dynamics attacks: zeros, directions, growth;
 - :mod:`.covert` -- the channels a covert attacker must own;
 - :mod:`.avoidance` -- does a safe mode touch the stealthy kernel (Remark III.3.1)?
-- :mod:`.local_cases`, :mod:`.cluster_pencil` -- cluster subsystems and their reduced pencils.
+- :mod:`.local_cases`, :mod:`.cluster_pencil` -- cluster subsystems and their reduced pencils;
+- :mod:`.cluster_modal` -- the interior eigen-decomposition of a cluster block shared by the UIO checks.
 
 Layer: imports :mod:`glocal_verify.numerics`, :mod:`glocal_verify.model` and the spec types.
 Derived results are kept on the system's explicit :class:`~glocal_verify.model.Analysis`.

@@ -31,7 +31,12 @@ small clusters (at most :data:`DENSE_MAX_AGENTS` agents) and as the reference of
 The UIO check decides detectability structurally (:func:`glocal_verify.observers.uio_existence.cluster_detectability`,
 cross-checking the generic observable split) and designs one observer per distinct cluster
 block: the two suspected sets of an observer, and the modes that do not change its cluster,
-share it.
+share it. On clusters of at least
+:data:`~glocal_verify.observers.uio_modal.MODAL_MIN_AGENTS` agents (option
+``local_uio_method``: ``auto``, ``modal`` or ``dense``) the design and its Hurwitz
+certificate come from one symmetric eigenproblem of the interior block L[P_i \\ dP_i, P_i \\ dP_i]
+(:mod:`glocal_verify.conditions.local_uio_modal`), shared by every observer of the cluster and
+every mode with the same block, instead of 2n-sized Schur forms, eigen-decompositions and SVDs.
 """
 
 from __future__ import annotations
@@ -44,6 +49,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from glocal_verify.analysis.cluster_modal import state_rounding_bound
 from glocal_verify.analysis.local_cases import (
     LocalCase,
     _exact_int,
@@ -58,12 +64,14 @@ from glocal_verify.conditions.local_pencil import (
     pencil_verdict,
     pencil_verdict_exact,
 )
+from glocal_verify.conditions.local_uio_modal import UIO_METHODS, modal_applicable, uio_one_modal
 from glocal_verify.conditions.registry import (
     CheckContext,
     checker,
     finding_rule,
     result,
 )
+from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import ClusterModel, LocalObserver, System
 from glocal_verify.numerics import exact as ex
 from glocal_verify.numerics.pencil_exact import (
@@ -321,29 +329,48 @@ def _structured_detectability(cm: ClusterModel, obs: LocalObserver, existence: U
     return dataclasses.replace(existence, status=Status.UNDECIDED, detectable=Status.UNDECIDED)
 
 
-def _uio_key(system: System, cm: ClusterModel, C: np.ndarray, obs: LocalObserver, tol: Tolerance, exact: bool) -> str:
-    """Digest of everything the per-mode UIO verdict depends on (matrices by value)."""
-    h = hashlib.sha256()
-    for M in (cm.L, cm.A, cm.E, C):
+def _uio_key(system: System, cm: ClusterModel, C: np.ndarray, obs: LocalObserver, tol: Tolerance, exact: bool, method: str = "auto") -> str:
+    """Digest of everything the per-mode UIO verdict depends on (matrices by value, method).
+
+    A^i = [[0, I], [-alpha L, -gamma I]] is a function of L[P_i, P_i], alpha and gamma, all
+    in the key, so it is not hashed again; the digest of L is kept per cluster and mode on
+    ``system.analysis`` (hashing the 2n x 2n A^i of every case cost seconds at n = 1333).
+    """
+    h = hashlib.sha256(method.encode())
+    digest = system.analysis.get(("cluster-block-digest", cm.name, cm.mode), lambda: hashlib.sha256(np.ascontiguousarray(cm.L).tobytes()).hexdigest())
+    h.update(repr((cm.L.shape, digest)).encode())
+    for M in (cm.E, C):
         h.update(repr(M.shape).encode())
         h.update(np.ascontiguousarray(M).tobytes())
     h.update(repr((cm.nodes, cm.boundary, obs.positions, obs.velocities, obs.poles, system.gamma, system.alpha, tol.rtol, tol.band, exact)).encode())
     if exact:
         h.update(repr((system.cluster_laplacian_exact(cm.name, cm.mode), system.alpha_q, system.gamma_q)).encode())
+    else:
+        # a numeric certificate proves its verdict for every exact A^i within the rounding
+        # bound it used of fl(A^i): two modes with the same floats share it only when the
+        # bound is the same (then it covers both exact blocks)
+        h.update(repr(state_rounding_bound(system, cm.name, cm.mode)).encode())
     return h.hexdigest()
 
 
 def _uio_one(
-    system: System, case: LocalCase, mode: str, tol: Tolerance, exact: bool, cache: dict[str, tuple[Status, float, dict[str, Any]]] | None = None
+    system: System,
+    case: LocalCase,
+    mode: str,
+    tol: Tolerance,
+    exact: bool,
+    cache: dict[str, tuple[Status, float, dict[str, Any]]] | None = None,
+    method: str = "auto",
 ) -> tuple[Status, float, dict[str, Any]]:
     cm = system.cluster_model(case.model.name, mode)
     obs = case.observer
     C = cm.C(obs.positions, obs.velocities)
-    key = _uio_key(system, cm, C, obs, tol, exact) if cache is not None else ""
+    key = _uio_key(system, cm, C, obs, tol, exact, method) if cache is not None else ""
     if cache is not None and key in cache:
         st, mg, w0 = cache[key]
         return st, mg, copy.deepcopy(w0)
-    out = _uio_one_uncached(system, case, cm, C, mode, tol, exact)
+    got = uio_one_modal(system, cm, obs, C, mode, tol) if modal_applicable(cm, obs, exact, method) else None
+    out = got if got is not None else _uio_one_uncached(system, case, cm, C, mode, tol, exact)
     if not exact and out[0] is not Status.HOLDS:
         out = _uio_certify_negative(case, cm, C, *out)
     if cache is not None:
@@ -528,7 +555,11 @@ def check_uio(system: System, ctx: CheckContext) -> list[ConditionResult]:
     Weyl/structural rank bounds and F_exact = (I - h C) A_exact - K1 C certified Hurwitz for
     the designed K1 (an eigenvalue enclosure from the residual of the computed
     eigen-decomposition, Bauer-Fike, including ||fl F - F_exact||_2 from the rational data:
-    ``_uio_certificate``); this proves detectability of the exact pair. ``fails`` is certified
+    ``_uio_certificate``; on large clusters the modal certificate of
+    :func:`glocal_verify.observers.uio_modal.modal_certificate`: a residual bound of F_exact in
+    the modal basis of the interior block, a lower bound of the basis' smallest singular value
+    and a resolvent bound of the block triangular modal form, perturbation times resolvent
+    below 1); this proves detectability of the exact pair. ``fails`` is certified
     only through the rank condition; an unstable unobservable mode is a rank-loss claim
     without a floating-point proof (``undecided``, escalated by ``verify``). The margin stays a
     robustness measure.
@@ -541,8 +572,11 @@ def check_uio(system: System, ctx: CheckContext) -> list[ConditionResult]:
     """
     out = []
     cache: dict[str, tuple[Status, float, dict[str, Any]]] = {}
+    method = str(ctx.options.get("local_uio_method", "auto"))
+    if method not in UIO_METHODS:
+        raise NotApplicableError(f"local_uio_method must be one of {', '.join(UIO_METHODS)}, not {method!r}")
     for case in local_cases(system):
-        status, margin, witness = uio_verdict(system, case, ctx.tol, ctx.exact, cache=cache)
+        status, margin, witness = uio_verdict(system, case, ctx.tol, ctx.exact, cache=cache, method=method)
         out.append(result("local.uio", ctx, status, scope=case.scope, margin=margin, witness=witness, **_certificate_args(witness)))
     return out
 
@@ -554,6 +588,7 @@ def uio_verdict(
     exact: bool = False,
     *,
     cache: dict[str, tuple[Status, float, dict[str, Any]]] | None = None,
+    method: str = "auto",
 ) -> tuple[Status, float, dict[str, Any]]:
     """Verdict of local.uio for one case over every mode: ``(status, margin, witness)``.
 
@@ -569,12 +604,17 @@ def uio_verdict(
         A^i, E^i, L[P_i, P_i] and C_loc by value, observer, gains, tolerance, exactness):
         the suspected sets of one observer, and the modes that leave the cluster block
         unchanged (a safe mode usually changes one cluster), share one design.
+    method : str
+        ``auto`` (default: the modal design and certificate of
+        :mod:`glocal_verify.conditions.local_uio_modal` for numeric checks of clusters of at least
+        :data:`~glocal_verify.conditions.local_uio_modal.MODAL_MIN_AGENTS` agents with default
+        poles, the dense one otherwise), ``modal`` (whenever it applies) or ``dense``.
     """
     per_mode: dict[str, Any] = {}
     statuses = []
     margins = []
     for mode in system.modes:
-        st, mg, w = _uio_one(system, case, mode, tol, exact, cache)
+        st, mg, w = _uio_one(system, case, mode, tol, exact, cache, method)
         if "eigenvalues_F" in w:
             bnd = set(system.cluster_model(case.model.name, mode).boundary) if mode != case.mode else set(case.model.boundary)
             inv = [a for a in case.suspected if a in bnd]

@@ -2,7 +2,9 @@
 
 - :mod:`.central` -- eq. ``obs_cent``: a gain H stabilising A_1 - H C on the observable part;
 - :mod:`.uio_existence` -- existence of the UIO (Chen, Patton & Zhang) and its certificates;
-- :mod:`.uio` -- the verified UIO design of eqs. ``uio_conds_1``-``uio_conds_3``.
+- :mod:`.uio` -- the verified UIO design of eqs. ``uio_conds_1``-``uio_conds_3``;
+- :mod:`.uio_modal` -- the same default design and its Hurwitz certificate from the cluster's
+  modal structure (one symmetric eigenproblem of the interior block; large clusters).
 
 Layer: imports :mod:`glocal_verify.analysis` and below.
 """

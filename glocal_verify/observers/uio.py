@@ -50,6 +50,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from glocal_verify.analysis.cluster_modal import interior_modes, state_rounding_bound
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import LocalObserver, System
 from glocal_verify.numerics.threads import single_threaded
@@ -64,10 +65,12 @@ from glocal_verify.observers.uio_existence import (
     _operator,
     _place_dual,
     _place_slow,
+    _decoupling,
     _Reduction,
     _slow_schur,
     uio_existence,
 )
+from glocal_verify.observers.uio_modal import MODAL_MIN_AGENTS, design_uio_modal
 from glocal_verify.results import Status
 from glocal_verify.spec.types import NORMAL_MODE, Label
 
@@ -333,6 +336,55 @@ def design_uio(
     return ex_, design
 
 
+def _modal_design(system: System, observer: LocalObserver, mode: str, C: np.ndarray, tol: Tolerance) -> dict[str, Any] | None:
+    """The design dict of :func:`design_uio` from :func:`~glocal_verify.observers.uio_modal.design_uio_modal`
+    (None when the rank condition does not hold or the modal basis does not apply)."""
+    cm = system.cluster_model(observer.cluster, mode)
+    rank_st, h = _decoupling(cm.E, C, tol)
+    if rank_st is not Status.HOLDS or h is None:
+        return None
+    idx = {a: k for k, a in enumerate(cm.nodes)}
+    try:
+        md = design_uio_modal(
+            cm.A,
+            interior_modes(system, cm.name, mode),
+            [idx[a] for a in observer.positions],
+            [idx[a] for a in observer.velocities],
+            alpha=system.alpha,
+            gamma=system.gamma,
+            tol=tol,
+            input_error=state_rounding_bound(system, cm.name, mode),
+        )
+    except NotApplicableError:
+        return None
+    if md.detectable is not Status.HOLDS or md.certificate is None:
+        return None
+    n2 = cm.A.shape[0]
+    T = np.eye(n2) - h @ C
+    A1 = cm.A - h @ (C @ cm.A)
+    F = A1 - md.K1 @ C
+    K = md.K1 + F @ h
+    nE = float(np.linalg.norm(cm.E))
+    eig = md.eigenvalues
+    cert = md.certificate
+    return {
+        "h": h,
+        "T": T,
+        "A1": A1,
+        "K1": md.K1,
+        "F": F,
+        "K": K,
+        "poles": md.poles,
+        "eigenvalues": eig,
+        "decoupling_residual": float(np.linalg.norm(h @ (C @ cm.E) - cm.E) / nE) if nE > 0 else 0.0,
+        "error_residual": float(np.linalg.norm(A1 - (F - (F @ h) @ C) - K @ C)) / max(float(np.linalg.norm(cm.A)) + float(np.linalg.norm(F)), 1e-300),
+        "hurwitz_margin": float(-np.max(eig.real)) if len(eig) else float("inf"),
+        "hurwitz": Status.HOLDS if cert.certified else Status.UNDECIDED,
+        "hurwitz_ratio": 1.0 / (cert.perturbation * cert.resolvent) if cert.perturbation * cert.resolvent > 0 else float("inf"),
+        "notes": md.notes + ("designed in modal coordinates (one eigh of the interior block)",),
+    }
+
+
 def local_uio(
     system: System,
     observer: LocalObserver,
@@ -340,6 +392,7 @@ def local_uio(
     mode: str = NORMAL_MODE,
     poles: Sequence[float | complex] | None = None,
     tol: Tolerance = DEFAULT_TOLERANCE,
+    method: str = "dense",
 ) -> UnknownInputObserver:
     """Design the UIO of a local observer of ``system`` (the object the simulator runs).
 
@@ -354,6 +407,12 @@ def local_uio(
         Poles of the observable part; default the observer's, else :func:`default_poles`.
     tol : Tolerance
         Rank decisions and the Hurwitz certificate (:func:`design_uio`).
+    method : str
+        ``dense`` (default, :func:`design_uio`), ``modal``
+        (:func:`~glocal_verify.observers.uio_modal.design_uio_modal`: the same default poles
+        from one eigh of the cluster's interior block, certified by its modal bound; used
+        with default poles only, else dense) or ``auto`` (modal from
+        :data:`~glocal_verify.observers.uio_modal.MODAL_MIN_AGENTS` agents on).
 
     Raises
     ------
@@ -363,10 +422,14 @@ def local_uio(
     cm = system.cluster_model(observer.cluster, mode)
     C = cm.C(observer.positions, observer.velocities)
     want = poles if poles is not None else (None if observer.poles is None else [float(p) for p in observer.poles])
-    try:
-        _, d = design_uio(cm.A, cm.E, C, poles=want, gamma=system.gamma, tol=tol)
-    except NotApplicableError as exc:
-        raise NotApplicableError(f"cluster {observer.cluster!r}, observer {observer.center!r}: {exc}") from None
+    d = None
+    if want is None and (method == "modal" or (method == "auto" and len(cm.nodes) >= MODAL_MIN_AGENTS)):
+        d = _modal_design(system, observer, mode, C, tol)
+    if d is None:
+        try:
+            _, d = design_uio(cm.A, cm.E, C, poles=want, gamma=system.gamma, tol=tol)
+        except NotApplicableError as exc:
+            raise NotApplicableError(f"cluster {observer.cluster!r}, observer {observer.center!r}: {exc}") from None
     return UnknownInputObserver(
         cluster=observer.cluster,
         center=observer.center,
