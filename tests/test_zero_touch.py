@@ -178,3 +178,30 @@ def test_a_system_holding_flint_results_pickles_without_them_and_keeps_its_array
     (a,) = zero_touch(copy, copy.idx((1, 7)), ["q"]) or [None]
     (b,) = zero_touch(system, system.idx((1, 7)), ["q"]) or [None]
     assert a == b
+
+
+@st.composite
+def velocity_only(draw: st.DrawFn) -> tuple[System, list[int]]:
+    n, edges = draw(graphs(min_n=3, max_n=10, connected=draw(st.booleans())))
+    labels = list(range(1, n + 1))
+    mv = draw(st.lists(st.sampled_from(labels), unique=True, min_size=1, max_size=3))
+    system = System(spec_from_dict({"format": 1, "name": "v", "graph": {"nodes": n, "edges": edges}, "monitor": {"velocities": mv}}))
+    return system, draw(st.lists(st.sampled_from(range(n)), unique=True, min_size=1, max_size=3))
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(velocity_only())
+def test_a_persistent_zda_without_position_monitors_exists_iff_two_attacked_agents_share_a_component(case: tuple[System, list[int]]) -> None:
+    from glocal_verify.analysis.zda_certificate import exact_q_rows, zda_certificate
+
+    system, F = case
+    N, m = system.n, len(F)
+    rows0, _ = exact_q_rows(system, F, [], Fraction(0))
+    exists_at0 = ex.rank(rows0, N + m) < ex.rank([r[:N] for r in rows0], N) + m  # the definition, over Q
+    comp = {system.index[a]: ci for ci, c in enumerate(system.components()) for a in c}
+    assert exists_at0 == (len({comp[f] for f in F}) < m)
+    cert = zda_certificate(system, [system.labels[f] for f in F])
+    if exists_at0:
+        assert cert.status is Status.HOLDS
+    elif cert.status is Status.HOLDS:  # then a ZDA away from lambda = 0, proved another way
+        assert "lambda0 = 0" not in cert.by

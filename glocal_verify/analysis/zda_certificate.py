@@ -231,12 +231,25 @@ def zda_certificate(
     _, pat = exact_q_rows(system, F, M, None)
     if structural_rank(pat) < N + m:
         return ZdaCertificate(Status.HOLDS, "structural rank of the exact support of Q_M(s) < N + m: not left-invertible, a ZDA at every lambda0")
-    rows0, pat0 = exact_q_rows(system, F, Mx, Fraction(0))
-    mx = set(Mx)
-    free = sum(1 for c in system.components() if not any(system.index[a] in mx for a in c))
-    at0, bound = u_direction_certificate(rows0, pat0, N, m, xi_upper=N - free)
-    if at0 is True:
-        return ZdaCertificate(Status.HOLDS, "Weyl/structural rank bounds at lambda0 = 0: rank Q_{M_x}(0) < rank [alpha L; S_{M_x}] + m (a persistent ZDA)", bound)
+    bound: float | None
+    at0: bool | None
+    if not Mx:
+        # lambda = 0 with no monitored position: Q(0) = [alpha L_1, -S_F^T]. With positive
+        # weights rank L_1 = N - c (c components, each indicator spans ker L_1 restricted to it),
+        # and the columns e_f add the indicators of the c_F components holding an attacked
+        # agent, so rank Q(0) = N - c + c_F: a kernel vector with u0 != 0 exists iff c_F < m
+        comp = {system.index[a]: ci for ci, c in enumerate(system.components()) for a in c}
+        c_f = len({comp[f] for f in F})
+        at0, bound = c_f < m, None
+        if at0:
+            return ZdaCertificate(Status.HOLDS, f"at lambda0 = 0 with no monitored position, {m} attacked agents lie in {c_f} component(s) of G_1: rank [alpha L_1, -S_F^T] = N - c + {c_f} < N - c + {m} (a persistent ZDA; exact, from the graph)")
+    else:
+        rows0, pat0 = exact_q_rows(system, F, Mx, Fraction(0))
+        mx = set(Mx)
+        free = sum(1 for c in system.components() if not any(system.index[a] in mx for a in c))
+        at0, bound = u_direction_certificate(rows0, pat0, N, m, xi_upper=N - free)
+        if at0 is True:
+            return ZdaCertificate(Status.HOLDS, "Weyl/structural rank bounds at lambda0 = 0: rank Q_{M_x}(0) < rank [alpha L; S_{M_x}] + m (a persistent ZDA)", bound)
     if candidate is not None and candidate[0].imag == 0:
         lq = Fraction(candidate[0].real)
         rows_c, _ = exact_q_rows(system, F, Mx if lq == 0 else M, lq * lq + system.gamma_q * lq)
@@ -257,9 +270,10 @@ def zda_certificate(
     if len(zf) == N:
         zf0 = len(zero_forcing_closure(nbrs, Mx, F)) == N
         if zf0 or at0 is False:
-            by = "zero forcing from M on the exact graph (every lambda != 0) and " + ("from M_x (lambda = 0)" if zf0 else "certified rank bounds at lambda = 0")
+            at0_by = "the components of G_1 at lambda = 0 (no monitored position; each holds at most one attacked agent)" if not Mx else "certified rank bounds at lambda = 0"
+            by = "zero forcing from M on the exact graph (every lambda != 0) and " + ("from M_x (lambda = 0)" if zf0 else at0_by)
             return ZdaCertificate(Status.FAILS, by, None if zf0 else bound)
-        return ZdaCertificate(None, "", bound, f"zero forcing excludes every lambda != 0, but the rank bounds at lambda = 0 do not separate (error bound {bound:.3g})")
+        return ZdaCertificate(None, "", bound, f"zero forcing excludes every lambda != 0, but the rank bounds at lambda = 0 do not separate (error bound {bound if bound is not None else 0:.3g})")
     return ZdaCertificate(
         None,
         "",
