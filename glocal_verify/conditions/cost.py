@@ -77,6 +77,12 @@ A_LOCAL_ONLY = 1.0
 #: block: the normal mode and every safe mode that changes the cluster). Measured 9.8-13.4 s per
 #: design at 2 n_i = 1334 (4.1e-9 - 5.7e-9), 2.1 s at 2 n_i = 667 (6.9e-9).
 C_UIO = 6.5e-9
+#: local.uio on clusters of at least MODAL_MIN_AGENTS agents (numeric): the modal design and
+#: certificate (one eigh of the interior block, n-sized work per observer), seconds per
+#: (2 n_i)^3 per design: 11.2 s for the five designs of 2 n_i ~ 2666 at N = 4000, 2.8 s at 2000
+C_UIO_MODAL = 2e-10
+#: smallest cluster that gets the modal UIO (glocal_verify.observers.uio_modal.MODAL_MIN_AGENTS)
+UIO_MODAL_MIN_AGENTS = 60
 #: arrays of (2 n_i)^2 doubles each design keeps until the checker ends (measured 6.3 beside
 #: the global arrays, 12 alone, at N = 2000 and 3000)
 A_UIO = 10.0
@@ -357,8 +363,10 @@ def estimate_verify(
     150 agents, and with ``exact`` the rational terms (:data:`C_EXACT_CENTRAL` N^4,
     :data:`C_EXACT_ZDA` N^3 for each of ``stealthy.zda`` and ``switching.avoids-attack``, between
     their fast and slow paths, :data:`C_EXACT_GLOBAL` N^3, :data:`C_EXACT_UIO` and :data:`C_EXACT_PENCIL` per
-    design and case, :data:`B_EXACT` N^2 bytes). Constants: :data:`C_START` = 3 s,
-    :data:`C_GLOBAL` = 1.6e-9, :data:`C_GLOBAL_MODE` = 0.8e-9, :data:`C_UIO` = 6.5e-9,
+    design and case, :data:`B_EXACT` N^2 bytes). :math:`C_{uio}` is :data:`C_UIO_MODAL` = 2e-10
+    for clusters of at least :data:`UIO_MODAL_MIN_AGENTS` agents in a numeric run (the modal
+    design), else :data:`C_UIO` = 6.5e-9. Constants: :data:`C_START` = 3 s,
+    :data:`C_GLOBAL` = 1.6e-9, :data:`C_GLOBAL_MODE` = 0.8e-9,
     :data:`C_PENCIL` = 8e-10 s, :data:`A_GLOBAL` = 12, :data:`A_GLOBAL_MODE` = 2.5,
     :data:`A_UIO` = 10, :data:`B_BASE` = 250 MiB; measured as the module docstring says.
 
@@ -390,7 +398,7 @@ def estimate_verify(
     if glob:
         phases["global spectra"] = (C_GLOBAL + C_GLOBAL_MODE * S) * n3
     if uio:
-        phases["local.uio"] = sum(C_UIO * d * float(m) ** 3 for m, d in _designs(sizes))
+        phases["local.uio"] = sum((C_UIO if exact or m < 2 * UIO_MODAL_MIN_AGENTS else C_UIO_MODAL) * d * float(m) ** 3 for m, d in _designs(sizes))
     if pencil:
         phases["local.pencil"] = sum(C_PENCIL * c * float(m) ** 3 for m, c in _cases(sizes))
     if simulate and "switching.detects" in ids and n > 150:
