@@ -42,6 +42,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from glocal_verify.analysis.avoidance import Avoidance, _block_norm, _delta_block
+from glocal_verify.analysis.twins import laplacian_entries
 from glocal_verify.analysis.zda import ZdaDirection, ZdaZero
 from glocal_verify.model import System
 from glocal_verify.results import Status
@@ -112,22 +113,24 @@ def _inverse_mod(system: System) -> tuple[int, np.ndarray] | None:
     from flint import fmpz, nmod_mat
 
     def build() -> tuple[int, Any] | None:
-        L = system.laplacian_exact(NORMAL_MODE)
         n = system.n - 1
-        dens = {abs(L[i][j].denominator) for i in range(n) for j in range(n) if L[i][j] != 0}
+        nonzero = {(i, j): Fraction(v) for (i, j), v in laplacian_entries(system, NORMAL_MODE).items() if i < n and j < n and v != 0}
+        dens = {abs(v.denominator) for v in nonzero.values()}
         q = (1 << 62) - 1
         for _ in range(200):
             q -= 2
             if not fmpz(q).is_prime() or any(d % q == 0 for d in dens):
                 continue
-            entries = [(L[i][j].numerator % q) * pow(L[i][j].denominator % q, -1, q) % q if L[i][j] != 0 else 0 for i in range(n) for j in range(n)]
+            entries = [0] * (n * n)
+            for (i, j), v in nonzero.items():
+                entries[i * n + j] = (v.numerator % q) * pow(v.denominator % q, -1, q) % q
             M = nmod_mat(n, n, entries, q)
             try:
                 inv = M.inv()
             except ZeroDivisionError:  # det L_g = 0 modulo q: the next prime
                 continue
             # a plain array (entries < 2^62 fit int64): flint matrices do not pickle
-            return q, np.array([[int(inv[i, j]) for j in range(n)] for i in range(n)], dtype=np.int64)
+            return q, np.array([int(x) for x in inv.entries()], dtype=np.int64).reshape(n, n)
         return None
 
     if system.n - 1 > MODULAR_MAX_AGENTS:

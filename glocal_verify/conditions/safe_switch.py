@@ -156,6 +156,10 @@ MARGIN_SCALE = (
 # checker
 
 
+#: up to this many agents an undecided touch test at a computed lambda0 = 0 notes what Q says there
+ZERO_TOUCH_NOTE_AGENTS = 500
+
+
 def _readings(touches: bool | None, predicted: str) -> tuple[dict[str, Any], dict[str, Any]]:
     remark = {
         "meaning": "X_q ∩ Z = ∅ read as: the switch does not touch the states Z the attack moves (dL_q Z = 0)",
@@ -312,7 +316,9 @@ def _zda_results(system: System, ctx: CheckContext) -> list[ConditionResult]:
     exact_lambda = za.direction_source == "requested lambda0"
     for mode in system.safe_modes:
         av, cert = _certified(system, F, _numeric_mode(system, mode, md, d_num, za.direction_source, bases), exact_lambda)
-        if av.status is Status.UNDECIDED and (ex0 := touch_at_zero(system, mode, d_num, za.direction_source, system.idx(F))) is not None:
+        # (the modular inverse costs O(N^3) once: only for a requested lambda0, or as a note on small systems)
+        wanted = av.status is Status.UNDECIDED and (exact_lambda or system.n <= ZERO_TOUCH_NOTE_AGENTS)
+        if wanted and (ex0 := touch_at_zero(system, mode, d_num, za.direction_source, system.idx(F))) is not None:
             # lambda0 = 0 with no monitored position: the touch test over Q from the attack's potentials
             if exact_lambda:
                 av, cert = ex0, {"certified": True, "error_bound": None, "by": ex0.notes[-1], "note": ""}
