@@ -62,11 +62,12 @@ C_START = 3.0
 #: resident memory of a command before its matrices (interpreter, numpy, scipy): bytes
 B_BASE = 250 * MIB
 
-#: global checkers: seconds per N^3 for the normal mode (eigh, certified bounds, the two SVDs of
-#: Q(0) of stealthy.zda, ...) and per N^3 for each safe mode (its eigh and modal tests).
-#: Measured at N = 2000: 9.4 s with no safe mode, 23-29 s with two, 23 s with four.
-C_GLOBAL = 1.6e-9
-C_GLOBAL_MODE = 0.8e-9
+#: global checkers: seconds per N^3 for the normal mode (eigh, certified bounds, the ZDA
+#: analysis, ...) and per N^3 for each safe mode (its eigh and modal tests). Fit to whole verify
+#: runs on random_clustered_spec(N, 3, seed=7) with two safe modes: 9.1 / 17.4 / 70.6 / 166
+#: CPU-s at N = 1000 / 2000 / 3000 / 4000 (their local parts are the terms below)
+C_GLOBAL = 1.0e-9
+C_GLOBAL_MODE = 0.5e-9
 #: dense N x N float64 arrays the global checkers hold at their peak: 12 + 2.5 per safe mode
 #: (measured 11.4 + 2.1 per mode at N = 2000); local checkers alone hold one (the Laplacian)
 A_GLOBAL = 12.0
@@ -87,8 +88,8 @@ UIO_MODAL_MIN_AGENTS = 60
 #: the global arrays, 12 alone, at N = 2000 and 3000)
 A_UIO = 10.0
 #: local.pencil: seconds per (2 n_i)^3 per case (an observer and one suspected set: "attack"
-#: when the spec has one, and "all"). Measured 1.5 s per case at 2 n_i = 1334, 0.26 s at 667.
-C_PENCIL = 8e-10
+#: when the spec has one, and "all"): about 30 s for the six cases of 2 n_i ~ 2666 at N = 4000.
+C_PENCIL = 2.7e-10
 
 #: switching.detects with simulation (``--simulate always`` above 150 agents): seconds per N^3
 #: per safe mode (61 s for one N = 1000 run, reports/benchmarks.md)
@@ -305,7 +306,7 @@ class CostEstimate:
         return self.seconds + self.extra_seconds
 
     def describe(self) -> str:
-        """``"3.6 h and 36 GiB (12 dense 20000 x 20000 arrays; mostly global spectra)"``."""
+        """``"2.2 h and 36 GiB (12 dense 20000 x 20000 arrays; mostly global spectra)"``."""
         parts = []
         if self.dense_arrays >= 1:
             parts.append(f"{self.dense_arrays:.3g} dense {self.n} x {self.n} arrays")
@@ -366,8 +367,8 @@ def estimate_verify(
     design and case, :data:`B_EXACT` N^2 bytes). :math:`C_{uio}` is :data:`C_UIO_MODAL` = 2e-10
     for clusters of at least :data:`UIO_MODAL_MIN_AGENTS` agents in a numeric run (the modal
     design), else :data:`C_UIO` = 6.5e-9. Constants: :data:`C_START` = 3 s,
-    :data:`C_GLOBAL` = 1.6e-9, :data:`C_GLOBAL_MODE` = 0.8e-9,
-    :data:`C_PENCIL` = 8e-10 s, :data:`A_GLOBAL` = 12, :data:`A_GLOBAL_MODE` = 2.5,
+    :data:`C_GLOBAL` = 1.0e-9, :data:`C_GLOBAL_MODE` = 0.5e-9,
+    :data:`C_PENCIL` = 2.7e-10 s, :data:`A_GLOBAL` = 12, :data:`A_GLOBAL_MODE` = 2.5,
     :data:`A_UIO` = 10, :data:`B_BASE` = 250 MiB; measured as the module docstring says.
 
     Parameters
@@ -660,7 +661,7 @@ def check_limits(est: CostEstimate, limits: Limits | None = None, *, allow: bool
     """Raise :class:`SizeLimitError` when ``est`` exceeds ``limits`` (unless ``allow``).
 
     The message is one line: the command, N, the estimate, the limits, and how to proceed,
-    e.g. ``verify of 20000 agents: estimated 3.6 h and 36 GiB (12 dense 20000 x 20000 arrays;
+    e.g. ``verify of 20000 agents: estimated 2.2 h and 36 GiB (12 dense 20000 x 20000 arrays;
     mostly global spectra; limits 10 min, 8 GiB); rerun with --allow-large to run it anyway,
     or --only CONDITION to run fewer checkers``.
 
