@@ -604,16 +604,51 @@ def _poly_rows(L: Sequence[Sequence[Fraction]], alpha: Fraction, rows: Sequence[
     return [[flint.fmpq_poly([_fq(alpha * Fraction(L[i][j])), int(i == j)]) for j in cols] for i in rows]
 
 
-def _pencil_exact_structured(system: System, case: LocalCase) -> tuple[Status, dict[str, Any]] | None:
+def _factor_kernel(
+    Lq: Sequence[Sequence[Fraction]], aq: Fraction, rows: Sequence[int], cols: Sequence[int], f: Any, tr: Any | None, measured: Sequence[int]
+) -> tuple[bool, tuple[Any, ...] | None, str]:
+    """(input direction?, an exact kernel vector of Q on ``cols`` or None, method) at the roots of f.
+
+    Off the poles (f does not divide det(s I + alpha L)) by the transfer function
+    (:func:`~glocal_verify.numerics.cluster_transfer.transfer_kernel`: an |M| x |I| elimination
+    over Q[s]/(f), exact); otherwise, or without ``tr``, by the eliminations of Q(s) and
+    (s I + alpha L)[P_i, U] over Q[s]/(f) (:func:`~glocal_verify.numerics.pencil_exact.rank_over_field`,
+    :func:`~glocal_verify.numerics.pencil_exact.kernel_over_field`): a direction with u != 0 exists
+    iff dim ker Q(s) > dim ker (s I + alpha L)[P_i, U].
+    """
+    from glocal_verify.numerics.cluster_transfer import transfer_kernel
+    from glocal_verify.numerics.pencil_exact import kernel_over_field, rank_over_field
+
+    nU = len(cols)
+    if tr is not None:
+        tk = transfer_kernel(tr, f, measured, cols)
+        if tk is not None and tk.dim > 0:
+            return tk.has_input, tk.vector, "transfer"
+    Qrows = _poly_rows(Lq, aq, rows, cols)
+    K = kernel_over_field(Qrows, f, nU)
+    du = nU - rank_over_field(_poly_rows(Lq, aq, list(range(len(Lq))), cols), f, nU)
+    return len(K.basis) > du, (K.basis[0] if K.basis else None), "field"
+
+
+def _pencil_exact_structured(system: System, case: LocalCase, *, fast: bool = True) -> tuple[Status, dict[str, Any]] | None:
     """Exact structured verdict of (iii) (module :mod:`glocal_verify.analysis.cluster_pencil`): zero
     forcing on the exact sparsity pattern, else the reduced pencil over Q by
     :func:`glocal_verify.numerics.pencil_exact.analyze_pencil_exact` on its D = 0 embedding; the zero
     polynomial of the full pencil is z_Q(lam^2 + gamma lam). None when an agent is measured in
     velocity only and zero forcing does not settle every lam (the caller uses the dense exact
-    analysis)."""
+    analysis).
+
+    Per irreducible factor f of z_Q, the input-direction flag and an exact kernel vector of Q
+    come, when ``fast``, from :func:`_factor_kernel` (the transfer function off the poles, an
+    |M| x |I| elimination over Q[s]/(f)); with ``fast=False`` (the reference) from the
+    n-sized eliminations over Q[s]/(f) of ``analyze_pencil_exact(directions=True)`` and of Q(s)
+    and (s I + alpha L)[P_i, U]. Both are exact and give the same flags and kernel dimensions.
+    """
     import flint
 
+    from glocal_verify.numerics.cluster_transfer import cluster_transfer, eval_normalized
     from glocal_verify.numerics.pencil_exact import (
+        RootEnclosures,
         analyze_pencil_exact,
         classify_real_parts,
         rank_over_field,
@@ -648,7 +683,7 @@ def _pencil_exact_structured(system: System, case: LocalCase) -> tuple[Status, d
         return None
     A, B, C, rows, cols, k = reduced_system_exact(Lq, aq, st.inputs, st.measured)
     m = len(cols) - k
-    pe = analyze_pencil_exact(A, B, C, None, directions=True, n_inputs=m)
+    pe = analyze_pencil_exact(A, B, C, None, directions=not fast, n_inputs=m)
     nrank_q = pe.normal_rank - m
     nU = len(cols)
     witness.update(
@@ -681,11 +716,20 @@ def _pencil_exact_structured(system: System, case: LocalCase) -> tuple[Status, d
     zp = flint.fmpq_poly(1)
     entries: list[tuple[complex, Fraction | None, int, str, str, int, Any]] = []
     R_all = list(range(n))
+    tr = None
+    if fast and pe.factors:
+        tr = system.analysis.get(("cluster-transfer", cm.name, case.mode, tuple(st.inputs)), lambda: cluster_transfer(Lq, Fraction(aq), st.inputs))
+    kernels: dict[str, tuple[Any, tuple[Any, ...] | None, RootEnclosures]] = {}
     for f, mult in pe.factors:
         g = f(s_of_lam)
         zp *= g**mult
-        # ker P(lam) holds a direction with u != 0 iff dim ker Q(s) > dim ker (s I + alpha L)[P_i, U]
-        has_u = (nU - rank_over_field(_poly_rows(Lq, aq, rows, cols), f, nU)) > (nU - rank_over_field(_poly_rows(Lq, aq, R_all, cols), f, nU))
+        if fast:
+            has_u, vec_f, how = _factor_kernel(Lq, aq, rows, cols, f, tr, st.measured)
+            kernels[str(f)] = (f, vec_f, RootEnclosures(f))
+            witness["reduced"].setdefault("kernel_methods", []).append(how)
+        else:
+            # ker P(lam) holds a direction with u != 0 iff dim ker Q(s) > dim ker (s I + alpha L)[P_i, U]
+            has_u = (nU - rank_over_field(_poly_rows(Lq, aq, rows, cols), f, nU)) > (nU - rank_over_field(_poly_rows(Lq, aq, R_all, cols), f, nU))
         _, hs = g.factor()
         for h, e in hs:
             h = h / h.leading_coefficient()
@@ -702,11 +746,18 @@ def _pencil_exact_structured(system: System, case: LocalCase) -> tuple[Status, d
     zs = []
     for value, rational, sign, hstr, fstr, mult, has_u in entries[:_MAX_REPORTED_ZEROS]:
         sv = value * value + system.gamma * value
-        cand = [z for z in pe.zeros if z.factor == fstr and z.x.size]
         w: dict[str, Any]
-        if cand:
-            z = min(cand, key=lambda z: abs(z.value - sv))
-            vec, eta = _lifted(system, case, st, value, cols, np.asarray(z.x, dtype=complex))
+        xq: np.ndarray | None = None
+        if fast:
+            fk = kernels.get(fstr)
+            if fk is not None and fk[1] is not None:
+                xq = eval_normalized(fk[1], fk[0], sv, fk[2])
+        else:
+            cand = [z for z in pe.zeros if z.factor == fstr and z.x.size]
+            if cand:
+                xq = np.asarray(min(cand, key=lambda z: abs(z.value - sv)).x, dtype=complex)
+        if xq is not None:
+            vec, eta = _lifted(system, case, st, value, cols, xq)
             w = _direction_witness(case, value, vec[: 2 * n], vec[2 * n :], residual=eta)
         else:
             w = {"lambda": _num(value)}
@@ -753,7 +804,10 @@ def pencil_verdict_exact(system: System, case: LocalCase, *, margin: bool = True
     (:func:`glocal_verify.analysis.cluster_pencil.reduced_system_exact`); its zero polynomial z_Q(s)
     gives the full pencil's, z_Q(lam^2 + gamma lam), factored over Q, each root with its exact
     real-part sign and a direction lifted from the exact kernel of Q and checked on the full
-    pencil (``residual``). When an agent is measured in velocity only and zero forcing does not
+    pencil (``residual``). The kernel of Q over Q[s]/(f), for each irreducible factor f, comes
+    from the transfer function adj(s I + alpha L) S_I^T when f is not a pole (an |M| x |I|
+    fraction-free elimination, :mod:`glocal_verify.numerics.cluster_transfer`), else from the
+    n-sized elimination over Q[s]/(f); the witness lists which (``reduced.kernel_methods``). When an agent is measured in velocity only and zero forcing does not
     settle every lam, the dense exact analysis is used (recorded in ``method``). Margin: as the
     numeric method of the same name.
     """
