@@ -212,16 +212,18 @@ def test_every_undecided_row_of_a_near_degenerate_audit_says_which_part_is_open(
             assert open_parts and all(part in reason for part in open_parts), reason
 
 
-def test_the_audit_progress_line_weighs_singles_above_pairs_in_its_estimate_of_the_time_left(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+def test_the_audit_progress_line_extrapolates_the_recent_rate_not_the_setup(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
     import time
 
-    from glocal_verify.cli.audit import _progress, _set_work
+    from glocal_verify.cli.audit import _progress
 
-    clock = iter([0.0, 100.0, 100.0])
+    # created at 0; first report at 100 s (after the set-up) with 200 sets done, the next at
+    # 115 s with 400: 200 sets per 15 s, 600 left -> 45 s (not 100 s / 400 sets * 600)
+    clock = iter([0.0, 100.0, 100.0, 115.0, 115.0])
     monkeypatch.setattr(time, "monotonic", lambda: next(clock))
-    # 10 singles of 1 s each, then 1000 pairs of 0.01 s: after the singles 10 s of work are left
-    line = _progress(False, work=_set_work(10, 1.0, 0.01))
+    line = _progress(False)
     assert line is not None
-    line(10, 1010)
+    line(200, 1000)
+    line(400, 1000)
     err = capsys.readouterr().err
-    assert "10/1010 attack sets, 100 s elapsed, about 100 s left" in err, err
+    assert "400/1000 attack sets, 115 s elapsed, about 45 s left" in err, err

@@ -32,34 +32,47 @@ def _labels(system: Any, text: str | None, what: str) -> list[Any] | None:
     return out
 
 
-def _progress(quiet: bool, unit: str = "attack sets", work: Callable[[int], float] | None = None) -> Callable[[int, int], None] | None:
+#: the time left is extrapolated from the rate of the last this many seconds of progress
+ETA_WINDOW = 120.0
+
+
+def _progress(quiet: bool, unit: str = "attack sets") -> Callable[[int, int], None] | None:
     """A bar with ETA on a terminal; otherwise one line per chunk (at most one per 10 s) on stderr.
 
-    ``work(d)``: the estimated seconds of the first d units (the sets come singles first, and a
-    single costs far more than a pair); the ETA is the time so far scaled by the estimated work
-    left over the estimated work done. Without it every unit weighs the same.
+    The time left is the units left over the rate of the last :data:`ETA_WINDOW` seconds
+    (from the first report on, so the set-up before it does not count): sets differ widely in
+    cost (a set that needs its whole zero set costs a thousand times a screened one), and the
+    recent rate follows the mix the chunks actually hold.
     """
     if quiet:
         return None
+    import collections
     import time
 
     start = time.monotonic()
-    weigh = work if work is not None else float
+    seen: collections.deque[tuple[float, int]] = collections.deque()
 
     def eta(done: int, total: int) -> float:
-        now = time.monotonic() - start
-        w_done, w_all = weigh(done), weigh(total)
-        return now / w_done * (w_all - w_done) if w_done > 0 else float("nan")
+        now = time.monotonic()
+        seen.append((now, done))
+        while len(seen) > 2 and now - seen[1][0] >= ETA_WINDOW:
+            seen.popleft()
+        (t0, d0) = seen[0]
+        if done <= d0 or now <= t0:
+            return float("nan")
+        return (total - done) * (now - t0) / (done - d0)
 
     if not sys.stderr.isatty():
         last = [0.0]
 
         def line(done: int, total: int) -> None:
+            left = eta(done, total)
             now = time.monotonic() - start
             if done < total and now - last[0] < 10.0:
                 return
             last[0] = now
-            print(f"audit: {done}/{total} {unit}, {now:.0f} s elapsed, about {eta(done, total):.0f} s left", file=sys.stderr, flush=True)
+            tail = f"about {left:.0f} s left" if left == left else "estimating the time left"
+            print(f"audit: {done}/{total} {unit}, {now:.0f} s elapsed, {tail}", file=sys.stderr, flush=True)
 
         return line
     from tqdm import tqdm
@@ -68,7 +81,7 @@ def _progress(quiet: bool, unit: str = "attack sets", work: Callable[[int], floa
 
     def tick(done: int, total: int) -> None:
         if "bar" not in bar or bar["bar"].total != total or bar["bar"].n > done:
-            # tqdm's own remaining time assumes units of equal cost: show the weighted one
+            # tqdm's own remaining time averages over the whole run: show the windowed one
             bar["bar"] = tqdm(total=total, desc=unit, leave=False, bar_format="{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} [{elapsed}{postfix}]")
         b = bar["bar"]
         b.update(done - b.n)
@@ -79,15 +92,6 @@ def _progress(quiet: bool, unit: str = "attack sets", work: Callable[[int], floa
             b.close()
 
     return tick
-
-
-def _set_work(singles: int, per_single: float, per_larger: float) -> Callable[[int], float]:
-    """Estimated work of the first d attack sets, singles first (:func:`_progress`)."""
-
-    def work(d: int) -> float:
-        return per_single * min(d, singles) + per_larger * max(0, d - singles)
-
-    return work
 
 
 def cmd_audit(args: argparse.Namespace) -> int:
@@ -102,7 +106,7 @@ def cmd_audit(args: argparse.Namespace) -> int:
     n_cand = len(cands) if cands is not None else system.n
     if args.max_attackers > n_cand:
         raise UsageError(f"--max-attackers: {args.max_attackers} is larger than the number of candidate agents ({n_cand})")
-    from glocal_verify.conditions.cost import SpecSizes, audit_set_seconds, estimate_audit
+    from glocal_verify.conditions.cost import SpecSizes, estimate_audit
 
     # a remote --scheduler's size is unknown here: the estimate counts one worker
     est = estimate_audit(SpecSizes.from_spec(system.spec), args.max_attackers, n_cand, exact=args.exact, workers=max(1, args.workers or 1))
@@ -114,8 +118,7 @@ def cmd_audit(args: argparse.Namespace) -> int:
         if args.workers is not None and args.workers < 1:
             raise UsageError("--workers must be at least 1")
         executor = dask_executor(args.scheduler, args.workers or 2, progress=_progress(args.quiet, "tasks"))
-    per_agent, per_single, per_larger = audit_set_seconds(SpecSizes.from_spec(system.spec), args.max_attackers, n_cand)
-    progress = _progress(args.quiet, work=_set_work(n_cand, per_agent + per_single, per_larger))
+    progress = _progress(args.quiet)
     result = audit(
         system, args.max_attackers, cands, sensors, progress, exact=args.exact, growth=args.growth, chunk_size=args.chunk, executor=executor
     )
