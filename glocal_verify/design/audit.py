@@ -70,7 +70,7 @@ from glocal_verify.conditions.local import uio_verdict
 from glocal_verify.conditions.local_pencil import pencil_verdict, pencil_verdict_exact
 from glocal_verify.conditions.registry import verify
 from glocal_verify.design.audit_records import AUDIT_SCHEMA_ID, AuditResult, AuditRow, exposure_fragility, undecided_reason
-from glocal_verify.design.audit_screens import _witness_lambda, _without_sensors, batch_witnesses, certified_touch, disjoint_paths, global_tables
+from glocal_verify.design.audit_screens import _witness_lambda, _without_sensors, _Zda, batch_witnesses, certified_touch, disjoint_paths, global_tables, inherited_zda, single_zda_key
 from glocal_verify.errors import ModelError, NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.numerics.minors import (
@@ -256,25 +256,6 @@ def _u_json(F: Sequence[Label], u: np.ndarray) -> dict[str, Any]:
     return out
 
 
-@dataclass
-class _Zda:
-    stealthy: bool | None
-    growth: str
-    left_invertible: bool | None
-    direction: ZdaZero | None
-    source: str
-    exact: Any = None
-    method: str = "numeric"
-    screened: bool = False
-    certificate: str = ""
-    #: False when the zero set was not computed (``growth="verdict"``): ``direction`` is a
-    #: proven stealthy ZDA but not necessarily the fastest one, and ``growth`` is only exact
-    #: when it is ``unbounded``
-    complete: bool = True
-    #: the growth class of ``direction`` (a lower bound on the fastest ZDA) when not complete
-    growth_at_least: str = ""
-
-
 def _certified_zda(
     sh: _Shared, F: tuple[Label, ...], cache: dict[Any, Any], patience: int | None = None, at0: Any = None, normalized: tuple[np.ndarray, np.ndarray] | None = None
 ) -> _Zda | None:
@@ -309,6 +290,8 @@ def _certified_zda(
 
 
 def _zda_part(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any] | None = None) -> _Zda:
+    if len(F) == 1 and memo is not None and (hit := memo.get(single_zda_key(sh, F[0]))) is not None:
+        return hit  # type: ignore[no-any-return]  # computed for a larger set (inherited_zda), same options
     system, tol = sh.system, sh.tol
     cache = (memo if memo is not None else {}).setdefault("minors", {})
     if sh.growth == "verdict" and not sh.exact:
@@ -322,6 +305,8 @@ def _zda_part(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any] | None = N
             at0, nz = (at, (d0.xi, d0.u0)) if d0 is not None else (None, None)
             zc = _certified_zda(sh, F, cache, WITNESS_CERTIFICATE_PATIENCE, at0, nz) if try_cert else None
             return zc if zc is not None else zw
+    if sh.growth == "verdict" and not sh.exact and len(F) > 1 and (zi := inherited_zda(sh, F, memo, _zda_part)) is not None:
+        return zi  # a proven ZDA of a single member is one of F (zero input on the others)
     if sh.minors is not None:
         zc = _certified_zda(sh, F, cache)
         if zc is not None:

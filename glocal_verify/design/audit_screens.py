@@ -24,12 +24,14 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Sequence
 from fractions import Fraction
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from glocal_verify.analysis.twins import laplacian_entries
 from glocal_verify.analysis.unobservable import rational_unobservable_candidates
+from glocal_verify.analysis.zda import ZdaZero
 from glocal_verify.analysis.zda_batch import batch_directions
 from glocal_verify.errors import ModelError
 from glocal_verify.model import System
@@ -250,3 +252,64 @@ def certified_touch(system: System, F: Sequence[Label], av: Any, exact_lambda: b
     cand = None if av.direction is None else np.concatenate([av.direction.xi, av.direction.u0])
     ok, _, note = avoidance_certificate(system, av.mode, system.idx(F), av.lambda0, av.status, exact_lambda, cand)
     return av if ok else dataclasses.replace(av, status=Status.UNDECIDED, notes=(*av.notes, f"numeric {av.status.value} not certified: {note}"))
+
+
+@dataclass
+class _Zda:
+    stealthy: bool | None
+    growth: str
+    left_invertible: bool | None
+    direction: ZdaZero | None
+    source: str
+    exact: Any = None
+    method: str = "numeric"
+    screened: bool = False
+    certificate: str = ""
+    #: False when the zero set was not computed (``growth="verdict"``): ``direction`` is a
+    #: proven stealthy ZDA but not necessarily the fastest one, and ``growth`` is only exact
+    #: when it is ``unbounded``
+    complete: bool = True
+    #: the growth class of ``direction`` (a lower bound on the fastest ZDA) when not complete
+    growth_at_least: str = ""
+
+
+def single_zda_key(sh: Any, a: Label) -> tuple[Any, ...]:
+    """Memo key of the ZDA part of {a} under the options of ``sh`` (growth, exactness, fallbacks)."""
+    return ("single-zda", a, sh.growth, sh.exact, sh.exact_fallback, sh.zda_fallback, sh.lambda0)
+
+
+def inherited_zda(sh: Any, F: tuple[Label, ...], memo: dict[Any, Any] | None, zda_part: Any) -> _Zda | None:
+    """A proven stealthy ZDA of F from a single member's, or None (``growth="verdict"``).
+
+    If (xi, u_a) is a stealthy ZDA direction of {a} at lambda0, then (xi, u) with u = u_a on a
+    and 0 on F minus {a} is one of F: the pencil of F has the columns of {a} and more, and the
+    extra columns meet a zero input. The single's ZDA part (memoised per agent) is reused, the
+    padded direction is verified again on F's full pencil (:meth:`_Modal.verify`), and the row
+    keeps the single's growth as a lower bound (the zero set of F is not computed). This spares
+    the sets that hold an agent whose own zeros defeat the minor certificate the whole
+    O(N^3) zero-set analysis, when no safe mode can expose them.
+    """
+    from glocal_verify.analysis.zda import _Modal
+    from glocal_verify.numerics.tolerance import Decision
+
+    store = memo if memo is not None else {}
+    for a in F:
+        key = single_zda_key(sh, a)
+        if key not in store:
+            store[key] = zda_part(sh, (a,), memo)
+        za = store[key]
+        d = za.direction
+        if za.stealthy is not True or d is None or not (za.growth_at_least or za.growth) or (za.growth_at_least or za.growth) == "undecided":
+            continue
+        md = _Modal(sh.system, F, sh.tol)
+        u = np.zeros(len(F), dtype=complex)
+        u[F.index(a)] = complex(d.u0[0])
+        eta = md.U.T @ np.asarray(d.xi, dtype=complex)  # modal coordinates of xi (U orthogonal up to its certified error)
+        xi, u2, res, dres, du = md.verify(d.value, eta, u)
+        if dres is not Decision.ZERO or du is not Decision.NONZERO:
+            continue
+        g = za.growth_at_least or za.growth
+        z = ZdaZero(d.value, d.value * d.value + sh.system.gamma * d.value, xi, u2, res, g)
+        return _Zda(True, "unbounded" if g == "unbounded" else "undecided", None, z, f"a ZDA of {{{a}}} (zero input on the other actuators; the zero set of F was not computed)",
+                    complete=False, growth_at_least=g)
+    return None
