@@ -205,3 +205,33 @@ def test_a_persistent_zda_without_position_monitors_exists_iff_two_attacked_agen
         assert cert.status is Status.HOLDS
     elif cert.status is Status.HOLDS:  # then a ZDA away from lambda = 0, proved another way
         assert "lambda0 = 0" not in cert.by
+
+
+def test_a_set_inherits_a_proven_zda_of_a_single_member_padded_with_zero_inputs() -> None:
+    from glocal_verify.design.audit import _shared, _zda_part
+    from glocal_verify.design.audit_screens import inherited_zda
+    from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE
+    from glocal_verify.spec import load_example
+
+    system = System(load_example("paper19"))
+    sh = _shared(system, DEFAULT_TOLERANCE, False, False, True, "verdict")
+    memo: dict[Any, Any] = {}
+    singles = [a for a in system.labels if (z := _zda_part(sh, (a,), memo)).stealthy and z.direction is not None]
+    assert singles, "paper19 has single actuators with a stealthy ZDA"
+    a = singles[0]
+    b = next(x for x in system.labels if x != a)
+    F = tuple(sorted((a, b), key=system.index.__getitem__))
+    z = inherited_zda(sh, F, memo, _zda_part)
+    assert z is not None and z.stealthy is True and not z.complete and z.direction is not None
+    d = z.direction
+    # the definition: (s I + alpha L) xi = S_F^T u0 and the monitored outputs vanish
+    L = system.laplacian()
+    s = d.value * d.value + system.gamma * d.value
+    xi, u = np.asarray(d.xi, dtype=complex), np.asarray(d.u0, dtype=complex)
+    rhs = np.zeros(system.n, dtype=complex)
+    for k, f in enumerate(system.idx(F)):
+        rhs[f] += u[k]
+    assert u[F.index(b)] == 0 and abs(u[F.index(a)]) > 0
+    assert np.linalg.norm(s * xi + system.alpha * (L @ xi) - rhs) <= 1e-8 * (1 + np.linalg.norm(xi))
+    out = system.idx(system.monitored_positions) if d.value == 0 else system.idx(system.monitored)
+    assert np.linalg.norm(xi[out]) <= 1e-8 * np.linalg.norm(xi)
