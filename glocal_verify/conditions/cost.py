@@ -464,8 +464,7 @@ def _sets(candidates: int, k: int) -> tuple[int, int]:
 def audit_set_seconds(sizes: SpecSizes, k: int, candidates: int | None = None) -> tuple[float, float, float]:
     """Estimated seconds of one candidate's local verdicts, one single set, and one larger set on average.
 
-    The terms of :func:`estimate_audit` (one worker, numeric): the audit's progress line weighs
-    the sets done by them, since a single costs far more than a pair.
+    The terms of :func:`estimate_audit` (one worker, numeric).
 
     Parameters
     ----------
