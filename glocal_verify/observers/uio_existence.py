@@ -16,6 +16,8 @@ from typing import Any
 
 import numpy as np
 
+import flint
+
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.numerics import exact as ex
 from glocal_verify.numerics.subspace import EPS
@@ -683,12 +685,45 @@ class _ExactExistence:
     h: list[list[Fraction]] | None
 
 
-def uio_existence_exact(A: ex.Rows, E: ex.Rows, C: ex.Rows) -> _ExactExistence:
+def uio_existence_exact(A: ex.Rows, E: ex.Rows, C: ex.Rows, *, _reference: bool = False) -> _ExactExistence:
     """UIO existence over Q: rank(C E) = rank(E) and the characteristic polynomial of A_1
-    restricted to the unobservable subspace of (A_1, C) is Hurwitz (Routh test)."""
-    import flint
+    restricted to the unobservable subspace of (A_1, C) is Hurwitz (Routh test).
+
+    Parameters
+    ----------
+    A, E, C : Rows
+        The cluster matrices over Q (``n x n``, ``n x m``, ``p x n``).
+    _reference : bool
+        Use the original Fraction-list implementation (kept as the reference the fast path
+        is tested against) instead of :func:`~glocal_verify.observers.uio_exact.unobservable_charpoly_exact`.
+
+    Returns
+    -------
+    _ExactExistence
+        The exact verdict, ranks, unobservable dimension and characteristic polynomial, and h.
+    """
+    if _reference:
+        return _uio_existence_exact_reference(A, E, C)
+    from glocal_verify.observers.uio_exact import unobservable_charpoly_exact
 
     n = len(A)
+    got = _exact_decoupling(E, C, n)
+    if isinstance(got, _ExactExistence):
+        return got
+    rE, rCE, h, Cm = got
+    T = flint.fmpq_mat(n, n, [int(i == j) for i in range(n) for j in range(n)]) - h * Cm
+    A1 = T * ex.to_fmpq_mat(A, n)
+    k, coeffs = unobservable_charpoly_exact(A1, Cm)
+    hq = [[ex.to_fraction(x) for x in h.entries()[i * h.ncols() : (i + 1) * h.ncols()]] for i in range(h.nrows())]
+    if k == 0:
+        return _ExactExistence(Status.HOLDS, Status.HOLDS, rE, rCE, 0, [Fraction(1)], hq)
+    st = Status.HOLDS if is_hurwitz_exact(coeffs) else Status.FAILS
+    return _ExactExistence(st, Status.HOLDS, rE, rCE, k, coeffs, hq)
+
+
+def _exact_decoupling(E: ex.Rows, C: ex.Rows, n: int) -> _ExactExistence | tuple[int, int, Any, Any]:
+    """The rank condition over Q and, when it holds, ``h = E (C E)^+`` (flint matrices, local
+    to the caller): ``(rank E, rank C E, h, C)`` or the failing verdict."""
     m = len(E[0]) if E else 0
     Em = ex.to_fmpq_mat(E, m)
     Cm = ex.to_fmpq_mat(C, n)
@@ -702,6 +737,18 @@ def uio_existence_exact(A: ex.Rows, E: ex.Rows, C: ex.Rows) -> _ExactExistence:
         # E full column rank (as built by the model); C E then has full column rank too
         CEt = CE.transpose()
         h = Em * ((CEt * CE).inv() * CEt)
+    return rE, rCE, h, Cm
+
+
+def _uio_existence_exact_reference(A: ex.Rows, E: ex.Rows, C: ex.Rows) -> _ExactExistence:
+    """Reference implementation of :func:`uio_existence_exact` (Fraction round trips, the
+    observable row space by re-stacking ``[R; R A_1]``, restriction by a normal-equation
+    inverse); slow, kept to test the fast path against."""
+    n = len(A)
+    got = _exact_decoupling(E, C, n)
+    if isinstance(got, _ExactExistence):
+        return got
+    rE, rCE, h, Cm = got
     T = flint.fmpq_mat(n, n, [int(i == j) for i in range(n) for j in range(n)]) - h * Cm
     A1 = T * ex.to_fmpq_mat(A, n)
     # observable row space: the smallest space of row vectors containing the rows of C and
