@@ -108,9 +108,9 @@ C_EXACT_ZDA = 1e-6
 #: the other exact global checkers (switched-observability, privacy.*): seconds per N^3
 #: (1.1 s at N = 120)
 C_EXACT_GLOBAL = 1e-6
-#: exact local.uio per design and local.pencil per case: seconds per (2 n_i)^3 (3.6 s for 5
-#: designs, 1.7 s for 6 cases at 2 n_i = 80)
-C_EXACT_UIO = 2e-6
+#: exact local.uio per design and local.pencil per case: seconds per (2 n_i)^3 (3.8 s for 5
+#: designs and 5.5 s for 6 cases at 2 n_i ~ 134, random_clustered_spec(200, 3, seed=7))
+C_EXACT_UIO = 5e-7
 C_EXACT_PENCIL = 6e-7
 #: exact memory: bytes per N^2 (rational entries; 833 MiB peak at N = 120)
 B_EXACT = 48_000.0
