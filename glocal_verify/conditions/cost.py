@@ -131,28 +131,32 @@ A_PLACE_CLUSTER = 18.0
 #: - per candidate, its local verdicts: C_AUDIT_AGENT + C_AUDIT_AGENT_N N + C_AUDIT_AGENT_LOCAL
 #:   (2 n_c)^3 with n_c its cluster's size (5.3 ms at n_c = 20, 20 ms at 50, 0.34 s at 100);
 #: - per single actuator, its ZDA: C_AUDIT_SINGLE_0 + C_AUDIT_SINGLE N^3 (7.4 ms at N = 200,
-#:   0.27 s at N = 1000);
-#: - per larger set C_AUDIT_SET + C_AUDIT_SET_SQ N^2 (0.1-0.3 ms), plus C_AUDIT_SET_INTRA +
-#:   C_AUDIT_SET_LOCAL (2 n_c)^3 when two of its agents share a cluster (0.8 ms at n_c = 20,
-#:   3.2 ms at 50, 43 ms at 100).
+#:   about 1.3 s at N = 1000, where many singles need their whole zero set);
+#: - per larger set C_AUDIT_SET + C_AUDIT_SET_SQ N^2 (0.23 ms at N = 200, 0.6 ms at N = 1000),
+#:   plus C_AUDIT_SET_INTRA + C_AUDIT_SET_LOCAL (2 n_c)^3 when two of its agents share a cluster
+#:   (0.8 ms at n_c = 20, 3.2 ms at 50, 43 ms at 100);
+#: - per row, writing it out: C_AUDIT_ROW_OUT.
 #: A set whose minor certificate fails gets the whole O(N^3) zero-set analysis when a safe mode
 #: may expose it; how many do is not known from the sizes (none on the 50-cluster network, a
-#: fifth of the pairs on the 3-cluster N = 300 one, whose audit the estimate puts 3x low).
+#: fifth of the pairs on the 3-cluster N = 300 one, whose audit the estimate puts 3x low). The
+#: whole N = 1000 audit (50 clusters, k = 2, JSON): 29 min and 9.2 GB peak (estimate 27 min).
 C_AUDIT_SETUP = 1.2e-8
 C_AUDIT_AGENT = 3e-3
 C_AUDIT_AGENT_N = 1.3e-5
 C_AUDIT_AGENT_LOCAL = 4.5e-8
 C_AUDIT_SINGLE_0 = 5e-3
-C_AUDIT_SINGLE = 3e-10
+C_AUDIT_SINGLE = 1.2e-9
 C_AUDIT_SET = 2e-4
-C_AUDIT_SET_SQ = 1e-10
+C_AUDIT_SET_SQ = 4e-10
 C_AUDIT_SET_INTRA = 4e-4
 C_AUDIT_SET_LOCAL = 4e-9
 #: audit memory: N x N arrays (eigenvectors, minor tables: 136 MB at N = 1000) and bytes per row
-#: held until the report is written (3.5 kB per row with the shared memo, traced at N = 200 and
-#: 1000, and the JSON or Markdown text built from them)
+#: held until the report is written: 3.5 kB per row with the shared memo (traced), and the JSON
+#: text and its dict built at the end (9.2 GB peak for 500,500 rows at N = 1000)
 A_AUDIT = 20.0
-B_AUDIT_ROW = 8_000.0
+B_AUDIT_ROW = 18_000.0
+#: writing a row (JSON or Markdown text): seconds (a 960 MB JSON of 500,500 rows took about 100 s)
+C_AUDIT_ROW_OUT = 2e-4
 #: exact audit rows (``--exact``): a factor on the per-set seconds
 F_AUDIT_EXACT = 10.0
 
@@ -516,13 +520,14 @@ def estimate_audit(sizes: SpecSizes, k: int, candidates: int | None = None, *, e
 
     with the constants of this module (:data:`C_AUDIT_SETUP` = 1.2e-8, :data:`C_AUDIT_AGENT` =
     3e-3, :data:`C_AUDIT_AGENT_N` = 1.3e-5, :data:`C_AUDIT_AGENT_LOCAL` = 4.5e-8,
-    :data:`C_AUDIT_SINGLE_0` = 5e-3, :data:`C_AUDIT_SINGLE` = 3e-10, :data:`C_AUDIT_SET` = 2e-4,
-    :data:`C_AUDIT_SET_SQ` = 1e-10, :data:`C_AUDIT_SET_INTRA` = 4e-4, :data:`C_AUDIT_SET_LOCAL`
-    = 4e-9 s, :data:`A_AUDIT` = 20, :data:`B_AUDIT_ROW` = 8 kB); ``exact`` multiplies the
-    per-set seconds by :data:`F_AUDIT_EXACT`. Measured totals: 8 s at N = 200 (10 clusters,
-    estimate 8.6 s), 109 s at N = 500 (10 clusters, 131 s), 7.3 min at N = 1000 (50 clusters,
-    8.2 min); 27 min at N = 300 on 3 clusters, where a fifth of the pairs need the whole zero
-    set (estimate 10 min).
+    :data:`C_AUDIT_SINGLE_0` = 5e-3, :data:`C_AUDIT_SINGLE` = 1.2e-9, :data:`C_AUDIT_SET` = 2e-4,
+    :data:`C_AUDIT_SET_SQ` = 4e-10, :data:`C_AUDIT_SET_INTRA` = 4e-4, :data:`C_AUDIT_SET_LOCAL`
+    = 4e-9, :data:`C_AUDIT_ROW_OUT` = 2e-4 s (writing each row), :data:`A_AUDIT` = 20,
+    :data:`B_AUDIT_ROW` = 18 kB); ``exact`` multiplies the per-set seconds by
+    :data:`F_AUDIT_EXACT`. Measured: the whole N = 1000 audit on 50 clusters with JSON output
+    took 29 min and 9.2 GB (estimate 27 min, 9.4 GB); N = 200 on 10 clusters 8 s in the
+    library, about 20 s with JSON from the command line (estimate 17 s); 27 min at N = 300 on
+    3 clusters, where a fifth of the pairs need the whole zero set (estimate 10 min).
 
     Parameters
     ----------
@@ -552,6 +557,7 @@ def estimate_audit(sizes: SpecSizes, k: int, candidates: int | None = None, *, e
         "local verdicts of each candidate": f * per_agent * singles / w,
         "single actuators": f * per_single * singles / w,
         f"{larger} sets of 2..{k} actuators": f * per_larger * larger / w,
+        "writing the rows": C_AUDIT_ROW_OUT * (singles + larger),
     }
     nbytes = B_BASE + A_AUDIT * _dense(n) + B_AUDIT_ROW * (singles + larger)
     return _estimate("audit", n, phases, nbytes, A_AUDIT)
