@@ -56,7 +56,7 @@ def render(rows: list[Row], elapsed: float, quick: bool) -> str:
         "",
         "Ratio = baseline time / candidate time, both measured in this run (> 1: the candidate is faster). "
         "Command rows run each command in its own process; their peak MiB is that process's maximum resident memory "
-        "(`os.wait4`), their baseline one `numpy.linalg.eigh` of the same Laplacian.",
+        "(its VmHWM, read while it runs), their baseline one `numpy.linalg.eigh` of the same Laplacian.",
         "",
     ]
     groups: list[str] = []

@@ -71,17 +71,19 @@ class Measured:
 def run_command(argv: Sequence[str], *, timeout: float, cwd: str | None = None) -> Measured:
     """Run ``argv`` in a child process (stdout and stderr discarded) and measure it.
 
-    Peak memory is the child's own ``ru_maxrss`` from ``os.wait4`` (that process and the
-    descendants it waited for), so every row is measured separately. A child still running
+    Peak memory is the child's own high-water mark (VmHWM of /proc, read every 0.1 s while it
+    runs; a last-moment peak may be missed), else ``ru_maxrss`` from ``os.wait4``. A child still running
     after ``timeout`` seconds is killed (by its pid) and reported as timed out.
     """
     t0 = time.perf_counter()
     proc = subprocess.Popen(list(argv), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=cwd)
     timed_out = False
+    hwm = 0.0
     while True:
         pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
         if pid == proc.pid:
             break
+        hwm = max(hwm, _vm_hwm_mib(proc.pid))
         if time.perf_counter() - t0 > timeout:
             timed_out = True
             proc.kill()
@@ -90,7 +92,23 @@ def run_command(argv: Sequence[str], *, timeout: float, cwd: str | None = None) 
         time.sleep(0.1)
     proc.returncode = os.waitstatus_to_exitcode(status)  # already reaped: keep Popen quiet
     dt = time.perf_counter() - t0
-    return Measured(dt, usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024.0, None if timed_out else proc.returncode, timed_out)
+    # ru_maxrss of a forked child counts the parent's pages it held before exec, so a large
+    # benchmark process inflates every later row: the child's own high-water mark (VmHWM, read
+    # while it runs) is used where /proc has it
+    peak = hwm if hwm > 0 else usage.ru_maxrss / 1024.0
+    return Measured(dt, usage.ru_utime + usage.ru_stime, peak, None if timed_out else proc.returncode, timed_out)
+
+
+def _vm_hwm_mib(pid: int) -> float:
+    """The peak resident set (VmHWM) of a running process in MiB, 0 where /proc does not say."""
+    try:
+        with open(f"/proc/{pid}/status", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("VmHWM:"):
+                    return float(line.split()[1]) / 1024.0
+    except (OSError, ValueError, IndexError):
+        return 0.0
+    return 0.0
 
 
 def eigh_seconds(L: np.ndarray, repeat: int = 1) -> float:
