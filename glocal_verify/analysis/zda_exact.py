@@ -20,6 +20,7 @@ from glocal_verify.analysis.zda import (
 )
 from glocal_verify.analysis.twins import laplacian_entries
 from glocal_verify.model import System
+from glocal_verify.numerics.cluster_transfer import adjugate_columns
 from glocal_verify.numerics.minors import GroundedTables, MinorCertificate, full_rank_certificate, grounded_tables, twin_modes
 from glocal_verify.numerics.pencil_exact import (
     RootEnclosures,
@@ -169,20 +170,12 @@ def _transfer(system: System, F: Sequence[int], mode: str = NORMAL_MODE) -> tupl
     cache = system.analysis
     if key in cache:
         return cache[key]  # type: ignore[no-any-return]
-    N, m = system.n, len(F)
+    N = system.n
     L = system.laplacian_exact(mode)
     a = system.alpha_q
     A = flint.fmpq_mat(N, N, [_fq(-a * L[i][j]) for i in range(N) for j in range(N)])
-    d = A.charpoly()
-    c = d.coeffs()
-    EF = flint.fmpq_mat(N, m, [int(F[k] == i) for i in range(N) for k in range(m)])
-    W = EF
-    Ws = [W]
-    for j in range(N - 1, 0, -1):
-        W = A * W + EF * c[j]
-        Ws.append(W)
-    Ws.reverse()  # Ws[j] = B_j S_F^T
-    P = [[flint.fmpq_poly([Wj[i, k] for Wj in Ws]) for k in range(m)] for i in range(N)]
+    d, cols = adjugate_columns(A, F)
+    P = [list(row) for row in cols]
     cache[key] = (d, P)
     return d, P
 

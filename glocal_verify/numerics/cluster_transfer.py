@@ -46,7 +46,7 @@ import numpy as np
 from glocal_verify.numerics.pencil_exact import RootEnclosures
 
 
-__all__ = ["ClusterTransfer", "TransferKernel", "cluster_transfer", "eval_normalized", "fraction_free_kernel", "transfer_kernel"]
+__all__ = ["ClusterTransfer", "TransferKernel", "adjugate_columns", "cluster_transfer", "eval_normalized", "fraction_free_kernel", "transfer_kernel"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,19 +101,43 @@ def cluster_transfer(L: Sequence[Sequence[Fraction | int]], alpha: Fraction, inp
             x = Fraction(L[i][j])
             flat.append(-a * flint.fmpq(x.numerator, x.denominator))
     A = flint.fmpq_mat(n, n, flat) if n else flint.fmpq_mat(0, 0)
-    d = A.charpoly() if n else flint.fmpq_poly(1)
     if m == 0 or n == 0:
+        d = A.charpoly() if n else flint.fmpq_poly(1)
         return ClusterTransfer(n, tuple(inputs), d, tuple(() for _ in range(n)))
+    d, N = adjugate_columns(A, inputs)
+    return ClusterTransfer(n, tuple(inputs), d, N)
+
+
+def adjugate_columns(A: Any, cols: Sequence[int]) -> tuple[Any, tuple[tuple[Any, ...], ...]]:
+    """det(sI - A) and the columns ``cols`` of adj(sI - A), as polynomials in s over Q.
+
+    Faddeev-LeVerrier on the selected columns only: with d(s) = det(sI - A) = sum_j c_j s^j,
+    adj(sI - A) = sum_{j < n} s^j B_j, B_{n-1} = I, B_{j-1} = A B_j + c_j I, so W_j = B_j S^T
+    costs n products of A with an n x |cols| matrix (exact).
+
+    Parameters
+    ----------
+    A : fmpq_mat
+        n x n, n >= 1.
+    cols : sequence of int
+        Column indices (|cols| >= 1).
+
+    Returns
+    -------
+    (d, P)
+        ``d`` an fmpq_poly; ``P[i][k]`` the (i, cols[k]) entry of adj(sI - A), an fmpq_poly.
+    """
+    n, m = A.nrows(), len(cols)
+    d = A.charpoly()
     c = d.coeffs()
-    EI = flint.fmpq_mat(n, m, [int(inputs[k] == i) for i in range(n) for k in range(m)])
-    W = EI
+    S = flint.fmpq_mat(n, m, [int(cols[k] == i) for i in range(n) for k in range(m)])
+    W = S
     Ws = [W]
     for j in range(n - 1, 0, -1):
-        W = A * W + EI * c[j]
+        W = A * W + S * c[j]
         Ws.append(W)
-    Ws.reverse()  # Ws[j] = B_j S_I^T
-    N = tuple(tuple(flint.fmpq_poly([Wj[i, k] for Wj in Ws]) for k in range(m)) for i in range(n))
-    return ClusterTransfer(n, tuple(inputs), d, N)
+    Ws.reverse()  # Ws[j] = B_j S^T
+    return d, tuple(tuple(flint.fmpq_poly([Wj[i, k] for Wj in Ws]) for k in range(m)) for i in range(n))
 
 
 @dataclass(frozen=True, slots=True)
