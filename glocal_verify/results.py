@@ -18,6 +18,7 @@ from typing import Any, Mapping
 import numpy as np
 
 __all__ = [
+    "FRAGILE_BELOW",
     "Status",
     "Method",
     "ConditionResult",
@@ -27,6 +28,9 @@ __all__ = [
     "jsonable",
     "REPORT_SCHEMA_ID",
 ]
+
+#: a margin below this marks a result fragile (the default of ``--fragile-below``)
+FRAGILE_BELOW = 1e-9
 
 REPORT_SCHEMA_ID = "glocal-verify/report@1"
 

@@ -144,7 +144,7 @@ def _applies(system: System, F: Sequence[int]) -> bool:
         and len(F) >= 2
         and len(set(F)) == len(F)
         and not system.monitored_positions
-        and len(system.components(NORMAL_MODE)) == 1
+        and system.analysis.get(("normal-graph-connected",), lambda: len(system.components(NORMAL_MODE)) == 1)
     )
 
 

@@ -26,6 +26,7 @@ from glocal_verify.numerics.deadline import DeadlineExceeded, call_with_deadline
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
 from glocal_verify.results import (
     ALIASES,
+    FRAGILE_BELOW,
     ConditionResult,
     Finding,
     Method,
@@ -72,7 +73,7 @@ class CheckContext:
     exact: bool = False
     tol: Tolerance = DEFAULT_TOLERANCE
     options: Mapping[str, Any] = field(default_factory=dict)
-    fragile_below: float = 1e-9
+    fragile_below: float = FRAGILE_BELOW
     escalated: bool = False
 
     @property
@@ -367,7 +368,7 @@ def verify(
     progress: Callable[[str], None] | None = None,
     escalate: str = "auto",
     exact_budget: float | None = 30.0,
-    fragile_below: float = 1e-9,
+    fragile_below: float = FRAGILE_BELOW,
 ) -> Report:
     """Run the registered checkers on ``system``.
 

@@ -13,10 +13,10 @@ from typing import Any
 
 import numpy as np
 
-from glocal_verify.results import Status
+from glocal_verify.results import FRAGILE_BELOW, Status
 from glocal_verify.spec.types import Label
 
-__all__ = ["AUDIT_SCHEMA_ID", "VERDICTS", "AuditResult", "AuditRow", "FRAGILE_BELOW", "exposure_fragility", "undecided_reason"]
+__all__ = ["AUDIT_SCHEMA_ID", "VERDICTS", "AuditResult", "AuditRow", "exposure_fragility", "undecided_reason"]
 
 AUDIT_SCHEMA_ID = "glocal-verify/audit@1"
 VERDICTS = ("detected", "undetected", "undecided")
@@ -150,11 +150,6 @@ class AuditResult:
                 f"| {', '.join(map(str, r.actuators))} | {st} | {r.growth} | {lam} | {caught} | {', '.join(r.exposed_by_modes) or '-'} | {r.verdict} |"
             )
         return "\n".join(lines) + "\n"
-
-
-#: an exposure whose touch margin (||dL_q xi|| / (||dL_q|| ||xi||)) is below this is marked fragile
-#: (the value of ``verify --fragile-below``'s default)
-FRAGILE_BELOW = 1e-9
 
 
 def exposure_fragility(modes: Mapping[str, Any], exposed: list[str], below: float = FRAGILE_BELOW) -> dict[str, str]:

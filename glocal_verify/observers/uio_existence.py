@@ -711,8 +711,7 @@ def uio_existence_exact(A: ex.Rows, E: ex.Rows, C: ex.Rows, *, _reference: bool 
     if isinstance(got, _ExactExistence):
         return got
     rE, rCE, h, Cm = got
-    T = flint.fmpq_mat(n, n, [int(i == j) for i in range(n) for j in range(n)]) - h * Cm
-    A1 = T * ex.to_fmpq_mat(A, n)
+    A1 = _decoupled_state(A, h, Cm, n)
     k, coeffs = unobservable_charpoly_exact(A1, Cm)
     hq = [[ex.to_fraction(x) for x in h.entries()[i * h.ncols() : (i + 1) * h.ncols()]] for i in range(h.nrows())]
     if k == 0:
@@ -740,6 +739,12 @@ def _exact_decoupling(E: ex.Rows, C: ex.Rows, n: int) -> _ExactExistence | tuple
     return rE, rCE, h, Cm
 
 
+def _decoupled_state(A: ex.Rows, h: Any, Cm: Any, n: int) -> Any:
+    """A_1 = (I - h C) A over Q (flint)."""
+    T = flint.fmpq_mat(n, n, [int(i == j) for i in range(n) for j in range(n)]) - h * Cm
+    return T * ex.to_fmpq_mat(A, n)
+
+
 def _uio_existence_exact_reference(A: ex.Rows, E: ex.Rows, C: ex.Rows) -> _ExactExistence:
     """Reference implementation of :func:`uio_existence_exact` (Fraction round trips, the
     observable row space by re-stacking ``[R; R A_1]``, restriction by a normal-equation
@@ -749,8 +754,7 @@ def _uio_existence_exact_reference(A: ex.Rows, E: ex.Rows, C: ex.Rows) -> _Exact
     if isinstance(got, _ExactExistence):
         return got
     rE, rCE, h, Cm = got
-    T = flint.fmpq_mat(n, n, [int(i == j) for i in range(n) for j in range(n)]) - h * Cm
-    A1 = T * ex.to_fmpq_mat(A, n)
+    A1 = _decoupled_state(A, h, Cm, n)
     # observable row space: the smallest space of row vectors containing the rows of C and
     # closed under right multiplication by A1; R := rref([R; R A1]) until the rank is stable
     R, rk = Cm.rref()
