@@ -75,10 +75,14 @@ def run(quick: bool) -> list[Row]:
         else:
             est, total = _audit_sample(S, 2, (10 if quick else 40) if n <= 200 else 60)
             how = "audit (extrapolated from a sample)"
-        rows.append(
-            Row("design", f"audit N = {n}, k = 2 ({total} sets)", "numpy.linalg.eigh(L)", te, how, est,
-                f"{est / te:.3g} eigh-times (goal {AUDIT_GOAL_EIGH:g}); NOT MET" if est / te > AUDIT_GOAL_EIGH else f"{est / te:.3g} eigh-times (goal {AUDIT_GOAL_EIGH:g})")
-        )
+        if n <= 200:
+            met = "" if est / te <= AUDIT_GOAL_EIGH else "; NOT MET"
+            note = f"{est / te:.3g} eigh-times (goal {AUDIT_GOAL_EIGH:g}){met}"
+        else:
+            # the goal at N = 1000 is a run to completion with progress and ETA, in chunks an
+            # executor can distribute (a full run takes tens of minutes: docs/audit.md)
+            note = f"{est / te:.3g} eigh-times; goal: runs to completion (no eigh-time goal at this size)"
+        rows.append(Row("design", f"audit N = {n}, k = 2 ({total} sets)", "numpy.linalg.eigh(L)", te, how, est, note))
     n = 1000
     S = System(random_clustered_spec(n, clusters=n // 20, seed=1))
     te = eigh_seconds(S.laplacian())

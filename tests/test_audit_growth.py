@@ -129,6 +129,27 @@ def test_candidate_zeros_on_one_vertical_line_cluster_as_the_pairwise_rule_says(
     assert all(len(grp) == 1 or any((min(i, j), max(i, j)) in close for i in grp for j in grp if i != j) for grp in groups)
 
 
+@pytest.mark.parametrize("seed", range(5))
+def test_a_few_candidate_zeros_cluster_as_the_pairwise_rule_says_without_the_tree(seed: int) -> None:
+    from glocal_verify.numerics.pencil import _CLUSTER_DENSE_MAX, _cluster
+
+    rng = np.random.default_rng(seed)
+    base = rng.normal(size=20) + 1j * rng.normal(size=20)
+    # chains of near points (single linkage joins them) and exact duplicates
+    pts = [complex(z) for z in base] + [complex(base[0] + 0.9e-6), complex(base[0] + 1.8e-6), complex(base[3]), complex(base[5] + 2e-6j)]
+    assert len(pts) <= _CLUSTER_DENSE_MAX
+    groups = _cluster(pts, 1e-6)
+    close = {(i, j) for i in range(len(pts)) for j in range(len(pts)) if i < j and abs(pts[i] - pts[j]) <= 1e-6}
+    label = {i: g for g, grp in enumerate(groups) for i in grp}
+    assert sorted(i for grp in groups for i in grp) == list(range(len(pts)))
+    assert all(label[i] == label[j] for i, j in close)
+    assert all(len(grp) == 1 or any((min(i, j), max(i, j)) in close for i in grp for j in grp if i != j) for grp in groups)
+    assert label[0] == label[20] == label[21] and label[3] == label[22] and label[5] != label[23]
+    # groups and their members are ordered by (real, imag), as on the tree path
+    firsts = [pts[grp[0]] for grp in groups]
+    assert firsts == sorted(firsts, key=lambda z: (z.real, z.imag))
+
+
 @settings(max_examples=5, deadline=None)
 @given(clustered_systems(max_n=8))
 def test_verdict_growth_never_contradicts_the_exact_audit(system: System) -> None:

@@ -305,9 +305,10 @@ def minor_certificate(system: System, case: LocalCase, cache: dict[Any, Any] | N
         The certificate, one line.
     """
     from glocal_verify.numerics.minors import (
-        constant_full_rank_mod_p,
         full_rank_certificate,
         grounded_tables,
+        residues_mod_p,
+        submatrix_full_rank_mod_p,
     )
 
     if case.structural:
@@ -333,8 +334,13 @@ def minor_certificate(system: System, case: LocalCase, cache: dict[Any, Any] | N
         if cert is None:
             return None
         mx = {idx[a] for a in obs.positions}
-        rows = [[alpha * L[i][j] for j in range(len(nodes)) if j not in mx] for i in range(len(nodes)) if i not in set(inputs)]
-        if not constant_full_rank_mod_p(rows, tables.prime if rows and rows[0] else None):
+        # alpha L[P_i \ I, P_i \ M_x] modulo the tables' prime (which divides no denominator of
+        # alpha L): the residues of alpha L are kept per cluster and mode
+        res = system.analysis.get(
+            ("alpha-laplacian-mod", cm.name, case.mode, tables.prime), lambda: residues_mod_p([[alpha * x for x in row] for row in L], tables.prime)
+        )
+        inset = set(inputs)
+        if not submatrix_full_rank_mod_p(res, [i for i in range(len(nodes)) if i not in inset], [j for j in range(len(nodes)) if j not in mx], tables.prime):
             return None
         return cert.text() + "; lam = 0: alpha L[P_i \\ I, P_i \\ M_x] has full column rank modulo the same prime"
 

@@ -273,7 +273,12 @@ class _Modal:
         """
         s = lam * lam + self.gamma * lam
         rows_out = self.Mx if lam == 0 else self.M
-        d = s + self.alpha * self.mu
+        # a real exponent keeps the reduced matrix real (the batched form,
+        # glocal_verify.analysis.zda_batch, decomposes the same real matrices)
+        dtype = float if complex(lam).imag == 0 else complex
+        d: np.ndarray = s + self.alpha * self.mu
+        if dtype is float:
+            d = d.real
         ratio = np.abs(d) / self.mu_scale  # Tolerance.decide, vectorised
         near_mask = ratio <= (self.tol.upper if near_band else self.tol.rtol)
         J = np.flatnonzero(near_mask)
@@ -281,15 +286,15 @@ class _Modal:
         m, p, nJ = len(self.F), len(rows_out), len(J)
         UF = self.UF
         UO = self.UMx if lam == 0 else self.UM
-        Gf = (UO[:, far] / d[far]) @ UF[:, far].T if len(far) else np.zeros((p, m), dtype=complex)
-        K = np.zeros((nJ + p, nJ + m), dtype=complex)
+        Gf = (UO[:, far] / d[far]) @ UF[:, far].T if len(far) else np.zeros((p, m), dtype=dtype)
+        K = np.zeros((nJ + p, nJ + m), dtype=dtype)
         K[:nJ, nJ:] = UF[:, J].T
         K[nJ:, :nJ] = UO[:, J]
         K[nJ:, nJ:] = Gf
         ncols = nJ + m
         bases: list[np.ndarray] = []
         if K.shape[0] == 0:
-            bases.append(np.eye(ncols, dtype=complex))
+            bases.append(np.eye(ncols, dtype=dtype))
             lo = hi = ncols
         else:
             s1 = max(1.0, float(np.max(1.0 / np.abs(d[far]), initial=0.0)))

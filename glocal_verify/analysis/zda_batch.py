@@ -117,7 +117,7 @@ def _group(system: System, md: _Modal, tol: Tolerance, lam: complex, sets: Seque
     s = lam * lam + gamma * lam
     Mx, Mv = md.Mx, md.Mv
     rows_out = Mx if lam == 0 else md.M
-    d = s + alpha * mu
+    d: np.ndarray = s + alpha * mu
     near = np.abs(d) / md.mu_scale <= tol.rtol
     J, far = np.flatnonzero(near), np.flatnonzero(~near)
     UO = U[rows_out, :]
@@ -128,8 +128,15 @@ def _group(system: System, md: _Modal, tol: Tolerance, lam: complex, sets: Seque
     if nJ + p == 0:
         return res  # the per-set method's identity basis: left to it
     s1 = max(1.0, float(np.max(1.0 / np.abs(d[far]), initial=0.0)))
+    # a real exponent (0, 1, or a real spec lambda0) keeps every array real: the same
+    # decisions at a quarter of the complex arithmetic (the per-set method's vectors then
+    # have zero imaginary parts, which _normalize drops)
+    dtype = float if lam.imag == 0 else complex
+    lam_d: complex | float = lam
+    if dtype is float:
+        s, d, lam_d = s.real, d.real, lam.real
     UF = U[Fi, :]  # (B, m, N)
-    K = np.zeros((B, nJ + p, ncols), dtype=complex)
+    K = np.zeros((B, nJ + p, ncols), dtype=dtype)
     K[:, :nJ, nJ:] = np.swapaxes(UF[:, :, J], 1, 2)
     K[:, nJ:, :nJ] = UO[:, J]
     if len(far):
@@ -153,7 +160,7 @@ def _group(system: System, md: _Modal, tol: Tolerance, lam: complex, sets: Seque
         else:
             v = kb[:, :, 0]
         u = v[:, nJ:]
-        eta = np.zeros((len(g), N), dtype=complex)
+        eta = np.zeros((len(g), N), dtype=dtype)
         eta[:, J] = v[:, :nJ]
         UFg = UF[g]
         UFtu = np.einsum("bmn,bm->bn", UFg, u)
@@ -161,7 +168,7 @@ def _group(system: System, md: _Modal, tol: Tolerance, lam: complex, sets: Seque
             eta[:, far] = UFtu[:, far] / d[far]
         # the modal screen (_Modal._screen)
         r_m = (s + alpha * mu) * eta - UFtu
-        outp = np.concatenate([eta @ U[Mx, :].T, lam * (eta @ U[Mv, :].T)], axis=1)
+        outp = np.concatenate([eta @ U[Mx, :].T, lam_d * (eta @ U[Mv, :].T)], axis=1)
         e_n, u_n, rm_n = (np.linalg.norm(x, axis=1) for x in (eta, u, r_m))
         num = np.hypot(rm_n, np.linalg.norm(outp, axis=1))
         vnorm = np.sqrt((1.0 + abs(lam) ** 2) * e_n**2 + u_n**2)
@@ -177,11 +184,11 @@ def _group(system: System, md: _Modal, tol: Tolerance, lam: complex, sets: Seque
         if not np.any(ok):
             continue
         # verification on the full 2N pencil (_Modal.verify)
-        xi = eta.real @ U.T + 1j * (eta.imag @ U.T)
-        Fsel = np.zeros((len(g), N), dtype=complex)
+        xi = eta @ U.T if dtype is float else eta.real @ U.T + 1j * (eta.imag @ U.T)
+        Fsel = np.zeros((len(g), N), dtype=dtype)
         np.put_along_axis(Fsel, Fi[g], u, axis=1)
         r_dyn = s * xi + alpha * np.asarray(L @ xi.T).T - Fsel
-        r_out = np.concatenate([xi[:, Mx], lam * xi[:, Mv]], axis=1)
+        r_out = np.concatenate([xi[:, Mx], lam_d * xi[:, Mv]], axis=1)
         num2 = np.sqrt(np.linalg.norm(r_dyn, axis=1) ** 2 + np.linalg.norm(r_out, axis=1) ** 2)
         vnorm2 = np.sqrt((1.0 + abs(lam) ** 2) * np.linalg.norm(xi, axis=1) ** 2 + u_n**2)
         ok &= vnorm2 > 0

@@ -109,10 +109,12 @@ GROWTH_FULL_MAX_AGENTS = 60
 #: above this many agents a row's witness direction leaves out xi (N entries per row)
 WITNESS_XI_MAX_AGENTS = 100
 #: with ``growth="verdict"`` and a proven witness, the minor certificate stops after this many
-#: minors in a row leave the gcd's degree unchanged, and tries at most this many of the costlier
-#: minors with an extra replaced row (on 1,500 sampled pairs at N = 200 no certificate that
-#: succeeded needed one; the failing ones spent most of their time there)
+#: minors in a row leave the gcd's degree unchanged
 WITNESS_CERTIFICATE_PATIENCE = 1
+#: ... and tries at most this many of the costlier minors with an extra replaced row (in the
+#: whole N = 200, k = 2 audit of the benchmarks, none of the 7,854 pair certificates that
+#: succeeded used one; the 2,876 that failed spent a third of their time there)
+WITNESS_CERTIFICATE_EXTRA_ROWS = 0
 
 
 # ------------------------------------------------------------------------------------------
@@ -257,7 +259,13 @@ def _u_json(F: Sequence[Label], u: np.ndarray) -> dict[str, Any]:
 
 
 def _certified_zda(
-    sh: _Shared, F: tuple[Label, ...], cache: dict[Any, Any], patience: int | None = None, at0: Any = None, normalized: tuple[np.ndarray, np.ndarray] | None = None
+    sh: _Shared,
+    F: tuple[Label, ...],
+    cache: dict[Any, Any],
+    patience: int | None = None,
+    at0: Any = None,
+    normalized: tuple[np.ndarray, np.ndarray] | None = None,
+    extra_rows: int | None = None,
 ) -> _Zda | None:
     """The ZDA part from the exact minor certificate (no zero with lambda != 0) and lambda = 0.
 
@@ -270,7 +278,9 @@ def _certified_zda(
     set to the full analysis.
     """
     assert sh.minors is not None
-    cert = full_rank_certificate(sh.minors, sh.system.idx(F), cache, modulo_twins=True, patience=patience, extra_rows=patience)
+    cert = full_rank_certificate(
+        sh.minors, sh.system.idx(F), cache, modulo_twins=True, patience=patience, extra_rows=patience if extra_rows is None else extra_rows
+    )
     if cert is None:
         return None
     found0, _, lo0, hi0 = at0 if at0 is not None else _Modal(sh.system, F, sh.tol).direction(0j)
@@ -303,7 +313,7 @@ def _zda_part(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any] | None = N
             try_cert = sh.minors is not None and not zw.screened and all(_single_certified(sh, a, memo) for a in F)
             d0 = zw.direction if zw.direction is not None and zw.direction.value == 0 else None
             at0, nz = (at, (d0.xi, d0.u0)) if d0 is not None else (None, None)
-            zc = _certified_zda(sh, F, cache, WITNESS_CERTIFICATE_PATIENCE, at0, nz) if try_cert else None
+            zc = _certified_zda(sh, F, cache, WITNESS_CERTIFICATE_PATIENCE, at0, nz, WITNESS_CERTIFICATE_EXTRA_ROWS) if try_cert else None
             return zc if zc is not None else zw
     if sh.growth == "verdict" and not sh.exact and len(F) > 1 and (zi := inherited_zda(sh, F, memo, _zda_part)) is not None:
         return zi  # a proven ZDA of a single member is one of F (zero input on the others)
@@ -427,14 +437,16 @@ def _pencil_status(sh: _Shared, cm: Any, obs: Any, sus: tuple[Label, ...], memo:
     if pkey in memo:
         return memo[pkey]  # type: ignore[no-any-return]
     st: Status | None = None
-    if len(sus) > 1 and all(a not in cm.boundary for a in sus) and any(_pencil_status(sh, cm, obs, (a,), memo) is Status.FAILS for a in sus):
+    case = LocalCase(cm, obs, "attack", sus)
+    if case.structural:
+        st = Status.FAILS  # a suspected agent on the boundary: rank loss at every lam (as pencil_verdict decides it)
+    elif len(sus) > 1 and any(_pencil_status(sh, cm, obs, (a,), memo) is Status.FAILS for a in sus):
         st = Status.FAILS
-    if st is None and twin_failure(sh.system, LocalCase(cm, obs, "attack", sus)) is not None:
+    if st is None and twin_failure(sh.system, case) is not None:
         st = Status.FAILS
-    if st is None and not sh.exact and minor_certificate(sh.system, LocalCase(cm, obs, "attack", sus), memo.setdefault("minors", {})) is not None:
+    if st is None and not sh.exact and minor_certificate(sh.system, case, memo.setdefault("minors", {})) is not None:
         st = Status.HOLDS
     if st is None:
-        case = LocalCase(cm, obs, "attack", sus)
         if sh.exact:
             st = pencil_verdict_exact(sh.system, case, margin=False)[0]
         else:

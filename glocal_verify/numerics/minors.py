@@ -60,7 +60,18 @@ import numpy as np
 import scipy.linalg
 import scipy.sparse
 
-__all__ = ["GroundedTables", "MinorCertificate", "charpoly_mod", "constant_full_rank_mod_p", "full_rank_certificate", "grounded_tables", "prime_for", "twin_modes"]
+__all__ = [
+    "GroundedTables",
+    "MinorCertificate",
+    "charpoly_mod",
+    "constant_full_rank_mod_p",
+    "full_rank_certificate",
+    "grounded_tables",
+    "prime_for",
+    "residues_mod_p",
+    "submatrix_full_rank_mod_p",
+    "twin_modes",
+]
 
 #: input sets with more than this many unmeasured input agents are not certified here
 MAX_INPUTS = 4
@@ -434,32 +445,48 @@ def full_rank_certificate(
         cache[pkey0] = _PolyTable(tables, cache)
     polys = cache[pkey0]
 
-    def minor(replaced: Sequence[int], rows: Sequence[int]) -> tuple[Any, int | None, Any]:
-        """The maximal minor with the rows ``replaced`` of K taken from alpha L[rows, U]
-        (its description is formatted only when the certificate quotes it)."""
+    def minor(replaced: Sequence[int], rows: Sequence[int]) -> Any:
+        """The maximal minor with the rows ``replaced`` of K taken from alpha L[rows, U]."""
         r = len(replaced)
         if r == 0:
-            return detK, n, "det K"
-        desc = (tuple(replaced), tuple(rows))
-        P = _det([[polys[q][f] or polys.fill(q, f) for f in replaced] for q in rows])
-        if r > 1:
-            pkey = ("K^", tables, r - 1)
-            if pkey not in cache:
-                cache[pkey] = detK ** (r - 1)
-            P, rem = divmod(P, cache[pkey])
-            if not rem.is_zero():
-                raise ArithmeticError("a maximal minor is not divisible by det K^(k-1): the numerator tables are inconsistent")
+            return detK
+        if r == 1:
+            f = replaced[0]
+            return polys[rows[0]][f] or polys.fill(rows[0], f)
+        if r == 2:
+            f0, f1 = replaced
+            q0, q1 = polys[rows[0]], polys[rows[1]]
+            P = (q0[f0] or polys.fill(rows[0], f0)) * (q1[f1] or polys.fill(rows[1], f1)) - (q0[f1] or polys.fill(rows[0], f1)) * (
+                q1[f0] or polys.fill(rows[1], f0)
+            )
+        else:
+            P = _det([[polys[q][f] or polys.fill(q, f) for f in replaced] for q in rows])
+        pkey = ("K^", tables, r - 1)
+        if pkey not in cache:
+            cache[pkey] = detK ** (r - 1)
+        P, rem = divmod(P, cache[pkey])
+        if not rem.is_zero():
+            raise ArithmeticError("a maximal minor is not divisible by det K^(k-1): the numerator tables are inconsistent")
+        return P
+
+    def bound(replaced: Sequence[int], rows: Sequence[int]) -> int | None:
+        """An upper bound of the degree of that minor (from the distances in G[U]); needed only
+        until one minor of known exact degree is found."""
+        r = len(replaced)
+        if r == 0:
+            return n
         terms = [
             sum(bound_of(q, replaced[c]) for q, c in zip(rows, perm))
             for perm in itertools.permutations(range(r))
             if all(bound_of(q, replaced[c]) >= 0 for q, c in zip(rows, perm))
         ]
-        return P, (max(terms) - (r - 1) * n if terms else None), desc
+        return max(terms) - (r - 1) * n if terms else None
 
     def candidates() -> Any:
-        yield from (minor(Ip, rows) for rows in itertools.islice(itertools.combinations(Mp, k), MAX_ROW_CHOICES))
+        """(replaced rows, output rows) of the minors, in the order they are tried."""
+        yield from ((Ip, rows) for rows in itertools.islice(itertools.combinations(Mp, k), MAX_ROW_CHOICES))
         if k == 0:
-            yield from (minor([int(np.argmin(tables.distance[q]))], [q]) for q in Mp[:MAX_ROW_CHOICES])
+            yield from (([int(np.argmin(tables.distance[q]))], [q]) for q in Mp[:MAX_ROW_CHOICES])
         # one more replaced row, in another part of U: breaks factors det K_R shared by the
         # minors above (e.g. a component of G[U] that holds no input)
         if len(Mp) > k:
@@ -467,39 +494,43 @@ def full_rank_certificate(
 
             def with_extra() -> Any:
                 for j in extra:  # one per component of G[U] first (each breaks that component's det K_c)
-                    yield from (minor(Ip + [j], rows) for rows in itertools.islice(itertools.combinations(Mp, k + 1), 1))
+                    yield from ((Ip + [j], rows) for rows in itertools.islice(itertools.combinations(Mp, k + 1), 1))
                 for j in extra[:MAX_ROW_CHOICES]:
-                    yield from (minor(Ip + [j], rows) for rows in itertools.islice(itertools.combinations(Mp, k + 1), 1, 3))
+                    yield from ((Ip + [j], rows) for rows in itertools.islice(itertools.combinations(Mp, k + 1), 1, 3))
 
             yield from (with_extra() if extra_rows is None else itertools.islice(with_extra(), extra_rows))
 
     twin = _twin_factor(tables, cache) if modulo_twins and tables.twins else None
+    twin_deg = twin.degree() if twin is not None else 0
     g = None
-    used: list[Any] = []
-    first: tuple[Any, int | None, str] | None = None
+    used: list[tuple[Sequence[int], Sequence[int]]] = []
+    first: tuple[Any, int] | None = None
     stale = 0
-    for P, b, d in candidates():
+    # The twin factor t divides every minor, so gcd(P_1 / t, P_2 / t, ...) = gcd(P_1, P_2, ...) / t:
+    # the minors are not divided one by one; t | gcd is checked once at the end (t divides every
+    # minor iff it divides their gcd), and the quotients have gcd 1 iff deg gcd = deg t.
+    for replaced, rows in candidates():
+        P = minor(replaced, rows)
         if P.is_zero():
             continue
-        if twin is not None:
-            P, rem = divmod(P, twin)
-            if not rem.is_zero():
-                raise ArithmeticError("a maximal minor is not divisible by its twin-mode factor: the twin modes are wrong")
-            b = None if b is None else b - twin.degree()
-        if first is None and b is not None and b >= 0 and P.degree() == b:
-            first = (P, b, d)
+        if first is None:
+            b = bound(replaced, rows)
+            if b is not None and b - twin_deg >= 0 and P.degree() == b:
+                first = (P, b - twin_deg)
         g_new = P if g is None else g.gcd(P)
         stale = stale + 1 if g is not None and g_new.degree() == g.degree() else 0
         g = g_new
-        used.append(d)
-        if first is not None and g.degree() == 0:
+        used.append((replaced, rows))
+        if first is not None and g.degree() == twin_deg:
             break
         if patience is not None and stale >= patience:
             break
-    if first is None or g is None or g.degree() != 0:
+    if twin is not None and g is not None and not divmod(g, twin)[1].is_zero():
+        raise ArithmeticError("a maximal minor is not divisible by its twin-mode factor: the twin modes are wrong")
+    if first is None or g is None or g.degree() != twin_deg:
         return None
     texts = tuple(
-        d if isinstance(d, str) else f"rows {tuple(tables.grounded[f] for f in d[0])} -> {tuple(tables.measured[q] for q in d[1])}" for d in used
+        "det K" if not rep else f"rows {tuple(tables.grounded[f] for f in rep)} -> {tuple(tables.measured[q] for q in rows)}" for rep, rows in used
     )
     return MinorCertificate(tables.prime, texts, int(first[1]), twin.degree() if twin is not None else 0)  # type: ignore[arg-type]
 
@@ -673,6 +704,28 @@ def constant_full_rank_mod_p(rows: Sequence[Sequence[Fraction]], prime: int | No
     p = prime if prime is not None else next(q for q in _primes_below(2**30) if all(d % q for d in dens))
     ent = [_mod(Fraction(x), p) for r in rows for x in r]
     return int(nmod_mat(len(rows), ncols, ent, p).rank()) == ncols
+
+
+def residues_mod_p(rows: Sequence[Sequence[Fraction]], prime: int) -> list[list[int]]:
+    """The entries of a rational matrix modulo ``prime`` (which must divide no denominator),
+    for :func:`submatrix_full_rank_mod_p` on many of its submatrices."""
+    return [[_mod(Fraction(x), prime) if x else 0 for x in r] for r in rows]
+
+
+def submatrix_full_rank_mod_p(residues: Sequence[Sequence[int]], rows: Sequence[int], cols: Sequence[int], prime: int) -> bool:
+    """:func:`constant_full_rank_mod_p` of the submatrix ``[rows, cols]`` of a matrix given by
+    its :func:`residues_mod_p` (the same proof: full column rank modulo p is full column rank
+    over Q; False means "not proved")."""
+    from flint import nmod_mat
+
+    if not rows:
+        return False
+    if not cols:
+        return True
+    if len(rows) < len(cols):
+        return False
+    ent = [residues[i][j] for i in rows for j in cols]
+    return int(nmod_mat(len(rows), len(cols), ent, prime).rank()) == len(cols)
 
 
 def prime_for(values: Sequence[Fraction], limit: int = 2**30) -> int:

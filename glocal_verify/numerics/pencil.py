@@ -366,6 +366,10 @@ def _direction(
     return v, res, _decide_small(res, pt.err, scale, tol)
 
 
+#: up to this many points :func:`_cluster` compares all pairs directly
+_CLUSTER_DENSE_MAX = 64
+
+
 def _cluster(values: Sequence[complex], radius: float) -> list[list[int]]:
     """Single-linkage clusters of points closer than ``radius`` (Euclidean, in the complex plane).
 
@@ -383,7 +387,14 @@ def _cluster(values: Sequence[complex], radius: float) -> list[list[int]]:
         return []
     order = sorted(range(n), key=lambda i: (values[i].real, values[i].imag))
     pts = np.array([[complex(v).real, complex(v).imag] for v in values], dtype=float)
-    pairs = cKDTree(pts).query_pairs(radius, output_type="ndarray") if n > 1 and radius >= 0 else np.zeros((0, 2), int)
+    if n <= _CLUSTER_DENSE_MAX:
+        # few points (a cluster pencil's zeros): all pairwise distances, without the tree's set-up
+        d = np.hypot(pts[:, None, 0] - pts[None, :, 0], pts[:, None, 1] - pts[None, :, 1])
+        pairs = np.argwhere(np.triu(d <= radius, 1)) if radius >= 0 else np.zeros((0, 2), int)
+        if not len(pairs):
+            return [[i] for i in order]
+    else:
+        pairs = cKDTree(pts).query_pairs(radius, output_type="ndarray") if n > 1 and radius >= 0 else np.zeros((0, 2), int)
     g = scipy.sparse.coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n)) if len(pairs) else scipy.sparse.coo_matrix((n, n))
     _, labels = connected_components(g, directed=False)
     groups: dict[int, list[int]] = {}
