@@ -1,7 +1,9 @@
 """Design: answers to the defender's inverse questions, built on the checkers.
 
 - :mod:`.audit` -- every set of 1..k compromised actuators: can it hide, who catches it, which
-  safe mode exposes it (:mod:`.audit_figure` draws the summary);
+  safe mode exposes it (:mod:`.audit_screens` its exact screens, :mod:`.audit_local` the
+  local observers' part of a row, :mod:`.audit_records` the rows, :mod:`.audit_figure` the
+  summary figure);
 - :mod:`.safe_modes` -- safe modes (link changes) that satisfy Theorem III.3 and expose the
   audited attacks, by rank-one updates of the spectrum;
 - :mod:`.monitors` -- smallest velocity-only global monitor sets that keep privacy;

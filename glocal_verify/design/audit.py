@@ -51,11 +51,6 @@ import numpy as np
 
 from glocal_verify.analysis.avoidance import _exact_mode, _numeric_mode, _stealthy_bases
 from glocal_verify.analysis.zero_touch import touch_at_zero
-from glocal_verify.analysis.local_cases import (
-    LocalCase,
-    minor_certificate,
-    twin_failure,
-)
 from glocal_verify.analysis.zda import (
     GROWTH_PERSISTENT,
     GROWTH_UNBOUNDED,
@@ -66,13 +61,13 @@ from glocal_verify.analysis.zda import (
     zda_analysis,
 )
 from glocal_verify.analysis.zda_exact import zda_analysis_exact
-from glocal_verify.conditions.local import uio_verdict
-from glocal_verify.conditions.local_pencil import pencil_verdict, pencil_verdict_exact
 from glocal_verify.conditions.registry import verify
+from glocal_verify.design.audit_local import local_part
 from glocal_verify.design.audit_records import AUDIT_SCHEMA_ID, AuditResult, AuditRow, exposure_fragility, undecided_reason
 from glocal_verify.design.audit_screens import _witness_lambda, _without_sensors, _Zda, batch_witnesses, certified_touch, disjoint_paths, global_tables, inherited_zda, single_zda_key
 from glocal_verify.errors import ModelError, NotApplicableError
 from glocal_verify.model import System
+from glocal_verify.numerics.collection import deferred_full_collections
 from glocal_verify.numerics.minors import (
     GroundedTables,
     full_rank_certificate,
@@ -426,83 +421,6 @@ def _growth_rank(g: str) -> int:
     return {"null": 0, "decaying": 1, "persistent": 2, "undecided": 3, "unbounded": 4}.get(g, 3)
 
 
-def _pencil_status(sh: _Shared, cm: Any, obs: Any, sus: tuple[Label, ...], memo: dict[Any, Any]) -> Status:
-    """local.pencil for one observer and suspected set, with the monotone screen.
-
-    If the pencil of eq. ``pencil_uio`` loses column rank at some lam for a suspected set S,
-    it does so for every S' ⊇ S (pad the kernel vector with zero inputs on S' \\ S). So a
-    failing single agent decides every set containing it without a pencil analysis.
-    """
-    pkey = ("pencil", cm.name, obs.center, sus)
-    if pkey in memo:
-        return memo[pkey]  # type: ignore[no-any-return]
-    st: Status | None = None
-    case = LocalCase(cm, obs, "attack", sus)
-    if case.structural:
-        st = Status.FAILS  # a suspected agent on the boundary: rank loss at every lam (as pencil_verdict decides it)
-    elif len(sus) > 1 and any(_pencil_status(sh, cm, obs, (a,), memo) is Status.FAILS for a in sus):
-        st = Status.FAILS
-    if st is None and twin_failure(sh.system, case) is not None:
-        st = Status.FAILS
-    if st is None and not sh.exact and minor_certificate(sh.system, case, memo.setdefault("minors", {})) is not None:
-        st = Status.HOLDS
-    if st is None:
-        if sh.exact:
-            st = pencil_verdict_exact(sh.system, case, margin=False)[0]
-        else:
-            st = pencil_verdict(sh.system, case, sh.tol, margin=False)[0]
-            if st is Status.UNDECIDED and sh.exact_fallback:
-                st = pencil_verdict_exact(sh.system, case, margin=False)[0]
-    memo[pkey] = st
-    return st
-
-
-def _local_part(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any]) -> tuple[list[tuple[str, Label]], dict[str, Any], bool | None]:
-    """Catching observers, their statuses, and whether every cluster F meets is covered."""
-    system = sh.system
-    clusters = system.clusters
-    place = memo.get("cluster-place")
-    if place is None:
-        # agent -> (cluster index, position in the cluster): F is split by cluster in O(|F|)
-        place = memo["cluster-place"] = {a: (ci, j) for ci, c in enumerate(clusters) for j, a in enumerate(c.nodes)}
-        memo["cluster-observers"] = [(system.cluster_model(c.name), system.observers(c.name)) for c in clusters]
-    per_cluster: dict[int, list[Label]] = {}
-    for a in sorted((a for a in F if a in place), key=place.__getitem__):
-        per_cluster.setdefault(place[a][0], []).append(a)
-    caught: list[tuple[str, Label]] = []
-    detail: dict[str, Any] = {}
-    covered: list[bool | None] = []
-    for ci, members in per_cluster.items():
-        c = clusters[ci]
-        sus = tuple(members)
-        cm, observers = memo["cluster-observers"][ci]
-        cluster_ok: bool | None = False
-        for obs in observers:
-            key = (c.name, obs.center, sus)
-            if key not in memo:
-                ps = _pencil_status(sh, cm, obs, sus, memo)
-                us = Status.FAILS
-                if ps is not Status.FAILS:
-                    case = LocalCase(cm, obs, "attack", sus)
-                    us = uio_verdict(system, case, sh.tol, sh.exact, cache=memo.setdefault("uio", {}))[0]
-                    if us is Status.UNDECIDED and sh.exact_fallback and not sh.exact:
-                        us = uio_verdict(system, case, sh.tol, True)[0]
-                memo[key] = (ps, us)
-            ps, us = memo[key]
-            detail[f"{c.name}@{obs.center}"] = {"suspected": list(sus), "local.pencil": ps.value, "local.uio": us.value}
-            if ps is Status.HOLDS and us is Status.HOLDS:
-                caught.append((c.name, obs.center))
-                cluster_ok = True
-            elif cluster_ok is False and Status.UNDECIDED in (ps, us) and Status.FAILS not in (ps, us):
-                cluster_ok = None
-        covered.append(cluster_ok)
-    if not covered:
-        return caught, detail, False
-    if all(x is True for x in covered):
-        return caught, detail, True
-    return caught, detail, (False if any(x is False for x in covered) else None)
-
-
 def _modes_part(sh: _Shared, F: tuple[Label, ...], z: _Zda) -> tuple[list[str], dict[str, Any], bool]:
     """Exposing modes, per-mode detail, and whether an undecided touch test could add one."""
     system = sh.system
@@ -557,7 +475,7 @@ def _audit_set(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any]) -> Audit
         sh = dataclasses.replace(sh, zda_fallback="always")
     system, tol = sh.system, sh.tol
     z = _zda_part(sh, F, memo)
-    caught, local_detail, covered = _local_part(sh, F, memo)
+    caught, local_detail, covered = local_part(sh, F, memo)
     if not z.complete and _exposure_possible(sh) and z.source != "requested lambda0":
         # the exposure test needs the witness of stealthy.zda (the fastest zero): compute it
         z = _zda_part(dataclasses.replace(sh, growth="full"), F, memo)
@@ -620,7 +538,8 @@ class AuditChunk:
     sets: tuple[tuple[Label, ...], ...]
 
     def __call__(self) -> list[AuditRow]:
-        return self.run(dict(self.shared.local_seed))
+        with deferred_full_collections():
+            return self.run(dict(self.shared.local_seed))
 
     def run(self, memo: dict[Any, Any]) -> list[AuditRow]:
         """The rows, with ``memo`` (seeded by phase one) shared with other chunks of this process.
@@ -649,9 +568,13 @@ class LocalSinglesChunk:
     agents: tuple[Label, ...]
 
     def __call__(self) -> dict[Any, Any]:
+        with deferred_full_collections():
+            return self._verdicts()
+
+    def _verdicts(self) -> dict[Any, Any]:
         memo: dict[Any, Any] = {}
         for a in self.agents:
-            _local_part(self.shared, (a,), memo)
+            local_part(self.shared, (a,), memo)
             if self.shared.growth == "verdict" and self.shared.minors is not None and not self.shared.exact:
                 _single_certified(self.shared, a, memo)
         return {k: v for k, v in memo.items() if isinstance(k, tuple)}
@@ -819,6 +742,24 @@ def audit(
     -------
     AuditResult
     """
+    with deferred_full_collections():  # the rows and memo stay alive: full collections only rescan them
+        return _audit(system, max_attackers, candidates, sensors, progress, tol, exact, exact_fallback, screen, growth, chunk_size, executor)
+
+
+def _audit(
+    system: System,
+    max_attackers: int,
+    candidates: Iterable[Label] | None,
+    sensors: Iterable[Label] | None,
+    progress: Callable[[int, int], None] | None,
+    tol: Tolerance,
+    exact: bool,
+    exact_fallback: bool | str | None,
+    screen: bool,
+    growth: str | None,
+    chunk_size: int,
+    executor: Callable[[Sequence[Callable[[], Any]]], Sequence[Any]] | None,
+) -> AuditResult:
     if sensors is not None:
         system = _without_sensors(system, list(sensors))
     sets = attack_sets(system, max_attackers, candidates)

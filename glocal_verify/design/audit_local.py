@@ -1,0 +1,99 @@
+"""The local part of an audit row: which local observers catch an attack set (Proposition III.2).
+
+A set's local part is assembled per cluster from the verdicts of ``local.pencil`` (eq.
+``pencil_uio``, condition (iii)) and ``local.uio`` for the set's members in that cluster,
+with the screens that decide most of them without a pencil analysis: a suspected agent on
+the boundary fails at once, a failing member fails every set containing it (monotone
+screen), an exact twin mode proves a failure, and exact maximal minors prove a success.
+Verdicts are memoised per (cluster, observer, suspected set); :func:`local_part` is called by
+:mod:`glocal_verify.design.audit` for each row and, for the singles, in its first phase.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from glocal_verify.analysis.local_cases import LocalCase, minor_certificate, twin_failure
+from glocal_verify.conditions.local import uio_verdict
+from glocal_verify.conditions.local_pencil import pencil_verdict, pencil_verdict_exact
+from glocal_verify.results import Status
+from glocal_verify.spec.types import Label
+
+__all__ = ["local_part", "pencil_status"]
+
+
+def pencil_status(sh: Any, cm: Any, obs: Any, sus: tuple[Label, ...], memo: dict[Any, Any]) -> Status:
+    """local.pencil for one observer and suspected set, with the monotone screen.
+
+    If the pencil of eq. ``pencil_uio`` loses column rank at some lam for a suspected set S,
+    it does so for every S' ⊇ S (pad the kernel vector with zero inputs on S' \\ S). So a
+    failing single agent decides every set containing it without a pencil analysis.
+    """
+    pkey = ("pencil", cm.name, obs.center, sus)
+    if pkey in memo:
+        return memo[pkey]  # type: ignore[no-any-return]
+    st: Status | None = None
+    case = LocalCase(cm, obs, "attack", sus)
+    if case.structural:
+        st = Status.FAILS  # a suspected agent on the boundary: rank loss at every lam (as pencil_verdict decides it)
+    elif len(sus) > 1 and any(pencil_status(sh, cm, obs, (a,), memo) is Status.FAILS for a in sus):
+        st = Status.FAILS
+    if st is None and twin_failure(sh.system, case) is not None:
+        st = Status.FAILS
+    if st is None and not sh.exact and minor_certificate(sh.system, case, memo.setdefault("minors", {})) is not None:
+        st = Status.HOLDS
+    if st is None:
+        if sh.exact:
+            st = pencil_verdict_exact(sh.system, case, margin=False)[0]
+        else:
+            st = pencil_verdict(sh.system, case, sh.tol, margin=False)[0]
+            if st is Status.UNDECIDED and sh.exact_fallback:
+                st = pencil_verdict_exact(sh.system, case, margin=False)[0]
+    memo[pkey] = st
+    return st
+
+
+def local_part(sh: Any, F: tuple[Label, ...], memo: dict[Any, Any]) -> tuple[list[tuple[str, Label]], dict[str, Any], bool | None]:
+    """Catching observers, their statuses, and whether every cluster F meets is covered."""
+    system = sh.system
+    clusters = system.clusters
+    place = memo.get("cluster-place")
+    if place is None:
+        # agent -> (cluster index, position in the cluster): F is split by cluster in O(|F|)
+        place = memo["cluster-place"] = {a: (ci, j) for ci, c in enumerate(clusters) for j, a in enumerate(c.nodes)}
+        memo["cluster-observers"] = [(system.cluster_model(c.name), system.observers(c.name)) for c in clusters]
+    per_cluster: dict[int, list[Label]] = {}
+    for a in sorted((a for a in F if a in place), key=place.__getitem__):
+        per_cluster.setdefault(place[a][0], []).append(a)
+    caught: list[tuple[str, Label]] = []
+    detail: dict[str, Any] = {}
+    covered: list[bool | None] = []
+    for ci, members in per_cluster.items():
+        c = clusters[ci]
+        sus = tuple(members)
+        cm, observers = memo["cluster-observers"][ci]
+        cluster_ok: bool | None = False
+        for obs in observers:
+            key = (c.name, obs.center, sus)
+            if key not in memo:
+                ps = pencil_status(sh, cm, obs, sus, memo)
+                us = Status.FAILS
+                if ps is not Status.FAILS:
+                    case = LocalCase(cm, obs, "attack", sus)
+                    us = uio_verdict(system, case, sh.tol, sh.exact, cache=memo.setdefault("uio", {}))[0]
+                    if us is Status.UNDECIDED and sh.exact_fallback and not sh.exact:
+                        us = uio_verdict(system, case, sh.tol, True)[0]
+                memo[key] = (ps, us)
+            ps, us = memo[key]
+            detail[f"{c.name}@{obs.center}"] = {"suspected": list(sus), "local.pencil": ps.value, "local.uio": us.value}
+            if ps is Status.HOLDS and us is Status.HOLDS:
+                caught.append((c.name, obs.center))
+                cluster_ok = True
+            elif cluster_ok is False and Status.UNDECIDED in (ps, us) and Status.FAILS not in (ps, us):
+                cluster_ok = None
+        covered.append(cluster_ok)
+    if not covered:
+        return caught, detail, False
+    if all(x is True for x in covered):
+        return caught, detail, True
+    return caught, detail, (False if any(x is False for x in covered) else None)
