@@ -116,17 +116,22 @@ def test_an_unknown_growth_option_is_refused(generated: System) -> None:
         audit(generated, 1, growth="fast")
 
 
+def _assert_single_linkage(pts: list[complex], groups: list[list[int]], radius: float) -> dict[int, int]:
+    """Every point in one group, close pairs together, no group without a close pair; the labels."""
+    close = {(i, j) for i in range(len(pts)) for j in range(len(pts)) if i < j and abs(pts[i] - pts[j]) <= radius}
+    label = {i: g for g, grp in enumerate(groups) for i in grp}
+    assert sorted(i for grp in groups for i in grp) == list(range(len(pts)))
+    assert all(label[i] == label[j] for i, j in close)
+    assert all(len(grp) == 1 or any((min(i, j), max(i, j)) in close for i in grp for j in grp if i != j) for grp in groups)
+    return label
+
+
 def test_candidate_zeros_on_one_vertical_line_cluster_as_the_pairwise_rule_says() -> None:
     from glocal_verify.numerics.pencil import _cluster
 
     # many candidates share the real part -gamma / 2 (complex zeros of s = lambda^2 + gamma lambda)
     pts = [complex(-0.5, y) for y in np.linspace(-4.0, 4.0, 801)] + [complex(-0.5, 0.0) + 1e-7, complex(3.0, 0.0)]
-    groups = _cluster(pts, 1e-6)
-    close = {(i, j) for i in range(len(pts)) for j in range(len(pts)) if i < j and abs(pts[i] - pts[j]) <= 1e-6}
-    label = {i: g for g, grp in enumerate(groups) for i in grp}
-    assert sorted(i for grp in groups for i in grp) == list(range(len(pts)))
-    assert all(label[i] == label[j] for i, j in close)
-    assert all(len(grp) == 1 or any((min(i, j), max(i, j)) in close for i in grp for j in grp if i != j) for grp in groups)
+    _assert_single_linkage(pts, _cluster(pts, 1e-6), 1e-6)
 
 
 @pytest.mark.parametrize("seed", range(5))
@@ -139,11 +144,7 @@ def test_a_few_candidate_zeros_cluster_as_the_pairwise_rule_says_without_the_tre
     pts = [complex(z) for z in base] + [complex(base[0] + 0.9e-6), complex(base[0] + 1.8e-6), complex(base[3]), complex(base[5] + 2e-6j)]
     assert len(pts) <= _CLUSTER_DENSE_MAX
     groups = _cluster(pts, 1e-6)
-    close = {(i, j) for i in range(len(pts)) for j in range(len(pts)) if i < j and abs(pts[i] - pts[j]) <= 1e-6}
-    label = {i: g for g, grp in enumerate(groups) for i in grp}
-    assert sorted(i for grp in groups for i in grp) == list(range(len(pts)))
-    assert all(label[i] == label[j] for i, j in close)
-    assert all(len(grp) == 1 or any((min(i, j), max(i, j)) in close for i in grp for j in grp if i != j) for grp in groups)
+    label = _assert_single_linkage(pts, groups, 1e-6)
     assert label[0] == label[20] == label[21] and label[3] == label[22] and label[5] != label[23]
     # groups and their members are ordered by (real, imag), as on the tree path
     firsts = [pts[grp[0]] for grp in groups]
