@@ -175,6 +175,22 @@ def test_structured_and_dense_paths_give_the_same_zeros_on_paper19(paper19: Syst
         assert min(abs(z.value - w.value) for w in de.zeros) < 1e-8
 
 
+def test_the_modal_s_pencil_is_decided_against_the_norm_of_its_own_data_on_weakly_coupled_clusters() -> None:
+    """Rank decisions of the N-sized s-pencil are relative to its scale: a balancing that
+    magnifies the rounding noise of localised eigenvectors inflates it (to ~1e8 here) and,
+    at larger N, discarded whole output blocks (normal rank below N + m)."""
+    from glocal_verify.analysis.zda import _Modal
+    from glocal_verify.design.generators import random_clustered_spec
+    from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE
+
+    system = System(random_clustered_spec(1000, 3, seed=7))
+    md = _Modal(system, tuple(system.attacked), DEFAULT_TOLERANCE)
+    pa = md.s_pencil()
+    # ||[diag(a) B; C 0]||_2 <= max |a| + ||U_F|| + ||U_M|| <= max |a| + 2 (rows of an orthogonal U)
+    assert pa.scale <= md.alpha * float(np.max(np.abs(md.mu))) + 2.0
+    assert pa.normal_rank == system.n + len(system.attacked) and pa.full_normal_column_rank
+
+
 def _markov_channels(system: System) -> list[str]:
     """Rows of C with C A^k B != 0 for some k < 2N (test-side reference, dense powers)."""
     A, B, C = system.A(), system.B(), system.C()
