@@ -30,6 +30,7 @@ from functools import cached_property
 from typing import Sequence
 
 import numpy as np
+import scipy.linalg.blas
 import scipy.sparse
 
 from glocal_verify.numerics.tolerance import (
@@ -127,29 +128,45 @@ class Spectrum:
 
     @cached_property
     def orthogonality_error(self) -> float:
-        """``eta = ||U^T U - I||_F + 2 N eps``: a bound on the loss of orthonormality of :attr:`vectors`.
+        """``eta``: a rigorous bound on ``||U^T U - I||_F``, the loss of orthonormality of :attr:`vectors`.
 
-        The second term covers the rounding of the product ``U^T U`` itself (each entry is a
-        sum of N products of numbers of modulus at most 1).
+        .. math:: \\eta = (1 + \\gamma_{N^2}) \\|fl(U^T U) - I\\|_F
+                  + \\gamma_{N+1} \\sqrt{\\| |U| \\|_1 \\| |U| \\|_\\infty}\\, \\|U\\|_F,
+                  \\qquad \\gamma_k = \\frac{k u}{1 - k u},
+
+        the second term bounding the rounding of the product (entrywise ``|fl(U^T U) - U^T U|
+        <= gamma_N |U|^T |U|`` (Higham, Thm 3.5), the diagonal shift adding one rounding, and
+        ``|| |U|^T |U| ||_F <= || |U| ||_2 ||U||_F`` with ``|| |U| ||_2 <= sqrt(||U||_1 ||U||_inf)``),
+        the factor ``1 + gamma_{N^2}`` the rounding of the sum of squares. ``U^T U`` is one
+        symmetric rank-N update (BLAS ``syrk``, half the flops of a general product, one N x N
+        array).
         """
         n = self.size
         if n == 0:
             return 0.0
         U = self.vectors
-        total = 0.0
-        for a in range(0, n, _BLOCK):  # ||U^T U - I||_F over column blocks: O(N b) temporaries
-            b = min(a + _BLOCK, n)
-            G = U.T @ U[:, a:b]
-            G[np.arange(a, b), np.arange(b - a)] -= 1.0
-            total += float(np.sum(G * G))
-        return math.sqrt(total) + 2.0 * n * EPS
+        G = scipy.linalg.blas.dsyrk(1.0, U, trans=1)  # upper triangle of U^T U; the lower one is zero
+        d = np.arange(n)
+        G[d, d] -= 1.0
+        diag2 = float(np.dot(G[d, d], G[d, d]))
+        total = 2.0 * float(np.vdot(G, G)) - diag2  # the strict upper triangle counts twice
+        del G
+        u = EPS / 2.0
+
+        def gamma(k: float) -> float:
+            return k * u / (1.0 - k * u)
+
+        A = np.abs(U)
+        norm_abs = math.sqrt(float(A.sum(axis=0).max()) * float(A.sum(axis=1).max()))
+        rounding = gamma(n + 1) * norm_abs * float(np.linalg.norm(U, "fro"))
+        return (1.0 + gamma(float(n) * n)) * math.sqrt(max(total, 0.0)) + rounding
 
     @cached_property
     def error_radius(self) -> float:
         """Certified ``rho``: the i-th smallest eigenvalue of the exact L lies in ``[w_i - rho, w_i + rho]``.
 
         Weyl's theorem applied to ``L = U diag(w) U^T + F`` with the computed (nearly
-        orthonormal) ``U``. With ``R = fl(L U - U diag(w))``, ``eta = ||U^T U - I||_F + 2 N eps``
+        orthonormal) ``U``. With ``R = fl(L U - U diag(w))``, ``eta`` the :attr:`orthogonality_error`
         (bound on the loss of orthonormality, its own rounding included) and ``k`` the largest
         number of nonzeros of a row of L,
 
