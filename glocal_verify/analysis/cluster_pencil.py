@@ -128,7 +128,7 @@ def intra_neighbours(L: np.ndarray | Sequence[Sequence[Fraction]]) -> list[list[
         nz = L != 0.0
         np.fill_diagonal(nz, False)
         return [[int(j) for j in np.flatnonzero(row)] for row in nz]
-    return [[j for j, x in enumerate(row) if j != i and x != 0] for i, row in enumerate(L)]
+    return [[j for j, x in enumerate(row) if x and j != i] for i, row in enumerate(L)]  # zero Fractions are falsy
 
 
 def zero_forcing_steps(nbrs: Sequence[Sequence[int]], known: Iterable[int], inputs: Iterable[int]) -> list[tuple[int, int]]:

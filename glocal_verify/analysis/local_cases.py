@@ -321,7 +321,7 @@ def minor_certificate(system: System, case: LocalCase, cache: dict[Any, Any] | N
     alpha = Fraction(system.alpha_q)
 
     def build() -> Any:
-        entries = {(i, j): L[i][j] for i in range(len(nodes)) for j in range(len(nodes)) if L[i][j] != 0}
+        entries = {(i, j): x for i, row in enumerate(L) for j, x in enumerate(row) if x}  # zero Fractions are falsy
         return grounded_tables(len(nodes), entries, alpha, measured)
 
     tables = system.analysis.get(("grounded-tables", cm.name, case.mode, tuple(measured)), build)
@@ -378,7 +378,7 @@ def twin_failure(system: System, case: LocalCase) -> str | None:
 
     def compute() -> Any:
         L = system.cluster_laplacian_exact(cm.name, case.mode)
-        entries = {(i, j): L[i][j] for i in range(len(nodes)) for j in range(len(nodes)) if L[i][j] != 0}
+        entries = {(i, j): x for i, row in enumerate(L) for j, x in enumerate(row) if x}  # zero Fractions are falsy
         return twin_modes(len(nodes), entries, measured)
 
     modes = system.analysis.get(("twin-modes", cm.name, case.mode, tuple(measured)), compute)
@@ -459,12 +459,45 @@ def certify_pencil_verdict(system: System, case: LocalCase, status: Status, witn
 
     if ok and ok0:
         return proved(Status.HOLDS, "zero forcing from the measured agents on the exact support (every lam)", "zero forcing proves full column rank for every lam")
-    by = minor_certificate(system, case)
-    if by is not None:
-        return proved(Status.HOLDS, by, "exact minors prove full column rank for every lam")
-    tw = twin_failure(system, case)
-    if tw is not None:
-        return proved(Status.FAILS, tw, "an exact twin mode proves rank loss")
+
+    def prove_fails() -> str | None:
+        """A proof of rank loss of the exact pencil (twin mode, structural rank, an exact or
+        enclosed kernel vector), or None."""
+        tw = twin_failure(system, case)
+        if tw is not None:
+            return tw
+        if status is not Status.FAILS:
+            return None
+        if structural_rank(_exact_pattern_at(system, case, None)) < ncols:
+            return "structural rank of the exact support below the column count (normal-rank deficiency)"
+        for lam in (Fraction(0), -system.gamma_q):
+            if structural_rank(_exact_pattern_at(system, case, lam)) < ncols:
+                return f"structural rank of the exact support of P({lam}) below the column count"
+        d = witness.get("direction")
+        if isinstance(d, dict) and complex(d.get("lambda", 1j)).imag == 0:
+            lq = Fraction(complex(d["lambda"]).real)
+            rows, _ = _exact_pencil_at(system, case, lq)
+            if rational_kernel_vector(rows, _witness_vector(case, d)) is not None:
+                return f"the direction at lam = {lq} rationalises to an exact kernel vector (checked over Q)"
+        enc = _krawczyk_zero(system, case, witness)
+        if enc is not None:
+            cert["lambda_enclosure"] = str(enc.lam)
+            return f"Krawczyk test: an exact kernel vector of P(lam) at lam in {enc.lam} (ball arithmetic)"
+        return None
+
+    # a proof of holds and a proof of fails exclude each other, so the order only decides the
+    # cost: the proof matching the numeric verdict is tried first (the exact maximal minors
+    # are the dearest part when the numeric verdict is fails)
+    first, second = ("fails", "holds") if status is Status.FAILS else ("holds", "fails")
+    for kind in (first, second):
+        if kind == "holds":
+            by = minor_certificate(system, case)
+            if by is not None:
+                return proved(Status.HOLDS, by, "exact minors prove full column rank for every lam")
+        else:
+            by = prove_fails()
+            if by is not None:
+                return proved(Status.FAILS, by, "an exact twin mode proves rank loss")
     if status is Status.HOLDS:
         if ok:
             rows, pat = _exact_pencil_at(system, case, Fraction(0))
@@ -484,31 +517,6 @@ def certify_pencil_verdict(system: System, case: LocalCase, status: Status, witn
         witness["certificate"] = cert
         return Status.UNDECIDED, witness
     if status is Status.FAILS:
-        pat = _exact_pattern_at(system, case, None)
-        if structural_rank(pat) < ncols:
-            cert["by"] = "structural rank of the exact support below the column count (normal-rank deficiency)"
-            witness["certificate"] = cert
-            return Status.FAILS, witness
-        for lam in (Fraction(0), -system.gamma_q):
-            pat = _exact_pattern_at(system, case, lam)
-            if structural_rank(pat) < ncols:
-                cert["by"] = f"structural rank of the exact support of P({lam}) below the column count"
-                witness["certificate"] = cert
-                return Status.FAILS, witness
-        d = witness.get("direction")
-        if isinstance(d, dict) and complex(d.get("lambda", 1j)).imag == 0:
-            lq = Fraction(complex(d["lambda"]).real)
-            rows, _ = _exact_pencil_at(system, case, lq)
-            if rational_kernel_vector(rows, _witness_vector(case, d)) is not None:
-                cert["by"] = f"the direction at lam = {lq} rationalises to an exact kernel vector (checked over Q)"
-                witness["certificate"] = cert
-                return Status.FAILS, witness
-        enc = _krawczyk_zero(system, case, witness)
-        if enc is not None:
-            cert["by"] = f"Krawczyk test: an exact kernel vector of P(lam) at lam in {enc.lam} (ball arithmetic)"
-            cert["lambda_enclosure"] = str(enc.lam)
-            witness["certificate"] = cert
-            return Status.FAILS, witness
         zs = [w.get("lambda") for w in witness.get("zeros", []) if w.get("verified")]
         cert["note"] = (
             f"the zero(s) {zs[:3]} verify only to a small backward error, which does not prove rank loss of the exact "

@@ -574,15 +574,19 @@ def verified_invariant_subspace(
 
     if not rows:
         return None
-    X = fmpq_mat(len(rows), size, [fmpq(Fraction(x).numerator, Fraction(x).denominator) for r in rows for x in r])
+    X = fmpq_mat(len(rows), size)
+    for i, r in enumerate(rows):  # the candidates are mostly zero: set the nonzeros only
+        for j, x in enumerate(r):
+            if x:
+                q = x if isinstance(x, Fraction) else Fraction(x)
+                X[i, j] = fmpq(q.numerator, q.denominator)
     R, rank = X.rref()
     if rank == 0:
         return None
     # sparse rows of the echelon basis: twin modes and most verified modes have few nonzeros
     sparse: list[dict[int, Fraction]] = []
-    for i in range(rank):
-        row = {j: Fraction(int(R[i, j].p), int(R[i, j].q)) for j in range(size) if R[i, j] != 0}
-        sparse.append(row)
+    for row_q in R.tolist()[:rank]:
+        sparse.append({j: Fraction(int(x.p), int(x.q)) for j, x in enumerate(row_q) if x})
     piv = [min(r) for r in sparse]
     measured_set = set(measured)
     if any(measured_set.intersection(r) for r in sparse):
