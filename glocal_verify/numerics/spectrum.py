@@ -40,12 +40,42 @@ from glocal_verify.numerics.tolerance import (
     group_eigenvalues,
 )
 
-__all__ = ["Spectrum", "EPS"]
+__all__ = ["Spectrum", "EPS", "product_rounding"]
 
 #: unit roundoff doubled: the spacing of doubles at 1 (2^-52)
 EPS = float(np.finfo(float).eps)
 #: columns per block of the a-posteriori products (bounded temporaries)
 _BLOCK = 256
+
+
+def _gamma(k: float) -> float:
+    """Higham's ``gamma_k = k u / (1 - k u)`` (u the unit roundoff)."""
+    u = EPS / 2.0
+    return k * u / (1.0 - k * u)
+
+
+def product_rounding(A: np.ndarray, B: np.ndarray, shifted: bool = False) -> float:
+    """A rigorous bound on ``||fl(A^T B) - A^T B||_F`` (plus one subtraction if ``shifted``).
+
+    Entrywise ``|fl(A^T B) - A^T B| <= gamma_n |A|^T |B|`` for inner dimension n (Higham,
+    Accuracy and Stability of Numerical Algorithms, Thm 3.5; ``gamma_{n+1}`` when a constant
+    such as I is subtracted afterwards), and ``|| |A|^T |B| ||_F <= || |A| ||_2 ||B||_F``
+    with ``|| |A| ||_2 <= sqrt(|| A ||_1 || A ||_inf)``. O(size of A and B).
+
+    Parameters
+    ----------
+    A, B : ndarray
+        n x k and n x l.
+    shifted : bool
+        Whether the product is followed by one more rounded operation per entry.
+    """
+    A, B = np.asarray(A), np.asarray(B)
+    n = A.shape[0]
+    if A.size == 0 or B.size == 0:
+        return 0.0
+    absA = np.abs(A)
+    norm_abs = math.sqrt(float(absA.sum(axis=0).max()) * float(absA.sum(axis=1).max()))
+    return _gamma(n + (1 if shifted else 0)) * norm_abs * float(np.linalg.norm(B))
 
 
 @dataclass(frozen=True, eq=False)
@@ -151,15 +181,7 @@ class Spectrum:
         diag2 = float(np.dot(G[d, d], G[d, d]))
         total = 2.0 * float(np.vdot(G, G)) - diag2  # the strict upper triangle counts twice
         del G
-        u = EPS / 2.0
-
-        def gamma(k: float) -> float:
-            return k * u / (1.0 - k * u)
-
-        A = np.abs(U)
-        norm_abs = math.sqrt(float(A.sum(axis=0).max()) * float(A.sum(axis=1).max()))
-        rounding = gamma(n + 1) * norm_abs * float(np.linalg.norm(U, "fro"))
-        return (1.0 + gamma(float(n) * n)) * math.sqrt(max(total, 0.0)) + rounding
+        return (1.0 + _gamma(float(n) * n)) * math.sqrt(max(total, 0.0)) + product_rounding(U, U, shifted=True)
 
     @cached_property
     def error_radius(self) -> float:

@@ -58,7 +58,7 @@ from glocal_verify.analysis.unobservable import (
 )
 from glocal_verify.analysis.zda_exact import _transfer
 from glocal_verify.model import System
-from glocal_verify.numerics.spectrum import EPS
+from glocal_verify.numerics.spectrum import EPS, product_rounding
 from glocal_verify.numerics.subspace import Subspace
 from glocal_verify.numerics.threads import single_threaded
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
@@ -559,7 +559,12 @@ def certify_observable_stability(system: System, obsv: CentralObserver) -> Stabi
     fro = float(np.linalg.norm(M, "fro"))
     L_err = system.spectrum(obsv.mode).input_error
     u = EPS / 2
-    eta = float(np.linalg.norm(Q.T @ Q - np.eye(k), "fro")) + float(np.linalg.norm(Q.T @ Nb, "fro")) + 4 * n * EPS
+    # loss of orthonormality of Q and of orthogonality to Nb, the rounding of both products included
+    eta = (
+        (float(np.linalg.norm(Q.T @ Q - np.eye(k), "fro")) + float(np.linalg.norm(Q.T @ Nb, "fro"))) * (1 + 4 * k * EPS)
+        + product_rounding(Q, Q, shifted=True)
+        + product_rounding(Q, Nb)
+    )
     E = u * fro * 2 + system.alpha * L_err * (1 + u) + 4 * (2 * n) * EPS * fro + 2 * eta * fro
     Mo = Q.T @ M @ Q
     lam, V = np.linalg.eig(Mo)
