@@ -635,6 +635,34 @@ class System:
 
         return [row[:] for row in self.analysis.get(("cluster-laplacian-exact", name, mode), build)]
 
+    def cluster_laplacian_entries(self, name: str, mode: str = NORMAL_MODE) -> dict[tuple[int, int], Fraction]:
+        """The nonzero entries of L[P_i, P_i] (cluster indices) as exact rationals.
+
+        Built from the cluster's neighbour lists in time proportional to its edges, cut edges
+        included (they count in the degrees); kept on ``system.analysis`` and shared by every
+        caller: the returned mapping must not be modified.
+        """
+        mode = self.check_mode(mode)
+
+        def build() -> dict[tuple[int, int], Fraction]:
+            nodes = self.cluster(name).nodes
+            loc = {a: i for i, a in enumerate(nodes)}
+            edges = self._edges[mode]
+            adj = self.adjacency(mode)
+            ent: dict[tuple[int, int], Fraction] = {}
+            for a in nodes:
+                i = loc[a]
+                deg = Fraction(0)
+                for b in adj[a]:
+                    w = edges[frozenset((a, b))]
+                    deg += w
+                    if b in loc:
+                        ent[(i, loc[b])] = ent.get((i, loc[b]), Fraction(0)) - w
+                ent[(i, i)] = deg
+            return {k: v for k, v in ent.items() if v}
+
+        return self.analysis.get(("cluster-laplacian-entries", name, mode), build)  # type: ignore[no-any-return]
+
     # -- convenience ------------------------------------------------------------------------
     @classmethod
     def from_spec_file(cls, path: str) -> System:

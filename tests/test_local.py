@@ -411,3 +411,32 @@ def test_the_krawczyk_test_encloses_a_known_zero_of_a_rational_pencil_and_refuse
     Z1 = [[q(0), q(0)], [q(0), q(0)]]
     for nonzero in (None, np.eye(2, dtype=bool)):
         assert krawczyk_kernel(I0, Z1, 0.5, np.array([1.0, 0.0]), nonzero=nonzero) is None
+
+
+def test_the_sparse_full_pencil_is_the_dense_one_and_bounds_its_norm_alike() -> None:
+    from glocal_verify.analysis.cluster_pencil import backward_error, norm2_lower
+    from glocal_verify.analysis.local_cases import full_pencil_sparse
+    from glocal_verify.design.generators import random_clustered_spec
+
+    system = System(random_clustered_spec(90, 3, seed=4))
+    rng = np.random.default_rng(0)
+    for case in local_cases(system)[:4]:
+        for lam in (0.0, 0.4 - 1.1j):
+            P, S = full_pencil(case, lam), full_pencil_sparse(case, lam)
+            assert np.array_equal(S.toarray(), P)
+            v = rng.standard_normal(P.shape[1]) + 1j * rng.standard_normal(P.shape[1])
+            # both are lower bounds of ||P||_2 (power iteration), equal up to rounding
+            assert norm2_lower(S) <= np.linalg.norm(P, 2) * (1 + 1e-12)
+            assert abs(norm2_lower(S) - norm2_lower(P)) <= 1e-12 * norm2_lower(P)
+            assert abs(backward_error(S, v) - backward_error(P, v)) <= 1e-12 * backward_error(P, v)
+
+
+def test_the_sparse_exact_cluster_block_holds_exactly_the_nonzeros_of_the_dense_one() -> None:
+    from glocal_verify.design.generators import random_clustered_spec
+
+    for system in (System(load_example("paper19")), System(random_clustered_spec(120, 4, seed=3))):
+        for mode in system.modes:
+            for c in system.spec.clusters:
+                L = system.cluster_laplacian_exact(c.name, mode)
+                dense = {(i, j): x for i, row in enumerate(L) for j, x in enumerate(row) if x}
+                assert system.cluster_laplacian_entries(c.name, mode) == dense

@@ -82,6 +82,7 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 import scipy.linalg
+import scipy.sparse
 
 from glocal_verify.model import ClusterModel
 from glocal_verify.numerics.tolerance import (
@@ -501,25 +502,30 @@ def lift(
     return np.concatenate([xi, lam * xi, r[list(suspected)], -r[list(boundary)]])
 
 
-def norm2_lower(P: np.ndarray, steps: int = 8) -> float:
+def norm2_lower(P: Any, steps: int = 8) -> float:
     """A lower bound of ||P||_2: the largest column norm, improved by power iteration on P^H P
     (every iterate gives ||P x|| / ||x|| <= ||P||_2).
 
     Parameters
     ----------
-    P : ndarray
+    P : ndarray or scipy.sparse matrix
     steps : int
         Power iterations.
     """
-    if P.size == 0:
+    if P.shape[0] == 0 or P.shape[1] == 0:
         return 0.0
-    cn = np.linalg.norm(P, axis=0)
+    if scipy.sparse.issparse(P):
+        cn = np.sqrt(np.asarray(abs(P).power(2).sum(axis=0)).ravel())
+    else:
+        cn = np.linalg.norm(P, axis=0)
     j = int(np.argmax(cn))
     best = float(cn[j])
     if best == 0.0:
         return 0.0
     PH = P.conj().T
-    x = PH @ P[:, j]
+    e = np.zeros(P.shape[1], dtype=P.dtype)
+    e[j] = 1.0
+    x = PH @ (P @ e)
     for _ in range(steps):
         nx = float(np.linalg.norm(x))
         if nx == 0.0:
@@ -531,13 +537,13 @@ def norm2_lower(P: np.ndarray, steps: int = 8) -> float:
     return best
 
 
-def backward_error(P: np.ndarray, v: np.ndarray) -> float:
+def backward_error(P: Any, v: np.ndarray) -> float:
     """||P v|| / (||P||_2 ||v||) with ||P||_2 replaced by :func:`norm2_lower`: an upper bound
     of the relative backward error, hence of sigma_min(P) / ||P||_2 (module docstring).
 
     Parameters
     ----------
-    P : ndarray
+    P : ndarray or scipy.sparse matrix
     v : ndarray
     """
     nv = float(np.linalg.norm(v))

@@ -12,6 +12,7 @@ from fractions import Fraction
 from typing import Any
 
 import numpy as np
+import scipy.sparse
 
 from glocal_verify.model import ClusterModel, LocalObserver, System
 from glocal_verify.results import Status
@@ -23,6 +24,7 @@ __all__ = [
     "cluster_summary",
     "exact_A_float",
     "full_pencil",
+    "full_pencil_sparse",
     "local_cases",
     "pencil_matrices",
     "pencil_matrices_exact",
@@ -141,6 +143,21 @@ def full_pencil(case: LocalCase, lam: complex) -> np.ndarray:
     P[:n, n:] = -G
     P[n:, :n] = C
     return P
+
+
+def full_pencil_sparse(case: LocalCase, lam: complex) -> scipy.sparse.csr_matrix:
+    """:func:`full_pencil` as a sparse matrix (O(nonzeros of A^i) memory and products).
+
+    Parameters
+    ----------
+    case : LocalCase
+    lam : complex
+    """
+    A, G, C = pencil_matrices(case)
+    n, m, p = A.shape[0], G.shape[1], C.shape[0]
+    top = scipy.sparse.hstack([lam * scipy.sparse.identity(n, dtype=complex, format="csr") - scipy.sparse.csr_matrix(A), scipy.sparse.csr_matrix(-G)])
+    bottom = scipy.sparse.hstack([scipy.sparse.csr_matrix(C), scipy.sparse.csr_matrix((p, m))])
+    return scipy.sparse.vstack([top, bottom], format="csr").astype(complex)
 
 
 def _exact_A(system: System, case: LocalCase) -> list[list[Fraction]]:
@@ -317,12 +334,10 @@ def minor_certificate(system: System, case: LocalCase, cache: dict[Any, Any] | N
     nodes = cm.nodes
     idx = {a: k for k, a in enumerate(nodes)}
     measured = sorted({idx[a] for a in obs.positions} | {idx[a] for a in obs.velocities})
-    L = system.cluster_laplacian_exact(cm.name, case.mode)
     alpha = Fraction(system.alpha_q)
 
     def build() -> Any:
-        entries = {(i, j): x for i, row in enumerate(L) for j, x in enumerate(row) if x}  # zero Fractions are falsy
-        return grounded_tables(len(nodes), entries, alpha, measured)
+        return grounded_tables(len(nodes), system.cluster_laplacian_entries(cm.name, case.mode), alpha, measured)
 
     tables = system.analysis.get(("grounded-tables", cm.name, case.mode, tuple(measured)), build)
     if tables is None:
@@ -337,7 +352,7 @@ def minor_certificate(system: System, case: LocalCase, cache: dict[Any, Any] | N
         # alpha L[P_i \ I, P_i \ M_x] modulo the tables' prime (which divides no denominator of
         # alpha L): the residues of alpha L are kept per cluster and mode
         res = system.analysis.get(
-            ("alpha-laplacian-mod", cm.name, case.mode, tables.prime), lambda: residues_mod_p([[alpha * x for x in row] for row in L], tables.prime)
+            ("alpha-laplacian-mod", cm.name, case.mode, tables.prime), lambda: residues_mod_p([[alpha * x for x in row] for row in system.cluster_laplacian_exact(cm.name, case.mode)], tables.prime)
         )
         inset = set(inputs)
         if not submatrix_full_rank_mod_p(res, [i for i in range(len(nodes)) if i not in inset], [j for j in range(len(nodes)) if j not in mx], tables.prime):
@@ -377,9 +392,7 @@ def twin_failure(system: System, case: LocalCase) -> str | None:
     measured = sorted({idx[a] for a in obs.positions} | {idx[a] for a in obs.velocities})
 
     def compute() -> Any:
-        L = system.cluster_laplacian_exact(cm.name, case.mode)
-        entries = {(i, j): x for i, row in enumerate(L) for j, x in enumerate(row) if x}  # zero Fractions are falsy
-        return twin_modes(len(nodes), entries, measured)
+        return twin_modes(len(nodes), system.cluster_laplacian_entries(cm.name, case.mode), measured)
 
     modes = system.analysis.get(("twin-modes", cm.name, case.mode, tuple(measured)), compute)
     for mu, pairs in modes:
@@ -426,10 +439,7 @@ def certify_pencil_verdict(system: System, case: LocalCase, status: Status, witn
         Its witness (directions with ``lambda``, ``positions``, ``velocities``,
         ``attack_input``, ``coupling_input``); updated in place.
     """
-    from glocal_verify.analysis.cluster_pencil import (
-        intra_neighbours,
-        zero_forcing_closure,
-    )
+    from glocal_verify.analysis.cluster_pencil import zero_forcing_closure
     from glocal_verify.analysis.zda_certificate import rational_kernel_vector
     from glocal_verify.numerics.pencil_exact import (
         rank_bounds,
@@ -443,7 +453,10 @@ def certify_pencil_verdict(system: System, case: LocalCase, status: Status, witn
     inputs = {idx[a] for a in case.suspected} | {idx[a] for a in cm.boundary}
     mx = {idx[a] for a in case.observer.positions}
     measured = mx | {idx[a] for a in case.observer.velocities}
-    nbrs = intra_neighbours(system.cluster_laplacian_exact(cm.name, case.mode))
+    nbrs: list[list[int]] = [[] for _ in range(n)]
+    for i, j in sorted(system.cluster_laplacian_entries(cm.name, case.mode)):  # the exact support, off the diagonal
+        if i != j:
+            nbrs[i].append(j)
     forced = zero_forcing_closure(nbrs, measured, inputs)
     ok = len(forced) == n
     ok0 = ok if mx == measured else len(zero_forcing_closure(nbrs, mx, inputs)) == n

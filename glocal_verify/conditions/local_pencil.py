@@ -34,6 +34,7 @@ from glocal_verify.analysis.local_cases import (
     LocalCase,
     certify_pencil_verdict,
     full_pencil,
+    full_pencil_sparse,
     pencil_matrices,
     pencil_matrices_exact,
 )
@@ -77,12 +78,15 @@ def _full(z: complex) -> complex | float:
     return z.real if z.imag == 0.0 else z
 
 
-def _residual(P: np.ndarray, v: np.ndarray) -> float:
-    """||P v|| / (||P||_2 ||v||); ||P||_2 exact for small P, else its lower bound
-    :func:`~glocal_verify.analysis.cluster_pencil.norm2_lower` (the ratio can then only be larger)."""
-    if min(P.shape) <= _EXACT_NORM_COLUMNS:
+def _residual(case: LocalCase, lam: complex, v: np.ndarray) -> float:
+    """||P v|| / (||P||_2 ||v||) for the full pencil P at lam; ||P||_2 exact for small P, else
+    its lower bound :func:`~glocal_verify.analysis.cluster_pencil.norm2_lower` on the sparse
+    pencil (the ratio can then only be larger)."""
+    n = case.model.A.shape[0]
+    if n + min(case.C.shape[0], case.B.shape[1] + case.model.E.shape[1]) <= _EXACT_NORM_COLUMNS:
+        P = full_pencil(case, lam)
         return float(np.linalg.norm(P @ v)) / max(float(np.linalg.norm(P, 2)) * float(np.linalg.norm(v)), 1e-300)
-    return backward_error(P, v)
+    return backward_error(full_pencil_sparse(case, lam), v)
 
 
 def _direction_witness(case: LocalCase, lam: complex, x: np.ndarray, u: np.ndarray, residual: float | None = None) -> dict[str, Any]:
@@ -94,7 +98,7 @@ def _direction_witness(case: LocalCase, lam: complex, x: np.ndarray, u: np.ndarr
     k = int(np.argmax(np.abs(v)))
     if abs(v[k]) > 0:
         v = v / v[k]
-    res = _residual(full_pencil(case, lam), v) if residual is None else float(residual)
+    res = _residual(case, lam, v) if residual is None else float(residual)
     xv, uv = v[: 2 * n], v[2 * n :]
     mb = len(case.suspected)
     # full pencil columns: [x, u_B, u_E] with -B^i u_B + E^i u_E; G = [B, -E] gives the same
@@ -240,7 +244,7 @@ def _lifted(system: System, case: LocalCase, st: _Structure, lam: complex, cols:
     xi = np.zeros(st.n, dtype=complex)
     xi[list(cols)] = v
     vec = lift(case.model.L, system.alpha, system.gamma, lam, xi, st.suspected, st.boundary)
-    return vec, _residual(full_pencil(case, lam), vec)
+    return vec, _residual(case, lam, vec)
 
 
 def _origin_zero(system: System, case: LocalCase, st: _Structure, tol: Tolerance) -> tuple[Decision, dict[str, Any] | None]:
