@@ -15,7 +15,7 @@ prime), and Theorem III.3 (ii) fails when two independent twin modes share an ei
 from __future__ import annotations
 
 from fractions import Fraction
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 
@@ -26,22 +26,29 @@ from glocal_verify.results import Status
 __all__ = ["distinct_eigenvalues_modular", "eigenvector_differences_modular", "laplacian_entries"]
 
 
-def laplacian_entries(system: System, mode: str) -> dict[tuple[int, int], Fraction]:
+def laplacian_entries(system: System, mode: str) -> Mapping[tuple[int, int], Fraction]:
     """The nonzero entries of L_q as exact rationals, from the spec's edges (sparse).
+
+    Built once per mode and kept on ``system.analysis``, shared by every caller: the mapping
+    must not be modified.
 
     Parameters
     ----------
     system : System
     mode : str
     """
-    ent: dict[tuple[int, int], Fraction] = {}
-    for key, w in system.edges(mode).items():
-        u, v = (system.index[a] for a in key)
-        ent[(u, v)] = ent.get((u, v), Fraction(0)) - w
-        ent[(v, u)] = ent.get((v, u), Fraction(0)) - w
-        ent[(u, u)] = ent.get((u, u), Fraction(0)) + w
-        ent[(v, v)] = ent.get((v, v), Fraction(0)) + w
-    return ent
+
+    def build() -> Mapping[tuple[int, int], Fraction]:
+        ent: dict[tuple[int, int], Fraction] = {}
+        for key, w in system.edges(mode).items():
+            u, v = (system.index[a] for a in key)
+            ent[(u, v)] = ent.get((u, v), Fraction(0)) - w
+            ent[(v, u)] = ent.get((v, u), Fraction(0)) - w
+            ent[(u, u)] = ent.get((u, u), Fraction(0)) + w
+            ent[(v, v)] = ent.get((v, v), Fraction(0)) + w
+        return ent
+
+    return system.analysis.get(("laplacian-entries", system.check_mode(mode)), build)  # type: ignore[no-any-return]
 
 
 def eigenvector_differences_modular(system: System, mode: str) -> tuple[Status, dict[str, Any]] | None:
@@ -103,7 +110,7 @@ def eigenvector_differences_modular(system: System, mode: str) -> tuple[Status, 
     }
 
 
-def _charpoly_mod(system: System, mode: str, ent: dict[tuple[int, int], Fraction]) -> tuple[int, Any]:
+def _charpoly_mod(system: System, mode: str, ent: Mapping[tuple[int, int], Fraction]) -> tuple[int, Any]:
     """(p, charpoly(L_q) modulo p) for a prime p that divides no entry's denominator; kept on
     ``system.analysis`` (both Theorem III.3 deciders of a mode read it)."""
     def compute() -> tuple[int, Any]:
