@@ -152,7 +152,7 @@ def state_rounding_bound(system: System, name: str, mode: str) -> float:
     -gamma are; each difference is formed exactly (``Fraction`` of the double against the
     spec's rational), converted with a relative error of at most eps / 2, and the Frobenius
     norm of the k differences is enlarged by (k + 4) eps. Reads the exact block's nonzeros
-    only (O(n^2) list slots, O(nnz) rational operations). Kept on ``system.analysis``.
+    only (O(nnz) rational operations). Kept on ``system.analysis``.
 
     Parameters
     ----------
@@ -164,8 +164,8 @@ def state_rounding_bound(system: System, name: str, mode: str) -> float:
 
     def compute() -> float:
         cm = system.cluster_model(name, mode)
-        Lq = system.cluster_laplacian_exact(name, mode)
-        n = len(Lq)
+        Lq = system.cluster_laplacian_entries(name, mode)
+        n = len(cm.nodes)
         a, g = Fraction(system.alpha_q), Fraction(system.gamma_q)
         loc = {lab: i for i, lab in enumerate(cm.nodes)}
         adj = system.adjacency(mode)
@@ -176,9 +176,8 @@ def state_rounding_bound(system: System, name: str, mode: str) -> float:
             # the exact support of row i: the diagonal and the neighbours inside the cluster
             # (read from the graph, not from rounded floats), and every float nonzero
             cols = {i} | {loc[b] for b in adj[lab] if b in loc} | {int(j) for j in np.flatnonzero(Ai)}
-            row = Lq[i]
             for j in cols:
-                d = abs(float(Fraction(float(Ai[j])) + a * row[j]))
+                d = abs(float(Fraction(float(Ai[j])) + a * Lq.get((i, j), 0)))
                 total += d * d
                 k += 1
             d = abs(float(Fraction(float(cm.A[n + i, n + i])) + g))
