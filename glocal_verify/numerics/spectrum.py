@@ -47,6 +47,9 @@ __all__ = ["Spectrum", "EPS", "product_rounding"]
 EPS = float(np.finfo(float).eps)
 #: columns per block of the a-posteriori products (bounded temporaries)
 _BLOCK = 256
+#: a rank-one update of a spectrum is kept when its loss of orthonormality and its relative
+#: residual are at most this many N eps (``eigh`` reaches about 0.1 N eps on Laplacians)
+UPDATE_ACCEPT = 10.0
 
 
 def _gamma(k: float) -> float:
@@ -177,14 +180,57 @@ class Spectrum:
         n = self.size
         if n == 0:
             return 0.0
-        U = self.vectors
-        G = scipy.linalg.blas.dsyrk(1.0, U, trans=1)  # upper triangle of U^T U; the lower one is zero
+        return (1.0 + _gamma(float(n) * n)) * self._gram_loss + product_rounding(self.vectors, self.vectors, shifted=True)
+
+    @cached_property
+    def _gram_loss(self) -> float:
+        """The computed ``||fl(U^T U) - I||_F`` (no rounding allowance; see :attr:`orthogonality_error`)."""
+        n = self.size
+        if n == 0:
+            return 0.0
+        G = scipy.linalg.blas.dsyrk(1.0, self.vectors, trans=1)  # upper triangle of U^T U; the lower one is zero
         d = np.arange(n)
         G[d, d] -= 1.0
         diag2 = float(np.dot(G[d, d], G[d, d]))
         total = 2.0 * float(np.vdot(G, G)) - diag2  # the strict upper triangle counts twice
-        del G
-        return (1.0 + _gamma(float(n) * n)) * math.sqrt(max(total, 0.0)) + product_rounding(U, U, shifted=True)
+        return math.sqrt(max(total, 0.0))
+
+    @classmethod
+    def updated(cls, matrix: np.ndarray, base: Spectrum, changes: Sequence[tuple[int, int, float]]) -> Spectrum | None:
+        """The spectrum of ``matrix = base.matrix + sum rho (e_i - e_j)(e_i - e_j)^T`` by rank-one updates of ``base``.
+
+        The eigenpairs come from :func:`~glocal_verify.numerics.rank_one.eigh_updated` (one
+        secular equation and one matrix product per change instead of a fresh ``syevd``);
+        every bound of the result (:attr:`residuals`, :attr:`orthogonality_error`,
+        :attr:`error_radius`) is computed from ``matrix`` and the new vectors as for ``eigh``,
+        so nothing is trusted. The update is kept only when it is as accurate as ``eigh``
+        reaches: ``||fl(U^T U) - I||_F`` and ``||L U - U diag(w)||_F / ||L||_2`` at most
+        ``UPDATE_ACCEPT * N * eps``; otherwise (or when an update fails) None, and the
+        caller decomposes ``matrix`` afresh.
+
+        Parameters
+        ----------
+        matrix : ndarray
+            The changed matrix (its entries rounded once from exact values, as for the constructor).
+        base : Spectrum
+            The spectrum before the changes.
+        changes : sequence of (int, int, float)
+            ``(i, j, rho)`` per changed link.
+        """
+        from glocal_verify.numerics.rank_one import eigh_updated
+
+        pairs = eigh_updated(base.values, base.vectors, changes)
+        if pairs is None:
+            return None
+        sp = cls(matrix)
+        w, U = pairs
+        w.setflags(write=False)
+        U.setflags(write=False)
+        sp.__dict__["_pairs"] = (w, U)  # the cached_property's slot: what eigh would have filled
+        limit = UPDATE_ACCEPT * sp.size * EPS
+        if sp._gram_loss > limit or float(np.linalg.norm(sp.residuals)) > limit * sp.scale:
+            return None
+        return sp
 
     @cached_property
     def error_radius(self) -> float:
