@@ -38,6 +38,8 @@ import scipy.linalg.lapack
 __all__ = ["eigh_rank_one_update", "eigh_updated"]
 
 _EPS = float(np.finfo(float).eps)
+#: rows per block of the Loewner products
+_BLOCK = 256
 
 
 def eigh_rank_one_update(w: np.ndarray, U: np.ndarray, i: int, j: int, rho: float) -> tuple[np.ndarray, np.ndarray] | None:
@@ -139,13 +141,17 @@ def eigh_rank_one_update(w: np.ndarray, U: np.ndarray, i: int, j: int, rho: floa
         # as a product of ratios (each of moderate size by interlacing, as dlaed3 forms it)
         # [l, k] = dk_l - dk_k for the poles dlasd4 saw (sq^2), factored so that close poles keep
         # their relative difference
-        R = (sq[:, None] - sq[None, :]) * (sq[:, None] + sq[None, :])
-        np.fill_diagonal(R, 1.0)
-        np.divide(diffT, R, out=R)
-        np.negative(R, out=R)
-        np.fill_diagonal(R, 1.0)
-        z2 = -diffT[ar, ar] / rk * np.prod(R, axis=0)
-        del R
+        # (in blocks of rows l: O(block * m) temporaries)
+        prod = np.ones(m)
+        for a in range(0, m, _BLOCK):
+            b = min(a + _BLOCK, m)
+            R = (sq[a:b, None] - sq[None, :]) * (sq[a:b, None] + sq[None, :])
+            R[np.arange(b - a), np.arange(a, b)] = 1.0
+            np.divide(diffT[a:b], R, out=R)
+            np.negative(R, out=R)
+            R[np.arange(b - a), np.arange(a, b)] = 1.0
+            prod *= np.prod(R, axis=0)
+        z2 = -diffT[ar, ar] / rk * prod
         if not np.all(np.isfinite(z2) & (z2 > 0.0)):
             return None
         zhat = np.copysign(np.sqrt(z2), zk)
@@ -157,7 +163,11 @@ def eigh_rank_one_update(w: np.ndarray, U: np.ndarray, i: int, j: int, rho: floa
         vals[K] = roots
     vecs = Q
     if V is not None:
-        vecs[:, K] = Q[:, K] @ V
+        if len(K) == n:
+            vecs = Q @ V  # nothing deflated: one product, no gathered copy of Q
+        else:
+            vecs[:, K] = Q[:, K] @ V
+    del Q
     vals = -(vals + shift) if flip else vals + shift
     idx = np.argsort(vals, kind="stable")
     return vals[idx], np.ascontiguousarray(vecs[:, idx])
