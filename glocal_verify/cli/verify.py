@@ -108,8 +108,8 @@ def cmd_verify(args: argparse.Namespace) -> int:
     check_out_file(args)  # before any computation: a bad --out fails at once
     system = _graph_system(args) if args.graph else load_system(args)
     progress: Callable[[str], None] | None = None
-    if sys.stderr.isatty() and not args.quiet:
-        progress = lambda cid: print(f"checking {cid} ...", file=sys.stderr)  # noqa: E731
+    if not args.quiet:  # one line per checker, on a terminal or in a log (--quiet: none)
+        progress = lambda cid: print(f"checking {cid} ...", file=sys.stderr, flush=True)  # noqa: E731
     from glocal_verify.conditions.detects import DETECTS_MAX_AGENTS
 
     simulate = args.simulate == "always" or (args.simulate == "auto" and system.n <= DETECTS_MAX_AGENTS)
