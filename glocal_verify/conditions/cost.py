@@ -32,6 +32,7 @@ from typing import Iterable, Sequence
 
 from glocal_verify.conditions.catalogue import CATALOGUE, DESIGN_ASSESSMENT_IDS
 from glocal_verify.errors import ModelError
+from glocal_verify.model import RANK_ONE_MAX_CHANGES, RANK_ONE_MIN_AGENTS
 from glocal_verify.spec.types import SystemSpec
 
 __all__ = [
@@ -60,14 +61,19 @@ MIB = 1024.0**2
 #: start-up of a command (imports, loading, report): seconds
 C_START = 3.0
 #: resident memory of a command before its matrices (interpreter, numpy, scipy): bytes
-B_BASE = 250 * MIB
+B_BASE = 300 * MIB
 
 #: global checkers: seconds per N^3 for the normal mode (eigh, certified bounds, the ZDA
-#: analysis, ...) and per N^3 for each safe mode (its eigh and modal tests). Fit to whole verify
-#: runs on random_clustered_spec(N, 3, seed=7) with two safe modes: 9.1 / 17.4 / 70.6 / 166
-#: CPU-s at N = 1000 / 2000 / 3000 / 4000 (their local parts are the terms below)
-C_GLOBAL = 1.0e-9
+#: analysis, ...), per N^3 for each safe mode with its own eigh and modal tests, and per N^3
+#: for each safe mode whose spectrum is a rank-one update of the normal one (at most
+#: RANK_ONE_MAX_CHANGES changed links, N >= RANK_ONE_MIN_AGENTS: one matrix product and its
+#: certified bounds). Fit to whole verify runs on random_clustered_spec(N, 3, seed=7) with two
+#: one-link safe modes: 8.2 / 14.2 / 59.4 / 658 CPU-s at N = 1000 / 2000 / 4000 / 10,000
+#: (their local parts are the terms below; 9.1 / 17.4 / 70.6 / 166 s at N = 1000 ... 4000
+#: before the rank-one updates, which fit C_GLOBAL_MODE)
+C_GLOBAL = 0.6e-9
 C_GLOBAL_MODE = 0.5e-9
+C_GLOBAL_UPDATE = 0.15e-9
 #: dense N x N float64 arrays the global checkers hold at their peak: 12 + 2.5 per safe mode
 #: (measured 11.4 + 2.1 per mode at N = 2000); local checkers alone hold one (the Laplacian)
 A_GLOBAL = 12.0
@@ -80,16 +86,21 @@ A_LOCAL_ONLY = 1.0
 C_UIO = 6.5e-9
 #: local.uio on clusters of at least MODAL_MIN_AGENTS agents (numeric): the modal design and
 #: certificate (one eigh of the interior block, n-sized work per observer), seconds per
-#: (2 n_i)^3 per design: 11.2 s for the five designs of 2 n_i ~ 2666 at N = 4000, 2.8 s at 2000
-C_UIO_MODAL = 2e-10
+#: (2 n_i)^3 per design: 9.6 s for the five designs of 2 n_i ~ 2666 at N = 4000 (11.2 s before
+#: the sparse residual checks), 2.8 s at 2000
+C_UIO_MODAL = 1.2e-10
 #: smallest cluster that gets the modal UIO (glocal_verify.observers.uio_modal.MODAL_MIN_AGENTS)
 UIO_MODAL_MIN_AGENTS = 60
 #: arrays of (2 n_i)^2 doubles each design keeps until the checker ends (measured 6.3 beside
 #: the global arrays, 12 alone, at N = 2000 and 3000)
 A_UIO = 10.0
+#: the same for a modal design, which keeps n-sized factors only: the N = 4000 run peaks at
+#: 2.5 GiB, within the global arrays' 2.3 GiB and base memory plus 0.4 array per design
+A_UIO_MODAL = 2.0
 #: local.pencil: seconds per (2 n_i)^3 per case (an observer and one suspected set: "attack"
-#: when the spec has one, and "all"): about 30 s for the six cases of 2 n_i ~ 2666 at N = 4000.
-C_PENCIL = 2.7e-10
+#: when the spec has one, and "all"): about 7 s for the six cases of 2 n_i ~ 2666 at N = 4000
+#: (30 s before the sparse residuals and the fused deflation steps).
+C_PENCIL = 1.0e-10
 
 #: switching.detects with simulation (``--simulate always`` above 150 agents): seconds per N^3
 #: per safe mode (61 s for one N = 1000 run, reports/benchmarks.md)
@@ -206,6 +217,8 @@ class SpecSizes:
     changed_by_modes : tuple of int
         For every cluster, the safe modes whose link changes touch one of its agents (its
         block L[P_i, P_i] changes, so its observer is designed again).
+    mode_changes : tuple of int
+        For every safe mode, the number of links it adds or removes.
     modes : int
         Safe modes (the normal mode not counted).
     channels : int
@@ -220,6 +233,7 @@ class SpecSizes:
     observers: tuple[int, ...] = ()
     changed_by_modes: tuple[int, ...] = ()
     modes: int = 0
+    mode_changes: tuple[int, ...] = ()
     channels: int = 0
     attack: bool = False
 
@@ -250,6 +264,7 @@ class SpecSizes:
             observers=tuple(len(c.observers) for c in spec.clusters),
             changed_by_modes=tuple(changed),
             modes=len(spec.modes),
+            mode_changes=tuple(len(m.add) + len(m.remove) for m in spec.modes),
             channels=len(spec.monitor.positions) + len(spec.monitor.velocities),
             attack=spec.attack is not None,
         )
@@ -265,7 +280,7 @@ class SpecSizes:
             return self
         i = self.cluster_names.index(name)
         return SpecSizes(
-            self.n, (self.cluster_sizes[i],), (name,), (self.observers[i],), (self.changed_by_modes[i],), self.modes, self.channels, self.attack
+            self.n, (self.cluster_sizes[i],), (name,), (self.observers[i],), (self.changed_by_modes[i],), self.modes, self.mode_changes, self.channels, self.attack
         )
 
 
@@ -357,7 +372,7 @@ def estimate_verify(
 
     .. math::
 
-        t = C_{start} + [\\text{global}]\\, (C_g + C_{g,m} S) N^3
+        t = C_{start} + [\\text{global}]\\, (C_g + C_{g,m} S_e + C_{g,u} S_u) N^3
             + [\\texttt{local.uio}] \\sum_i C_{uio} d_i (2 n_i)^3
             + [\\texttt{local.pencil}] \\sum_i C_{pencil} c_i (2 n_i)^3
 
@@ -368,12 +383,16 @@ def estimate_verify(
     150 agents, and with ``exact`` the rational terms (:data:`C_EXACT_CENTRAL` N^4,
     :data:`C_EXACT_ZDA` N^3 for each of ``stealthy.zda`` and ``switching.avoids-attack``, between
     their fast and slow paths, :data:`C_EXACT_GLOBAL` N^3, :data:`C_EXACT_UIO` and :data:`C_EXACT_PENCIL` per
-    design and case, :data:`B_EXACT` N^2 bytes). :math:`C_{uio}` is :data:`C_UIO_MODAL` = 2e-10
+    design and case, :data:`B_EXACT` N^2 bytes). :math:`C_{uio}` is :data:`C_UIO_MODAL` = 1.2e-10
     for clusters of at least :data:`UIO_MODAL_MIN_AGENTS` agents in a numeric run (the modal
     design), else :data:`C_UIO` = 6.5e-9. Constants: :data:`C_START` = 3 s,
-    :data:`C_GLOBAL` = 1.0e-9, :data:`C_GLOBAL_MODE` = 0.5e-9,
-    :data:`C_PENCIL` = 2.7e-10 s, :data:`A_GLOBAL` = 12, :data:`A_GLOBAL_MODE` = 2.5,
-    :data:`A_UIO` = 10, :data:`B_BASE` = 250 MiB; measured as the module docstring says.
+    :data:`C_GLOBAL` = 0.6e-9, :data:`C_GLOBAL_MODE` = 0.5e-9 per safe mode with its own eigh
+    (:math:`S_e`), :data:`C_GLOBAL_UPDATE` = 0.15e-9 per safe mode updated from the normal
+    spectrum (:math:`S_u`: at most :data:`RANK_ONE_MAX_CHANGES` changed links, N >=
+    :data:`RANK_ONE_MIN_AGENTS`),
+    :data:`C_PENCIL` = 1.0e-10 s, :data:`A_GLOBAL` = 12, :data:`A_GLOBAL_MODE` = 2.5,
+    :data:`A_UIO` = 10 (:data:`A_UIO_MODAL` = 2 for a modal design), :data:`B_BASE` = 300 MiB;
+    measured as the module docstring says.
 
     Parameters
     ----------
@@ -401,7 +420,9 @@ def estimate_verify(
     uio, pencil = "local.uio" in ids, "local.pencil" in ids
     n3 = float(n) ** 3
     if glob:
-        phases["global spectra"] = (C_GLOBAL + C_GLOBAL_MODE * S) * n3
+        updated = sum(1 for c in sizes.mode_changes if 0 < c <= RANK_ONE_MAX_CHANGES) if n >= RANK_ONE_MIN_AGENTS else 0
+        updated = min(updated, S)
+        phases["global spectra"] = (C_GLOBAL + C_GLOBAL_MODE * (S - updated) + C_GLOBAL_UPDATE * updated) * n3
     if uio:
         phases["local.uio"] = sum((C_UIO if exact or m < 2 * UIO_MODAL_MIN_AGENTS else C_UIO_MODAL) * d * float(m) ** 3 for m, d in _designs(sizes))
     if pencil:
@@ -411,7 +432,7 @@ def estimate_verify(
     arrays = (A_GLOBAL + A_GLOBAL_MODE * S) if glob else A_LOCAL_ONLY
     nbytes = B_BASE + arrays * _dense(n)
     if uio:
-        nbytes += sum(A_UIO * d * _dense(m) for m, d in _designs(sizes))
+        nbytes += sum((A_UIO if exact or m < 2 * UIO_MODAL_MIN_AGENTS else A_UIO_MODAL) * d * _dense(m) for m, d in _designs(sizes))
     if exact:
         if "central.observer" in ids:
             phases["exact central.observer"] = C_EXACT_CENTRAL * float(n) ** 4
