@@ -226,13 +226,7 @@ def _block_reflector(V1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     n, nu = V1.shape
     Y = np.tril(qr[:, :nu], -1)
     Y[np.arange(nu), np.arange(nu)] = 1.0
-    if np.all(tau[:nu] != 0):
-        # T^{-1} = diag(1 / tau) + striu(Y^H Y) (Schreiber and Van Loan; Joffrain et al., ACM
-        # TOMS 32 (2006)): one triangular inverse instead of a loop over the columns
-        Tinv = np.triu(Y.conj().T @ Y, 1)
-        Tinv[np.arange(nu), np.arange(nu)] = 1.0 / tau[:nu]
-        return Y, scipy.linalg.solve_triangular(Tinv, np.eye(nu, dtype=Tinv.dtype))
-    T = np.zeros((nu, nu), dtype=qr.dtype)  # an identity reflector (tau = 0): the recurrence of LAPACK's larft
+    T = np.zeros((nu, nu), dtype=qr.dtype)
     for i in range(nu):
         T[i, i] = tau[i]
         if i:
