@@ -248,6 +248,11 @@ def _q_right(Y: np.ndarray, T: np.ndarray, M: np.ndarray) -> np.ndarray:
     return M - ((M @ Y) @ T) @ Y.conj().T
 
 
+#: from this order on a deflation step uses the fused update (below, two reflector
+#: applications are faster: 30 against 46 us at n = 30, 44 against 51 us at n = 100)
+_FUSED_MIN = 128
+
+
 def _similarity_blocks(Y: np.ndarray, T: np.ndarray, A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(Q^H A Q)[nu:, nu:]`` (a new contiguous array) and ``(Q^H A Q)[:nu, nu:]`` for ``Q = I - Y T Y^H``.
 
@@ -317,7 +322,11 @@ def _reduce(
             C, D = C2, D2
             break
         Y, Tw = _block_reflector(Vh[:nu].conj().T)
-        A, top = _similarity_blocks(Y, Tw, A)
+        if A.shape[0] >= _FUSED_MIN:
+            A, top = _similarity_blocks(Y, Tw, A)
+        else:  # small: fewer, cheaper calls win
+            At = _q_right(Y, Tw, _qh_left(Y, Tw, A))
+            A, top = np.ascontiguousarray(At[nu:, nu:]), At[:nu, nu:]
         Bt = _qh_left(Y, Tw, B)
         C2t = _q_right(Y, Tw, C2)
         B = np.ascontiguousarray(Bt[nu:])
