@@ -79,7 +79,8 @@ def product_rounding(A: np.ndarray, B: np.ndarray, shifted: bool = False) -> flo
         return 0.0
     absA = np.abs(A)
     norm_abs = math.sqrt(float(absA.sum(axis=0).max()) * float(absA.sum(axis=1).max()))
-    return _gamma(n + (1 if shifted else 0)) * norm_abs * float(np.linalg.norm(B))
+    # (1 + 2 gamma_n): the sums of n nonnegative terms and the 2-norm are computed in floating point too
+    return _gamma(n + (1 if shifted else 0)) * norm_abs * float(np.linalg.norm(B)) * (1.0 + 2.0 * _gamma(max(n, B.size)))
 
 
 @dataclass(frozen=True, eq=False)
