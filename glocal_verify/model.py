@@ -434,15 +434,9 @@ class System:
             if mode != NORMAL_MODE and self.n >= RANK_ONE_MIN_AGENTS:
                 # a safe mode that changes a few links: rank-one updates of the normal mode's
                 # spectrum, certified like eigh's output (Spectrum.updated), else a fresh eigh
-                e0, eq = self._edges[NORMAL_MODE], self._edges[mode]
-                changes = []
-                for key in set(e0) | set(eq):
-                    dw = eq.get(key, Fraction(0)) - e0.get(key, Fraction(0))
-                    if dw != 0:
-                        a, b = sorted(self.index[x] for x in key)
-                        changes.append((a, b, float(dw)))
+                changes = [(self.index[a], self.index[b], float(d)) for a, b, d in self.switching_links(mode)]
                 if 0 < len(changes) <= RANK_ONE_MAX_CHANGES:
-                    sp = Spectrum.updated(L, self.spectrum(NORMAL_MODE), sorted(changes))
+                    sp = Spectrum.updated(L, self.spectrum(NORMAL_MODE), changes)
             self._spectra[mode] = sp if sp is not None else Spectrum(L)
         return self._spectra[mode]
 
@@ -633,24 +627,16 @@ class System:
     def cluster_laplacian_exact(self, name: str, mode: str = NORMAL_MODE) -> list[list[Fraction]]:
         """Principal block L[P_i, P_i] with exact rational entries (a fresh copy of a stored block).
 
-        Built from the cluster's neighbour lists (its degrees count every edge, cut edges
-        included), in time proportional to the cluster and its cut edges.
+        The nonzeros of :meth:`cluster_laplacian_entries` (its degrees count every edge, cut
+        edges included) laid out as rows.
         """
         mode = self.check_mode(mode)
 
         def build() -> list[list[Fraction]]:
-            nodes = self.cluster(name).nodes
-            loc = {a: i for i, a in enumerate(nodes)}
-            edges = self._edges[mode]
-            adj = self.adjacency(mode)
-            L = [[Fraction(0)] * len(nodes) for _ in nodes]
-            for a in nodes:
-                i = loc[a]
-                for b in adj[a]:
-                    w = edges[frozenset((a, b))]
-                    L[i][i] += w
-                    if b in loc:
-                        L[i][loc[b]] -= w
+            n = len(self.cluster(name).nodes)
+            L = [[Fraction(0)] * n for _ in range(n)]
+            for (i, j), v in self.cluster_laplacian_entries(name, mode).items():
+                L[i][j] = v
             return L
 
         return [row[:] for row in self.analysis.get(("cluster-laplacian-exact", name, mode), build)]

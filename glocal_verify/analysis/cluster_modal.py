@@ -39,6 +39,7 @@ from typing import Sequence
 import numpy as np
 
 from glocal_verify.model import System
+from glocal_verify.numerics.spectrum import gamma_bound
 
 __all__ = [
     "InteriorModes",
@@ -49,18 +50,6 @@ __all__ = [
 ]
 
 EPS = float(np.finfo(float).eps)
-
-
-def gamma_bound(k: int) -> float:
-    """gamma_k = k u / (1 - k u), u = eps / 2 (Higham's bound for a sum of k rounded terms).
-
-    Parameters
-    ----------
-    k : int
-        Number of floating-point operations in the longest chain.
-    """
-    u = EPS / 2.0
-    return k * u / (1.0 - k * u) if k * u < 0.5 else math.inf
 
 
 @dataclass(frozen=True, slots=True)

@@ -501,16 +501,11 @@ def certify_pencil_verdict(system: System, case: LocalCase, status: Status, witn
     # a proof of holds and a proof of fails exclude each other, so the order only decides the
     # cost: the proof matching the numeric verdict is tried first (the exact maximal minors
     # are the dearest part when the numeric verdict is fails)
-    first, second = ("fails", "holds") if status is Status.FAILS else ("holds", "fails")
-    for kind in (first, second):
-        if kind == "holds":
-            by = minor_certificate(system, case)
-            if by is not None:
-                return proved(Status.HOLDS, by, "exact minors prove full column rank for every lam")
-        else:
-            by = prove_fails()
-            if by is not None:
-                return proved(Status.FAILS, by, "an exact twin mode proves rank loss")
+    for kind in (Status.FAILS, Status.HOLDS) if status is Status.FAILS else (Status.HOLDS, Status.FAILS):
+        by = minor_certificate(system, case) if kind is Status.HOLDS else prove_fails()
+        if by is not None:
+            how = "exact minors prove full column rank for every lam" if kind is Status.HOLDS else "an exact twin mode proves rank loss"
+            return proved(kind, by, how)
     if status is Status.HOLDS:
         if ok:
             rows, pat = _exact_pencil_at(system, case, Fraction(0))

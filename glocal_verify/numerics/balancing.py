@@ -225,8 +225,9 @@ def _block_reflector(V1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """
     # LAPACK's geqrf directly: the same factorization as scipy.linalg.qr(mode="raw") without its
     # argument checks (3 against 33 us for a 200 x 4 block; one per deflation step)
-    geqrf = scipy.linalg.lapack.zgeqrf if np.iscomplexobj(V1) else scipy.linalg.lapack.dgeqrf
-    qr, tau, _, info = geqrf(np.asarray(V1, dtype=complex if np.iscomplexobj(V1) else float))
+    cplx = np.iscomplexobj(V1)
+    geqrf = scipy.linalg.lapack.zgeqrf if cplx else scipy.linalg.lapack.dgeqrf
+    qr, tau, _, info = geqrf(np.asarray(V1, dtype=complex if cplx else float))
     if info != 0:  # pragma: no cover - geqrf reports only illegal arguments
         raise ArithmeticError(f"geqrf failed (info = {info})")
     n, nu = V1.shape

@@ -41,7 +41,7 @@ from glocal_verify.numerics.tolerance import (
     group_eigenvalues,
 )
 
-__all__ = ["Spectrum", "EPS", "product_rounding"]
+__all__ = ["Spectrum", "EPS", "gamma_bound", "product_rounding"]
 
 #: unit roundoff doubled: the spacing of doubles at 1 (2^-52)
 EPS = float(np.finfo(float).eps)
@@ -52,10 +52,16 @@ _BLOCK = 256
 UPDATE_ACCEPT = 10.0
 
 
-def _gamma(k: float) -> float:
-    """Higham's ``gamma_k = k u / (1 - k u)`` (u the unit roundoff)."""
+def gamma_bound(k: float) -> float:
+    """gamma_k = k u / (1 - k u), u = eps / 2 (Higham's bound for a sum of k rounded terms).
+
+    Parameters
+    ----------
+    k : int or float
+        Number of floating-point operations in the longest chain (infinite bound when k u >= 1/2).
+    """
     u = EPS / 2.0
-    return k * u / (1.0 - k * u)
+    return k * u / (1.0 - k * u) if k * u < 0.5 else math.inf
 
 
 def product_rounding(A: np.ndarray, B: np.ndarray, shifted: bool = False) -> float:
@@ -80,7 +86,7 @@ def product_rounding(A: np.ndarray, B: np.ndarray, shifted: bool = False) -> flo
     absA = np.abs(A)
     norm_abs = math.sqrt(float(absA.sum(axis=0).max()) * float(absA.sum(axis=1).max()))
     # (1 + 2 gamma_n): the sums of n nonnegative terms and the 2-norm are computed in floating point too
-    return _gamma(n + (1 if shifted else 0)) * norm_abs * float(np.linalg.norm(B)) * (1.0 + 2.0 * _gamma(max(n, B.size)))
+    return gamma_bound(n + (1 if shifted else 0)) * norm_abs * float(np.linalg.norm(B)) * (1.0 + 2.0 * gamma_bound(max(n, B.size)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -181,7 +187,7 @@ class Spectrum:
         n = self.size
         if n == 0:
             return 0.0
-        return (1.0 + _gamma(float(n) * n)) * self._gram_loss + product_rounding(self.vectors, self.vectors, shifted=True)
+        return (1.0 + gamma_bound(float(n) * n)) * self._gram_loss + product_rounding(self.vectors, self.vectors, shifted=True)
 
     @cached_property
     def _gram_loss(self) -> float:
