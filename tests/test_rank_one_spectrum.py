@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from strategies import graphs
+from strategies import assert_numeric_matches_exact, graphs, systems
 
 import glocal_verify.model as model
 from glocal_verify import System, verify
@@ -133,3 +133,18 @@ def test_verdicts_with_updated_safe_mode_spectra_equal_those_with_fresh_eigendec
     monkeypatch.setattr(model, "RANK_ONE_MIN_AGENTS", 10**9)
     fresh = verify(System(spec))
     assert [(c.id, c.status) for c in updated.conditions] == [(c.id, c.status) for c in fresh.conditions]
+
+
+#: the checkers that read a safe mode's spectrum
+SPECTRAL = ["switching.distinct-eigenvalues", "switching.eigenvector-differences", "switched-observability", "privacy.kernel"]
+
+
+@settings(max_examples=40, deadline=None)
+@given(systems(max_n=10, max_modes=2))
+def test_numeric_verdicts_from_updated_spectra_never_contradict_exact_arithmetic(system: System) -> None:
+    # force the update path at every size (it serves N >= 500 by default): a fresh System reads
+    # the threshold when it builds each safe mode's spectrum
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(model, "RANK_ONE_MIN_AGENTS", 0)
+        fresh = System(system.spec)
+        assert_numeric_matches_exact(fresh, SPECTRAL)
