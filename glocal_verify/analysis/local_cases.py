@@ -275,23 +275,52 @@ def _witness_vector(case: LocalCase, d: dict[str, Any]) -> np.ndarray:
     return np.array([complex(x) for p in parts for x in p], dtype=complex)
 
 
+_ZERO, _ONE = Fraction(0), Fraction(1)
+
+
+class _LazyRows:
+    """Rows of an exact matrix whose entries ``entry(i, j)`` are computed when read (``M[i][j]``)."""
+
+    def __init__(self, rows: int, cols: int, entry: Any) -> None:
+        self.rows, self.cols, self.entry = rows, cols, entry
+
+    def __len__(self) -> int:
+        return self.rows
+
+    def __getitem__(self, i: int) -> "_LazyRow":
+        if not 0 <= i < self.rows:
+            raise IndexError(i)
+        return _LazyRow(self, i)
+
+
+class _LazyRow:
+    def __init__(self, rows: _LazyRows, i: int) -> None:
+        self.rows, self.i = rows, i
+
+    def __len__(self) -> int:
+        return self.rows.cols
+
+    def __getitem__(self, j: int) -> Fraction:
+        if not 0 <= j < self.rows.cols:
+            raise IndexError(j)
+        return self.rows.entry(self.i, j)  # type: ignore[no-any-return]
+
+
 def _krawczyk_zero(system: System, case: LocalCase, witness: dict[str, Any]) -> Any:
     """The first reported zero (or normal-rank direction) that the Krawczyk test proves, or None."""
     from glocal_verify.analysis.cluster_pencil import krawczyk_kernel
 
-    A, G, C = pencil_matrices_exact(system, case)
-    n, m = len(A), (len(G[0]) if G else 0)
-    zero, one = Fraction(0), Fraction(1)
-    # Fractions are immutable: the (many) zeros and ones are shared, not constructed per entry
-    P0 = [[-x if x else zero for x in A[i]] + [-x if x else zero for x in G[i]] for i in range(n)]
-    P0 += [[Fraction(c) if c else zero for c in C[r]] + [zero] * m for r in range(len(C))]
-    P1 = [[zero] * (n + m) for _ in range(len(P0))]
-    for i in range(n):
-        P1[i][i] = one
+    A = exact_A_float(system, case)[0]
+    _, G, C = pencil_matrices(case)
+    n, m = len(A), G.shape[1]
+    # the Krawczyk test reads only the rows and columns of the candidate's support: the exact
+    # rows are evaluated on access (G and C_loc hold integers, read as pencil_matrices_exact reads them)
+    P0 = _LazyRows(n + C.shape[0], n + m, lambda i, j: (-A[i][j] if j < n else -Fraction(round(float(G[i, j - n])))) if i < n else (Fraction(round(float(C[i - n, j]))) if j < n else _ZERO))
+    P1 = _LazyRows(n + C.shape[0], n + m, lambda i, j: _ONE if i == j and i < n else _ZERO)
     cands = list(witness.get("zeros", []))[:12]
     if isinstance(witness.get("direction"), dict) and "lambda" in witness["direction"]:
         cands.append(witness["direction"])
-    nonzero = np.array([[bool(a) or bool(b) for a, b in zip(r0, r1)] for r0, r1 in zip(P0, P1)], dtype=bool).reshape(len(P0), n + m)
+    nonzero = _exact_pattern_at(system, case, None)  # the support of P0 or P1 (lam I counted on the diagonal)
     for d in cands:
         enc = krawczyk_kernel(P0, P1, complex(d["lambda"]), _witness_vector(case, d), nonzero=nonzero)
         if enc is not None:
