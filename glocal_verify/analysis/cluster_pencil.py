@@ -690,8 +690,10 @@ def krawczyk_kernel(
     if len(R) != len(S):
         return None
     free = [j for j in S if j != k]
-    A0 = np.array([[float(P0[i][j]) for j in S] for i in R], dtype=complex).reshape(len(R), len(S))
-    A1 = np.array([[float(P1[i][j]) for j in S] for i in R], dtype=complex).reshape(len(R), len(S))
+    E0 = [[P0[i][j] for j in S] for i in R]  # the exact entries of P[R, S], read once
+    E1 = [[P1[i][j] for j in S] for i in R]
+    A0 = np.array([[float(x) for x in row] for row in E0], dtype=complex).reshape(len(R), len(S))
+    A1 = np.array([[float(x) for x in row] for row in E1], dtype=complex).reshape(len(R), len(S))
     kk = S.index(k)
     fi = [S.index(j) for j in free]
     x = np.concatenate([v[free], [complex(lam)]])
@@ -721,11 +723,17 @@ def krawczyk_kernel(
         flint.ctx.prec = prec
         n = len(x)
 
-        def q(a: Fraction) -> Any:
-            return flint.acb(flint.arb(flint.fmpq(a.numerator, a.denominator)))
+        balls: dict[tuple[int, int], Any] = {}  # the entries repeat (zeros, weights): one exact ball each
 
-        B0 = [[q(P0[i][j]) for j in S] for i in R]
-        B1 = [[q(P1[i][j]) for j in S] for i in R]
+        def q(a: Fraction) -> Any:
+            key = (a.numerator, a.denominator)  # hashes faster than the Fraction
+            b = balls.get(key)
+            if b is None:
+                b = balls[key] = flint.acb(flint.arb(flint.fmpq(*key)))
+            return b
+
+        B0 = [[q(x) for x in row] for row in E0]
+        B1 = [[q(x) for x in row] for row in E1]
         xt = [flint.acb(complex(c)) for c in x]
         r = max(1e-9 * (1.0 + float(np.max(np.abs(x)))), 1e3 * float(np.max(np.abs(Y @ ((A0 + x[-1] * A1) @ vec(x))))))
         ball = flint.acb(flint.arb(0, r), flint.arb(0, r))

@@ -310,17 +310,25 @@ def _krawczyk_zero(system: System, case: LocalCase, witness: dict[str, Any]) -> 
     """The first reported zero (or normal-rank direction) that the Krawczyk test proves, or None."""
     from glocal_verify.analysis.cluster_pencil import krawczyk_kernel
 
-    A = exact_A_float(system, case)[0]
+    A, _, support = exact_A_float(system, case)
     _, G, C = pencil_matrices(case)
     n, m = len(A), G.shape[1]
+    nonzero = _exact_pattern_at(system, case, None)  # the support of P0 or P1 (lam I counted on the diagonal)
+
+    def p0(i: int, j: int) -> Fraction:
+        if i < n:
+            if j < n:
+                return -A[i][j] if support[i, j] else _ZERO
+            return -Fraction(round(float(G[i, j - n])))
+        return Fraction(round(float(C[i - n, j]))) if j < n else _ZERO
+
     # the Krawczyk test reads only the rows and columns of the candidate's support: the exact
     # rows are evaluated on access (G and C_loc hold integers, read as pencil_matrices_exact reads them)
-    P0 = _LazyRows(n + C.shape[0], n + m, lambda i, j: (-A[i][j] if j < n else -Fraction(round(float(G[i, j - n])))) if i < n else (Fraction(round(float(C[i - n, j]))) if j < n else _ZERO))
+    P0 = _LazyRows(n + C.shape[0], n + m, p0)
     P1 = _LazyRows(n + C.shape[0], n + m, lambda i, j: _ONE if i == j and i < n else _ZERO)
     cands = list(witness.get("zeros", []))[:12]
     if isinstance(witness.get("direction"), dict) and "lambda" in witness["direction"]:
         cands.append(witness["direction"])
-    nonzero = _exact_pattern_at(system, case, None)  # the support of P0 or P1 (lam I counted on the diagonal)
     for d in cands:
         enc = krawczyk_kernel(P0, P1, complex(d["lambda"]), _witness_vector(case, d), nonzero=nonzero)
         if enc is not None:
