@@ -419,6 +419,8 @@ def full_rank_certificate(
         rows than unmeasured inputs) or the minors tried share a root modulo p: nothing is
         proved then.
     """
+    from flint.utils.flint_exceptions import DomainError
+
     if cache is None:
         cache = {}
     if len(set(inputs)) != len(inputs):
@@ -464,10 +466,10 @@ def full_rank_certificate(
         pkey = ("K^", tables, r - 1)
         if pkey not in cache:
             cache[pkey] = detK ** (r - 1)
-        P, rem = divmod(P, cache[pkey])
-        if not rem.is_zero():
-            raise ArithmeticError("a maximal minor is not divisible by det K^(k-1): the numerator tables are inconsistent")
-        return P
+        try:
+            return P / cache[pkey]  # exact division: raises unless det K^(k-1) divides the minor
+        except DomainError:
+            raise ArithmeticError("a maximal minor is not divisible by det K^(k-1): the numerator tables are inconsistent") from None
 
     def bound(replaced: Sequence[int], rows: Sequence[int]) -> int | None:
         """An upper bound of the degree of that minor (from the distances in G[U]); needed only
@@ -525,8 +527,11 @@ def full_rank_certificate(
             break
         if patience is not None and stale >= patience:
             break
-    if twin is not None and g is not None and not divmod(g, twin)[1].is_zero():
-        raise ArithmeticError("a maximal minor is not divisible by its twin-mode factor: the twin modes are wrong")
+    if twin is not None and g is not None:
+        try:
+            g / twin  # exact division: raises unless the twin factor divides the gcd (every minor)
+        except DomainError:
+            raise ArithmeticError("a maximal minor is not divisible by its twin-mode factor: the twin modes are wrong") from None
     if first is None or g is None or g.degree() != twin_deg:
         return None
     texts = tuple(
