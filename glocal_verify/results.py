@@ -9,6 +9,7 @@ turned into ``holds``. Exact results never are ``undecided``.
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass, field
 from enum import Enum
@@ -26,6 +27,7 @@ __all__ = [
     "Report",
     "SystemInfo",
     "jsonable",
+    "json_preview",
     "REPORT_SCHEMA_ID",
 ]
 
@@ -304,3 +306,56 @@ def jsonable(x: Any) -> Any:
     if hasattr(x, "p") and hasattr(x, "q"):  # flint.fmpq
         return jsonable(Fraction(int(x.p), int(x.q)))
     return str(x)
+
+
+class _PreviewFull(Exception):
+    """Raised by :func:`json_preview` once the text is longer than its limit."""
+
+
+def json_preview(x: Any, limit: int, separators: tuple[str, str] = (", ", ": ")) -> str:
+    """``json.dumps(jsonable(x), separators=separators)``, cut to ``limit`` characters with "...".
+
+    The text is encoded from the front and encoding stops once it passes ``limit``: a witness
+    with N-long vectors costs what its first ``limit`` characters cost, not O(N) conversions.
+    The result equals the full encoding when that fits, else its first ``limit - 3``
+    characters followed by "...".
+    """
+    item_sep, key_sep = separators
+    parts: list[str] = []
+    size = 0
+
+    def emit(text: str) -> None:
+        nonlocal size
+        parts.append(text)
+        size += len(text)
+        if size > limit:
+            raise _PreviewFull
+
+    def walk(v: Any) -> None:
+        if isinstance(v, Mapping):
+            emit("{")
+            for i, (k, w) in enumerate(v.items()):
+                if i:
+                    emit(item_sep)
+                emit(json.dumps(str(k)))
+                emit(key_sep)
+                walk(w)
+            emit("}")
+        elif isinstance(v, np.ndarray):
+            walk(v.tolist())  # Python scalars, as jsonable reads an array (one C-level conversion)
+        elif isinstance(v, (list, tuple, set, frozenset)):
+            emit("[")
+            for i, w in enumerate(v):
+                if i:
+                    emit(item_sep)
+                walk(w)
+            emit("]")
+        else:
+            emit(json.dumps(jsonable(v), separators=separators))
+
+    try:
+        walk(x)
+    except _PreviewFull:
+        text = "".join(parts)
+        return text[: limit - 3] + "..."
+    return "".join(parts)

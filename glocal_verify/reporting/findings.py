@@ -26,7 +26,7 @@ from typing import Any, Sequence
 from glocal_verify.conditions.registry import implemented_ids, verify
 from glocal_verify.errors import SpecError
 from glocal_verify.model import System
-from glocal_verify.results import ALIASES, ConditionResult, jsonable
+from glocal_verify.results import ALIASES, ConditionResult, json_preview
 from glocal_verify.spec import load_spec
 
 __all__ = [
@@ -117,8 +117,7 @@ def check_case(case: FindingCase, exact: bool = False) -> tuple[list[ConditionRe
 
 
 def _short(obj: Any, limit: int = 140) -> str:
-    text = json.dumps(jsonable(obj))
-    return text if len(text) <= limit else text[: limit - 3] + "..."
+    return json_preview(obj, limit)
 
 
 def proof_findings() -> list[tuple[str, str, str, str]]:

@@ -16,7 +16,7 @@ import jsonschema
 from glocal_verify.conditions.registry import CATALOGUE
 from glocal_verify.errors import GlocalVerifyError
 from glocal_verify.reporting.assessment import DETECTS_MAX_AGENTS, Assessment, assess, with_assessment
-from glocal_verify.results import ConditionResult, Method, Report, jsonable
+from glocal_verify.results import ConditionResult, Method, Report, json_preview
 
 __all__ = [
     "report_schema",
@@ -61,8 +61,7 @@ def _scope(r: ConditionResult) -> str:
 
 
 def _short(obj: Any, limit: int = 110) -> str:
-    text = json.dumps(jsonable(obj), separators=(", ", ": "))
-    return text if len(text) <= limit else text[: limit - 3] + "..."
+    return json_preview(obj, limit)
 
 
 _ICON = {"holds": "holds", "fails": "**fails**", "undecided": "*undecided*"}
