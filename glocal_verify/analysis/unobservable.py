@@ -25,6 +25,7 @@ from glocal_verify.numerics.exact_subspace import (
     _row_closure,
     _to_fraction_cols,
 )
+from glocal_verify.numerics.minors import RATIONAL_ZERO
 from glocal_verify.numerics.spectrum import EPS
 from glocal_verify.numerics.subspace import Subspace, decide_with_error
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
@@ -335,7 +336,8 @@ def rational_unobservable_candidates(E: np.ndarray, measured: Sequence[int]) -> 
     _, _, piv = scipy.linalg.qr(Wt, pivoting=True, mode="economic")
     P = piv[: Wt.shape[0]]
     R = np.linalg.solve(Wt[:, P], Wt)
-    return [[Fraction(0) if abs(x) < 1e-9 else Fraction(float(x)).limit_denominator(10**6) for x in row] for row in R]
+    zero = RATIONAL_ZERO  # shared: most entries are zero
+    return [[zero if abs(x) < 1e-9 else Fraction(float(x)).limit_denominator(10**6) for x in row] for row in R.tolist()]
 
 
 def _verified_singular_part(

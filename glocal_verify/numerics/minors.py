@@ -63,6 +63,7 @@ import scipy.sparse
 __all__ = [
     "GroundedTables",
     "MinorCertificate",
+    "RATIONAL_ZERO",
     "charpoly_mod",
     "constant_full_rank_mod_p",
     "full_rank_certificate",
@@ -80,6 +81,9 @@ MAX_ROW_CHOICES = 6
 #: at most this many extra replaced rows (anchors) per input set
 MAX_EXTRA_ROWS = 80
 _UNREACHABLE = 1 << 30
+#: the shared rational zero (Fractions are immutable): rows that use it for their zero entries
+#: are read without a comparison per entry (:func:`verified_invariant_subspace`)
+RATIONAL_ZERO = Fraction(0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -582,7 +586,7 @@ def verified_invariant_subspace(
     X = fmpq_mat(len(rows), size)
     for i, r in enumerate(rows):  # the candidates are mostly zero: set the nonzeros only
         for j, x in enumerate(r):
-            if x:
+            if x is not RATIONAL_ZERO and x:  # the shared zero is skipped without a comparison
                 q = x if isinstance(x, Fraction) else Fraction(x)
                 X[i, j] = fmpq(q.numerator, q.denominator)
     R, rank = X.rref()
@@ -596,27 +600,29 @@ def verified_invariant_subspace(
     measured_set = set(measured)
     if any(measured_set.intersection(r) for r in sparse):
         return None
+    needed = {j for r in sparse for j in r}  # L w reads the columns of L on the supports only
     cols: dict[int, list[tuple[int, Fraction]]] = {}
     for (i, j), v in laplacian.items():
-        if v != 0:
+        if j in needed and v:
             cols.setdefault(j, []).append((i, v))
+    zero = RATIONAL_ZERO
     B: list[list[Fraction]] = []
     for w in sparse:
         Lw: dict[int, Fraction] = {}
         for j, x in w.items():
             for i, v in cols.get(j, ()):
-                Lw[i] = Lw.get(i, Fraction(0)) + v * x
+                Lw[i] = Lw.get(i, zero) + v * x
         # W is in reduced echelon form: L w lies in span(W) iff L w = sum_t (L w)[piv_t] w_t
-        c = [Lw.get(p_, Fraction(0)) for p_ in piv]
+        c = [Lw.get(p_, zero) for p_ in piv]
         res = {k: x for k, x in Lw.items() if x != 0}
         for t, ct in enumerate(c):
             if ct != 0:
                 for k, x in sparse[t].items():
-                    res[k] = res.get(k, Fraction(0)) - ct * x
+                    res[k] = res.get(k, zero) - ct * x
         if any(x != 0 for x in res.values()):
             return None
         B.append(c)
-    W = [[r.get(j, Fraction(0)) for j in range(size)] for r in sparse]
+    W = [[r.get(j, zero) for j in range(size)] for r in sparse]
     return W, B
 
 
