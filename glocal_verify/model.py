@@ -318,9 +318,7 @@ class System:
         """The mode's communication graph as a networkx graph (weights as floats)."""
         G = nx.Graph()
         G.add_nodes_from(self.labels)
-        for key, w in self._edges[self.check_mode(mode)].items():
-            u, v = tuple(key)
-            G.add_edge(u, v, weight=float(w))
+        G.add_weighted_edges_from((*tuple(key), float(w)) for key, w in self._edges[self.check_mode(mode)].items())
         return G
 
     def laplacian(self, mode: str = NORMAL_MODE) -> np.ndarray:

@@ -160,11 +160,13 @@ def state_rounding_bound(system: System, name: str, mode: str) -> float:
         adj = system.adjacency(mode)
         total = 0.0
         k = 0
+        fr, fc = np.nonzero(cm.A[n:, :n])  # every float nonzero of the block, row by row
+        float_nz = np.split(fc, np.cumsum(np.bincount(fr, minlength=n))[:-1])
         for i, lab in enumerate(cm.nodes):
             Ai = cm.A[n + i, :n]
             # the exact support of row i: the diagonal and the neighbours inside the cluster
             # (read from the graph, not from rounded floats), and every float nonzero
-            cols = {i} | {loc[b] for b in adj[lab] if b in loc} | {int(j) for j in np.flatnonzero(Ai)}
+            cols = {i} | {loc[b] for b in adj[lab] if b in loc} | set(float_nz[i].tolist())
             for j in cols:
                 d = abs(float(Fraction(float(Ai[j])) + a * Lq.get((i, j), 0)))
                 total += d * d

@@ -128,7 +128,8 @@ def intra_neighbours(L: np.ndarray | Sequence[Sequence[Fraction]]) -> list[list[
     if isinstance(L, np.ndarray):
         nz = L != 0.0
         np.fill_diagonal(nz, False)
-        return [[int(j) for j in np.flatnonzero(row)] for row in nz]
+        rows, cols = np.nonzero(nz)  # row-major: each row's columns ascending, rows in order
+        return [c.tolist() for c in np.split(cols, np.cumsum(np.bincount(rows, minlength=L.shape[0]))[:-1])] if L.shape[0] else []
     return [[j for j, x in enumerate(row) if x and j != i] for i, row in enumerate(L)]  # zero Fractions are falsy
 
 
@@ -694,7 +695,6 @@ def krawczyk_kernel(
     E1 = [[P1[i][j] for j in S] for i in R]
     A0 = np.array([[float(x) for x in row] for row in E0], dtype=complex).reshape(len(R), len(S))
     A1 = np.array([[float(x) for x in row] for row in E1], dtype=complex).reshape(len(R), len(S))
-    kk = S.index(k)
     fi = [S.index(j) for j in free]
     x = np.concatenate([v[free], [complex(lam)]])
 

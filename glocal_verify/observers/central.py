@@ -124,12 +124,31 @@ class CentralObserver:
 
 @dataclass(frozen=True, slots=True)
 class _Block:
-    basis: np.ndarray  # 2N x d orthonormal (observable complement of one group)
+    """The observable complement of one eigen-group, basis diag(Qx, Qv) (2N x d, orthonormal).
+
+    The 2N-long basis is formed only for the blocks the design uses (:meth:`basis`): most
+    groups contribute their eigenvalues alone.
+    """
+
+    Qx: np.ndarray  # N x dx, position part of the basis
+    Qv: np.ndarray  # N x dv, velocity part
     A: np.ndarray  # d x d compression of A_1
-    C: np.ndarray  # p x d
     fixed: np.ndarray  # eigenvalues of A on the group's unobservable part
     rate: float  # decay rate of the group's observable part (-max Re eig(A))
     zero: bool
+
+    def basis(self) -> np.ndarray:
+        """[[Qx, 0], [0, Qv]]."""
+        n, dx, dv = self.Qx.shape[0], self.Qx.shape[1], self.Qv.shape[1]
+        out = np.zeros((2 * n, dx + dv))
+        out[:n, :dx] = self.Qx
+        out[n:, dx:] = self.Qv
+        return out
+
+    def output(self, C: np.ndarray) -> np.ndarray:
+        """C diag(Qx, Qv) (p x d), without the 2N-long basis."""
+        n = self.Qx.shape[0]
+        return np.hstack([C[:, :n] @ self.Qx, C[:, n:] @ self.Qv])
 
 
 def _complement(E: np.ndarray, W: np.ndarray) -> np.ndarray:
@@ -157,36 +176,25 @@ def _lam(mu: float, alpha: float, gamma: float) -> tuple[complex, complex]:
     return complex(-gamma / 2.0, r / 2.0), complex(-gamma / 2.0, -r / 2.0)
 
 
-def _blocks(system: System, mode: str, tol: Tolerance, C: np.ndarray) -> list[_Block]:
+def _blocks(system: System, mode: str, tol: Tolerance) -> list[_Block]:
     md = modal_decomposition(system, mode, tol)
-    n = system.n
-    a, g = system.alpha, system.gamma
-    out = []
-    for grp in md.groups:
-        out.append(_group_block(grp, n, a, g, C))
-    return out
+    return [_group_block(grp, system.alpha, system.gamma) for grp in md.groups]
 
 
-def _group_block(grp: EigenGroupPart, n: int, a: float, g: float, C: np.ndarray) -> _Block:
+def _group_block(grp: EigenGroupPart, a: float, g: float) -> _Block:
     mu = grp.value
     if grp.zero is Decision.ZERO:
         Qx = _complement(grp.E, grp.Wx)
         Qv = _complement(grp.E, grp.W)
         dx, dv = Qx.shape[1], Qv.shape[1]
-        basis = np.zeros((2 * n, dx + dv))
-        basis[:n, :dx] = Qx
-        basis[n:, dx:] = Qv
         A = np.zeros((dx + dv, dx + dv))
         A[:dx, dx:] = Qx.T @ Qv
         A[dx:, dx:] = -g * np.eye(dv)
         fixed = np.array([0.0] * grp.Wx.shape[1] + [-g] * grp.W.shape[1], dtype=complex)
         rate = 0.0 if dx else (g if dv else math.inf)
-        return _Block(basis, A, C @ basis, fixed, rate, True)
+        return _Block(Qx, Qv, A, fixed, rate, True)
     Q = _complement(grp.E, grp.W)
     d = Q.shape[1]
-    basis = np.zeros((2 * n, 2 * d))
-    basis[:n, :d] = Q
-    basis[n:, d:] = Q
     A = np.zeros((2 * d, 2 * d))
     A[:d, d:] = np.eye(d)
     A[d:, :d] = -a * mu * np.eye(d)
@@ -195,7 +203,7 @@ def _group_block(grp: EigenGroupPart, n: int, a: float, g: float, C: np.ndarray)
     r = grp.W.shape[1]
     fixed = np.array([lp] * r + [lm] * r, dtype=complex)
     rate = -max(lp.real, lm.real) if d else math.inf
-    return _Block(basis, A, C @ basis, fixed, rate, False)
+    return _Block(Q, Q, A, fixed, rate, False)
 
 
 @single_threaded
@@ -238,7 +246,7 @@ def design_central_observer(
     C = system.C()
     p = C.shape[0]
     n = system.n
-    blocks = _blocks(system, mode, tol, C)
+    blocks = _blocks(system, mode, tol)
     N = unobservable_subspace(system, mode, tol)
     obs = [b for b in blocks if b.A.shape[0] > 0]
     obs.sort(key=lambda b: (not b.zero, b.rate))
@@ -268,8 +276,8 @@ def design_central_observer(
     method = "none"
     if design:
         As = scipy.linalg.block_diag(*[b.A for b in design])
-        Cs = np.hstack([b.C for b in design])
-        Os = np.hstack([b.basis for b in design])
+        Cs = np.hstack([b.output(C) for b in design])
+        Os = np.hstack([b.basis() for b in design])
         if poles is not None:
             from scipy.signal import (
                 place_poles,  # lazily: importing scipy.signal costs seconds

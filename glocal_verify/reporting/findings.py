@@ -18,7 +18,6 @@ exact), checks that the verdicts match ``expect`` and renders the Markdown; text
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
