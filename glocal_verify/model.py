@@ -24,6 +24,7 @@ from typing import Any, TypeVar
 
 import networkx as nx
 import numpy as np
+import scipy.sparse
 
 from glocal_verify.errors import ModelError, SpecError
 from glocal_verify.numerics.spectrum import Spectrum
@@ -200,7 +201,10 @@ class ClusterModel:
     E : ndarray
         E^i = [0; S_{dP_i}^T] (one column per boundary agent, full column rank).
     coupling : dict
-        A^{ij} blocks per neighbouring cluster name.
+        A^{ij} blocks per neighbouring cluster name (``scipy.sparse`` CSR: the cut edges only).
+
+    The arrays are read-only: a safe mode that changes no link of the cluster shares them
+    with the normal mode's model.
     """
 
     name: str
@@ -211,7 +215,7 @@ class ClusterModel:
     boundary: tuple[Label, ...]
     cut_edges: tuple[tuple[Label, Label, Fraction], ...]
     E: np.ndarray
-    coupling: dict[str, np.ndarray]
+    coupling: dict[str, scipy.sparse.csr_matrix]
 
     def B(self, suspected: Iterable[Label]) -> np.ndarray:
         """B^i = [0; S_F^T] for the suspected actuators inside the cluster."""
@@ -588,11 +592,17 @@ class System:
         if key in self._cluster_models:
             return self._cluster_models[key]
         c = self.cluster(name)
+        members = set(c.nodes)
+        if mode != NORMAL_MODE and not any(a in members or b in members for a, b, _ in self.switching_links(mode)):
+            # no changed link has an end in the cluster: its block, cut edges and couplings are
+            # those of the normal mode (shared, read-only arrays: one copy, not one per mode)
+            model = dataclasses.replace(self.cluster_model(name, NORMAL_MODE), mode=mode)
+            self._cluster_models[key] = model
+            return model
         idx = self.idx(c.nodes)
         L = self.laplacian(mode)
         Lii = np.array(L[np.ix_(idx, idx)])
         A = state_matrix(Lii, self.alpha, self.gamma)
-        members = set(c.nodes)
         local = {lab: i for i, lab in enumerate(c.nodes)}
         edges = self._edges[mode]
         adj = self.adjacency(mode)
@@ -608,16 +618,18 @@ class System:
         E = np.zeros((2 * n, len(boundary)))
         for col, lab in enumerate(boundary):
             E[n + local[lab], col] = 1.0
-        coupled = {self._cluster_of.get(t[1]) for t in cut}
-        coupling: dict[str, np.ndarray] = {}
+        coupling: dict[str, scipy.sparse.csr_matrix] = {}
         for other in self.spec.clusters:
-            if other.name == name or other.name not in coupled:
+            pairs = [(local[u], v) for u, v, _ in cut if self._cluster_of.get(v) == other.name]
+            if other.name == name or not pairs:
                 continue
-            jdx = self.idx(other.nodes)
-            Lij = L[np.ix_(idx, jdx)]
-            Aij = np.zeros((2 * n, 2 * len(jdx)))
-            Aij[n:, : len(jdx)] = -self.alpha * Lij
-            coupling[other.name] = Aij
+            theirs = {lab: j for j, lab in enumerate(other.nodes)}
+            rows = [n + i for i, _ in pairs]
+            cols = [theirs[v] for _, v in pairs]
+            vals = [-self.alpha * float(L[idx[i], self.index[v]]) for i, v in pairs]
+            coupling[other.name] = scipy.sparse.csr_matrix((vals, (rows, cols)), shape=(2 * n, 2 * len(other.nodes)))
+        for X in (Lii, A, E):
+            X.setflags(write=False)
         model = ClusterModel(name, mode, c.nodes, Lii, A, boundary, tuple(cut), E, coupling)
         self._cluster_models[key] = model
         return model

@@ -78,7 +78,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import Any, Iterable, Sequence
+from typing import Any, Iterable, Protocol, Sequence
 
 import numpy as np
 import scipy.linalg
@@ -635,9 +635,25 @@ class KernelEnclosure:
         return any(not self.vector[j].contains(0) for j in columns)
 
 
+class RationalRow(Protocol):
+    """A row of exact entries read by index (a list of Fraction, or entries computed on access)."""
+
+    def __len__(self) -> int: ...
+
+    def __getitem__(self, j: int) -> Fraction: ...
+
+
+class RationalRows(Protocol):
+    """Rows of exact entries read by index (a list of lists of Fraction, or a lazy matrix)."""
+
+    def __len__(self) -> int: ...
+
+    def __getitem__(self, i: int) -> RationalRow: ...
+
+
 def krawczyk_kernel(
-    P0: Sequence[Sequence[Fraction]],
-    P1: Sequence[Sequence[Fraction]],
+    P0: RationalRows,
+    P1: RationalRows,
     lam: complex,
     v: np.ndarray,
     prec: int = 128,
@@ -661,8 +677,9 @@ def krawczyk_kernel(
 
     Parameters
     ----------
-    P0, P1 : rows of Fraction
-        The pencil P(lam) = P0 + lam P1.
+    P0, P1 : rows of Fraction (:class:`RationalRows`)
+        The pencil P(lam) = P0 + lam P1; only the entries of the candidate's rows and support
+        are read when ``nonzero`` is given.
     lam : complex
         Candidate zero.
     v : ndarray
