@@ -6,6 +6,8 @@ import itertools
 import random
 
 import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
 import pytest
 
 from glocal_verify import System, load_example
@@ -62,3 +64,21 @@ def test_the_batch_answers_every_set_the_per_set_method_settles_on_its_first_can
     answered = [g is not None for g in got]
     assert all(p for p, a in zip(proven, answered) if a)  # never more than the per-set method
     assert sum(answered) >= 0.9 * sum(proven)  # and nearly all of it (the rest go to that method)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(1, 6), st.integers(1, 8), st.integers(1, 3), st.booleans(), st.booleans(), st.integers(0, 2**31 - 1))
+def test_the_batch_normalisation_of_each_row_equals_the_per_set_normalisation(rows: int, n: int, m: int, complex_: bool, near_real: bool, seed: int) -> None:
+    from glocal_verify.analysis.zda import _normalize
+    from glocal_verify.analysis.zda_batch import _normalized_rows
+
+    rng = np.random.default_rng(seed)
+    X = rng.integers(-2, 3, size=(rows, n)).astype(float)  # small integers: ties of the largest entry and zero rows occur
+    U = rng.standard_normal((rows, m))
+    if complex_:
+        X = X + 1j * (1e-16 if near_real else 1.0) * rng.integers(-2, 3, size=(rows, n))
+        U = U + 0j
+    for j, (xn, un) in enumerate(_normalized_rows(X, U)):
+        xr, ur = _normalize(X[j], U[j])
+        assert xn.dtype == xr.dtype and un.dtype == ur.dtype
+        assert np.array_equal(xn, xr) and np.array_equal(un, ur)

@@ -53,6 +53,9 @@ class BatchDirection:
     dim_lo, dim_hi : int
         Kernel dimension bounds of the reduced matrix (certainly zero / not certainly nonzero
         singular values).
+    normalized : (ndarray, ndarray) or None
+        (xi, u) scaled as :func:`glocal_verify.analysis.zda._normalize` scales them (computed
+        for the whole batch at once; the same floating-point operations per entry).
     """
 
     xi: np.ndarray
@@ -60,6 +63,7 @@ class BatchDirection:
     residual: float
     dim_lo: int
     dim_hi: int
+    normalized: tuple[np.ndarray, np.ndarray] | None = None
 
     def as_found(self) -> tuple[tuple[np.ndarray, np.ndarray, float, Decision, Decision], Decision, int, int]:
         """The tuple :meth:`_Modal.direction` returns for this set."""
@@ -196,6 +200,33 @@ def _group(system: System, md: _Modal, tol: Tolerance, lam: complex, sets: Seque
         resid = num2 / (pnl * vn2)
         ok &= (_decide(resid, 1.0, tol) == 0) & (_decide(u_n, vn2, tol) == 1)
         lo, hi = ncols - int(nz), ncols - cert[g]
-        for j in np.flatnonzero(ok):
-            res[int(g[j])] = BatchDirection(xi[j], u[j], float(resid[j]), lo, int(hi[j]))
+        rows = np.flatnonzero(ok)
+        for j, nrm in zip(rows, _normalized_rows(xi[rows], u[rows])):
+            res[int(g[j])] = BatchDirection(xi[j], u[j], float(resid[j]), lo, int(hi[j]), nrm)
     return res
+
+
+def _normalized_rows(X: np.ndarray, Uin: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Row j: (X[j], Uin[j]) / X[j, k], k its largest entry, real when the imaginary parts are
+    below 1e-14 of the largest entry: :func:`glocal_verify.analysis.zda._normalize` of each row,
+    the divisions and comparisons done once for the batch (entry by entry the same operations)."""
+    if len(X) == 0:
+        return []
+    k = np.argmax(np.abs(X), axis=1)
+    c = X[np.arange(len(X)), k]
+    live = c != 0
+    cs = np.where(live, c, 1)[:, None]
+    if not np.iscomplexobj(X):
+        Xn, Un = X / cs, Uin / cs
+        return [(Xn[j], Un[j]) if live[j] else (X[j], Uin[j]) for j in range(len(X))]
+    V = np.concatenate([X, Uin], axis=1) / cs
+    real = np.abs(V.imag).max(axis=1) <= 1e-14 * np.abs(V).max(axis=1)
+    n = X.shape[1]
+    out = []
+    for j in range(len(X)):
+        if not live[j]:
+            out.append((X[j], Uin[j]))
+            continue
+        v = V[j].real.copy() if real[j] else V[j]
+        out.append((v[:n], v[n:]))
+    return out

@@ -368,7 +368,7 @@ def _witness_zda(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any] | None 
     found = at[0]
     if found is None or found[3] is not Decision.ZERO or found[4] is not Decision.NONZERO:
         return None, at
-    xi, u = _normalize(found[0], found[1])
+    xi, u = pre.normalized if pre is not None and pre.normalized is not None else _normalize(found[0], found[1])
     if not_li:
         g = GROWTH_UNBOUNDED
     else:
