@@ -620,13 +620,14 @@ class System:
             E[n + local[lab], col] = 1.0
         coupling: dict[str, scipy.sparse.csr_matrix] = {}
         for other in self.spec.clusters:
-            pairs = [(local[u], v) for u, v, _ in cut if self._cluster_of.get(v) == other.name]
-            if other.name == name or not pairs:
+            links = [(local[u], v, w) for u, v, w in cut if self._cluster_of.get(v) == other.name]
+            if other.name == name or not links:
                 continue
             theirs = {lab: j for j, lab in enumerate(other.nodes)}
-            rows = [n + i for i, _ in pairs]
-            cols = [theirs[v] for _, v in pairs]
-            vals = [-self.alpha * float(L[idx[i], self.index[v]]) for i, v in pairs]
+            # -alpha L_ij = alpha w for a cut edge (L_ij = -fl(w), as laplacian() rounds it)
+            rows = [n + i for i, _, _ in links]
+            cols = [theirs[v] for _, v, _ in links]
+            vals = [self.alpha * float(w) for _, _, w in links]
             coupling[other.name] = scipy.sparse.csr_matrix((vals, (rows, cols)), shape=(2 * n, 2 * len(other.nodes)))
         for X in (Lii, A, E):
             X.setflags(write=False)

@@ -15,6 +15,7 @@ import numpy as np
 import scipy.sparse
 
 from glocal_verify.model import ClusterModel, LocalObserver, System
+from glocal_verify.numerics.minors import RATIONAL_ZERO
 from glocal_verify.results import Status
 from glocal_verify.spec.types import NORMAL_MODE, Label
 
@@ -275,7 +276,7 @@ def _witness_vector(case: LocalCase, d: dict[str, Any]) -> np.ndarray:
     return np.array([complex(x) for p in parts for x in p], dtype=complex)
 
 
-_ZERO, _ONE = Fraction(0), Fraction(1)
+_ONE = Fraction(1)
 
 
 class _LazyRows:
@@ -318,14 +319,14 @@ def _krawczyk_zero(system: System, case: LocalCase, witness: dict[str, Any]) -> 
     def p0(i: int, j: int) -> Fraction:
         if i < n:
             if j < n:
-                return -A[i][j] if support[i, j] else _ZERO
+                return -A[i][j] if support[i, j] else RATIONAL_ZERO
             return -Fraction(round(float(G[i, j - n])))
-        return Fraction(round(float(C[i - n, j]))) if j < n else _ZERO
+        return Fraction(round(float(C[i - n, j]))) if j < n else RATIONAL_ZERO
 
     # the Krawczyk test reads only the rows and columns of the candidate's support: the exact
     # rows are evaluated on access (G and C_loc hold integers, read as pencil_matrices_exact reads them)
     P0 = _LazyRows(n + C.shape[0], n + m, p0)
-    P1 = _LazyRows(n + C.shape[0], n + m, lambda i, j: _ONE if i == j and i < n else _ZERO)
+    P1 = _LazyRows(n + C.shape[0], n + m, lambda i, j: _ONE if i == j and i < n else RATIONAL_ZERO)
     cands = list(witness.get("zeros", []))[:12]
     if isinstance(witness.get("direction"), dict) and "lambda" in witness["direction"]:
         cands.append(witness["direction"])

@@ -162,10 +162,11 @@ class _Balanced:
     def norm(self) -> float:
         """||[A, B; C, D]||_2 of the balanced system (the scale of the rank decisions).
 
-        Small systems: exact. Large ones: the 2-norm of the 2 x 2 matrix of block norms, an
-        upper bound within a factor sqrt(2), with ||B||, ||C||, ||D|| exact (thin blocks),
-        ||A|| exact when A is diagonal (the modal pencils) and :func:`_norm2` otherwise; the
-        whole matrix is never formed.
+        Small systems: exact. Large ones: the 2-norm of the 2 x 2 matrix of block norms, with
+        ||B||, ||C||, ||D|| exact (thin blocks) and ||A|| exact when A is diagonal (the modal
+        pencils): then an upper bound within a factor sqrt(2). For another A, ||A|| is the
+        power-iteration estimate of :func:`_norm2` (a lower estimate within a few per cent, as
+        the whole-matrix estimate was). The whole matrix is never formed.
         """
         n, m, p = self.A.shape[0], self.B.shape[1], self.C.shape[0]
         if not ((n + p) and (n + m)):
