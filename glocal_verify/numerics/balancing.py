@@ -230,8 +230,14 @@ def _count(s: np.ndarray, scale: float, tol: Tolerance, delta: float) -> tuple[i
     """
     if s.size == 0:
         return 0, False, 0.0
-    kept = int(np.sum(s > tol.rtol * scale))
-    certain = int(np.sum(s > tol.upper * scale + delta))
+    lo, hi = tol.rtol * scale, tol.upper * scale + delta
+    if s.size <= 8:  # the usual deflation block: plain floats, no array reductions (one call per step)
+        sv = s.tolist()
+        kept = sum(1 for x in sv if x > lo)
+        certain = sum(1 for x in sv if x > hi)
+        return kept, certain != kept, (float(sv[kept]) if kept < len(sv) else 0.0)
+    kept = int(np.sum(s > lo))
+    certain = int(np.sum(s > hi))
     dropped = float(s[kept]) if kept < s.size else 0.0
     return kept, certain != kept, dropped
 
@@ -242,22 +248,17 @@ def _block_reflector(V1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     Q is unitary and its first nu columns span Im V1. Applying Q to an n x n matrix costs two
     thin matrix products (O(nu n^2)), never an n x n orthogonal factor.
     """
-    # LAPACK's geqrf directly: the same factorization as scipy.linalg.qr(mode="raw") without its
-    # argument checks (3 against 33 us for a 200 x 4 block; one per deflation step)
+    # LAPACK's geqrt directly: the Householder QR with its compact-WY factor T in one call
+    # (14 against 24 us with geqrf and T assembled here, for a 200 x 2 block; one per deflation step)
     cplx = np.iscomplexobj(V1)
-    geqrf = scipy.linalg.lapack.zgeqrf if cplx else scipy.linalg.lapack.dgeqrf
-    qr, tau, _, info = geqrf(np.asarray(V1, dtype=complex if cplx else float))
-    if info != 0:  # pragma: no cover - geqrf reports only illegal arguments
-        raise ArithmeticError(f"geqrf failed (info = {info})")
+    geqrt = scipy.linalg.lapack.zgeqrt if cplx else scipy.linalg.lapack.dgeqrt
     n, nu = V1.shape
+    qr, T, info = geqrt(max(nu, 1), np.asarray(V1, dtype=complex if cplx else float))
+    if info != 0:  # pragma: no cover - geqrt reports only illegal arguments
+        raise ArithmeticError(f"geqrt failed (info = {info})")
     Y = np.tril(qr[:, :nu], -1)
     Y[np.arange(nu), np.arange(nu)] = 1.0
-    T = np.zeros((nu, nu), dtype=qr.dtype)
-    for i in range(nu):
-        T[i, i] = tau[i]
-        if i:
-            T[:i, i] = -tau[i] * (T[:i, :i] @ (Y[:, :i].conj().T @ Y[:, i]))
-    return Y, T
+    return Y, T[:nu, :nu]
 
 
 def _qh_left(Y: np.ndarray, T: np.ndarray, M: np.ndarray) -> np.ndarray:

@@ -481,6 +481,16 @@ def full_rank_certificate(
         r = len(replaced)
         if r == 0:
             return n
+        if r == 1:
+            b1 = bounds[rows[0]][replaced[0]]
+            return b1 if b1 >= 0 else None
+        if r == 2:  # the two permutations, without itertools (one call per certified set)
+            (f0, f1), (q0, q1) = replaced, rows
+            bq0, bq1 = bounds[q0], bounds[q1]
+            d, x = bq0[f0], bq1[f1]
+            e, y = bq0[f1], bq1[f0]
+            terms2 = [u + v for u, v in ((d, x), (e, y)) if u >= 0 and v >= 0]
+            return max(terms2) - n if terms2 else None
         terms = [
             sum(bound_of(q, replaced[c]) for q, c in zip(rows, perm))
             for perm in itertools.permutations(range(r))

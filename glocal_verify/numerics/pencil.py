@@ -367,7 +367,7 @@ def _direction(
 
 
 #: up to this many points :func:`_cluster` compares all pairs directly
-_CLUSTER_DENSE_MAX = 64
+_CLUSTER_DENSE_MAX = 256
 
 
 def _cluster(values: Sequence[complex], radius: float) -> list[list[int]]:
@@ -380,7 +380,6 @@ def _cluster(values: Sequence[complex], radius: float) -> list[list[int]]:
     """
     import scipy.sparse
     from scipy.sparse.csgraph import connected_components
-    from scipy.spatial import cKDTree
 
     n = len(values)
     if n == 0:
@@ -394,6 +393,8 @@ def _cluster(values: Sequence[complex], radius: float) -> list[list[int]]:
         if not len(pairs):
             return [[i] for i in order]
     else:
+        from scipy.spatial import cKDTree  # imported only here: scipy.spatial costs ~0.1 s to import
+
         pairs = cKDTree(pts).query_pairs(radius, output_type="ndarray") if n > 1 and radius >= 0 else np.zeros((0, 2), int)
     g = scipy.sparse.coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n)) if len(pairs) else scipy.sparse.coo_matrix((n, n))
     _, labels = connected_components(g, directed=False)
