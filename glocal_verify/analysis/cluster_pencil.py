@@ -85,6 +85,7 @@ import scipy.linalg
 import scipy.sparse
 
 from glocal_verify.model import ClusterModel
+from glocal_verify.numerics.minors import RATIONAL_ZERO
 from glocal_verify.numerics.tolerance import (
     DEFAULT_TOLERANCE,
     Decision,
@@ -708,10 +709,17 @@ def krawczyk_kernel(
     if len(R) != len(S):
         return None
     free = [j for j in S if j != k]
-    E0 = [[P0[i][j] for j in S] for i in R]  # the exact entries of P[R, S], read once
-    E1 = [[P1[i][j] for j in S] for i in R]
-    A0 = np.array([[float(x) for x in row] for row in E0], dtype=complex).reshape(len(R), len(S))
-    A1 = np.array([[float(x) for x in row] for row in E1], dtype=complex).reshape(len(R), len(S))
+    # the exact entries of P[R, S], read once (lazy rows hand over the block without a call per row)
+    E0, E1 = ((M.block(R, S) if hasattr(M, "block") else [[M[i][j] for j in S] for i in R]) for M in (P0, P1))
+    Z = RATIONAL_ZERO  # lazy rows return it for their zeros: recognised by identity, not compared
+    A0 = np.array([[0.0 if x is Z else float(x) for x in row] for row in E0], dtype=complex).reshape(len(R), len(S))
+    A1 = np.array([[0.0 if x is Z else float(x) for x in row] for row in E1], dtype=complex).reshape(len(R), len(S))
+    # per row, the columns where P0 or P1 is exactly nonzero: the ball sums below skip exact
+    # zeros (adding an exact zero ball changes nothing, so the enclosures are the same)
+    live = [
+        [c for c in range(len(S)) if not (e0[c] is Z or e0[c] == 0) or not (e1[c] is Z or e1[c] == 0)]
+        for e0, e1 in zip(E0, E1)
+    ]
     fi = [S.index(j) for j in free]
     x = np.concatenate([v[free], [complex(lam)]])
 
@@ -742,7 +750,11 @@ def krawczyk_kernel(
 
         balls: dict[tuple[int, int], Any] = {}  # the entries repeat (zeros, weights): one exact ball each
 
+        zero_ball = flint.acb(0)
+
         def q(a: Fraction) -> Any:
+            if a is Z:
+                return zero_ball
             key = (a.numerator, a.denominator)  # hashes faster than the Fraction
             b = balls.get(key)
             if b is None:
@@ -760,7 +772,7 @@ def krawczyk_kernel(
             w = [flint.acb(1)] * len(S)
             for t, col in enumerate(fi):
                 w[col] = z[t]
-            return [sum((B0[i][c] + z[-1] * B1[i][c]) * w[c] for c in range(len(S))) for i in range(len(R))]
+            return [sum((B0[i][c] + z[-1] * B1[i][c]) * w[c] for c in live[i]) for i in range(len(R))]
 
         def j_at(z: list[Any]) -> list[list[Any]]:
             w = [flint.acb(1)] * len(S)
@@ -769,7 +781,7 @@ def krawczyk_kernel(
             rows = []
             for i in range(len(R)):
                 row = [B0[i][c] + z[-1] * B1[i][c] for c in fi]
-                row.append(sum(B1[i][c] * w[c] for c in range(len(S))))
+                row.append(sum(B1[i][c] * w[c] for c in live[i]))
                 rows.append(row)
             return rows
 

@@ -7,6 +7,7 @@ worst case of Remark III.2.1), with the pencil matrices numeric and exact.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
@@ -292,6 +293,11 @@ class _LazyRows:
         if not 0 <= i < self.rows:
             raise IndexError(i)
         return _LazyRow(self, i)
+
+    def block(self, rows: Sequence[int], cols: Sequence[int]) -> list[list[Fraction]]:
+        """The entries of M[rows, cols], each computed once (what ``[[M[i][j] for j in cols] for i in rows]`` reads)."""
+        f = self.entry
+        return [[f(i, j) for j in cols] for i in rows]
 
 
 class _LazyRow:
