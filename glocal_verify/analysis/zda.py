@@ -214,6 +214,11 @@ def _normalize(xi: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 # structured numeric path
 
 
+def _thin_norm(X: np.ndarray) -> float:
+    """||X||_2 of a thin matrix (one small dimension): its largest singular value."""
+    return float(np.linalg.norm(X, 2)) if X.size else 0.0
+
+
 class _Modal:
     """Modal data of the normal mode for one actuator set."""
 
@@ -264,7 +269,13 @@ class _Modal:
         discarded whole output blocks and reported a normal rank below N + m.
         """
         As = np.diag(-self.alpha * self.mu)
-        return analyze_pencil(As, self.U[self.F, :].T, self.U[self.M, :], tol=self.tol, verify=False, balance=False)
+        B, C = self.UF.T, self.UM
+        # decision scale: the 2-norm of the block norms (||A|| = alpha max|mu| exactly, B and C thin),
+        # an upper bound of ||[A B; C 0]||_2 within sqrt(2), at every N (the exact norm would be an
+        # SVD of the whole (N + p) x (N + m) matrix per set)
+        blocks = np.array([[self.alpha * float(np.max(np.abs(self.mu), initial=0.0)), _thin_norm(B)], [_thin_norm(C), 0.0]])
+        scale = float(np.linalg.norm(blocks, 2))
+        return analyze_pencil(As, B, C, tol=self.tol, verify=False, balance=False, scale=scale if scale > 0.0 else None)
 
     def kernel(self, lam: complex, near_band: bool = False) -> tuple[list[tuple[np.ndarray, np.ndarray]], int, int]:
         """Candidate kernel vectors (eta, u) of Q_lam(s), with the kernel dimension bounds.
