@@ -364,26 +364,44 @@ class System:
         return L
 
     def delta_laplacian(self, mode: str) -> np.ndarray:
-        """dL_q = L_q - L_1 as a float array (read-only), every entry correctly rounded.
+        """dL_q = L_q - L_1 as a dense float array (read-only), every entry correctly rounded.
+
+        The entries of :meth:`delta_laplacian_sparse`, expanded on each call and not kept: dL_q
+        has a few nonzeros per changed link, and a kept N x N copy per mode (0.8 GB at
+        N = 10,000) would outlive the check that asked for it.
+        """
+        D = self.delta_laplacian_sparse(mode).toarray()
+        D.setflags(write=False)
+        return D
+
+    def delta_laplacian_sparse(self, mode: str) -> scipy.sparse.csr_matrix:
+        """dL_q = L_q - L_1 as a sparse (CSR) float matrix, every entry correctly rounded (kept per mode).
 
         Formed from the exact rational link differences of :meth:`switching_links` and only
         then rounded (never as ``fl(L_q) - fl(L_1)``, which cancels: a weight changed from 3
-        to 3 + 1e-15 would vanish). Entries that are exactly zero stay zero, so the support
-        of the float matrix is the exact support of dL_q.
+        to 3 + 1e-15 would vanish). Entries that are exactly zero are not stored, so the
+        support of the matrix is the exact support of dL_q.
         """
         key = ("delta-laplacian", self.check_mode(mode))
         if key in self.analysis:
             return self.analysis[key]  # type: ignore[no-any-return]
-        D = np.zeros((self.n, self.n))
-        deg = [Fraction(0)] * self.n
+        rows: list[int] = []
+        cols: list[int] = []
+        vals: list[float] = []
+        deg: dict[int, Fraction] = {}
         for a, b, d in self.switching_links(mode):
             u, v = self.index[a], self.index[b]
-            D[u, v] = D[v, u] = -float(d)
-            deg[u] += d
-            deg[v] += d
-        for i, d in enumerate(deg):
-            D[i, i] = float(d)
-        D.setflags(write=False)
+            rows += [u, v]
+            cols += [v, u]
+            vals += [-float(d), -float(d)]
+            deg[u] = deg.get(u, Fraction(0)) + d
+            deg[v] = deg.get(v, Fraction(0)) + d
+        for i, d in sorted(deg.items()):
+            if d != 0:
+                rows.append(i)
+                cols.append(i)
+                vals.append(float(d))
+        D = scipy.sparse.csr_matrix((vals, (rows, cols)), shape=(self.n, self.n))  # no duplicates: one entry per link
         self.analysis[key] = D
         return D
 

@@ -103,7 +103,7 @@ def _dl_xi(system: System, mode: str, attack: AttackModel) -> float | None:
     if attack.xi is None:
         return None
     xi = np.asarray(attack.xi)
-    return float(np.linalg.norm(system.delta_laplacian(mode) @ xi) / max(float(np.linalg.norm(xi)), 1e-300))
+    return float(np.linalg.norm(system.delta_laplacian_sparse(mode) @ xi) / max(float(np.linalg.norm(xi)), 1e-300))
 
 
 @checker("switching.detects")

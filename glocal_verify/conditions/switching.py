@@ -41,8 +41,8 @@ SVD_BACKWARD_CONSTANT = 10.0
 
 def _component_block(system: System, mode: str, comp: tuple[Label, ...]) -> tuple[list[int], np.ndarray]:
     idx = system.idx(comp)
-    dL = system.delta_laplacian(mode)
-    return idx, np.array(dL[np.ix_(idx, idx)])
+    dL = system.delta_laplacian_sparse(mode)
+    return idx, dL[idx, :][:, idx].toarray()
 
 
 def svd_rank_bound(M: np.ndarray) -> tuple[np.ndarray, float]:
