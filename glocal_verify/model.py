@@ -375,7 +375,7 @@ class System:
         return D
 
     def delta_laplacian_sparse(self, mode: str) -> scipy.sparse.csr_matrix:
-        """dL_q = L_q - L_1 as a sparse (CSR) float matrix, every entry correctly rounded (kept per mode).
+        """dL_q = L_q - L_1 as a sparse (CSR) float matrix, every entry correctly rounded (kept per mode: do not modify it).
 
         Formed from the exact rational link differences of :meth:`switching_links` and only
         then rounded (never as ``fl(L_q) - fl(L_1)``, which cancels: a weight changed from 3

@@ -271,8 +271,8 @@ class _Modal:
         As = np.diag(-self.alpha * self.mu)
         B, C = self.UF.T, self.UM
         # decision scale: the 2-norm of the block norms (||A|| = alpha max|mu| exactly, B and C thin),
-        # an upper bound of ||[A B; C 0]||_2 within sqrt(2), at every N (the exact norm would be an
-        # SVD of the whole (N + p) x (N + m) matrix per set)
+        # an upper bound of ||[A B; C 0]||_2, at every N as above 600 agents (the exact norm would
+        # be an SVD of the whole (N + p) x (N + m) matrix per set)
         blocks = np.array([[self.alpha * float(np.max(np.abs(self.mu), initial=0.0)), _thin_norm(B)], [_thin_norm(C), 0.0]])
         scale = float(np.linalg.norm(blocks, 2))
         return analyze_pencil(As, B, C, tol=self.tol, verify=False, balance=False, scale=scale if scale > 0.0 else None)
