@@ -199,10 +199,17 @@ class _Balanced:
         return v, v * np.ldexp(1.0, -shift)
 
 
+def _read_only(X: np.ndarray) -> np.ndarray:
+    """A read-only view of X (X itself keeps its flags)."""
+    v = X.view()
+    v.setflags(write=False)
+    return v
+
+
 def _balance(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, enabled: bool = True) -> _Balanced:
     n, m, p = A.shape[0], B.shape[1], C.shape[0]
-    if not enabled:  # unit scalings: copies (the deflation updates them), no N x N exponent arrays
-        Ab, Bb, Cb, Db = (np.array(X, dtype=np.result_type(X, np.float64)) for X in (A, B, C, D))
+    if not enabled:  # unit scalings: read-only views of the data (the deflation forms new arrays), no N x N exponent arrays
+        Ab, Bb, Cb, Db = (_read_only(np.asarray(X, dtype=np.result_type(X, np.float64))) for X in (A, B, C, D))
         return _Balanced(Ab, Bb, Cb, Db, np.ones(n), np.ones(m), np.ones(p), np.zeros(n + m, np.int64))
     et, eu, ey = _balance_exponents(A, B, C, D)
     # exponent differences are within +-2 _MAX_EXPONENT: every factor is an exact normal power of two

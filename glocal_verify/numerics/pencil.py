@@ -253,7 +253,7 @@ def _system(A: Any, B: Any, C: Any, D: Any) -> tuple[np.ndarray, np.ndarray, np.
         raise ModelError(f"D must have shape ({p}, {m}), got {D.shape}")
     cplx = np.issubdtype(np.result_type(A, B, C, D, np.float64), np.complexfloating)
     dt: Any = np.complex128 if cplx else np.float64
-    return (A.astype(dt), B.astype(dt), C.astype(dt), D.astype(dt))
+    return (A.astype(dt, copy=False), B.astype(dt, copy=False), C.astype(dt, copy=False), D.astype(dt, copy=False))  # callers never write into them
 
 
 def pencil_matrix(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray | None, lam: complex) -> np.ndarray:
