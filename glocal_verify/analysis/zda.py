@@ -19,6 +19,7 @@ import scipy.sparse
 
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
+from glocal_verify.numerics.balancing import block_norm
 from glocal_verify.numerics.pencil import (
     PencilAnalysis,
     _cluster,
@@ -214,11 +215,6 @@ def _normalize(xi: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 # structured numeric path
 
 
-def _thin_norm(X: np.ndarray) -> float:
-    """||X||_2 of a thin matrix (one small dimension): its largest singular value."""
-    return float(np.linalg.norm(X, 2)) if X.size else 0.0
-
-
 class _Modal:
     """Modal data of the normal mode for one actuator set."""
 
@@ -273,8 +269,7 @@ class _Modal:
         # decision scale: the 2-norm of the block norms (||A|| = alpha max|mu| exactly, B and C thin),
         # an upper bound of ||[A B; C 0]||_2, at every N as above 600 agents (the exact norm would
         # be an SVD of the whole (N + p) x (N + m) matrix per set)
-        blocks = np.array([[self.alpha * float(np.max(np.abs(self.mu), initial=0.0)), _thin_norm(B)], [_thin_norm(C), 0.0]])
-        scale = float(np.linalg.norm(blocks, 2))
+        scale = block_norm(self.alpha * float(np.max(np.abs(self.mu), initial=0.0)), B, C, np.zeros((C.shape[0], B.shape[1])))
         return analyze_pencil(As, B, C, tol=self.tol, verify=False, balance=False, scale=scale if scale > 0.0 else None)
 
     def kernel(self, lam: complex, near_band: bool = False) -> tuple[list[tuple[np.ndarray, np.ndarray]], int, int]:

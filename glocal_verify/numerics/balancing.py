@@ -67,6 +67,13 @@ def _norm2(M: np.ndarray) -> float:
     return max(est, float(np.abs(M).max()))
 
 
+def block_norm(a: float, B: np.ndarray, C: np.ndarray, D: np.ndarray) -> float:
+    """||[[a, ||B||], [||C||, ||D||]]||_2 with a = ||A||_2: an upper bound of ||[A B; C D]||_2 when
+    ``a`` is exact (thin B, C, D: their norms by :func:`_norm2`, exact up to 600 columns)."""
+    blocks = np.array([[a, _norm2(B)], [_norm2(C), _norm2(D)]])
+    return float(np.linalg.norm(blocks, 2))
+
+
 def _rounding(d: int, norm: float) -> float:
     """Stated backward-error bound ``c d eps ||M||`` (c = ``_ROUNDING``) of one SVD or one
     application of Householder reflectors to a matrix with d = rows + columns (LAPACK Users'
@@ -175,8 +182,7 @@ class _Balanced:
             return _norm2(np.block([[self.A, self.B], [self.C, self.D]]))
         diagonal = np.count_nonzero(self.A) == np.count_nonzero(np.diagonal(self.A))
         a = float(np.abs(np.diagonal(self.A)).max(initial=0.0)) if diagonal else _norm2(self.A)
-        blocks = np.array([[a, _norm2(self.B)], [_norm2(self.C), _norm2(self.D)]])
-        return float(np.linalg.norm(blocks, 2))
+        return block_norm(a, self.B, self.C, self.D)
 
     def to_caller(self, vb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(v, v_b'): v = diag(T, Su) v_b normalised (``||v|| = 1``, largest entry real and
