@@ -266,7 +266,7 @@ class System:
         self.gamma = float(spec.gamma)
         self.modes: tuple[str, ...] = spec.mode_names
         self._edges: dict[str, dict[frozenset[Label], Fraction]] = {}
-        self._lap: dict[str, np.ndarray] = {}
+        self._lap: dict[str, scipy.sparse.csr_matrix] = {}
         self._spectra: dict[str, Spectrum] = {}
         self._adjacency: dict[str, dict[Label, tuple[Label, ...]]] = {}
         self._cluster_models: dict[tuple[str, str], ClusterModel] = {}
@@ -325,31 +325,53 @@ class System:
         G.add_weighted_edges_from((*tuple(key), float(w)) for key, w in self._edges[self.check_mode(mode)].items())
         return G
 
-    def laplacian(self, mode: str = NORMAL_MODE) -> np.ndarray:
-        """L_q as a float array (read-only, cached), every entry correctly rounded.
+    def laplacian_sparse(self, mode: str = NORMAL_MODE) -> scipy.sparse.csr_matrix:
+        """L_q as a sparse (CSR) float matrix, every entry correctly rounded (kept per mode; read-only data).
 
         The entries are formed exactly from the spec's rational weights (the degrees are
         rational sums) and only then rounded once to the nearest double, so
         ``|fl(L)_ij - L_ij| <= u |L_ij|`` with ``u = 2^-53`` and
         ``||fl(L) - L||_2 <= ||fl(L) - L||_F <= u ||L||_F``: the input error that the
-        certified bounds of :class:`~glocal_verify.numerics.spectrum.Spectrum` add.
+        certified bounds of :class:`~glocal_verify.numerics.spectrum.Spectrum` add. Entries
+        that are exactly zero (the degree of an isolated agent) are not stored. O(N + |E|)
+        memory: the form every large-N consumer reads, instead of the dense N x N array.
         """
         self.check_mode(mode)
         if mode not in self._lap:
-            L = np.zeros((self.n, self.n))
+            rows: list[int] = []
+            cols: list[int] = []
+            vals: list[float] = []
             deg = [Fraction(0)] * self.n
             for key, w in self._edges[mode].items():
                 u, v = (self.index[x] for x in key)
-                fw = float(w)
-                L[u, v] -= fw
-                L[v, u] -= fw
+                fw = -float(w)
+                rows += [u, v]
+                cols += [v, u]
+                vals += [fw, fw]
                 deg[u] += w
                 deg[v] += w
             for i, d in enumerate(deg):
-                L[i, i] = float(d)
-            L.setflags(write=False)
+                if d != 0:
+                    rows.append(i)
+                    cols.append(i)
+                    vals.append(float(d))
+            # one stored entry per link and per degree: no duplicates are summed in floating point
+            L = scipy.sparse.csr_matrix((vals, (rows, cols)), shape=(self.n, self.n))
+            L.sort_indices()
+            for arr in (L.data, L.indices, L.indptr):
+                arr.setflags(write=False)
             self._lap[mode] = L
         return self._lap[mode]
+
+    def laplacian(self, mode: str = NORMAL_MODE) -> np.ndarray:
+        """L_q as a dense float array (read-only), every entry correctly rounded.
+
+        The dense form of :meth:`laplacian_sparse` (same entries, same input-error bound),
+        built anew on each call: N^2 doubles, so large-N code reads the sparse form.
+        """
+        L = self.laplacian_sparse(mode).toarray()
+        L.setflags(write=False)
+        return L
 
     def laplacian_exact(self, mode: str = NORMAL_MODE) -> list[list[Fraction]]:
         """L_q with exact rational entries (row lists)."""
@@ -449,7 +471,7 @@ class System:
         """
         self.check_mode(mode)
         if mode not in self._spectra:
-            L = self.laplacian(mode)
+            L = self.laplacian_sparse(mode)
             sp: Spectrum | None = None
             if mode != NORMAL_MODE and self.n >= RANK_ONE_MIN_AGENTS:
                 # a safe mode that changes a few links: rank-one updates of the normal mode's
@@ -618,8 +640,7 @@ class System:
             self._cluster_models[key] = model
             return model
         idx = self.idx(c.nodes)
-        L = self.laplacian(mode)
-        Lii = np.array(L[np.ix_(idx, idx)])
+        Lii = self.laplacian_sparse(mode)[idx][:, idx].toarray()
         A = state_matrix(Lii, self.alpha, self.gamma)
         local = {lab: i for i, lab in enumerate(c.nodes)}
         edges = self._edges[mode]

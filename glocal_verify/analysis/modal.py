@@ -456,5 +456,5 @@ def modal_exponential(system: System, mode: str, t: float, X: np.ndarray) -> np.
 
 def _apply_A(system: System, mode: str, X: np.ndarray) -> np.ndarray:
     n = system.n
-    L = system.laplacian(mode)
+    L = system.laplacian_sparse(mode)
     return np.vstack([X[n:], -system.alpha * (L @ X[:n]) - system.gamma * X[n:]])

@@ -432,8 +432,8 @@ def certified_unobservable(system: System, mode: str = NORMAL_MODE) -> Certified
     rho = sp.error_radius
     eta = sp.orthogonality_error
     # per-mode constants of the residual rounding bound (O(N^2) once, not per cluster)
-    k_row = int(np.max(np.count_nonzero(sp.matrix, axis=1))) if n else 0
-    fro = float(np.linalg.norm(sp.matrix, "fro"))
+    k_row = sp.row_nonzeros
+    fro = sp.frobenius
     Um = U[m, :]  # |M| x N: the only rows of U the certificate needs
     col_m = np.linalg.norm(Um, axis=0)
     extra = 0

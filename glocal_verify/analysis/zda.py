@@ -15,7 +15,6 @@ from dataclasses import dataclass, field
 from typing import Any, Iterable, Sequence
 
 import numpy as np
-import scipy.sparse
 
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
@@ -230,7 +229,7 @@ class _Modal:
         self.M = system.idx(system.monitored)
         self.Mx = system.idx(system.monitored_positions)
         self.Mv = system.idx(system.monitored_velocities)
-        self.L = system.analysis.get(("laplacian-csr", "normal"), lambda: scipy.sparse.csr_matrix(system.laplacian()))
+        self.L = system.laplacian_sparse()
         # the rows of U every kernel and screen reads (copied once, not per candidate)
         self.UF, self.UM, self.UMx, self.UMv = (self.U[idx, :] for idx in (self.F, self.M, self.Mx, self.Mv))
         self.mu_scale = max(self.alpha * float(np.max(np.abs(self.mu), initial=0.0)), 1.0)

@@ -145,7 +145,7 @@ def check_central_observer(system: System, ctx: CheckContext) -> list[ConditionR
         e[:n] = 1.0 / math.sqrt(n)
         He = obsv.H @ (system.C() @ e)
         witness["consensus_null_residual"] = {
-            q: float(np.linalg.norm(np.concatenate([He[:n], -system.alpha * (system.laplacian(q) @ e[:n]) - He[n:]])))
+            q: float(np.linalg.norm(np.concatenate([He[:n], -system.alpha * (system.laplacian_sparse(q) @ e[:n]) - He[n:]])))
             for q in system.modes
         }
     m = -obsv.stability_margin if math.isfinite(obsv.stability_margin) else -math.inf
@@ -184,7 +184,7 @@ def hurwitz_infeasible_finding(system: System, results: Sequence[ConditionResult
         return []
     n = system.n
     e = np.ones(n) / math.sqrt(n)
-    data = {q: float(np.linalg.norm(system.alpha * (system.laplacian(q) @ e))) for q in system.modes}
+    data = {q: float(np.linalg.norm(system.alpha * (system.laplacian_sparse(q) @ e))) for q in system.modes}
     return [
         Finding(
             "central.hurwitz-infeasible",

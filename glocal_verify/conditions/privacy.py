@@ -106,7 +106,7 @@ def check_privacy_unobservable(system: System, ctx: CheckContext) -> list[Condit
     n = system.n
     for mode in system.modes:
         S = unobservable_subspace(system, mode, ctx.tol)
-        Ae_norm = float(np.linalg.norm(system.laplacian(mode) @ e[:n])) * system.alpha
+        Ae_norm = float(np.linalg.norm(system.laplacian_sparse(mode) @ e[:n])) * system.alpha
         dec, dist = S.contains_decision(e, ctx.tol)
         witness: dict[str, Any] = {"distance": dist, "dim": S.dim, "A_q_e_norm": Ae_norm}
         if ctx.exact:

@@ -327,8 +327,8 @@ def eigenvector_error(system: System) -> np.ndarray | None:
     left = np.concatenate([[math.inf], gaps])
     right = np.concatenate([gaps, [math.inf]])
     delta = np.minimum(left, right) - rho
-    k = int(np.max(np.count_nonzero(sp.matrix, axis=1))) if n else 0
-    fro = float(np.linalg.norm(sp.matrix, "fro"))
+    k = sp.row_nonzeros
+    fro = sp.frobenius
     r = np.asarray(sp.residuals) + (k + 2) * EPS * math.sqrt(n) * (fro + np.abs(w)) + sp.input_error
     r = r * (1.0 + 4.0 * n * EPS)
     s = np.where(delta > 0, np.minimum(1.0, r / np.where(delta > 0, delta, 1.0)), 1.0)
