@@ -68,16 +68,19 @@ B_BASE = 300 * MIB
 #: for each safe mode whose spectrum is a rank-one update of the normal one (at most
 #: RANK_ONE_MAX_CHANGES changed links, N >= RANK_ONE_MIN_AGENTS: one matrix product and its
 #: certified bounds). Fit to whole verify runs on random_clustered_spec(N, 3, seed=7) with two
-#: one-link safe modes: 8.2 / 14.2 / 59.4 / 658 CPU-s at N = 1000 / 2000 / 4000 / 10,000
-#: (their local parts are the terms below; 9.1 / 17.4 / 70.6 / 166 s at N = 1000 ... 4000
-#: before the rank-one updates, which fit C_GLOBAL_MODE)
-C_GLOBAL = 0.6e-9
+#: one-link safe modes: 6.1 / 9.0 / 49 / 608 CPU-s at N = 1000 / 2000 / 4000 / 10,000 (their
+#: local parts are the terms below; at 10,000 one eigh is about 190 s, each rank-one safe mode
+#: about 75 s; 9.1 / 17.4 / 70.6 / 166 s at N = 1000 ... 4000 before the rank-one updates,
+#: which fit C_GLOBAL_MODE)
+C_GLOBAL = 0.4e-9
 C_GLOBAL_MODE = 0.5e-9
-C_GLOBAL_UPDATE = 0.15e-9
-#: dense N x N float64 arrays the global checkers hold at their peak: 12 + 2.5 per safe mode
-#: (measured 11.4 + 2.1 per mode at N = 2000); local checkers alone hold one (the Laplacian)
-A_GLOBAL = 12.0
-A_GLOBAL_MODE = 2.5
+C_GLOBAL_UPDATE = 0.1e-9
+#: dense N x N float64 arrays the global checkers hold at their peak: 5 + 1 per safe mode (the
+#: Laplacians are sparse; per mode the eigenvectors, plus the normal mode's eigh workspace, its
+#: syrk and the modal pencil: measured 6.8 arrays beside base memory at N = 4000 and 7.4 at
+#: 10,000 with two safe modes, UIO designs included); local checkers alone hold one
+A_GLOBAL = 5.0
+A_GLOBAL_MODE = 1.0
 A_LOCAL_ONLY = 1.0
 
 #: local.uio: seconds per (2 n_i)^3 per observer design (one per observer and distinct cluster
@@ -87,8 +90,9 @@ C_UIO = 6.5e-9
 #: local.uio on clusters of at least MODAL_MIN_AGENTS agents (numeric): the modal design and
 #: certificate (one eigh of the interior block, n-sized work per observer), seconds per
 #: (2 n_i)^3 per design: 9.6 s for the five designs of 2 n_i ~ 2666 at N = 4000 (11.2 s before
-#: the sparse residual checks), 2.8 s at 2000
-C_UIO_MODAL = 1.2e-10
+#: the sparse residual checks), 2.8 s at 2000, about 60 s for the designs of 2 n_i ~ 6666 at
+#: 10,000 (the n-sized work makes the cubic term err high there)
+C_UIO_MODAL = 0.8e-10
 #: smallest cluster that gets the modal UIO (glocal_verify.observers.uio_modal.MODAL_MIN_AGENTS)
 UIO_MODAL_MIN_AGENTS = 60
 #: arrays of (2 n_i)^2 doubles each design keeps until the checker ends (measured 6.3 beside
@@ -99,8 +103,8 @@ A_UIO = 10.0
 A_UIO_MODAL = 2.0
 #: local.pencil: seconds per (2 n_i)^3 per case (an observer and one suspected set: "attack"
 #: when the spec has one, and "all"): about 7 s for the six cases of 2 n_i ~ 2666 at N = 4000
-#: (30 s before the sparse residuals and the fused deflation steps).
-C_PENCIL = 1.0e-10
+#: (30 s before the sparse residuals and the fused deflation steps), about 60 s at N = 10,000.
+C_PENCIL = 0.6e-10
 
 #: switching.detects with simulation (``--simulate always`` above 150 agents): seconds per N^3
 #: per safe mode (61 s for one N = 1000 run, reports/benchmarks.md)
@@ -325,7 +329,7 @@ class CostEstimate:
         return self.seconds + self.extra_seconds
 
     def describe(self) -> str:
-        """``"2.2 h and 36 GiB (12 dense 20000 x 20000 arrays; mostly global spectra)"``."""
+        """``"53 min and 15 GiB (5 dense 20000 x 20000 arrays; mostly global spectra)"``."""
         parts = []
         if self.dense_arrays >= 1:
             parts.append(f"{self.dense_arrays:.3g} dense {self.n} x {self.n} arrays")
@@ -383,14 +387,14 @@ def estimate_verify(
     150 agents, and with ``exact`` the rational terms (:data:`C_EXACT_CENTRAL` N^4,
     :data:`C_EXACT_ZDA` N^3 for each of ``stealthy.zda`` and ``switching.avoids-attack``, between
     their fast and slow paths, :data:`C_EXACT_GLOBAL` N^3, :data:`C_EXACT_UIO` and :data:`C_EXACT_PENCIL` per
-    design and case, :data:`B_EXACT` N^2 bytes). :math:`C_{uio}` is :data:`C_UIO_MODAL` = 1.2e-10
+    design and case, :data:`B_EXACT` N^2 bytes). :math:`C_{uio}` is :data:`C_UIO_MODAL` = 0.8e-10
     for clusters of at least :data:`UIO_MODAL_MIN_AGENTS` agents in a numeric run (the modal
     design), else :data:`C_UIO` = 6.5e-9. Constants: :data:`C_START` = 3 s,
-    :data:`C_GLOBAL` = 0.6e-9, :data:`C_GLOBAL_MODE` = 0.5e-9 per safe mode with its own eigh
-    (:math:`S_e`), :data:`C_GLOBAL_UPDATE` = 0.15e-9 per safe mode updated from the normal
+    :data:`C_GLOBAL` = 0.4e-9, :data:`C_GLOBAL_MODE` = 0.5e-9 per safe mode with its own eigh
+    (:math:`S_e`), :data:`C_GLOBAL_UPDATE` = 0.1e-9 per safe mode updated from the normal
     spectrum (:math:`S_u`: at most :data:`RANK_ONE_MAX_CHANGES` changed links, N >=
     :data:`RANK_ONE_MIN_AGENTS`),
-    :data:`C_PENCIL` = 1.0e-10 s, :data:`A_GLOBAL` = 12, :data:`A_GLOBAL_MODE` = 2.5,
+    :data:`C_PENCIL` = 0.6e-10 s, :data:`A_GLOBAL` = 5, :data:`A_GLOBAL_MODE` = 1,
     :data:`A_UIO` = 10 (:data:`A_UIO_MODAL` = 2 for a modal design), :data:`B_BASE` = 300 MiB;
     measured as the module docstring says.
 
@@ -687,7 +691,7 @@ def check_limits(est: CostEstimate, limits: Limits | None = None, *, allow: bool
     """Raise :class:`SizeLimitError` when ``est`` exceeds ``limits`` (unless ``allow``).
 
     The message is one line: the command, N, the estimate, the limits, and how to proceed,
-    e.g. ``verify of 20000 agents: estimated 2.2 h and 36 GiB (12 dense 20000 x 20000 arrays;
+    e.g. ``verify of 20000 agents: estimated 53 min and 15 GiB (5 dense 20000 x 20000 arrays;
     mostly global spectra; limits 10 min, 8 GiB); rerun with --allow-large to run it anyway,
     or --only CONDITION to run fewer checkers``.
 
