@@ -196,7 +196,7 @@ class Spectrum:
 
         ``u ||fl(L)||_F / (1 - u)`` with ``u = 2^-53``: valid when every entry of
         :attr:`matrix` is the correctly rounded value of an exact entry (as
-        :meth:`System.laplacian <glocal_verify.model.System.laplacian>` builds it); 0 for a
+        :meth:`System.laplacian_sparse <glocal_verify.model.System.laplacian_sparse>` builds it); 0 for a
         matrix whose entries are all small integers would also be valid but is not assumed.
         """
         u = EPS / 2.0
