@@ -170,6 +170,18 @@ def state_matrix(L: np.ndarray, alpha: float, gamma: float) -> np.ndarray:
     return A
 
 
+def state_matrix_sparse(L: scipy.sparse.spmatrix, alpha: float, gamma: float) -> scipy.sparse.csr_matrix:
+    """:func:`state_matrix` in CSR form: the same entries (each ``-alpha L_ij`` one rounded product), zeros not stored."""
+    n = L.shape[0]
+    eye = scipy.sparse.identity(n, format="csr")
+    A = scipy.sparse.bmat([[None, eye], [(-alpha) * scipy.sparse.csr_matrix(L), (-gamma) * eye]], format="csr", dtype=float)
+    if A.shape != (2 * n, 2 * n):  # bmat drops an all-None row or column only when n = 0
+        A = scipy.sparse.csr_matrix((2 * n, 2 * n))
+    A.eliminate_zeros()
+    A.sort_indices()
+    return A  # type: ignore[no-any-return]
+
+
 @dataclass(frozen=True, slots=True)
 class LocalObserver:
     """A local observer with its resolved measured sets (labels)."""
@@ -192,8 +204,9 @@ class ClusterModel:
         velocities in the state).
     L : ndarray
         Principal block L[P_i, P_i] of the mode's Laplacian.
-    A : ndarray
-        A^i = [[0, I], [-alpha L, -gamma I]].
+    A_sparse : scipy.sparse.csr_matrix
+        A^i = [[0, I], [-alpha L, -gamma I]] in CSR form (its nonzeros only: O(n + edges)).
+        :attr:`A` is the dense form, built on each access.
     boundary : tuple of labels
         Agents of the cluster with at least one inter-cluster edge (dP_i).
     cut_edges : tuple of (inside, outside, weight)
@@ -211,11 +224,18 @@ class ClusterModel:
     mode: str
     nodes: tuple[Label, ...]
     L: np.ndarray
-    A: np.ndarray
+    A_sparse: scipy.sparse.csr_matrix
     boundary: tuple[Label, ...]
     cut_edges: tuple[tuple[Label, Label, Fraction], ...]
     E: np.ndarray
     coupling: dict[str, scipy.sparse.csr_matrix]
+
+    @property
+    def A(self) -> np.ndarray:
+        """A^i = [[0, I], [-alpha L, -gamma I]] as a dense (2n x 2n) read-only array, built from :attr:`A_sparse` on each access."""
+        A = self.A_sparse.toarray()
+        A.setflags(write=False)
+        return A
 
     def B(self, suspected: Iterable[Label]) -> np.ndarray:
         """B^i = [0; S_F^T] for the suspected actuators inside the cluster."""
@@ -640,8 +660,9 @@ class System:
             self._cluster_models[key] = model
             return model
         idx = self.idx(c.nodes)
-        Lii = self.laplacian_sparse(mode)[idx][:, idx].toarray()
-        A = state_matrix(Lii, self.alpha, self.gamma)
+        Ls = self.laplacian_sparse(mode)[idx][:, idx]
+        Lii = Ls.toarray()
+        A = state_matrix_sparse(Ls, self.alpha, self.gamma)
         local = {lab: i for i, lab in enumerate(c.nodes)}
         edges = self._edges[mode]
         adj = self.adjacency(mode)
@@ -668,7 +689,7 @@ class System:
             cols = [theirs[v] for _, v, _ in links]
             vals = [self.alpha * float(w) for _, _, w in links]
             coupling[other.name] = scipy.sparse.csr_matrix((vals, (rows, cols)), shape=(2 * n, 2 * len(other.nodes)))
-        for X in (Lii, A, E):
+        for X in (Lii, E, A.data, A.indices, A.indptr):
             X.setflags(write=False)
         model = ClusterModel(name, mode, c.nodes, Lii, A, boundary, tuple(cut), E, coupling)
         self._cluster_models[key] = model

@@ -48,13 +48,13 @@ def _zda_of_agents_3_and_4(system: System, lam: float) -> tuple[np.ndarray, np.n
 def _simulate(uio: UnknownInputObserver, system: System, x0: np.ndarray, u, d, t_end: float):  # type: ignore[no-untyped-def]
     """Cluster x' = A x + E d(t) + B u(t) and observer z' = F z + K y, x_hat(0) = 0."""
     cm = system.cluster_model(uio.cluster)
-    B = cm.B([3, 4])
+    A, B = cm.A, cm.B([3, 4])
     nx_ = len(x0)
 
     def rhs(t: float, w: np.ndarray) -> np.ndarray:
         x, z = w[:nx_], w[nx_:]
         y = uio.measure(x)
-        return np.concatenate([cm.A @ x + cm.E @ d(t) + B @ u(t), uio.derivative(z, y)])
+        return np.concatenate([A @ x + cm.E @ d(t) + B @ u(t), uio.derivative(z, y)])
 
     z0 = uio.initial_state(uio.measure(x0))
     ts = np.linspace(0.0, t_end, 301)

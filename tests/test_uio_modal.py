@@ -189,11 +189,12 @@ def test_the_rounding_bound_of_the_cluster_matrix_covers_the_exact_difference(se
         n = len(cm.nodes)
         L = s.cluster_laplacian_exact(c.name)
         a, g = Fraction(s.alpha_q), Fraction(s.gamma_q)
+        A = cm.A
         d2 = Fraction(0)
         for i in range(n):
             for j in range(n):
-                d2 += (Fraction(float(cm.A[n + i, j])) + a * L[i][j]) ** 2
-            d2 += (Fraction(float(cm.A[n + i, n + i])) + g) ** 2
+                d2 += (Fraction(float(A[n + i, j])) + a * L[i][j]) ** 2
+            d2 += (Fraction(float(A[n + i, n + i])) + g) ** 2
         assert float(d2) ** 0.5 <= state_rounding_bound(s, c.name, "normal") * (1 + 1e-12) + 1e-300
 
 

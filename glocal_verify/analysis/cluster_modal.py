@@ -37,6 +37,7 @@ from fractions import Fraction
 from typing import Sequence
 
 import numpy as np
+import scipy.sparse
 
 from glocal_verify.model import System
 from glocal_verify.numerics.spectrum import gamma_bound
@@ -160,18 +161,20 @@ def state_rounding_bound(system: System, name: str, mode: str) -> float:
         adj = system.adjacency(mode)
         total = 0.0
         k = 0
-        fr, fc = np.nonzero(cm.A[n:, :n])  # every float nonzero of the block, row by row
-        float_nz = np.split(fc, np.cumsum(np.bincount(fr, minlength=n))[:-1])
+        block = scipy.sparse.csr_matrix(cm.A_sparse[n:, :n])  # every float nonzero of the block, row by row
+        block.sort_indices()
+        vel = cm.A_sparse.diagonal()[n:]
         for i, lab in enumerate(cm.nodes):
-            Ai = cm.A[n + i, :n]
+            lo, hi = block.indptr[i], block.indptr[i + 1]
+            Ai = dict(zip(block.indices[lo:hi].tolist(), block.data[lo:hi].tolist()))
             # the exact support of row i: the diagonal and the neighbours inside the cluster
             # (read from the graph, not from rounded floats), and every float nonzero
-            cols = {i} | {loc[b] for b in adj[lab] if b in loc} | set(float_nz[i].tolist())
+            cols = {i} | {loc[b] for b in adj[lab] if b in loc} | set(Ai)
             for j in cols:
-                d = abs(float(Fraction(float(Ai[j])) + a * Lq.get((i, j), 0)))
+                d = abs(float(Fraction(Ai.get(j, 0.0)) + a * Lq.get((i, j), 0)))
                 total += d * d
                 k += 1
-            d = abs(float(Fraction(float(cm.A[n + i, n + i])) + g))
+            d = abs(float(Fraction(float(vel[i])) + g))
             total += d * d
             k += 1
         return math.sqrt(total) * (1.0 + (k + 4) * EPS) + 1e-300 if total > 0 else 0.0

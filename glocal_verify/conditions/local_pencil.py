@@ -82,7 +82,7 @@ def _residual(case: LocalCase, lam: complex, v: np.ndarray) -> float:
     """||P v|| / (||P||_2 ||v||) for the full pencil P at lam; ||P||_2 exact for small P, else
     its lower bound :func:`~glocal_verify.analysis.cluster_pencil.norm2_lower` on the sparse
     pencil (the ratio can then only be larger)."""
-    n = case.model.A.shape[0]
+    n = 2 * len(case.model.nodes)
     if n + min(case.C.shape[0], case.B.shape[1] + case.model.E.shape[1]) <= _EXACT_NORM_COLUMNS:
         P = full_pencil(case, lam)
         return float(np.linalg.norm(P @ v)) / max(float(np.linalg.norm(P, 2)) * float(np.linalg.norm(v)), 1e-300)

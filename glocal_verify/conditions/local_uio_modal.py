@@ -99,7 +99,7 @@ def uio_one_modal(system: System, cm: ClusterModel, obs: LocalObserver, C: np.nd
     modes = interior_modes(system, cm.name, mode)
     dA = state_rounding_bound(system, cm.name, mode)
     try:
-        md = design_uio_modal(cm.A, modes, pos, vel, alpha=system.alpha, gamma=system.gamma, tol=tol, input_error=dA)
+        md = design_uio_modal(cm.A_sparse, modes, pos, vel, alpha=system.alpha, gamma=system.gamma, tol=tol, input_error=dA)
     except NotApplicableError:
         return None
     w: dict[str, Any] = {}
@@ -145,7 +145,7 @@ def uio_one_modal(system: System, cm: ClusterModel, obs: LocalObserver, C: np.nd
     K1 = md.K1
     # residual checks of the design: F = A1 - K1 C, K = K1 + F h, on sparse matrices (A^i has
     # O(nnz L) nonzeros, h and C select rows, K1 has p columns: O(n p) work, no 2n x 2n array)
-    As, hs, Cs, Es = (scipy.sparse.csr_matrix(M) for M in (cm.A, h, C, cm.E))
+    As, hs, Cs, Es = (scipy.sparse.csr_matrix(M) for M in (cm.A_sparse, h, C, cm.E))
     K1s = scipy.sparse.csr_matrix(K1)
     A1 = As - hs @ (Cs @ As)
     F = A1 - K1s @ Cs

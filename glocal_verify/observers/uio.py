@@ -346,7 +346,7 @@ def _modal_design(system: System, observer: LocalObserver, mode: str, C: np.ndar
     idx = {a: k for k, a in enumerate(cm.nodes)}
     try:
         md = design_uio_modal(
-            cm.A,
+            cm.A_sparse,
             interior_modes(system, cm.name, mode),
             [idx[a] for a in observer.positions],
             [idx[a] for a in observer.velocities],
@@ -359,9 +359,10 @@ def _modal_design(system: System, observer: LocalObserver, mode: str, C: np.ndar
         return None
     if md.detectable is not Status.HOLDS or md.certificate is None:
         return None
-    n2 = cm.A.shape[0]
+    A = cm.A
+    n2 = A.shape[0]
     T = np.eye(n2) - h @ C
-    A1 = cm.A - h @ (C @ cm.A)
+    A1 = A - h @ (C @ A)
     F = A1 - md.K1 @ C
     K = md.K1 + F @ h
     nE = float(np.linalg.norm(cm.E))
@@ -377,7 +378,7 @@ def _modal_design(system: System, observer: LocalObserver, mode: str, C: np.ndar
         "poles": md.poles,
         "eigenvalues": eig,
         "decoupling_residual": float(np.linalg.norm(h @ (C @ cm.E) - cm.E) / nE) if nE > 0 else 0.0,
-        "error_residual": float(np.linalg.norm(A1 - (F - (F @ h) @ C) - K @ C)) / max(float(np.linalg.norm(cm.A)) + float(np.linalg.norm(F)), 1e-300),
+        "error_residual": float(np.linalg.norm(A1 - (F - (F @ h) @ C) - K @ C)) / max(float(np.linalg.norm(A)) + float(np.linalg.norm(F)), 1e-300),
         "hurwitz_margin": float(-np.max(eig.real)) if len(eig) else float("inf"),
         "hurwitz": Status.HOLDS if cert.certified else Status.UNDECIDED,
         "hurwitz_ratio": 1.0 / (cert.perturbation * cert.resolvent) if cert.perturbation * cert.resolvent > 0 else float("inf"),
