@@ -68,3 +68,4 @@ def test_the_frobenius_norm_bounds_the_exact_norm_of_the_rounded_matrix() -> Non
     L = System(random_clustered_spec(25, 2, seed=4)).laplacian()
     fro = Fraction(Spectrum(L).frobenius)
     assert fro**2 >= sum((Fraction(float(x)) ** 2 for x in L.ravel()), Fraction(0))
+

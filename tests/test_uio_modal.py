@@ -16,6 +16,7 @@ from glocal_verify.analysis.local_cases import LocalCase, local_cases
 from glocal_verify.conditions import local
 from glocal_verify.conditions.registry import CheckContext
 from glocal_verify.design.generators import random_clustered_spec
+from glocal_verify.model import state_matrix
 from glocal_verify.numerics import exact as ex
 from glocal_verify.observers.uio_existence import is_hurwitz_exact
 from glocal_verify.observers.uio_modal import _Basis, design_uio_modal
@@ -215,3 +216,14 @@ def test_the_modal_local_uio_is_an_observer_with_the_dense_spectrum_and_a_decoup
         # eq. obs_decent_error: T E = 0 and T A - F T - K C = 0
         assert np.linalg.norm(a.T @ a.E) < 1e-12
         assert np.linalg.norm(a.T @ a.A - a.F @ a.T - a.K @ a.C) < 1e-9 * np.linalg.norm(a.A)
+
+
+@pytest.mark.parametrize("seed", [0, 2])
+def test_a_cluster_models_sparse_state_matrix_has_the_dense_formulas_entries(seed: int) -> None:
+    system = System(random_clustered_spec(30, 3, seed=seed))
+    for c in system.clusters:
+        for mode in system.modes:
+            cm = system.cluster_model(c.name, mode)
+            dense = state_matrix(cm.L, system.alpha, system.gamma)
+            assert np.array_equal(cm.A, dense) and np.array_equal(cm.A_sparse.toarray(), dense)
+            assert cm.A_sparse.nnz == np.count_nonzero(dense) and not cm.A.flags.writeable
