@@ -76,9 +76,10 @@ C_GLOBAL = 0.4e-9
 C_GLOBAL_MODE = 0.5e-9
 C_GLOBAL_UPDATE = 0.1e-9
 #: dense N x N float64 arrays the global checkers hold at their peak: 5 + 1 per safe mode (the
-#: Laplacians are sparse; per mode the eigenvectors, plus the normal mode's eigh workspace, its
-#: syrk and the modal pencil: measured 6.8 arrays beside base memory at N = 4000 and 7.4 at
-#: 10,000 with two safe modes, UIO designs included); local checkers alone hold one
+#: Laplacians and the cluster state matrices are sparse; per mode the eigenvectors, plus the
+#: normal mode's eigh workspace, its syrk and the modal pencil: measured 5.4 arrays beside base
+#: memory at N = 4000 and 6.6 at 10,000 with two safe modes, UIO designs included); local
+#: checkers alone hold one
 A_GLOBAL = 5.0
 A_GLOBAL_MODE = 1.0
 A_LOCAL_ONLY = 1.0
@@ -98,9 +99,9 @@ UIO_MODAL_MIN_AGENTS = 60
 #: arrays of (2 n_i)^2 doubles each design keeps until the checker ends (measured 6.3 beside
 #: the global arrays, 12 alone, at N = 2000 and 3000)
 A_UIO = 10.0
-#: the same for a modal design, which keeps n-sized factors only: the N = 4000 run peaks at
-#: 2.5 GiB, within the global arrays' 2.3 GiB and base memory plus 0.4 array per design
-A_UIO_MODAL = 2.0
+#: the same for a modal design, which keeps n-sized factors only and reads the cluster's A^i in
+#: sparse form: 1 covers the N = 4000 and 10,000 runs (0.96 and 5.1 GiB) with the global arrays
+A_UIO_MODAL = 1.0
 #: local.pencil: seconds per (2 n_i)^3 per case (an observer and one suspected set: "attack"
 #: when the spec has one, and "all"): about 7 s for the six cases of 2 n_i ~ 2666 at N = 4000
 #: (30 s before the sparse residuals and the fused deflation steps), about 60 s at N = 10,000.
@@ -395,7 +396,7 @@ def estimate_verify(
     spectrum (:math:`S_u`: at most :data:`RANK_ONE_MAX_CHANGES` changed links, N >=
     :data:`RANK_ONE_MIN_AGENTS`),
     :data:`C_PENCIL` = 0.6e-10 s, :data:`A_GLOBAL` = 5, :data:`A_GLOBAL_MODE` = 1,
-    :data:`A_UIO` = 10 (:data:`A_UIO_MODAL` = 2 for a modal design), :data:`B_BASE` = 300 MiB;
+    :data:`A_UIO` = 10 (:data:`A_UIO_MODAL` = 1 for a modal design), :data:`B_BASE` = 300 MiB;
     measured as the module docstring says.
 
     Parameters
