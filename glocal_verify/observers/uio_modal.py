@@ -43,6 +43,7 @@ from dataclasses import dataclass, field
 from typing import Any, Sequence
 
 import numpy as np
+import scipy.sparse
 
 from glocal_verify.analysis.cluster_modal import EPS, InteriorModes, gamma_bound
 from glocal_verify.errors import NotApplicableError
@@ -416,7 +417,7 @@ def _coefficient_sigma_min(B: _Basis) -> float:
 
 
 def design_uio_modal(
-    A: np.ndarray,
+    A: np.ndarray | scipy.sparse.spmatrix,
     modes: InteriorModes,
     positions: Sequence[int],
     velocities: Sequence[int],
@@ -430,8 +431,9 @@ def design_uio_modal(
 
     Parameters
     ----------
-    A : ndarray
-        fl(A^i) (2n x 2n); only its sparse structure is used (the decoupled A_1 = (I - h C) A).
+    A : ndarray or scipy.sparse matrix
+        fl(A^i) (2n x 2n; :attr:`ClusterModel.A_sparse <glocal_verify.model.ClusterModel.A_sparse>`
+        avoids the dense array); only its sparse structure is used (the decoupled A_1 = (I - h C) A).
     modes : InteriorModes
         :func:`~glocal_verify.analysis.cluster_modal.interior_modes` of the same block.
     positions, velocities : sequence of int
@@ -452,8 +454,6 @@ def design_uio_modal(
     gain the slow modes are moved along :data:`~glocal_verify.observers.uio_existence.SLOW_LADDER`
     as in the dense design.
     """
-    import scipy.sparse
-
     n = modes.size
     if not set(int(b) for b in modes.boundary) <= set(int(v) for v in velocities):
         raise NotApplicableError("no UIO: rank(C E) = rank(E) fails (a boundary agent's velocity is not measured)")
