@@ -159,3 +159,53 @@ def test_exact_zero_polynomial_is_the_gcd_structure_of_a_simple_example() -> Non
     e = analyze_pencil_exact([[0, 1], [0, 0]], [[0], [1]], [[1, -1]])
     assert e.left_invertible and [z.rational for z in e.zeros] == [Fraction(1)]
     assert e.zeros[0].real_sign == 1 and e.zeros[0].input_direction
+
+
+def _diagonal_system(n: int, p: int, m: int, hidden: tuple[int, ...], seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The shape of the modal ZDA pencil: a diagonal state matrix, B and C^T columns of one
+    orthogonal matrix, the modes ``hidden`` unobservable (their C columns zero)."""
+    rng = np.random.default_rng(seed)
+    A = np.diag(-np.linspace(0.5, 20.0, n))
+    U = np.linalg.qr(rng.standard_normal((n, n)))[0]
+    B = U[:, :m].copy()
+    C = U[:, m : m + p].T.copy()
+    C[:, list(hidden)] = 0.0
+    return A, B, C
+
+
+def test_the_symmetric_deflation_of_a_diagonal_state_matrix_finds_its_unobservable_modes_as_zeros() -> None:
+    n, hidden = 300, (17, 150, 299)
+    A, B, C = _diagonal_system(n, 100, 2, hidden, seed=3)
+    pa = analyze_pencil(A, B, C, balance=False)
+    assert pa.decided and pa.normal_rank == n + 2 and len(pa.zeros) == len(hidden)
+    values = np.array([z.value for z in pa.zeros])
+    for k in hidden:  # the witness x = e_k, u = 0: (a_k I - A) e_k = 0 and C e_k = 0
+        assert np.min(np.abs(values - A[k, k])) <= 1e-8 * abs(A[k, k])
+
+
+def test_the_symmetric_and_the_general_deflation_give_the_same_rank_and_zeros(monkeypatch: pytest.MonkeyPatch) -> None:
+    import glocal_verify.numerics.balancing as balancing
+
+    A, B, C = _diagonal_system(260, 40, 2, (5, 100), seed=11)
+    sym = analyze_pencil(A, B, C, balance=False)
+    monkeypatch.setattr(balancing, "_is_symmetric", lambda M: False)
+    gen = analyze_pencil(A, B, C, balance=False)
+    assert (sym.normal_rank, sym.decided, len(sym.zeros)) == (gen.normal_rank, gen.decided, len(gen.zeros))
+    a = np.sort_complex(np.array([z.value for z in sym.zeros]))
+    b = np.sort_complex(np.array([z.value for z in gen.zeros]))
+    assert np.allclose(a, b, rtol=1e-8, atol=1e-8)
+
+
+def test_the_symmetric_deflation_returns_an_exactly_symmetric_state_matrix() -> None:
+    from glocal_verify.numerics.balancing import _mirror_upper, _reduce
+    from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE
+
+    A, B, C = _diagonal_system(300, 4, 3, (), seed=5)
+    A2, *_ = _reduce(A, B, C, np.zeros((4, 3)), DEFAULT_TOLERANCE, 20.0, 0.0)
+    assert A2.shape[0] < 300 and np.array_equal(A2, A2.T)
+    rng = np.random.default_rng(0)
+    for n in (1, 7, 256, 257, 600):
+        M = rng.standard_normal((n, n))
+        S = M + M.T
+        junk = np.triu(S) + np.tril(rng.standard_normal((n, n)), -1)
+        assert np.array_equal(_mirror_upper(junk), S)
