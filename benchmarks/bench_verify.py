@@ -21,6 +21,7 @@ import tempfile
 from pathlib import Path
 
 import networkx as nx
+import numpy as np
 
 from glocal_verify import System, spec_from_graph, verify
 from glocal_verify.analysis.unobservable import unobservable_subspace
@@ -84,6 +85,25 @@ def command_rows(quick: bool) -> list[Row]:
     return rows
 
 
+def _deflation_row(n: int) -> Row:
+    """The staircase of the modal ZDA pencil: symmetric step (upper triangle, one BLAS thread) vs general step.
+
+    The pencil has the modal shape of ``stealthy.zda``: a diagonal state matrix, B and C^T
+    columns of one orthogonal matrix, N / 100 outputs (the generator's monitors) and 2 inputs.
+    """
+    from glocal_verify.numerics.balancing import _reduce
+    from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE
+
+    rng = np.random.default_rng(0)
+    U = np.linalg.qr(rng.standard_normal((n, n)))[0]
+    A = np.diag(-np.linspace(0.0, 20.0, n))
+    p = max(2, n // 100)
+    B, C, D = U[:, :2].copy(), U[:, 2 : 2 + p].T.copy(), np.zeros((p, 2))
+    tg = best_time(lambda: _reduce(A, B, C, D, DEFAULT_TOLERANCE, 20.0, 0.0, symmetric_step=False), repeat=2, budget=120.0)
+    ts = best_time(lambda: _reduce(A, B, C, D, DEFAULT_TOLERANCE, 20.0, 0.0), repeat=2, budget=120.0)
+    return Row("stealthy.zda: deflation of the modal pencil", f"N = {n}, {p} outputs, 2 inputs", "general step (both triangles, default threads)", tg, "symmetric step (upper triangle, one thread)", ts)
+
+
 def run(quick: bool) -> list[Row]:
     rows: list[Row] = command_rows(quick)
     sizes = [250, 500]
@@ -121,6 +141,7 @@ def run(quick: bool) -> list[Row]:
         tdo = best_time(lambda: unobservable_subspace_dense(A, C), budget=120.0)
         tso = best_time(lambda: unobservable_subspace(fresh()))
         rows.append(Row("unobservable subspace: modal formula vs dense staircase", f"N = {n}", "dense staircase", tdo, "modal", tso))
+    rows.append(_deflation_row(500 if quick else 4000))
     for n in ([20, 40] if quick else [20, 40, 80]):
         spec = random_clustered_spec(n, 2, seed=3)
         system = System(spec)

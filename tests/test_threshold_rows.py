@@ -10,7 +10,7 @@ import pytest
 from envelope_checks import assert_envelopes_agree
 from glocal_verify import System, load_example, spec_from_dict
 from glocal_verify.design.generators import random_clustered_spec
-from glocal_verify.numerics.threads import available_cores, blas_threads
+from glocal_verify.numerics.threads import ThreadSwitch, available_cores, blas_threads
 from glocal_verify.simulation.engine import simulate
 from glocal_verify.simulation.observer_models import ObserverBank
 from glocal_verify.simulation.schedule import Schedule
@@ -93,4 +93,20 @@ def test_blas_threads_never_exceeds_the_cores_and_restores_the_limit() -> None:
         assert 1 <= n <= available_cores()
     with blas_threads(1) as n:
         assert n == 1
+    assert [i["num_threads"] for i in threadpool_info()] == before
+
+
+def test_a_thread_switch_sets_the_limit_inside_its_block_and_restores_it_after() -> None:
+    from threadpoolctl import threadpool_info
+
+    before = [i["num_threads"] for i in threadpool_info()]
+    switch = ThreadSwitch()
+    with switch.limit(1) as n:
+        assert n == 1
+        assert all(i["num_threads"] == 1 for i in threadpool_info())
+        with switch.limit(None) as k:
+            assert k == available_cores()
+        assert all(i["num_threads"] == 1 for i in threadpool_info())
+    with switch.limit(10_000) as n:
+        assert 1 <= n <= available_cores()
     assert [i["num_threads"] for i in threadpool_info()] == before

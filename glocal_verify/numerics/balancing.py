@@ -19,7 +19,7 @@ import scipy.sparse
 import scipy.sparse.csgraph
 import scipy.sparse.linalg
 
-from glocal_verify.numerics.threads import blas_threads
+from glocal_verify.numerics.threads import ThreadSwitch
 from glocal_verify.numerics.tolerance import Tolerance
 
 #: private helpers of :mod:`glocal_verify.numerics.pencil`; nothing here is public API
@@ -290,6 +290,10 @@ def _q_right(Y: np.ndarray, T: np.ndarray, M: np.ndarray) -> np.ndarray:
     return M - ((M @ Y) @ T) @ Y.conj().T
 
 
+#: from this order on the symmetric step's two large products use every core (below, one
+#: thread is as fast and skips the thread-pool switch)
+_THREADED_MIN = 1500
+
 #: rows per block of :func:`_mirror_upper`
 _MIRROR_BLOCK = 256
 
@@ -321,7 +325,7 @@ def _similarity_blocks(Y: np.ndarray, T: np.ndarray, A: np.ndarray) -> tuple[np.
     return trailing, top
 
 
-def _symmetric_similarity_blocks(Y: np.ndarray, T: np.ndarray, A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _symmetric_similarity_blocks(Y: np.ndarray, T: np.ndarray, A: np.ndarray, buf: np.ndarray, switch: ThreadSwitch) -> tuple[np.ndarray, np.ndarray]:
     """:func:`_similarity_blocks` for a real symmetric A of which only the upper triangle is read.
 
     ``A`` is C-contiguous and represents the symmetric matrix of its upper triangle (the
@@ -337,24 +341,56 @@ def _symmetric_similarity_blocks(Y: np.ndarray, T: np.ndarray, A: np.ndarray) ->
     application of a block reflector. Its rounding error is covered by the same stated
     backward-error model ``c d eps ||M||`` as the general step (``_OPS_PER_STEP``).
 
-    Returns ``(trailing, top)``. ``trailing`` is ``(Q^T A Q)[nu:, nu:]`` as a new C-contiguous
-    array of which, again, only the upper triangle is valid. ``top`` is
+    ``buf`` is a flat float array of at least ``(n - nu)^2`` entries that receives the trailing
+    block. When A is itself a view at the start of ``buf`` (the previous step's result), the
+    block is moved down in place (:func:`_compact_trailing`). A fresh array per step costs its
+    page faults: 1.15 s against 0.06 s for an 8000 x 8000 copy into memory already touched.
+
+    Returns ``(trailing, top)``. ``trailing`` is ``(Q^T A Q)[nu:, nu:]``, a C-contiguous view
+    at the start of ``buf`` of which, again, only the upper triangle is valid. ``top`` is
     ``(Q^T A Q)[:nu, nu:]``, in full.
     """
     nu = Y.shape[1]
     YT = Y @ T
+    # the two O(n^2 nu) products on every core from _THREADED_MIN states on, the rest (small
+    # products, the copy) on the one thread the deflation runs with
+    cores = None if A.shape[0] >= _THREADED_MIN else 1
     # A.T is the Fortran-ordered view of the same memory: its lower triangle is A's upper one
-    W = scipy.linalg.blas.dsymm(1.0, A.T, YT, side=0, lower=1)
+    with switch.limit(cores):
+        W = scipy.linalg.blas.dsymm(1.0, A.T, YT, side=0, lower=1)
     Z = YT.T @ W
     Z = 0.5 * (Z + Z.T)
     V = W - 0.5 * (Y @ Z)
     top = A[:nu, nu:] - V[:nu] @ Y[nu:].T - Y[:nu] @ V[nu:].T
-    trailing = np.array(A[nu:, nu:])
+    k = A.shape[0] - nu
+    trailing = buf[: k * k].reshape(k, k)
+    if np.shares_memory(A, buf):
+        _compact_trailing(A, nu, trailing)
+    else:
+        np.copyto(trailing, A[nu:, nu:])
     # the Fortran view trailing.T, updated in place on its lower triangle (= trailing's upper one)
-    out = scipy.linalg.blas.dsyr2k(-1.0, V[nu:], Y[nu:], beta=1.0, c=trailing.T, trans=0, lower=1, overwrite_c=1)
+    with switch.limit(cores):
+        out = scipy.linalg.blas.dsyr2k(-1.0, V[nu:], Y[nu:], beta=1.0, c=trailing.T, trans=0, lower=1, overwrite_c=1)
     if not np.shares_memory(out, trailing):  # pragma: no cover - f2py copies only non-contiguous input
-        trailing = np.ascontiguousarray(out.T)
+        np.copyto(trailing, out.T)
     return trailing, top
+
+
+def _compact_trailing(A: np.ndarray, nu: int, out: np.ndarray) -> None:
+    """Copy ``A[nu:, nu:]`` into ``out`` where both are C-contiguous views at the start of one buffer.
+
+    Rows go forward in blocks. A block of destination rows ``[i0, i1)`` ends at entry ``i1 k``
+    (k = n - nu), and its source starts at entry ``(nu + i0) n + nu``. The block is chosen so
+    that the first is at most the second, so no copy reads what an earlier copy wrote: row
+    ``i0`` alone always qualifies, and the blocks grow to about ``nu`` rows and more.
+    """
+    n = A.shape[0]
+    k = n - nu
+    i0 = 0
+    while i0 < k:
+        i1 = min(k, max(i0 + 1, ((nu + i0) * n + nu) // k))
+        np.copyto(out[i0:i1], A[nu + i0 : nu + i1, nu:])
+        i0 = i1
 
 
 def _mirror_upper(A: np.ndarray) -> np.ndarray:
@@ -379,7 +415,7 @@ def _is_symmetric(A: np.ndarray) -> bool:
 
 
 def _reduce(
-    A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, tol: Tolerance, scale: float, delta: float
+    A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, tol: Tolerance, scale: float, delta: float, *, symmetric_step: bool = True
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, bool, float]:
     """Deflate until D has full row rank; rank P(lam) = acc + rank P_reduced(lam) for all lam.
 
@@ -395,22 +431,29 @@ def _reduce(
 
     A real, exactly symmetric A (the modal ZDA pencil's diagonal state matrix) stays symmetric
     under the similarity. From ``_FUSED_MIN`` states on, its steps keep the upper triangle only
-    (:func:`_symmetric_similarity_blocks`), with one BLAS thread. Measured on a 4000-state
-    deflation with 37 outputs, on the 2-core machine: 3.9-4.4 s, against 5.6-7.1 s for the
-    general step with two threads and 6.2-6.6 s with one. The symmetric step with two threads
-    took 8.8-11 s: its many small products pay for the thread synchronisation.
+    (:func:`_symmetric_similarity_blocks`): its small products on one BLAS thread, its two large
+    ones on every core, its trailing block moved in place. Measured on the 2-core machine, on
+    the modal shape (diagonal A, orthonormal B and C^T): 4000 states and 37 outputs take
+    2.9-3.0 s, against 5.6-7.1 s for the general step with two threads and 6.2-6.6 s with
+    one; 10,000 states and 97 outputs 27 s against 63 s. With every product on two threads the
+    symmetric step took 8.8-11 s at 4000: the many small products pay for the thread
+    synchronisation.
+    ``symmetric_step=False`` uses the general step throughout (the benchmark's baseline).
     """
-    symmetric = A.shape[0] >= _FUSED_MIN and _is_symmetric(A)
+    symmetric = symmetric_step and A.shape[0] >= _FUSED_MIN and _is_symmetric(A)
     if not symmetric:
-        return _reduce_steps(A, B, C, D, tol, scale, delta, False)
-    with blas_threads(1):
-        return _reduce_steps(A, B, C, D, tol, scale, delta, True)
+        return _reduce_steps(A, B, C, D, tol, scale, delta, None)
+    switch = ThreadSwitch()
+    with switch.limit(1):
+        return _reduce_steps(A, B, C, D, tol, scale, delta, switch)
 
 
 def _reduce_steps(
-    A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, tol: Tolerance, scale: float, delta: float, symmetric: bool
+    A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, tol: Tolerance, scale: float, delta: float, switch: ThreadSwitch | None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, bool, float]:
-    """The loop of :func:`_reduce` (``symmetric``: A is real and exactly symmetric)."""
+    """The loop of :func:`_reduce` (``switch`` given: A is real and exactly symmetric, and the
+    symmetric steps switch threads with it)."""
+    symmetric = switch is not None
     acc = 0
     undecided = False
     # `upper`: A holds only its upper triangle (after a symmetric step); it is mirrored back
@@ -418,6 +461,7 @@ def _reduce_steps(
     if symmetric and not A.flags.c_contiguous and A.T.flags.c_contiguous:
         A = A.T  # the same matrix (it is symmetric), in the C order the symmetric step reads
     upper = False
+    buf: np.ndarray | None = None  # the symmetric steps' trailing blocks, in place
     while True:
         n, m, p = A.shape[0], B.shape[1], C.shape[0]
         if p == 0:
@@ -448,13 +492,16 @@ def _reduce_steps(
             break
         Y, Tw = _block_reflector(Vh[:nu].conj().T)
         if symmetric and A.shape[0] >= _FUSED_MIN:
-            A, top = _symmetric_similarity_blocks(Y, Tw, A)
+            if buf is None:
+                buf = np.empty((A.shape[0] - nu) ** 2)
+            assert switch is not None
+            A, top = _symmetric_similarity_blocks(Y, Tw, A, buf, switch)
             upper = True
         elif A.shape[0] >= _FUSED_MIN:
             A, top = _similarity_blocks(Y, Tw, A)
         else:  # small: fewer, cheaper calls win
-            if upper:
-                A, upper = _mirror_upper(A), False
+            if upper:  # a copy: the buffer is not kept alive by the small steps
+                A, upper, buf = _mirror_upper(A).copy(), False, None
             At = _q_right(Y, Tw, _qh_left(Y, Tw, A))
             A, top = np.ascontiguousarray(At[nu:, nu:]), At[:nu, nu:]
         Bt = _qh_left(Y, Tw, B)
@@ -463,6 +510,6 @@ def _reduce_steps(
         C = np.vstack([top, C2t[:, nu:]])
         D = np.vstack([Bt[:nu], D2])
         acc += nu
-    if upper:
-        A = _mirror_upper(A)
+    if upper:  # a copy of the final block only, not a view that keeps the whole buffer
+        A = _mirror_upper(A).copy()
     return A, B, C, D, acc, undecided, delta
