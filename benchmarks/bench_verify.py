@@ -86,7 +86,7 @@ def command_rows(quick: bool) -> list[Row]:
 
 
 def _deflation_row(n: int) -> Row:
-    """The staircase of the modal ZDA pencil: symmetric step (upper triangle, one BLAS thread) vs general step.
+    """The staircase of the modal ZDA pencil: symmetric step (upper triangle; small products on one thread, the two large ones on every core) vs general step.
 
     The pencil has the modal shape of ``stealthy.zda``: a diagonal state matrix, B and C^T
     columns of one orthogonal matrix, N / 100 outputs (the generator's monitors) and 2 inputs.
@@ -101,7 +101,7 @@ def _deflation_row(n: int) -> Row:
     B, C, D = U[:, :2].copy(), U[:, 2 : 2 + p].T.copy(), np.zeros((p, 2))
     tg = best_time(lambda: _reduce(A, B, C, D, DEFAULT_TOLERANCE, 20.0, 0.0, symmetric_step=False), repeat=2, budget=120.0)
     ts = best_time(lambda: _reduce(A, B, C, D, DEFAULT_TOLERANCE, 20.0, 0.0), repeat=2, budget=120.0)
-    return Row("stealthy.zda: deflation of the modal pencil", f"N = {n}, {p} outputs, 2 inputs", "general step (both triangles, default threads)", tg, "symmetric step (upper triangle, one thread)", ts)
+    return Row("stealthy.zda: deflation of the modal pencil", f"N = {n}, {p} outputs, 2 inputs", "general step (both triangles, default threads)", tg, "symmetric step (upper triangle; small products on one thread, the two large ones on every core)", ts)
 
 
 def run(quick: bool) -> list[Row]:

@@ -10,7 +10,7 @@ import pytest
 from envelope_checks import assert_envelopes_agree
 from glocal_verify import System, load_example, spec_from_dict
 from glocal_verify.design.generators import random_clustered_spec
-from glocal_verify.numerics.threads import ThreadSwitch, available_cores, blas_threads
+from glocal_verify.numerics.threads import ThreadSwitch, available_cores, blas_threads, default_threads
 from glocal_verify.simulation.engine import simulate
 from glocal_verify.simulation.observer_models import ObserverBank
 from glocal_verify.simulation.schedule import Schedule
@@ -105,8 +105,24 @@ def test_a_thread_switch_sets_the_limit_inside_its_block_and_restores_it_after()
         assert n == 1
         assert all(i["num_threads"] == 1 for i in threadpool_info())
         with switch.limit(None) as k:
-            assert k == available_cores()
+            assert k == default_threads()
         assert all(i["num_threads"] == 1 for i in threadpool_info())
     with switch.limit(10_000) as n:
         assert 1 <= n <= available_cores()
     assert [i["num_threads"] for i in threadpool_info()] == before
+
+
+def test_every_core_means_no_more_than_a_thread_limit_in_the_environment(monkeypatch: pytest.MonkeyPatch) -> None:
+    from glocal_verify.numerics.threads import environment_threads
+
+    for key in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        monkeypatch.delenv(key, raising=False)
+    assert environment_threads() is None and default_threads() == available_cores()
+    monkeypatch.setenv("OMP_NUM_THREADS", "not a number")
+    assert environment_threads() is None
+    monkeypatch.setenv("OPENBLAS_NUM_THREADS", "1")
+    assert default_threads() == 1
+    with blas_threads(None) as n:
+        assert n == 1
+    with ThreadSwitch().limit(None) as n:
+        assert n == 1

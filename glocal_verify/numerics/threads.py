@@ -35,7 +35,7 @@ from typing import Any, Callable, Iterator, TypeVar
 
 _F = TypeVar("_F", bound=Callable[..., Any])
 
-__all__ = ["available_cores", "blas_threads", "set_default_threads", "default_threads", "single_threaded", "ThreadSwitch"]
+__all__ = ["available_cores", "blas_threads", "set_default_threads", "default_threads", "environment_threads", "single_threaded", "ThreadSwitch"]
 
 #: the thread count "all cores" means (None: every core this process may run on)
 _DEFAULT: ContextVar[int | None] = ContextVar("glocal_verify_blas_threads", default=None)
@@ -51,10 +51,36 @@ def available_cores() -> int:
         return max(1, os.cpu_count() or 1)
 
 
+#: environment variables that limit the BLAS / OpenMP pools at start-up; "every core" honours
+#: the smallest one set (a run started with ``OPENBLAS_NUM_THREADS=1`` stays on one thread)
+_THREAD_ENV = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def environment_threads() -> int | None:
+    """The smallest positive integer among ``OPENBLAS_NUM_THREADS``, ``OMP_NUM_THREADS`` and
+    ``MKL_NUM_THREADS`` (None when none is set to one)."""
+    found: list[int] = []
+    for key in _THREAD_ENV:
+        try:
+            k = int(os.environ.get(key, "").strip())
+        except ValueError:
+            continue
+        if k >= 1:
+            found.append(k)
+    return min(found) if found else None
+
+
 def default_threads() -> int:
-    """The thread count used for ``blas_threads(None)``: :func:`set_default_threads`, else all cores."""
+    """The thread count used for ``blas_threads(None)``.
+
+    That is :func:`set_default_threads` (``--threads N``) when set. Otherwise it is every core,
+    capped by a thread limit in the environment (:func:`environment_threads`).
+    """
     n = _DEFAULT.get()
-    return available_cores() if n is None else n
+    if n is not None:
+        return n
+    env = environment_threads()
+    return available_cores() if env is None else min(env, available_cores())
 
 
 def set_default_threads(n: int | None) -> None:
