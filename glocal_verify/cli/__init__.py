@@ -36,7 +36,7 @@ def build_parser() -> Parser:
     """The argument parser with every subcommand of :data:`COMMAND_MODULES`."""
     p = Parser(prog=PROG, description="Check the conditions of the glocal attack-detection paper on a concrete network.")
     p.add_argument("--version", action="version", version=f"{PROG} {__version__}")
-    p.add_argument("--threads", type=int, metavar="N", help="BLAS threads for the large factorizations (default: every core; loops over small matrices use one)")
+    p.add_argument("--threads", type=int, metavar="N", help="BLAS threads for the large factorizations (default: every core, at most OPENBLAS_NUM_THREADS, OMP_NUM_THREADS or MKL_NUM_THREADS when set; loops over small matrices use one)")
     sub = p.add_subparsers(dest="command", parser_class=Parser)
     for name in COMMAND_MODULES:
         importlib.import_module(f"{__name__}.{name}").register(sub)
