@@ -209,3 +209,13 @@ def test_the_symmetric_deflation_returns_an_exactly_symmetric_state_matrix() -> 
         S = M + M.T
         junk = np.triu(S) + np.tril(rng.standard_normal((n, n)), -1)
         assert np.array_equal(_mirror_upper(junk), S)
+
+
+def test_a_complex_output_map_takes_the_general_deflation_and_finds_the_same_zeros() -> None:
+    A, B, C = _diagonal_system(200, 60, 2, (7, 120), seed=2)
+    real = analyze_pencil(A, B, C, balance=False)
+    rotated = analyze_pencil(A, B, np.exp(0.3j) * C, balance=False)  # the same output space
+    assert (rotated.normal_rank, rotated.decided, len(rotated.zeros)) == (real.normal_rank, real.decided, len(real.zeros))
+    a = np.sort_complex(np.array([z.value for z in real.zeros]))
+    b = np.sort_complex(np.array([z.value for z in rotated.zeros]))
+    assert np.allclose(a, b, rtol=1e-8, atol=1e-8)

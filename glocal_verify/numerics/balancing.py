@@ -438,7 +438,10 @@ def _reduce(
     synchronisation.
     ``symmetric_step=False`` uses the general step throughout (the benchmark's baseline).
     """
-    symmetric = symmetric_step and A.shape[0] >= _FUSED_MIN and _is_symmetric(A)
+    # a complex B, C or D makes the reflectors complex: the real BLAS calls of the symmetric step do not
+    # apply (analyze_pencil gives all four one dtype; this guards direct calls)
+    real = not any(np.iscomplexobj(X) for X in (B, C, D))
+    symmetric = symmetric_step and real and A.shape[0] >= _FUSED_MIN and _is_symmetric(A)
     if not symmetric:
         return _reduce_steps(A, B, C, D, tol, scale, delta, None)
     switch = ThreadSwitch()
