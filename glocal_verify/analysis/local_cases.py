@@ -28,6 +28,7 @@ __all__ = [
     "full_pencil",
     "full_pencil_sparse",
     "local_cases",
+    "input_output_matrices",
     "pencil_matrices",
     "pencil_matrices_exact",
 ]
@@ -126,8 +127,18 @@ def cluster_summary(system: System, name: str, mode: str = NORMAL_MODE) -> dict[
 
 def pencil_matrices(case: LocalCase) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(A^i, G, C_loc) with G = [B^i, -E^i]: the local pencil of eq. ``pencil_uio``,
-    [[lam I - A^i, -B^i, E^i], [C_loc, 0, 0]], is the Rosenbrock pencil of (A^i, G, C_loc, 0)."""
-    return case.model.A, np.hstack([case.B, -case.model.E]), case.C
+    [[lam I - A^i, -B^i, E^i], [C_loc, 0, 0]], is the Rosenbrock pencil of (A^i, G, C_loc, 0).
+
+    A^i is dense, built on this call (:attr:`ClusterModel.A <glocal_verify.model.ClusterModel.A>`);
+    callers that need only G and C_loc use :func:`input_output_matrices`."""
+    G, C = input_output_matrices(case)
+    return case.model.A, G, C
+
+
+def input_output_matrices(case: LocalCase) -> tuple[np.ndarray, np.ndarray]:
+    """(G, C_loc) of :func:`pencil_matrices`, without forming the dense A^i (a 3333-agent
+    cluster's is 6666 x 6666, 355 MB)."""
+    return np.hstack([case.B, -case.model.E]), case.C
 
 
 def full_pencil(case: LocalCase, lam: complex) -> np.ndarray:
@@ -155,9 +166,10 @@ def full_pencil_sparse(case: LocalCase, lam: complex) -> scipy.sparse.csr_matrix
     case : LocalCase
     lam : complex
     """
-    A, G, C = pencil_matrices(case)
+    A = case.model.A_sparse
+    G, C = input_output_matrices(case)
     n, m, p = A.shape[0], G.shape[1], C.shape[0]
-    top = scipy.sparse.hstack([lam * scipy.sparse.identity(n, dtype=complex, format="csr") - scipy.sparse.csr_matrix(A), scipy.sparse.csr_matrix(-G)])
+    top = scipy.sparse.hstack([lam * scipy.sparse.identity(n, dtype=complex, format="csr") - A, scipy.sparse.csr_matrix(-G)])
     bottom = scipy.sparse.hstack([scipy.sparse.csr_matrix(C), scipy.sparse.csr_matrix((p, m))])
     return scipy.sparse.vstack([top, bottom], format="csr").astype(complex)
 
@@ -222,7 +234,7 @@ def pencil_matrices_exact(system: System, case: LocalCase) -> tuple[list[list[Fr
     case : LocalCase
     """
     A = _exact_A(system, case)
-    _, G, C = pencil_matrices(case)
+    G, C = input_output_matrices(case)
     return A, _exact_int(G), _exact_int(C)
 
 
@@ -254,7 +266,7 @@ def _exact_pattern_at(system: System, case: LocalCase, lam: Fraction | None) -> 
     integers (their rounded values, as :func:`pencil_matrices_exact` reads them).
     """
     A, _, support = exact_A_float(system, case)
-    _, G, C = pencil_matrices(case)
+    G, C = input_output_matrices(case)
     n = len(A)
     top = support.copy()
     diag = np.arange(n)
@@ -318,7 +330,7 @@ def _krawczyk_zero(system: System, case: LocalCase, witness: dict[str, Any]) -> 
     from glocal_verify.analysis.cluster_pencil import krawczyk_kernel
 
     A, _, support = exact_A_float(system, case)
-    _, G, C = pencil_matrices(case)
+    G, C = input_output_matrices(case)
     n, m = len(A), G.shape[1]
     nonzero = _exact_pattern_at(system, case, None)  # the support of P0 or P1 (lam I counted on the diagonal)
 
