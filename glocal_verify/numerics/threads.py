@@ -116,14 +116,7 @@ def blas_threads(n: int | None) -> Iterator[int]:
     int
         The thread count in force. Without threadpoolctl installed the block runs unchanged.
     """
-    cap = default_threads()
-    want = cap if n is None else max(1, min(int(n), cap))
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # pragma: no cover - threadpoolctl is a dependency
-        yield want
-        return
-    with threadpool_limits(limits=want):
+    with ThreadSwitch().limit(n) as want:  # one library scan, as threadpool_limits does
         yield want
 
 
