@@ -53,16 +53,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Callable, Union
 
 import numpy as np
 
 from glocal_verify.model import System
+from glocal_verify.numerics.spectrum import Spectrum
 from glocal_verify.numerics.subspace import EPS, decide_with_error
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
 from glocal_verify.spec.types import NORMAL_MODE
 
 __all__ = [
     "EigenGroupPart",
+    "GroupBasis",
     "ModalDecomposition",
     "modal_decomposition",
     "eigen_residuals",
@@ -72,6 +75,67 @@ __all__ = [
 
 # --------------------------------------------------------------------------------------------
 # modal decomposition of one mode
+
+
+#: how a part of a group is formed from the group's basis E: all of it, none of it (an
+#: ``N x 0`` array), or ``E @ K`` for a ``k x r`` coefficient matrix K
+PartSpec = Union[str, np.ndarray]
+
+
+class GroupBasis:
+    """The eigenbasis E of one group and its parts ``W``, ``W_upper``, ``Wx``, ``Wx_upper``, formed on first use.
+
+    For a spectrum with explicit eigenvectors E is a column slice of them (a view, no copy);
+    for a factored one (:class:`~glocal_verify.numerics.updated_spectrum.UpdatedSpectrum`)
+    it is computed when first read, so that the groups nobody reads (the observed ones)
+    cost nothing. A part given as coefficients is formed once and kept.
+
+    Parameters
+    ----------
+    n : int
+        N, the length of the basis vectors.
+    k : int
+        The number of basis vectors.
+    source : ndarray or callable
+        E itself, or a function returning it.
+    specs : tuple of four PartSpec
+        ``W``, ``W_upper``, ``Wx``, ``Wx_upper`` (a decided reading passes one object twice).
+    """
+
+    __slots__ = ("n", "k", "_source", "_E", "specs", "_formed")
+
+    def __init__(self, n: int, k: int, source: np.ndarray | Callable[[], np.ndarray], specs: tuple[PartSpec, PartSpec, PartSpec, PartSpec]) -> None:
+        self.n = n
+        self.k = k
+        self._source = source
+        self._E: np.ndarray | None = source if isinstance(source, np.ndarray) else None
+        self.specs = specs
+        self._formed: dict[int, np.ndarray] = {}
+
+    @property
+    def E(self) -> np.ndarray:
+        """The ``N x k`` basis (computed on first use for a factored spectrum)."""
+        if self._E is None:
+            assert callable(self._source)
+            self._E = self._source()
+        return self._E
+
+    def dim(self, i: int) -> int:
+        """Dimension of part ``i`` (0 W, 1 W_upper, 2 Wx, 3 Wx_upper) without forming it."""
+        spec = self.specs[i]
+        if isinstance(spec, str):
+            return 0 if spec == "none" else self.k
+        return int(spec.shape[1])
+
+    def part(self, i: int) -> np.ndarray:
+        """Part ``i`` as an ``N x r`` array."""
+        spec = self.specs[i]
+        if isinstance(spec, str):
+            return np.zeros((self.n, 0)) if spec == "none" else self.E
+        key = id(spec)
+        if key not in self._formed:
+            self._formed[key] = self.E @ spec
+        return self._formed[key]
 
 
 @dataclass(frozen=True, slots=True)
@@ -86,36 +150,72 @@ class EigenGroupPart:
         Positions in the ascending eigenvalue array.
     zero : Decision
         Is ``mu = 0`` (decided at ``rtol * ||L_q||_2``)?
-    E : ndarray
-        ``N x k`` orthonormal eigenbasis of the group: a column slice (view) of the cached
-        eigenvector matrix, or the exact component indicators for ``mu = 0``.
-    W : ndarray
-        Orthonormal basis of ``W_mu = E ∩ ker S_M`` (lower reading).
-    W_upper : ndarray
-        Upper reading of ``W_mu``.
-    Wx : ndarray
-        Orthonormal basis of ``W^x_mu = E ∩ ker S_{M_x}`` (lower reading; used for ``mu = 0``).
-    Wx_upper : ndarray
-        Upper reading of ``W^x_mu``.
     sv : ndarray
         Singular values of ``S_M E`` padded with zeros to ``k``.
     svx : ndarray
         Singular values of ``S_{M_x} E`` padded with zeros to ``k``.
     error : float
-        Estimated eigenvector error of the group (Davis-Kahan).
+        Estimated eigenvector error of the group (Davis-Kahan, plus the error of the computed
+        monitored rows).
+    basis : GroupBasis
+        E and the parts below, formed on first use.
+
+    The properties ``E`` (``N x k`` orthonormal eigenbasis: a column slice of the eigenvector
+    matrix, or the exact component indicators for ``mu = 0``), ``W`` / ``W_upper`` (bases of
+    ``W_mu = E ∩ ker S_M``, lower and upper reading) and ``Wx`` / ``Wx_upper`` (``W^x_mu = E ∩ ker
+    S_{M_x}``, used for ``mu = 0``) are arrays; ``dim_W`` and the like give their dimensions
+    without forming them.
     """
 
     value: float
     indices: tuple[int, ...]
     zero: Decision
-    E: np.ndarray
-    W: np.ndarray
-    W_upper: np.ndarray
-    Wx: np.ndarray
-    Wx_upper: np.ndarray
     sv: np.ndarray
     svx: np.ndarray
     error: float
+    basis: GroupBasis
+
+    @property
+    def E(self) -> np.ndarray:
+        return self.basis.E
+
+    @property
+    def W(self) -> np.ndarray:
+        return self.basis.part(0)
+
+    @property
+    def W_upper(self) -> np.ndarray:
+        return self.basis.part(1)
+
+    @property
+    def Wx(self) -> np.ndarray:
+        return self.basis.part(2)
+
+    @property
+    def Wx_upper(self) -> np.ndarray:
+        return self.basis.part(3)
+
+    @property
+    def dim_W(self) -> int:
+        return self.basis.dim(0)
+
+    @property
+    def dim_W_upper(self) -> int:
+        return self.basis.dim(1)
+
+    @property
+    def dim_Wx(self) -> int:
+        return self.basis.dim(2)
+
+    @property
+    def dim_Wx_upper(self) -> int:
+        return self.basis.dim(3)
+
+    @property
+    def decided(self) -> bool:
+        """Both readings of ``W`` and of ``Wx`` are one subspace."""
+        sp = self.basis.specs
+        return sp[0] is sp[1] and sp[2] is sp[3]
 
 
 @dataclass(frozen=True, slots=True)
@@ -186,32 +286,35 @@ def _partition(w: np.ndarray, scale: float, tol: Tolerance) -> tuple[list[list[i
 
 
 def _group_parts(
-    w: np.ndarray,
-    U: np.ndarray,
+    sp: Spectrum,
     partition: list[list[int]],
     scale: float,
     mx: list[int],
     m: list[int],
     tol: Tolerance,
-    residuals: np.ndarray,
     kernel_basis: np.ndarray | None,
 ) -> tuple[EigenGroupPart, ...]:
-    """The parts of every group of ``partition`` (consecutive index runs) as views of ``U``.
+    """The parts of every group of ``partition`` (consecutive index runs), formed from ``sp`` on first use.
 
-    Memory: ``E`` is the column slice ``U[:, a:b+1]`` (a view, no copy); ``W``/``Wx`` are ``E``
-    itself for a simple eigenvalue in the kernel (or a monitor set with no rows), an empty
-    slice when the kernel is ``{0}``, and a new ``N x r`` array only for a multiple group with a
-    nonzero kernel; decided readings share one array. The rows of the
-    monitors, ``U[M, :]`` and ``U[M_x, :]`` (``|M| x N``), are taken once; a simple eigenvalue
-    needs only the norm of its column there (no SVD), so the loop is O(|M| N) in all plus one
-    small SVD per multiple group.
+    Memory: ``E`` is the column slice ``U[:, a:b+1]`` of an explicit spectrum (a view, no copy;
+    a factored spectrum computes it when it is read); ``W``/``Wx`` are ``E`` itself for a simple
+    eigenvalue in the kernel (or a monitor set with no rows), an empty array when the kernel is
+    ``{0}``, and a new ``N x r`` array only for a multiple group with a nonzero kernel; decided
+    readings share one array. The rows of the monitors, ``U[M, :]`` and ``U[M_x, :]``
+    (``|M| x N``), are taken once; a simple eigenvalue needs only the norm of its column there
+    (no SVD), so the loop is O(|M| N) in all plus one small SVD per multiple group. The
+    decisions add the error of the computed rows (``sqrt(|M| k)`` times
+    :attr:`Spectrum.entry_error <glocal_verify.numerics.spectrum.Spectrum.entry_error>`).
     """
+    w = sp.values
     n = len(w)
+    residuals = sp.residuals
     rmax = float(np.max(residuals)) if len(residuals) else 0.0
-    Um = U[m, :]
-    Umx = U[mx, :]
+    Um = sp.rows(m) if len(m) else np.zeros((0, n))
+    Umx = sp.rows(mx) if len(mx) else np.zeros((0, n))
     col_m = np.linalg.norm(Um, axis=0) if len(m) else np.zeros(n)
     col_mx = np.linalg.norm(Umx, axis=0) if len(mx) else np.zeros(n)
+    entry = sp.entry_error
     out = []
     for gi, g in enumerate(partition):
         a, b = g[0], g[-1] + 1
@@ -223,69 +326,69 @@ def _group_parts(
         value = float(w[a]) if b - a == 1 else float(np.mean(w[a:b]))
         zero = tol.decide(value, scale)
         k = b - a
+        source: np.ndarray | Callable[[], np.ndarray]
         if zero is Decision.ZERO and kernel_basis is not None and kernel_basis.shape[1] == k:
             # ker L is spanned by the component indicators: known exactly
-            E = kernel_basis
+            source = kernel_basis
             err = math.sqrt(n) * EPS
-            W, W_up, sv = _kernel_of(E, E[m, :], k, err, tol)
-            Wx, Wx_up, svx = _kernel_of(E, E[mx, :], k, err, tol)
+            W, W_up, sv = _kernel_of(kernel_basis[m, :], k, err, tol)
+            Wx, Wx_up, svx = _kernel_of(kernel_basis[mx, :], k, err, tol)
         else:
-            E = U[:, a:b]
+            source = (lambda a=a, b=b: sp.columns(slice(a, b)))
             rg = float(abs(residuals[a])) if k == 1 else float(np.linalg.norm(residuals[a:b]))
             err = (rg / gap if gap > 0 else math.inf) + math.sqrt(n) * EPS
+            err_m = err + math.sqrt(len(m) * k) * entry
+            err_mx = err + math.sqrt(len(mx) * k) * entry
+            err = max(err_m, err_mx)
             if k == 1:
-                W, W_up, sv = _simple_kernel(E, float(col_m[a]), len(m), err, tol)
-                Wx, Wx_up, svx = _simple_kernel(E, float(col_mx[a]), len(mx), err, tol)
+                W, W_up, sv = _simple_kernel(float(col_m[a]), len(m), err_m, tol)
+                Wx, Wx_up, svx = _simple_kernel(float(col_mx[a]), len(mx), err_mx, tol)
             else:
-                W, W_up, sv = _kernel_of(E, Um[:, a:b], k, err, tol)
-                Wx, Wx_up, svx = _kernel_of(E, Umx[:, a:b], k, err, tol)
+                W, W_up, sv = _kernel_of(Um[:, a:b], k, err_m, tol)
+                Wx, Wx_up, svx = _kernel_of(Umx[:, a:b], k, err_mx, tol)
         out.append(
             EigenGroupPart(
                 value=value,
                 indices=tuple(range(a, b)),
                 zero=zero,
-                E=E,
-                W=W,
-                W_upper=W_up,
-                Wx=Wx,
-                Wx_upper=Wx_up,
                 sv=sv,
                 svx=svx,
                 error=err,
+                basis=GroupBasis(n, k, source, (W, W_up, Wx, Wx_up)),
             )
         )
     return tuple(out)
 
 
-def _simple_kernel(E: np.ndarray, s: float, rows: int, err: float, tol: Tolerance) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Both readings of ``span(E) ∩ ker S`` for one column ``E`` with ``||S E|| = s`` (no copy).
+def _simple_kernel(s: float, rows: int, err: float, tol: Tolerance) -> tuple[PartSpec, PartSpec, np.ndarray]:
+    """Both readings of ``span(E) ∩ ker S`` for one column ``E`` with ``||S E|| = s``: ``"all"`` or ``"none"``.
 
     The singular value of the ``rows x 1`` matrix ``S E`` is its norm; the kernel is ``E`` or
     ``{0}`` (same decision as :func:`_kernel_readings`; ``S`` with no rows has kernel ``E``).
     """
     if rows == 0:
-        return E, E, np.zeros(1)
+        return "all", "all", np.zeros(1)
     d = decide_with_error(s, err, tol)
     if d is Decision.UNDECIDED:
-        return E[:, :0], E, np.array([s])
-    part = E if d is Decision.ZERO else E[:, :0]
-    return part, part, np.array([s])  # decided: one array for both readings
+        return "none", "all", np.array([s])
+    part = "all" if d is Decision.ZERO else "none"
+    return part, part, np.array([s])  # decided: one specification for both readings
 
 
-def _kernel_of(E: np.ndarray, SE: np.ndarray, k: int, err: float, tol: Tolerance) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Both readings of ``span(E) ∩ ker S`` from ``SE = S E`` (``E`` itself when the kernel is everything)."""
+def _kernel_of(SE: np.ndarray, k: int, err: float, tol: Tolerance) -> tuple[PartSpec, PartSpec, np.ndarray]:
+    """Both readings of ``span(E) ∩ ker S`` from ``SE = S E``: ``"all"`` (no rows), ``"none"``, or coefficients."""
     ker_lo, ker_hi, sv, _ = _kernel_readings(SE, k, err, tol)
 
-    def basis(ker: np.ndarray) -> np.ndarray:
+    def spec(ker: np.ndarray) -> PartSpec:
         if ker.shape[1] == 0:
-            return E[:, :0]
+            return "none"
         if SE.shape[0] == 0:  # no rows: the kernel is the identity, E @ I = E
-            return E
-        return E @ ker
+            return "all"
+        return ker
 
-    lower = basis(ker_lo)
-    # decided: both readings keep the same singular vectors, so they share one array
-    return lower, (lower if ker_hi.shape[1] == ker_lo.shape[1] else basis(ker_hi)), sv
+    lower = spec(ker_lo)
+    # decided: both readings keep the same singular vectors, so they share one specification
+    return lower, (lower if ker_hi.shape[1] == ker_lo.shape[1] else spec(ker_hi)), sv
 
 
 def eigen_residuals(system: System, mode: str = NORMAL_MODE) -> np.ndarray:
@@ -331,31 +434,33 @@ def modal_decomposition(system: System, mode: str = NORMAL_MODE, tol: Tolerance 
 
     Notes
     -----
-    Cost and memory: after the cached ``eigh``, O(|M| N) time for the simple eigenvalues (the
+    Cost and memory: after the cached spectrum, O(|M| N) time for the simple eigenvalues (the
     singular value of ``S_M u_i`` is the norm of the monitored rows of column ``u_i``) plus a
     ``|M| x k`` SVD per multiple group; memory O(|M| N) beyond the eigenvector matrix ``U``.
     Groups are runs of consecutive indices, so every ``E`` is a view ``U[:, a:b]`` (no copy) and
-    ``W``, ``W^x`` are ``E`` itself, an empty slice, or (a multiple group with a nonzero
+    ``W``, ``W^x`` are ``E`` itself, an empty array, or (a multiple group with a nonzero
     kernel) a new ``N x r`` array: the new parts of all groups together are at most four
     ``N x N`` arrays (the kernel dimensions of each of ``W``, ``W^x`` and their upper readings sum
     to at most N) on top of ``U``, and O(|M| N) when the multiple groups are few or observed.
+    For a safe mode kept in factored form only the monitored rows are computed (``|M| N^2``
+    per factor), and a group's ``E`` only when it is read.
     """
     key = ("modal", mode, tol.rtol, tol.band)
     cache = system.analysis
     if key in cache:
         return cache[key]  # type: ignore[no-any-return]
     system.check_mode(mode)
-    w, U = system.eigh(mode)
+    sp = system.spectrum(mode)
+    w = sp.values
     scale = float(np.max(np.abs(w))) if len(w) else 0.0
     if scale == 0.0:
         scale = 1.0
     split, merged, decided = _partition(w, scale, tol)
     mx = system.idx(system.monitored_positions)
     m = system.idx(system.monitored)
-    res = eigen_residuals(system, mode)
     K = _kernel_indicators(system, mode)
-    groups = _group_parts(w, U, split, scale, mx, m, tol, res, K)
-    mgroups = groups if decided else _group_parts(w, U, merged, scale, mx, m, tol, res, K)
+    groups = _group_parts(sp, split, scale, mx, m, tol, K)
+    mgroups = groups if decided else _group_parts(sp, merged, scale, mx, m, tol, K)
     md = ModalDecomposition(mode, groups, mgroups, scale, decided)
     cache[key] = md
     return md
@@ -438,19 +543,22 @@ def modal_exponential(system: System, mode: str, t: float, X: np.ndarray) -> np.
     X : ndarray
         ``2N x k`` (or length-2N) array.
     """
-    w, U = system.eigh(mode)
+    sp = system.spectrum(mode)
+    w = sp.values
     n = system.n
     X = np.asarray(X, dtype=float)
     vec = X.ndim == 1
     if vec:
         X = X[:, None]
-    a = U.T @ X[:n]
-    b = U.T @ X[n:]
+    k = X.shape[1]
+    ab = sp.project(np.hstack([X[:n], X[n:]]))
+    a, b = ab[:, :k], ab[:, k:]
     p11, p12, p21, p22 = block_exponentials(w, system.alpha, system.gamma, t)
     with np.errstate(over="ignore", invalid="ignore"):
         a2 = p11[:, None] * a + p12[:, None] * b
         b2 = p21[:, None] * a + p22[:, None] * b
-        out = np.vstack([U @ a2, U @ b2])
+        out = sp.apply(np.hstack([a2, b2]))
+        out = np.vstack([out[:, :k], out[:, k:]])
     return out[:, 0] if vec else out
 
 

@@ -212,7 +212,7 @@ def _switched_recursion(
                 V = S
                 continue
             V, kappa = _orth_readings(X)
-            scale = float(np.max(np.abs(system.eigh(mode)[0]))) if system.n else 0.0
+            scale = float(np.max(np.abs(system.spectrum(mode).values))) if system.n else 0.0
             err = kappa * (err + Sk.error + system.n * EPS * (1 + system.alpha * scale * tau + system.gamma * tau))
             if not upper:
                 steps.append({"mode": mode, "tau": tau, "dim": int(V.shape[1]), "condition": kappa, "error": err})

@@ -26,7 +26,7 @@ from glocal_verify.numerics.exact_subspace import (
     _to_fraction_cols,
 )
 from glocal_verify.numerics.minors import RATIONAL_ZERO
-from glocal_verify.numerics.spectrum import EPS
+from glocal_verify.numerics.spectrum import EPS, Spectrum
 from glocal_verify.numerics.subspace import Subspace, decide_with_error
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
 from glocal_verify.spec.types import NORMAL_MODE
@@ -49,15 +49,17 @@ def _assemble(n: int, groups: Sequence[EigenGroupPart], upper: bool) -> tuple[np
     certain = True
     parts: list[tuple[np.ndarray, np.ndarray]] = []
     for g in groups:
-        W = g.W_upper if upper else g.W
-        Wx = g.Wx_upper if upper else g.Wx
         if g.zero is Decision.UNDECIDED:
             certain = False
         as_zero = g.zero is Decision.ZERO or (upper and g.zero is Decision.UNDECIDED)
+        dim_w = g.dim_W_upper if upper else g.dim_W
+        dim_pos = (g.dim_Wx_upper if upper else g.dim_Wx) if as_zero else dim_w
+        if not (dim_pos or dim_w):
+            continue  # nothing to add: the group's basis is not formed
+        W = g.W_upper if upper else g.W
         # W^x_0 in the position slot for mu = 0 (W_0, a subspace of it, in the velocity slot)
-        pos = Wx if as_zero else W
-        if pos.shape[1] or W.shape[1]:
-            parts.append((pos, W))
+        pos = (g.Wx_upper if upper else g.Wx) if as_zero else W
+        parts.append((pos, W))
     d = sum(p.shape[1] + v.shape[1] for p, v in parts)
     B = np.zeros((2 * n, d))
     j = 0
@@ -110,9 +112,7 @@ def unobservable_subspace(system: System, mode: str = NORMAL_MODE, tol: Toleranc
     n = system.n
     lower, certain_lo = _assemble(n, md.groups, upper=False)
     # every decision decided: the upper reading is the lower one (shared, not rebuilt)
-    same = md.merged is md.groups and all(
-        g.W_upper is g.W and g.Wx_upper is g.Wx and g.zero is not Decision.UNDECIDED for g in md.groups
-    )
+    same = md.merged is md.groups and all(g.decided and g.zero is not Decision.UNDECIDED for g in md.groups)
     upper, certain_hi = (lower, certain_lo) if same else _assemble(n, md.merged, upper=True)
     margin = 1.0
     largest_zero = 0.0
@@ -123,16 +123,16 @@ def unobservable_subspace(system: System, mode: str = NORMAL_MODE, tol: Toleranc
         for x in s:
             if decide_with_error(x, g.error, tol) is Decision.ZERO:
                 largest_zero = max(largest_zero, float(x))
-    err = max((g.error for g in md.groups if (g.W.shape[1] or g.Wx.shape[1])), default=0.0)
+    err = max((g.error for g in md.groups if (g.dim_W or g.dim_Wx)), default=0.0)
     groups_ev = [
         {
             "eigenvalue": g.value,
             "multiplicity": len(g.indices),
-            "dim_W": int(g.W.shape[1]),
-            "dim_Wx": int(g.Wx.shape[1]) if g.zero is Decision.ZERO else None,
+            "dim_W": g.dim_W,
+            "dim_Wx": g.dim_Wx if g.zero is Decision.ZERO else None,
         }
         for g in md.groups
-        if g.W.shape[1] or (g.zero is Decision.ZERO and g.Wx.shape[1]) or g.zero is Decision.UNDECIDED
+        if g.dim_W or (g.zero is Decision.ZERO and g.dim_Wx) or g.zero is Decision.UNDECIDED
     ]
     evidence = {
         "method": "modal",
@@ -341,7 +341,7 @@ def rational_unobservable_candidates(E: np.ndarray, measured: Sequence[int]) -> 
 
 
 def _verified_singular_part(
-    system: System, mode: str, U: np.ndarray, M: Sequence[int], singular: Sequence[tuple[int, int, float, float, np.ndarray]]
+    system: System, mode: str, sp: Spectrum, M: Sequence[int], singular: Sequence[tuple[int, int, float, float, np.ndarray]]
 ) -> tuple[tuple[tuple[Fraction, ...], ...], int]:
     """Exact ``W x W`` basis (length 2N) from the numerically singular clusters, and the upper bound on dim W.
 
@@ -366,7 +366,7 @@ def _verified_singular_part(
     kept: list[list[Fraction]] = []
     B: list[list[Fraction]] = []
     for a, b, *_ in singular:
-        rows = rational_unobservable_candidates(U[:, a : b + 1], M)
+        rows = rational_unobservable_candidates(sp.columns(slice(a, b + 1)), M)
         if not rows:
             continue
         ver = verified_invariant_subspace(system.n, entries, M, kept + rows)
@@ -395,16 +395,20 @@ def certified_unobservable(system: System, mode: str = NORMAL_MODE) -> Certified
 
     .. math:: \\|S_M x\\| \\ge \\sigma_{\\min}(S_M U_g) \\sqrt{1 - s^2} - s - e,
 
-    ``e = eta + 2 k eps`` (loss of orthonormality ``eta`` and the rounding of the k x k SVD of
-    rows of ``U_g``, backward error ``k eps`` per singular value, doubled). If it is positive,
+    ``e = eta + 2 k eps + sqrt(|M| k) epsilon_U`` (loss of orthonormality ``eta``, the rounding
+    of the k x k SVD of rows of ``U_g``, backward error ``k eps`` per singular value, doubled, and
+    the error ``epsilon_U`` of each computed entry of the rows: 0 for explicit eigenvectors,
+    :attr:`~glocal_verify.numerics.spectrum.Spectrum.entry_error` for a safe mode kept in
+    factored form). If it is positive,
     S_M is injective on every eigenspace of the cluster: ``W_mu = 0`` there (certified). A
     cluster that fails the test adds at most ``2 |g|`` to the upper bound. A cluster that
     straddles 0 and a positive eigenvalue (``w <= rho``) is treated the same way, with the
     exact zero eigenvalues removed from it (they are known exactly).
 
     Cost and memory (after the cached spectrum and its bounds): O(N^2) once per mode for the
-    rounding constants, the monitored rows ``U[M, :]`` (``|M| x N``) and, per cluster, a
-    column norm (simple) or a ``|M| x k`` SVD; no ``N x N`` array is formed.
+    rounding constants, the monitored rows ``U[M, :]`` (``|M| x N``; ``|M| N^2`` per factor of a
+    factored spectrum) and, per cluster, a column norm (simple) or a ``|M| x k`` SVD; no
+    ``N x N`` array is formed.
 
     Parameters
     ----------
@@ -427,14 +431,15 @@ def certified_unobservable(system: System, mode: str = NORMAL_MODE) -> Certified
         cache[key] = cu
         return cu
     sp = system.spectrum(mode)
-    w, U = sp.values, sp.vectors
+    w = sp.values
     nz = len(comps)
     rho = sp.error_radius
     eta = sp.orthogonality_error
     # per-mode constants of the residual rounding bound (O(N^2) once, not per cluster)
     k_row = sp.row_nonzeros
     fro = sp.frobenius
-    Um = U[m, :]  # |M| x N: the only rows of U the certificate needs
+    Um = sp.rows(m)  # |M| x N: the only rows of U the certificate needs
+    entry = sp.entry_error  # their computed entries' error (0 for explicit eigenvectors)
     col_m = np.linalg.norm(Um, axis=0)
     extra = 0
     worst_err = 0.0
@@ -467,7 +472,7 @@ def certified_unobservable(system: System, mode: str = NORMAL_MODE) -> Certified
             if len(sv) < len(g):
                 sv = np.concatenate([sv, np.zeros(len(g) - len(sv))])
         smin = float(sv[-1])
-        e = eta + 2.0 * len(g) * EPS
+        e = eta + 2.0 * len(g) * EPS + math.sqrt(len(m) * len(g)) * entry
         slack = smin * math.sqrt(max(0.0, 1.0 - s * s)) - s - e if math.isfinite(s) else -math.inf
         worst_err = max(worst_err, s)
         slack_min = min(slack_min, slack)
@@ -484,7 +489,7 @@ def certified_unobservable(system: System, mode: str = NORMAL_MODE) -> Certified
     verified: tuple[tuple[Fraction, ...], ...] = ()
     upper = base + extra
     if singular:
-        verified, upper_w = _verified_singular_part(system, mode, U, m, singular)
+        verified, upper_w = _verified_singular_part(system, mode, sp, m, singular)
         if verified:
             upper = base + 2 * upper_w  # every cluster that failed the injectivity test is in `singular`
             if len(verified) > upper - base:  # pragma: no cover - a contradiction is a bug

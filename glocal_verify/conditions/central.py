@@ -121,7 +121,7 @@ def check_central_observer(system: System, ctx: CheckContext) -> list[ConditionR
         return [result("central.observer", ctx, Status.UNDECIDED, margin=None, witness={"design_error": str(err)},
                        error_bound=math.inf, note=why)]
     n = system.n
-    w, _ = system.eigh(obsv.mode)
+    w = system.spectrum(obsv.mode).values
     scale = max(
         (float(np.linalg.norm([[0.0, 1.0], [-system.alpha * mu, -system.gamma]], 2)) for mu in (w[0], w[-1])),
         default=1.0,

@@ -82,7 +82,7 @@ def rank_safe_modes(system: System, modes: Sequence[str] | None = None) -> tuple
             st[cid] = r.status
             m = r.margin
             if cid == "switching.distinct-eigenvalues" and m is not None:
-                w = system.eigh(q)[0]
+                w = system.spectrum(q).values
                 m = float(m) / max(float(np.max(np.abs(w))), 1e-300)
             mg[cid] = m
         evaluated = [s for s in st.values() if s is not None]

@@ -510,7 +510,7 @@ def _disconnected_pair_witness(system: System, mode: str, pair: tuple[Label, Lab
 def _eigvec_numeric(system: System, mode: str, ctx: CheckContext) -> tuple[Status, float, dict[str, Any], float | None, str]:
     """Certified numeric decision of (iii): (status, margin, witness, error bound, note)."""
     sp = system.spectrum(mode)
-    w, U = sp.values, sp.vectors
+    w = sp.values
     n = system.n
     pairs = _pairs(system, mode)
     if not pairs:
@@ -520,7 +520,8 @@ def _eigvec_numeric(system: System, mode: str, ctx: CheckContext) -> tuple[Statu
     idx = [tuple(system.idx(p)) for p in pairs]
     ii = np.array([a for a, _ in idx])
     jj = np.array([b for _, b in idx])
-    D = np.abs(U[ii, :] - U[jj, :])  # pairs x N
+    R = sp.rows(np.concatenate([ii, jj]))  # the rows the pairs read (|M| N^2 per factor of a factored spectrum)
+    D = np.abs(R[: len(ii)] - R[len(ii) :])  # pairs x N
     cols = list(range(1, n))  # l != 1
     sub = D[:, cols]
     flat = int(np.argmin(sub))
@@ -547,7 +548,7 @@ def _eigvec_numeric(system: System, mode: str, ctx: CheckContext) -> tuple[Statu
     for l in cols:
         # Davis-Kahan: the exact unit eigenvector u_l (sign-aligned) has ||u_hat - u_l|| <= sqrt(2) sin + eta,
         # so the difference of two entries moves by at most sqrt(2) times that
-        err[l] = 2.0 * sp.subspace_sine((l,)) + 2.0 * eta + 4.0 * _EPS
+        err[l] = 2.0 * sp.subspace_sine((l,)) + 2.0 * eta + 4.0 * _EPS + 2.0 * sp.entry_error
     worst: tuple[float, int, int] | None = None
     for l in cols:
         for p_i in range(len(pairs)):
@@ -558,12 +559,11 @@ def _eigvec_numeric(system: System, mode: str, ctx: CheckContext) -> tuple[Statu
                     worst = (slack, p_i, l)
     if worst is not None:
         _, p_i, l = worst
-        a, b = idx[p_i]
         wit = {
             "pair": list(pairs[p_i]),
             "l": l + 1,
             "eigenvalue": float(w[l]),
-            "entries": [float(U[a, l]), float(U[b, l])],
+            "entries": [float(R[p_i, l]), float(R[len(ii) + p_i, l])],
             "difference": float(D[p_i, l]),
             "error_bound": float(err[l]),
             "pairs_checked": len(pairs),
@@ -573,11 +573,10 @@ def _eigvec_numeric(system: System, mode: str, ctx: CheckContext) -> tuple[Statu
             f"Davis-Kahan bound {float(err[l]):.3g}: a difference that is merely small proves no equality"
         )
         return Status.UNDECIDED, margin, wit, float(err[l]), note
-    a, b = idx[pk]
     l = cols[lk]
     wit = {
         "closest": {"pair": list(pairs[pk]), "l": l + 1, "eigenvalue": float(w[l]),
-                    "entries": [float(U[a, l]), float(U[b, l])], "error_bound": float(err[l])},
+                    "entries": [float(R[pk, l]), float(R[len(ii) + pk, l])], "error_bound": float(err[l])},
         "pairs_checked": len(pairs),
     }
     return Status.HOLDS, margin, wit, float(np.max(err[1:])), ""
@@ -709,7 +708,7 @@ def _eigvec_exact(system: System, mode: str, numeric: tuple[Status, float, dict[
             (k, k + 1) for k in [int(np.argmin(np.diff(sp.values)))]
         ]
         c = list(groups[0])
-        u = _equal_pair_vector(sp.vectors[:, c], i, j)
+        u = _equal_pair_vector(sp.columns(c), i, j)
         wit.update(
             eigenvalue=float(np.mean(sp.values[c])), multiplicity=len(c),
             eigenvector=system.vector_by_label(u, digits=12), eigenvector_note="floating point, approximate",
@@ -719,7 +718,7 @@ def _eigvec_exact(system: System, mode: str, numeric: tuple[Status, float, dict[
     if coeffs[0] != 0:  # pragma: no cover - a Laplacian always has the eigenvalue 0
         raise AssertionError("charpoly of a Laplacian must vanish at 0")
     p0 = type(p)(coeffs[1:])  # p(mu) / mu
-    _w, U = system.eigh(mode)
+    sp = system.spectrum(mode)
     for a, b in pairs:
         i, j = system.idx((a, b))
         q = eigenvector_difference_polynomial(L, i, j)
@@ -733,7 +732,7 @@ def _eigvec_exact(system: System, mode: str, numeric: tuple[Status, float, dict[
                 "eigenvalue": root["approx"],
                 "eigenvalue_exact": {k: v for k, v in root.items() if k not in ("approx", "index")},
                 "common_factor": ex.poly_str(g),
-                "entries": [float(U[i, l]), float(U[j, l])],
+                "entries": [float(x) for x in sp.rows([i, j])[:, l]],
             }
     return Status.HOLDS, margin, {"pairs_checked": len(pairs), "closest": nwit.get("closest")}
 
@@ -762,7 +761,9 @@ def check_eigenvector_differences(system: System, ctx: CheckContext) -> list[Con
     (:meth:`Spectrum.subspace_sine <glocal_verify.numerics.spectrum.Spectrum.subspace_sine>`;
     ``delta_l`` the certified distance to the other eigenvalues, the residual widened by its
     rounding and the input error), so an entry difference moves by at most
-    ``err_l = 2 s_l + 2 eta + 4 eps`` (``eta`` the loss of orthonormality). Holds iff every
+    ``err_l = 2 s_l + 2 eta + 4 eps + 2 epsilon_U`` (``eta`` the loss of orthonormality,
+    ``epsilon_U`` the error of a computed entry of a safe mode kept in factored form,
+    :attr:`~glocal_verify.numerics.spectrum.Spectrum.entry_error`, 0 otherwise). Holds iff every
     ``|u_l(i) - u_l(j)| > err_l``; a difference below its bound is undecided (never read as
     zero: only exact arithmetic proves an equality), with ``error_bound = err_l``.
     Exact: ``p`` = charpoly(L_q); repeated eigenvalue iff ``gcd(p, p') != 1`` (fails). Otherwise

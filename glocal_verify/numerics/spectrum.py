@@ -47,9 +47,6 @@ __all__ = ["Spectrum", "EPS", "gamma_bound", "product_rounding"]
 EPS = float(np.finfo(float).eps)
 #: columns per block of the a-posteriori products (bounded temporaries)
 _BLOCK = 256
-#: a rank-one update of a spectrum is kept when its loss of orthonormality and its relative
-#: residual are at most this many N eps (``eigh`` reaches about 0.1 N eps on Laplacians)
-UPDATE_ACCEPT = 10.0
 
 
 def gamma_bound(k: float) -> float:
@@ -139,6 +136,15 @@ class Spectrum:
         return float(np.linalg.norm(data)) * (1.0 + 2.0 * gamma_bound(data.size + 2))
 
     @cached_property
+    def abs_norm(self) -> float:
+        """An upper bound on ``|| |L| ||_2``: the smaller of :attr:`frobenius` and the largest absolute row sum (``|L|`` is symmetric, so its 2-norm is at most its infinity norm), rounding included."""
+        S = self._sparse
+        if S.shape[0] == 0:
+            return 0.0
+        rows = np.bincount(np.repeat(np.arange(S.shape[0]), np.diff(S.indptr)), weights=np.abs(S.data), minlength=S.shape[0])
+        return min(self.frobenius, float(np.max(rows)) * (1.0 + 2.0 * gamma_bound(self.row_nonzeros + 2)))
+
+    @cached_property
     def row_nonzeros(self) -> int:
         """``k``: the largest number of nonzero entries of a row of :attr:`matrix` (0 when empty)."""
         S = self._sparse
@@ -171,6 +177,33 @@ class Spectrum:
     def size(self) -> int:
         """Order N of the matrix."""
         return int(self.matrix.shape[0])
+
+    @property
+    def entry_error(self) -> float:
+        """Bound on the error of each entry :meth:`rows`, :meth:`columns` and :attr:`vectors` return.
+
+        0 here: they are the computed eigenvectors themselves, which every bound of this class
+        is about. A spectrum kept in factored form
+        (:class:`~glocal_verify.numerics.updated_spectrum.UpdatedSpectrum`) computes its rows
+        and columns, and a certified decision that reads them adds this error to its own.
+        """
+        return 0.0
+
+    def rows(self, idx: Sequence[int] | np.ndarray) -> np.ndarray:
+        """Rows ``U[idx, :]`` of the eigenvector matrix (``|idx| x N``, a new array)."""
+        return np.asarray(self.vectors)[np.asarray(idx, dtype=np.intp), :]
+
+    def columns(self, idx: Sequence[int] | np.ndarray | slice) -> np.ndarray:
+        """Columns ``U[:, idx]`` (a read-only view for a slice, a new array otherwise)."""
+        return self.vectors[:, idx] if isinstance(idx, slice) else np.asarray(self.vectors)[:, np.asarray(idx, dtype=np.intp)]
+
+    def apply(self, Y: np.ndarray) -> np.ndarray:
+        """``U Y`` for ``Y`` of shape ``N x k`` (not certified: for simulations and uncertified readings)."""
+        return np.asarray(self.vectors) @ np.asarray(Y, dtype=float)
+
+    def project(self, X: np.ndarray) -> np.ndarray:
+        """``U^T X`` for ``X`` of shape ``N x k`` (not certified: for simulations and uncertified readings)."""
+        return np.asarray(self.vectors).T @ np.asarray(X, dtype=float)
 
     @cached_property
     def scale(self) -> float:
@@ -236,41 +269,28 @@ class Spectrum:
         return math.sqrt(max(total, 0.0))
 
     @classmethod
-    def updated(cls, matrix: np.ndarray, base: Spectrum, changes: Sequence[tuple[int, int, float]]) -> Spectrum | None:
+    def updated(cls, matrix: np.ndarray | scipy.sparse.csr_matrix, base: Spectrum, changes: Sequence[tuple[int, int, float]]) -> Spectrum | None:
         """The spectrum of ``matrix = base.matrix + sum rho (e_i - e_j)(e_i - e_j)^T`` by rank-one updates of ``base``.
 
-        The eigenpairs come from :func:`~glocal_verify.numerics.rank_one.eigh_updated` (one
-        secular equation and one matrix product per change instead of a fresh ``syevd``);
-        every bound of the result (:attr:`residuals`, :attr:`orthogonality_error`,
-        :attr:`error_radius`) is computed from ``matrix`` and the new vectors as for ``eigh``,
-        so nothing is trusted. The update is kept only when it is as accurate as ``eigh``
-        reaches: ``||fl(U^T U) - I||_F`` and ``||L U - U diag(w)||_F / ||L||_2`` at most
-        ``UPDATE_ACCEPT * N * eps``; otherwise (or when an update fails) None, and the
-        caller decomposes ``matrix`` afresh.
+        The eigenvectors are kept as ``base.vectors`` times one factor per change
+        (:func:`~glocal_verify.numerics.updated_spectrum.update_spectrum`: one secular equation
+        per change, O(N^2), instead of a fresh ``syevd``); every bound of the result
+        (:attr:`residuals`, :attr:`orthogonality_error`, :attr:`error_radius`) is certified from
+        the factors, and the update is kept only when it is as good as ``eigh``'s; otherwise
+        (or when an update fails) None, and the caller decomposes ``matrix`` afresh.
 
         Parameters
         ----------
-        matrix : ndarray
+        matrix : ndarray or scipy.sparse matrix
             The changed matrix (its entries rounded once from exact values, as for the constructor).
         base : Spectrum
             The spectrum before the changes.
         changes : sequence of (int, int, float)
             ``(i, j, rho)`` per changed link.
         """
-        from glocal_verify.numerics.rank_one import eigh_updated
+        from glocal_verify.numerics.updated_spectrum import update_spectrum
 
-        pairs = eigh_updated(base.values, base.vectors, changes)
-        if pairs is None:
-            return None
-        sp = cls(matrix)
-        w, U = pairs
-        w.setflags(write=False)
-        U.setflags(write=False)
-        sp.__dict__["_pairs"] = (w, U)  # the cached_property's slot: what eigh would have filled
-        limit = UPDATE_ACCEPT * sp.size * EPS
-        if sp._gram_loss > limit or float(np.linalg.norm(sp.residuals)) > limit * sp.scale:
-            return None
-        return sp
+        return update_spectrum(matrix, base, changes)
 
     @cached_property
     def error_radius(self) -> float:

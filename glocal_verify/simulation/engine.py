@@ -305,7 +305,7 @@ class _ModalEngine:
         # a bound on ||M_src||_2: largest modal block (Frobenius) + exosystem + couplings
         nu = 0.0
         for q in set(modes) | {NORMAL_MODE}:
-            mu = st.system.eigh(q)[0]
+            mu = st.system.spectrum(q).values
             nu = max(nu, float(np.max(np.sqrt(1.0 + (st.alpha * mu) ** 2 + st.gamma**2))))
         if st.m:
             # ||blockdiag|| <= max(modal blocks, ||S||) <= their sum; couplings to plant and copy
@@ -370,7 +370,7 @@ class _ModalEngine:
     def enter(self, mode: str, active: bool) -> None:
         self._set_basis(mode)
         self.mode, self.active = mode, active
-        self.mu = self.st.system.eigh(mode)[0]
+        self.mu = self.st.system.spectrum(mode).values
         self.mu1 = self.st.system.eigh(NORMAL_MODE)[0]
         U = self.st.system.eigh(mode)[1]
         n = self.st.n

@@ -192,7 +192,7 @@ class _Steps:
         self.system, self.o, self.n, self.h, self.ops = system, o, system.n, h, ops
         nu = 0.0
         for q in set(modes) | {NORMAL_MODE}:
-            mu = system.eigh(q)[0]
+            mu = system.spectrum(q).values
             nu = max(nu, float(np.max(np.sqrt(1.0 + (system.alpha * mu) ** 2 + system.gamma**2))))
         self.n_sub = max(1, int(math.ceil(nu * h / RHO_MAX - 1e-12)))
         self.J = taylor_order(nu * h / self.n_sub)
@@ -215,7 +215,7 @@ class _Steps:
         op = self._sub.get(key)
         if op is None:
             sy = self.system
-            mu = sy.eigh(mode)[0]
+            mu = sy.spectrum(mode).values
             n = self.n
             A = np.zeros((n, 2, 2))
             A[:, 0, 1] = 1.0
