@@ -27,6 +27,7 @@ import numpy as np
 import scipy.sparse
 
 from glocal_verify.errors import ModelError, SpecError
+from glocal_verify.numerics.block_spectrum import clustered_spectrum, laplacian_csr
 from glocal_verify.numerics.spectrum import Spectrum
 from glocal_verify.spec.types import (
     NORMAL_MODE,
@@ -47,11 +48,15 @@ __all__ = [
 
 T = TypeVar("T")
 
-#: from this many agents a safe mode's spectrum is a rank-one update of the normal mode's
-#: (below, one eigh is as fast: the update's matrix product dominates at every size)
+#: from this many agents a safe mode's spectrum is the normal mode's times rank-one factors
 RANK_ONE_MIN_AGENTS = 500
-#: at most this many changed links are applied as successive rank-one updates
+#: ... for at most this many changed links (one factor each)
 RANK_ONE_MAX_CHANGES = 3
+#: from this many agents a clustered normal mode is decomposed cluster by cluster, with at most
+#: BLOCK_MAX_CUT_LINKS links between clusters as rank-one factors (each O(N^2), and one more
+#: factor every computed row goes through)
+BLOCK_MIN_AGENTS = 2000
+BLOCK_MAX_CUT_LINKS = 16
 
 
 class Analysis:
@@ -348,40 +353,21 @@ class System:
     def laplacian_sparse(self, mode: str = NORMAL_MODE) -> scipy.sparse.csr_matrix:
         """L_q as a sparse (CSR) float matrix, every entry correctly rounded (kept per mode; read-only data).
 
-        The entries are formed exactly from the spec's rational weights (the degrees are
-        rational sums) and only then rounded once to the nearest double, so
-        ``|fl(L)_ij - L_ij| <= u |L_ij|`` with ``u = 2^-53`` and
-        ``||fl(L) - L||_2 <= ||fl(L) - L||_F <= u ||L||_F``: the input error that the
-        certified bounds of :class:`~glocal_verify.numerics.spectrum.Spectrum` add. Entries
-        that are exactly zero (the degree of an isolated agent) are not stored. O(N + |E|)
-        memory: the form every large-N consumer reads, instead of the dense N x N array.
+        Formed exactly from the spec's rational weights and rounded once
+        (:func:`~glocal_verify.numerics.block_spectrum.laplacian_csr`), so ``||fl(L) - L||_2 <=
+        u ||L||_F``: the input error the certified bounds of
+        :class:`~glocal_verify.numerics.spectrum.Spectrum` add. O(N + |E|) memory: the form
+        every large-N consumer reads, instead of the dense N x N array.
         """
         self.check_mode(mode)
         if mode not in self._lap:
-            rows: list[int] = []
-            cols: list[int] = []
-            vals: list[float] = []
-            deg = [Fraction(0)] * self.n
-            for key, w in self._edges[mode].items():
-                u, v = (self.index[x] for x in key)
-                fw = -float(w)
-                rows += [u, v]
-                cols += [v, u]
-                vals += [fw, fw]
-                deg[u] += w
-                deg[v] += w
-            for i, d in enumerate(deg):
-                if d != 0:
-                    rows.append(i)
-                    cols.append(i)
-                    vals.append(float(d))
-            # one stored entry per link and per degree: no duplicates are summed in floating point
-            L = scipy.sparse.csr_matrix((vals, (rows, cols)), shape=(self.n, self.n))
-            L.sort_indices()
-            for arr in (L.data, L.indices, L.indptr):
-                arr.setflags(write=False)
-            self._lap[mode] = L
+            self._lap[mode] = laplacian_csr(self.n, self._links(self._edges[mode].items()))
         return self._lap[mode]
+
+    def _links(self, edges: Iterable[tuple[frozenset[Label], Fraction]]) -> Iterator[tuple[int, int, Fraction]]:
+        for key, w in edges:
+            i, j = sorted(self.index[x] for x in key)
+            yield i, j, w
 
     def laplacian(self, mode: str = NORMAL_MODE) -> np.ndarray:
         """L_q as a dense float array (read-only), every entry correctly rounded.
@@ -484,6 +470,14 @@ class System:
     def spectrum(self, mode: str = NORMAL_MODE) -> Spectrum:
         """The eigendecomposition of L_q with its error bounds (computed once per mode).
 
+        The normal mode of a network of :data:`BLOCK_MIN_AGENTS` agents or more whose clusters
+        hold every agent and share at most :data:`BLOCK_MAX_CUT_LINKS` links is decomposed
+        cluster by cluster, the shared links added as rank-one factors; a safe mode that changes
+        at most :data:`RANK_ONE_MAX_CHANGES` links (from :data:`RANK_ONE_MIN_AGENTS` agents) is
+        the normal mode's spectrum times one factor per change. Either is certified from its
+        factors (:mod:`glocal_verify.numerics.updated_spectrum`) and falls back to one ``eigh``
+        of L_q when its bounds are not as good.
+
         Parameters
         ----------
         mode : str
@@ -493,6 +487,8 @@ class System:
         if mode not in self._spectra:
             L = self.laplacian_sparse(mode)
             sp: Spectrum | None = None
+            if mode == NORMAL_MODE and self.n >= BLOCK_MIN_AGENTS:
+                sp = self._block_spectrum(L)
             if mode != NORMAL_MODE and self.n >= RANK_ONE_MIN_AGENTS:
                 # a safe mode that changes a few links: rank-one updates of the normal mode's
                 # spectrum, certified like eigh's output (Spectrum.updated), else a fresh eigh
@@ -501,6 +497,22 @@ class System:
                     sp = Spectrum.updated(L, self.spectrum(NORMAL_MODE), changes)
             self._spectra[mode] = sp if sp is not None else Spectrum(L)
         return self._spectra[mode]
+
+    def _block_spectrum(self, L: scipy.sparse.csr_matrix) -> Spectrum | None:
+        """The normal mode from its clusters' blocks and its links between them (:func:`clustered_spectrum`).
+
+        None unless the spec's clusters (two or more) hold every agent once and share between one
+        and :data:`BLOCK_MAX_CUT_LINKS` links, or when the update is refused.
+        """
+        if len(self.clusters) < 2 or sum(len(c.nodes) for c in self.clusters) != self.n or len(self._cluster_of) != self.n:
+            return None
+        edges = self._edges[NORMAL_MODE].items()
+        inside = [(k, w) for k, w in edges if len({self._cluster_of[x] for x in k}) == 1]
+        cut = [(i, j, float(w)) for i, j, w in self._links((k, w) for k, w in edges if len({self._cluster_of[x] for x in k}) == 2)]
+        if not 0 < len(cut) <= BLOCK_MAX_CUT_LINKS:
+            return None
+        blocks = [np.array(sorted(self.index[x] for x in c.nodes), dtype=np.intp) for c in self.clusters]
+        return clustered_spectrum(L, laplacian_csr(self.n, self._links(inside)), blocks, cut)
 
     def eigh(self, mode: str = NORMAL_MODE) -> tuple[np.ndarray, np.ndarray]:
         """Eigen-decomposition L_q = U diag(w) U^T (ascending w; read-only), from :meth:`spectrum`."""

@@ -187,8 +187,8 @@ def _stealthy_bases(md: _Modal, lam: complex) -> tuple[_Basis, _Basis]:
     near = np.abs(d) <= _NEAR
     J, far = np.flatnonzero(near), np.flatnonzero(~near)
     nJ, p = len(J), len(rows_out)
-    UF = md.U[md.F, :]
-    UO = md.U[rows_out, :]
+    UF = md.UF
+    UO = md.UMx if lam == 0 else md.UM
     S = np.zeros((nJ + p, nJ + m), dtype=dtype)
     S[:nJ, :nJ] = np.diag(d[J])
     S[:nJ, nJ:] = -UF[:, J].T
@@ -208,7 +208,7 @@ def _stealthy_bases(md: _Modal, lam: complex) -> tuple[_Basis, _Basis]:
         eta[J] = Vk[:nJ]
         if len(far):
             eta[far] = (UF[:, far].T @ uu) / d[far][:, None]
-        x = md.U @ eta if real else md.U @ eta.real + 1j * (md.U @ eta.imag)
+        x = md.sp.apply(eta)  # real and imaginary parts apart (no complex copy of U)
         return _Basis(eta, x, uu)
 
     return basis(V[:, maybe:]), basis(V[:, cert:])

@@ -66,6 +66,7 @@ from glocal_verify.spec.types import NORMAL_MODE
 __all__ = [
     "EigenGroupPart",
     "GroupBasis",
+    "form_bases",
     "ModalDecomposition",
     "modal_decomposition",
     "eigen_residuals",
@@ -119,6 +120,16 @@ class GroupBasis:
             assert callable(self._source)
             self._E = self._source()
         return self._E
+
+    @property
+    def formed(self) -> bool:
+        """Whether E is at hand."""
+        return self._E is not None
+
+    def provide(self, E: np.ndarray) -> None:
+        """Set E, computed by the caller together with other groups' (:func:`form_bases`)."""
+        if self._E is None:
+            self._E = E
 
     def dim(self, i: int) -> int:
         """Dimension of part ``i`` (0 W, 1 W_upper, 2 Wx, 3 Wx_upper) without forming it."""
@@ -303,18 +314,19 @@ def _group_parts(
     readings share one array. The rows of the monitors, ``U[M, :]`` and ``U[M_x, :]``
     (``|M| x N``), are taken once; a simple eigenvalue needs only the norm of its column there
     (no SVD), so the loop is O(|M| N) in all plus one small SVD per multiple group. The
-    decisions add the error of the computed rows (``sqrt(|M| k)`` times
-    :attr:`Spectrum.entry_error <glocal_verify.numerics.spectrum.Spectrum.entry_error>`).
+    decisions add the estimated error of the computed rows (``sqrt(|M| k)`` times
+    :attr:`Spectrum.entry_estimate <glocal_verify.numerics.spectrum.Spectrum.entry_estimate>`;
+    the certified checks add the bound :attr:`~glocal_verify.numerics.spectrum.Spectrum.entry_error`).
     """
     w = sp.values
     n = len(w)
-    residuals = sp.residuals
+    residuals = sp.residual_estimates  # a tolerance reading: the computed residuals, not their rigorous bounds
     rmax = float(np.max(residuals)) if len(residuals) else 0.0
     Um = sp.rows(m) if len(m) else np.zeros((0, n))
     Umx = sp.rows(mx) if len(mx) else np.zeros((0, n))
     col_m = np.linalg.norm(Um, axis=0) if len(m) else np.zeros(n)
     col_mx = np.linalg.norm(Umx, axis=0) if len(mx) else np.zeros(n)
-    entry = sp.entry_error
+    entry = sp.entry_estimate  # a tolerance reading: the typical error of a computed entry, not its bound
     out = []
     for gi, g in enumerate(partition):
         a, b = g[0], g[-1] + 1
@@ -360,6 +372,24 @@ def _group_parts(
     return tuple(out)
 
 
+def form_bases(sp: Spectrum, groups: list[EigenGroupPart]) -> None:
+    """Form the bases E of ``groups`` (eigen-groups of ``sp``) in one call of ``sp.columns``.
+
+    For a factored spectrum each call goes through every factor once, so reading many groups'
+    bases one by one would cost a pass per group; explicit eigenvectors are views already.
+    """
+    todo = [g for g in groups if not g.basis.formed]
+    if not todo or sp.explicit:
+        return
+    idx = np.concatenate([np.asarray(g.indices, dtype=np.intp) for g in todo])
+    cols = sp.columns(idx)
+    start = 0
+    for g in todo:
+        k = len(g.indices)
+        g.basis.provide(cols[:, start : start + k])
+        start += k
+
+
 def _simple_kernel(s: float, rows: int, err: float, tol: Tolerance) -> tuple[PartSpec, PartSpec, np.ndarray]:
     """Both readings of ``span(E) ∩ ker S`` for one column ``E`` with ``||S E|| = s``: ``"all"`` or ``"none"``.
 
@@ -399,7 +429,10 @@ def eigen_residuals(system: System, mode: str = NORMAL_MODE) -> np.ndarray:
     exact eigenspace by ``||R_g|| / delta`` (``R_g`` the group's residual block; each computed
     eigenvalue lies within its residual of an exact one, so ``delta`` is shrunk by twice the
     largest residual). This a-posteriori bound replaces the a-priori ``N eps ||L|| / gap``.
-    L_q is applied as a sparse matrix: O(nnz * N).
+    L_q is applied as a sparse matrix: O(nnz * N). For a spectrum kept in factored form these
+    are :attr:`~glocal_verify.numerics.spectrum.Spectrum.residual_estimates` (the computed
+    residuals carried through the factors); the certified checks read the rigorous
+    :attr:`~glocal_verify.numerics.spectrum.Spectrum.residuals` instead.
 
     Parameters
     ----------
@@ -408,7 +441,7 @@ def eigen_residuals(system: System, mode: str = NORMAL_MODE) -> np.ndarray:
     mode : str
         The mode q.
     """
-    return system.spectrum(mode).residuals
+    return system.spectrum(mode).residual_estimates
 
 
 def _kernel_indicators(system: System, mode: str) -> np.ndarray:

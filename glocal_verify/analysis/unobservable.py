@@ -17,7 +17,7 @@ import flint
 import numpy as np
 import scipy.linalg
 
-from glocal_verify.analysis.modal import EigenGroupPart, modal_decomposition
+from glocal_verify.analysis.modal import EigenGroupPart, form_bases, modal_decomposition
 from glocal_verify.model import System
 from glocal_verify.numerics.exact_subspace import (
     _kernel,
@@ -110,6 +110,9 @@ def unobservable_subspace(system: System, mode: str = NORMAL_MODE, tol: Toleranc
         return cache[key]  # type: ignore[no-any-return]
     md = modal_decomposition(system, mode, tol)
     n = system.n
+    # the bases of the groups with an unobservable part W (the kernel's is exact), formed together:
+    # one pass over a factored basis
+    form_bases(system.spectrum(mode), [g for g in (*md.groups, *md.merged) if g.dim_W or g.dim_W_upper])
     lower, certain_lo = _assemble(n, md.groups, upper=False)
     # every decision decided: the upper reading is the lower one (shared, not rebuilt)
     same = md.merged is md.groups and all(g.decided and g.zero is not Decision.UNDECIDED for g in md.groups)
@@ -365,8 +368,12 @@ def _verified_singular_part(
     entries = laplacian_entries(system, mode)
     kept: list[list[Fraction]] = []
     B: list[list[Fraction]] = []
+    # the clusters' columns together: one pass over a factored basis
+    cols = sp.columns(np.concatenate([np.arange(a, b + 1) for a, b, *_ in singular]))
+    start = 0
     for a, b, *_ in singular:
-        rows = rational_unobservable_candidates(sp.columns(slice(a, b + 1)), M)
+        E, start = cols[:, start : start + b - a + 1], start + b - a + 1
+        rows = rational_unobservable_candidates(E, M)
         if not rows:
             continue
         ver = verified_invariant_subspace(system.n, entries, M, kept + rows)

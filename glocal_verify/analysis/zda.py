@@ -222,19 +222,24 @@ class _Modal:
         self.tol = tol
         self.N = system.n
         self.alpha, self.gamma = system.alpha, system.gamma
-        w, U = system.eigh()
-        self.mu = np.asarray(w)
-        self.U = np.asarray(U)
+        self.sp = system.spectrum()
+        self.mu = np.asarray(self.sp.values)
         self.F = system.idx(F)
         self.M = system.idx(system.monitored)
         self.Mx = system.idx(system.monitored_positions)
         self.Mv = system.idx(system.monitored_velocities)
         self.L = system.laplacian_sparse()
-        # the rows of U every kernel and screen reads (copied once, not per candidate)
-        self.UF, self.UM, self.UMx, self.UMv = (self.U[idx, :] for idx in (self.F, self.M, self.Mx, self.Mv))
+        # the rows of U every kernel and screen reads (copied once, not per candidate; computed
+        # through the factors when the spectrum is kept factored, never the whole basis)
+        self.UF, self.UM, self.UMx, self.UMv = (self.sp.rows(idx) for idx in (self.F, self.M, self.Mx, self.Mv))
         self.mu_scale = max(self.alpha * float(np.max(np.abs(self.mu), initial=0.0)), 1.0)
         # ||A||_2 bound used for growth decisions and lambda ~ 0 decisions
         self.A_scale = float(self._blocks_norm(0.0))
+
+    @property
+    def U(self) -> np.ndarray:
+        """The whole eigenvector matrix (formed on first use for a factored spectrum: the audit's batched forms read it)."""
+        return np.asarray(self.sp.vectors)
 
     def _blocks_norm(self, lam: complex) -> float:
         """||lam I - A||_2 from the 2 x 2 modal blocks [[lam, -1], [alpha mu, lam + gamma]].
@@ -357,8 +362,10 @@ class _Modal:
         vnorm = math.sqrt((1.0 + abs(lam) ** 2) * e_n**2 + u_n**2)
         if vnorm == 0.0:
             return None
-        r_fro = float(np.linalg.norm(sp.residuals))
-        err_num = ortho * (rm_n + u_n) + self.alpha * r_fro * e_n + 1e-14 * (num + vnorm)
+        r_fro = sp.residual_frobenius
+        # the rows of a factored basis are computed: their typical entry error (a screen, not a proof)
+        rows_err = sp.entry_estimate * (math.sqrt(self.N) * float(np.sum(np.abs(u))) + math.sqrt(len(self.M)) * (1.0 + abs(lam)) * float(np.sum(np.abs(eta))))
+        err_num = ortho * (rm_n + u_n) + self.alpha * r_fro * e_n + 1e-14 * (num + vnorm) + rows_err
         pnl = self.pencil_norm_lb(lam)
         lo = max(0.0, num - err_num) / (pnl * vnorm * math.sqrt(1.0 + ortho))
         hi = (num + err_num) / (pnl * vnorm * math.sqrt(max(1.0 - ortho, 1e-300)))
@@ -440,7 +447,7 @@ class _Modal:
 
     def verify(self, lam: complex, eta: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, Decision, Decision]:
         """Map (eta, u) to (xi, u), residual on the full 2N pencil and the two decisions."""
-        xi = self.U @ eta.real + 1j * (self.U @ eta.imag)  # avoids a complex copy of U
+        xi = self.sp.apply(eta[:, None])[:, 0]  # real and imaginary parts apart: no complex copy of U
         s = lam * lam + self.gamma * lam
         Fsel = np.zeros(self.N, dtype=complex)
         Fsel[self.F] = u

@@ -25,7 +25,9 @@ Appl. 16 (1995); ``dlaed2`` / ``dlaed3``):
   ``(diag(d) - x_i)^{-1} z_hat`` are orthogonal to working precision.
 
 So ``F = P G (V ⊕ I) P_s``: a permutation P, the Givens rotations G of the deflation, the
-Cauchy block V of the live poles and the sorting permutation ``P_s``.
+Cauchy block V of the live poles and the sorting permutation ``P_s``. V is not stored: it is
+fixed by O(m) numbers (:class:`CauchyBlock`) and each use regenerates it in blocks of rows,
+so a factor costs O(N) memory and the secular solve never holds an ``m x m`` array.
 
 Certificate of orthonormality (no ``F^T F``)
 --------------------------------------------
@@ -61,14 +63,83 @@ import scipy.linalg.lapack
 
 from glocal_verify.numerics.spectrum import gamma_bound as gamma
 
-__all__ = ["RankOneFactor", "cauchy_certificate", "eigh_rank_one_update", "eigh_updated", "rank_one_factor", "tree_rowsum"]
+__all__ = ["CauchyBlock", "RankOneFactor", "cauchy_certificate", "eigh_rank_one_update", "eigh_updated", "rank_one_factor", "tree_rowsum"]
 
 _EPS = float(np.finfo(float).eps)
 _U = _EPS / 2.0
 #: rows per block of the Loewner products and of the certificate
 _BLOCK = 256
-#: rows per block when a whole basis is carried through a factor (bounded temporaries)
-_ROWS = 1024
+
+
+@dataclass(frozen=True, eq=False)
+class CauchyBlock:
+    """The ``m x m`` Cauchy block ``V`` of a factor, kept as the O(m) numbers that define it.
+
+    Column l of V is ``y_l / n_l`` with ``y_lj = zhat_j / E_lj`` and
+    ``E_lj = fl(fl(fl(sq_j - sqs_l) fl(sq_j + sqs_l)) + cstar_l)``: the computed difference
+    ``p_j - x_l`` of pole ``p_j = sq_j^2`` and root ``x_l = sqs_l^2 - cstar_l`` (``sqs_l`` the
+    root's nearest pole). Every product with V regenerates these entries, in blocks of
+    :data:`_BLOCK` columns; elementwise IEEE operations make them the same numbers each time,
+    which are the numbers :func:`cauchy_certificate` certified.
+
+    Attributes
+    ----------
+    sq, sqs, cstar, zhat, norms : ndarray (m,)
+        As above (``norms`` the ``n_l``).
+    """
+
+    sq: np.ndarray
+    sqs: np.ndarray
+    cstar: np.ndarray
+    zhat: np.ndarray
+    norms: np.ndarray
+
+    @property
+    def m(self) -> int:
+        """The order of V."""
+        return len(self.sq)
+
+    def columns_t(self, cols: np.ndarray) -> np.ndarray:
+        """``V[:, cols]^T`` (``len(cols) x m``), regenerated."""
+        E = (self.sq[None, :] - self.sqs[cols, None]) * (self.sq[None, :] + self.sqs[cols, None])
+        E += self.cstar[cols, None]
+        np.divide(self.zhat[None, :], E, out=E)
+        E /= self.norms[cols, None]
+        return E
+
+    def matmul(self, Z: np.ndarray) -> np.ndarray:
+        """``V Z`` for ``Z`` of shape ``m x k``."""
+        out = np.zeros((self.m, Z.shape[1]), dtype=np.result_type(Z, float))
+        for a in range(0, self.m, _BLOCK):
+            blk = np.arange(a, min(a + _BLOCK, self.m))
+            out += self.columns_t(blk).T @ Z[blk]
+        return out
+
+    def tmatmul_abs(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(V^T z, |V|^T |z|)`` for a vector z, one regeneration (the second bounds the first's rounding)."""
+        out = np.empty(self.m)
+        absout = np.empty(self.m)
+        az = np.abs(z)
+        for a in range(0, self.m, _BLOCK):
+            blk = np.arange(a, min(a + _BLOCK, self.m))
+            VT = self.columns_t(blk)
+            out[blk] = VT @ z
+            absout[blk] = np.abs(VT) @ az
+        return out, absout
+
+    def tmatmul(self, Z: np.ndarray) -> np.ndarray:
+        """``V^T Z`` for ``Z`` of shape ``m x k``."""
+        out = np.empty((self.m, Z.shape[1]), dtype=np.result_type(Z, float))
+        for a in range(0, self.m, _BLOCK):
+            blk = np.arange(a, min(a + _BLOCK, self.m))
+            out[blk] = self.columns_t(blk) @ Z
+        return out
+
+
+#: the block of a single live pole: V = [[1]] (E = cstar = 1)
+def _unit_block() -> CauchyBlock:
+    one = np.ones(1)
+    return CauchyBlock(np.zeros(1), np.zeros(1), one, one, one)
 
 
 @dataclass(frozen=True, eq=False)
@@ -90,8 +161,9 @@ class RankOneFactor:
         The rotated coordinate pairs, in the order the rotations were made.
     rot_c, rot_s : ndarray of float
         Their cosines and sines.
-    V : ndarray or None
-        The Cauchy block (columns: eigenvectors in the live coordinates); None when no pole is live.
+    V : CauchyBlock or None
+        The Cauchy block (columns: eigenvectors in the live coordinates), kept implicitly; None
+        when no pole is live.
     cauchy_gram : float
         Certified bound on ``||V^T V - I||_F`` (:func:`cauchy_certificate`).
     column_error : float
@@ -106,7 +178,7 @@ class RankOneFactor:
     rot_c: np.ndarray
     rot_s: np.ndarray
     live: np.ndarray
-    V: np.ndarray | None
+    V: CauchyBlock | None
     sort: np.ndarray
     cauchy_gram: float
     column_error: float
@@ -119,7 +191,7 @@ class RankOneFactor:
     @property
     def live_size(self) -> int:
         """m, the number of live poles (the order of V)."""
-        return 0 if self.V is None else int(self.V.shape[0])
+        return 0 if self.V is None else self.V.m
 
     @cached_property
     def _live_position(self) -> np.ndarray:
@@ -192,7 +264,7 @@ class RankOneFactor:
         Z = np.empty_like(Y)
         Z[self.sort] = Y
         if self.V is not None:
-            Z[self.live] = self.V @ Z[self.live]
+            Z[self.live] = self.V.matmul(Z[self.live])
         self._rotate(Z, transpose=False)
         out = np.empty_like(Z)
         out[self.order] = Z
@@ -204,16 +276,27 @@ class RankOneFactor:
         Z = X[self.order]
         self._rotate(Z, transpose=True)
         if self.V is not None:
-            Z[self.live] = self.V.T @ Z[self.live]
+            Z[self.live] = self.V.tmatmul(Z[self.live])
         return Z[self.sort]
 
+    def transpose_vector(self, y: np.ndarray) -> tuple[np.ndarray, float]:
+        """``(fl(F^T y), e)`` with ``||fl(F^T y) - F^T y||_2 <= e``, bounded a posteriori.
+
+        The rotations err by ``omega ||y||``; the product with ``V^T`` entrywise by
+        ``gamma_{m+2} |V|^T |y|``, whose 2-norm is computed (no worst-case ``sqrt(N)``).
+        """
+        Z = np.asarray(y, dtype=float)[self.order]
+        self._rotate(Z, transpose=True)
+        err = self.rotation_rounding * float(np.linalg.norm(y)) * (1.0 + gamma(2))
+        if self.V is not None:
+            zl, bound = self.V.tmatmul_abs(Z[self.live])
+            Z[self.live] = zl
+            err += gamma(self.live_size + 2) * float(np.linalg.norm(bound)) * (1.0 + gamma(self.size + 2))
+        return Z[self.sort], err
+
     def right_multiply(self, X: np.ndarray) -> np.ndarray:
-        """``X F`` for ``X`` of shape ``r x N`` (rows of a basis carried into the new one), in blocks of rows."""
-        X = np.asarray(X, dtype=float)
-        out = np.empty((X.shape[0], self.size))
-        for a in range(0, X.shape[0], _ROWS):
-            out[a : a + _ROWS] = self.apply_transpose(X[a : a + _ROWS].T).T
-        return out
+        """``X F`` for ``X`` of shape ``r x N`` (rows of a basis carried into the new one)."""
+        return np.ascontiguousarray(self.apply_transpose(np.asarray(X, dtype=float).T).T)
 
     def columns(self, cols: Sequence[int] | np.ndarray) -> np.ndarray:
         """``F[:, cols]`` (``N x len(cols)``): columns of V placed and rotated, no product with V."""
@@ -225,7 +308,7 @@ class RankOneFactor:
         Z[src[dead], np.flatnonzero(dead)] = 1.0
         if self.V is not None and not np.all(dead):
             j = np.flatnonzero(~dead)
-            Z[np.ix_(self.live, j)] = self.V[:, pos[j]]
+            Z[np.ix_(self.live, j)] = self.V.columns_t(pos[j]).T
         self._rotate(Z, transpose=False)
         out = np.empty_like(Z)
         out[self.order] = Z
@@ -255,16 +338,16 @@ def tree_rowsum(X: np.ndarray) -> np.ndarray:
     return Y[:, 0].copy()
 
 
-def cauchy_certificate(sq: np.ndarray, diff: np.ndarray, zhat: np.ndarray, r: float) -> tuple[float, float, np.ndarray] | None:
-    """Certified ``(||V^T V - I||_F, max_l ||v_l - v_bar_l||)`` for the normalized rows of ``zhat / diff`` (module docstring).
+def cauchy_certificate(sq: np.ndarray, sqs: np.ndarray, cstar: np.ndarray, zhat: np.ndarray, r: float) -> tuple[float, float, np.ndarray] | None:
+    """Certified ``(||V^T V - I||_F, max_l ||v_l - v_bar_l||, norms)`` of the Cauchy block these numbers define.
 
     Parameters
     ----------
     sq : ndarray (m,)
         Square roots of the poles, strictly ascending (the poles are ``p_j = sq_j^2`` exactly).
-    diff : ndarray (m, m)
-        ``diff[l, j]`` the computed ``p_j - x_l`` of root l (strict interlacing: negative on the
-        diagonal, positive just right of it). Not modified.
+    sqs, cstar : ndarray (m,)
+        Root l is ``x_l = sqs_l^2 - cstar_l`` exactly: ``sqs_l`` the square root of its nearer
+        neighbouring pole (l or l + 1), ``cstar_l`` the difference to it.
     zhat : ndarray (m,)
         Loewner's vector.
     r : float
@@ -273,32 +356,24 @@ def cauchy_certificate(sq: np.ndarray, diff: np.ndarray, zhat: np.ndarray, r: fl
     Returns
     -------
     (float, float, ndarray) or None
-        The two bounds and the row norms ``||zhat / diff[l]||`` the columns must be divided by
-        (computed by :func:`tree_rowsum`, whose rounding the bounds assume). None when a
-        computed difference is not within half of itself of the exact one it stands for (the
-        certificate cannot be made; the caller falls back to ``eigh``).
+        The two bounds and the norms ``n_l`` of :class:`CauchyBlock` (computed by
+        :func:`tree_rowsum`, whose rounding the bounds assume). None when a regenerated
+        difference has the wrong sign for strict interlacing or is not within half of itself of
+        the exact one (the certificate cannot be made; the caller falls back to ``eigh``).
 
     Notes
     -----
-    Bounds used, entry by entry: ``x_l = p_{j*} - diff[l, j*]`` with ``j*`` the nearer of the
-    poles l and l+1; ``e_lj = (sq_j - sq_{j*})(sq_j + sq_{j*}) + diff[l, j*]`` evaluated in floating
-    point with error ``gamma_2 |e_hat| + gamma_4 |product|``; ``kappa_lj`` the certified relative
-    distance of ``diff[l, j]`` to ``e_lj``. The computed unit vector then errs from the exact
-    one entrywise by ``t_l = (1 + psi)(1 + u) / ((1 - psi)(1 - gamma_{d+3})) - 1`` relatively,
+    Bounds used, entry by entry: the regenerated ``E_lj`` (:class:`CauchyBlock`) errs from the
+    exact ``e_lj = p_j - x_l`` by at most ``gamma_2 |E| + gamma_4 |product|``, so by
+    ``kappa_lj`` relatively. The computed unit vector then errs from the exact one entrywise
+    by ``t_l = (1 + psi)(1 + u) / ((1 - psi)(1 - gamma_{d+3})) - 1`` relatively,
     ``psi = kappa_max (1 + u) + u``, ``d = ceil(log2 m)`` the depth of the summation tree;
     ``|f(x_l)|`` is at most the computed value plus
-    ``(gamma_d + psi') (1 + psi') sum_j |r zhat_j^2 / diff[l, j]|``. O(m^2) time, O(256 m) memory.
+    ``(gamma_d + psi') (1 + psi') sum_j |r zhat_j^2 / E_lj|``. O(m^2) time, O(256 m) memory.
     """
     m = len(sq)
     if m <= 1:
-        return 0.0, 0.0, np.sqrt(tree_rowsum((zhat[None, :] / diff) ** 2))
-    ar = np.arange(m)
-    dd = np.abs(diff[ar, ar])
-    right = np.full(m, math.inf)
-    right[:-1] = np.abs(diff[ar[:-1], ar[:-1] + 1])
-    jstar = np.where(right < dd, ar + 1, ar)
-    cstar = diff[ar, jstar]
-    sqs = sq[jstar]
+        return 0.0, 0.0, np.ones(m)
     h = r * (zhat * zhat)  # r zhat_j^2, relative error <= gamma_2
     depth = _tree_depth(m)
     gm = gamma(depth + 3)  # relative error of a row norm: squares, tree sum, square root
@@ -310,31 +385,36 @@ def cauchy_certificate(sq: np.ndarray, diff: np.ndarray, zhat: np.ndarray, r: fl
     for a in range(0, m, _BLOCK):
         b = min(a + _BLOCK, m)
         rows = np.arange(a, b)
-        D = diff[a:b]
         P = (sq[None, :] - sqs[a:b, None]) * (sq[None, :] + sqs[a:b, None])
-        E = P + cstar[a:b, None]
-        err = gamma(2) * np.abs(E) + gamma(4) * np.abs(P)
-        kap = (np.abs(D - E) * (1.0 + 2.0 * _U) + err) / np.abs(D) * (1.0 + gamma(4))
+        E = P + cstar[a:b, None]  # the entries CauchyBlock regenerates
+        kap = (gamma(2) * np.abs(E) + gamma(4) * np.abs(P)) / np.abs(E) * (1.0 + gamma(4))
+        del P
         kmax[a:b] = np.max(kap, axis=1)
-        b_low[a:b] = dd[a:b] * (1.0 - kap[rows - a, rows])
+        diag = E[rows - a, rows]
+        if not np.all(diag < 0.0):
+            return None
+        b_low[a:b] = -diag * (1.0 - kap[rows - a, rows])
         inner = rows[rows < m - 1]
-        a_low[inner] = diff[inner, inner + 1] * (1.0 - kap[inner - a, inner + 1])
-        T = h[None, :] / D
-        phi[a:b] = np.abs(1.0 + tree_rowsum(T))  # |f_hat(x_l)|, completed below
+        sup = E[inner - a, inner + 1]
+        if not np.all(sup > 0.0):
+            return None
+        a_low[inner] = sup * (1.0 - kap[inner - a, inner + 1])
+        del kap
+        T = h[None, :] / E
         A = tree_rowsum(np.abs(T))
+        f = np.abs(1.0 + tree_rowsum(T))  # |f_hat(x_l)|
+        del T
         psi1 = (1.0 + gamma(2)) * (1.0 + _U) * (1.0 + kmax[a:b]) - 1.0
-        phi[a:b] = phi[a:b] * (1.0 + _U) + (gamma(depth) + psi1) * (1.0 + psi1) * A * (1.0 + gamma(depth)) + gamma(2)
-        Y = zhat[None, :] / D
-        nrm[a:b] = np.sqrt(tree_rowsum(Y * Y))
-    if not (np.all(kmax < 0.5) and np.all(np.isfinite(phi))):
+        phi[a:b] = f * (1.0 + _U) + (gamma(depth) + psi1) * (1.0 + psi1) * A * (1.0 + gamma(depth)) + gamma(2)
+        np.divide(zhat[None, :], E, out=E)
+        nrm[a:b] = np.sqrt(tree_rowsum(E * E))
+    if not (np.all(kmax < 0.5) and np.all(np.isfinite(phi)) and np.all(nrm > 0.0) and np.all(np.isfinite(nrm))):
         return None
     psi = kmax * (1.0 + _U) + _U
     t = (1.0 + psi) * (1.0 + _U) / ((1.0 - psi) * (1.0 - gm)) - 1.0
     nv = nrm / ((1.0 + gm) * (1.0 + psi)) * (1.0 - gamma(4))  # lower bounds of ||v_l||
     a_low *= 1.0 - gamma(4)
     b_low *= 1.0 - gamma(4)
-    if not (np.all(nv > 0.0) and np.all(a_low[:-1] > 0.0) and np.all(b_low > 0.0)):
-        return None
     w = phi / nv  # |f(x_l)| / ||v_l||
     total = 0.0
     for a in range(0, m - 1, _BLOCK):
@@ -349,6 +429,57 @@ def cauchy_certificate(sq: np.ndarray, diff: np.ndarray, zhat: np.ndarray, r: fl
     vmv = math.sqrt(float(np.sum(t * t))) * (1.0 + gamma(m + 2))
     gram = (G + 2.0 * math.sqrt(1.0 + G) * vmv + vmv * vmv) * (1.0 + gamma(6))
     return gram, float(np.max(t)), nrm
+
+
+def _secular_roots(sq: np.ndarray, zk: np.ndarray, rk: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """Roots of ``1 + rk sum zk_j^2 / (sq_j^2 - x)`` by ``dlasd4``, streamed: no ``m x m`` array.
+
+    Returns ``(roots, sqs, cstar, zhat)``: per root the square root of its nearer neighbouring
+    pole and the difference to it (the data of :class:`CauchyBlock`), and Loewner's vector
+    ``zhat_k^2 = (root_k - p_k) / rk * prod_{l != k} (root_l - p_k) / (p_l - p_k)`` accumulated
+    over the rows as they come, as a product of ratios of moderate size (interlacing), poles
+    ``p = sq^2`` the ones the solver saw, their differences factored so that close poles keep
+    their relative difference. None when the solver fails or interlacing is not strict.
+    """
+    m = len(sq)
+    roots = np.empty(m)
+    sqs = np.empty(m)
+    cstar = np.empty(m)
+    diag = np.empty(m)
+    prod = np.ones(m)
+    buf = np.empty((min(_BLOCK, m), m))
+    for a in range(0, m, _BLOCK):
+        b = min(a + _BLOCK, m)
+        D = buf[: b - a]
+        for l_ in range(a, b):
+            delta, sigma, work, info = scipy.linalg.lapack.dlasd4(l_, sq, zk, rk)  # the wrapper counts from 0
+            if info != 0:
+                return None
+            np.multiply(delta, work, out=D[l_ - a])  # dk_j - root_l, to full relative accuracy
+            roots[l_] = sigma * sigma
+        rows = np.arange(a, b)
+        diag[a:b] = D[rows - a, rows]
+        right = np.full(b - a, math.inf)
+        inner = rows < m - 1
+        sup = D[rows[inner] - a, rows[inner] + 1]
+        # strict interlacing dk_l < root_l < dk_{l+1} fixes every sign below
+        if not (np.all(diag[a:b] < 0.0) and np.all(sup > 0.0)):
+            return None
+        right[inner] = sup
+        near_right = right < -diag[a:b]
+        jstar = np.where(near_right, rows + 1, rows)
+        sqs[a:b] = sq[jstar]
+        cstar[a:b] = np.where(near_right, right, diag[a:b])
+        R = (sq[a:b, None] - sq[None, :]) * (sq[a:b, None] + sq[None, :])
+        R[rows - a, rows] = 1.0
+        np.divide(D, R, out=R)
+        np.negative(R, out=R)
+        R[rows - a, rows] = 1.0
+        prod *= np.prod(R, axis=0)
+    z2 = -diag / rk * prod
+    if not np.all(np.isfinite(z2) & (z2 > 0.0)):
+        return None
+    return roots, sqs, cstar, np.copysign(np.sqrt(z2), zk)
 
 
 def rank_one_factor(w: np.ndarray, z: np.ndarray, rho: float) -> RankOneFactor | None:
@@ -417,7 +548,7 @@ def rank_one_factor(w: np.ndarray, z: np.ndarray, rho: float) -> RankOneFactor |
         kept.append(p)
     K = np.array(kept, dtype=np.intp)
     vals = d.copy()
-    V: np.ndarray | None = None
+    V: CauchyBlock | None = None
     gram, col_err = 0.0, 0.0
     if len(K):
         dk = d[K]
@@ -432,56 +563,23 @@ def rank_one_factor(w: np.ndarray, z: np.ndarray, rho: float) -> RankOneFactor |
             return None
     if len(K) == 1:  # one live pole: the root is explicit (dlasd4 returns no differences then)
         vals[K] = dk + rk
-        V = np.ones((1, 1))
+        V = _unit_block()
     elif len(K) > 1:
-        m = len(K)
-        diffT = np.empty((m, m))  # diffT[l, k] = dk[k] - root_l, to full relative accuracy
-        roots = np.empty(m)
-        for l_ in range(m):
-            delta, sigma, work, info = scipy.linalg.lapack.dlasd4(l_, sq, zk, rk)  # the wrapper counts from 0
-            if info != 0:
-                return None
-            np.multiply(delta, work, out=diffT[l_])
-            roots[l_] = sigma * sigma
-        # strict interlacing dk_l < root_l < dk_{l+1} fixes every sign below
-        ar = np.arange(m)
-        if not (np.all(diffT[ar, ar] < 0.0) and np.all(diffT[ar[:-1], ar[:-1] + 1] > 0.0)):
+        sec = _secular_roots(sq, zk, rk)
+        if sec is None:
             return None
-        # Loewner: z_hat_k^2 = (root_k - dk_k) / rk * prod_{l != k} (root_l - dk_k) / (dk_l - dk_k),
-        # as a product of ratios (each of moderate size by interlacing, as dlaed3 forms it)
-        # [l, k] = dk_l - dk_k for the poles dlasd4 saw (sq^2), factored so that close poles keep
-        # their relative difference
-        # (in blocks of rows l: O(block * m) temporaries)
-        prod = np.ones(m)
-        for a in range(0, m, _BLOCK):
-            b = min(a + _BLOCK, m)
-            R = (sq[a:b, None] - sq[None, :]) * (sq[a:b, None] + sq[None, :])
-            R[np.arange(b - a), np.arange(a, b)] = 1.0
-            np.divide(diffT[a:b], R, out=R)
-            np.negative(R, out=R)
-            R[np.arange(b - a), np.arange(a, b)] = 1.0
-            prod *= np.prod(R, axis=0)
-        z2 = -diffT[ar, ar] / rk * prod
-        if not np.all(np.isfinite(z2) & (z2 > 0.0)):
-            return None
-        zhat = np.copysign(np.sqrt(z2), zk)
-        cert = cauchy_certificate(sq, diffT, zhat, rk)
+        roots, sqs, cstar, zhat = sec
+        cert = cauchy_certificate(sq, sqs, cstar, zhat, rk)
         if cert is None:
             return None
         gram, col_err, norms = cert
-        VT = np.divide(zhat[None, :], diffT, out=diffT)  # row l: the l-th eigenvector in the live basis
-        VT /= norms[:, None]  # the norms the certificate assumed
-        if not np.all(np.isfinite(VT)):
-            return None
-        V = VT.T
+        V = CauchyBlock(sq, sqs, cstar, zhat, norms)
         vals[K] = roots
     vals = -(vals + shift) if flip else vals + shift
     idx = np.argsort(vals, kind="stable")
     rot = np.array(rots, dtype=float).reshape(-1, 4)
     values = vals[idx]
-    for arr in (values, V):
-        if arr is not None:
-            arr.setflags(write=False)
+    values.setflags(write=False)
     return RankOneFactor(
         values=values,
         order=order,

@@ -189,6 +189,20 @@ class Spectrum:
         """
         return 0.0
 
+    @property
+    def explicit(self) -> bool:
+        """Whether the eigenvectors are held as an array (columns are views); False for a factored spectrum."""
+        return True
+
+    @property
+    def entry_estimate(self) -> float:
+        """An estimate (not a bound) of the error of a computed entry, for the tolerance readings: 0 here.
+
+        A factored spectrum's rows are computed with ``O(sqrt(m) u)`` typical rounding per
+        product, far below the worst case :attr:`entry_error` bounds.
+        """
+        return 0.0
+
     def rows(self, idx: Sequence[int] | np.ndarray) -> np.ndarray:
         """Rows ``U[idx, :]`` of the eigenvector matrix (``|idx| x N``, a new array)."""
         return np.asarray(self.vectors)[np.asarray(idx, dtype=np.intp), :]
@@ -198,12 +212,33 @@ class Spectrum:
         return self.vectors[:, idx] if isinstance(idx, slice) else np.asarray(self.vectors)[:, np.asarray(idx, dtype=np.intp)]
 
     def apply(self, Y: np.ndarray) -> np.ndarray:
-        """``U Y`` for ``Y`` of shape ``N x k`` (not certified: for simulations and uncertified readings)."""
-        return np.asarray(self.vectors) @ np.asarray(Y, dtype=float)
+        """``U Y`` for ``Y`` of shape ``N x k``, real or complex (entries within :attr:`entry_error` times ``||Y||_1`` of exact products)."""
+        Y = np.asarray(Y)
+        if np.iscomplexobj(Y):
+            return self._apply_real(np.ascontiguousarray(Y.real)) + 1j * self._apply_real(np.ascontiguousarray(Y.imag))
+        return self._apply_real(Y.astype(float, copy=False))
 
     def project(self, X: np.ndarray) -> np.ndarray:
-        """``U^T X`` for ``X`` of shape ``N x k`` (not certified: for simulations and uncertified readings)."""
-        return np.asarray(self.vectors).T @ np.asarray(X, dtype=float)
+        """``U^T X`` for ``X`` of shape ``N x k``, real or complex."""
+        X = np.asarray(X)
+        if np.iscomplexobj(X):
+            return self._project_real(np.ascontiguousarray(X.real)) + 1j * self._project_real(np.ascontiguousarray(X.imag))
+        return self._project_real(X.astype(float, copy=False))
+
+    def abs_apply(self, y: np.ndarray) -> np.ndarray:
+        """``|U| |y|`` for a vector y (the rounding bound of ``U y``), in blocks of rows: no N x N temporary."""
+        U = np.asarray(self.vectors)
+        ay = np.abs(np.asarray(y, dtype=float))
+        out = np.empty(U.shape[0])
+        for a in range(0, U.shape[0], 512):
+            out[a : a + 512] = np.abs(U[a : a + 512]) @ ay
+        return out
+
+    def _apply_real(self, Y: np.ndarray) -> np.ndarray:
+        return np.asarray(self.vectors) @ Y
+
+    def _project_real(self, X: np.ndarray) -> np.ndarray:
+        return np.asarray(self.vectors).T @ X
 
     @cached_property
     def scale(self) -> float:
@@ -222,6 +257,26 @@ class Spectrum:
             r[a:b] = np.linalg.norm(L @ U[:, a:b] - U[:, a:b] * w[None, a:b], axis=0)
         r.setflags(write=False)
         return r
+
+    @property
+    def residual_estimates(self) -> np.ndarray:
+        """Estimates of ``||L u_i - w_i u_i||_2`` for the tolerance readings (not certified): the computed norms here.
+
+        The certified bounds add the rounding of these norms themselves; the readings at a
+        tolerance (:func:`~glocal_verify.analysis.modal.modal_decomposition`) take them as they
+        are. A spectrum kept in factored form, whose :attr:`residuals` are rigorous bounds,
+        gives the same recurrence without its rounding allowances instead.
+        """
+        return self.residuals
+
+    @cached_property
+    def residual_frobenius(self) -> float:
+        """``||R||_F`` of the residual matrix ``L U - U diag(w)``: the norm of :attr:`residuals` here.
+
+        A spectrum kept in factored form bounds it directly, more sharply than its per-column
+        bounds together.
+        """
+        return float(np.linalg.norm(self.residuals))
 
     @cached_property
     def input_error(self) -> float:
@@ -318,7 +373,7 @@ class Spectrum:
             return math.inf
         k = self.row_nonzeros
         wmax = float(np.max(np.abs(self.values)))
-        rnorm = float(np.linalg.norm(self.residuals))
+        rnorm = self.residual_frobenius
         rround = (k + 2) * EPS * math.sqrt(n) * (self.frobenius + wmax)
         return (rnorm + rround) * (1.0 + 2.0 * eta) + 2.0 * eta * wmax + self.input_error
 

@@ -38,7 +38,7 @@ The update is kept only when its bounds are as good as those of ``eigh`` (module
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from fractions import Fraction
 from functools import cached_property
 from typing import Sequence
@@ -61,14 +61,28 @@ UPDATE_ACCEPT = 1.5
 _COLS = 256
 _COLS_ROTATED = 1024
 _U = EPS / 2.0
-#: rows per block of |U| |y|
-_ROWS = 512
 
 
 @dataclass(frozen=True)
 class _ChainBounds:
+    """The certified state at the end of a chain of factors (a longer chain continues from it).
+
+    ``residuals`` bound the columns of ``M U_q - U_q diag(values)`` for the matrix ``M`` of the
+    spectrum and ``frobenius`` its Frobenius norm (sharper than the columns' bounds together);
+    ``estimates`` are the same recurrence on the computed residual norms, without rounding
+    allowances and with the propagated residuals combined in 2-norm (for tolerance readings);
+    ``eta`` the loss of orthonormality; ``row_err`` / ``row_norm`` the 2-norm of a
+    computed row's error and of the row, ``entry_rows`` the error of a computed row entry,
+    ``entry_error`` that of any computed entry (rows, columns, the formed basis).
+    """
+
     residuals: np.ndarray
+    frobenius: float
+    estimates: np.ndarray
     eta: float
+    row_err: float
+    row_norm: float
+    entry_rows: float
     entry_error: float
 
 
@@ -78,23 +92,26 @@ class UpdatedSpectrum(Spectrum):
 
     Built by :func:`update_spectrum`. :attr:`values`, :meth:`rows`, :meth:`columns`,
     :meth:`apply`, :meth:`project` and every certified bound work without forming the basis;
-    :attr:`vectors` forms it (one GEMM per factor) for callers that need it whole.
+    :attr:`vectors` forms it (one GEMM per factor) for callers that need it whole. Computed
+    rows are kept (on this object), so the checks that read the same monitors share them.
 
     Parameters
     ----------
     matrix : scipy.sparse matrix or ndarray
         ``fl(L_q)``, as for :class:`Spectrum`.
     base : Spectrum
-        The spectrum of the normal mode (explicit eigenvectors).
+        The spectrum the factors start from (explicit eigenvectors, or a block-diagonal
+        :class:`~glocal_verify.numerics.block_spectrum.BlockSpectrum`).
     factors : tuple of RankOneFactor
         One per changed link, in order.
     bounds : _ChainBounds
-        The certified residual bounds, loss of orthonormality and entry error.
+        The certified residual bounds, loss of orthonormality and entry errors.
     """
 
     base: Spectrum
     factors: tuple[RankOneFactor, ...]
     bounds: _ChainBounds
+    _row_cache: dict[int, np.ndarray] = field(default_factory=dict, compare=False)
 
     def __repr__(self) -> str:
         return f"UpdatedSpectrum(N={self.size}, factors={len(self.factors)}, eta={self.bounds.eta:.3g}, formed={self.formed})"
@@ -122,6 +139,16 @@ class UpdatedSpectrum(Spectrum):
         """Certified upper bounds on ``||L_q u_i - w_i u_i||_2`` of the exact product basis (rounding included)."""
         return self.bounds.residuals
 
+    @property
+    def residual_estimates(self) -> np.ndarray:
+        """Estimates of the residual norms for the tolerance readings (not certified; :class:`_ChainBounds`)."""
+        return self.bounds.estimates
+
+    @cached_property
+    def residual_frobenius(self) -> float:
+        """Certified bound on ``||L_q U_q - U_q diag(values)||_F``."""
+        return min(self.bounds.frobenius, float(np.linalg.norm(self.bounds.residuals)))
+
     @cached_property
     def orthogonality_error(self) -> float:
         """``eta``: certified bound on ``||U_q^T U_q - I||_F`` of the exact product basis (no ``syrk``)."""
@@ -136,12 +163,30 @@ class UpdatedSpectrum(Spectrum):
         """Bound on the error of every entry :meth:`rows`, :meth:`columns` and :attr:`vectors` return."""
         return self.bounds.entry_error
 
+    @property
+    def explicit(self) -> bool:
+        """False: the basis is the product of the factors (formed only for :attr:`vectors`)."""
+        return False
+
+    @property
+    def entry_estimate(self) -> float:
+        """``sqrt(N) u`` per factor: the typical (not the worst-case) rounding of a computed entry, for tolerance readings."""
+        return len(self.factors) * math.sqrt(self.size) * _U
+
     def rows(self, idx: Sequence[int] | np.ndarray) -> np.ndarray:
-        """Rows ``U_q[idx, :]`` (``|idx| x N``, a new array): ``U[idx, :] F_1 ... F_s``."""
-        X = np.asarray(self.base.vectors)[np.asarray(idx, dtype=np.intp), :]
-        for F in self.factors:
-            X = F.right_multiply(X)
-        return X
+        """Rows ``U_q[idx, :]`` (``|idx| x N``, a new array): ``U[idx, :] F_1 ... F_s``, each row computed once."""
+        idx = [int(i) for i in np.asarray(idx, dtype=np.intp).ravel()]
+        missing = [i for i in dict.fromkeys(idx) if i not in self._row_cache]
+        if missing:
+            X = self.base.rows(missing)
+            for F in self.factors:
+                X = F.right_multiply(X)
+            for i, row in zip(missing, X):
+                row.setflags(write=False)
+                self._row_cache[i] = row
+        if not idx:
+            return np.zeros((0, self.size))
+        return np.array([self._row_cache[i] for i in idx])
 
     def columns(self, idx: Sequence[int] | np.ndarray | slice) -> np.ndarray:
         """Columns ``U_q[:, idx]`` (``N x |idx|``, a new array): ``U (F_1 (... F_s[:, idx]))``."""
@@ -149,18 +194,20 @@ class UpdatedSpectrum(Spectrum):
         Y = self.factors[-1].columns(idx)
         for F in reversed(self.factors[:-1]):
             Y = F.apply(Y)
-        return np.asarray(self.base.vectors) @ Y
+        return self.base.apply(Y)
 
-    def apply(self, Y: np.ndarray) -> np.ndarray:
-        """``U_q Y`` for ``Y`` of shape ``N x k``."""
-        Z = np.asarray(Y, dtype=float)
+    def abs_apply(self, y: np.ndarray) -> np.ndarray:
+        """Not available for a factored basis (its absolute values are not at hand)."""
+        raise NotImplementedError("|U_q| |y| of a factored spectrum: bound it through its factors instead")
+
+    def _apply_real(self, Y: np.ndarray) -> np.ndarray:
+        Z = Y
         for F in reversed(self.factors):
             Z = F.apply(Z)
-        return np.asarray(self.base.vectors) @ Z
+        return self.base.apply(Z)
 
-    def project(self, X: np.ndarray) -> np.ndarray:
-        """``U_q^T X`` for ``X`` of shape ``N x k``."""
-        Z = np.asarray(self.base.vectors).T @ np.asarray(X, dtype=float)
+    def _project_real(self, X: np.ndarray) -> np.ndarray:
+        Z = self.base.project(X)
         for F in self.factors:
             Z = F.apply_transpose(Z)
         return Z
@@ -175,11 +222,29 @@ def _base_residual_bounds(base: Spectrum) -> np.ndarray:
     return (np.asarray(base.residuals) * (1.0 + gamma(n + 2)) + gamma(k + 2) * (base.abs_norm + w) * unorm) * (1.0 + gamma(4))
 
 
-def _step_residuals(F: RankOneFactor, w: np.ndarray, zhat: np.ndarray, zeta: float, rho: float, r_prev: np.ndarray, eta_prev: float, off: float) -> np.ndarray:
-    """Certified residual bounds of ``U_prev F`` as eigenvectors of ``M_prev + rho b b^T`` (module docstring).
+def _step_residuals(
+    F: RankOneFactor,
+    w: np.ndarray,
+    zhat: np.ndarray,
+    zeta: float,
+    rho: float,
+    r_prev: np.ndarray,
+    frob_prev: float,
+    est_prev: np.ndarray,
+    eta_prev: float,
+    off: float,
+    off_est: float,
+) -> tuple[np.ndarray, float, np.ndarray]:
+    """Certified residual bounds of ``U_prev F`` as eigenvectors of ``M_prev + rho b b^T`` (module docstring): per column, and in Frobenius norm.
 
     ``zhat`` is the computed ``U_prev^T b``, ``||z - zhat||_2 <= zeta``; ``r_prev`` bounds the
-    columns of ``R_prev``; ``off`` bounds ``||b - U_prev z||_2`` (:func:`_complement_norm`).
+    columns of ``R_prev`` and ``frob_prev`` its Frobenius norm; ``off`` bounds
+    ``||b - U_prev z||_2`` (:func:`_complement_norm`). The Frobenius bound takes each term as
+    a matrix (``||R_prev F||_F <= ||R_prev||_F ||F||_2``, ``||rho (z z^T - zhat zhat^T) F||_F <=
+    |rho| ||F||_2 zeta (2 ||zhat|| + zeta)``), where adding the columns' bounds would count an
+    error of z once per column. The third result are the estimates, not bounds: the three
+    terms taken as independent errors, ``sqrt(sum_j F_jk^2 est_j^2 + ||s_hat_k||^2 +
+    (|rho| off_est zhat^T f_k)^2)`` with ``est_prev`` the previous estimates.
     """
     n = F.size
     lam = F.values
@@ -191,6 +256,10 @@ def _step_residuals(F: RankOneFactor, w: np.ndarray, zhat: np.ndarray, zeta: flo
     arho = abs(rho)
     unorm = math.sqrt(1.0 + eta_prev)
     out = np.empty(n)
+    est = np.empty(n)
+    est_sq = np.asarray(est_prev) ** 2
+    s_sq = 0.0  # squares of the computed S and of its rounding, over the columns
+    e_sq = 0.0
     step = _COLS_ROTATED if len(F.rot_c) > 64 else _COLS
     g_n = gamma(n + 3)
     for a in range(0, n, step):
@@ -208,14 +277,20 @@ def _step_residuals(F: RankOneFactor, w: np.ndarray, zhat: np.ndarray, zeta: flo
         err_f = (wspan[a:b] + arho * (znorm + zeta) ** 2) * omega * fn
         err_z = arho * (zeta * (np.abs(dot) + g_n * adot + znorm * omega * fn) + (znorm + zeta) * zeta * fn_true)
         s = sn + err_round + err_f + err_z
+        s_sq += float(np.sum(sn * sn))
+        e_sq += float(np.sum((err_round + err_f) ** 2))
         c = np.abs(dot) + g_n * adot + znorm * omega * fn + zeta * fn_true
         t = np.minimum((np.abs(Fb).T @ r_prev) * (1.0 + g_n) + omega * fn * rnorm, fn_true * rnorm)
         out[a:b] = (t + unorm * s + arho * off * c) * (1.0 + gamma(8))
-    return out
+        est[a:b] = np.sqrt((Fb * Fb).T @ est_sq + sn * sn + (arho * off_est * dot) ** 2)
+    mu = F.norm
+    s_frob = math.sqrt(s_sq) * (1.0 + gamma(n + 2)) + math.sqrt(e_sq) * (1.0 + gamma(n + 2)) + arho * mu * zeta * (2.0 * znorm + zeta)
+    frob = (frob_prev * mu + unorm * s_frob + arho * off * mu * (znorm + zeta)) * (1.0 + gamma(8))
+    return out, frob, est
 
 
-def _complement_norm(U: np.ndarray, i: int, j: int, eta: float) -> float:
-    """Upper bound on ``||(I - U U^T) b||_2``, ``b = e_i - e_j``, computed a posteriori (O(N^2)).
+def _complement_norm(base: Spectrum, i: int, j: int) -> tuple[float, float]:
+    """Upper bound on ``||(I - U U^T) b||_2``, ``b = e_i - e_j``, for the basis U of ``base``, computed a posteriori (O(N^2)), and the computed norm.
 
     With ``y = fl(U[i] - U[j])`` (``|y - U^T b| <= u |y|``) and ``h = fl(b - fl(U y))``:
     ``||b - U U^T b|| <= ||h|| + gamma_{N+1} || |U| |y| + |b| || + sqrt(1 + eta) u ||y||``
@@ -223,20 +298,20 @@ def _complement_norm(U: np.ndarray, i: int, j: int, eta: float) -> float:
     ``||I - U U^T||_2 ||b|| <= eta sqrt(2)``, whose ``eta`` is mostly the rounding allowance
     of the orthonormality check, and is never larger than it.
     """
-    n = U.shape[0]
-    y = U[i] - U[j]
-    h = -(U @ y)
+    n = base.size
+    eta = base.orthogonality_error
+    R = base.rows([i, j])
+    y = R[0] - R[1]
+    h = -base.apply(y[:, None])[:, 0]
     h[i] += 1.0
     h[j] -= 1.0
-    ay = np.abs(y)
-    ab = np.empty(n)
-    for a in range(0, n, _ROWS):  # |U| |y| in blocks of rows: no N x N temporary
-        ab[a : a + _ROWS] = np.abs(U[a : a + _ROWS]) @ ay
+    ab = base.abs_apply(y)
     ab[i] += 1.0
     ab[j] += 1.0
     ynorm = float(np.linalg.norm(y))
-    bound = (float(np.linalg.norm(h)) + gamma(n + 1) * float(np.linalg.norm(ab))) * (1.0 + gamma(n + 2)) + math.sqrt(1.0 + eta) * _U * ynorm * (1.0 + gamma(2))
-    return min(bound, math.sqrt(2.0) * eta * (1.0 + gamma(2)))
+    hnorm = float(np.linalg.norm(h))
+    bound = (hnorm + gamma(n + 1) * float(np.linalg.norm(ab))) * (1.0 + gamma(n + 2)) + math.sqrt(1.0 + eta) * _U * ynorm * (1.0 + gamma(2))
+    return min(bound, math.sqrt(2.0) * eta * (1.0 + gamma(2))), hnorm
 
 
 def _mismatch_norm(matrix: scipy.sparse.csr_matrix | np.ndarray, base_matrix: scipy.sparse.csr_matrix | np.ndarray, changes: Sequence[tuple[int, int, float]]) -> float:
@@ -265,7 +340,8 @@ def update_spectrum(matrix: np.ndarray | scipy.sparse.csr_matrix, base: Spectrum
     matrix : ndarray or scipy.sparse matrix
         ``fl(L_q)``: the changed matrix, its entries rounded once from exact values.
     base : Spectrum
-        The spectrum before the changes (explicit eigenvectors).
+        The spectrum before the changes: explicit eigenvectors, a block-diagonal spectrum, or
+        an :class:`UpdatedSpectrum` (whose chain of factors is continued).
     changes : sequence of (int, int, float)
         ``(i, j, rho)`` per changed link.
 
@@ -279,34 +355,42 @@ def update_spectrum(matrix: np.ndarray | scipy.sparse.csr_matrix, base: Spectrum
     n = base.size
     if n == 0 or not changes:
         return None
-    U = np.asarray(base.vectors)
+    if isinstance(base, UpdatedSpectrum):  # continue its chain: the previous matrix is base.matrix
+        root, factors = base.base, list(base.factors)
+        st = base.bounds
+        r, frob, est, eta = np.asarray(st.residuals), st.frobenius, np.asarray(st.estimates), st.eta
+        row_err, row_norm, entry_rows = st.row_err, st.row_norm, st.entry_rows
+    else:
+        root, factors = base, []
+        r, eta = _base_residual_bounds(base), base.orthogonality_error
+        frob = float(np.linalg.norm(r)) * (1.0 + gamma(n + 2))
+        est = np.asarray(base.residual_estimates)
+        row_err, row_norm, entry_rows = 0.0, math.sqrt(1.0 + base.orthogonality_error), 0.0
+    if root.entry_error != 0.0:  # the chain starts from eigenvectors held explicitly (exact floats)
+        return None
+    mu0 = math.sqrt(1.0 + root.orthogonality_error)
     w = np.asarray(base.values)
-    eta_base = base.orthogonality_error
-    r = _base_residual_bounds(base)
-    eta = eta_base
-    mu0 = math.sqrt(1.0 + eta_base)
-    # entry error along the chain: rows (error of a row as a 2-norm, `row_err`) and columns
-    row_err, row_norm = 0.0, mu0
-    entry_rows = 0.0
-    factors: list[RankOneFactor] = []
     for i, j, rho in changes:
-        rows = U[[i, j], :]
-        for G in factors:
-            rows = G.right_multiply(rows)
+        # z = U_prev^T b = F_k^T ... F_1^T (U_root^T b), its error bounded a posteriori factor by factor
+        rows = root.rows([i, j])
         zhat = rows[0] - rows[1]
-        zeta = (2.0 * math.sqrt(n) * entry_rows + gamma(1) * float(np.linalg.norm(zhat))) * (1.0 + gamma(n + 4))
+        zeta = gamma(1) * float(np.linalg.norm(zhat))
+        for G in factors:
+            zhat, e = G.transpose_vector(zhat)
+            zeta = zeta * G.norm + e
+        zeta *= 1.0 + gamma(4)
         made = rank_one_factor(w, zhat, rho)
         if made is None:
             return None
         F = made
-        # ||(I - U_prev U_prev^T) b||: U_prev = U F_1 ... with ||I - F F^T||_2 <= eta_F for square F
-        off = _complement_norm(U, i, j, eta_base)
+        # ||(I - U_prev U_prev^T) b||: U_prev = U_root F_1 ... with ||I - F F^T||_2 <= eta_F for square F
+        off, off_est = _complement_norm(root, i, j)
         grow = mu0 * mu0
         for G in factors:
             off += grow * G.orthogonality * math.sqrt(2.0)
             grow *= G.norm**2
         off = min(off * (1.0 + gamma(4)), math.sqrt(2.0) * eta * (1.0 + gamma(2)))
-        r = _step_residuals(F, w, zhat, zeta, rho, r, eta, off)
+        r, frob, est = _step_residuals(F, w, zhat, zeta, rho, r, frob, est, eta, off, off_est)
         # rows through F: rotations (omega, a 2-norm) and the block product (gamma_m, entrywise)
         tau = (F.rotation_rounding + gamma(F.live_size + 2) * (1.0 + F.rotation_rounding) * (1.0 + F.rotation_defect)) * (1.0 + F.column_error)
         entry_rows = row_err * F.norm + tau * row_norm
@@ -324,11 +408,22 @@ def update_spectrum(matrix: np.ndarray | scipy.sparse.csr_matrix, base: Spectrum
         col_err = col_err * F.norm + step * (col_norm + col_err)
         col_norm *= F.norm
     entry_cols = gamma(n + 2) * mu0 * (col_norm + col_err) + mu0 * col_err
-    mismatch = _mismatch_norm(matrix, base.matrix, changes)
+    mismatch = _mismatch_norm(matrix, base.matrix, changes)  # a Frobenius norm: ||D U||_F <= ||D||_F ||U||_2
     r = r + mismatch * math.sqrt(1.0 + eta) * (1.0 + gamma(2))
+    frob = (frob + mismatch * math.sqrt(1.0 + eta)) * (1.0 + gamma(2))
     r.setflags(write=False)
-    bounds = _ChainBounds(residuals=r, eta=eta * (1.0 + gamma(4)), entry_error=max(entry_rows, entry_cols) * (1.0 + gamma(8)))
-    sp = UpdatedSpectrum(matrix, base, tuple(factors), bounds)
+    est.setflags(write=False)
+    bounds = _ChainBounds(
+        residuals=r,
+        frobenius=frob,
+        estimates=est,
+        eta=eta * (1.0 + gamma(4)),
+        row_err=row_err,
+        row_norm=row_norm,
+        entry_rows=entry_rows,
+        entry_error=max(entry_rows, entry_cols) * (1.0 + gamma(8)),
+    )
+    sp = UpdatedSpectrum(matrix, root, tuple(factors), bounds)
     if not sp.error_radius <= UPDATE_ACCEPT * base.error_radius:
         return None
     return sp

@@ -51,7 +51,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
-from glocal_verify.analysis.modal import EigenGroupPart, modal_decomposition
+from glocal_verify.analysis.modal import EigenGroupPart, form_bases, modal_decomposition
 from glocal_verify.analysis.unobservable import (
     certified_unobservable,
     unobservable_subspace,
@@ -126,29 +126,38 @@ class CentralObserver:
 class _Block:
     """The observable complement of one eigen-group, basis diag(Qx, Qv) (2N x d, orthonormal).
 
-    The 2N-long basis is formed only for the blocks the design uses (:meth:`basis`): most
-    groups contribute their eigenvalues alone.
+    The bases are formed only for the blocks the design uses (:meth:`bases`): most groups
+    contribute their eigenvalues alone, which need the dimensions only.
     """
 
-    Qx: np.ndarray  # N x dx, position part of the basis
-    Qv: np.ndarray  # N x dv, velocity part
+    group: EigenGroupPart
     A: np.ndarray  # d x d compression of A_1
     fixed: np.ndarray  # eigenvalues of A on the group's unobservable part
     rate: float  # decay rate of the group's observable part (-max Re eig(A))
     zero: bool
 
+    def bases(self) -> tuple[np.ndarray, np.ndarray]:
+        """(Qx, Qv): N x dx position part and N x dv velocity part."""
+        g = self.group
+        if self.zero:
+            return _complement(g.E, g.Wx), _complement(g.E, g.W)
+        Q = _complement(g.E, g.W)
+        return Q, Q
+
     def basis(self) -> np.ndarray:
         """[[Qx, 0], [0, Qv]]."""
-        n, dx, dv = self.Qx.shape[0], self.Qx.shape[1], self.Qv.shape[1]
+        Qx, Qv = self.bases()
+        n, dx, dv = Qx.shape[0], Qx.shape[1], Qv.shape[1]
         out = np.zeros((2 * n, dx + dv))
-        out[:n, :dx] = self.Qx
-        out[n:, dx:] = self.Qv
+        out[:n, :dx] = Qx
+        out[n:, dx:] = Qv
         return out
 
     def output(self, C: np.ndarray) -> np.ndarray:
         """C diag(Qx, Qv) (p x d), without the 2N-long basis."""
-        n = self.Qx.shape[0]
-        return np.hstack([C[:, :n] @ self.Qx, C[:, n:] @ self.Qv])
+        Qx, Qv = self.bases()
+        n = Qx.shape[0]
+        return np.hstack([C[:, :n] @ Qx, C[:, n:] @ Qv])
 
 
 def _complement(E: np.ndarray, W: np.ndarray) -> np.ndarray:
@@ -183,27 +192,27 @@ def _blocks(system: System, mode: str, tol: Tolerance) -> list[_Block]:
 
 def _group_block(grp: EigenGroupPart, a: float, g: float) -> _Block:
     mu = grp.value
+    k = len(grp.indices)
     if grp.zero is Decision.ZERO:
-        Qx = _complement(grp.E, grp.Wx)
-        Qv = _complement(grp.E, grp.W)
+        blk = _Block(grp, np.zeros((0, 0)), np.zeros(0, dtype=complex), 0.0, True)
+        Qx, Qv = blk.bases()  # the kernel of L: its basis is the exact component indicators
         dx, dv = Qx.shape[1], Qv.shape[1]
         A = np.zeros((dx + dv, dx + dv))
         A[:dx, dx:] = Qx.T @ Qv
         A[dx:, dx:] = -g * np.eye(dv)
-        fixed = np.array([0.0] * grp.Wx.shape[1] + [-g] * grp.W.shape[1], dtype=complex)
+        fixed = np.array([0.0] * grp.dim_Wx + [-g] * grp.dim_W, dtype=complex)
         rate = 0.0 if dx else (g if dv else math.inf)
-        return _Block(Qx, Qv, A, fixed, rate, True)
-    Q = _complement(grp.E, grp.W)
-    d = Q.shape[1]
+        return _Block(grp, A, fixed, rate, True)
+    d = k - grp.dim_W
     A = np.zeros((2 * d, 2 * d))
     A[:d, d:] = np.eye(d)
     A[d:, :d] = -a * mu * np.eye(d)
     A[d:, d:] = -g * np.eye(d)
     lp, lm = _lam(mu, a, g)
-    r = grp.W.shape[1]
+    r = grp.dim_W
     fixed = np.array([lp] * r + [lm] * r, dtype=complex)
     rate = -max(lp.real, lm.real) if d else math.inf
-    return _Block(Q, Q, A, fixed, rate, False)
+    return _Block(grp, A, fixed, rate, False)
 
 
 @single_threaded
@@ -275,6 +284,7 @@ def design_central_observer(
     H = np.zeros((2 * n, p))
     method = "none"
     if design:
+        form_bases(system.spectrum(mode), [b.group for b in design])  # one pass over a factored basis
         As = scipy.linalg.block_diag(*[b.A for b in design])
         Cs = np.hstack([b.output(C) for b in design])
         Os = np.hstack([b.basis() for b in design])
