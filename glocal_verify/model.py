@@ -470,13 +470,11 @@ class System:
     def spectrum(self, mode: str = NORMAL_MODE) -> Spectrum:
         """The eigendecomposition of L_q with its error bounds (computed once per mode).
 
-        The normal mode of a network of :data:`BLOCK_MIN_AGENTS` agents or more whose clusters
-        hold every agent and share at most :data:`BLOCK_MAX_CUT_LINKS` links is decomposed
-        cluster by cluster, the shared links added as rank-one factors; a safe mode that changes
-        at most :data:`RANK_ONE_MAX_CHANGES` links (from :data:`RANK_ONE_MIN_AGENTS` agents) is
-        the normal mode's spectrum times one factor per change. Either is certified from its
-        factors (:mod:`glocal_verify.numerics.updated_spectrum`) and falls back to one ``eigh``
-        of L_q when its bounds are not as good.
+        A large clustered normal mode is decomposed cluster by cluster, the links between
+        clusters added as rank-one factors (:meth:`_block_spectrum`); a safe mode that changes at
+        most :data:`RANK_ONE_MAX_CHANGES` links is the normal spectrum times one factor per
+        change. Both are certified from their factors (:mod:`glocal_verify.numerics.updated_spectrum`,
+        which also computes the rows the checks read) or replaced by one ``eigh`` of L_q.
 
         Parameters
         ----------
@@ -496,6 +494,8 @@ class System:
                 if 0 < len(changes) <= RANK_ONE_MAX_CHANGES:
                     sp = Spectrum.updated(L, self.spectrum(NORMAL_MODE), changes)
             self._spectra[mode] = sp if sp is not None else Spectrum(L)
+            if not self._spectra[mode].explicit:  # the rows every check reads, in one pass over the factors
+                self._spectra[mode].rows(sorted(set(self.idx(self.monitored)) | set(self.idx(self.attacked)) | {self.index[x] for m in self.safe_modes for link in self.switching_links(m) for x in link[:2]}))
         return self._spectra[mode]
 
     def _block_spectrum(self, L: scipy.sparse.csr_matrix) -> Spectrum | None:

@@ -61,6 +61,8 @@ UPDATE_ACCEPT = 1.5
 _COLS = 256
 _COLS_ROTATED = 1024
 _U = EPS / 2.0
+#: columns a factored spectrum keeps at most from one request (more: a request for most of the basis)
+_KEEP_COLUMNS_MAX = 2048
 
 
 @dataclass(frozen=True)
@@ -106,12 +108,24 @@ class UpdatedSpectrum(Spectrum):
         One per changed link, in order.
     bounds : _ChainBounds
         The certified residual bounds, loss of orthonormality and entry errors.
+    parent : UpdatedSpectrum, optional
+        The spectrum whose chain this one continues (its factors are the first ones here): rows
+        and products go through it, so the rows it has computed are not computed again.
     """
 
     base: Spectrum
     factors: tuple[RankOneFactor, ...]
     bounds: _ChainBounds
+    parent: UpdatedSpectrum | None = None
     _row_cache: dict[int, np.ndarray] = field(default_factory=dict, compare=False)
+    _col_cache: dict[int, np.ndarray] = field(default_factory=dict, compare=False)
+
+    @property
+    def _inner(self) -> tuple[Spectrum, tuple[RankOneFactor, ...]]:
+        """(the spectrum the own factors act on, the own factors): the parent's rows and products are shared."""
+        if self.parent is None:
+            return self.base, self.factors
+        return self.parent, self.factors[len(self.parent.factors) :]
 
     def __repr__(self) -> str:
         return f"UpdatedSpectrum(N={self.size}, factors={len(self.factors)}, eta={self.bounds.eta:.3g}, formed={self.formed})"
@@ -178,8 +192,9 @@ class UpdatedSpectrum(Spectrum):
         idx = [int(i) for i in np.asarray(idx, dtype=np.intp).ravel()]
         missing = [i for i in dict.fromkeys(idx) if i not in self._row_cache]
         if missing:
-            X = self.base.rows(missing)
-            for F in self.factors:
+            inner, own = self._inner
+            X = inner.rows(missing)
+            for F in own:
                 X = F.right_multiply(X)
             for i, row in zip(missing, X):
                 row.setflags(write=False)
@@ -189,26 +204,52 @@ class UpdatedSpectrum(Spectrum):
         return np.array([self._row_cache[i] for i in idx])
 
     def columns(self, idx: Sequence[int] | np.ndarray | slice) -> np.ndarray:
-        """Columns ``U_q[:, idx]`` (``N x |idx|``, a new array): ``U (F_1 (... F_s[:, idx]))``."""
+        """Columns ``U_q[:, idx]`` (``N x |idx|``, a new array): ``U (F_1 (... F_s[:, idx]))``, each computed once.
+
+        A column the own factors leave a unit vector ``e_t`` (a deflated eigenvector: the
+        change does not touch it) is the inner spectrum's column t, which the parent keeps.
+        """
         idx = np.arange(self.size)[idx] if isinstance(idx, slice) else np.asarray(idx, dtype=np.intp)
-        Y = self.factors[-1].columns(idx)
-        for F in reversed(self.factors[:-1]):
-            Y = F.apply(Y)
-        return self.base.apply(Y)
+        want = [int(i) for i in dict.fromkeys(idx.tolist()) if int(i) not in self._col_cache]
+        if want:
+            inner, own = self._inner
+            Y = own[-1].columns(np.asarray(want, dtype=np.intp))
+            for F in reversed(own[:-1]):
+                Y = F.apply(Y)
+            top = np.argmax(np.abs(Y), axis=0) if Y.size else np.zeros(0, dtype=np.intp)
+            unit = (np.count_nonzero(Y, axis=0) == 1) & (Y[top, np.arange(Y.shape[1])] == 1.0)
+            got = np.empty((self.size, len(want)))
+            if np.any(unit):
+                got[:, unit] = inner.columns(top[unit])
+            if not np.all(unit):
+                got[:, ~unit] = inner.apply(Y[:, ~unit])
+            fresh = {i: got[:, k] for k, i in enumerate(want)}
+            if len(want) <= _KEEP_COLUMNS_MAX:  # a request for most of the basis is not kept (read vectors instead)
+                for i, col in fresh.items():
+                    col = col.copy()
+                    col.setflags(write=False)
+                    self._col_cache[i] = col
+        else:
+            fresh = {}
+        if not len(idx):
+            return np.zeros((self.size, 0))
+        return np.column_stack([fresh[int(i)] if int(i) in fresh else self._col_cache[int(i)] for i in idx])
 
     def abs_apply(self, y: np.ndarray) -> np.ndarray:
         """Not available for a factored basis (its absolute values are not at hand)."""
         raise NotImplementedError("|U_q| |y| of a factored spectrum: bound it through its factors instead")
 
     def _apply_real(self, Y: np.ndarray) -> np.ndarray:
+        inner, own = self._inner
         Z = Y
-        for F in reversed(self.factors):
+        for F in reversed(own):
             Z = F.apply(Z)
-        return self.base.apply(Z)
+        return inner.apply(Z)
 
     def _project_real(self, X: np.ndarray) -> np.ndarray:
-        Z = self.base.project(X)
-        for F in self.factors:
+        inner, own = self._inner
+        Z = inner.project(X)
+        for F in own:
             Z = F.apply_transpose(Z)
         return Z
 
@@ -423,7 +464,7 @@ def update_spectrum(matrix: np.ndarray | scipy.sparse.csr_matrix, base: Spectrum
         entry_rows=entry_rows,
         entry_error=max(entry_rows, entry_cols) * (1.0 + gamma(8)),
     )
-    sp = UpdatedSpectrum(matrix, root, tuple(factors), bounds)
+    sp = UpdatedSpectrum(matrix, root, tuple(factors), bounds, base if isinstance(base, UpdatedSpectrum) else None)
     if not sp.error_radius <= UPDATE_ACCEPT * base.error_radius:
         return None
     return sp
