@@ -11,6 +11,7 @@ from pathlib import Path
 import networkx as nx
 import pytest
 
+import glocal_verify.model as model
 from glocal_verify import spec_from_graph
 from glocal_verify.cli import main
 from glocal_verify.cli.common import check_cost
@@ -71,42 +72,60 @@ def _one_line(text: str) -> str:
 
 def test_the_verify_estimate_is_the_documented_formula() -> None:
     est = estimate_verify(V1000, exact_budget=None)
-    n3 = 1000.0**3
+    n3, n2 = 1000.0**3, 1000.0**2
     # clusters of >= 60 agents get the modal UIO design in a numeric run
     uio = cost.C_UIO_MODAL * ((666.0**3) * 1 + (668.0**3) * 3 + (666.0**3) * 1)
     pencil = cost.C_PENCIL * 2 * (666.0**3 + 668.0**3 + 666.0**3)
-    assert est.seconds == pytest.approx(cost.C_START + (cost.C_GLOBAL + 2 * cost.C_GLOBAL_MODE) * n3 + uio + pencil)
+    # below BLOCK_MIN_AGENTS the normal mode is one eigh; both safe modes (no mode_changes given) are fresh
+    glob = (cost.C_EIGH + 2 * cost.C_GLOBAL_MODE + cost.C_GLOBAL_REST) * n3 + cost.C_GLOBAL_REST_SQ * n2
+    assert est.seconds == pytest.approx(cost.C_START + glob + uio + pencil)
     arrays = cost.A_GLOBAL + 2 * cost.A_GLOBAL_MODE
     local_bytes = cost.A_UIO_MODAL * 8.0 * (666.0**2 * 1 + 668.0**2 * 3 + 666.0**2 * 1)
     assert est.bytes == pytest.approx(cost.B_BASE + arrays * 8.0 * 1000.0**2 + local_bytes)
     assert est.dense_arrays == arrays
     # the documented constants
-    assert (cost.C_START, cost.C_GLOBAL, cost.C_GLOBAL_MODE, cost.C_GLOBAL_UPDATE, cost.C_UIO, cost.C_UIO_MODAL, cost.C_PENCIL) == (
-        3.0, 0.4e-9, 0.5e-9, 0.1e-9, 6.5e-9, 0.8e-10, 0.6e-10
-    )
-    assert (cost.A_GLOBAL, cost.A_GLOBAL_MODE, cost.A_UIO, cost.A_UIO_MODAL, cost.B_BASE) == (5.0, 1.0, 10.0, 1.0, 300 * MIB)
+    assert (cost.C_START, cost.C_EIGH, cost.C_FACTOR, cost.C_GLOBAL_MODE, cost.C_GLOBAL_REST, cost.C_GLOBAL_REST_SQ) == (3.0, 2.1e-10, 8e-8, 0.5e-9, 3.3e-11, 5e-7)
+    assert (cost.C_UIO, cost.C_UIO_MODAL, cost.C_PENCIL) == (6.5e-9, 0.8e-10, 0.6e-10)
+    assert (cost.A_GLOBAL, cost.A_GLOBAL_BLOCKS, cost.A_GLOBAL_MODE, cost.A_UIO, cost.A_UIO_MODAL, cost.B_BASE) == (5.0, 2.0, 1.0, 10.0, 1.0, 300 * MIB)
 
 
-def test_one_link_safe_modes_cost_a_rank_one_update_not_an_eigendecomposition() -> None:
-    fresh = estimate_verify(_clustered(2000), exact_budget=None)
-    updated = estimate_verify(dataclasses.replace(_clustered(2000), mode_changes=(1, 1)), exact_budget=None)
-    n3 = 2000.0**3
-    assert fresh.seconds - updated.seconds == pytest.approx(2 * (cost.C_GLOBAL_MODE - cost.C_GLOBAL_UPDATE) * n3)
+def test_one_link_safe_modes_cost_a_rank_one_factor_not_an_eigendecomposition() -> None:
+    fresh = estimate_verify(_clustered(1000), exact_budget=None)
+    updated = estimate_verify(dataclasses.replace(_clustered(1000), mode_changes=(1, 1)), exact_budget=None)
+    n3, n2 = 1000.0**3, 1000.0**2
+    assert fresh.seconds - updated.seconds == pytest.approx(2 * (cost.C_GLOBAL_MODE * n3 - cost.C_FACTOR * n2))
+    assert fresh.bytes - updated.bytes == pytest.approx(2 * cost.A_GLOBAL_MODE * 8.0 * n2)  # a factored mode keeps O(N)
     # below RANK_ONE_MIN_AGENTS, or with more changed links, every safe mode gets its own eigh
     small = dataclasses.replace(_clustered(300), mode_changes=(1, 1))
     assert estimate_verify(small, exact_budget=None).seconds == pytest.approx(estimate_verify(_clustered(300), exact_budget=None).seconds)
-    many = dataclasses.replace(_clustered(2000), mode_changes=(4, 1))
-    assert estimate_verify(many, exact_budget=None).seconds == pytest.approx(fresh.seconds - (cost.C_GLOBAL_MODE - cost.C_GLOBAL_UPDATE) * n3)
+    many = dataclasses.replace(_clustered(1000), mode_changes=(4, 1))
+    assert estimate_verify(many, exact_budget=None).seconds == pytest.approx(fresh.seconds - cost.C_GLOBAL_MODE * n3 + cost.C_FACTOR * n2)
+
+
+def test_a_clustered_normal_mode_costs_its_blocks_and_its_links_between_clusters() -> None:
+    n = 10_000
+    whole = dataclasses.replace(_clustered(n), mode_changes=(1, 1))
+    blocks = dataclasses.replace(whole, cut_links=4, partitioned=True)
+    assert blocks.block_built and not whole.block_built
+    n3, n2 = float(n) ** 3, float(n) ** 2
+    sum3 = sum(float(k) ** 3 for k in blocks.cluster_sizes)
+    a, b = estimate_verify(whole, exact_budget=None), estimate_verify(blocks, exact_budget=None)
+    assert a.seconds - b.seconds == pytest.approx(cost.C_EIGH * (n3 - sum3) - cost.C_FACTOR * 4 * n2)
+    assert a.dense_arrays - b.dense_arrays == cost.A_GLOBAL - cost.A_GLOBAL_BLOCKS
+    # too many links between clusters, too few agents, or clusters that leave agents out: one eigh
+    for other in (dataclasses.replace(blocks, cut_links=model.BLOCK_MAX_CUT_LINKS + 1), dataclasses.replace(blocks, partitioned=False)):
+        assert not other.block_built
+    assert not dataclasses.replace(_clustered(model.BLOCK_MIN_AGENTS - 1), cut_links=4, partitioned=True).block_built
 
 
 def test_the_verify_estimate_matches_the_calibration_runs_within_a_factor_of_two() -> None:
-    # glocal-verify verify on random_clustered_spec(N, 3, seed=7) (two one-link safe modes),
-    # OPENBLAS_NUM_THREADS=1, 2 cores: CPU seconds and peak RSS (reports/benchmarks.md; 10,000
-    # agents with --allow-large under /usr/bin/time), after the rank-one safe-mode spectra and
-    # the sparse Laplacians and cluster state matrices
-    measured = {1000: (6.1, 363 * MIB), 2000: (9.0, 399 * MIB), 4000: (51.0, 963 * MIB), 10000: (582.0, 5225 * MIB)}
+    # glocal-verify verify on random_clustered_spec(N, 3, seed=7) (two one-link safe modes, four
+    # links between clusters), OPENBLAS_NUM_THREADS=1, 2 cores: CPU seconds and peak RSS
+    # (/usr/bin/time; 10,000 agents with --allow-large), after the normal mode built from its
+    # clusters' blocks and the factored safe modes
+    measured = {1000: (5.9, 335 * MIB), 2000: (7.7, 252 * MIB), 4000: (26.2, 670 * MIB), 10000: (250.5, 3234 * MIB)}
     for n, (secs, peak) in measured.items():
-        s = dataclasses.replace(_clustered(n), changed_by_modes=(0, 2, 0), mode_changes=(1, 1))
+        s = dataclasses.replace(_clustered(n), changed_by_modes=(0, 2, 0), mode_changes=(1, 1), cut_links=4, partitioned=True)
         est = estimate_verify(s, exact_budget=None)
         assert secs / 2 < est.seconds < 2 * secs, (n, est.seconds)
         assert peak <= est.bytes < 2 * peak, (n, est.bytes)  # memory errs high, not absurdly
@@ -114,9 +133,10 @@ def test_the_verify_estimate_matches_the_calibration_runs_within_a_factor_of_two
 
 def test_a_20000_agent_path_graph_costs_hours_and_tens_of_gib() -> None:
     est = estimate_verify(SpecSizes(20000, channels=2), exact_budget=None)
-    assert est.seconds == pytest.approx(cost.C_START + cost.C_GLOBAL * 20000.0**3)  # 53 min
-    assert est.bytes == pytest.approx(cost.B_BASE + cost.A_GLOBAL * 8.0 * 20000.0**2)  # 15 GiB
-    assert est.describe().startswith("53 min and 15 GiB (5 dense 20000 x 20000 arrays")
+    n3, n2 = 20000.0**3, 20000.0**2
+    assert est.seconds == pytest.approx(cost.C_START + (cost.C_EIGH + cost.C_GLOBAL_REST) * n3 + cost.C_GLOBAL_REST_SQ * n2)  # 36 min
+    assert est.bytes == pytest.approx(cost.B_BASE + cost.A_GLOBAL * 8.0 * n2)  # 15 GiB
+    assert est.describe().startswith("36 min and 15 GiB (5 dense 20000 x 20000 arrays")
 
 
 def test_every_estimate_grows_with_the_number_of_agents() -> None:
@@ -211,7 +231,7 @@ def test_the_library_raises_the_projects_own_exception_with_one_line() -> None:
         check_limits(est, Limits())
     assert isinstance(info.value, GlocalVerifyError) and isinstance(info.value, ModelError)
     text = str(info.value)
-    assert "\n" not in text and text.startswith("verify of 20000 agents: estimated 53 min")
+    assert "\n" not in text and text.startswith("verify of 20000 agents: estimated 36 min")
     assert "limits 10 min, 8 GiB" in text and "--allow-large" in text
     assert info.value.estimate is est and refusal(est, Limits()) == "time and memory"
 

@@ -27,12 +27,13 @@ from __future__ import annotations
 
 import math
 import os
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Iterable, Sequence
 
 from glocal_verify.conditions.catalogue import CATALOGUE, DESIGN_ASSESSMENT_IDS
 from glocal_verify.errors import ModelError
-from glocal_verify.model import RANK_ONE_MAX_CHANGES, RANK_ONE_MIN_AGENTS
+from glocal_verify.model import BLOCK_MAX_CUT_LINKS, BLOCK_MIN_AGENTS, RANK_ONE_MAX_CHANGES, RANK_ONE_MIN_AGENTS
 from glocal_verify.spec.types import SystemSpec
 
 __all__ = [
@@ -63,25 +64,30 @@ C_START = 3.0
 #: resident memory of a command before its matrices (interpreter, numpy, scipy): bytes
 B_BASE = 300 * MIB
 
-#: global checkers: seconds per N^3 for the normal mode (eigh, certified bounds, the ZDA
-#: analysis, ...), per N^3 for each safe mode with its own eigh and modal tests, and per N^3
-#: for each safe mode whose spectrum is a rank-one update of the normal one (at most
-#: RANK_ONE_MAX_CHANGES changed links, N >= RANK_ONE_MIN_AGENTS: one matrix product and its
-#: certified bounds). Fit to whole verify runs on random_clustered_spec(N, 3, seed=7) with two
-#: one-link safe modes: 6.1 / 9.0 / 49 / 608 CPU-s at N = 1000 / 2000 / 4000 / 10,000 (their
-#: local parts are the terms below; at 10,000 one eigh is about 190 s, each rank-one safe mode
-#: about 75 s; 9.1 / 17.4 / 70.6 / 166 s at N = 1000 ... 4000 before the rank-one updates,
-#: which fit C_GLOBAL_MODE)
-C_GLOBAL = 0.4e-9
+#: global checkers, fit to whole verify runs on random_clustered_spec(N, 3, seed=7) (two one-link
+#: safe modes, four links between clusters) with one BLAS thread: 5.9 / 7.7 / 26 / 235 CPU-s at
+#: N = 1000 / 2000 / 4000 / 10,000, their local parts the terms below. A spectrum: C_EIGH per
+#: n^3 for an eigendecomposition with its certified bounds (the normal mode's N^3, or the sum
+#: of its clusters' n_i^3 when it is built from blocks: 3 x 3333 agents in 21.6 s), C_FACTOR
+#: per N^2 for each rank-one factor (a link between clusters of a block-built normal mode, a
+#: changed link of a safe mode: its secular equation, certificate and the rows read through
+#: it, 4.3-8 s at 10,000), C_GLOBAL_MODE per N^3 for a safe mode decomposed afresh (more than
+#: RANK_ONE_MAX_CHANGES links, or fewer than RANK_ONE_MIN_AGENTS agents). The rest of the global
+#: work (the ZDA staircase on the modal pencil, the modal analyses, the switched recursion) is
+#: C_GLOBAL_REST N^3 + C_GLOBAL_REST_SQ N^2: 10 s at 4000, 82 s at 10,000.
+C_EIGH = 2.1e-10
+C_FACTOR = 8e-8
 C_GLOBAL_MODE = 0.5e-9
-C_GLOBAL_UPDATE = 0.1e-9
-#: dense N x N float64 arrays the global checkers hold at their peak: 5 + 1 per safe mode (the
-#: Laplacians and the cluster state matrices are sparse; per mode the eigenvectors, plus the
-#: normal mode's eigh workspace, its syrk and the modal pencil: measured 5.4 arrays beside base
-#: memory at N = 4000 and 6.6 at 10,000 with two safe modes, UIO designs included); local
-#: checkers alone hold one
+C_GLOBAL_REST = 3.3e-11
+C_GLOBAL_REST_SQ = 5e-7
+#: dense N x N float64 arrays the global checkers hold at their peak: A_GLOBAL with an explicit
+#: normal eigenbasis (the basis, the eigh workspace, its syrk, the modal pencil's two staircase
+#: buffers), plus A_GLOBAL_MODE per safe mode decomposed afresh (a factored one keeps O(N)); a
+#: normal mode built from blocks holds A_GLOBAL_BLOCKS (the staircase; its blocks are small:
+#: measured 0.8 beside base and UIO memory at N = 4000, 1.6 at 10,000); local checkers alone hold one
 A_GLOBAL = 5.0
 A_GLOBAL_MODE = 1.0
+A_GLOBAL_BLOCKS = 2.0
 A_LOCAL_ONLY = 1.0
 
 #: local.uio: seconds per (2 n_i)^3 per observer design (one per observer and distinct cluster
@@ -230,6 +236,11 @@ class SpecSizes:
         Globally monitored channels |M_x| + |M_v|.
     attack : bool
         Whether the spec has an attack (local checkers then run two suspected sets).
+    cut_links : int
+        Links of the normal mode between two clusters.
+    partitioned : bool
+        Whether the clusters (two or more) hold every agent once: the normal mode can then be
+        built from their blocks (:meth:`System.spectrum <glocal_verify.model.System.spectrum>`).
     """
 
     n: int
@@ -241,6 +252,13 @@ class SpecSizes:
     mode_changes: tuple[int, ...] = ()
     channels: int = 0
     attack: bool = False
+    cut_links: int = 0
+    partitioned: bool = False
+
+    @property
+    def block_built(self) -> bool:
+        """Whether the normal mode is built from its clusters' blocks (the rule of :class:`~glocal_verify.model.System`)."""
+        return self.partitioned and self.n >= BLOCK_MIN_AGENTS and 0 < self.cut_links <= BLOCK_MAX_CUT_LINKS
 
     @classmethod
     def from_spec(cls, spec: SystemSpec) -> SpecSizes:
@@ -259,9 +277,13 @@ class SpecSizes:
                 nodes.update((u, v))
             touched.append(nodes)
         changed = []
-        for c in spec.clusters:
+        owner: dict[object, int] = {}
+        for k, c in enumerate(spec.clusters):
             members = set(c.nodes)
             changed.append(sum(1 for t in touched if not members.isdisjoint(t)))
+            owner.update((x, k) for x in c.nodes)
+        partitioned = len(spec.clusters) >= 2 and len(owner) == len(spec.nodes) == sum(len(c.nodes) for c in spec.clusters)
+        cut = sum(1 for e in spec.edges if owner.get(e.u, -1) != owner.get(e.v, -2)) if partitioned else 0
         return cls(
             n=len(spec.nodes),
             cluster_sizes=tuple(len(c.nodes) for c in spec.clusters),
@@ -272,6 +294,8 @@ class SpecSizes:
             mode_changes=tuple(len(m.add) + len(m.remove) for m in spec.modes),
             channels=len(spec.monitor.positions) + len(spec.monitor.velocities),
             attack=spec.attack is not None,
+            cut_links=cut,
+            partitioned=partitioned,
         )
 
     def only_cluster(self, name: str | None) -> SpecSizes:
@@ -284,8 +308,8 @@ class SpecSizes:
         if name is None or name not in self.cluster_names:
             return self
         i = self.cluster_names.index(name)
-        return SpecSizes(
-            self.n, (self.cluster_sizes[i],), (name,), (self.observers[i],), (self.changed_by_modes[i],), self.modes, self.mode_changes, self.channels, self.attack
+        return dataclasses.replace(
+            self, cluster_sizes=(self.cluster_sizes[i],), cluster_names=(name,), observers=(self.observers[i],), changed_by_modes=(self.changed_by_modes[i],)
         )
 
 
@@ -330,7 +354,7 @@ class CostEstimate:
         return self.seconds + self.extra_seconds
 
     def describe(self) -> str:
-        """``"53 min and 15 GiB (5 dense 20000 x 20000 arrays; mostly global spectra)"``."""
+        """``"36 min and 15 GiB (5 dense 20000 x 20000 arrays; mostly global spectra)"``."""
         parts = []
         if self.dense_arrays >= 1:
             parts.append(f"{self.dense_arrays:.3g} dense {self.n} x {self.n} arrays")
@@ -377,25 +401,30 @@ def estimate_verify(
 
     .. math::
 
-        t = C_{start} + [\\text{global}]\\, (C_g + C_{g,m} S_e + C_{g,u} S_u) N^3
+        t = C_{start} + [\\text{global}]\\, \\big(T_1 + C_{g,m} S_e N^3 + C_f \\textstyle\\sum_u c_u N^2
+            + C_r N^3 + C_{r,2} N^2\\big)
             + [\\texttt{local.uio}] \\sum_i C_{uio} d_i (2 n_i)^3
             + [\\texttt{local.pencil}] \\sum_i C_{pencil} c_i (2 n_i)^3
 
         m = B_{base} + 8 N^2 a + \\sum_i 8 (2 n_i)^2 A_{uio} d_i,\\quad
-            a = A_g + A_{g,m} S \\ (\\text{a global checker selected, else } 1)
+            a = A + A_{g,m} S_e \\ (\\text{a global checker selected, else } 1)
 
-    plus, with ``simulate``, :math:`C_{sim} N^3 \\max(1, S)` for ``switching.detects`` above
+    with ``T_1`` the normal mode: ``C_e sum_i n_i^3 + C_f K N^2`` when it is built from its
+    clusters' blocks (``K`` links between clusters, :attr:`SpecSizes.block_built`; then
+    ``A`` = :data:`A_GLOBAL_BLOCKS`), else ``C_e N^3`` (``A`` = :data:`A_GLOBAL`); ``S_e``
+    the safe modes decomposed afresh and ``c_u`` the changed links of each factored one (at most
+    :data:`RANK_ONE_MAX_CHANGES`, N >= :data:`RANK_ONE_MIN_AGENTS`); plus, with ``simulate``,
+    :math:`C_{sim} N^3 \\max(1, S)` for ``switching.detects`` above
     150 agents, and with ``exact`` the rational terms (:data:`C_EXACT_CENTRAL` N^4,
     :data:`C_EXACT_ZDA` N^3 for each of ``stealthy.zda`` and ``switching.avoids-attack``, between
     their fast and slow paths, :data:`C_EXACT_GLOBAL` N^3, :data:`C_EXACT_UIO` and :data:`C_EXACT_PENCIL` per
     design and case, :data:`B_EXACT` N^2 bytes). :math:`C_{uio}` is :data:`C_UIO_MODAL` = 0.8e-10
     for clusters of at least :data:`UIO_MODAL_MIN_AGENTS` agents in a numeric run (the modal
     design), else :data:`C_UIO` = 6.5e-9. Constants: :data:`C_START` = 3 s,
-    :data:`C_GLOBAL` = 0.4e-9, :data:`C_GLOBAL_MODE` = 0.5e-9 per safe mode with its own eigh
-    (:math:`S_e`), :data:`C_GLOBAL_UPDATE` = 0.1e-9 per safe mode updated from the normal
-    spectrum (:math:`S_u`: at most :data:`RANK_ONE_MAX_CHANGES` changed links, N >=
-    :data:`RANK_ONE_MIN_AGENTS`),
-    :data:`C_PENCIL` = 0.6e-10 s, :data:`A_GLOBAL` = 5, :data:`A_GLOBAL_MODE` = 1,
+    :data:`C_EIGH` (``C_e``) = 2.1e-10, :data:`C_FACTOR` (``C_f``) = 8e-8,
+    :data:`C_GLOBAL_MODE` = 0.5e-9, :data:`C_GLOBAL_REST` (``C_r``) = 3.3e-11,
+    :data:`C_GLOBAL_REST_SQ` = 5e-7, :data:`C_PENCIL` = 0.6e-10 s, :data:`A_GLOBAL` = 5,
+    :data:`A_GLOBAL_BLOCKS` = 2, :data:`A_GLOBAL_MODE` = 1,
     :data:`A_UIO` = 10 (:data:`A_UIO_MODAL` = 1 for a modal design), :data:`B_BASE` = 300 MiB;
     measured as the module docstring says.
 
@@ -424,17 +453,23 @@ def estimate_verify(
     glob = any(not c.startswith("local.") and c != "switching.detects" for c in ids)
     uio, pencil = "local.uio" in ids, "local.pencil" in ids
     n3 = float(n) ** 3
+    updated = [c for c in sizes.mode_changes if 0 < c <= RANK_ONE_MAX_CHANGES][:S] if n >= RANK_ONE_MIN_AGENTS else []
+    fresh = S - len(updated)
     if glob:
-        updated = sum(1 for c in sizes.mode_changes if 0 < c <= RANK_ONE_MAX_CHANGES) if n >= RANK_ONE_MIN_AGENTS else 0
-        updated = min(updated, S)
-        phases["global spectra"] = (C_GLOBAL + C_GLOBAL_MODE * (S - updated) + C_GLOBAL_UPDATE * updated) * n3
+        n2 = float(n) ** 2
+        if sizes.block_built:
+            normal = C_EIGH * sum(float(k) ** 3 for k in sizes.cluster_sizes) + C_FACTOR * sizes.cut_links * n2
+        else:
+            normal = C_EIGH * n3
+        phases["global spectra"] = normal + C_GLOBAL_MODE * fresh * n3 + C_FACTOR * sum(updated) * n2
+        phases["global checkers"] = C_GLOBAL_REST * n3 + C_GLOBAL_REST_SQ * n2
     if uio:
         phases["local.uio"] = sum((C_UIO if exact or m < 2 * UIO_MODAL_MIN_AGENTS else C_UIO_MODAL) * d * float(m) ** 3 for m, d in _designs(sizes))
     if pencil:
         phases["local.pencil"] = sum(C_PENCIL * c * float(m) ** 3 for m, c in _cases(sizes))
     if simulate and "switching.detects" in ids and n > 150:
         phases["switching.detects simulations"] = C_SIMULATE * n3 * max(1, S)
-    arrays = (A_GLOBAL + A_GLOBAL_MODE * S) if glob else A_LOCAL_ONLY
+    arrays = ((A_GLOBAL_BLOCKS if sizes.block_built else A_GLOBAL) + A_GLOBAL_MODE * fresh) if glob else A_LOCAL_ONLY
     nbytes = B_BASE + arrays * _dense(n)
     if uio:
         nbytes += sum((A_UIO if exact or m < 2 * UIO_MODAL_MIN_AGENTS else A_UIO_MODAL) * d * _dense(m) for m, d in _designs(sizes))
@@ -692,7 +727,7 @@ def check_limits(est: CostEstimate, limits: Limits | None = None, *, allow: bool
     """Raise :class:`SizeLimitError` when ``est`` exceeds ``limits`` (unless ``allow``).
 
     The message is one line: the command, N, the estimate, the limits, and how to proceed,
-    e.g. ``verify of 20000 agents: estimated 53 min and 15 GiB (5 dense 20000 x 20000 arrays;
+    e.g. ``verify of 20000 agents: estimated 36 min and 15 GiB (5 dense 20000 x 20000 arrays;
     mostly global spectra; limits 10 min, 8 GiB); rerun with --allow-large to run it anyway,
     or --only CONDITION to run fewer checkers``.
 
