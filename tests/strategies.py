@@ -9,11 +9,39 @@ from __future__ import annotations
 from typing import Any
 
 import networkx as nx
+import numpy as np
 from hypothesis import strategies as st
 
 from glocal_verify import System, spec_from_dict
 
-__all__ = ["weights", "graphs", "systems", "special_graphs", "clustered_systems", "assert_numeric_matches_exact"]
+__all__ = ["weights", "graphs", "systems", "special_graphs", "clustered_systems", "assert_numeric_matches_exact", "dense_laplacian", "extended_product"]
+
+
+def dense_laplacian(n: int, links: list[tuple[int, int, float]]) -> np.ndarray:
+    """The dense Laplacian of weighted links ``(i, j, w)`` on indices ``0 .. n-1`` (a link listed twice counts twice)."""
+    L = np.zeros((n, n))
+    for i, j, w in links:
+        L[i, j] -= w
+        L[j, i] -= w
+        L[i, i] += w
+        L[j, j] += w
+    return L
+
+
+def extended_product(sp: Any) -> tuple[np.ndarray, float]:
+    """The exact basis ``U F_1 ... F_s`` of a factored spectrum in extended precision, and how far its rotations may move it.
+
+    The factors are formed densely (exact but for the rounding of their rotations, at most
+    ``3 sqrt(N) rotation_rounding`` per factor in Frobenius norm) and multiplied in
+    ``numpy.longdouble``, so the certified bounds can be checked against what they bound.
+    """
+    n = sp.size
+    U = np.asarray(sp.base.vectors).astype(np.longdouble)
+    widen = 0.0
+    for F in sp.factors:
+        U = U @ F.apply(np.eye(n)).astype(np.longdouble)
+        widen += 3.0 * float(np.sqrt(n)) * F.rotation_rounding
+    return U, widen
 
 
 def weights(integer: bool = True) -> st.SearchStrategy[Any]:

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from strategies import assert_numeric_matches_exact
+from strategies import assert_numeric_matches_exact, dense_laplacian, extended_product
 
 import glocal_verify.model as model
 import glocal_verify.numerics.updated_spectrum as updated_module
@@ -47,23 +47,18 @@ def _clustered_graph(draw: st.DrawFn) -> tuple[int, list[list[int]], list[tuple[
     return start, blocks, links
 
 
-def _laplacian(n: int, links: list[tuple[int, int, float]]) -> np.ndarray:
-    L = np.zeros((n, n))
-    for i, j, w in links:
-        L[i, j] -= w
-        L[j, i] -= w
-        L[i, i] += w
-        L[j, j] += w
-    return L
+def _split(blocks: list[list[int]], links: list[tuple[int, int, float]]) -> tuple[list[tuple[int, int, float]], list[tuple[int, int, float]]]:
+    """(links inside the blocks, links between them)."""
+    owner = {i: b for b, blk in enumerate(blocks) for i in blk}
+    return [x for x in links if owner[x[0]] == owner[x[1]]], [x for x in links if owner[x[0]] != owner[x[1]]]
 
 
 @settings(max_examples=60, deadline=None)
 @given(_clustered_graph())
 def test_a_block_spectrum_is_its_dense_eigendecomposition(case: tuple[int, list[list[int]], list[tuple[int, int, float]]]) -> None:
     n, blocks, links = case
-    owner = {i: b for b, blk in enumerate(blocks) for i in blk}
-    inside = [(i, j, w) for i, j, w in links if owner[i] == owner[j]]
-    L0 = _laplacian(n, inside)
+    inside, _ = _split(blocks, links)
+    L0 = dense_laplacian(n, inside)
     sp = BlockSpectrum(L0, tuple(np.array(b) for b in blocks))
     U = sp.vectors
     assert np.all(np.diff(sp.values) >= 0)
@@ -78,28 +73,22 @@ def test_a_block_spectrum_is_its_dense_eigendecomposition(case: tuple[int, list[
     assert np.allclose(sp.abs_apply(X[:, 0]), np.abs(U) @ np.abs(X[:, 0]))
     assert np.allclose(sp.residuals, np.linalg.norm(L0 @ U - U * sp.values, axis=0), atol=1e-13 * n)
     with pytest.raises(ValueError):
-        BlockSpectrum(_laplacian(n, links), tuple(np.array(b) for b in blocks))  # links between blocks: not block diagonal
+        BlockSpectrum(dense_laplacian(n, links), tuple(np.array(b) for b in blocks))  # links between blocks: not block diagonal
 
 
 @settings(max_examples=60, deadline=None)
 @given(_clustered_graph())
 def test_the_normal_mode_from_blocks_and_links_bounds_itself_in_extended_precision(case: tuple[int, list[list[int]], list[tuple[int, int, float]]]) -> None:
     n, blocks, links = case
-    owner = {i: b for b, blk in enumerate(blocks) for i in blk}
-    inside = [(i, j, w) for i, j, w in links if owner[i] == owner[j]]
-    cut = [(i, j, w) for i, j, w in links if owner[i] != owner[j]]
-    L = _laplacian(n, links)
-    base = BlockSpectrum(_laplacian(n, inside), tuple(np.array(b) for b in blocks))
+    inside, cut = _split(blocks, links)
+    L = dense_laplacian(n, links)
+    base = BlockSpectrum(dense_laplacian(n, inside), tuple(np.array(b) for b in blocks))
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(updated_module, "UPDATE_ACCEPT", math.inf)
         sp = update_spectrum(L, base, cut)
     if sp is None:
         return
-    U = base.vectors.astype(LD)
-    widen = 0.0
-    for F in sp.factors:
-        U = U @ F.apply(np.eye(n)).astype(LD)
-        widen += 3.0 * math.sqrt(n) * F.rotation_rounding
+    U, widen = extended_product(sp)
     assert float(np.sqrt(np.sum((U.T @ U - np.eye(n, dtype=LD)) ** 2))) <= sp.orthogonality_error + widen
     R = L.astype(LD) @ U - U * sp.values.astype(LD)
     res = np.sqrt(np.sum(R**2, axis=0)).astype(float)
@@ -109,7 +98,7 @@ def test_the_normal_mode_from_blocks_and_links_bounds_itself_in_extended_precisi
     assert np.all(np.abs(sp.columns(range(n)) - U.astype(float)) <= sp.entry_error + widen)
     # the safe mode that adds a link continues the chain
     i, j = blocks[0][0], blocks[-1][-1]
-    Lq = L + _laplacian(n, [(i, j, 1.0)])
+    Lq = L + dense_laplacian(n, [(i, j, 1.0)])
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(updated_module, "UPDATE_ACCEPT", math.inf)
         sq = update_spectrum(Lq, sp, [(i, j, 1.0)])

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from strategies import assert_numeric_matches_exact, graphs, systems
+from strategies import assert_numeric_matches_exact, dense_laplacian, graphs, systems
 
 import glocal_verify.model as model
 from glocal_verify import System, verify
@@ -16,16 +16,6 @@ from glocal_verify.design.generators import random_clustered_spec
 from glocal_verify.numerics.rank_one import eigh_rank_one_update, eigh_updated
 from glocal_verify.numerics.spectrum import EPS, Spectrum
 from glocal_verify.numerics.updated_spectrum import UpdatedSpectrum
-
-
-def _laplacian(n: int, edges: list[tuple[int, int, float]]) -> np.ndarray:
-    L = np.zeros((n, n))
-    for i, j, w in edges:
-        L[i, j] -= w
-        L[j, i] -= w
-        L[i, i] += w
-        L[j, j] += w
-    return L
 
 
 def _assert_eigendecomposition(L: np.ndarray, w: np.ndarray, U: np.ndarray) -> None:
@@ -57,10 +47,10 @@ def _change(n: int, edges: list[tuple[int, int, float]], data: st.DataObject) ->
 def test_a_rank_one_update_is_an_eigendecomposition_of_the_changed_laplacian(graph: tuple[int, list[list[int]]], data: st.DataObject) -> None:
     n, raw = graph
     edges = [(int(u) - 1, int(v) - 1, float(w)) for u, v, w in raw]
-    L0 = _laplacian(n, edges)
+    L0 = dense_laplacian(n, edges)
     w0, U0 = np.linalg.eigh(L0)
     i, j, rho = _change(n, edges, data)
-    L1 = L0 + _laplacian(n, [(i, j, rho)])
+    L1 = L0 + dense_laplacian(n, [(i, j, rho)])
     got = eigh_rank_one_update(w0, U0, i, j, rho)
     assert got is not None
     _assert_eigendecomposition(L1, *got)
@@ -78,36 +68,36 @@ def test_a_rank_one_update_is_an_eigendecomposition_of_the_changed_laplacian(gra
 def test_repeated_eigenvalues_are_deflated_and_the_update_stays_orthonormal(name: str, G: nx.Graph) -> None:
     n = G.number_of_nodes()
     edges = [(int(u), int(v), 1.0) for u, v in G.edges()]
-    L0 = _laplacian(n, edges)
+    L0 = dense_laplacian(n, edges)
     w0, U0 = np.linalg.eigh(L0)
     for i, j, rho in [(edges[0][0], edges[0][1], -1.0), (0, n - 1, 2.0) if not G.has_edge(0, n - 1) else (0, n - 1, 0.5)]:
         got = eigh_rank_one_update(w0, U0, i, j, rho)
         assert got is not None, name
-        _assert_eigendecomposition(L0 + _laplacian(n, [(i, j, rho)]), *got)
+        _assert_eigendecomposition(L0 + dense_laplacian(n, [(i, j, rho)]), *got)
 
 
 def test_removing_a_bridge_doubles_the_zero_eigenvalue() -> None:
     G = nx.barbell_graph(6, 0)  # two K6 joined by one bridge (5, 6)
     n = G.number_of_nodes()
     edges = [(int(u), int(v), 1.0) for u, v in G.edges()]
-    L0 = _laplacian(n, edges)
+    L0 = dense_laplacian(n, edges)
     w0, U0 = np.linalg.eigh(L0)
     got = eigh_rank_one_update(w0, U0, 5, 6, -1.0)
     assert got is not None
     w1, U1 = got
-    _assert_eigendecomposition(L0 + _laplacian(n, [(5, 6, -1.0)]), w1, U1)
+    _assert_eigendecomposition(L0 + dense_laplacian(n, [(5, 6, -1.0)]), w1, U1)
     assert np.all(np.abs(w1[:2]) < 1e-12) and w1[2] > 0.1
 
 
 def test_successive_updates_compose() -> None:
     G = nx.connected_watts_strogatz_graph(60, 4, 0.3, seed=1)
     edges = [(int(u), int(v), 1.0) for u, v in G.edges()]
-    L0 = _laplacian(60, edges)
+    L0 = dense_laplacian(60, edges)
     w0, U0 = np.linalg.eigh(L0)
     changes = [(0, 30, 1.0), (edges[3][0], edges[3][1], -1.0), (5, 45, 0.5)]
     got = eigh_updated(w0, U0, changes)
     assert got is not None
-    _assert_eigendecomposition(L0 + _laplacian(60, changes), *got)
+    _assert_eigendecomposition(L0 + dense_laplacian(60, changes), *got)
 
 
 def test_the_updated_spectrum_certifies_itself_and_encloses_the_exact_eigenvalues() -> None:

@@ -17,6 +17,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from strategies import dense_laplacian, extended_product
+
 import glocal_verify.numerics.updated_spectrum as updated_module
 from glocal_verify import System, verify
 from glocal_verify.design.generators import random_clustered_spec
@@ -25,16 +27,6 @@ from glocal_verify.numerics.spectrum import Spectrum
 from glocal_verify.numerics.updated_spectrum import UpdatedSpectrum, update_spectrum
 
 LD = np.longdouble
-
-
-def _laplacian(n: int, edges: list[tuple[int, int, float]]) -> np.ndarray:
-    L = np.zeros((n, n))
-    for i, j, w in edges:
-        L[i, j] -= w
-        L[j, i] -= w
-        L[i, i] += w
-        L[j, j] += w
-    return L
 
 
 def _dense(F: RankOneFactor) -> np.ndarray:
@@ -114,21 +106,16 @@ def _graph_and_changes(draw: st.DrawFn) -> tuple[int, list[tuple[int, int, float
 @given(_graph_and_changes())
 def test_a_factored_spectrum_bounds_its_residuals_orthonormality_and_entries(case: tuple[int, list[tuple[int, int, float]], list[tuple[int, int, float]]]) -> None:
     n, edges, changes = case
-    L0 = _laplacian(n, edges)
-    Lq = L0 + _laplacian(n, changes)
+    L0 = dense_laplacian(n, edges)
+    Lq = L0 + dense_laplacian(n, changes)
     base = Spectrum(L0)
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(updated_module, "UPDATE_ACCEPT", math.inf)  # every bound is checked, kept or not
         sp = update_spectrum(Lq, base, changes)
     if sp is None:
         return
-    # the exact product the bounds are about, in extended precision (the factors formed densely:
-    # exact but for their rotations)
-    U = base.vectors.astype(LD)
-    widen = 0.0
-    for F in sp.factors:
-        U = U @ _dense(F).astype(LD)
-        widen += 3.0 * math.sqrt(n) * F.rotation_rounding
+    # the exact product the bounds are about, in extended precision
+    U, widen = extended_product(sp)
     I = np.eye(n, dtype=LD)
     assert float(np.sqrt(np.sum((U.T @ U - I) ** 2))) <= sp.orthogonality_error + widen
     res = np.sqrt(np.sum((Lq.astype(LD) @ U - U * sp.values.astype(LD)) ** 2, axis=0)).astype(float)

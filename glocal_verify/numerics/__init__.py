@@ -6,8 +6,9 @@
   undecided decisions) and :func:`decide_with_error`;
 - :mod:`.spectrum` -- :class:`Spectrum`, the eigendecomposition of one symmetric matrix with
   its a-posteriori error bounds;
-- :mod:`.rank_one`, :mod:`.updated_spectrum` -- the spectrum after a few link changes, kept as
-  the one before times certified rank-one factors (no N^3 product, no ``syrk``);
+- :mod:`.rank_one`, :mod:`.updated_spectrum`, :mod:`.block_spectrum` -- the spectrum after a few
+  link changes, kept as the one before times certified rank-one factors (no N^3 product, no
+  ``syrk``), and a clustered Laplacian's from its blocks and the links between them;
 - :mod:`.staircase` -- the generic orthogonal staircase for any (A, C);
 - :mod:`.pencil`, :mod:`.pencil_exact` -- the Rosenbrock system pencil, numeric and exact;
 - :mod:`.exact`, :mod:`.exact_subspace` -- python-flint helpers over Q;

@@ -170,10 +170,6 @@ class BlockSpectrum(Spectrum):
         """``sqrt(sum_b eta_b^2)``: ``U^T U - I`` is block diagonal (each ``eta_b`` rigorous)."""
         return math.sqrt(sum(p.orthogonality_error**2 for p in self.parts)) * (1.0 + gamma_bound(len(self.parts) + 2))
 
-    @cached_property
-    def _gram_loss(self) -> float:
-        return math.sqrt(sum(p._gram_loss**2 for p in self.parts))
-
     def rows(self, idx: Sequence[int] | np.ndarray) -> np.ndarray:
         """Rows ``U[idx, :]``: each the row of its block, placed at the block's columns (exact copies)."""
         idx = np.asarray(idx, dtype=np.intp).ravel()

@@ -168,10 +168,6 @@ class UpdatedSpectrum(Spectrum):
         """``eta``: certified bound on ``||U_q^T U_q - I||_F`` of the exact product basis (no ``syrk``)."""
         return self.bounds.eta
 
-    @cached_property
-    def _gram_loss(self) -> float:
-        return self.bounds.eta
-
     @property
     def entry_error(self) -> float:
         """Bound on the error of every entry :meth:`rows`, :meth:`columns` and :attr:`vectors` return."""
