@@ -54,7 +54,11 @@ def _normal(rows: list[dict[str, Any]]) -> list[tuple[str, str, str, str]]:
 def test_a_sweep_on_a_two_worker_local_cluster_matches_the_members_computed_in_process(tmp_path: Path) -> None:
     (tmp_path / "s.toml").write_text(SWEEP)
     out = tmp_path / "r.csv"
+    environ = dict(os.environ)
     assert main(["sweep", str(tmp_path / "s.toml"), "--out", str(out), "--workers", "2", "--quiet"]) == 0
+    # the embedded cluster's settings for its workers (MALLOC_TRIM_THRESHOLD_, thread counts) do
+    # not stay in this process's environment, where later commands would inherit them
+    assert dict(os.environ) == environ
     rows = _rows(out)
     assert {r["member"] for r in rows} == {m.key for m in load_sweep(tmp_path / "s.toml").members}
     assert len({r["member"] for r in rows}) == 4
