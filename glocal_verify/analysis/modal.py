@@ -53,7 +53,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable, Union
+from typing import Union
 
 import numpy as np
 
@@ -97,28 +97,33 @@ class GroupBasis:
         N, the length of the basis vectors.
     k : int
         The number of basis vectors.
-    source : ndarray or callable
-        E itself, or a function returning it.
+    source : ndarray or (Spectrum, int)
+        E itself, or the spectrum and the first index of the group's columns.
     specs : tuple of four PartSpec
         ``W``, ``W_upper``, ``Wx``, ``Wx_upper`` (a decided reading passes one object twice).
     """
 
-    __slots__ = ("n", "k", "_source", "_E", "specs", "_formed")
+    __slots__ = ("n", "k", "_spectrum", "_start", "_E", "specs", "_formed")
 
-    def __init__(self, n: int, k: int, source: np.ndarray | Callable[[], np.ndarray], specs: tuple[PartSpec, PartSpec, PartSpec, PartSpec]) -> None:
+    def __init__(self, n: int, k: int, source: np.ndarray | tuple[Spectrum, int], specs: tuple[PartSpec, PartSpec, PartSpec, PartSpec]) -> None:
         self.n = n
         self.k = k
-        self._source = source
-        self._E: np.ndarray | None = source if isinstance(source, np.ndarray) else None
+        self._spectrum: Spectrum | None = None
+        self._start = 0
+        self._E: np.ndarray | None = None
+        if isinstance(source, np.ndarray):
+            self._E = source
+        else:
+            self._spectrum, self._start = source
         self.specs = specs
-        self._formed: dict[int, np.ndarray] = {}
+        self._formed: dict[int, np.ndarray] | None = None  # per group: made only when a part is
 
     @property
     def E(self) -> np.ndarray:
         """The ``N x k`` basis (computed on first use for a factored spectrum)."""
         if self._E is None:
-            assert callable(self._source)
-            self._E = self._source()
+            assert self._spectrum is not None
+            self._E = self._spectrum.columns(slice(self._start, self._start + self.k))
         return self._E
 
     @property
@@ -143,6 +148,8 @@ class GroupBasis:
         spec = self.specs[i]
         if isinstance(spec, str):
             return np.zeros((self.n, 0)) if spec == "none" else self.E
+        if self._formed is None:
+            self._formed = {}
         key = id(spec)
         if key not in self._formed:
             self._formed[key] = self.E @ spec
@@ -338,7 +345,7 @@ def _group_parts(
         value = float(w[a]) if b - a == 1 else float(np.mean(w[a:b]))
         zero = tol.decide(value, scale)
         k = b - a
-        source: np.ndarray | Callable[[], np.ndarray]
+        source: np.ndarray | tuple[Spectrum, int]
         if zero is Decision.ZERO and kernel_basis is not None and kernel_basis.shape[1] == k:
             # ker L is spanned by the component indicators: known exactly
             source = kernel_basis
@@ -346,7 +353,7 @@ def _group_parts(
             W, W_up, sv = _kernel_of(kernel_basis[m, :], k, err, tol)
             Wx, Wx_up, svx = _kernel_of(kernel_basis[mx, :], k, err, tol)
         else:
-            source = (lambda a=a, b=b: sp.columns(slice(a, b)))
+            source = (sp, a)  # formed when read: a view of explicit eigenvectors, computed for a factored spectrum
             rg = float(abs(residuals[a])) if k == 1 else float(np.linalg.norm(residuals[a:b]))
             err = (rg / gap if gap > 0 else math.inf) + math.sqrt(n) * EPS
             err_m = err + math.sqrt(len(m) * k) * entry
@@ -390,6 +397,11 @@ def form_bases(sp: Spectrum, groups: list[EigenGroupPart]) -> None:
         start += k
 
 
+#: the padded singular values of a simple group seen by no monitor: one shared read-only array
+_NO_ROWS = np.zeros(1)
+_NO_ROWS.setflags(write=False)
+
+
 def _simple_kernel(s: float, rows: int, err: float, tol: Tolerance) -> tuple[PartSpec, PartSpec, np.ndarray]:
     """Both readings of ``span(E) ∩ ker S`` for one column ``E`` with ``||S E|| = s``: ``"all"`` or ``"none"``.
 
@@ -397,7 +409,7 @@ def _simple_kernel(s: float, rows: int, err: float, tol: Tolerance) -> tuple[Par
     ``{0}`` (same decision as :func:`_kernel_readings`; ``S`` with no rows has kernel ``E``).
     """
     if rows == 0:
-        return "all", "all", np.zeros(1)
+        return "all", "all", _NO_ROWS
     d = decide_with_error(s, err, tol)
     if d is Decision.UNDECIDED:
         return "none", "all", np.array([s])
