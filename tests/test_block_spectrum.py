@@ -162,3 +162,15 @@ def test_the_normal_mode_of_a_large_clustered_network_is_built_from_blocks_and_g
     monkeypatch.setattr(model, "RANK_ONE_MIN_AGENTS", 10**9)
     reference = verify(System(spec))
     assert [(c.id, c.scope, c.status) for c in factored.conditions] == [(c.id, c.scope, c.status) for c in reference.conditions]
+
+
+def test_a_normal_mode_of_many_small_clusters_is_kept_from_blocks_and_is_as_sharp_as_eigh() -> None:
+    # ten clusters of 200 agents and nine links between them: the blocks' radius is far below
+    # eigh's, the links cost some of it, and the result is still kept (its radius against the one
+    # an eigh of the whole matrix carries)
+    system = System(random_clustered_spec(model.BLOCK_MIN_AGENTS, 10, seed=3, cut_edges=1, chords=1.0))
+    sp = system.spectrum()
+    assert isinstance(sp, UpdatedSpectrum) and isinstance(sp.base, BlockSpectrum) and len(sp.factors) == 9
+    fresh = Spectrum(system.laplacian_sparse())
+    assert sp.error_radius <= fresh.error_radius
+    assert np.max(np.abs(sp.values - fresh.values)) <= sp.error_radius + fresh.error_radius
