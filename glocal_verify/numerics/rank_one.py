@@ -270,11 +270,15 @@ class RankOneFactor:
         out[self.order] = Z
         return out
 
+    def _rotated_transpose(self, X: np.ndarray) -> np.ndarray:
+        """``G^T P^T X`` (a new array): ``F^T X`` before the Cauchy block and the sorting."""
+        Z = np.asarray(X, dtype=float)[self.order]
+        self._rotate(Z, transpose=True)
+        return Z
+
     def apply_transpose(self, X: np.ndarray) -> np.ndarray:
         """``F^T X`` for ``X`` of shape ``N x k`` (a new array)."""
-        X = np.asarray(X, dtype=float)
-        Z = X[self.order]
-        self._rotate(Z, transpose=True)
+        Z = self._rotated_transpose(X)
         if self.V is not None:
             Z[self.live] = self.V.tmatmul(Z[self.live])
         return Z[self.sort]
@@ -285,8 +289,7 @@ class RankOneFactor:
         The rotations err by ``omega ||y||``; the product with ``V^T`` entrywise by
         ``gamma_{m+2} |V|^T |y|``, whose 2-norm is computed (no worst-case ``sqrt(N)``).
         """
-        Z = np.asarray(y, dtype=float)[self.order]
-        self._rotate(Z, transpose=True)
+        Z = self._rotated_transpose(y)
         err = self.rotation_rounding * float(np.linalg.norm(y)) * (1.0 + gamma(2))
         if self.V is not None:
             zl, bound = self.V.tmatmul_abs(Z[self.live])

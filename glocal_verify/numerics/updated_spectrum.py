@@ -327,10 +327,10 @@ def _step_residuals(
     return out, frob, est
 
 
-def _complement_norm(base: Spectrum, i: int, j: int) -> tuple[float, float]:
+def _complement_norm(base: Spectrum, i: int, j: int, y: np.ndarray) -> tuple[float, float]:
     """Upper bound on ``||(I - U U^T) b||_2``, ``b = e_i - e_j``, for the basis U of ``base``, computed a posteriori (O(N^2)), and the computed norm.
 
-    With ``y = fl(U[i] - U[j])`` (``|y - U^T b| <= u |y|``) and ``h = fl(b - fl(U y))``:
+    With ``y = fl(U[i] - U[j])`` (given: the caller has it; ``|y - U^T b| <= u |y|``) and ``h = fl(b - fl(U y))``:
     ``||b - U U^T b|| <= ||h|| + gamma_{N+1} || |U| |y| + |b| || + sqrt(1 + eta) u ||y||``
     (Higham, Thm 3.5 for the product and the subtraction). It replaces the a-priori
     ``||I - U U^T||_2 ||b|| <= eta sqrt(2)``, whose ``eta`` is mostly the rounding allowance
@@ -338,8 +338,6 @@ def _complement_norm(base: Spectrum, i: int, j: int) -> tuple[float, float]:
     """
     n = base.size
     eta = base.orthogonality_error
-    R = base.rows([i, j])
-    y = R[0] - R[1]
     h = -base.apply(y[:, None])[:, 0]
     h[i] += 1.0
     h[j] -= 1.0
@@ -411,7 +409,8 @@ def update_spectrum(matrix: np.ndarray | scipy.sparse.csr_matrix, base: Spectrum
     for i, j, rho in changes:
         # z = U_prev^T b = F_k^T ... F_1^T (U_root^T b), its error bounded a posteriori factor by factor
         rows = root.rows([i, j])
-        zhat = rows[0] - rows[1]
+        y_root = rows[0] - rows[1]
+        zhat = y_root
         zeta = gamma(1) * float(np.linalg.norm(zhat))
         for G in factors:
             zhat, e = G.transpose_vector(zhat)
@@ -422,7 +421,7 @@ def update_spectrum(matrix: np.ndarray | scipy.sparse.csr_matrix, base: Spectrum
             return None
         F = made
         # ||(I - U_prev U_prev^T) b||: U_prev = U_root F_1 ... with ||I - F F^T||_2 <= eta_F for square F
-        off, off_est = _complement_norm(root, i, j)
+        off, off_est = _complement_norm(root, i, j, y_root)
         grow = mu0 * mu0
         for G in factors:
             off += grow * G.orthogonality * math.sqrt(2.0)
