@@ -22,6 +22,8 @@ __all__ = [
     "FRAGILE_BELOW",
     "Status",
     "Method",
+    "Polarity",
+    "Verdict",
     "ConditionResult",
     "Finding",
     "Report",
@@ -63,6 +65,61 @@ class Method(str, Enum):
         return self.value
 
 
+class Polarity(str, Enum):
+    """What a verdict means for the defender: one vocabulary for every report, repr and gate.
+
+    ``favourable`` / ``unfavourable``: the status is good / bad news for the defender (the
+    catalogue's polarity of the condition: for ``stealthy.*`` and ``switching.avoids-attack``
+    ``holds`` is bad news). ``vacuous``: the condition's premise is absent (no stealthy ZDA to
+    avoid, no attacked agent in the cluster, no global monitor ...), so its status says
+    nothing either way; the result names the premise. ``undecided``: the status is undecided.
+    """
+
+    FAVOURABLE = "favourable"
+    UNFAVOURABLE = "unfavourable"
+    VACUOUS = "vacuous"
+    UNDECIDED = "undecided"
+
+    def __str__(self) -> str:
+        return self.value
+
+    @property
+    def mark(self) -> str:
+        """One character for tables: ✓ favourable, ✗ unfavourable, – vacuous, ? undecided."""
+        return {"favourable": "✓", "unfavourable": "✗", "vacuous": "–", "undecided": "?"}[self.value]
+
+
+def polarity_of(status: Status, good: Status, premise: str | None = None) -> Polarity:
+    """The polarity of ``status`` for a condition whose good news is ``good`` (the one rule).
+
+    Parameters
+    ----------
+    status : Status
+    good : Status
+        ``HOLDS`` or ``FAILS``: the status that is good news for the defender.
+    premise : str or None
+        The absent premise, when the verdict is vacuous.
+    """
+    if status is Status.UNDECIDED:
+        return Polarity.UNDECIDED
+    if premise:
+        return Polarity.VACUOUS
+    return Polarity.FAVOURABLE if status is good else Polarity.UNFAVOURABLE
+
+
+@dataclass(frozen=True, slots=True)
+class Verdict:
+    """A condition's decision in one scope, as the analysis layer returns it (no id, scope or wording)."""
+    status: Status
+    margin: float | None = None
+    error_bound: float | None = None
+    witness: Mapping[str, Any] = field(default_factory=dict)
+    exact: bool = False          # decided in exact arithmetic
+    combinatorial: bool = False  # no rounding involved (no tolerance recorded)
+    premise: str | None = None   # set when the condition's premise is absent: the verdict is vacuous, and this says which premise
+    note: str = ""
+
+
 @dataclass(frozen=True, slots=True)
 class ConditionResult:
     """The verdict of one condition in one scope.
@@ -89,6 +146,7 @@ class ConditionResult:
         One line stating the condition.
     favourable : bool or None
         Is this status good for the defender (polarity of the catalogue)? None when undecided.
+        A vacuous result keeps the catalogue's reading here; :attr:`polarity` says ``vacuous``.
     fragile : bool
         The margin is below the robustness tolerance (``--fragile-below``): the verdict is
         certain but the exact system is close to the boundary (detection or privacy would be
@@ -99,6 +157,10 @@ class ConditionResult:
     note : str
         Why a result is undecided (which bound failed, what would decide it), or what
         escalation did.
+    premise : str or None
+        Set when the condition's premise is absent on this system (e.g. "no stealthy ZDA exists:
+        there is nothing to avoid"): the status holds or fails vacuously and :attr:`polarity`
+        is ``vacuous``.
     """
 
     id: str
@@ -114,6 +176,16 @@ class ConditionResult:
     fragile: bool = False
     error_bound: float | None = None
     note: str = ""
+    premise: str | None = None
+
+    @property
+    def polarity(self) -> Polarity:
+        """Favourable, unfavourable, vacuous or undecided (:func:`polarity_of`)."""
+        if self.status is Status.UNDECIDED:
+            return Polarity.UNDECIDED
+        if self.premise:
+            return Polarity.VACUOUS
+        return Polarity.FAVOURABLE if self.favourable else Polarity.UNFAVOURABLE
 
     @property
     def holds(self) -> bool:
@@ -135,6 +207,8 @@ class ConditionResult:
             "reference": self.reference,
             "statement": self.statement,
             "favourable": self.favourable,
+            "polarity": self.polarity.value,
+            "premise": self.premise,
             "fragile": self.fragile,
             "error_bound": jsonable(self.error_bound),
             "note": self.note,

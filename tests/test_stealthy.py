@@ -179,12 +179,12 @@ def test_the_modal_s_pencil_is_decided_against_the_norm_of_its_own_data_on_weakl
     """Rank decisions of the N-sized s-pencil are relative to its scale: a balancing that
     magnifies the rounding noise of localised eigenvectors inflates it (to ~1e8 here) and,
     at larger N, discarded whole output blocks (normal rank below N + m)."""
-    from glocal_verify.analysis.zda import _Modal
+    from glocal_verify.analysis.zda import ModalPencil
     from glocal_verify.design.generators import random_clustered_spec
     from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE
 
     system = System(random_clustered_spec(1000, 3, seed=7))
-    md = _Modal(system, tuple(system.attacked), DEFAULT_TOLERANCE)
+    md = ModalPencil(system, tuple(system.attacked), DEFAULT_TOLERANCE)
     pa = md.s_pencil()
     # ||[diag(a) B; C 0]||_2 <= max |a| + ||U_F|| + ||U_M|| <= max |a| + 2 (rows of an orthogonal U)
     assert pa.scale <= md.alpha * float(np.max(np.abs(md.mu))) + 2.0

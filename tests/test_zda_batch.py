@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 import pytest
 
 from glocal_verify import System, load_example
-from glocal_verify.analysis.zda import _Modal
+from glocal_verify.analysis.zda import ModalPencil
 from glocal_verify.analysis.zda_batch import batch_directions
 from glocal_verify.design.generators import random_clustered_spec
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision
@@ -39,7 +39,7 @@ def test_every_batched_direction_is_the_per_set_direction_and_a_kernel_vector_of
     got = batch_directions(system, DEFAULT_TOLERANCE, lam, sets)
     A, C = system.A(), system.C()
     for F, g in zip(sets, got):
-        want = _Modal(system, F, DEFAULT_TOLERANCE).direction(lam)
+        want = ModalPencil(system, F, DEFAULT_TOLERANCE).direction(lam)
         if g is None:
             continue
         (xi, u, res, dres, du), best, lo, hi = g.as_found()
@@ -60,7 +60,7 @@ def test_the_batch_answers_every_set_the_per_set_method_settles_on_its_first_can
     system = _system(name, args)
     sets = _sets(system)
     got = batch_directions(system, DEFAULT_TOLERANCE, 0j, sets)
-    proven = [w[0] is not None and w[0][3] is Decision.ZERO and w[0][4] is Decision.NONZERO for w in (_Modal(system, F, DEFAULT_TOLERANCE).direction(0j) for F in sets)]
+    proven = [w[0] is not None and w[0][3] is Decision.ZERO and w[0][4] is Decision.NONZERO for w in (ModalPencil(system, F, DEFAULT_TOLERANCE).direction(0j) for F in sets)]
     answered = [g is not None for g in got]
     assert all(p for p, a in zip(proven, answered) if a)  # never more than the per-set method
     assert sum(answered) >= 0.9 * sum(proven)  # and nearly all of it (the rest go to that method)
@@ -69,7 +69,7 @@ def test_the_batch_answers_every_set_the_per_set_method_settles_on_its_first_can
 @settings(max_examples=200, deadline=None)
 @given(st.integers(1, 6), st.integers(1, 8), st.integers(1, 3), st.booleans(), st.booleans(), st.integers(0, 2**31 - 1))
 def test_the_batch_normalisation_of_each_row_equals_the_per_set_normalisation(rows: int, n: int, m: int, complex_: bool, near_real: bool, seed: int) -> None:
-    from glocal_verify.analysis.zda import _normalize
+    from glocal_verify.analysis.zda import normalize_direction
     from glocal_verify.analysis.zda_batch import _normalized_rows
 
     rng = np.random.default_rng(seed)
@@ -79,6 +79,6 @@ def test_the_batch_normalisation_of_each_row_equals_the_per_set_normalisation(ro
         X = X + 1j * (1e-16 if near_real else 1.0) * rng.integers(-2, 3, size=(rows, n))
         U = U + 0j
     for j, (xn, un) in enumerate(_normalized_rows(X, U)):
-        xr, ur = _normalize(X[j], U[j])
+        xr, ur = normalize_direction(X[j], U[j])
         assert xn.dtype == xr.dtype and un.dtype == ur.dtype
         assert np.array_equal(xn, xr) and np.array_equal(un, ur)

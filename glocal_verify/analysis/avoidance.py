@@ -18,8 +18,8 @@ import numpy as np
 from glocal_verify.analysis.zda import (
     ZdaDirection,
     ZdaZero,
-    _Modal,
-    _normalize,
+    ModalPencil,
+    normalize_direction,
     zda_analysis,
 )
 from glocal_verify.analysis.zda_exact import (
@@ -48,6 +48,12 @@ __all__ = [
     "avoidance_exact",
     "delta_norm",
     "avoidance_certificate",
+    "exact_mode_avoidance",
+    "numeric_mode_avoidance",
+    "stealthy_bases",
+    "split_basis",
+    "StealthyBasis",
+    "SplitBasis",
 ]
 
 #: modes with |s + alpha mu_k| above this are eliminated in the numeric reduction (see the module docstring)
@@ -158,7 +164,7 @@ class Avoidance:
 
 
 @dataclass(frozen=True, slots=True)
-class _Basis:
+class StealthyBasis:
     """A basis of (part of) Z: modal coordinates eta (xi = U eta), xi and u0 (columns)."""
 
     eta: np.ndarray
@@ -174,7 +180,7 @@ def _right_svd(M: np.ndarray, ncols: int) -> tuple[np.ndarray, np.ndarray]:
     return np.concatenate([sv, np.zeros(ncols - len(sv))]), Vh.conj().T
 
 
-def _stealthy_bases(md: _Modal, lam: complex) -> tuple[_Basis, _Basis]:
+def stealthy_bases(md: ModalPencil, lam: complex) -> tuple[StealthyBasis, StealthyBasis]:
     """Certain and possible bases of Z at ``lam`` from the reduced modal matrix S."""
     N, m = md.N, len(md.F)
     s = lam * lam + md.gamma * lam
@@ -201,7 +207,7 @@ def _stealthy_bases(md: _Modal, lam: complex) -> tuple[_Basis, _Basis]:
     cert = int(np.sum(sv > md.tol.upper * scale))
     maybe = int(np.sum(sv > md.tol.rtol * scale))
 
-    def basis(Vk: np.ndarray) -> _Basis:
+    def basis(Vk: np.ndarray) -> StealthyBasis:
         k = Vk.shape[1]
         eta = np.zeros((N, k), dtype=dtype)
         uu = Vk[nJ:].astype(dtype)
@@ -209,13 +215,13 @@ def _stealthy_bases(md: _Modal, lam: complex) -> tuple[_Basis, _Basis]:
         if len(far):
             eta[far] = (UF[:, far].T @ uu) / d[far][:, None]
         x = md.sp.apply(eta)  # real and imaginary parts apart (no complex copy of U)
-        return _Basis(eta, x, uu)
+        return StealthyBasis(eta, x, uu)
 
     return basis(V[:, maybe:]), basis(V[:, cert:])
 
 
 @dataclass(frozen=True, slots=True)
-class _Split:
+class SplitBasis:
     """Z in xi-orthonormal coordinates: xi = Xo c, u0 = B c, eta = E c; A c = dL_q xi / ||dL_q||."""
 
     Xo: np.ndarray
@@ -224,17 +230,17 @@ class _Split:
     A: np.ndarray
 
 
-def _split(basis_x: np.ndarray, basis_u: np.ndarray, basis_eta: np.ndarray | None, dl_idx: Sequence[int], dl_blk: np.ndarray, dl_norm: float) -> _Split:
+def split_basis(basis_x: np.ndarray, basis_u: np.ndarray, basis_eta: np.ndarray | None, dl_idx: Sequence[int], dl_blk: np.ndarray, dl_norm: float) -> SplitBasis:
     k = basis_x.shape[1]
     if k == 0:
         z = np.zeros((0, 0))
-        return _Split(np.zeros((basis_x.shape[0], 0)), np.zeros((basis_u.shape[0], 0)), None if basis_eta is None else np.zeros((basis_x.shape[0], 0)), z)
+        return SplitBasis(np.zeros((basis_x.shape[0], 0)), np.zeros((basis_u.shape[0], 0)), None if basis_eta is None else np.zeros((basis_x.shape[0], 0)), z)
     Ux, Sx, Vxh = np.linalg.svd(basis_x, full_matrices=False)
     keep = Sx > 1e-300  # xi = 0 forces u0 = 0 (S_F^T is injective): X is injective on Z
     W = Vxh.conj().T[:, keep] / Sx[keep]
     Xo = Ux[:, keep]
     A = dl_blk @ Xo[list(dl_idx), :] / dl_norm if dl_norm > 0 else np.zeros((0, Xo.shape[1]), dtype=Xo.dtype)
-    return _Split(Xo, basis_u @ W, None if basis_eta is None else basis_eta @ W, A)
+    return SplitBasis(Xo, basis_u @ W, None if basis_eta is None else basis_eta @ W, A)
 
 
 def _input_decisions(sv: np.ndarray, lam: complex, tol: Tolerance) -> list[Decision]:
@@ -243,7 +249,7 @@ def _input_decisions(sv: np.ndarray, lam: complex, tol: Tolerance) -> list[Decis
     return [tol.decide(float(v), math.sqrt(x2 + float(v) ** 2)) for v in sv]
 
 
-def _avoiding(sp: _Split, lam: complex, tol: Tolerance, cut: float) -> tuple[np.ndarray | None, int, bool]:
+def _avoiding(sp: SplitBasis, lam: complex, tol: Tolerance, cut: float) -> tuple[np.ndarray | None, int, bool]:
     """(best coefficient vector, certain u0-rank, some input not certainly zero) of the
     avoiding subspace {c : singular values of A <= cut} of ``sp``."""
     r = sp.Xo.shape[1]
@@ -261,7 +267,7 @@ def _avoiding(sp: _Split, lam: complex, tol: Tolerance, cut: float) -> tuple[np.
     return best, dim, some
 
 
-def _fails_margin(sp: _Split, lam: complex, tol: Tolerance) -> float | None:
+def _fails_margin(sp: SplitBasis, lam: complex, tol: Tolerance) -> float | None:
     """min ||P A c|| over unit c orthogonal to the input-free directions (see ``MARGIN_SCALE``):
     P projects out A(input-free directions). None when Z carries no input at all."""
     r = sp.Xo.shape[1]
@@ -291,7 +297,7 @@ def _touched(system: System, dl_idx: Sequence[int], dl_blk: np.ndarray, dl_norm:
     return tol.decide(val, nrm), (val / nrm if nrm > 0 else 0.0), rows
 
 
-def _numeric_mode(system: System, mode: str, md: _Modal, z: ZdaZero, source: str, bases: tuple[_Basis, _Basis]) -> Avoidance:
+def numeric_mode_avoidance(system: System, mode: str, md: ModalPencil, z: ZdaZero, source: str, bases: tuple[StealthyBasis, StealthyBasis]) -> Avoidance:
     tol = md.tol
     lam = z.value
     chosen = z.direction()
@@ -300,7 +306,7 @@ def _numeric_mode(system: System, mode: str, md: _Modal, z: ZdaZero, source: str
     dec_c, ratio_c, rows_c = _touched(system, dl_idx, dl_blk, dl_norm, chosen.xi, tol)
     chosen_touched = None if dec_c is Decision.UNDECIDED else dec_c is Decision.NONZERO
     zc, zp = bases
-    sc = _split(zc.x, zc.u, zc.eta, dl_idx, dl_blk, dl_norm)
+    sc = split_basis(zc.x, zc.u, zc.eta, dl_idx, dl_blk, dl_norm)
     best, dim_c, _ = _avoiding(sc, lam, tol, tol.rtol)
     notes: list[str] = []
     common: dict[str, Any] = dict(
@@ -316,13 +322,13 @@ def _numeric_mode(system: System, mode: str, md: _Modal, z: ZdaZero, source: str
         xi, u2, res, dres, du = md.verify(lam, eta, u)
         dd, ratio, _ = _touched(system, dl_idx, dl_blk, dl_norm, xi, tol)
         if dres is Decision.ZERO and du is Decision.NONZERO and dd is Decision.ZERO:
-            xi_n, u_n = _normalize(xi, u2)
+            xi_n, u_n = normalize_direction(xi, u2)
             d = ZdaDirection(lam, xi_n, u_n, np.concatenate([xi_n, lam * xi_n]), res)
             return Avoidance(
                 status=Status.HOLDS, direction=d, direction_source="kernel of the stacked system", dimension=dim_c, margin=ratio, dl_residual=ratio, **common
             )
         notes.append(f"avoiding candidate failed verification (pencil residual {res:.3g}: {dres.value}, input {du.value}, dL_q xi {dd.value})")
-    sp = _split(zp.x, zp.u, None, dl_idx, dl_blk, dl_norm)
+    sp = split_basis(zp.x, zp.u, None, dl_idx, dl_blk, dl_norm)
     _, _, some = _avoiding(sp, lam, tol, tol.upper)
     if dec_c is Decision.NONZERO and not some:
         fm = _fails_margin(sp, lam, tol)
@@ -361,8 +367,8 @@ def avoidance(system: System, mode: str, tol: Tolerance = DEFAULT_TOLERANCE, *, 
     za = zda_analysis(system, tol, lambda0=lambda0)
     if za.direction is None:
         return None
-    md = _Modal(system, za.actuators, tol)
-    return _numeric_mode(system, mode, md, za.direction, za.direction_source, _stealthy_bases(md, za.direction.value))
+    md = ModalPencil(system, za.actuators, tol)
+    return numeric_mode_avoidance(system, mode, md, za.direction, za.direction_source, stealthy_bases(md, za.direction.value))
 
 
 # ------------------------------------------------------------------------------------------
@@ -389,7 +395,7 @@ def _normalize_exact(v: Sequence[Fraction], N: int) -> tuple[tuple[Fraction, ...
     return tuple(x / c for x in v[:N]), tuple(x / c for x in v[N:])
 
 
-def _exact_mode(system: System, mode: str, d: ExactZdaZero, source: str, F: Sequence[int], tol: Tolerance) -> Avoidance:
+def exact_mode_avoidance(system: System, mode: str, d: ExactZdaZero, source: str, F: Sequence[int], tol: Tolerance) -> Avoidance:
     N, m = system.n, len(F)
     g = d.field
     dL = system.delta_laplacian_exact(mode)
@@ -477,7 +483,7 @@ def _exact_mode(system: System, mode: str, d: ExactZdaZero, source: str, F: Sequ
         )
     cols = z_basis()
     X = np.array(cols).T if cols else np.zeros((N + m, 0))
-    sp = _split(X[:N], X[N:], None, dl_idx, dl_blk, dl_norm)
+    sp = split_basis(X[:N], X[N:], None, dl_idx, dl_blk, dl_norm)
     fm = _fails_margin(sp, d.value, tol)
     if fm is None:
         fm = _touched(system, dl_idx, dl_blk, dl_norm, chosen.xi, tol)[1]
@@ -506,7 +512,7 @@ def avoidance_exact(system: System, mode: str, *, lambda0: complex | float | Seq
     ea = zda_analysis_exact(system, lambda0=lambda0)
     if ea.direction is None:
         return None
-    return _exact_mode(system, mode, ea.direction, ea.direction_source, system.idx(ea.actuators), tol)
+    return exact_mode_avoidance(system, mode, ea.direction, ea.direction_source, system.idx(ea.actuators), tol)
 
 
 def avoidance_certificate(

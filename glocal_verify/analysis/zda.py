@@ -1,7 +1,7 @@
 """Zero-dynamics attacks of the normal mode (Proposition II.4 (ii)), numeric.
 
 The 2N-sized pencil of eq. ``zda_cond`` reduces in the eigenbasis of L_1 to an N-sized pencil
-in ``s = lambda^2 + gamma lambda`` (:class:`_Modal`); :func:`zda_analysis` returns every zero
+in ``s = lambda^2 + gamma lambda`` (:class:`ModalPencil`); :func:`zda_analysis` returns every zero
 with its direction (xi, u0), growth class and verification, and :func:`zda_direction` the
 witness direction at the spec's lambda0. The generic dense path on (A_1, B, C) is kept for
 small systems and tests. Results are kept on ``system.analysis``.
@@ -35,6 +35,13 @@ __all__ = [
     "ZdaAnalysis",
     "zda_analysis",
     "zda_direction",
+    "ModalPencil",
+    "normalize_direction",
+    "growth_class",
+    "GROWTH_UNBOUNDED",
+    "GROWTH_PERSISTENT",
+    "GROWTH_DECAYING",
+    "GROWTH_UNDECIDED",
 ]
 
 #: growth classes of a zero-dynamics attack by Re(lambda0)
@@ -184,7 +191,7 @@ def _lambda_request(system: System, lambda0: complex | float | Sequence[float] |
     return complex(lambda0)  # type: ignore[arg-type]
 
 
-def _growth(lam: complex, scale: float, tol: Tolerance) -> str:
+def growth_class(lam: complex, scale: float, tol: Tolerance) -> str:
     d = tol.decide(lam.real, scale)
     if d is Decision.ZERO:
         return GROWTH_PERSISTENT
@@ -193,7 +200,7 @@ def _growth(lam: complex, scale: float, tol: Tolerance) -> str:
     return GROWTH_UNBOUNDED if lam.real > 0 else GROWTH_DECAYING
 
 
-def _normalize(xi: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def normalize_direction(xi: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(xi, u) / xi_k with k the largest entry of xi; real when the imaginary parts are below
     1e-14 of the largest entry."""
     k = int(np.argmax(np.abs(xi)))
@@ -214,7 +221,7 @@ def _normalize(xi: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 # structured numeric path
 
 
-class _Modal:
+class ModalPencil:
     """Modal data of the normal mode for one actuator set."""
 
     def __init__(self, system: System, F: tuple[Label, ...], tol: Tolerance) -> None:
@@ -537,7 +544,7 @@ def _pick(
 
 
 def _structured(system: System, F: tuple[Label, ...], tol: Tolerance, lam_req: complex | None) -> ZdaAnalysis:
-    md = _Modal(system, F, tol)
+    md = ModalPencil(system, F, tol)
     N, m = md.N, len(F)
     pa = md.s_pencil()
     decided = pa.decided
@@ -572,8 +579,8 @@ def _structured(system: System, F: tuple[Label, ...], tol: Tolerance, lam_req: c
         if found is None:
             return None, dres, Decision.ZERO
         xi, u, res, _, du = found
-        xi_n, u_n = _normalize(xi, u)
-        zz = ZdaZero(lam, lam * lam + md.gamma * lam, xi_n, u_n, res, _growth(lam, md.A_scale, tol), mult, du is Decision.NONZERO)
+        xi_n, u_n = normalize_direction(xi, u)
+        zz = ZdaZero(lam, lam * lam + md.gamma * lam, xi_n, u_n, res, growth_class(lam, md.A_scale, tol), mult, du is Decision.NONZERO)
         return zz, Decision.ZERO, du
 
     attack: list[ZdaZero] = []
@@ -606,7 +613,7 @@ def _structured(system: System, F: tuple[Label, ...], tol: Tolerance, lam_req: c
             notes.append("whether lambda = 0 is a zero is undecided")
         elif found0 is not None:
             xi, u, res, _, du = found0
-            xi_n, u_n = _normalize(xi, u)
+            xi_n, u_n = normalize_direction(xi, u)
             zz0 = ZdaZero(0j, 0j, xi_n, u_n, res, GROWTH_PERSISTENT, lo0 - k0, du is Decision.NONZERO)
             (attack if zz0.attack else unobs).append(zz0)
             if du is Decision.UNDECIDED:
@@ -648,8 +655,8 @@ def _dense(system: System, F: tuple[Label, ...], tol: Tolerance, lam_req: comple
         if du is Decision.UNDECIDED:
             decided = False
             notes.append(f"zero {lam:.6g}: input part undecided")
-        xi_n, u_n = _normalize(x[:N].astype(complex), u.astype(complex))
-        return ZdaZero(lam, lam * lam + system.gamma * lam, xi_n, u_n, res, _growth(lam, a_scale, tol), mult, du is Decision.NONZERO)
+        xi_n, u_n = normalize_direction(x[:N].astype(complex), u.astype(complex))
+        return ZdaZero(lam, lam * lam + system.gamma * lam, xi_n, u_n, res, growth_class(lam, a_scale, tol), mult, du is Decision.NONZERO)
 
     for z in pa.zeros:
         if not z.verified:
@@ -698,12 +705,12 @@ def zda_direction(system: System, lambda0: complex | None = None, tol: Tolerance
         None when the system has no stealthy ZDA (at ``lambda0`` when given).
     """
     if lambda0 is not None:
-        md = _Modal(system, _actuators(system, None), tol)
+        md = ModalPencil(system, _actuators(system, None), tol)
         lam = complex(lambda0)
         found, _, _, _ = md.direction(lam)
         if found is None or found[4] is not Decision.NONZERO:
             return None
-        xi_n, u_n = _normalize(found[0], found[1])
+        xi_n, u_n = normalize_direction(found[0], found[1])
         return ZdaDirection(lam, xi_n, u_n, np.concatenate([xi_n, lam * xi_n]), found[2])
     za = zda_analysis(system, tol)
     return za.direction.direction() if za.direction is not None else None

@@ -2,7 +2,7 @@
 
 An audit asks, for thousands of actuator sets F of one size, whether the 2N pencil of eq.
 ``zda_cond`` has a kernel vector with u0 != 0 at one exponent lambda0 (the spec's, or 0, or 1).
-:meth:`glocal_verify.analysis.zda._Modal.direction` answers for one set in O(N (m + p)) plus
+:meth:`glocal_verify.analysis.zda.ModalPencil.direction` answers for one set in O(N (m + p)) plus
 an O(N^2) verification, but its cost at N = 200 is mostly the interpreter's: some hundred
 small array operations per set. :func:`batch_directions` performs the same computation on a
 stack of sets:
@@ -14,11 +14,11 @@ stack of sets:
   by one batched SVD; the rank bounds, the largest-input vector of the certain kernel, its
   modal screen and its verification on the full 2N pencil are evaluated on the stack.
 
-A set is answered only in the case :meth:`_Modal.direction` settles on its first candidate: the
+A set is answered only in the case :meth:`ModalPencil.direction` settles on its first candidate: the
 certain kernel is not empty and its largest-input vector is screened *and* verified with a
 residual that is zero and an input part that is nonzero at the tolerance. Every other set gets
 None and is left to the per-set method, so the decisions are that method's: the same
-candidate, the same bounds (:meth:`_Modal._screen`, :meth:`_Modal.verify`) and the same
+candidate, the same bounds (:meth:`ModalPencil._screen`, :meth:`ModalPencil.verify`) and the same
 tolerance; only the rounding of the products may differ in the last bits.
 """
 
@@ -30,7 +30,7 @@ from typing import Sequence
 
 import numpy as np
 
-from glocal_verify.analysis.zda import _Modal
+from glocal_verify.analysis.zda import ModalPencil
 from glocal_verify.model import System
 from glocal_verify.numerics.tolerance import Decision, Tolerance
 from glocal_verify.spec.types import Label
@@ -40,7 +40,7 @@ __all__ = ["BatchDirection", "batch_directions"]
 
 @dataclass(frozen=True, slots=True)
 class BatchDirection:
-    """The verified kernel vector of one set, as :meth:`_Modal.direction` returns it.
+    """The verified kernel vector of one set, as :meth:`ModalPencil.direction` returns it.
 
     Attributes
     ----------
@@ -54,7 +54,7 @@ class BatchDirection:
         Kernel dimension bounds of the reduced matrix (certainly zero / not certainly nonzero
         singular values).
     normalized : (ndarray, ndarray) or None
-        (xi, u) scaled as :func:`glocal_verify.analysis.zda._normalize` scales them (computed
+        (xi, u) scaled as :func:`glocal_verify.analysis.zda.normalize_direction` scales them (computed
         for the whole batch at once; the same floating-point operations per entry).
     """
 
@@ -66,7 +66,7 @@ class BatchDirection:
     normalized: tuple[np.ndarray, np.ndarray] | None = None
 
     def as_found(self) -> tuple[tuple[np.ndarray, np.ndarray, float, Decision, Decision], Decision, int, int]:
-        """The tuple :meth:`_Modal.direction` returns for this set."""
+        """The tuple :meth:`ModalPencil.direction` returns for this set."""
         return (self.xi, self.u, self.residual, Decision.ZERO, Decision.NONZERO), Decision.ZERO, self.dim_lo, self.dim_hi
 
 
@@ -77,7 +77,7 @@ def _decide(values: np.ndarray, scale: np.ndarray | float, tol: Tolerance) -> np
 
 
 def batch_directions(system: System, tol: Tolerance, lam: complex, sets: Sequence[tuple[Label, ...]]) -> list[BatchDirection | None]:
-    """The direction of :meth:`_Modal.direction` at ``lam`` for each set, or None (module docstring).
+    """The direction of :meth:`ModalPencil.direction` at ``lam`` for each set, or None (module docstring).
 
     Parameters
     ----------
@@ -106,14 +106,14 @@ def batch_directions(system: System, tol: Tolerance, lam: complex, sets: Sequenc
     for i, F in enumerate(sets):
         if len(F) > 0:
             by_size.setdefault(len(F), []).append(i)
-    ref = _Modal(system, tuple(sets[0]), tol)
+    ref = ModalPencil(system, tuple(sets[0]), tol)
     for idx in by_size.values():
         for i, d in zip(idx, _group(system, ref, tol, complex(lam), [sets[i] for i in idx], ortho, float(np.linalg.norm(sp.residuals)))):
             out[i] = d
     return out
 
 
-def _group(system: System, md: _Modal, tol: Tolerance, lam: complex, sets: Sequence[tuple[Label, ...]], ortho: float, r_fro: float) -> list[BatchDirection | None]:
+def _group(system: System, md: ModalPencil, tol: Tolerance, lam: complex, sets: Sequence[tuple[Label, ...]], ortho: float, r_fro: float) -> list[BatchDirection | None]:
     """:func:`batch_directions` for sets of one size m."""
     N, alpha, gamma = md.N, md.alpha, md.gamma
     mu, U = md.mu, md.U
@@ -134,7 +134,7 @@ def _group(system: System, md: _Modal, tol: Tolerance, lam: complex, sets: Seque
     s1 = max(1.0, float(np.max(1.0 / np.abs(d[far]), initial=0.0)))
     # a real exponent (0, 1, or a real spec lambda0) keeps every array real: the same
     # decisions at a quarter of the complex arithmetic (the per-set method's vectors then
-    # have zero imaginary parts, which _normalize drops)
+    # have zero imaginary parts, which normalize_direction drops)
     dtype = float if lam.imag == 0 else complex
     lam_d: complex | float = lam
     if dtype is float:
@@ -170,7 +170,7 @@ def _group(system: System, md: _Modal, tol: Tolerance, lam: complex, sets: Seque
         UFtu = np.einsum("bmn,bm->bn", UFg, u)
         if len(far):
             eta[:, far] = UFtu[:, far] / d[far]
-        # the modal screen (_Modal._screen)
+        # the modal screen (ModalPencil._screen)
         r_m = (s + alpha * mu) * eta - UFtu
         outp = np.concatenate([eta @ U[Mx, :].T, lam_d * (eta @ U[Mv, :].T)], axis=1)
         e_n, u_n, rm_n = (np.linalg.norm(x, axis=1) for x in (eta, u, r_m))
@@ -187,7 +187,7 @@ def _group(system: System, md: _Modal, tol: Tolerance, lam: complex, sets: Seque
         ok &= (_decide(u_n, np.where(ok, v_hi, 1.0), tol) == 1) & (_decide(u_n, np.where(ok, v_lo, 1.0), tol) == 1)
         if not np.any(ok):
             continue
-        # verification on the full 2N pencil (_Modal.verify)
+        # verification on the full 2N pencil (ModalPencil.verify)
         xi = eta @ U.T if dtype is float else eta.real @ U.T + 1j * (eta.imag @ U.T)
         Fsel = np.zeros((len(g), N), dtype=dtype)
         np.put_along_axis(Fsel, Fi[g], u, axis=1)
@@ -208,7 +208,7 @@ def _group(system: System, md: _Modal, tol: Tolerance, lam: complex, sets: Seque
 
 def _normalized_rows(X: np.ndarray, Uin: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
     """Row j: (X[j], Uin[j]) / X[j, k], k its largest entry, real when the imaginary parts are
-    below 1e-14 of the largest entry: :func:`glocal_verify.analysis.zda._normalize` of each row,
+    below 1e-14 of the largest entry: :func:`glocal_verify.analysis.zda.normalize_direction` of each row,
     the divisions and comparisons done once for the batch (entry by entry the same operations)."""
     if len(X) == 0:
         return []

@@ -16,7 +16,7 @@ from glocal_verify.analysis.zda import (
     ZdaDirection,
     _actuators,
     _lambda_request,
-    _normalize,
+    normalize_direction,
 )
 from glocal_verify.analysis.twins import laplacian_entries
 from glocal_verify.model import System
@@ -289,7 +289,7 @@ def _exact_zero(
         xf = ()
     else:
         v = eval_at_root(vec, g, root, enclosures)
-        xi, u = _normalize(v[:N], v[N:])
+        xi, u = normalize_direction(v[:N], v[N:])
         xf = tuple(vec[:N])
     uf: tuple[Any, ...] = () if vec is None else tuple(vec[N:])
     return ExactZdaZero(root, rational, str(g), sign, attack, xi, u, xf, g, mult, uf)

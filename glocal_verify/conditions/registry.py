@@ -120,10 +120,13 @@ def result(
     numeric_decision: bool = True,
     error_bound: float | None = None,
     note: str = "",
+    premise: str | None = None,
 ) -> ConditionResult:
     """Build a :class:`ConditionResult` with the catalogue's reference, statement and polarity.
 
     ``numeric_decision=False`` marks a combinatorial decision (no tolerance involved).
+    ``premise`` names the condition's premise that is absent on this system: the result is
+    then vacuous (:attr:`ConditionResult.polarity`) and never ``fragile``.
     ``favourable`` follows the catalogue; ``fragile`` is set when the condition's margin is a
     relative distance to its boundary and a ``holds`` lies below ``ctx.fragile_below`` (a
     failure of a rank or gap condition is an exact zero, not a distance; an undecided result
@@ -135,7 +138,8 @@ def result(
     tol = ctx.tol.rtol if (numeric_decision and not ctx.exact) else None
     favourable = None if status is Status.UNDECIDED else status is info.favourable
     fragile = (
-        info.margin_is_distance
+        not premise
+        and info.margin_is_distance
         and status is Status.HOLDS
         and margin is not None
         and math.isfinite(float(margin))
@@ -157,6 +161,7 @@ def result(
         fragile=bool(fragile),
         error_bound=None if error_bound is None else float(error_bound),
         note=note,
+        premise=premise or None,
     )
 
 

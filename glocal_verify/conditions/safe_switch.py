@@ -107,9 +107,9 @@ import numpy as np
 
 from glocal_verify.analysis.avoidance import (
     Avoidance,
-    _exact_mode,
-    _numeric_mode,
-    _stealthy_bases,
+    exact_mode_avoidance,
+    numeric_mode_avoidance,
+    stealthy_bases,
     avoidance_certificate,
 )
 from glocal_verify.analysis.covert import reachable_agents
@@ -118,7 +118,7 @@ from glocal_verify.analysis.zda import (
     GROWTH_PERSISTENT,
     GROWTH_UNBOUNDED,
     ZdaDirection,
-    _Modal,
+    ModalPencil,
     zda_analysis,
 )
 from glocal_verify.analysis.zda_certificate import zda_certificate
@@ -305,17 +305,17 @@ def _zda_results(system: System, ctx: CheckContext) -> list[ConditionResult]:
         d_ex = ea.direction
         assert d_ex is not None
         for mode in system.safe_modes:
-            av = _exact_mode(system, mode, d_ex, ea.direction_source, system.idx(F), ctx.tol)
+            av = exact_mode_avoidance(system, mode, d_ex, ea.direction_source, system.idx(F), ctx.tol)
             lam_ex = str(d_ex.rational) if d_ex.rational is not None else d_ex.factor
             out.append(_avoidance_result(system, ctx, F, av, {"lambda0_exact": lam_ex}))
         return out
     d_num = za.direction
     assert d_num is not None
-    md = _Modal(system, F, ctx.tol)
-    bases = _stealthy_bases(md, d_num.value)  # Z does not depend on the mode
+    md = ModalPencil(system, F, ctx.tol)
+    bases = stealthy_bases(md, d_num.value)  # Z does not depend on the mode
     exact_lambda = za.direction_source == "requested lambda0"
     for mode in system.safe_modes:
-        av, cert = _certified(system, F, _numeric_mode(system, mode, md, d_num, za.direction_source, bases), exact_lambda)
+        av, cert = _certified(system, F, numeric_mode_avoidance(system, mode, md, d_num, za.direction_source, bases), exact_lambda)
         # (the modular inverse costs O(N^3) once: only for a requested lambda0, or as a note on small systems)
         wanted = av.status is Status.UNDECIDED and (exact_lambda or system.n <= ZERO_TOUCH_NOTE_AGENTS)
         if wanted and (ex0 := touch_at_zero(system, mode, d_num, za.direction_source, system.idx(F))) is not None:

@@ -49,15 +49,15 @@ from typing import Any
 
 import numpy as np
 
-from glocal_verify.analysis.avoidance import _exact_mode, _numeric_mode, _stealthy_bases
+from glocal_verify.analysis.avoidance import exact_mode_avoidance, numeric_mode_avoidance, stealthy_bases
 from glocal_verify.analysis.zero_touch import touch_at_zero
 from glocal_verify.analysis.zda import (
     GROWTH_PERSISTENT,
     GROWTH_UNBOUNDED,
     ZdaZero,
-    _growth,
-    _Modal,
-    _normalize,
+    growth_class,
+    ModalPencil,
+    normalize_direction,
     zda_analysis,
 )
 from glocal_verify.analysis.zda_exact import zda_analysis_exact
@@ -278,7 +278,7 @@ def _certified_zda(
     )
     if cert is None:
         return None
-    found0, _, lo0, hi0 = at0 if at0 is not None else _Modal(sh.system, F, sh.tol).direction(0j)
+    found0, _, lo0, hi0 = at0 if at0 is not None else ModalPencil(sh.system, F, sh.tol).direction(0j)
     if hi0 == 0:
         return _Zda(False, GROWTH_NULL, True, None, "none", certificate=cert.text())
     if lo0 == 0 or found0 is None:
@@ -288,7 +288,7 @@ def _certified_zda(
         return None
     if du is Decision.ZERO:
         return _Zda(False, GROWTH_NULL, True, None, "none", certificate=cert.text())
-    xi_n, u_n = normalized if normalized is not None else _normalize(xi, u)
+    xi_n, u_n = normalized if normalized is not None else normalize_direction(xi, u)
     z = ZdaZero(0j, 0j, xi_n, u_n, res, GROWTH_PERSISTENT, lo0, True)
     source = "requested lambda0" if sh.lambda0 is not None and complex(sh.lambda0) == 0 else "fastest-growing zero"
     return _Zda(True, GROWTH_PERSISTENT, True, z, source, certificate=cert.text())
@@ -317,11 +317,11 @@ def _zda_part(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any] | None = N
         if zc is not None:
             return zc
     if sh.screen and not sh.exact and sh.lambda0 is not None and disjoint_paths(system, F) < len(F):
-        md = _Modal(system, F, tol)
+        md = ModalPencil(system, F, tol)
         lam = complex(sh.lambda0)
         found, _, _, _ = md.direction(lam)
         if found is not None and found[4] is Decision.NONZERO:
-            xi, u = _normalize(found[0], found[1])
+            xi, u = normalize_direction(found[0], found[1])
             z = ZdaZero(lam, lam * lam + system.gamma * lam, xi, u, found[2], GROWTH_UNBOUNDED)
             return _Zda(True, GROWTH_UNBOUNDED, False, z, "requested lambda0", screened=True)
     if not sh.exact:
@@ -357,27 +357,27 @@ def _witness_zda(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any] | None 
     not left-invertible (growth ``unbounded``, exact: a ZDA exists at every lambda0), else
     lambda0 = 0 (a persistent ZDA: velocity-only monitors do not see a constant position
     offset). The direction is the checker's verified kernel vector of the 2N pencil with
-    u0 != 0 (:meth:`glocal_verify.analysis.zda._Modal.direction`, or its batched form when
+    u0 != 0 (:meth:`glocal_verify.analysis.zda.ModalPencil.direction`, or its batched form when
     :func:`batch_witnesses` put it in ``memo``). Returns the row part and the direction tuple
     of that method (None when no ZDA is proven).
     """
     system, tol = sh.system, sh.tol
     lam, not_li = _witness_lambda(sh, F, memo)
     pre = None if memo is None else memo.pop(("witness-direction", F), None)
-    at = pre.as_found() if pre is not None else _Modal(system, F, tol).direction(lam)
+    at = pre.as_found() if pre is not None else ModalPencil(system, F, tol).direction(lam)
     found = at[0]
     if found is None or found[3] is not Decision.ZERO or found[4] is not Decision.NONZERO:
         return None, at
-    xi, u = pre.normalized if pre is not None and pre.normalized is not None else _normalize(found[0], found[1])
+    xi, u = pre.normalized if pre is not None and pre.normalized is not None else normalize_direction(found[0], found[1])
     if not_li:
         g = GROWTH_UNBOUNDED
     else:
         scale = None if memo is None else memo.get("A-scale")
         if scale is None:
-            scale = _Modal(system, F, tol).A_scale
+            scale = ModalPencil(system, F, tol).A_scale
             if memo is not None:
                 memo["A-scale"] = scale
-        g = _growth(lam, scale, tol)
+        g = growth_class(lam, scale, tol)
     if g == "undecided":
         return None, at
     z = ZdaZero(lam, lam * lam + system.gamma * lam, xi, u, found[2], g)
@@ -438,19 +438,19 @@ def _modes_part(sh: _Shared, F: tuple[Label, ...], z: _Zda) -> tuple[list[str], 
             detail[mode] = {"theorem_iii3": ok, "switching.avoids-attack": "not evaluated", "touches_attack": None, "touched_agents": []}
             continue
         if z.exact is not None:
-            av = _exact_mode(system, mode, z.exact.direction, z.source, system.idx(F), sh.tol)
+            av = exact_mode_avoidance(system, mode, z.exact.direction, z.source, system.idx(F), sh.tol)
         elif (av0 := touch_at_zero(system, mode, z.direction, z.source, system.idx(F))) is not None:
             av = av0  # lambda0 = 0: decided over Q from the attack's potentials
         else:
             if md is None:
-                md = _Modal(system, F, sh.tol)
-                bases = _stealthy_bases(md, z.direction.value)
+                md = ModalPencil(system, F, sh.tol)
+                bases = stealthy_bases(md, z.direction.value)
             assert bases is not None
-            av = certified_touch(system, F, _numeric_mode(system, mode, md, z.direction, z.source, bases), z.source == "requested lambda0" or bool(z.screened))
+            av = certified_touch(system, F, numeric_mode_avoidance(system, mode, md, z.direction, z.source, bases), z.source == "requested lambda0" or bool(z.screened))
             if av.status is Status.UNDECIDED and _zda_fallback(sh):
                 ea = zda_analysis_exact(system, F, lambda0=sh.lambda0)
                 if ea.direction is not None:
-                    av = _exact_mode(system, mode, ea.direction, ea.direction_source, system.idx(F), sh.tol)
+                    av = exact_mode_avoidance(system, mode, ea.direction, ea.direction_source, system.idx(F), sh.tol)
         touches = None if av.status is Status.UNDECIDED else av.status is Status.FAILS
         detail[mode] = {
             "theorem_iii3": ok,

@@ -284,12 +284,12 @@ def inherited_zda(sh: Any, F: tuple[Label, ...], memo: dict[Any, Any] | None, zd
     If (xi, u_a) is a stealthy ZDA direction of {a} at lambda0, then (xi, u) with u = u_a on a
     and 0 on F minus {a} is one of F: the pencil of F has the columns of {a} and more, and the
     extra columns meet a zero input. The single's ZDA part (memoised per agent) is reused, the
-    padded direction is verified again on F's full pencil (:meth:`_Modal.verify`), and the row
+    padded direction is verified again on F's full pencil (:meth:`ModalPencil.verify`), and the row
     keeps the single's growth as a lower bound (the zero set of F is not computed). This spares
     the sets that hold an agent whose own zeros defeat the minor certificate the whole
     O(N^3) zero-set analysis, when no safe mode can expose them.
     """
-    from glocal_verify.analysis.zda import _Modal
+    from glocal_verify.analysis.zda import ModalPencil
     from glocal_verify.numerics.tolerance import Decision
 
     store = memo if memo is not None else {}
@@ -301,7 +301,7 @@ def inherited_zda(sh: Any, F: tuple[Label, ...], memo: dict[Any, Any] | None, zd
         d = za.direction
         if za.stealthy is not True or d is None or not (za.growth_at_least or za.growth) or (za.growth_at_least or za.growth) == "undecided":
             continue
-        md = _Modal(sh.system, F, sh.tol)
+        md = ModalPencil(sh.system, F, sh.tol)
         u = np.zeros(len(F), dtype=complex)
         u[F.index(a)] = complex(d.u0[0])
         eta = md.U.T @ np.asarray(d.xi, dtype=complex)  # modal coordinates of xi (U orthogonal up to its certified error)

@@ -272,7 +272,7 @@ def _witness_xis(system: System, rows: Sequence[Any]) -> dict[tuple[Label, ...],
     per-set method for the sets the batch leaves open. Not a fresh zero set per set (an O(N^3)
     pencil analysis each, minutes for thousands of targets at N = 200).
     """
-    from glocal_verify.analysis.zda import _Modal
+    from glocal_verify.analysis.zda import ModalPencil
     from glocal_verify.analysis.zda_batch import batch_directions
     from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision
 
@@ -286,7 +286,7 @@ def _witness_xis(system: System, rows: Sequence[Any]) -> dict[tuple[Label, ...],
             if d is not None:
                 out[F] = d.xi
                 continue
-            found = _Modal(system, F, DEFAULT_TOLERANCE).direction(lam)[0]
+            found = ModalPencil(system, F, DEFAULT_TOLERANCE).direction(lam)[0]
             if found is not None and found[3] is Decision.ZERO and found[4] is Decision.NONZERO:
                 out[F] = found[0]
     return out

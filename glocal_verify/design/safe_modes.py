@@ -35,7 +35,7 @@ Theorem III.3 for one link, from the rank-one structure (proof)
 
 Exposure (Remark III.3.1, ``switching.avoids-attack``)
     For an attack set F with exponent lambda0 (the audit's), the stealthy kernel Z at lambda0
-    is computed once (:func:`glocal_verify.analysis.avoidance._stealthy_bases`, the possible
+    is computed once (:func:`glocal_verify.analysis.avoidance.stealthy_bases`, the possible
     kernel, orthonormalised in xi). A one-link mode gives dL xi = delta b (b^T xi), so the
     switch is avoidable iff some c with (b^T X) c = 0 has a nonzero input part B c. For
     dim Z = 1 this is b^T x = 0; in general one SVD of size dim Z.
@@ -86,8 +86,8 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from glocal_verify.analysis.avoidance import _split, _stealthy_bases
-from glocal_verify.analysis.zda import _Modal
+from glocal_verify.analysis.avoidance import split_basis, stealthy_bases
+from glocal_verify.analysis.zda import ModalPencil
 from glocal_verify.conditions.registry import verify
 from glocal_verify.design.multilink import (
     image_kernel_holds,
@@ -350,9 +350,9 @@ def _targets(system: System, attacks: Sequence[Sequence[Label]], lambdas: Mappin
     out = []
     for F in attacks:
         Ft = tuple(F)
-        md = _Modal(system, Ft, tol)
-        _, zp = _stealthy_bases(md, complex(lambdas[Ft]))
-        sp = _split(zp.x, zp.u, None, [], np.zeros((0, 0)), 0.0)
+        md = ModalPencil(system, Ft, tol)
+        _, zp = stealthy_bases(md, complex(lambdas[Ft]))
+        sp = split_basis(zp.x, zp.u, None, [], np.zeros((0, 0)), 0.0)
         out.append(_Target(Ft, sp.Xo, sp.B))
     return out
 
