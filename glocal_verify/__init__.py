@@ -16,7 +16,8 @@ Layout, lowest layer first (each subpackage imports only the ones before it):
 decisions, exact arithmetic, pencils), ``model`` (``System`` and its explicit ``Analysis``
 state), ``analysis`` (the paper's objects on a system), ``observers`` (UIO and central designs),
 ``simulation`` (propagators, attacks, thresholds, Algorithm 1), ``conditions`` (catalogue,
-registry and checkers), ``design`` (placement, generators), ``reporting`` (renderers,
+registry and checkers), ``answer`` (the one answer per attacker, the assessment, ``verify``,
+``--require``), ``design`` (placement, audit, generators), ``reporting`` (renderers,
 figures, case study, findings) and ``cli``.
 """
 
@@ -30,11 +31,11 @@ if TYPE_CHECKING:  # the names below load on first use (PEP 562): `import glocal
     from glocal_verify.analysis.unobservable import unobservable_subspace
     from glocal_verify.analysis.zda import ZdaDirection, zda_analysis, zda_direction
     from glocal_verify.conditions.detects import algorithm1
+    from glocal_verify.answer.run import verify
     from glocal_verify.conditions.registry import (
         CATALOGUE,
         CheckContext,
         implemented_ids,
-        verify,
     )
     from glocal_verify.design.generators import random_clustered_spec
     from glocal_verify.design.placement import Placement, place_observers
@@ -53,13 +54,15 @@ if TYPE_CHECKING:  # the names below load on first use (PEP 562): `import glocal
     from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
     from glocal_verify.observers.central import CentralObserver, design_central_observer
     from glocal_verify.observers.uio import UnknownInputObserver, design_uio, local_uio
-    from glocal_verify.reporting.assessment import Assessment, assess
+    from glocal_verify.answer.assessment import Assessment, assess
+    from glocal_verify.answer.attack import AttackAnswer, answer_attack
+    from glocal_verify.answer.gate import require
     from glocal_verify.reporting.render import (
         render,
         report_schema,
         validate_report_json,
     )
-    from glocal_verify.results import ConditionResult, Finding, Method, Report, Status
+    from glocal_verify.results import ConditionResult, Finding, Method, Polarity, Report, Status
     from glocal_verify.simulation.attacks import covert_attack, zda_attack
     from glocal_verify.simulation.engine import simulate
     from glocal_verify.simulation.schedule import Schedule, SimulationResult
@@ -80,8 +83,12 @@ if TYPE_CHECKING:  # the names below load on first use (PEP 562): `import glocal
 _LAZY: dict[str, str] = {
     "dump_spec": "glocal_verify.spec",
     "load_graph": "glocal_verify.spec",
-    "Assessment": "glocal_verify.reporting.assessment",
-    "assess": "glocal_verify.reporting.assessment",
+    "Assessment": "glocal_verify.answer.assessment",
+    "assess": "glocal_verify.answer.assessment",
+    "AttackAnswer": "glocal_verify.answer.attack",
+    "answer_attack": "glocal_verify.answer.attack",
+    "require": "glocal_verify.answer.gate",
+    "Polarity": "glocal_verify.results",
     "covert_required_channels": "glocal_verify.analysis.covert",
     "switched_unobservable_subspace": "glocal_verify.analysis.switched",
     "unobservable_subspace": "glocal_verify.analysis.unobservable",
@@ -92,7 +99,7 @@ _LAZY: dict[str, str] = {
     "CATALOGUE": "glocal_verify.conditions.registry",
     "CheckContext": "glocal_verify.conditions.registry",
     "implemented_ids": "glocal_verify.conditions.registry",
-    "verify": "glocal_verify.conditions.registry",
+    "verify": "glocal_verify.answer.run",
     "random_clustered_spec": "glocal_verify.design.generators",
     "Placement": "glocal_verify.design.placement",
     "place_observers": "glocal_verify.design.placement",
@@ -169,6 +176,10 @@ __all__ = [
     "render",
     "assess",
     "Assessment",
+    "AttackAnswer",
+    "answer_attack",
+    "require",
+    "Polarity",
     "report_schema",
     "validate_report_json",
     "ConditionResult",

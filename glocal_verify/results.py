@@ -14,7 +14,7 @@ import math
 from dataclasses import dataclass, field
 from enum import Enum
 from fractions import Fraction
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -24,10 +24,14 @@ __all__ = [
     "Method",
     "Polarity",
     "Verdict",
+    "id_polarity",
+    "polarity_of",
     "ConditionResult",
     "Finding",
     "Report",
     "SystemInfo",
+    "AttackScenario",
+    "ScheduleInfo",
     "jsonable",
     "json_preview",
     "REPORT_SCHEMA_ID",
@@ -105,6 +109,24 @@ def polarity_of(status: Status, good: Status, premise: str | None = None) -> Pol
     if premise:
         return Polarity.VACUOUS
     return Polarity.FAVOURABLE if status is good else Polarity.UNFAVOURABLE
+
+
+def id_polarity(results: "Sequence[ConditionResult]") -> Polarity | None:
+    """The polarity of a condition id over all its results (the rule of ``--require`` and the summaries).
+
+    ``unfavourable`` if one result is; else ``undecided`` if one is; else ``vacuous`` if all
+    are; else ``favourable`` (every result favourable or vacuous, at least one favourable).
+    None when there is no result (not evaluated).
+    """
+    pols = [r.polarity for r in results]
+    if not pols:
+        return None
+    for p in (Polarity.UNFAVOURABLE, Polarity.UNDECIDED):
+        if p in pols:
+            return p
+    if all(p is Polarity.VACUOUS for p in pols):
+        return Polarity.VACUOUS
+    return Polarity.FAVOURABLE
 
 
 @dataclass(frozen=True, slots=True)
@@ -230,11 +252,79 @@ class Finding:
 
 
 @dataclass(frozen=True, slots=True)
+class AttackScenario:
+    """The spec's attack as the per-attacker answer reads it.
+
+    Attributes
+    ----------
+    kind : {"zda", "covert"}
+    actuators : tuple of labels
+        F.
+    by_cluster : tuple of (cluster name or None, labels, observer centres)
+        F split by cluster, in the spec's cluster order, with the centres of that cluster's
+        local observers; None holds the agents in no cluster (no local observer watches them).
+    lambda0 : complex or None
+        The spec's exponent.
+    """
+
+    kind: str
+    actuators: tuple[Any, ...]
+    by_cluster: tuple[tuple[str | None, tuple[Any, ...], tuple[Any, ...]], ...] = ()
+    lambda0: complex | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "kind": self.kind,
+            "actuators": jsonable(list(self.actuators)),
+            "by_cluster": [{"cluster": c, "agents": jsonable(list(a)), "observers": jsonable(list(o))} for c, a, o in self.by_cluster],
+            "lambda0": jsonable(self.lambda0),
+        }
+
+
+@dataclass(frozen=True, slots=True)
+class ScheduleInfo:
+    """A ``[switching]`` schedule: the defender switches at fixed times, whatever the local observers see.
+
+    Attributes
+    ----------
+    modes : tuple of str
+        The safe modes it visits, in order of first visit.
+    text : str
+        The schedule in words, e.g. ``"normal until t = 10, then case-2"``.
+    """
+
+    modes: tuple[str, ...]
+    text: str
+
+    def to_json(self) -> dict[str, Any]:
+        return {"modes": list(self.modes), "text": self.text}
+
+
+@dataclass(frozen=True, slots=True)
 class SystemInfo:
+    """What a report says of the verified system (the answer reads the attack and the schedule here).
+
+    Attributes
+    ----------
+    name : str
+    agents : int
+    modes : tuple of str
+    clusters : tuple of str
+    attack : AttackScenario or None
+        The spec's ``[attack]``.
+    schedule : ScheduleInfo or None
+        The spec's ``[switching]`` schedule (None: switches only on a local alarm, Algorithm 1).
+    monitored : bool
+        The control centre measures something (M_x or M_v non-empty).
+    """
+
     name: str
     agents: int
     modes: tuple[str, ...]
     clusters: tuple[str, ...] = ()
+    attack: AttackScenario | None = None
+    schedule: ScheduleInfo | None = None
+    monitored: bool = True
 
 
 @dataclass(frozen=True, slots=True)
@@ -248,19 +338,18 @@ class Report:
     findings : tuple of Finding
     options : mapping
         The options of the run (``verify``'s keywords and the ids it ran).
-    assessment : mapping or None
-        The JSON form of the report's bottom line (Problem 1 privacy, Problem 2 detection,
-        warnings about vacuous premises), derived from ``conditions`` alone by
-        ``glocal_verify.reporting.assessment.assess``; ``None`` until a renderer (or the
-        caller, via ``glocal_verify.reporting.assessment.with_assessment``) attaches it. This
-        layer cannot compute it: the assessment lives in the reporting layer.
+    assessment : Assessment or None
+        The report's bottom line (Problem 1 privacy, Problem 2 detection, warnings),
+        derived from ``conditions`` alone by ``glocal_verify.answer.assessment.assess``;
+        :func:`glocal_verify.verify` attaches it (this layer cannot compute it). Any object
+        with a ``to_json()`` method.
     """
 
     system: SystemInfo
     conditions: tuple[ConditionResult, ...]
     findings: tuple[Finding, ...] = ()
     options: Mapping[str, Any] = field(default_factory=dict)
-    assessment: Mapping[str, Any] | None = None
+    assessment: Any = None
 
     def results(self, cid: str) -> list[ConditionResult]:
         """All results with condition id ``cid`` (an old id of :data:`ALIASES` names its new one)."""
@@ -276,10 +365,13 @@ class Report:
                 "agents": self.system.agents,
                 "modes": list(self.system.modes),
                 "clusters": list(self.system.clusters),
+                "attack": None if self.system.attack is None else self.system.attack.to_json(),
+                "schedule": None if self.system.schedule is None else self.system.schedule.to_json(),
+                "monitored": self.system.monitored,
             },
         }
         if self.assessment is not None:
-            out["assessment"] = jsonable(dict(self.assessment))
+            out["assessment"] = jsonable(self.assessment.to_json())
         out["options"] = jsonable(dict(self.options))
         out["conditions"] = [r.to_json() for r in self.conditions]
         out["findings"] = [f.to_json() for f in self.findings]

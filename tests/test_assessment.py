@@ -12,7 +12,8 @@ from glocal_verify import System, load_example, loads_spec, validate_report_json
 from glocal_verify.cli import main
 from glocal_verify.design.placement import connectivity_warnings
 from glocal_verify.errors import GlocalVerifyError
-from glocal_verify.reporting.assessment import NO_ATTACK, NO_MONITORS, THEOREM_IDS, LocalCatch, assess, with_assessment
+from glocal_verify.answer.assessment import NO_ATTACK, NO_MONITORS, assess, with_assessment
+from glocal_verify.answer.attack import THEOREM_IDS
 from glocal_verify.reporting.render import render, to_markdown
 from glocal_verify.results import Method, Report, Status
 
@@ -83,12 +84,14 @@ def test_paper19_privacy_is_protected_with_only_the_common_offset_hidden(paper19
 
 def test_paper19_zda_on_agents_3_and_4_is_stealthy_caught_by_observer_5_and_exposed_by_case_2(paper19_report: Report) -> None:
     a = assess(paper19_report).attack
-    assert (a.kind, a.actuators, a.lambda0, a.lambda0_source) == ("zda", (3, 4), (0.5, 0.0), "spec")
-    assert a.stealthy is True
-    assert a.caught_locally_by == (LocalCatch("P1", 5),)
+    assert (a.kind, a.actuators, a.lambda0, a.lambda0_source) == ("zda", (3, 4), 0.5, "spec")
+    assert a.stealthy is True and a.caught_locally is True
+    assert a.caught_locally_by == (("P1", 5),)
     assert a.exposed_by_modes == ("case-2",)
     assert set(a.not_exposed_by_modes) == {"case-1", "case-3"}
     assert a.verdict == "detected"
+    assert [(r.name, r.verdict) for r in a.routes] == [("algorithm 1", "detected"), ("schedule", "detected")]
+    assert a.chain[1:] == ("caught by P1@5", "switch to case-2 (Theorem III.3 (i)-(iii) hold; it touches every stealthy direction)", "unbounded global residual")
 
 
 def test_an_exposing_mode_meets_theorem_iii3_and_touches_the_attack_by_definition(paper19_report: Report) -> None:
@@ -104,9 +107,9 @@ def test_an_exposing_mode_meets_theorem_iii3_and_touches_the_attack_by_definitio
 
 def test_local_catchers_see_the_spec_suspected_set_never_the_worst_case(paper19_report: Report) -> None:
     a = assess(paper19_report).attack
-    for c in a.caught_locally_by:
+    for cluster, observer in a.caught_locally_by:
         for cid in ("local.pencil", "local.uio"):
-            rs = [r for r in paper19_report.results(cid) if r.scope["cluster"] == c.cluster and r.scope["observer"] == c.observer]
+            rs = [r for r in paper19_report.results(cid) if r.scope["cluster"] == cluster and r.scope["observer"] == observer]
             assert [r.status for r in rs if r.scope["suspected"] == "attack"] == [Status.HOLDS]
     pencil5 = [r for r in paper19_report.results("local.pencil") if r.scope["observer"] == 5 and r.scope["suspected"] == "attack"][0]
     assert set(pencil5.witness["suspected_agents"]) == {3, 4}
@@ -117,7 +120,7 @@ def test_the_markdown_report_starts_with_the_assessment(paper19_report: Report) 
     headings = [line for line in md.splitlines() if line.startswith("## ")]
     assert headings[0] == "## Assessment"
     head = md.split("## System")[0]
-    assert "**protected**" in head and "observer 5 (P1)" in head and "case-2" in head and "detected" in head
+    assert "**protected**" in head and "caught by P1@5" in head and "case-2" in head and "detected" in head
 
 
 def test_the_summary_counts_the_spec_suspected_set_and_the_worst_case_in_separate_rows(paper19_report: Report) -> None:
@@ -134,7 +137,9 @@ def test_every_result_row_shows_its_polarity(paper19_report: Report) -> None:
     results = paper19_report.results("local.pencil")
     assert len(rows) == len(results)
     for row, r in zip(rows, results):
-        assert row.split("|")[3].strip() == {True: "✓", False: "✗", None: "?"}[r.favourable]
+        assert row.split("|")[3].strip() == f"{r.polarity.mark} {r.polarity.value}"
+    vacuous = [r for r in results if r.premise]
+    assert vacuous and all(r.polarity.value == "vacuous" for r in vacuous)  # P2 and P3 hold no attacked agent
 
 
 def test_fragile_and_escalated_results_are_marked_with_their_note(paper19_report: Report) -> None:
@@ -150,9 +155,12 @@ def test_json_reports_carry_the_assessment_and_validate_against_the_schema(paper
     for report in (paper19_report, no_monitors, no_attack):
         data = json.loads(render(report, "json"))
         validate_report_json(data)
-        assert data["assessment"] == assess(report).to_json()
-    assert "assessment" not in paper19_report.to_json()
-    assert with_assessment(paper19_report).to_json()["assessment"]["attack"]["verdict"] == "detected"
+        assert data["assessment"] == json.loads(json.dumps(assess(report).to_json()))
+    # verify attaches the assessment itself (library = command line)
+    assert paper19_report.assessment is not None
+    assert paper19_report.to_json()["assessment"]["attack"]["verdict"] == "detected"
+    bare = dataclasses.replace(paper19_report, assessment=None)
+    assert "assessment" not in bare.to_json() and with_assessment(bare).to_json()["assessment"]["attack"]["verdict"] == "detected"
 
 
 def test_a_spec_without_monitors_warns_that_the_control_centre_measures_nothing(no_monitors: Report) -> None:
@@ -208,34 +216,34 @@ def test_a_substituted_lambda0_is_named_and_warned() -> None:
     zda = report.results("stealthy.zda")[0]
     assert zda.witness["direction"]["source"] != "requested lambda0"
     assert a.attack.lambda0_source is not None and a.attack.lambda0_source.startswith("substituted: the spec's lambda0 = 0.5")
-    assert a.attack.lambda0 == tuple(zda.witness["direction"]["lambda0"])
+    assert a.attack.lambda0 == complex(*zda.witness["direction"]["lambda0"])
     assert any("admits no stealthy ZDA" in w for w in a.warnings)
 
 
-def test_the_simulation_settles_a_mode_the_algebra_leaves_open(disconnected: System) -> None:
+def test_the_simulation_is_shown_beside_the_algebra_and_never_decides(disconnected: System) -> None:
+    # one answer: the audit cannot simulate every set, so the verdict follows the algebra;
+    # the simulation of switching.detects is reported next to it
     ids = ["stealthy.zda", "stealthy.covert", "local.pencil", "local.uio", *THEOREM_IDS, "switching.avoids-attack", "switching.detects"]
-    algebra = assess(verify(disconnected, ids[:-1])).attack
-    assert algebra.unsettled_modes == ("safe",)
-    report = verify(disconnected, ids, options={"simulate": True})
+    algebra = assess(verify(disconnected, ids[:-1], simulate="never")).attack
+    report = verify(disconnected, ids, simulate="always")
     sim = assess(report).attack
     detects = report.results("switching.detects")[0]
+    assert (sim.verdict, sim.exposed_by_modes, sim.unsettled_modes) == (algebra.verdict, algebra.exposed_by_modes, algebra.unsettled_modes)
     mode = sim.modes[0]
-    assert sim.simulated and mode.by == "simulation" and mode.exposes is (detects.status is Status.HOLDS)
-    if detects.holds:
-        assert detects.witness["detected"] and detects.witness["detection_time"] >= detects.witness["switch_time"]
-        assert sim.exposed_by_modes == ("safe",) and sim.verdict == "detected"
+    if detects.status is not Status.UNDECIDED:
+        assert mode.simulated is (detects.status is Status.HOLDS) and "simulation:" in mode.reason
 
 
-def test_when_algebra_and_simulation_disagree_the_assessment_says_so_and_trusts_the_simulation(paper19_report: Report) -> None:
+def test_when_algebra_and_simulation_disagree_the_answer_follows_the_algebra_and_warns(paper19_report: Report) -> None:
     touch = [r for r in paper19_report.results("switching.avoids-attack") if r.scope["mode"] == "case-2"][0]
     fake = dataclasses.replace(touch, id="switching.detects", status=Status.FAILS, favourable=False, witness={"post_switch": {"summary": "made up"}})
-    report = dataclasses.replace(paper19_report, conditions=paper19_report.conditions + (fake,))
+    report = dataclasses.replace(paper19_report, conditions=tuple(r for r in paper19_report.conditions if r.id != "switching.detects") + (fake,), assessment=None)
     a = assess(report)
     m = [m for m in a.attack.modes if m.mode == "case-2"][0]
-    assert (m.algebra, m.simulated, m.exposes, m.by) == (True, False, False, "simulation")
-    assert "the simulation is trusted" in m.reason
-    assert any(w.startswith("case-2: the algebra") for w in a.warnings)
-    assert a.attack.exposed_by_modes == () and a.attack.verdict == "undetected"
+    assert (m.exposes, m.simulated, m.agrees) == (True, False, False)
+    assert "disagrees with the algebra" in m.reason
+    assert any(w.startswith("case-2: the simulation of switching.detects") for w in a.warnings)
+    assert a.attack.exposed_by_modes == ("case-2",) and a.attack.verdict == "detected"
 
 
 def test_the_html_format_needs_its_module_or_says_so_clearly(paper19_report: Report) -> None:

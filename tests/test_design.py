@@ -139,6 +139,7 @@ def test_a_set_no_mode_exposes_gets_a_velocity_monitor_where_its_direction_lives
     from glocal_verify.design.network import _monitor_unexposed
     from glocal_verify.design.safe_modes import DEFAULT_WEIGHTS, SafeModeDesign
     from glocal_verify.spec.load import spec_from_dict
+    from glocal_verify.spec.types import SwitchingSpec
 
     # 8 is a leaf of 4: {4} separates {4, 8} from the monitors, and no link with a monitored
     # endpoint touches the stealthy direction, which lives at the leaf
@@ -157,7 +158,13 @@ def test_a_set_no_mode_exposes_gets_a_velocity_monitor_where_its_direction_lives
     assert spec.monitor.positions == () and set(spec.monitor.velocities) == {1, 7, 8}
     after = System(spec)
     (row,) = [r for r in audit(after, 2, [4, 8]).rows if r.actuators == (4, 8)]
-    assert row.verdict == "detected" and row.exposed_by_modes == tuple(m.name for m in safe.modes)
+    assert row.exposed_by_modes == tuple(m.name for m in safe.modes) == ("designed-1",)
+    # exposed, but the observer at 1 cannot raise a local alarm for {4, 8}: under Algorithm 1
+    # nothing triggers the switch; a schedule that visits the mode detects it
+    assert row.verdict == "undetected" and "no local alarm" in row.chain
+    sched = dataclasses.replace(spec, switching=SwitchingSpec(mode="designed-1", time=5.0))
+    (row,) = [r for r in audit(System(sched), 2, [4, 8]).rows if r.actuators == (4, 8)]
+    assert row.verdict == "detected" and row.answer is not None and row.answer.route("schedule").verdict == "detected"
     # the checkers confirm: privacy holds with velocity-only monitors
     priv = verify(after, ["privacy.*"]).conditions
     assert priv and all(r.status.value == "holds" for r in priv)

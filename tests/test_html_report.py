@@ -108,8 +108,9 @@ def test_every_result_has_its_row_its_mark_and_its_witness(page: str, report: Re
     for r in report.conditions:
         assert f"<code>{r.id}</code>" in page
     assert page.count("<summary>witness</summary>") == len(report.conditions)
-    assert page.count("✓ favourable</span>") == sum(1 for r in report.conditions if r.favourable is True)
-    assert page.count("✗ unfavourable</span>") == sum(1 for r in report.conditions if r.favourable is False)
+    for pol in ("favourable", "unfavourable", "vacuous", "undecided"):
+        mark = {"favourable": "✓", "unfavourable": "✗", "vacuous": "–", "undecided": "?"}[pol]
+        assert page.count(f"{mark} {pol}</span>") == sum(1 for r in report.conditions if r.polarity.value == pol)
     escalated = sum(1 for r in report.conditions if r.method.value == "exact (escalated)")
     assert page.count('<span class="escalated">exact (escalated)</span>') == escalated
     for f in report.findings:

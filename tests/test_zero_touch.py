@@ -16,7 +16,6 @@ from glocal_verify.analysis import zero_touch as zt_module
 from glocal_verify.analysis.zda import ZdaZero
 from glocal_verify.analysis.zero_touch import touch_at_zero, zero_touch
 from glocal_verify.design.audit import audit
-from glocal_verify.design.audit_records import exposure_fragility
 from glocal_verify.numerics import exact as ex
 from glocal_verify.results import Status
 from strategies import graphs
@@ -124,10 +123,18 @@ def test_an_undecided_numeric_touch_becomes_an_exact_verdict_with_its_margin() -
 
 
 def test_an_exposure_by_a_tiny_signal_is_marked_fragile_but_stays_detected() -> None:
-    modes = {"a": {"touch_margin": 3e-13}, "b": {"touch_margin": 2e-11}}
-    assert "2e-11" in exposure_fragility(modes, ["a", "b"])["fragile"]
-    assert exposure_fragility({"a": {"touch_margin": 1e-3}}, ["a"]) == {}
-    assert exposure_fragility(modes, []) == {}
+    from glocal_verify.answer.attack import AttackEvidence, LocalEvidence, ModeEvidence, answer_attack
+
+    thm = {cid: Status.HOLDS for cid in ("switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences")}
+
+    def answer(*margins: float) -> Any:
+        modes = tuple(ModeEvidence(f"m{i}", thm, Status.FAILS, m, "unbounded") for i, m in enumerate(margins))
+        local = (LocalEvidence("P", 1, (1, 2), Status.HOLDS, Status.HOLDS),)
+        return answer_attack(AttackEvidence("zda", (1, 2), (("P", (1, 2), (1,)),), Status.HOLDS, 0j, "spec", local, modes))
+
+    tiny = answer(3e-13, 2e-11)
+    assert tiny.verdict == "detected" and "2e-11" in tiny.fragile and all(m.fragile for m in tiny.modes)
+    assert answer(1e-3).fragile == "" and answer(3e-13, 1e-3).fragile == ""  # one robust exposure suffices
 
 
 def test_audit_rows_report_the_touch_margin_of_every_evaluated_mode() -> None:
@@ -208,20 +215,19 @@ def test_a_persistent_zda_without_position_monitors_exists_iff_two_attacked_agen
 
 
 def test_a_set_inherits_a_proven_zda_of_a_single_member_padded_with_zero_inputs() -> None:
-    from glocal_verify.design.audit import _shared, _zda_part
-    from glocal_verify.design.audit_screens import inherited_zda
-    from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE
+    from glocal_verify.analysis.zda_screens import global_tables
+    from glocal_verify.analysis.zda_verdict import ZdaOptions, decide_zda, inherited_zda
     from glocal_verify.spec import load_example
 
     system = System(load_example("paper19"))
-    sh = _shared(system, DEFAULT_TOLERANCE, False, False, True, "verdict")
+    opt = ZdaOptions(lambda0=system.spec.attack.lambda0, growth="verdict", screen=True, minors=global_tables(system))
     memo: dict[Any, Any] = {}
-    singles = [a for a in system.labels if (z := _zda_part(sh, (a,), memo)).stealthy and z.direction is not None]
+    singles = [a for a in system.labels if (z := decide_zda(system, (a,), opt, memo)).stealthy and z.direction is not None]
     assert singles, "paper19 has single actuators with a stealthy ZDA"
     a = singles[0]
     b = next(x for x in system.labels if x != a)
     F = tuple(sorted((a, b), key=system.index.__getitem__))
-    z = inherited_zda(sh, F, memo, _zda_part)
+    z = inherited_zda(system, F, opt, memo)
     assert z is not None and z.stealthy is True and not z.complete and z.direction is not None
     d = z.direction
     # the definition: (s I + alpha L) xi = S_F^T u0 and the monitored outputs vanish

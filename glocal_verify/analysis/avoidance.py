@@ -7,7 +7,9 @@ Z; the switch to mode q is avoidable iff some direction in Z has ``dL_q xi = 0``
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections.abc import Mapping, MutableMapping
 from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any, Sequence
@@ -44,6 +46,9 @@ from glocal_verify.spec.types import Label
 
 __all__ = [
     "Avoidance",
+    "AvoidanceVerdict",
+    "NO_ZDA_PREMISE",
+    "decide_avoidance",
     "avoidance",
     "avoidance_exact",
     "delta_norm",
@@ -597,3 +602,165 @@ def avoidance_certificate(
         f"its absence from ker [Q; dL_q] is {'certain' if k_dir is False else 'not certain'}"
     )
 
+
+
+# ------------------------------------------------------------------------------------------
+# the rule of switching.avoids-attack (ZDA), for verify and the audit alike
+
+
+@dataclass(frozen=True, slots=True)
+class AvoidanceVerdict:
+    """``switching.avoids-attack`` of one safe mode for a ZDA: the status and what proves it.
+
+    Attributes
+    ----------
+    mode : str
+    status : Status
+        ``HOLDS``: some stealthy direction at lambda0 is untouched by the switch (the attack
+        survives it); ``FAILS``: every one is touched; ``UNDECIDED``.
+    analysis : Avoidance or None
+        The touch analysis (None when vacuous or when the ZDA status is undecided).
+    premise : str or None
+        Set when no stealthy ZDA exists: the verdict holds vacuously (nothing to avoid).
+    exact : bool
+        Decided over Q (the exact analysis, or the touch test at lambda0 = 0 over Q).
+    certificate : mapping
+        For a numeric analysis: ``certified``, ``error_bound``, ``by`` and ``note`` of
+        :func:`avoidance_certificate`.
+    note : str
+        Why the verdict is undecided, or how it was decided.
+    """
+
+    mode: str
+    status: Status
+    analysis: Avoidance | None
+    premise: str | None = None
+    exact: bool = False
+    certificate: Mapping[str, Any] = field(default_factory=dict)
+    note: str = ""
+
+    @property
+    def touches(self) -> bool | None:
+        """True: every stealthy direction is touched; False: one avoids the switch (or none exists); None: undecided."""
+        return None if self.status is Status.UNDECIDED else self.status is Status.FAILS
+
+
+#: the attack's ZDA does not exist: the premise of the touch question is absent
+NO_ZDA_PREMISE = "no stealthy ZDA exists for this attack (stealthy.zda fails): there is nothing for the switch to touch or avoid"
+
+
+def _certify_numeric(system: System, F: Sequence[Label], av: Avoidance, exact_lambda: bool) -> tuple[Avoidance, dict[str, Any]]:
+    """The numeric ``av`` if :func:`avoidance_certificate` proves it for the exact system, else ``undecided``."""
+    if av.status is Status.UNDECIDED:
+        return av, {"certified": False, "error_bound": None, "note": "; ".join(av.notes) or "a rank decision fell in the tolerance band"}
+    cand = None if av.direction is None else np.concatenate([av.direction.xi, av.direction.u0])
+    ok, bound, note = avoidance_certificate(system, av.mode, system.idx(F), av.lambda0, av.status, exact_lambda, cand)
+    cert: dict[str, Any] = {"certified": ok, "error_bound": bound, "note": "" if ok else f"numeric {av.status.value} not certified: {note}"}
+    if ok:
+        cert["by"] = (
+            "the avoiding direction rationalises to an exact kernel vector (checked over Q)"
+            if bound is None
+            else "Weyl lower bounds (SVD backward error and data rounding) against structural rank upper bounds at lambda0"
+        )
+        return av, cert
+    return dataclasses.replace(av, status=Status.UNDECIDED, notes=(*av.notes, cert["note"])), cert
+
+
+#: up to this many agents an undecided touch test at a computed (not exact) lambda0 = 0 notes what Q says there
+ZERO_TOUCH_NOTE_AGENTS = 500
+
+
+def decide_avoidance(
+    system: System,
+    mode: str,
+    zda: Any,
+    *,
+    tol: Tolerance = DEFAULT_TOLERANCE,
+    fallback: bool = False,
+    memo: MutableMapping[Any, Any] | None = None,
+    zero_first: bool = False,
+) -> AvoidanceVerdict:
+    """Decide ``switching.avoids-attack`` of ``mode`` for the ZDA verdict ``zda`` (the rule).
+
+    The question concerns the witness exponent lambda0 of ``stealthy.zda``
+    (:class:`~glocal_verify.analysis.zda_verdict.ZdaVerdict`): no stealthy ZDA, ``holds``
+    vacuously; an undecided ZDA status, ``undecided``. Otherwise, in order:
+
+    1. the exact analysis (when ``zda`` is exact): the kernel of the stacked system over Q or
+       the number field of lambda0 (:func:`exact_mode_avoidance`);
+    2. the numeric touch test (:func:`numeric_mode_avoidance`), which counts only where
+       :func:`avoidance_certificate` proves it at an exact lambda0 (``zda.lambda0_exact``:
+       the requested exponent, a certified zero set, or lambda0 = 1 of a system proved not
+       left-invertible);
+    3. at an exact lambda0 = 0 (no monitored position, G_1 connected, |F| >= 2), the touch
+       test over Q from the attack's potentials (:func:`~glocal_verify.analysis.zero_touch.touch_at_zero`);
+       at a computed lambda0 = 0 its answer is only a note;
+    4. ``fallback``: an undecided verdict is re-decided from the exact ZDA analysis.
+
+    Parameters
+    ----------
+    system : System
+    mode : str
+        A safe mode q.
+    zda : ZdaVerdict
+        The verdict of :func:`~glocal_verify.analysis.zda_verdict.decide_zda` for the attack.
+    tol : Tolerance
+    fallback : bool
+        Re-decide an undecided numeric verdict over Q.
+    memo : mutable mapping, optional
+        Shares the modal pencil and the stealthy bases between the modes of one attack set.
+    zero_first : bool
+        Try step 3 before step 2 (cheaper per set in an audit; the same status either way,
+        since both are proofs; the numeric analysis also reports whether the witness is
+        touched).
+
+    Returns
+    -------
+    AvoidanceVerdict
+    """
+    from glocal_verify.analysis.zero_touch import touch_at_zero
+
+    F = tuple(zda.actuators)
+    if zda.status is Status.FAILS:
+        return AvoidanceVerdict(mode, Status.HOLDS, None, premise=NO_ZDA_PREMISE, exact=zda.method == "exact")
+    if zda.status is Status.UNDECIDED or zda.direction is None:
+        why = "whether a stealthy ZDA exists is undecided (stealthy.zda)" if zda.status is Status.UNDECIDED else "stealthy.zda has no witness direction"
+        return AvoidanceVerdict(mode, Status.UNDECIDED, None, note=why)
+    Fi = system.idx(F)
+    if zda.exact_analysis is not None:
+        d_ex = zda.exact_analysis.direction
+        assert d_ex is not None
+        return AvoidanceVerdict(mode, (av := exact_mode_avoidance(system, mode, d_ex, zda.direction_source, Fi, tol)).status, av, exact=True)
+    store: MutableMapping[Any, Any] = memo if memo is not None else {}
+    d = zda.direction
+    exact_lambda = bool(zda.lambda0_exact)
+
+    def at_zero() -> AvoidanceVerdict | None:
+        if exact_lambda and complex(d.value) == 0 and (av0 := touch_at_zero(system, mode, d, zda.direction_source, Fi)) is not None:
+            return AvoidanceVerdict(mode, av0.status, av0, exact=True, certificate={"certified": True, "error_bound": None, "by": av0.notes[-1], "note": ""})
+        return None
+
+    if zero_first and (v0 := at_zero()) is not None:
+        return v0
+    key = ("avoidance-bases", F, complex(d.value))
+    if key not in store:
+        md = ModalPencil(system, F, tol)
+        store[key] = (md, stealthy_bases(md, d.value))  # Z does not depend on the mode
+    md, bases = store[key]
+    av, cert = _certify_numeric(system, F, numeric_mode_avoidance(system, mode, md, d, zda.direction_source, bases), exact_lambda)
+    if av.status is not Status.UNDECIDED:
+        return AvoidanceVerdict(mode, av.status, av, certificate=cert)
+    if not zero_first and (v0 := at_zero()) is not None:
+        return v0
+    if fallback:
+        ea = store.get(("exact-zda", F))
+        if ea is None:
+            ea = store[("exact-zda", F)] = zda_analysis_exact(system, F, lambda0=zda.direction.value if zda.direction_source == "requested lambda0" else None)
+        if ea.direction is not None:
+            ex_av = exact_mode_avoidance(system, mode, ea.direction, ea.direction_source, Fi, tol)
+            return AvoidanceVerdict(mode, ex_av.status, ex_av, exact=True, note=f"escalated to exact arithmetic: {cert.get('note', '')}")
+    if complex(d.value) == 0 and system.n <= ZERO_TOUCH_NOTE_AGENTS and (ex0 := touch_at_zero(system, mode, d, zda.direction_source, Fi)) is not None:
+        # the exponent itself is a computed fastest zero: say what Q says at 0, stay undecided
+        what = "avoids the attack" if ex0.status is Status.HOLDS else "touches every stealthy direction"
+        cert = {**cert, "note": f"{cert.get('note', '')}; over Q the switch {what} at lambda0 = 0 (attack.lambda0 = 0 in the spec makes this the verdict)"}
+    return AvoidanceVerdict(mode, Status.UNDECIDED, av, certificate=cert, note=str(cert.get("note", "")))

@@ -183,7 +183,8 @@ def _actuators(system: System, actuators: Iterable[Label] | None) -> tuple[Label
     return F
 
 
-def _lambda_request(system: System, lambda0: complex | float | Sequence[float] | None) -> complex | None:
+def requested_lambda0(system: System, lambda0: complex | float | Sequence[float] | None = None) -> complex | None:
+    """The requested exponent: ``lambda0`` when given (a number or ``[re, im]``), else the spec's ``attack.lambda0``."""
     if lambda0 is None:
         return system.spec.attack.lambda0 if system.spec.attack is not None else None
     if isinstance(lambda0, (list, tuple)):
@@ -512,7 +513,7 @@ def zda_analysis(
         Without attacked actuators; ModelError for unknown labels.
     """
     F = _actuators(system, actuators)
-    lam_req = _lambda_request(system, lambda0)
+    lam_req = requested_lambda0(system, lambda0)
     if method not in ("structured", "dense"):
         raise NotApplicableError(f"unknown ZDA method {method!r} (expected 'structured' or 'dense')")
     key = ("zda", tol, F, lam_req, method)

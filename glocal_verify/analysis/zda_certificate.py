@@ -30,6 +30,7 @@ __all__ = [
     "exact_q_pattern",
     "exact_q_rows",
     "rational_kernel_vector",
+    "sparse_kernel_certificate",
     "u_direction_certificate",
     "zda_certificate",
 ]
@@ -203,6 +204,58 @@ def rational_kernel_vector(rows: Sequence[Sequence[Fraction]], v: np.ndarray, ma
         if sum((r[j] * q[j] for j in range(len(q)) if r[j] != 0 and q[j] != 0), Fraction(0)) != 0:
             return None
     return q
+
+
+def sparse_kernel_certificate(
+    system: System, actuators: Sequence[Label], lam: Fraction, xi: np.ndarray, u0: np.ndarray, max_denominator: int = 10**6
+) -> bool:
+    """Is the computed direction (xi, u0) at the rational exponent ``lam`` an exact stealthy ZDA?
+
+    xi is scaled so that its largest entry is 1 and rounded to the nearest fractions with
+    denominator <= ``max_denominator``; then, in exact arithmetic on the sparse entries of L_1,
+    (s I + alpha L_1) xi must vanish off the attacked agents, S_out xi = 0 (S_out = S_{M_x}
+    at lam = 0, S_M otherwise) and the input it needs on F, u0 = S_F (s I + alpha L_1) xi,
+    must be nonzero. A True answer is a proof (no tolerance); a False one proves nothing.
+    O(N + |E|) rational operations (u0 is recomputed exactly, the float one is not used).
+
+    Parameters
+    ----------
+    system : System
+    actuators : sequence of labels
+        F.
+    lam : Fraction
+        The exponent lambda0 (real, rational).
+    xi : ndarray
+        Position part of the direction (length N).
+    u0 : ndarray
+        Its input part (only its being nonzero is checked, exactly).
+    max_denominator : int
+    """
+    from glocal_verify.analysis.twins import laplacian_entries
+
+    v = np.asarray(xi, dtype=complex)
+    if v.size != system.n or not np.all(np.isfinite(v)):
+        return False
+    k = int(np.argmax(np.abs(v)))
+    if v[k] == 0:
+        return False
+    v = v / v[k]
+    if np.any(np.abs(v.imag) > 1e-9):
+        return False
+    q = [Fraction(float(x)).limit_denominator(max_denominator) for x in v.real]
+    out = system.monitored_positions if lam == 0 else system.monitored
+    if any(q[i] != 0 for i in system.idx(out)):
+        return False
+    s = lam * lam + Fraction(system.gamma_q) * lam
+    a = Fraction(system.alpha_q)
+    r = [s * x for x in q]
+    for (i, j), w in laplacian_entries(system, NORMAL_MODE).items():
+        if q[j]:
+            r[i] += a * w * q[j]
+    F = set(system.idx(actuators))
+    if any(r[i] != 0 for i in range(system.n) if i not in F):
+        return False
+    return any(r[i] != 0 for i in F)
 
 
 def zda_certificate(

@@ -15,7 +15,7 @@ from glocal_verify.analysis.zda import (
     GROWTH_UNBOUNDED,
     ZdaDirection,
     _actuators,
-    _lambda_request,
+    requested_lambda0,
     normalize_direction,
 )
 from glocal_verify.analysis.twins import laplacian_entries
@@ -532,7 +532,7 @@ def zda_analysis_exact(
     """
     F_lab = _actuators(system, actuators)
     F = system.idx(F_lab)
-    lam_req = _lambda_request(system, lambda0)
+    lam_req = requested_lambda0(system, lambda0)
     if not _general:
         fast = _certified_analysis(system, F_lab, F, lam_req)
         if fast is not None:

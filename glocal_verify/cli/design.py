@@ -12,24 +12,15 @@ __all__ = ["register"]
 
 
 def _assessment_lines(system: Any, label: str, exact: bool) -> list[str]:
-    """Privacy and detection lines of the assessment of ``verify`` (when the reporting layer has it)."""
+    """Privacy and detection lines of ``verify``'s assessment (the same answer as the audit rows)."""
+    from glocal_verify.answer.run import verify
     from glocal_verify.conditions.catalogue import DESIGN_ASSESSMENT_IDS
-    from glocal_verify.conditions.registry import verify
 
-    rep = verify(system, list(DESIGN_ASSESSMENT_IDS), exact=exact)
-    try:
-        from glocal_verify.reporting.assessment import assess
-    except ImportError:  # pragma: no cover - the reporting layer is optional here
-        return [f"{label}: {sum(r.status.value == 'holds' for r in rep.conditions)} of {len(rep.conditions)} verdicts hold"]
-    a = assess(rep)
+    a = verify(system, list(DESIGN_ASSESSMENT_IDS), exact=exact, simulate="never").assessment
     pr, at = a.privacy, a.attack
     out = [f"{label}: privacy of x(t0) {pr.initial_state}, of x* {pr.consensus_value}"]
     if at.present:
-        caught = ", ".join(f"{getattr(c, 'cluster', c)}@{getattr(c, 'observer', '')}" for c in at.caught_locally_by)
-        out.append(
-            f"{label}: attack on {list(at.actuators)}: {at.verdict} (stealthy {at.stealthy}; caught locally by {caught or '-'};"
-            f" exposed by modes {', '.join(at.exposed_by_modes) or '-'})"
-        )
+        out.append(f"{label}: {at.reason}")
     return out
 
 

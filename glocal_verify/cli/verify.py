@@ -34,8 +34,8 @@ VERIFY_FORMATS = ("json", "markdown", "html")
 
 
 def verify(system: System, only: Any = None, **options: Any) -> Any:
-    """:func:`glocal_verify.conditions.registry.verify`, imported when a command runs."""
-    from glocal_verify.conditions.registry import verify as run
+    """:func:`glocal_verify.answer.run.verify` (the library's ``verify``), imported when a command runs."""
+    from glocal_verify.answer.run import verify as run
 
     return run(system, only, **options)
 
@@ -85,10 +85,10 @@ def _graph_system(args: argparse.Namespace) -> System:
 def cmd_verify(args: argparse.Namespace) -> int:
     from glocal_verify.conditions.registry import implemented_ids, resolve_ids
     from glocal_verify.numerics.tolerance import Tolerance
-    from glocal_verify.results import Status
 
     only = ids_arg(args.only)
     require = resolve_ids(ids_arg(args.require) or [])
+    require_holds = resolve_ids(ids_arg(args.require_holds) or [])
     if only is not None:
         named = [t for t in only if not t.endswith(("*", "."))]
         only = resolve_ids(only)
@@ -110,9 +110,9 @@ def cmd_verify(args: argparse.Namespace) -> int:
     progress: Callable[[str], None] | None = None
     if not args.quiet:  # one line per checker, on a terminal or in a log (--quiet: none)
         progress = lambda cid: print(f"checking {cid} ...", file=sys.stderr, flush=True)  # noqa: E731
-    from glocal_verify.conditions.detects import DETECTS_MAX_AGENTS
+    from glocal_verify.answer.run import simulates
 
-    simulate = args.simulate == "always" or (args.simulate == "auto" and system.n <= DETECTS_MAX_AGENTS)
+    simulate = simulates(system, args.simulate)
     from glocal_verify.conditions.cost import SpecSizes, estimate_verify
 
     budget = args.exact_budget if (args.escalate == "auto" and args.exact_budget > 0) else None
@@ -123,7 +123,7 @@ def cmd_verify(args: argparse.Namespace) -> int:
         only,
         exact=args.exact,
         tol=tol,
-        options={"simulate": True} if simulate else None,
+        simulate=args.simulate,
         progress=progress,
         escalate=args.escalate,
         exact_budget=args.exact_budget if args.exact_budget > 0 else None,
@@ -134,15 +134,9 @@ def cmd_verify(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UsageError(f"--format {args.format}: {exc}") from None
     write_output(text, args.out, inputs=spec_inputs(args))
-    bad = []
-    for cid in require:
-        rs = report.results(cid)
-        if not rs:
-            bad.append(f"{cid}: not evaluated")
-        for r in rs:
-            if r.status is not Status.HOLDS:
-                scope = ", ".join(f"{k}={v}" for k, v in r.scope.items()) or "global"
-                bad.append(f"{cid} [{scope}]: {r.status.value}")
+    from glocal_verify.answer.gate import require as gate, require_holds as gate_holds
+
+    bad = list(gate(report, require).failures) + [f"{line} (--require-holds)" for line in gate_holds(report, require_holds).failures]
     if bad:
         for line in bad:
             print(f"{PROG}: required condition not met: {line}", file=sys.stderr)
@@ -186,7 +180,8 @@ def register(sub: Any) -> None:
     v.add_argument("--out", metavar="FILE", help="write the report to FILE instead of stdout")
     v.add_argument("--only", metavar="ID,...", help="check only these condition ids (prefixes like switching.* allowed)")
     v.add_argument("--exact", action="store_true", help="decide with exact rational arithmetic (python-flint)")
-    v.add_argument("--require", metavar="ID,...", help="exit 1 unless every result of these ids holds")
+    v.add_argument("--require", metavar="ID,...", help="exit 1 unless every result of these ids is good news for the defender (favourable)")
+    v.add_argument("--require-holds", metavar="ID,...", help="exit 1 unless every result of these ids has status holds (raw status, whatever it means for the defender)")
     v.add_argument("--rtol", type=float, default=_RTOL, help="relative tolerance of numeric decisions (default 1e-9)")
     v.add_argument("--band", type=float, default=_BAND, help="undecided band factor above rtol (default 1e3)")
     v.add_argument(
@@ -196,7 +191,7 @@ def register(sub: Any) -> None:
         help="run switching.detects (Theorem III.3's conclusion, one simulated switch per safe mode; auto: up to 150 agents)",
     )
     v.add_argument("--escalate", choices=("auto", "never"), default="auto", help="auto (default): re-decide a numeric undecided exactly within --exact-budget")
-    v.add_argument("--exact-budget", type=float, default=30.0, metavar="SECONDS", help="time for each exact escalation (default 30; 0: no limit)")
+    v.add_argument("--exact-budget", type=float, default=30.0, metavar="SECONDS", help="time for all exact escalations of the run together (default 30; 0: no limit)")
     v.add_argument("--fragile-below", type=float, default=1e-9, metavar="X", help="mark a verdict fragile when its margin is below X (default 1e-9)")
     v.add_argument("--quiet", action="store_true", help="no progress on stderr")
     add_allow_large(v)

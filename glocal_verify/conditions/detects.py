@@ -150,20 +150,12 @@ def check_detects(system: System, ctx: CheckContext) -> list[ConditionResult]:
     out: list[ConditionResult] = []
 
     def res(mode: str, status: Status, margin: float | None, witness: Mapping[str, Any]) -> ConditionResult:
-        from glocal_verify.conditions.registry import CATALOGUE
+        # through the registry's one constructor: the catalogue's polarity, never fragile
+        # (the margin is a log-ratio, not a distance)
+        from glocal_verify.conditions.registry import result
 
-        info = CATALOGUE["switching.detects"]
-        return ConditionResult(
-            "switching.detects",
-            {"mode": mode},
-            status,
-            margin,
-            ctx.tol.rtol,
-            Method.NUMERIC,
-            dict(witness),
-            info.reference,
-            info.statement,
-        )
+        note = (str(witness.get("note", "")) or "the simulation does not settle it (see the witness)") if status is Status.UNDECIDED else ""
+        return result("switching.detects", ctx, status, scope={"mode": mode}, margin=margin, witness=witness, note=note)
 
     if system.n > limit:
         for q in system.safe_modes:

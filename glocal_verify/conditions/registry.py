@@ -20,12 +20,15 @@ import numpy as np
 import scipy.linalg
 
 from glocal_verify.conditions.catalogue import CATALOGUE, ConditionInfo
+from glocal_verify.conditions.premises import vacuous_premise
 from glocal_verify.errors import GlocalVerifyError, ModelError, UnknownConditionError
 from glocal_verify.model import System
 from glocal_verify.numerics.deadline import DeadlineExceeded, call_with_deadline
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
 from glocal_verify.results import (
     ALIASES,
+    AttackScenario,
+    ScheduleInfo,
     FRAGILE_BELOW,
     ConditionResult,
     Finding,
@@ -44,6 +47,7 @@ __all__ = [
     "result",
     "implemented_ids",
     "resolve_ids",
+    "system_info",
     "verify",
 ]
 
@@ -271,6 +275,14 @@ NUMERICAL_FAILURES: tuple[type[BaseException], ...] = (
 )
 
 
+def _with_premise(system: System, r: ConditionResult) -> ConditionResult:
+    """``r`` marked vacuous when its premise is absent (:func:`~glocal_verify.conditions.premises.vacuous_premise`)."""
+    if r.premise or r.status is Status.UNDECIDED:
+        return r
+    why = vacuous_premise(system, r.id, r.scope)
+    return r if why is None else dataclasses.replace(r, premise=why, fragile=False)
+
+
 def _run_checker(system: System, cid: str, ctx: CheckContext) -> list[ConditionResult]:
     """Run one checker; a numerical failure of a numeric run becomes one undecided result.
 
@@ -279,7 +291,7 @@ def _run_checker(system: System, cid: str, ctx: CheckContext) -> list[ConditionR
     never undecided).
     """
     try:
-        return _CHECKERS[cid](system, ctx)
+        return [_with_premise(system, r) for r in _CHECKERS[cid](system, ctx)]
     except GlocalVerifyError:
         raise
     except NUMERICAL_FAILURES as exc:
@@ -363,6 +375,34 @@ def _escalate_all(
         per_checker[cid] = _escalate(system, cid, per_checker[cid], ctx, share, spent)
 
 
+def system_info(system: System) -> SystemInfo:
+    """What a report says of ``system``: sizes, modes, clusters, the attack split by cluster and the schedule."""
+    attack = None
+    atk = system.spec.attack
+    if atk is not None:
+        split: list[tuple[str | None, tuple[Any, ...], tuple[Any, ...]]] = []
+        for c in system.clusters:
+            mine = tuple(a for a in atk.actuators if a in set(c.nodes))
+            if mine:
+                split.append((c.name, mine, tuple(o.center for o in c.observers)))
+        placed = {a for _, xs, _ in split for a in xs}
+        if rest := tuple(a for a in atk.actuators if a not in placed):
+            split.append((None, rest, ()))
+        attack = AttackScenario(atk.kind, tuple(atk.actuators), tuple(split), atk.lambda0)
+    schedule = None
+    sw = system.spec.switching
+    if sw is not None and (sw.mode is not None or sw.sequence):
+        if sw.sequence:
+            visits = [st.mode for st in sw.sequence]
+            text = " -> ".join(f"{st.mode}({st.duration:g})" for st in sw.sequence)
+        else:
+            visits = [str(sw.mode)]
+            text = f"normal until t = {sw.time:g}, then {sw.mode}"
+        safe = tuple(dict.fromkeys(m for m in visits if m != system.modes[0]))
+        schedule = ScheduleInfo(safe, text)
+    return SystemInfo(system.name, system.n, system.modes, tuple(c.name for c in system.clusters), attack, schedule, bool(system.monitored))
+
+
 def verify(
     system: System,
     only: Iterable[str] | None = None,
@@ -431,7 +471,7 @@ def verify(
             findings.extend(rule(system, results))
         except NUMERICAL_FAILURES:  # a finding is an extra: its numerics failing costs no verdict
             continue
-    info = SystemInfo(system.name, system.n, system.modes, tuple(c.name for c in system.clusters))
+    info = system_info(system)
     opts = {
         "exact": exact,
         "rtol": tol.rtol,
@@ -440,5 +480,6 @@ def verify(
         "escalate": escalate,
         "exact_budget": exact_budget,
         "fragile_below": fragile_below,
+        "simulate": bool(ctx.options.get("simulate")),
     }
     return Report(info, tuple(results), tuple(findings), opts)

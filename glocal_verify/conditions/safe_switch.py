@@ -105,25 +105,16 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from glocal_verify.analysis.avoidance import (
-    Avoidance,
-    exact_mode_avoidance,
-    numeric_mode_avoidance,
-    stealthy_bases,
-    avoidance_certificate,
-)
+from glocal_verify.analysis.avoidance import Avoidance, decide_avoidance
 from glocal_verify.analysis.covert import reachable_agents
 from glocal_verify.analysis.zda import (
     GROWTH_DECAYING,
     GROWTH_PERSISTENT,
     GROWTH_UNBOUNDED,
     ZdaDirection,
-    ModalPencil,
-    zda_analysis,
+    requested_lambda0,
 )
-from glocal_verify.analysis.zda_certificate import zda_certificate
-from glocal_verify.analysis.zda_exact import zda_analysis_exact
-from glocal_verify.analysis.zero_touch import touch_at_zero
+from glocal_verify.analysis.zda_verdict import ZdaOptions, decide_zda
 from glocal_verify.conditions.registry import (
     CheckContext,
     checker,
@@ -154,10 +145,6 @@ MARGIN_SCALE = (
 
 # ------------------------------------------------------------------------------------------
 # checker
-
-
-#: up to this many agents an undecided touch test at a computed lambda0 = 0 notes what Q says there
-ZERO_TOUCH_NOTE_AGENTS = 500
 
 
 def _readings(touches: bool | None, predicted: str) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -199,24 +186,6 @@ def _direction_json(system: System, F: Sequence[Label], d: ZdaDirection, tol: To
         "u0": _vec(system, d.u0, F, tol, support_only=False),
         "moved": _moved(system, d.xi, tol),
     }
-
-
-def _certified(system: System, F: Sequence[Label], av: Avoidance, exact_lambda: bool) -> tuple[Avoidance, dict[str, Any]]:
-    """The numeric ``av`` if :func:`~glocal_verify.analysis.avoidance.avoidance_certificate`
-    proves it for the exact system, else the same analysis with status ``undecided``."""
-    if av.status is Status.UNDECIDED:
-        return av, {"certified": False, "error_bound": None, "note": "; ".join(av.notes) or "a rank decision fell in the tolerance band"}
-    cand = None if av.direction is None else np.concatenate([av.direction.xi, av.direction.u0])
-    ok, bound, note = avoidance_certificate(system, av.mode, system.idx(F), av.lambda0, av.status, exact_lambda, cand)
-    cert: dict[str, Any] = {"certified": ok, "error_bound": bound, "note": "" if ok else f"numeric {av.status.value} not certified: {note}"}
-    if ok:
-        cert["by"] = (
-            "the avoiding direction rationalises to an exact kernel vector (checked over Q)"
-            if bound is None
-            else "Weyl lower bounds (SVD backward error and data rounding) against structural rank upper bounds at lambda0"
-        )
-        return av, cert
-    return dataclasses.replace(av, status=Status.UNDECIDED), cert
 
 
 def _avoidance_result(
@@ -270,23 +239,14 @@ def _avoidance_result(
 
 
 def _zda_results(system: System, ctx: CheckContext) -> list[ConditionResult]:
-    lam_opt = ctx.options.get("lambda0")
+    zda = decide_zda(system, system.attacked, ZdaOptions(lambda0=requested_lambda0(system, ctx.options.get("lambda0")), tol=ctx.tol, exact=ctx.exact))
+    F = zda.actuators
     out: list[ConditionResult] = []
-    if ctx.exact:
-        ea = zda_analysis_exact(system, lambda0=lam_opt)
-        exists, decided = ea.exists, True
-        F = ea.actuators
-    else:
-        za = zda_analysis(system, ctx.tol, lambda0=lam_opt)
-        exists, decided = za.exists, za.decided
-        F = za.actuators
-        zc = zda_certificate(system, F)
-        # the numeric verdict on ZDA existence counts only where it is certified
-        if decided and zc.status is not (Status.HOLDS if exists else Status.FAILS):
-            decided = False
-    if not exists:
-        for mode in system.safe_modes:
-            status = Status.HOLDS if decided else Status.UNDECIDED
+    memo: dict[Any, Any] = {}
+    for mode in system.safe_modes:
+        v = decide_avoidance(system, mode, zda, tol=ctx.tol, memo=memo)
+        if v.analysis is None:
+            decided = v.status is not Status.UNDECIDED
             remark, sec4 = _readings(False if decided else None, PRED_BOUNDED)
             base: dict[str, Any] = {
                 "attack_kind": "zda",
@@ -298,34 +258,16 @@ def _zda_results(system: System, ctx: CheckContext) -> list[ConditionResult]:
                 "reading_remark": remark,
                 "reading_section_iv": sec4,
             }
-            note = "" if decided else f"the absence of a stealthy ZDA is not certified: {zc.note if not ctx.exact else ''}"
-            out.append(result("switching.avoids-attack", ctx, status, scope={"mode": mode}, margin=0.0, witness=base, note=note))
-        return out
-    if ctx.exact:
-        d_ex = ea.direction
-        assert d_ex is not None
-        for mode in system.safe_modes:
-            av = exact_mode_avoidance(system, mode, d_ex, ea.direction_source, system.idx(F), ctx.tol)
+            note = "" if decided else f"the absence of a stealthy ZDA is not certified: {zda.note}"
+            out.append(result("switching.avoids-attack", ctx, v.status, scope={"mode": mode}, margin=0.0, witness=base, note=note, premise=v.premise))
+            continue
+        if ctx.exact:
+            assert zda.exact_analysis is not None and zda.exact_analysis.direction is not None
+            d_ex = zda.exact_analysis.direction
             lam_ex = str(d_ex.rational) if d_ex.rational is not None else d_ex.factor
-            out.append(_avoidance_result(system, ctx, F, av, {"lambda0_exact": lam_ex}))
-        return out
-    d_num = za.direction
-    assert d_num is not None
-    md = ModalPencil(system, F, ctx.tol)
-    bases = stealthy_bases(md, d_num.value)  # Z does not depend on the mode
-    exact_lambda = za.direction_source == "requested lambda0"
-    for mode in system.safe_modes:
-        av, cert = _certified(system, F, numeric_mode_avoidance(system, mode, md, d_num, za.direction_source, bases), exact_lambda)
-        # (the modular inverse costs O(N^3) once: only for a requested lambda0, or as a note on small systems)
-        wanted = av.status is Status.UNDECIDED and (exact_lambda or system.n <= ZERO_TOUCH_NOTE_AGENTS)
-        if wanted and (ex0 := touch_at_zero(system, mode, d_num, za.direction_source, system.idx(F))) is not None:
-            # lambda0 = 0 with no monitored position: the touch test over Q from the attack's potentials
-            if exact_lambda:
-                av, cert = ex0, {"certified": True, "error_bound": None, "by": ex0.notes[-1], "note": ""}
-            else:  # the exponent itself is the numeric fastest zero: say what Q says at 0, stay undecided
-                what = "avoids the attack" if ex0.status is Status.HOLDS else "touches every stealthy direction"
-                cert = {**cert, "note": f"{cert.get('note', '')}; over Q the switch {what} at lambda0 = 0 (attack.lambda0 = 0 in the spec makes this the verdict)"}
-        out.append(_avoidance_result(system, ctx, F, av, cert=cert))
+            out.append(_avoidance_result(system, ctx, F, v.analysis, {"lambda0_exact": lam_ex}))
+            continue
+        out.append(_avoidance_result(system, ctx, F, v.analysis, cert=dict(v.certificate)))
     return out
 
 

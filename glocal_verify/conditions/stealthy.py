@@ -72,18 +72,9 @@ from glocal_verify.analysis.covert import (
     covert_required_channels,
     reachable_agents,
 )
-from glocal_verify.analysis.zda import (
-    ZdaAnalysis,
-    ZdaZero,
-    zda_analysis,
-)
-from glocal_verify.analysis.zda_certificate import zda_certificate
-from glocal_verify.analysis.zda_exact import (
-    ExactZdaAnalysis,
-    ExactZdaZero,
-    exact_witness,
-    zda_analysis_exact,
-)
+from glocal_verify.analysis.zda import ZdaZero, requested_lambda0
+from glocal_verify.analysis.zda_exact import ExactZdaZero, exact_witness
+from glocal_verify.analysis.zda_verdict import ZdaOptions, decide_zda
 from glocal_verify.conditions.registry import (
     CheckContext,
     checker,
@@ -200,42 +191,27 @@ def check_zda(system: System, ctx: CheckContext) -> list[ConditionResult]:
     if system.spec.attack is None:
         return []
     F = system.attacked
-    lam_opt = ctx.options.get("lambda0")
     max_z = int(ctx.options.get("max_zeros", 50))
     tol = ctx.tol
-    note = ""
-    ea: ExactZdaAnalysis | None = None
-    za: ZdaAnalysis | None = None
-    if ctx.exact:
-        ea = zda_analysis_exact(system, lambda0=lam_opt)
+    opt = ZdaOptions(
+        lambda0=requested_lambda0(system, ctx.options.get("lambda0")),
+        tol=tol,
+        exact=ctx.exact,
+        method=str(ctx.options.get("zda_method", "structured")),
+    )
+    v = decide_zda(system, F, opt)
+    if v.exact_analysis is not None:
+        ea = v.exact_analysis
         left_inv, nrank, k0 = ea.left_invertible, ea.normal_rank, ea.normal_kernel_dim
         zeros: Sequence[ZdaZero | ExactZdaZero] = ea.zeros
         unobs: Sequence[ZdaZero | ExactZdaZero] = ea.unobservable
-        direction: ZdaZero | ExactZdaZero | None = ea.direction
-        source, notes = ea.direction_source, ea.notes
-        status = Status.HOLDS if ea.exists else Status.FAILS
+        notes = ea.notes
     else:
-        za = zda_analysis(system, tol, lambda0=lam_opt, method=str(ctx.options.get("zda_method", "structured")))
+        za = v.analysis
+        assert za is not None
         left_inv, nrank, k0 = za.left_invertible, za.normal_rank, za.normal_kernel_dim
-        zeros, unobs, direction = za.zeros, za.unobservable, za.direction
-        source, notes = za.direction_source, za.notes
-        if za.exists:
-            status = Status.HOLDS
-        elif za.decided:
-            status = Status.FAILS
-        else:
-            status = Status.UNDECIDED
-        d0 = za.direction
-        cand = None if d0 is None or za.direction_source != "requested lambda0" else (d0.value, d0.xi, d0.u0)
-        cert = zda_certificate(system, F, cand, [(z.s, z.xi, z.u0) for z in za.zeros if z.value != 0])
-        if cert.status is not status:
-            if status is not Status.UNDECIDED and cert.status is not None:
-                note = f"the numeric analysis ({status.value}) contradicts the certificate ({cert.by})"
-            elif status is Status.UNDECIDED:
-                note = "; ".join(za.notes) or "a rank or zero decision of the deflation fell in the tolerance band"
-            else:
-                note = f"numeric {status.value} not certified: {cert.note}"
-            status = Status.UNDECIDED
+        zeros, unobs, notes = za.zeros, za.unobservable, za.notes
+    direction, source = v.direction, v.direction_source
     N, m = system.n, len(F)
     p = len(system.output_channels())
     witness: dict[str, Any] = {
@@ -247,10 +223,10 @@ def check_zda(system: System, ctx: CheckContext) -> list[ConditionResult]:
         "zeros": [_zero_json(system, F, z, tol) for z in zeros[:max_z]],
         "zeros_total": len(zeros),
         "unobservable_modes": [[z.value.real, z.value.imag] for z in unobs[:max_z]],
-        "method": "exact (N-sized pencil in s over Q)" if ctx.exact else f"{za.method if za else ''} (N-sized pencil in s = lambda^2 + gamma lambda)",
+        "method": "exact (N-sized pencil in s over Q)" if ctx.exact else f"{v.analysis.method if v.analysis else ''} (N-sized pencil in s = lambda^2 + gamma lambda)",
     }
-    if ea is not None:
-        witness["s_zero_polynomial"] = ea.s_zero_polynomial
+    if v.exact_analysis is not None:
+        witness["s_zero_polynomial"] = v.exact_analysis.s_zero_polynomial
     if direction is not None:
         dj = _zero_json(system, F, direction, tol)
         dj["source"] = source
@@ -260,9 +236,11 @@ def check_zda(system: System, ctx: CheckContext) -> list[ConditionResult]:
         witness["notes"] = list(notes)
     margin = _margin(left_inv, zeros)
     if ctx.exact:
-        return [result("stealthy.zda", ctx, status, margin=margin, witness=witness)]
+        return [result("stealthy.zda", ctx, v.status, margin=margin, witness=witness)]
+    cert = v.certificate
+    assert cert is not None
     witness["certificate"] = {"status": None if cert.status is None else cert.status.value, "by": cert.by, "error_bound": cert.error_bound, "note": cert.note}
-    return [result("stealthy.zda", ctx, status, margin=margin, witness=witness, error_bound=cert.error_bound, note=note if status is Status.UNDECIDED else "")]
+    return [result("stealthy.zda", ctx, v.status, margin=margin, witness=witness, error_bound=v.error_bound, note=v.note if v.status is Status.UNDECIDED else "")]
 
 
 @checker("stealthy.covert")

@@ -49,30 +49,18 @@ from typing import Any
 
 import numpy as np
 
-from glocal_verify.analysis.avoidance import exact_mode_avoidance, numeric_mode_avoidance, stealthy_bases
-from glocal_verify.analysis.zero_touch import touch_at_zero
-from glocal_verify.analysis.zda import (
-    GROWTH_PERSISTENT,
-    GROWTH_UNBOUNDED,
-    ZdaZero,
-    growth_class,
-    ModalPencil,
-    normalize_direction,
-    zda_analysis,
-)
-from glocal_verify.analysis.zda_exact import zda_analysis_exact
-from glocal_verify.conditions.registry import verify
+from glocal_verify.analysis.avoidance import decide_avoidance
+from glocal_verify.analysis.zda_screens import disjoint_paths, global_tables
+from glocal_verify.analysis.zda_verdict import ZdaOptions, ZdaVerdict, decide_zda, prepare_witnesses, proven_single
+from glocal_verify.answer.attack import THEOREM_IDS, AttackAnswer, AttackEvidence, LocalEvidence, ModeEvidence, answer_attack
+from glocal_verify.conditions.registry import system_info, verify
 from glocal_verify.design.audit_local import local_part
-from glocal_verify.design.audit_records import AUDIT_SCHEMA_ID, AuditResult, AuditRow, exposure_fragility, undecided_reason
-from glocal_verify.design.audit_screens import _witness_lambda, _without_sensors, _Zda, batch_witnesses, certified_touch, disjoint_paths, global_tables, inherited_zda, single_zda_key
+from glocal_verify.design.audit_records import AUDIT_SCHEMA_ID, AuditResult, AuditRow
 from glocal_verify.errors import ModelError, NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.numerics.collection import deferred_full_collections
-from glocal_verify.numerics.minors import (
-    GroundedTables,
-    full_rank_certificate,
-)
-from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
+from glocal_verify.numerics.minors import GroundedTables
+from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
 from glocal_verify.results import Status
 from glocal_verify.spec.types import Label
 
@@ -89,11 +77,11 @@ __all__ = [
     "local_singles_chunks",
     "merge_chunks",
     "mode_conditions",
+    "mode_theorem",
     "seed_chunks",
 ]
 
-THEOREM_III3 = ("switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences")
-GROWTH_NULL = "null"
+THEOREM_III3 = THEOREM_IDS
 #: by default numeric ``undecided`` parts are re-decided over Q up to this many agents
 EXACT_FALLBACK_MAX_AGENTS = 60
 #: above this many agents (and up to :data:`EXACT_FALLBACK_MAX_AGENTS`) the default re-decides
@@ -103,17 +91,6 @@ EXACT_FALLBACK_FULL_AGENTS = 20
 GROWTH_FULL_MAX_AGENTS = 60
 #: above this many agents a row's witness direction leaves out xi (N entries per row)
 WITNESS_XI_MAX_AGENTS = 100
-#: with ``growth="verdict"`` and a proven witness, the minor certificate stops after this many
-#: minors in a row leave the gcd's degree unchanged
-WITNESS_CERTIFICATE_PATIENCE = 1
-#: ... and tries at most this many of the costlier minors with an extra replaced row (in the
-#: whole N = 200, k = 2 audit of the benchmarks, none of the 7,854 pair certificates that
-#: succeeded used one; the 2,876 that failed spent a third of their time there)
-WITNESS_CERTIFICATE_EXTRA_ROWS = 0
-
-
-# ------------------------------------------------------------------------------------------
-# records
 
 
 # ------------------------------------------------------------------------------------------
@@ -160,43 +137,42 @@ def _candidates(system: System, candidates: Iterable[Label] | None) -> tuple[Lab
     return tuple(a for a in system.labels if a in want)
 
 
-def mode_conditions(system: System, tol: Tolerance = DEFAULT_TOLERANCE, *, exact: bool = False) -> dict[str, bool | None]:
-    """Theorem III.3 (i)-(iii) per safe mode, by the checkers (independent of the attack).
+def mode_theorem(system: System, tol: Tolerance = DEFAULT_TOLERANCE, *, exact: bool = False) -> dict[str, dict[str, Status]]:
+    """Theorem III.3 (i)-(iii) per safe mode, by their checkers (independent of the attack).
 
-    Parameters
-    ----------
-    system : System
-    tol : Tolerance
-    exact : bool
-        Decide over Q (numeric ``undecided`` results are escalated in any case).
+    Numeric ``undecided`` results are escalated to exact arithmetic as ``verify`` escalates them.
 
     Returns
     -------
     dict
-        ``{mode: True}`` when (i), (ii) and (iii) hold, False when one fails, None otherwise.
+        ``{mode: {condition id: Status}}``.
     """
     if not system.safe_modes:
         return {}
     rep = verify(system, list(THEOREM_III3), exact=exact, tol=tol)
+    return {mode: {r.id: r.status for r in rep.conditions if r.scope.get("mode") == mode} for mode in system.safe_modes}
+
+
+def mode_conditions(system: System, tol: Tolerance = DEFAULT_TOLERANCE, *, exact: bool = False) -> dict[str, bool | None]:
+    """Theorem III.3 (i)-(iii) per safe mode: True when all hold, False when one fails, None otherwise."""
+    return _theorem_ok(mode_theorem(system, tol, exact=exact))
+
+
+def _theorem_ok(theorem: Mapping[str, Mapping[str, Status]]) -> dict[str, bool | None]:
     out: dict[str, bool | None] = {}
-    for mode in system.safe_modes:
-        sts = [r.status for r in rep.conditions if r.scope.get("mode") == mode]
-        if any(s is Status.FAILS for s in sts):
-            out[mode] = False
-        elif sts and all(s is Status.HOLDS for s in sts):
-            out[mode] = True
-        else:
-            out[mode] = None
+    for mode, sts in theorem.items():
+        st = list(sts.values())
+        out[mode] = False if any(s is Status.FAILS for s in st) else (True if st and all(s is Status.HOLDS for s in st) else None)
     return out
 
 
 @dataclass(frozen=True)
 class _Shared:
-    """What every set reuses: the system, its mode verdicts, options."""
+    """What every set reuses: the system, its mode verdicts, the schedule, options."""
 
     system: System
     tol: Tolerance
-    modes: Mapping[str, bool | None]
+    theorem: Mapping[str, Mapping[str, Status]]
     lambda0: complex | None
     exact: bool
     exact_fallback: bool
@@ -209,6 +185,17 @@ class _Shared:
     #: "full": every stealthy set gets its whole zero set (growth, fastest zero); "verdict":
     #: only when the verdict depends on it (see :func:`audit`)
     growth: str = "full"
+    schedule: tuple[str, ...] | None = None
+    schedule_text: str = ""
+
+    @property
+    def modes(self) -> dict[str, bool | None]:
+        """Theorem III.3 (i)-(iii) per safe mode (True, False or None)."""
+        return _theorem_ok(self.theorem)
+
+    def zda_options(self, growth: str | None = None) -> ZdaOptions:
+        """The options of :func:`~glocal_verify.analysis.zda_verdict.decide_zda` for this pass."""
+        return ZdaOptions(self.lambda0, self.tol, self.exact, growth or self.growth, self.screen and not self.exact, self.minors, _zda_fallback(self))
 
 
 def _shared(system: System, tol: Tolerance, exact: bool, exact_fallback: bool | str | None, screen: bool, growth: str | None = None) -> _Shared:
@@ -224,8 +211,11 @@ def _shared(system: System, tol: Tolerance, exact: bool, exact_fallback: bool | 
     system.spectrum()  # the one eigendecomposition of L_1 every set reuses
     lam = system.spec.attack.lambda0 if system.spec.attack is not None else None
     tables = global_tables(system) if screen and not exact and system.monitored else None
-    return _Shared(system, tol, mode_conditions(system, tol, exact=exact), lam, exact, bool(exact_fallback), screen, tables,
-                   zda_fallback="verdicts" if exact_fallback == "verdicts" else "always", growth=growth)
+    info = system_info(system)
+    sched = info.schedule
+    return _Shared(system, tol, mode_theorem(system, tol, exact=exact), lam, exact, bool(exact_fallback), screen, tables,
+                   zda_fallback="verdicts" if exact_fallback == "verdicts" else "always", growth=growth,
+                   schedule=None if sched is None else sched.modes, schedule_text="" if sched is None else sched.text)
 
 
 # ------------------------------------------------------------------------------------------
@@ -253,158 +243,17 @@ def _u_json(F: Sequence[Label], u: np.ndarray) -> dict[str, Any]:
     return out
 
 
-def _certified_zda(
-    sh: _Shared,
-    F: tuple[Label, ...],
-    cache: dict[Any, Any],
-    patience: int | None = None,
-    at0: Any = None,
-    normalized: tuple[np.ndarray, np.ndarray] | None = None,
-    extra_rows: int | None = None,
-) -> _Zda | None:
-    """The ZDA part from the exact minor certificate (no zero with lambda != 0) and lambda = 0.
-
-    When the maximal minors of the reduced pencil have no common root
-    (:func:`glocal_verify.numerics.minors.full_rank_certificate`), the 2N pencil has full
-    column rank at every lambda != 0: left-invertible, and a stealthy ZDA can only have
-    lambda0 = 0. That one point is decided as :func:`glocal_verify.analysis.zda.zda_analysis`
-    decides it (dimension bounds of the kernel of Q_0 and its largest-input vector; ``at0``:
-    that direction when the caller has it, ``normalized`` its scaled (xi, u0)); None sends the
-    set to the full analysis.
-    """
-    assert sh.minors is not None
-    cert = full_rank_certificate(
-        sh.minors, sh.system.idx(F), cache, modulo_twins=True, patience=patience, extra_rows=patience if extra_rows is None else extra_rows
+def without_sensors(system: System, sensors: Sequence[Label]) -> System:
+    """``system`` with the global channels of ``sensors`` removed (the attacker owns and cancels them)."""
+    bad = [a for a in sensors if a not in system.index]
+    if bad:
+        raise ModelError(f"--sensors: {', '.join(map(str, bad))} not in the graph")
+    s = set(sensors)
+    mon = system.spec.monitor
+    new = dataclasses.replace(
+        mon, positions=tuple(a for a in mon.positions if a not in s), velocities=tuple(a for a in mon.velocities if a not in s)
     )
-    if cert is None:
-        return None
-    found0, _, lo0, hi0 = at0 if at0 is not None else ModalPencil(sh.system, F, sh.tol).direction(0j)
-    if hi0 == 0:
-        return _Zda(False, GROWTH_NULL, True, None, "none", certificate=cert.text())
-    if lo0 == 0 or found0 is None:
-        return None
-    xi, u, res, _, du = found0
-    if du is Decision.UNDECIDED:
-        return None
-    if du is Decision.ZERO:
-        return _Zda(False, GROWTH_NULL, True, None, "none", certificate=cert.text())
-    xi_n, u_n = normalized if normalized is not None else normalize_direction(xi, u)
-    z = ZdaZero(0j, 0j, xi_n, u_n, res, GROWTH_PERSISTENT, lo0, True)
-    source = "requested lambda0" if sh.lambda0 is not None and complex(sh.lambda0) == 0 else "fastest-growing zero"
-    return _Zda(True, GROWTH_PERSISTENT, True, z, source, certificate=cert.text())
-
-
-def _zda_part(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any] | None = None) -> _Zda:
-    if len(F) == 1 and memo is not None and (hit := memo.get(single_zda_key(sh, F[0]))) is not None:
-        return hit  # type: ignore[no-any-return]  # computed for a larger set (inherited_zda), same options
-    system, tol = sh.system, sh.tol
-    cache = (memo if memo is not None else {}).setdefault("minors", {})
-    if sh.growth == "verdict" and not sh.exact:
-        zw, at = _witness_zda(sh, F, memo)
-        if zw is not None:
-            # stealthy is proven: the certificate would only make the growth exact, so it
-            # gets a small effort (a common factor that survives a few minors is usually
-            # a genuine zero)
-            try_cert = sh.minors is not None and not zw.screened and all(_single_certified(sh, a, memo) for a in F)
-            d0 = zw.direction if zw.direction is not None and zw.direction.value == 0 else None
-            at0, nz = (at, (d0.xi, d0.u0)) if d0 is not None else (None, None)
-            zc = _certified_zda(sh, F, cache, WITNESS_CERTIFICATE_PATIENCE, at0, nz, WITNESS_CERTIFICATE_EXTRA_ROWS) if try_cert else None
-            return zc if zc is not None else zw
-    if sh.growth == "verdict" and not sh.exact and len(F) > 1 and (zi := inherited_zda(sh, F, memo, _zda_part)) is not None:
-        return zi  # a proven ZDA of a single member is one of F (zero input on the others)
-    if sh.minors is not None:
-        zc = _certified_zda(sh, F, cache)
-        if zc is not None:
-            return zc
-    if sh.screen and not sh.exact and sh.lambda0 is not None and disjoint_paths(system, F) < len(F):
-        md = ModalPencil(system, F, tol)
-        lam = complex(sh.lambda0)
-        found, _, _, _ = md.direction(lam)
-        if found is not None and found[4] is Decision.NONZERO:
-            xi, u = normalize_direction(found[0], found[1])
-            z = ZdaZero(lam, lam * lam + system.gamma * lam, xi, u, found[2], GROWTH_UNBOUNDED)
-            return _Zda(True, GROWTH_UNBOUNDED, False, z, "requested lambda0", screened=True)
-    if not sh.exact:
-        za = zda_analysis(system, tol, F, lambda0=sh.lambda0)
-        if za.exists or za.decided:
-            if not za.exists:
-                growth = GROWTH_NULL
-            elif not za.decided:
-                growth = "undecided"  # left-invertibility or a zero is not certain: the class is not known
-            elif not za.left_invertible:
-                growth = GROWTH_UNBOUNDED
-            else:
-                growth = max((z.growth for z in za.zeros), key=_growth_rank, default="undecided")
-            if growth != "undecided" or not _zda_fallback(sh):
-                return _Zda(za.exists, growth, za.left_invertible, za.direction, za.direction_source)
-        if not _zda_fallback(sh):
-            return _Zda(None, "undecided", None, None, "undecided")
-    ea = zda_analysis_exact(system, F, lambda0=sh.lambda0)
-    if not ea.exists:
-        return _Zda(False, GROWTH_NULL, ea.left_invertible, None, "none", ea, "exact")
-    growth = GROWTH_UNBOUNDED if not ea.left_invertible else max((z.growth for z in ea.zeros), key=_growth_rank)
-    d = ea.direction
-    assert d is not None
-    z = ZdaZero(d.value, d.value**2 + system.gamma * d.value, d.xi, d.u0, 0.0, d.growth)
-    return _Zda(True, growth, ea.left_invertible, z, ea.direction_source, ea, "exact")
-
-
-def _witness_zda(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any] | None = None) -> tuple[_Zda | None, Any]:
-    """One proven stealthy ZDA without the zero set (``growth="verdict"``), or None.
-
-    The exponent is the spec's lambda0 when given (the witness rule of ``stealthy.zda`` then
-    picks that direction too); else lambda0 = 1 when the separator screen proves the system
-    not left-invertible (growth ``unbounded``, exact: a ZDA exists at every lambda0), else
-    lambda0 = 0 (a persistent ZDA: velocity-only monitors do not see a constant position
-    offset). The direction is the checker's verified kernel vector of the 2N pencil with
-    u0 != 0 (:meth:`glocal_verify.analysis.zda.ModalPencil.direction`, or its batched form when
-    :func:`batch_witnesses` put it in ``memo``). Returns the row part and the direction tuple
-    of that method (None when no ZDA is proven).
-    """
-    system, tol = sh.system, sh.tol
-    lam, not_li = _witness_lambda(sh, F, memo)
-    pre = None if memo is None else memo.pop(("witness-direction", F), None)
-    at = pre.as_found() if pre is not None else ModalPencil(system, F, tol).direction(lam)
-    found = at[0]
-    if found is None or found[3] is not Decision.ZERO or found[4] is not Decision.NONZERO:
-        return None, at
-    xi, u = pre.normalized if pre is not None and pre.normalized is not None else normalize_direction(found[0], found[1])
-    if not_li:
-        g = GROWTH_UNBOUNDED
-    else:
-        scale = None if memo is None else memo.get("A-scale")
-        if scale is None:
-            scale = ModalPencil(system, F, tol).A_scale
-            if memo is not None:
-                memo["A-scale"] = scale
-        g = growth_class(lam, scale, tol)
-    if g == "undecided":
-        return None, at
-    z = ZdaZero(lam, lam * lam + system.gamma * lam, xi, u, found[2], g)
-    if sh.lambda0 is not None:
-        source = "requested lambda0"
-    elif not_li:
-        source = "lambda0 = 1 (not left-invertible: a ZDA exists at every lambda0)"
-    else:
-        source = f"lambda0 = {lam.real:g} (a proven ZDA; the zero set was not computed)"
-    zw = _Zda(True, GROWTH_UNBOUNDED if g == GROWTH_UNBOUNDED else "undecided", False if not_li else None, z, source,
-              screened=not_li, complete=False, growth_at_least=g)
-    return zw, at
-
-
-def _single_certified(sh: _Shared, a: Label, memo: dict[Any, Any] | None) -> bool:
-    r"""Whether the minor certificate proves the single set {a} (memoised per agent).
-
-    A kernel vector of T(s) for {a} is one for every F containing a (a zero input on F \ {a}),
-    so when {a} keeps a common root the certificate of F cannot succeed in practice: with
-    ``growth="verdict"`` it is then not tried (the row keeps its proven witness).
-    """
-    assert sh.minors is not None
-    store = memo if memo is not None else {}
-    key = ("single-certificate", a)
-    if key not in store:
-        store[key] = full_rank_certificate(sh.minors, sh.system.idx((a,)), store.setdefault("minors", {}), modulo_twins=True) is not None
-    return bool(store[key])
+    return System(dataclasses.replace(system.spec, monitor=new))
 
 
 def _exposure_possible(sh: _Shared) -> bool:
@@ -417,53 +266,59 @@ def _zda_fallback(sh: _Shared) -> bool:
     return sh.exact_fallback and sh.zda_fallback != "never"
 
 
-def _growth_rank(g: str) -> int:
-    return {"null": 0, "decaying": 1, "persistent": 2, "undecided": 3, "unbounded": 4}.get(g, 3)
-
-
-def _modes_part(sh: _Shared, F: tuple[Label, ...], z: _Zda) -> tuple[list[str], dict[str, Any], bool]:
-    """Exposing modes, per-mode detail, and whether an undecided touch test could add one."""
-    system = sh.system
-    exposed: list[str] = []
-    detail: dict[str, Any] = {}
-    open_ = False
-    if z.direction is None or not system.safe_modes:
-        return exposed, detail, open_
-    md = bases = None
-    for mode in system.safe_modes:
-        ok = sh.modes.get(mode)
-        if (sh.growth == "verdict" and ok is False) or (not z.complete and z.source != "requested lambda0"):
-            # a mode that fails Theorem III.3 exposes nothing; and without the zero set the touch
-            # test would be about a direction that is not the checker's witness
-            detail[mode] = {"theorem_iii3": ok, "switching.avoids-attack": "not evaluated", "touches_attack": None, "touched_agents": []}
-            continue
-        if z.exact is not None:
-            av = exact_mode_avoidance(system, mode, z.exact.direction, z.source, system.idx(F), sh.tol)
-        elif (av0 := touch_at_zero(system, mode, z.direction, z.source, system.idx(F))) is not None:
-            av = av0  # lambda0 = 0: decided over Q from the attack's potentials
+def _by_cluster(system: System, F: tuple[Label, ...], memo: dict[Any, Any]) -> tuple[tuple[str | None, tuple[Label, ...], tuple[Label, ...]], ...]:
+    """F split by cluster, with each cluster's observer centres (None: agents in no cluster)."""
+    place = memo.get("cluster-place")
+    if place is None:
+        place = memo["cluster-place"] = {a: (ci, j) for ci, c in enumerate(system.clusters) for j, a in enumerate(c.nodes)}
+    per: dict[int, list[Label]] = {}
+    rest: list[Label] = []
+    for a in sorted(F, key=lambda a: place.get(a, (len(system.clusters), 0))):
+        if a in place:
+            per.setdefault(place[a][0], []).append(a)
         else:
-            if md is None:
-                md = ModalPencil(system, F, sh.tol)
-                bases = stealthy_bases(md, z.direction.value)
-            assert bases is not None
-            av = certified_touch(system, F, numeric_mode_avoidance(system, mode, md, z.direction, z.source, bases), z.source == "requested lambda0" or bool(z.screened))
-            if av.status is Status.UNDECIDED and _zda_fallback(sh):
-                ea = zda_analysis_exact(system, F, lambda0=sh.lambda0)
-                if ea.direction is not None:
-                    av = exact_mode_avoidance(system, mode, ea.direction, ea.direction_source, system.idx(F), sh.tol)
-        touches = None if av.status is Status.UNDECIDED else av.status is Status.FAILS
-        detail[mode] = {
-            "theorem_iii3": ok,
-            "switching.avoids-attack": av.status.value,
-            "touches_attack": touches,
-            "touched_agents": [str(a) for a in av.chosen_touched_agents],
-            "touch_margin": float(av.margin),
-        }
-        if ok and touches:
-            exposed.append(mode)
-        elif ok is not False and touches is not False:
-            open_ = True
-    return exposed, detail, open_
+            rest.append(a)
+    out: list[tuple[str | None, tuple[Label, ...], tuple[Label, ...]]] = [
+        (system.clusters[ci].name, tuple(xs), tuple(o.center for o in system.clusters[ci].observers)) for ci, xs in per.items()
+    ]
+    if rest:
+        out.append((None, tuple(rest), ()))
+    return tuple(out)
+
+
+def _mode_evidence(sh: _Shared, F: tuple[Label, ...], z: ZdaVerdict, mode: str, memo: dict[Any, Any]) -> tuple[ModeEvidence, dict[str, Any]]:
+    """The touch test of one safe mode for the set, as evidence of the answer and as witness detail."""
+    ok = sh.modes.get(mode)
+    v = decide_avoidance(sh.system, mode, z, tol=sh.tol, fallback=_zda_fallback(sh), memo=memo.setdefault(("avoidance", F), {}), zero_first=True)
+    av = v.analysis
+    detail: dict[str, Any] = {
+        "theorem_iii3": ok,
+        "switching.avoids-attack": v.status.value,
+        "touches_attack": v.touches,
+        "touched_agents": [str(a) for a in av.chosen_touched_agents] if av is not None else [],
+    }
+    margin = None
+    if av is not None:
+        detail["touch_margin"] = margin = float(av.margin)
+    if v.premise:
+        detail["premise"] = v.premise
+        detail["touch_margin"] = 0.0  # as verify's vacuous result
+    predicted = ""
+    if v.touches and av is not None:
+        predicted = "unbounded" if av.growth == "unbounded" else ("bounded-vanishing" if av.growth == "decaying" else "bounded")
+    ev = ModeEvidence(mode, dict(sh.theorem.get(mode, {})), v.status, margin if v.status is Status.FAILS else None, predicted)
+    return ev, detail
+
+
+def _unevaluated(sh: _Shared, mode: str, why: str) -> tuple[ModeEvidence, dict[str, Any]]:
+    return ModeEvidence(mode, dict(sh.theorem.get(mode, {}))), {"theorem_iii3": sh.modes.get(mode), "switching.avoids-attack": "not evaluated", "touches_attack": None, "touched_agents": [], "note": why}
+
+
+def _answer(sh: _Shared, F: tuple[Label, ...], z: ZdaVerdict, local: Sequence[LocalEvidence], modes: Sequence[ModeEvidence], memo: dict[Any, Any]) -> AttackAnswer:
+    lam = None if z.direction is None else complex(z.direction.value)
+    ev = AttackEvidence("zda", F, _by_cluster(sh.system, F, memo), z.status, lam, z.direction_source, tuple(local), tuple(modes), sh.schedule, sh.schedule_text,
+                        bool(sh.system.monitored))
+    return answer_attack(ev)
 
 
 def _audit_set(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any]) -> AuditRow:
@@ -474,15 +329,29 @@ def _audit_set(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any]) -> Audit
             return row
         sh = dataclasses.replace(sh, zda_fallback="always")
     system, tol = sh.system, sh.tol
-    z = _zda_part(sh, F, memo)
-    caught, local_detail, covered = local_part(sh, F, memo)
-    if not z.complete and _exposure_possible(sh) and z.source != "requested lambda0":
-        # the exposure test needs the witness of stealthy.zda (the fastest zero): compute it
-        z = _zda_part(dataclasses.replace(sh, growth="full"), F, memo)
-    exposed, mode_detail, open_ = _modes_part(sh, F, z)
+    z = decide_zda(system, F, sh.zda_options(), memo)
+    local, local_detail = local_part(sh, F, memo)
+    if z.status is Status.HOLDS and not z.complete and z.direction_source != "requested lambda0" and sh.system.safe_modes and _exposure_possible(sh):
+        # the exposure test concerns the witness of stealthy.zda (the fastest zero): compute it
+        z = decide_zda(system, F, sh.zda_options("full"), memo)
+    modes: dict[str, ModeEvidence] = {}
+    mode_detail: dict[str, Any] = {}
+    lazy = [q for q in system.safe_modes if sh.growth == "verdict" and sh.modes.get(q) is False]
+    for q in system.safe_modes:
+        if q in lazy:
+            modes[q], mode_detail[q] = _unevaluated(sh, q, "Theorem III.3 fails for this mode: it exposes nothing, and the touch test is run only when the verdict needs it")
+        else:
+            modes[q], mode_detail[q] = _mode_evidence(sh, F, z, q, memo)
+    ans = _answer(sh, F, z, local, list(modes.values()), memo)
+    if ans.verdict == "undecided" and lazy:
+        # a mode that fails Theorem III.3 may still decide "does not expose" (the switch avoids the attack)
+        for q in lazy:
+            modes[q], mode_detail[q] = _mode_evidence(sh, F, z, q, memo)
+        ans = _answer(sh, F, z, local, list(modes.values()), memo)
+    memo.pop(("avoidance", F), None)
     witness: dict[str, Any] = {"local": local_detail, "modes": mode_detail, "zda_method": z.method}
-    if z.certificate:
-        witness["zda_certificate"] = z.certificate
+    if z.proof:
+        witness["zda_proof"] = z.proof
     if z.screened:
         witness["separator"] = f"at most {disjoint_paths(system, F)} vertex-disjoint paths from F to M < |F|: not left-invertible"
     if z.left_invertible is not None:
@@ -490,33 +359,26 @@ def _audit_set(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any]) -> Audit
     if not z.complete:
         witness["growth_at_least"] = z.growth_at_least
         witness["zero_set"] = "not computed: the verdict does not depend on it (growth='verdict'; growth='full' computes it)"
+    if z.status is Status.UNDECIDED and z.note:
+        witness["zda_note"] = z.note
     if z.direction is not None:
         d = z.direction
         witness["direction"] = {
             "lambda0": [d.value.real, d.value.imag],
-            "source": z.source,
-            "xi": _xi_json(system, d.xi, tol) if system.n <= WITNESS_XI_MAX_AGENTS else None,
-            "u0": _u_json(F, d.u0),
-            "residual": float(d.residual),
+            "source": z.direction_source,
+            "xi": _xi_json(system, np.asarray(d.xi), tol) if system.n <= WITNESS_XI_MAX_AGENTS else None,
+            "u0": _u_json(F, np.asarray(d.u0)),
+            "residual": float(getattr(d, "residual", 0.0)),
         }
         if system.n > WITNESS_XI_MAX_AGENTS:
             witness["direction"]["xi_note"] = (
                 f"xi (N entries) omitted above {WITNESS_XI_MAX_AGENTS} agents; verify on this attack with this lambda0 reports it"
             )
-    if z.stealthy is False:
-        verdict, reason = "detected", "no stealthy ZDA: every attack through F shows in the global residual"
-    elif covered is True:
-        verdict, reason = "detected", "every cluster F meets has an observer whose pencil (iii) and UIO hold"
-    elif exposed:
-        verdict, reason = "detected", f"the switch to {exposed[0]} meets Theorem III.3 (i)-(iii) and touches every stealthy direction"
-        witness.update(exposure_fragility(mode_detail, exposed))
-    elif z.stealthy is True and covered is False and not open_:
-        verdict, reason = "undetected", "a stealthy ZDA exists, no local observer catches it and no admissible safe mode touches it"
-    else:
-        verdict = "undecided"
-        reason = undecided_reason(z.stealthy, local_detail, mode_detail, exact=sh.exact, exact_fallback=sh.exact_fallback)
-    witness["reason"] = reason
-    return AuditRow(F, z.stealthy, z.growth, None if z.direction is None else complex(z.direction.value), tuple(caught), tuple(exposed), verdict, witness)
+    if ans.fragile:
+        witness["fragile"] = ans.fragile
+    witness["reason"] = ans.reason
+    lam = None if z.direction is None else complex(z.direction.value)
+    return AuditRow(F, ans.stealthy, z.growth, lam, ans.caught_locally_by, ans.exposed_by_modes, ans.verdict, witness, ans)
 
 
 # ------------------------------------------------------------------------------------------
@@ -548,7 +410,7 @@ class AuditChunk:
         polynomials, local verdicts); per-set entries are removed once used.
         """
         if self.shared.growth == "verdict" and not self.shared.exact:
-            batch_witnesses(self.shared, self.sets, memo)
+            prepare_witnesses(self.shared.system, self.sets, self.shared.zda_options(), memo)
         return [_audit_set(self.shared, F, memo) for F in self.sets]
 
 
@@ -576,7 +438,7 @@ class LocalSinglesChunk:
         for a in self.agents:
             local_part(self.shared, (a,), memo)
             if self.shared.growth == "verdict" and self.shared.minors is not None and not self.shared.exact:
-                _single_certified(self.shared, a, memo)
+                proven_single(self.shared.system, a, self.shared.zda_options(), memo)
         return {k: v for k, v in memo.items() if isinstance(k, tuple)}
 
 
@@ -761,7 +623,7 @@ def _audit(
     executor: Callable[[Sequence[Callable[[], Any]]], Sequence[Any]] | None,
 ) -> AuditResult:
     if sensors is not None:
-        system = _without_sensors(system, list(sensors))
+        system = without_sensors(system, list(sensors))
     sets = attack_sets(system, max_attackers, candidates)
     chunks = audit_chunks(system, sets, chunk_size, tol=tol, exact=exact, exact_fallback=exact_fallback, screen=screen, growth=growth)
     singles = local_singles_chunks(chunks, _candidates(system, candidates))

@@ -14,6 +14,7 @@ from __future__ import annotations
 from typing import Any
 
 from glocal_verify.analysis.local_cases import LocalCase, minor_certificate, twin_failure
+from glocal_verify.answer.attack import LocalEvidence
 from glocal_verify.conditions.local import uio_verdict
 from glocal_verify.conditions.local_pencil import pencil_verdict, pencil_verdict_exact
 from glocal_verify.results import Status
@@ -53,31 +54,30 @@ def pencil_status(sh: Any, cm: Any, obs: Any, sus: tuple[Label, ...], memo: dict
     return st
 
 
-def local_part(sh: Any, F: tuple[Label, ...], memo: dict[Any, Any]) -> tuple[list[tuple[str, Label]], dict[str, Any], bool | None]:
-    """Catching observers, their statuses, and whether every cluster F meets is covered."""
+def local_part(sh: Any, F: tuple[Label, ...], memo: dict[Any, Any]) -> tuple[list[LocalEvidence], dict[str, Any]]:
+    """The Proposition III.2 evidence of every observer of the clusters F meets, and the row's witness detail."""
     system = sh.system
     clusters = system.clusters
     place = memo.get("cluster-place")
     if place is None:
         # agent -> (cluster index, position in the cluster): F is split by cluster in O(|F|)
         place = memo["cluster-place"] = {a: (ci, j) for ci, c in enumerate(clusters) for j, a in enumerate(c.nodes)}
+    if "cluster-observers" not in memo:
         memo["cluster-observers"] = [(system.cluster_model(c.name), system.observers(c.name)) for c in clusters]
     per_cluster: dict[int, list[Label]] = {}
     for a in sorted((a for a in F if a in place), key=place.__getitem__):
         per_cluster.setdefault(place[a][0], []).append(a)
-    caught: list[tuple[str, Label]] = []
+    evidence: list[LocalEvidence] = []
     detail: dict[str, Any] = {}
-    covered: list[bool | None] = []
     for ci, members in per_cluster.items():
         c = clusters[ci]
         sus = tuple(members)
         cm, observers = memo["cluster-observers"][ci]
-        cluster_ok: bool | None = False
         for obs in observers:
             key = (c.name, obs.center, sus)
             if key not in memo:
                 ps = pencil_status(sh, cm, obs, sus, memo)
-                us = Status.FAILS
+                us: Status | None = None  # not needed when the pencil fails: no UIO catches the attack then
                 if ps is not Status.FAILS:
                     case = LocalCase(cm, obs, "attack", sus)
                     us = uio_verdict(system, case, sh.tol, sh.exact, cache=memo.setdefault("uio", {}))[0]
@@ -85,15 +85,6 @@ def local_part(sh: Any, F: tuple[Label, ...], memo: dict[Any, Any]) -> tuple[lis
                         us = uio_verdict(system, case, sh.tol, True)[0]
                 memo[key] = (ps, us)
             ps, us = memo[key]
-            detail[f"{c.name}@{obs.center}"] = {"suspected": list(sus), "local.pencil": ps.value, "local.uio": us.value}
-            if ps is Status.HOLDS and us is Status.HOLDS:
-                caught.append((c.name, obs.center))
-                cluster_ok = True
-            elif cluster_ok is False and Status.UNDECIDED in (ps, us) and Status.FAILS not in (ps, us):
-                cluster_ok = None
-        covered.append(cluster_ok)
-    if not covered:
-        return caught, detail, False
-    if all(x is True for x in covered):
-        return caught, detail, True
-    return caught, detail, (False if any(x is False for x in covered) else None)
+            detail[f"{c.name}@{obs.center}"] = {"suspected": list(sus), "local.pencil": ps.value, "local.uio": "not evaluated" if us is None else us.value}
+            evidence.append(LocalEvidence(c.name, obs.center, sus, ps, us))
+    return evidence, detail

@@ -13,10 +13,11 @@ from typing import Any
 
 import numpy as np
 
-from glocal_verify.results import FRAGILE_BELOW, Status
+from glocal_verify.answer.attack import AttackAnswer
+from glocal_verify.results import Status
 from glocal_verify.spec.types import Label
 
-__all__ = ["AUDIT_SCHEMA_ID", "VERDICTS", "AuditResult", "AuditRow", "exposure_fragility", "undecided_reason"]
+__all__ = ["AUDIT_SCHEMA_ID", "VERDICTS", "AuditResult", "AuditRow"]
 
 AUDIT_SCHEMA_ID = "glocal-verify/audit@1"
 VERDICTS = ("detected", "undetected", "undecided")
@@ -41,9 +42,14 @@ class AuditRow:
     exposed_by_modes : tuple of str
         Safe modes meeting Theorem III.3 (i)-(iii) that touch every stealthy direction at lambda0.
     verdict : str
-        ``detected`` | ``undetected`` | ``undecided`` (module docstring).
+        ``detected`` | ``undetected`` | ``undecided``: the answer of
+        :func:`~glocal_verify.answer.attack.answer_attack`, the same rule as ``verify``'s
+        assessment.
     witness : mapping
         Direction (xi, u0 by label, residual), per-observer and per-mode statuses, the reason.
+    answer : AttackAnswer or None
+        The whole answer (routes, the chain that proves the verdict, per-cluster catches and
+        per-mode exposures).
     """
 
     actuators: tuple[Label, ...]
@@ -54,9 +60,21 @@ class AuditRow:
     exposed_by_modes: tuple[str, ...]
     verdict: str
     witness: Mapping[str, Any] = field(default_factory=dict)
+    answer: AttackAnswer | None = None
+
+    @property
+    def chain(self) -> str:
+        """The chain that proves the verdict (``stealthy (...) -> caught by P1@5 -> ...``)."""
+        if self.answer is None:
+            return str(self.witness.get("reason", ""))
+        return " -> ".join(self.answer.chain)
+
+    def __repr__(self) -> str:
+        return f"<AuditRow {', '.join(map(str, self.actuators))}: {self.verdict}>"
 
     def to_json(self) -> dict[str, Any]:
         """The row in the ``glocal-verify/audit@1`` form."""
+        routes = [] if self.answer is None else [{"name": r.name, "verdict": r.verdict} for r in self.answer.routes]
         return {
             "actuators": list(self.actuators),
             "stealthy": self.stealthy,
@@ -65,6 +83,9 @@ class AuditRow:
             "caught_locally_by": [{"cluster": c, "observer": o} for c, o in self.caught_locally_by],
             "exposed_by_modes": list(self.exposed_by_modes),
             "verdict": self.verdict,
+            "caught_locally": None if self.answer is None else self.answer.caught_locally,
+            "routes": routes,
+            "chain": [] if self.answer is None else list(self.answer.chain),
             "witness": _jsonable(dict(self.witness)),
         }
 
@@ -113,6 +134,24 @@ class AuditResult:
             "theorem_iii3_modes": dict(self.modes),
         }
 
+    def __repr__(self) -> str:
+        c = self.summary()["counts"]
+        return f"<AuditResult {self.system}: {len(self.rows)} sets of 1..{self.max_attackers}: {c['detected']} detected, {c['undetected']} undetected, {c['undecided']} undecided>"
+
+    def _repr_html_(self) -> str:
+        from html import escape
+
+        c = self.summary()["counts"]
+        worst = [r for r in self.rows if r.verdict != "detected"][:10]
+        items = "".join(f"<tr><td>{escape(', '.join(map(str, r.actuators)))}</td><td>{escape(r.verdict)}</td><td>{escape(r.chain)}</td></tr>" for r in worst)
+        more = len([r for r in self.rows if r.verdict != "detected"]) - len(worst)
+        table = f"<table><tr><th>actuators</th><th>verdict</th><th>why</th></tr>{items}</table>" if items else ""
+        return (
+            f"<div><p><b>{c['undetected']} undetected, {c['undecided']} undecided</b> of {len(self.rows)} attack sets of 1..{self.max_attackers} "
+            f"({c['detected']} detected) &mdash; audit of <code>{escape(self.system)}</code></p>{table}"
+            + (f"<p>... and {more} more (AuditResult.to_markdown())</p>" if more > 0 else "") + "</div>"
+        )
+
     def to_json(self) -> dict[str, Any]:
         """``{"schema": "glocal-verify/audit@1", "system", "max_attackers", "candidates", "rows", "summary"}``."""
         return {
@@ -138,90 +177,19 @@ class AuditResult:
             "Safe modes meeting Theorem III.3 (i)-(iii): "
             + (", ".join(m for m, ok in self.modes.items() if ok) or "none"),
             "",
-            "| actuators | stealthy | growth | lambda0 | caught locally by | exposed by modes | verdict |",
-            "|---|---|---|---|---|---|---|",
+            "| actuators | stealthy | growth | lambda0 | caught locally by | exposed by modes | verdict | why |",
+            "|---|---|---|---|---|---|---|---|",
         ]
         order = {"undetected": 0, "undecided": 1, "detected": 2}
         for r in sorted(self.rows, key=lambda r: order[r.verdict]):
             lam = "-" if r.lambda0 is None else f"{r.lambda0.real:.4g}{'' if r.lambda0.imag == 0 else f'{r.lambda0.imag:+.4g}i'}"
             caught = ", ".join(f"{cl}@{o}" for cl, o in r.caught_locally_by) or "-"
             st = "undecided" if r.stealthy is None else ("yes" if r.stealthy else "no")
+            why = r.chain.replace("|", "/")
             lines.append(
-                f"| {', '.join(map(str, r.actuators))} | {st} | {r.growth} | {lam} | {caught} | {', '.join(r.exposed_by_modes) or '-'} | {r.verdict} |"
+                f"| {', '.join(map(str, r.actuators))} | {st} | {r.growth} | {lam} | {caught} | {', '.join(r.exposed_by_modes) or '-'} | {r.verdict} | {why} |"
             )
         return "\n".join(lines) + "\n"
-
-
-def exposure_fragility(modes: Mapping[str, Any], exposed: list[str], below: float = FRAGILE_BELOW) -> dict[str, str]:
-    """``{"fragile": note}`` when every exposing mode touches the attack only by a tiny relative signal, else ``{}``.
-
-    The touch test is decided exactly (or certified), so a tiny margin never changes the
-    verdict: it says the switch exposes the attack by a residual of that relative size, which
-    noise or rounding in a real network would hide.
-
-    Parameters
-    ----------
-    modes : mapping
-        The row's witness ``modes`` (each with ``touch_margin``).
-    exposed : list of str
-        The exposing modes.
-    below : float
-        The fragility threshold.
-    """
-    margins = [float(modes[q].get("touch_margin", math.inf)) for q in exposed]
-    best = max(margins, default=math.inf)
-    if not exposed or not best < below:
-        return {}
-    return {"fragile": f"detected only by exposure, and every exposing switch touches the attack by a relative signal of at most {best:.2g} (below {below:g})"}
-
-
-def undecided_reason(stealthy: bool | None, local: Mapping[str, Any], modes: Mapping[str, Any], *, exact: bool, exact_fallback: bool) -> str:
-    """Why a row is ``undecided``: every part that is, and what would decide it.
-
-    A row is undecided when no part proves ``detected`` and the parts that could are not all
-    decided: the existence of a stealthy ZDA, the local pencil (iii) or the UIO of an observer
-    of a cluster F meets, Theorem III.3 or the touch test of a safe mode.
-
-    Parameters
-    ----------
-    stealthy : bool or None
-        Whether a stealthy ZDA exists (None: undecided).
-    local : mapping
-        The row's witness ``local``: ``{"P1@5": {"local.pencil": ..., "local.uio": ...}}``.
-    modes : mapping
-        The row's witness ``modes``: ``{"case-2": {"theorem_iii3": ..., "switching.avoids-attack": ...}}``.
-    exact : bool
-        The audit ran in exact arithmetic.
-    exact_fallback : bool
-        Numeric undecided parts were re-decided over Q.
-
-    Returns
-    -------
-    str
-        One sentence, e.g. ``"undecided: local.uio of P2@17; switching.avoids-attack of case-2
-        (the certified floating-point bounds do not separate the cases; audit --exact decides
-        them)"``.
-    """
-    parts = []
-    if stealthy is None:
-        parts.append("whether a stealthy ZDA exists")
-    for name, d in local.items():
-        for cid in ("local.pencil", "local.uio"):
-            if d.get(cid) == Status.UNDECIDED.value:
-                parts.append(f"{cid} of {name}")
-    for mode, d in modes.items():
-        if d.get("theorem_iii3") is None:
-            parts.append(f"Theorem III.3 for {mode}")
-        elif d.get("theorem_iii3") and d.get("switching.avoids-attack") == Status.UNDECIDED.value:
-            parts.append(f"switching.avoids-attack of {mode}")
-    what = "; ".join(parts) if parts else "a part of the row"
-    if exact:
-        how = "exact arithmetic left it open (a switching schedule of three or more modes)"
-    elif exact_fallback:
-        how = "neither the certified floating-point bounds nor the exact re-decision settled it"
-    else:
-        how = "the certified floating-point bounds do not separate the cases; audit --exact (rational weights) decides them"
-    return f"undecided: {what} ({how})"
 
 
 def _jsonable(x: Any) -> Any:

@@ -55,7 +55,7 @@ from glocal_verify.spec.types import (
     SystemSpec,
 )
 
-__all__ = ["NetworkDesign", "design_comments", "design_network"]
+__all__ = ["NetworkDesign", "before_table", "design_comments", "design_network"]
 
 
 @dataclass(frozen=True)
@@ -130,6 +130,11 @@ def _observers(system: System, exact_limit: int) -> tuple[SystemSpec, list[Obser
     return dataclasses.replace(system.spec, clusters=tuple(clusters)), props, notes
 
 
+def before_table(system: System, max_attackers: int = 2, candidates: Sequence[Label] | None = None) -> AuditResult:
+    """Design's before-table: the audit of the spec as given (every row the answer ``verify`` gives for that attack)."""
+    return audit(system, max_attackers, candidates)
+
+
 def design_network(
     system: System,
     *,
@@ -168,7 +173,7 @@ def design_network(
     -------
     NetworkDesign
     """
-    before = audit(system, max_attackers, candidates)
+    before = before_table(system, max_attackers, candidates)
     spec = _velocity_only(system.spec)
     props: list[ObserverProposal] = []
     notes: list[str] = []

@@ -4,14 +4,14 @@
 drawings as inline SVG, no script, no font, no image or link to fetch), so it opens offline
 and can be mailed or archived as one file. The page shows, in order:
 
-1. the **assessment** (:func:`glocal_verify.reporting.assessment.assess`): Problem 1
+1. the **assessment** (:func:`glocal_verify.answer.assessment.assess`): Problem 1
    (privacy of :math:`x(t_0)` and :math:`x^*`) and Problem 2 (is the attack stealthy, caught
-   locally, exposed by which safe mode), with its warnings; skipped when the assessment
-   module is not installed;
+   locally, exposed by which safe mode, detected under Algorithm 1 and the schedule, and the
+   chain that proves it), with its warnings;
 2. the **network** (:func:`glocal_verify.reporting.network_svg.network_svg`) in each mode, when
    the :class:`~glocal_verify.model.System` is given;
-3. a **summary** per condition id and the **condition tables**: status, ✓ favourable /
-   ✗ unfavourable for the defender (``ConditionResult.favourable``), margin, certified error
+3. a **summary** per condition id and the **condition tables**: status, its polarity for the
+   defender (✓ favourable, ✗ unfavourable, – vacuous, ? undecided: ``ConditionResult.polarity``), margin, certified error
    bound, tolerance, method (``exact (escalated)`` highlighted), fragile results, notes, and
    the witness in an expandable ``<details>`` element;
 4. the **findings** of the run;
@@ -33,7 +33,9 @@ import numpy as np
 from glocal_verify.conditions.registry import CATALOGUE
 from glocal_verify.model import System
 from glocal_verify.reporting.network_svg import network_svg
-from glocal_verify.results import ConditionResult, Method, Report, Status, jsonable
+from glocal_verify.answer.assessment import Assessment, assess
+from glocal_verify.answer.attack import format_labels, format_lambda
+from glocal_verify.results import ConditionResult, Method, Polarity, Report, jsonable
 from glocal_verify.simulation.algorithm1 import Algorithm1Result
 from glocal_verify.simulation.schedule import SimulationResult
 from glocal_verify.spec.types import NORMAL_MODE
@@ -53,7 +55,7 @@ h1 { font-size: 1.6em; margin-bottom: 0.2em; } h2 { border-bottom: 1px solid #cc
 h3 { margin-bottom: 0.3em; } code, pre { font-family: ui-monospace, Menlo, Consolas, monospace; font-size: 0.9em; }
 table { border-collapse: collapse; margin: 0.5em 0 1em 0; font-size: 0.92em; } th, td { border: 1px solid #d5d5d5; padding: 3px 7px; text-align: left; vertical-align: top; }
 th { background: #f3f3f3; } td.num { text-align: right; font-variant-numeric: tabular-nums; }
-.good { color: #1b7a2e; font-weight: bold; } .bad { color: #b3261e; font-weight: bold; } .unknown { color: #8a6d00; font-weight: bold; }
+.good { color: #1b7a2e; font-weight: bold; } .bad { color: #b3261e; font-weight: bold; } .unknown { color: #8a6d00; font-weight: bold; } .vacuous { color: #666; }
 .badge { display: inline-block; padding: 1px 8px; border-radius: 9px; font-weight: bold; color: #fff; }
 .badge.good { background: #1b7a2e; color: #fff; } .badge.bad { background: #b3261e; color: #fff; } .badge.unknown { background: #a07c00; color: #fff; }
 .fragile { background: #fff2cc; } .escalated { background: #e3ecff; border-radius: 4px; padding: 0 4px; }
@@ -63,8 +65,8 @@ details > summary { cursor: pointer; color: #1f4e9c; } pre.witness { max-height:
 .figure { margin: 0.5em 0 1.2em 0; } .meta { color: #555; }
 """
 
-#: a status is coloured by what it means for the defender (green good news, red bad news)
-_FAV_CLASS = {True: "good", False: "bad", None: "unknown"}
+#: a status is coloured by what it means for the defender (green good news, red bad news, grey vacuous)
+_POL_CLASS = {Polarity.FAVOURABLE: "good", Polarity.UNFAVOURABLE: "bad", Polarity.VACUOUS: "vacuous", Polarity.UNDECIDED: "unknown"}
 
 
 def _e(x: Any) -> str:
@@ -85,12 +87,11 @@ def _scope(r: ConditionResult) -> str:
     return ", ".join(f"{k} = {v}" for k, v in r.scope.items())
 
 
-def _mark(fav: bool | None) -> str:
-    if fav is True:
-        return '<span class="good" title="favourable for the defender">✓ favourable</span>'
-    if fav is False:
-        return '<span class="bad" title="unfavourable for the defender">✗ unfavourable</span>'
-    return '<span class="unknown" title="undecided">? undecided</span>'
+def _mark(r: ConditionResult) -> str:
+    p = r.polarity
+    title = {Polarity.FAVOURABLE: "good news for the defender", Polarity.UNFAVOURABLE: "bad news for the defender",
+             Polarity.VACUOUS: f"vacuous: {r.premise}", Polarity.UNDECIDED: "undecided"}[p]
+    return f'<span class="{_POL_CLASS[p]}" title="{_e(title)}">{p.mark} {p.value}</span>'
 
 
 def _badge(text: str, good: bool | None) -> str:
@@ -109,24 +110,19 @@ def _witness(w: Mapping[str, Any]) -> str:
 # assessment
 
 
-def _assessment(report: Report) -> tuple[str, Any]:
-    """The assessment block and the Assessment object (``("", None)`` when unavailable)."""
-    try:
-        from glocal_verify.reporting.assessment import assess
-    except ImportError:
-        return "", None
-    a = assess(report)
-    try:
-        return _assessment_block(a), a
-    except AttributeError:  # a different shape of Assessment: show its JSON form
-        data = a.to_json() if hasattr(a, "to_json") else a
-        return f'<section class="assessment"><h2>Assessment</h2><pre>{_e(json.dumps(jsonable(data), indent=1))}</pre></section>', a
+def _assessment(report: Report) -> tuple[str, Assessment]:
+    """The assessment block and the Assessment object."""
+    a = report.assessment if report.assessment is not None else assess(report)
+    return _assessment_block(a), a
 
 
-def _assessment_block(a: Any) -> str:
+def _assessment_block(a: Assessment) -> str:
     p, at = a.privacy, a.attack
     good = {"protected": True, "exposed": False}
+    verdict_good = {"detected": True, "undetected": False}.get(at.verdict)
     out = ['<section class="assessment" id="assessment"><h2>Assessment</h2>']
+    if at.present:
+        out.append(f"<p><b>Attack:</b> {_badge(at.verdict, verdict_good)} {_e(at.reason)}</p>")
     if a.warnings:
         out.append('<div class="warnings"><b>Warnings</b><ul>' + "".join(f"<li>{_e(w)}</li>" for w in a.warnings) + "</ul></div>")
     out.append(
@@ -141,30 +137,28 @@ def _assessment_block(a: Any) -> str:
         kind = {"zda": "zero-dynamics attack (ZDA)", "covert": "covert attack"}.get(at.kind or "", "attack")
         lam = ""
         if at.lambda0 is not None:
-            re_, im_ = at.lambda0
-            lam = f" at lambda0 = {re_:g}" + (f" {'+' if im_ > 0 else '-'} {abs(im_):g}i" if im_ else "")
-            if at.lambda0_source and at.lambda0_source != "spec":
-                lam += f" ({at.lambda0_source})"
+            lam = f" at lambda0 = {format_lambda(at.lambda0)}" + (f" ({at.lambda0_source})" if at.lambda0_source and at.lambda0_source != "spec" else "")
         stealth = {True: ("stealthy to the control centre", False), False: ("not stealthy: the control centre sees it", True), None: ("stealth undecided", None)}[at.stealthy]
-        verdict_good = {"detected": True, "undetected": False}.get(at.verdict)
-        caught = ", ".join(f"observer {c.observer} ({c.cluster})" for c in at.caught_locally_by) or "no local observer"
-        out.append(f"<p><b>Verdict:</b> {_badge(at.verdict, verdict_good)} {_e(at.reason)}</p>")
-        out.append(
-            "<ul>"
-            f"<li>{_e(kind)} on agents {_e(', '.join(str(x) for x in at.actuators))}{_e(lam)}: {_badge(stealth[0], stealth[1])}</li>"
-            f"<li>caught locally by: {_e(caught)}</li>"
-            f"<li>exposed by safe modes: {_e(', '.join(at.exposed_by_modes) or 'none')}"
-            + (f"; not exposed by: {_e(', '.join(at.not_exposed_by_modes))}" if at.not_exposed_by_modes else "")
-            + (f"; unsettled: {_e(', '.join(at.unsettled_modes))}" if at.unsettled_modes else "")
-            + "</li></ul>"
-        )
+        items = [f"<li>{_e(kind)} on agents {_e(format_labels(at.actuators))}{_e(lam)}: {_badge(stealth[0], stealth[1])}</li>"]
+        if at.stealthy is not False:
+            caught = {True: "yes", False: "no", None: "undecided"}[at.caught_locally]
+            items.append(f"<li>caught locally: {_badge(caught, at.caught_locally)}<ul>" + "".join(f"<li>{_e(c.cluster or 'no cluster')}: {_e(c.reason)}</li>" for c in at.clusters) + "</ul></li>")
+            items.append(
+                f"<li>exposed by safe modes: {_e(', '.join(at.exposed_by_modes) or 'none')}"
+                + (f"; not exposed by: {_e(', '.join(at.not_exposed_by_modes))}" if at.not_exposed_by_modes else "")
+                + (f"; unsettled: {_e(', '.join(at.unsettled_modes))}" if at.unsettled_modes else "")
+                + "</li>"
+            )
+            for r in at.routes:
+                items.append(f"<li>{_e(r.name)}: {_badge(r.verdict, {'detected': True, 'undetected': False}.get(r.verdict))} {_e(r.text())}</li>")
+        out.append("<ul>" + "".join(items) + "</ul>")
         if at.modes:
             rows = "".join(
                 f"<tr><td><code>{_e(m.mode)}</code></td><td>{_badge({True: 'exposes', False: 'does not expose', None: 'unsettled'}[m.exposes], m.exposes)}</td>"
-                f"<td>{_e(m.by)}</td><td>{_e(m.reason)}</td></tr>"
+                f"<td>{_e({True: 'detects', False: 'does not detect', None: '-'}[m.simulated])}</td><td>{_e(m.reason)}</td></tr>"
                 for m in at.modes
             )
-            out.append(f"<table><thead><tr><th>safe mode</th><th>after the switch</th><th>decided by</th><th>why</th></tr></thead><tbody>{rows}</tbody></table>")
+            out.append(f"<table><thead><tr><th>safe mode</th><th>after the switch (algebra)</th><th>simulation</th><th>why</th></tr></thead><tbody>{rows}</tbody></table>")
     if a.based_on:
         out.append(f'<p class="meta">Derived from the results of: {_e(", ".join(a.based_on))}.</p>')
     out.append("</section>")
@@ -198,9 +192,7 @@ def _anchor(cid: str) -> str:
 def _summary(report: Report) -> str:
     rows = []
     for cid, rs in _groups(report):
-        n = {st: sum(1 for r in rs if r.status is st) for st in Status}
-        fav = sum(1 for r in rs if r.favourable is True)
-        unfav = sum(1 for r in rs if r.favourable is False)
+        n = {pol: sum(1 for r in rs if r.polarity is pol) for pol in Polarity}
         extra = []
         if nf := sum(1 for r in rs if r.fragile):
             extra.append(f"{nf} fragile")
@@ -208,13 +200,13 @@ def _summary(report: Report) -> str:
             extra.append(f"{ne} exact (escalated)")
         rows.append(
             f'<tr><td><a href="#{_anchor(cid)}"><code>{_e(cid)}</code></a></td><td>{_e(rs[0].reference)}</td><td>{_e(_polarity(cid))}</td>'
-            f'<td class="num">{n[Status.HOLDS]}</td><td class="num">{n[Status.FAILS]}</td><td class="num">{n[Status.UNDECIDED]}</td>'
-            f'<td class="num good">{fav or ""}</td><td class="num bad">{unfav or ""}</td><td>{_e(", ".join(extra))}</td></tr>'
+            f'<td class="num good">{n[Polarity.FAVOURABLE] or ""}</td><td class="num bad">{n[Polarity.UNFAVOURABLE] or ""}</td>'
+            f'<td class="num vacuous">{n[Polarity.VACUOUS] or ""}</td><td class="num unknown">{n[Polarity.UNDECIDED] or ""}</td><td>{_e(", ".join(extra))}</td></tr>'
         )
     return (
-        "<h2>Summary</h2><p>✓ favourable for the defender, ✗ unfavourable; undecided results are neither.</p>"
-        "<table><thead><tr><th>condition</th><th>reference</th><th>good news when</th><th>holds</th><th>fails</th>"
-        "<th>undecided</th><th>✓</th><th>✗</th><th>notes</th></tr></thead><tbody>" + "".join(rows) + "</tbody></table>"
+        "<h2>Summary</h2><p>✓ favourable for the defender, ✗ unfavourable, – vacuous (the condition's premise is absent), ? undecided.</p>"
+        "<table><thead><tr><th>condition</th><th>reference</th><th>good news when</th><th>✓ favourable</th><th>✗ unfavourable</th>"
+        "<th>– vacuous</th><th>? undecided</th><th>notes</th></tr></thead><tbody>" + "".join(rows) + "</tbody></table>"
     )
 
 
@@ -229,16 +221,15 @@ def _conditions(report: Report, assessment: Any) -> str:
         )
         for r in rs:
             notes = []
-            if assessment is not None and hasattr(assessment, "notes_for"):
-                notes += [str(n) for n in assessment.notes_for(r)]
+            notes += [str(n) for n in assessment.notes_for(r)]
             if r.fragile:
                 notes.append("fragile: the margin is below the robustness tolerance (the verdict is certain, but the system is close to the boundary)")
             if r.note:
                 notes.append(r.note)
             method = f'<span class="escalated">{_e(r.method.value)}</span>' if r.method is Method.ESCALATED else _e(r.method.value)
-            status = f'<span class="{_FAV_CLASS[r.favourable]}">{_e(r.status.value)}</span>' + (" <b>(fragile)</b>" if r.fragile else "")
+            status = f'<span class="{_POL_CLASS[r.polarity]}">{_e(r.status.value)}</span>' + (" <b>(fragile)</b>" if r.fragile else "")
             out.append(
-                f'<tr{" class=fragile" if r.fragile else ""}><td>{_e(_scope(r))}</td><td>{status}</td><td>{_mark(r.favourable)}</td>'
+                f'<tr{" class=fragile" if r.fragile else ""}><td>{_e(_scope(r))}</td><td>{status}</td><td>{_mark(r)}</td>'
                 f'<td class="num">{_num(r.margin)}</td><td class="num">{_num(r.error_bound)}</td><td class="num">{_num(r.tolerance)}</td>'
                 f"<td>{method}</td><td>{'<br>'.join(_e(n) for n in notes)}</td><td>{_witness(r.witness)}</td></tr>"
             )

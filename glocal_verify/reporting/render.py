@@ -15,10 +15,14 @@ import jsonschema
 
 from glocal_verify.conditions.registry import CATALOGUE
 from glocal_verify.errors import GlocalVerifyError
-from glocal_verify.reporting.assessment import DETECTS_MAX_AGENTS, Assessment, assess, with_assessment
-from glocal_verify.results import ConditionResult, Method, Report, json_preview
+from glocal_verify.answer.assessment import Assessment, assess, with_assessment
+from glocal_verify.answer.attack import format_labels, format_lambda
+from glocal_verify.results import ConditionResult, Method, Polarity, Report, json_preview
 
 __all__ = [
+    "LEGEND",
+    "attack_lines",
+    "polarity_counts",
     "report_schema",
     "to_json_text",
     "to_markdown",
@@ -65,7 +69,8 @@ def _short(obj: Any, limit: int = 110) -> str:
 
 
 _ICON = {"holds": "holds", "fails": "**fails**", "undecided": "*undecided*"}
-_FAV = {True: "✓", False: "✗", None: "?"}
+#: the legend of the polarity marks (one vocabulary: results.Polarity)
+LEGEND = "✓ favourable for the defender, ✗ unfavourable, – vacuous (the condition's premise is absent), ? undecided."
 
 #: what the scope key ``suspected`` means, for the summary rows
 _SUSPECTED = {"attack": "suspected = the spec's attacked agents", "all": "suspected = all (worst case, Remark III.2.1)"}
@@ -74,6 +79,16 @@ _SUSPECTED = {"attack": "suspected = the spec's attacked agents", "all": "suspec
 def _polarity(cid: str) -> str:
     info = CATALOGUE.get(cid)
     return str(info.favourable.value) if info is not None else "holds"
+
+
+def _scope_set(rs: list[ConditionResult], suspected: str) -> str:
+    """What the results of one summary row range over: ``global``, ``every mode and the schedule`` ..."""
+    if suspected:
+        return _SUSPECTED.get(suspected, suspected)
+    modes = [r for r in rs if "mode" in r.scope]
+    if not modes:
+        return "global" if len(rs) == 1 else f"{len(rs)} scopes"
+    return "each mode" + (" and the schedule" if len(modes) < len(rs) else "")
 
 
 def _summary_groups(report: Report) -> list[tuple[str, str, list[ConditionResult]]]:
@@ -86,7 +101,12 @@ def _summary_groups(report: Report) -> list[tuple[str, str, list[ConditionResult
             order.append(key)
             groups[key] = []
         groups[key].append(r)
-    return [(cid, _SUSPECTED.get(sus, ""), groups[(cid, sus)]) for cid, sus in order]
+    return [(cid, _scope_set(groups[(cid, sus)], sus), groups[(cid, sus)]) for cid, sus in order]
+
+
+def polarity_counts(rs: list[ConditionResult]) -> dict[Polarity, int]:
+    """How many of ``rs`` are favourable, unfavourable, vacuous and undecided."""
+    return {p: sum(1 for r in rs if r.polarity is p) for p in Polarity}
 
 
 def _result_notes(r: ConditionResult, a: Assessment) -> str:
@@ -100,56 +120,61 @@ def _result_notes(r: ConditionResult, a: Assessment) -> str:
     return "; ".join(n.replace("|", "/") for n in notes)
 
 
-def _assessment_markdown(a: Assessment) -> list[str]:
-    p, at = a.privacy, a.attack
+def attack_lines(a: Assessment) -> list[str]:
+    """The attack's answer as Markdown lines (shared by the report and the notebook displays)."""
+    at = a.attack
+    if not at.present:
+        return [f"**Attack (Problem 2).** {at.reason[0].upper() + at.reason[1:] if at.reason else 'not assessed'}"]
+    kind = {"zda": "ZDA", "covert": "covert attack"}.get(at.kind or "", "attack")
+    lam = ""
+    if at.lambda0 is not None:
+        src = "from the spec" if at.lambda0_source == "spec" else at.lambda0_source
+        lam = f" at lambda0 = {format_lambda(at.lambda0)} ({src})"
+    who = f"agent{'s' if len(at.actuators) != 1 else ''} {format_labels(at.actuators)}"
+    stealth = {True: "yes", False: "**no**: the control centre sees it before any switch", None: "*undecided*"}[at.stealthy]
+    lines = [f"**Attack (Problem 2): {at.verdict}.** The {kind} on {who}{lam}.", "", f"- stealthy to the control centre: {stealth}"]
+    if at.stealthy is not False:
+        caught = {True: "yes", False: "**no**", None: "*undecided*"}[at.caught_locally]
+        lines.append(f"- caught locally: {caught}" + "".join(f"; {c.cluster or 'no cluster'}: {c.reason}" for c in at.clusters))
+        exposed = f"- exposed by safe modes: {', '.join(at.exposed_by_modes) or 'none'}"
+        exposed += f"; not exposed by: {', '.join(at.not_exposed_by_modes)}" if at.not_exposed_by_modes else ""
+        exposed += f"; unsettled: {', '.join(at.unsettled_modes)}" if at.unsettled_modes else ""
+        lines.append(exposed)
+        for m in at.modes:
+            ans = {True: "exposes", False: "does not expose", None: "unsettled"}[m.exposes]
+            lines.append(f"  - `{m.mode}` {ans}: {m.reason}" + (f" (fragile: {m.fragile})" if m.fragile else ""))
+        for r in at.routes:
+            title = {"algorithm 1": "Algorithm 1 (a local alarm triggers the switch)", "schedule": "the [switching] schedule (switches whatever the observers see)"}.get(r.name, r.name)
+            lines.append(f"- {title}: **{r.verdict}**: {r.text()}")
+    return lines
+
+
+def _assessment_markdown(a: Assessment, report: Report) -> list[str]:
+    p = a.privacy
     lines = ["## Assessment", ""]
     if a.warnings:
         lines += ["**Warnings**", ""] + [f"- {w}" for w in a.warnings] + [""]
     lines.append(f"**Privacy (Problem 1).** Initial state x(t0): **{p.initial_state}**; consensus value x*: **{p.consensus_value}**. {p.reason}")
-    lines.append("")
-    if not at.present:
-        lines.append(f"**Attack (Problem 2).** {at.reason[0].upper() + at.reason[1:]}")
-    else:
-        kind = {"zda": "ZDA", "covert": "covert attack"}.get(at.kind or "", "attack")
-        lam = ""
-        if at.lambda0 is not None:
-            src = "from the spec" if at.lambda0_source == "spec" else str(at.lambda0_source)
-            lam = f" at lambda0 = {_fmt_lambda(at.lambda0)} ({src})"
-        stealth = {True: "stealthy to the control centre", False: "**not stealthy**: the control centre sees it", None: "stealth *undecided*"}[at.stealthy]
-        caught = ", ".join(f"observer {c.observer} ({c.cluster})" for c in at.caught_locally_by) or "no local observer"
-        lines += [
-            f"**Attack (Problem 2).** {kind} on agents {', '.join(str(x) for x in at.actuators)}{lam}: {stealth}.",
-            "",
-            f"- caught locally by: {caught}",
-            f"- exposed by safe modes: {', '.join(at.exposed_by_modes) or 'none'}"
-            + (f"; not exposed by: {', '.join(at.not_exposed_by_modes)}" if at.not_exposed_by_modes else "")
-            + (f"; unsettled: {', '.join(at.unsettled_modes)}" if at.unsettled_modes else ""),
-        ]
-        for m in at.modes:
-            ans = {True: "exposes", False: "does not expose", None: "unsettled"}[m.exposes]
-            lines.append(f"  - `{m.mode}` {ans} ({m.by}): {m.reason}")
-        if not at.simulated:
-            lines.append(
-                f"- switching.detects (simulation) was not run: verify(..., options={{'simulate': True}}) runs it on networks of at most {DETECTS_MAX_AGENTS} agents"
-            )
-        lines += ["", f"**Verdict: {at.verdict}.** {at.reason}"]
-    lines += ["", f"Derived from the results of: {', '.join(f'`{c}`' for c in a.based_on) or 'none'} (rules: docs/conditions.md, \"The assessment\")."]
+    lines += ["", *attack_lines(a)]
+    if a.attack.present and not report.options.get("simulate"):
+        lines.append("- simulation (switching.detects): not run (verify simulates on networks of at most 150 agents: simulate='auto'; 'always' forces it)")
+    lines += ["", f"Derived from the results of: {', '.join(f'`{c}`' for c in a.based_on) or 'none'} (rules: docs/conditions.md, \"The answer for one attacker\" and \"The assessment\")."]
     return lines
 
 
 def to_markdown(report: Report) -> str:
     """Human-readable report: the assessment, a summary table and one section per condition id.
 
-    The assessment (:func:`~glocal_verify.reporting.assessment.assess`) comes first. The
+    The assessment (:func:`~glocal_verify.answer.assessment.assess`) comes first. The
     summary has one row per condition id and scope set (the ``local.*`` ids get separate rows
     for the spec's suspected set and the worst case ``suspected = all``) with the status that
-    is favourable for the defender; each result row shows ✓ (favourable), ✗ (unfavourable) or
-    ? (undecided) and notes for fragile, escalated and vacuous results.
+    is favourable for the defender and the count of each polarity; each result row shows its
+    polarity (:data:`LEGEND`) and notes for fragile, escalated and vacuous results.
     """
     s = report.system
-    a = assess(report)
+    a = report.assessment if report.assessment is not None else assess(report)
     lines = [f"# glocal-verify report: {s.name}", ""]
-    lines += _assessment_markdown(a)
+    lines += _assessment_markdown(a, report)
     lines += ["", "## System", "", f"- agents: {s.agents}", f"- modes: {', '.join(s.modes)}"]
     if s.clusters:
         lines.append(f"- clusters: {', '.join(s.clusters)}")
@@ -159,15 +184,13 @@ def to_markdown(report: Report) -> str:
         "",
         "## Summary",
         "",
-        "✓ favourable for the defender, ✗ unfavourable, ? undecided.",
+        LEGEND,
         "",
-        "| condition | scopes | reference | good news when | ✓ | ✗ | ? | notes |",
-        "|---|---|---|---|---|---|---|---|",
+        "| condition | scopes | reference | good news when | ✓ | ✗ | – | ? | notes |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for cid, scopes, rs in _summary_groups(report):
-        fav = sum(1 for r in rs if r.favourable is True)
-        unfav = sum(1 for r in rs if r.favourable is False)
-        und = sum(1 for r in rs if r.favourable is None)
+        n = polarity_counts(rs)
         extra = []
         nf = sum(1 for r in rs if r.fragile)
         ne = sum(1 for r in rs if r.method is Method.ESCALATED)
@@ -176,10 +199,11 @@ def to_markdown(report: Report) -> str:
         if ne:
             extra.append(f"{ne} escalated")
         extra += sorted({n for r in rs for n in a.notes_for(r)})
-        lines.append(f"| `{cid}` | {scopes or '-'} | {rs[0].reference} | {_polarity(cid)} | {fav} | {unfav} | {und} | {'; '.join(extra)} |")
+        counts = " | ".join(str(n[p]) for p in (Polarity.FAVOURABLE, Polarity.UNFAVOURABLE, Polarity.VACUOUS, Polarity.UNDECIDED))
+        lines.append(f"| `{cid}` | {scopes} | {rs[0].reference} | {_polarity(cid)} | {counts} | {'; '.join(extra)} |")
     for cid, why in a.not_evaluated.items():
         info = CATALOGUE.get(cid)
-        lines.append(f"| `{cid}` | - | {info.reference if info else ''} | {_polarity(cid)} | - | - | - | not evaluated: {why} |")
+        lines.append(f"| `{cid}` | - | {info.reference if info else ''} | {_polarity(cid)} | - | - | - | - | not evaluated: {why} |")
     order: list[str] = []
     for r in report.conditions:
         if r.id not in order:
@@ -192,13 +216,13 @@ def to_markdown(report: Report) -> str:
             "",
             f"{rs[0].statement} Good news for the defender: `{_polarity(cid)}`.",
             "",
-            "| scope | status | good? | margin | method | witness | notes |",
+            "| scope | status | for the defender | margin | method | witness | notes |",
             "|---|---|---|---|---|---|---|",
         ]
         for r in rs:
             status = _ICON[r.status.value] + (" (fragile)" if r.fragile else "")
             lines.append(
-                f"| {_scope(r)} | {status} | {_FAV[r.favourable]} | {_fmt_num(r.margin)} | {r.method.value} | `{_short(r.witness)}` | {_result_notes(r, a)} |"
+                f"| {_scope(r)} | {status} | {r.polarity.mark} {r.polarity.value} | {_fmt_num(r.margin)} | {r.method.value} | `{_short(r.witness)}` | {_result_notes(r, a)} |"
             )
     if report.findings:
         lines += ["", "## Findings", ""]
@@ -207,11 +231,6 @@ def to_markdown(report: Report) -> str:
             lines.append(f"- **{f.title}**{ref}: {f.detail}")
     lines.append("")
     return "\n".join(lines)
-
-
-def _fmt_lambda(lam: tuple[float, float]) -> str:
-    re_, im_ = lam
-    return f"{re_:g}" if im_ == 0.0 else f"{re_:g} {'+' if im_ > 0 else '-'} {abs(im_):g}i"
 
 
 def to_html(report: Report) -> str:
@@ -237,7 +256,7 @@ def to_html(report: Report) -> str:
 def render(report: Report, fmt: str) -> str:
     """Render ``report`` in ``fmt``: ``"json"`` (schema ``glocal-verify/report@1``), ``"markdown"`` or ``"html"``.
 
-    Every format starts with the assessment (:func:`~glocal_verify.reporting.assessment.assess`):
+    Every format starts with the assessment (:func:`~glocal_verify.answer.assessment.assess`):
     the JSON carries it as ``assessment``, Markdown as its first section. ``"html"`` needs the
     optional module :mod:`glocal_verify.reporting.html` (:class:`GlocalVerifyError` otherwise).
     """

@@ -1,4 +1,4 @@
-"""Set-independent screens of the audit: the separator of F from the monitors, the minor tables.
+"""Screens of the ZDA question that hold for a whole system: the separator of F from the monitors, the minor tables, lambda0 = 0.
 
 Structural screen (proof)
     Let X be a vertex set separating F from M = M_x ∪ M_v in the graph (every path from F to
@@ -17,32 +17,42 @@ Structural screen (proof)
     witness is then the direction at lambda0, the rule of
     :func:`glocal_verify.analysis.zda.zda_analysis`), and gives the exact growth class
     ``unbounded`` of an audit with ``growth="verdict"``.
+
+lambda0 = 0 (:func:`zero_exponent_status`)
+    At lambda0 = 0 the velocity rows vanish, and a stealthy direction is a kernel vector of
+    Q_0 = [[alpha L_1, -S_F^T], [S_{M_x}, 0]] with u0 != 0. With no monitored position and
+    positive weights rank L_1 = N - c (c components), and the columns e_f add the indicators of
+    the c_F components that hold an attacked agent: rank Q_0 = N - c + c_F, so a stealthy ZDA at
+    0 exists iff c_F < |F| (exact, from the graph). With monitored positions, zero forcing from
+    M_x on the exact graph (rows of attacked agents never force) that reaches every agent
+    proves there is none; otherwise the certified rank bounds of
+    :func:`~glocal_verify.analysis.zda_certificate.u_direction_certificate` decide, up to
+    :data:`ZERO_EXPONENT_DENSE_MAX_AGENTS` agents.
 """
 
 from __future__ import annotations
 
-import dataclasses
-from collections.abc import Sequence
+from collections.abc import MutableMapping, Sequence
 from fractions import Fraction
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from glocal_verify.analysis.twins import laplacian_entries
 from glocal_verify.analysis.unobservable import rational_unobservable_candidates
-from glocal_verify.analysis.zda import ZdaZero
-from glocal_verify.analysis.zda_batch import batch_directions
-from glocal_verify.errors import ModelError
 from glocal_verify.model import System
 from glocal_verify.numerics.minors import (
     GroundedTables,
     grounded_tables,
     verified_invariant_subspace,
 )
+from glocal_verify.results import Status
 from glocal_verify.spec.types import NORMAL_MODE, Label
 
-__all__ = ["disjoint_paths", "global_tables"]
+__all__ = ["ZERO_EXPONENT_DENSE_MAX_AGENTS", "disjoint_paths", "global_tables", "zero_exponent_status"]
+
+#: with monitored positions, lambda0 = 0 is decided by dense certified rank bounds up to this many agents
+ZERO_EXPONENT_DENSE_MAX_AGENTS = 400
 
 
 def disjoint_paths(system: System, F: Sequence[Label]) -> int:
@@ -194,122 +204,49 @@ def _unobservable_candidates(system: System, M: Sequence[int], grouped: bool = F
     return [r for grp in out for r in grp]
 
 
-def _witness_lambda(sh: Any, F: tuple[Label, ...], memo: dict[Any, Any] | None = None) -> tuple[complex, bool]:
-    """The exponent of :func:`_witness_zda` for F, and whether the separator proves F not left-invertible.
+def zero_exponent_status(system: System, F: Sequence[Label], memo: MutableMapping[Any, Any] | None = None) -> tuple[Status, str]:
+    """Whether a stealthy ZDA at lambda0 = 0 exists for the actuators F, and what proves it (module docstring).
 
-    With ``memo``: the separator's answer is kept for the next call on F (which removes it).
+    Parameters
+    ----------
+    system : System
+    F : sequence of labels
+    memo : mutable mapping, optional
+        Per-run store (the components and the exact neighbour lists are kept there).
+
+    Returns
+    -------
+    (Status, str)
+        ``HOLDS`` / ``FAILS`` with the proof, or ``UNDECIDED`` with the reason.
     """
-    if memo is not None and ("not-left-invertible", F) in memo:
-        not_li = memo.pop(("not-left-invertible", F))
-    else:
-        not_li = sh.screen and disjoint_paths(sh.system, F) < len(F)
-        if memo is not None:
-            memo[("not-left-invertible", F)] = not_li
-    return (complex(sh.lambda0) if sh.lambda0 is not None else (1.0 + 0j if not_li else 0j)), not_li
+    store: MutableMapping[Any, Any] = memo if memo is not None else {}
+    m = len(F)
+    if "component-of" not in store:
+        store["component-of"] = {a: ci for ci, c in enumerate(system.components()) for a in c}
+    comp = store["component-of"]
+    if not system.monitored_positions:
+        c_f = len({comp[a] for a in F})
+        if c_f < m:
+            return Status.HOLDS, (f"no monitored position and the {m} attacked agents lie in {c_f} component(s) of G_1: "
+                                  f"rank [alpha L_1, -S_F^T] = N - c + {c_f} < N - c + {m} (a persistent ZDA; exact, from the graph)")
+        return Status.FAILS, f"no monitored position and each of the {m} attacked agents lies in its own component of G_1: rank [alpha L_1, -S_F^T] = N - c + {m} (exact)"
+    from glocal_verify.analysis.cluster_pencil import intra_neighbours, zero_forcing_closure
 
+    if "exact-neighbours" not in store:
+        store["exact-neighbours"] = intra_neighbours(system.laplacian_exact())
+    Fi, Mx = system.idx(F), system.idx(system.monitored_positions)
+    if len(zero_forcing_closure(store["exact-neighbours"], Mx, Fi)) == system.n:
+        return Status.FAILS, "zero forcing from M_x on the exact graph reaches every agent: ker Q_0 = {0}"
+    if system.n > ZERO_EXPONENT_DENSE_MAX_AGENTS:
+        return Status.UNDECIDED, f"zero forcing from M_x leaves agents unforced, and certified rank bounds are not tried above {ZERO_EXPONENT_DENSE_MAX_AGENTS} agents"
+    from glocal_verify.analysis.zda_certificate import exact_q_rows, u_direction_certificate
 
-def batch_witnesses(sh: Any, sets: Sequence[tuple[Label, ...]], memo: dict[Any, Any]) -> None:
-    """The witness directions of :func:`_witness_zda` for many sets at once, into ``memo``.
-
-    Sets are grouped by their exponent and handed to
-    :func:`glocal_verify.analysis.zda_batch.batch_directions` (the per-set method's decisions,
-    vectorised over the sets); a set it leaves open is decided by :func:`_witness_zda` alone.
-    """
-    groups: dict[complex, list[tuple[Label, ...]]] = {}
-    for F in sets:
-        groups.setdefault(_witness_lambda(sh, F, memo)[0], []).append(F)
-    for lam, Fs in groups.items():
-        for F, d in zip(Fs, batch_directions(sh.system, sh.tol, lam, Fs)):
-            memo[("witness-direction", F)] = d
-
-
-def _without_sensors(system: System, sensors: Sequence[Label]) -> System:
-    bad = [a for a in sensors if a not in system.index]
-    if bad:
-        raise ModelError(f"--sensors: {', '.join(map(str, bad))} not in the graph")
-    s = set(sensors)
-    mon = system.spec.monitor
-    new = dataclasses.replace(
-        mon, positions=tuple(a for a in mon.positions if a not in s), velocities=tuple(a for a in mon.velocities if a not in s)
-    )
-    return System(dataclasses.replace(system.spec, monitor=new))
-
-
-def certified_touch(system: System, F: Sequence[Label], av: Any, exact_lambda: bool) -> Any:
-    """A numeric touch verdict (``switching.avoids-attack`` of one mode) if certified for the exact system, else ``undecided``.
-
-    As ``verify`` certifies it
-    (:func:`~glocal_verify.analysis.avoidance.avoidance_certificate`: Weyl lower bounds against
-    structural upper bounds at an exact real lambda0, or the avoiding direction rationalised
-    to an exact kernel vector). ``exact_lambda``: the witness exponent is exact (the spec's
-    lambda0, or lambda0 = 1 for a system proved not left-invertible); a computed zero is not.
-    """
-    from glocal_verify.analysis.avoidance import avoidance_certificate
-    from glocal_verify.results import Status
-
-    if av.status is Status.UNDECIDED:
-        return av
-    cand = None if av.direction is None else np.concatenate([av.direction.xi, av.direction.u0])
-    ok, _, note = avoidance_certificate(system, av.mode, system.idx(F), av.lambda0, av.status, exact_lambda, cand)
-    return av if ok else dataclasses.replace(av, status=Status.UNDECIDED, notes=(*av.notes, f"numeric {av.status.value} not certified: {note}"))
-
-
-@dataclass
-class _Zda:
-    stealthy: bool | None
-    growth: str
-    left_invertible: bool | None
-    direction: ZdaZero | None
-    source: str
-    exact: Any = None
-    method: str = "numeric"
-    screened: bool = False
-    certificate: str = ""
-    #: False when the zero set was not computed (``growth="verdict"``): ``direction`` is a
-    #: proven stealthy ZDA but not necessarily the fastest one, and ``growth`` is only exact
-    #: when it is ``unbounded``
-    complete: bool = True
-    #: the growth class of ``direction`` (a lower bound on the fastest ZDA) when not complete
-    growth_at_least: str = ""
-
-
-def single_zda_key(sh: Any, a: Label) -> tuple[Any, ...]:
-    """Memo key of the ZDA part of {a} under the options of ``sh`` (growth, exactness, fallbacks)."""
-    return ("single-zda", a, sh.growth, sh.exact, sh.exact_fallback, sh.zda_fallback, sh.lambda0)
-
-
-def inherited_zda(sh: Any, F: tuple[Label, ...], memo: dict[Any, Any] | None, zda_part: Any) -> _Zda | None:
-    """A proven stealthy ZDA of F from a single member's, or None (``growth="verdict"``).
-
-    If (xi, u_a) is a stealthy ZDA direction of {a} at lambda0, then (xi, u) with u = u_a on a
-    and 0 on F minus {a} is one of F: the pencil of F has the columns of {a} and more, and the
-    extra columns meet a zero input. The single's ZDA part (memoised per agent) is reused, the
-    padded direction is verified again on F's full pencil (:meth:`ModalPencil.verify`), and the row
-    keeps the single's growth as a lower bound (the zero set of F is not computed). This spares
-    the sets that hold an agent whose own zeros defeat the minor certificate the whole
-    O(N^3) zero-set analysis, when no safe mode can expose them.
-    """
-    from glocal_verify.analysis.zda import ModalPencil
-    from glocal_verify.numerics.tolerance import Decision
-
-    store = memo if memo is not None else {}
-    for a in F:
-        key = single_zda_key(sh, a)
-        if key not in store:
-            store[key] = zda_part(sh, (a,), memo)
-        za = store[key]
-        d = za.direction
-        if za.stealthy is not True or d is None or not (za.growth_at_least or za.growth) or (za.growth_at_least or za.growth) == "undecided":
-            continue
-        md = ModalPencil(sh.system, F, sh.tol)
-        u = np.zeros(len(F), dtype=complex)
-        u[F.index(a)] = complex(d.u0[0])
-        eta = md.U.T @ np.asarray(d.xi, dtype=complex)  # modal coordinates of xi (U orthogonal up to its certified error)
-        xi, u2, res, dres, du = md.verify(d.value, eta, u)
-        if dres is not Decision.ZERO or du is not Decision.NONZERO:
-            continue
-        g = za.growth_at_least or za.growth
-        z = ZdaZero(d.value, d.value * d.value + sh.system.gamma * d.value, xi, u2, res, g)
-        return _Zda(True, "unbounded" if g == "unbounded" else "undecided", None, z, f"a ZDA of {{{a}}} (zero input on the other actuators; the zero set of F was not computed)",
-                    complete=False, growth_at_least=g)
-    return None
+    rows0, pat0 = exact_q_rows(system, Fi, Mx, Fraction(0))
+    mx = set(Mx)
+    free = sum(1 for c in system.components() if not any(system.index[a] in mx for a in c))
+    at0, bound = u_direction_certificate(rows0, pat0, system.n, m, xi_upper=system.n - free)
+    if at0 is True:
+        return Status.HOLDS, f"Weyl/structural rank bounds at lambda0 = 0 (error bound {bound:.3g}): rank Q_0 < rank [alpha L; S_Mx] + m (a persistent ZDA)"
+    if at0 is False:
+        return Status.FAILS, f"Weyl/structural rank bounds at lambda0 = 0 (error bound {bound:.3g}): no kernel vector of Q_0 with an input part"
+    return Status.UNDECIDED, f"the certified rank bounds at lambda0 = 0 do not separate (error bound {bound:.3g})"

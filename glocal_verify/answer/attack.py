@@ -1,0 +1,539 @@
+"""The per-attacker answer: the one rule that says whether the glocal scheme detects an attacker.
+
+Every interface (the assessment of ``verify``, every row of ``audit``, the before/after tables
+of ``design``, the reports and the notebook displays) builds an :class:`AttackEvidence` from
+condition statuses and calls :func:`answer_attack`. The rules (``docs/conditions.md``, "The
+answer for one attacker"):
+
+Stealthy to the control centre
+    ``stealthy.zda`` (a ZDA attack) or ``stealthy.covert`` (a covert attack) holds.
+Caught locally
+    For every cluster the attacked actuators F meet, some local observer of that cluster has
+    ``local.pencil`` (Proposition III.2 (iii), suspected set F ∩ P_i) and ``local.uio``
+    holding: then every nonzero attack input through F moves some local residual, and
+    Algorithm 1 raises a local alarm. A cluster whose observers all fail one of them (or that
+    has none, or agents in no cluster) leaves part of F unwatched: no local alarm is
+    guaranteed.
+Exposed by a safe mode q (algebra)
+    Theorem III.3 (i)-(iii) hold for q and the switch touches every stealthy direction at the
+    attack's lambda0 (``switching.avoids-attack`` fails): the attack's part of the global
+    residual is nonzero after the switch. ``avoids-attack`` holding (the attacker keeps a
+    direction the switch cannot see) or nothing being measured means q does not expose it.
+    A touch with some of (i)-(iii) failing or undecided, or the covert touch test (an
+    over-approximation), leaves q unsettled. The simulation of ``switching.detects``, when
+    run, is shown next to the algebra and warned about when it disagrees; it never decides
+    (one simulated initial state is not a proof, and it runs only on small networks: the
+    audit could not give the same answer).
+Detected
+    ``direct``: not stealthy. ``Algorithm 1`` (the paper's scheme): caught locally, and some
+    safe mode exposes it (the local control centre picks that mode, Algorithm 1 line 4).
+    ``schedule`` (only with a ``[switching]`` schedule, which switches whatever the local
+    observers see): some safe mode the schedule visits exposes it. The answer is
+    ``detected`` when one route proves detection, ``undetected`` when the attack is stealthy
+    and every route is decided against detection (the chain names the failed link: no
+    guarantee exists for this attacker), else ``undecided``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from glocal_verify.results import FRAGILE_BELOW, Status, jsonable
+
+__all__ = [
+    "ATTACK_VERDICTS",
+    "THEOREM_IDS",
+    "AttackAnswer",
+    "AttackEvidence",
+    "ClusterCatch",
+    "LocalEvidence",
+    "ModeEvidence",
+    "ModeExposure",
+    "Route",
+    "answer_attack",
+    "format_labels",
+    "format_lambda",
+    "not_assessed",
+]
+
+#: the answers of :func:`answer_attack` (``not assessed``: no attack)
+ATTACK_VERDICTS = ("detected", "undetected", "undecided", "not assessed")
+#: the conditions of Theorem III.3 (i)-(iii), per safe mode
+THEOREM_IDS = ("switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences")
+_LABEL = {"switching.image-kernel": "(i)", "switching.distinct-eigenvalues": "(ii)", "switching.eigenvector-differences": "(iii)"}
+
+
+def format_labels(xs: Sequence[Any]) -> str:
+    """``"3, 4"``."""
+    return ", ".join(str(x) for x in xs)
+
+
+def format_lambda(lam: complex | None) -> str:
+    """``"0.5"``, ``"-0.5 + 2.63i"``."""
+    if lam is None:
+        return "?"
+    c = complex(lam)
+    if c.imag == 0.0:
+        return f"{c.real:g}"
+    return f"{c.real:g} {'+' if c.imag > 0 else '-'} {abs(c.imag):g}i"
+
+
+def _agents(F: Sequence[Any]) -> str:
+    return f"agent{'s' if len(F) != 1 else ''} {format_labels(F)}"
+
+
+# ------------------------------------------------------------------------------------------
+# evidence
+
+
+@dataclass(frozen=True, slots=True)
+class LocalEvidence:
+    """One local observer's Proposition III.2 verdicts for the attacked agents of its cluster.
+
+    Attributes
+    ----------
+    cluster : str
+    observer : label
+        Its centre.
+    suspected : tuple of labels
+        F ∩ P_i.
+    pencil, uio : Status or None
+        ``local.pencil`` and ``local.uio`` with that suspected set (None: not evaluated).
+    """
+
+    cluster: str
+    observer: Any
+    suspected: tuple[Any, ...]
+    pencil: Status | None
+    uio: Status | None
+
+    @property
+    def catches(self) -> bool | None:
+        """True when both hold, False when one fails (a failing pencil settles it alone), None otherwise."""
+        if self.pencil is Status.HOLDS and self.uio is Status.HOLDS:
+            return True
+        if Status.FAILS in (self.pencil, self.uio):
+            return False
+        return None
+
+    @property
+    def name(self) -> str:
+        """``"P1@5"``."""
+        return f"{self.cluster}@{self.observer}"
+
+
+@dataclass(frozen=True, slots=True)
+class ModeEvidence:
+    """What the conditions say about one safe mode for this attack.
+
+    Attributes
+    ----------
+    mode : str
+    theorem : mapping of str to Status
+        Theorem III.3 (i)-(iii) by condition id (an id missing: not evaluated).
+    avoids : Status or None
+        ``switching.avoids-attack`` (None: not evaluated).
+    touch_margin : float or None
+        Its margin on ``fails`` (how strongly the switch touches the attack).
+    predicted : str
+        Its predicted residual (``unbounded``, ``bounded``, ...), when known.
+    simulated : Status or None
+        ``switching.detects`` for this mode, when it was simulated.
+    simulation : str
+        What the simulation saw (e.g. ``"unbounded (grows like e^(0.5 t))"``).
+    """
+
+    mode: str
+    theorem: Mapping[str, Status] = field(default_factory=dict)
+    avoids: Status | None = None
+    touch_margin: float | None = None
+    predicted: str = ""
+    simulated: Status | None = None
+    simulation: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class AttackEvidence:
+    """Everything :func:`answer_attack` reads about one attacker (condition statuses only).
+
+    Attributes
+    ----------
+    kind : {"zda", "covert"}
+    actuators : tuple of labels
+        F.
+    by_cluster : tuple of (cluster or None, labels, observer centres)
+        F split by cluster, with each cluster's observers (None: agents in no cluster).
+    stealthy : Status or None
+        ``stealthy.zda`` / ``stealthy.covert`` (None: not evaluated).
+    lambda0 : complex or None
+        The exponent the ZDA verdicts concern.
+    lambda0_source : str
+    local : tuple of LocalEvidence
+        Observers of the clusters F meets.
+    modes : tuple of ModeEvidence
+        Every safe mode.
+    schedule : tuple of str or None
+        The safe modes a ``[switching]`` schedule visits (None: no schedule).
+    schedule_text : str
+    monitored : bool
+        The control centre measures something.
+    """
+
+    kind: str
+    actuators: tuple[Any, ...]
+    by_cluster: tuple[tuple[str | None, tuple[Any, ...], tuple[Any, ...]], ...]
+    stealthy: Status | None
+    lambda0: complex | None = None
+    lambda0_source: str = ""
+    local: tuple[LocalEvidence, ...] = ()
+    modes: tuple[ModeEvidence, ...] = ()
+    schedule: tuple[str, ...] | None = None
+    schedule_text: str = ""
+    monitored: bool = True
+
+
+# ------------------------------------------------------------------------------------------
+# the answer
+
+
+@dataclass(frozen=True, slots=True)
+class ClusterCatch:
+    """Does a local observer of one cluster the attack meets catch every attack input there?"""
+
+    cluster: str | None
+    suspected: tuple[Any, ...]
+    caught: bool | None
+    by: tuple[Any, ...]
+    reason: str
+
+    def to_json(self) -> dict[str, Any]:
+        return {"cluster": self.cluster, "suspected": jsonable(list(self.suspected)), "caught": self.caught, "by": jsonable(list(self.by)), "reason": self.reason}
+
+
+@dataclass(frozen=True, slots=True)
+class ModeExposure:
+    """Does switching to one safe mode expose the attack to the control centre? (algebra)
+
+    Attributes
+    ----------
+    mode : str
+    exposes : bool or None
+        None: unsettled (the theorem promises nothing either way, or a result is undecided).
+    reason : str
+    simulated : bool or None
+        ``switching.detects`` for this mode when it was simulated and decided.
+    agrees : bool or None
+        The simulation agrees with the algebra (None: not simulated, or one side open).
+    fragile : str
+        Set when the switch touches the attack only by a relative signal below the
+        robustness tolerance (the exposure is exact but tiny).
+    """
+
+    mode: str
+    exposes: bool | None
+    reason: str
+    simulated: bool | None = None
+    agrees: bool | None = None
+    fragile: str = ""
+
+    def to_json(self) -> dict[str, Any]:
+        return {"mode": self.mode, "exposes": self.exposes, "reason": self.reason, "simulated": self.simulated, "agrees": self.agrees, "fragile": self.fragile}
+
+
+@dataclass(frozen=True, slots=True)
+class Route:
+    """One way the glocal scheme may detect the attacker, and what it concludes.
+
+    Attributes
+    ----------
+    name : {"direct", "algorithm 1", "schedule"}
+    verdict : {"detected", "undetected", "undecided"}
+    chain : tuple of str
+        The steps that prove the verdict, e.g. ``("stealthy (ZDA at lambda0 = 0.5)", "caught
+        by P1@5", "switch to case-2 (...)", "unbounded global residual")``; for ``undetected``
+        the last steps name the failed link.
+    """
+
+    name: str
+    verdict: str
+    chain: tuple[str, ...]
+
+    def text(self) -> str:
+        """The chain joined by arrows."""
+        return " -> ".join(self.chain)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"name": self.name, "verdict": self.verdict, "chain": list(self.chain)}
+
+
+@dataclass(frozen=True, slots=True)
+class AttackAnswer:
+    """The answer for one attacker (module docstring).
+
+    Attributes
+    ----------
+    kind : str or None
+    actuators : tuple of labels
+    lambda0 : complex or None
+    lambda0_source : str
+    stealthy : bool or None
+    caught_locally : bool or None
+        Every cluster F meets has a catching observer (None: undecided).
+    caught_locally_by : tuple of (cluster, observer)
+        The catching observers.
+    clusters : tuple of ClusterCatch
+    exposed_by_modes, not_exposed_by_modes, unsettled_modes : tuple of str
+    modes : tuple of ModeExposure
+    routes : tuple of Route
+        ``algorithm 1``, and ``schedule`` when the spec has one (``direct`` when not stealthy).
+    verdict : {"detected", "undetected", "undecided", "not assessed"}
+    chain : tuple of str
+        The chain of the route that decides the verdict.
+    reason : str
+        One sentence.
+    fragile : str
+        Set when detection rests only on exposures of a tiny relative size.
+    warnings : tuple of str
+        Disagreements between the algebra and the simulation.
+    """
+
+    kind: str | None
+    actuators: tuple[Any, ...]
+    lambda0: complex | None
+    lambda0_source: str
+    stealthy: bool | None
+    caught_locally: bool | None
+    caught_locally_by: tuple[tuple[str, Any], ...]
+    clusters: tuple[ClusterCatch, ...]
+    exposed_by_modes: tuple[str, ...]
+    not_exposed_by_modes: tuple[str, ...]
+    unsettled_modes: tuple[str, ...]
+    modes: tuple[ModeExposure, ...]
+    routes: tuple[Route, ...]
+    verdict: str
+    chain: tuple[str, ...]
+    reason: str
+    fragile: str = ""
+    warnings: tuple[str, ...] = ()
+
+    @property
+    def present(self) -> bool:
+        """An attack was assessed."""
+        return self.verdict != "not assessed"
+
+    def route(self, name: str) -> Route | None:
+        """The route called ``name``, if any."""
+        return next((r for r in self.routes if r.name == name), None)
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON form (``assessment.attack`` of the report, ``answer`` of an audit row)."""
+        return {
+            "present": self.present,
+            "kind": self.kind,
+            "actuators": jsonable(list(self.actuators)),
+            "lambda0": None if self.lambda0 is None else [complex(self.lambda0).real, complex(self.lambda0).imag],
+            "lambda0_source": self.lambda0_source or None,
+            "stealthy": self.stealthy,
+            "caught_locally": self.caught_locally,
+            "caught_locally_by": [{"cluster": c, "observer": jsonable(o)} for c, o in self.caught_locally_by],
+            "clusters": [c.to_json() for c in self.clusters],
+            "exposed_by_modes": list(self.exposed_by_modes),
+            "not_exposed_by_modes": list(self.not_exposed_by_modes),
+            "unsettled_modes": list(self.unsettled_modes),
+            "modes": [m.to_json() for m in self.modes],
+            "routes": [r.to_json() for r in self.routes],
+            "verdict": self.verdict,
+            "chain": list(self.chain),
+            "reason": self.reason,
+            "fragile": self.fragile,
+            "warnings": list(self.warnings),
+        }
+
+
+def not_assessed(reason: str) -> AttackAnswer:
+    """The answer when there is no attack to assess."""
+    return AttackAnswer(None, (), None, "", None, None, (), (), (), (), (), (), (), "not assessed", (), reason)
+
+
+def _cluster_catches(ev: AttackEvidence) -> tuple[ClusterCatch, ...]:
+    out = []
+    for cluster, agents, observers in ev.by_cluster:
+        if cluster is None:
+            out.append(ClusterCatch(None, agents, False, (), f"{_agents(agents)} belong to no cluster: no local observer watches them"))
+            continue
+        found = {e.observer: e for e in ev.local if e.cluster == cluster}
+        mine = [found.get(o, LocalEvidence(cluster, o, agents, None, None)) for o in observers]
+        by = tuple(e.observer for e in mine if e.catches is True)
+        if by:
+            out.append(ClusterCatch(cluster, agents, True, by, f"observer {format_labels(by)} of {cluster} meets Proposition III.2 (iii) and its UIO exists for {_agents(agents)}"))
+        elif not mine:
+            out.append(ClusterCatch(cluster, agents, False, (), f"{cluster} has no local observer"))
+        elif all(e.catches is False for e in mine):
+            why = "; ".join(
+                f"{e.name}: " + ", ".join(c for c, st in (("local.pencil", e.pencil), ("local.uio", e.uio)) if st is Status.FAILS) + " fails" for e in mine
+            )
+            out.append(ClusterCatch(cluster, agents, False, (), f"no observer of {cluster} catches {_agents(agents)} ({why})"))
+        else:
+            open_ = [e.name + (" (not evaluated)" if None in (e.pencil, e.uio) else "") for e in mine if e.catches is None]
+            out.append(ClusterCatch(cluster, agents, None, (), f"local.pencil or local.uio undecided for {format_labels(open_)}"))
+    return tuple(out)
+
+
+def _exposure(ev: AttackEvidence, m: ModeEvidence) -> ModeExposure:
+    exposes: bool | None
+    if not ev.monitored:
+        exposes, why = False, "nothing is measured globally, so no switch can expose anything"
+    elif m.avoids is None:
+        exposes, why = None, "switching.avoids-attack was not evaluated"
+    elif m.avoids is Status.HOLDS:
+        exposes, why = False, "the attacker keeps a stealthy direction the switch does not touch (switching.avoids-attack holds): its part of the residual stays bounded and vanishing"
+    elif m.avoids is Status.UNDECIDED:
+        exposes, why = None, "whether the switch touches the attack is undecided (switching.avoids-attack)"
+    elif ev.kind == "covert":
+        exposes, why = None, "the switch touches agents the covert attack reaches, but that test over-approximates what the attack moves: no proof of exposure"
+    else:
+        failed = [_LABEL[c] for c in THEOREM_IDS if m.theorem.get(c) is Status.FAILS]
+        unknown = [_LABEL[c] for c in THEOREM_IDS if m.theorem.get(c) in (None, Status.UNDECIDED)]
+        if failed:
+            verb = "fails" if len(failed) == 1 else "fail"
+            exposes, why = None, f"the switch touches every stealthy direction, but Theorem III.3 {' '.join(failed)} {verb}: no guarantee either way"
+        elif unknown:
+            exposes, why = None, f"the switch touches every stealthy direction; Theorem III.3 {' '.join(unknown)} undecided or not evaluated"
+        else:
+            tail = f" (predicted residual: {m.predicted})" if m.predicted else ""
+            exposes, why = True, f"Theorem III.3 (i)-(iii) hold and the switch touches every stealthy direction{tail}"
+    sim = None if m.simulated in (None, Status.UNDECIDED) else m.simulated is Status.HOLDS
+    agrees = None if sim is None or exposes is None else sim == exposes
+    fragile = ""
+    if exposes and m.touch_margin is not None and math.isfinite(m.touch_margin) and m.touch_margin < FRAGILE_BELOW:
+        fragile = f"{m.mode} touches the attack only by a relative signal of {m.touch_margin:.2g} (below {FRAGILE_BELOW:g})"
+    if sim is not None:
+        seen = f"; simulation: the control centre {'detects' if sim else 'does not detect'} it" + (f" ({m.simulation})" if m.simulation else "")
+        if agrees is False:
+            seen += " -- it disagrees with the algebra"
+        why += seen
+    return ModeExposure(m.mode, exposes, why, sim, agrees, fragile)
+
+
+def _stealthy_step(ev: AttackEvidence, stealthy: bool | None) -> str:
+    if stealthy is None:
+        return "stealthy: undecided"
+    what = "ZDA" if ev.kind == "zda" else "covert attack"
+    lam = f" at lambda0 = {format_lambda(ev.lambda0)}" if ev.kind == "zda" and ev.lambda0 is not None else ""
+    return f"stealthy ({what}{lam})"
+
+
+def _residual_step(m: ModeEvidence | None) -> str:
+    pred = "" if m is None else m.predicted
+    return {"unbounded": "unbounded global residual", "bounded": "bounded, nonzero global residual"}.get(pred, "nonzero global residual")
+
+
+def _switch_step(m: ModeExposure) -> str:
+    return f"switch to {m.mode} (Theorem III.3 (i)-(iii) hold; it touches every stealthy direction)"
+
+
+def _grouped(modes: Sequence[ModeExposure]) -> str:
+    """``"case-1, case-3: <reason>; case-2: <reason>"`` (modes with the same reason share it)."""
+    groups: dict[str, list[str]] = {}
+    for m in modes:
+        groups.setdefault(m.reason, []).append(m.mode)
+    return "; ".join(f"{', '.join(ms)}: {why}" for why, ms in groups.items())
+
+
+def _algorithm1(ev: AttackEvidence, stealthy: bool | None, caught: bool | None, clusters: Sequence[ClusterCatch], modes: Sequence[ModeExposure]) -> Route:
+    head = _stealthy_step(ev, stealthy)
+    exposing = [m for m in modes if m.exposes is True]
+    if caught is True and exposing:
+        who = ", ".join(f"{c.cluster}@{format_labels(c.by)}" for c in clusters)
+        m = exposing[0]
+        ev_m = next((x for x in ev.modes if x.mode == m.mode), None)
+        return Route("algorithm 1", "detected", (head, f"caught by {who}", _switch_step(m), _residual_step(ev_m)))
+    if stealthy is True:
+        if caught is False:
+            miss = next(c for c in clusters if c.caught is False)
+            return Route("algorithm 1", "undetected", (head, f"no local alarm: {miss.reason}", "no switch"))
+        if not modes:
+            return Route("algorithm 1", "undetected", (head, "no safe mode to switch to"))
+        if all(m.exposes is False for m in modes):
+            return Route("algorithm 1", "undetected", (head, "no safe mode exposes it (" + _grouped(modes) + ")"))
+    gaps = []
+    if caught is None:
+        gaps.append("local alarm undecided (" + "; ".join(f"{c.cluster}: {c.reason}" for c in clusters if c.caught is None) + ")")
+    if not exposing and any(m.exposes is None for m in modes):
+        gaps.append("exposure unsettled (" + _grouped([m for m in modes if m.exposes is None]) + ")")
+    return Route("algorithm 1", "undecided", (head, *gaps))
+
+
+def _schedule(ev: AttackEvidence, stealthy: bool | None, modes: Sequence[ModeExposure]) -> Route | None:
+    if ev.schedule is None:
+        return None
+    head = _stealthy_step(ev, stealthy)
+    sched = f"scheduled switch ({ev.schedule_text}), whatever the local observers see"
+    visited = [m for m in modes if m.mode in ev.schedule]
+    hit = [m for m in visited if m.exposes is True]
+    if hit:
+        ev_m = next((x for x in ev.modes if x.mode == hit[0].mode), None)
+        return Route("schedule", "detected", (head, sched, _switch_step(hit[0]), _residual_step(ev_m)))
+    if stealthy is True and all(m.exposes is False for m in visited):
+        why = "it visits no safe mode" if not visited else "; ".join(f"{m.mode} does not expose it ({m.reason})" for m in visited)
+        return Route("schedule", "undetected", (head, sched, why))
+    gaps = [f"{m.mode}: exposure unsettled ({m.reason})" for m in visited if m.exposes is None]
+    return Route("schedule", "undecided", (head, sched, *gaps))
+
+
+def answer_attack(ev: AttackEvidence) -> AttackAnswer:
+    """The answer for one attacker (the rules of the module docstring).
+
+    Parameters
+    ----------
+    ev : AttackEvidence
+
+    Returns
+    -------
+    AttackAnswer
+    """
+    stealthy = None if ev.stealthy in (None, Status.UNDECIDED) else ev.stealthy is Status.HOLDS
+    clusters = _cluster_catches(ev)
+    if not clusters:
+        caught: bool | None = False
+    elif all(c.caught is True for c in clusters):
+        caught = True
+    elif any(c.caught is False for c in clusters):
+        caught = False
+    else:
+        caught = None
+    caught_by = tuple((c.cluster, o) for c in clusters if c.cluster is not None for o in c.by)
+    modes = tuple(_exposure(ev, m) for m in ev.modes)
+    exposed = tuple(m.mode for m in modes if m.exposes is True)
+    not_exposed = tuple(m.mode for m in modes if m.exposes is False)
+    unsettled = tuple(m.mode for m in modes if m.exposes is None)
+    warnings = tuple(f"{m.mode}: the simulation of switching.detects ({'detects' if m.simulated else 'does not detect'}) disagrees with the algebra ({'exposes' if m.exposes else 'does not expose'}); the answer follows the algebra" for m in modes if m.agrees is False)
+    what = f"The {'ZDA' if ev.kind == 'zda' else 'covert attack'} on {_agents(ev.actuators)}"
+    if stealthy is False:
+        direct = Route("direct", "detected", (f"not stealthy ({'stealthy.zda' if ev.kind == 'zda' else 'stealthy.covert'} fails): every attack through {_agents(ev.actuators)} shows in the global residual",))
+        return AttackAnswer(ev.kind, ev.actuators, ev.lambda0, ev.lambda0_source, False, caught, caught_by, clusters, exposed, not_exposed, unsettled, modes,
+                            (direct,), "detected", direct.chain, f"{what} is not stealthy: the control centre sees it before any switch.", warnings=warnings)
+    routes = [_algorithm1(ev, stealthy, caught, clusters, modes)]
+    if (sr := _schedule(ev, stealthy, modes)) is not None:
+        routes.append(sr)
+    verdicts = [r.verdict for r in routes]
+    if "detected" in verdicts:
+        verdict = "detected"
+    elif stealthy is True and all(v == "undetected" for v in verdicts):
+        verdict = "undetected"
+    else:
+        verdict = "undecided"
+    decider = next((r for r in routes if r.verdict == verdict), routes[0])
+    others = [r for r in routes if r is not decider]
+    tail = "".join(f"; {r.name}: {r.verdict}" for r in others)
+    reason = f"{what} is {verdict} ({decider.name}: {decider.text()}{tail})."
+    fragile = ""
+    if verdict == "detected":
+        used = [m for m in modes if m.exposes is True and (decider.name != "schedule" or ev.schedule is None or m.mode in ev.schedule)]
+        if used and all(m.fragile for m in used):
+            fragile = "detected only by exposure, and every exposing switch is fragile: " + "; ".join(m.fragile for m in used)
+    return AttackAnswer(ev.kind, ev.actuators, ev.lambda0, ev.lambda0_source, stealthy, caught, caught_by, clusters, exposed, not_exposed, unsettled, modes,
+                        tuple(routes), verdict, decider.chain, reason, fragile, warnings)

@@ -1,0 +1,82 @@
+"""``--require``: a CI gate that passes only when every required condition is good news for the defender.
+
+A gate written by a user must not pass when the attacker wins: ``--require stealthy.zda``
+passes when no stealthy ZDA exists (the condition *fails*, which is favourable), not when one
+does. :func:`require` gates on :func:`~glocal_verify.results.id_polarity`: an id passes when
+its results are favourable (vacuous ones, whose premise is absent, neither help nor block,
+but an id whose results are all vacuous does not pass); unfavourable, undecided, vacuous-only
+and not-evaluated ids fail, each named with its scopes. :func:`require_holds` is the raw
+status gate (``--require-holds``): every result ``holds``, whatever that means for the
+defender.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+from glocal_verify.results import ConditionResult, Polarity, Report, Status, id_polarity
+
+__all__ = ["GateOutcome", "require", "require_holds"]
+
+
+@dataclass(frozen=True, slots=True)
+class GateOutcome:
+    """The result of a gate.
+
+    Attributes
+    ----------
+    passed : bool
+    ids : tuple of str
+        The ids gated.
+    failures : tuple of str
+        One line per id or result that blocks the gate.
+    """
+
+    passed: bool
+    ids: tuple[str, ...]
+    failures: tuple[str, ...]
+
+    def __bool__(self) -> bool:
+        return self.passed
+
+
+def _scope(r: ConditionResult) -> str:
+    return ", ".join(f"{k}={v}" for k, v in r.scope.items()) or "global"
+
+
+def require(report: Report, ids: Iterable[str]) -> GateOutcome:
+    """Pass when every id in ``ids`` is favourable for the defender (module docstring).
+
+    Parameters
+    ----------
+    report : Report
+    ids : iterable of str
+        Resolved condition ids.
+    """
+    ids = tuple(ids)
+    bad: list[str] = []
+    for cid in ids:
+        rs = report.results(cid)
+        pol = id_polarity(rs)
+        if pol is None:
+            bad.append(f"{cid}: not evaluated")
+        elif pol is Polarity.VACUOUS:
+            bad.append(f"{cid}: vacuous ({rs[0].premise})")
+        elif pol is not Polarity.FAVOURABLE:
+            for r in rs:
+                if r.polarity in (Polarity.UNFAVOURABLE, Polarity.UNDECIDED):
+                    bad.append(f"{cid} [{_scope(r)}]: {r.status.value}, {r.polarity.value}")
+    return GateOutcome(not bad, ids, tuple(bad))
+
+
+def require_holds(report: Report, ids: Iterable[str]) -> GateOutcome:
+    """Pass when every result of every id in ``ids`` holds (the raw status gate, ``--require-holds``)."""
+    ids = tuple(ids)
+    bad: list[str] = []
+    for cid in ids:
+        rs = report.results(cid)
+        if not rs:
+            bad.append(f"{cid}: not evaluated")
+        bad += [f"{cid} [{_scope(r)}]: {r.status.value}" for r in rs if r.status is not Status.HOLDS]
+    return GateOutcome(not bad, ids, tuple(bad))

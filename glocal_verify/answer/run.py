@@ -1,0 +1,88 @@
+"""``verify``: the checkers, the simulation by one option, and the assessment attached.
+
+The command line (``glocal-verify verify``) and the library call the same function with the
+same defaults, so ``verify(system)`` returns what the command reports: every condition
+result, ``switching.detects`` simulated on networks of at most
+:data:`~glocal_verify.conditions.detects.DETECTS_MAX_AGENTS` agents (``simulate="auto"``),
+and :attr:`Report.assessment`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Mapping
+from typing import Any
+
+from glocal_verify.answer.assessment import with_assessment
+from glocal_verify.conditions.detects import DETECTS_MAX_AGENTS
+from glocal_verify.conditions.registry import verify as run_checkers
+from glocal_verify.errors import NotApplicableError
+from glocal_verify.model import System
+from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
+from glocal_verify.results import FRAGILE_BELOW, Report
+
+__all__ = ["SIMULATE_CHOICES", "simulates", "verify"]
+
+#: values of ``simulate``
+SIMULATE_CHOICES = ("auto", "always", "never")
+
+
+def simulates(system: System, simulate: str = "auto") -> bool:
+    """Whether ``verify(system, simulate=...)`` runs the simulation of ``switching.detects``.
+
+    ``auto``: on networks of at most :data:`DETECTS_MAX_AGENTS` agents; ``always``; ``never``.
+    """
+    if simulate not in SIMULATE_CHOICES:
+        raise NotApplicableError(f"simulate: must be one of {', '.join(SIMULATE_CHOICES)}, not {simulate!r}")
+    return simulate == "always" or (simulate == "auto" and system.n <= DETECTS_MAX_AGENTS)
+
+
+def verify(
+    system: System,
+    only: Iterable[str] | None = None,
+    *,
+    exact: bool = False,
+    tol: Tolerance = DEFAULT_TOLERANCE,
+    options: Mapping[str, Any] | None = None,
+    progress: Callable[[str], None] | None = None,
+    escalate: str = "auto",
+    exact_budget: float | None = 30.0,
+    fragile_below: float = FRAGILE_BELOW,
+    simulate: str = "auto",
+) -> Report:
+    """Check the conditions on ``system`` and attach the assessment (what ``glocal-verify verify`` reports).
+
+    Parameters
+    ----------
+    system : System
+    only : iterable of str, optional
+        Condition ids or prefixes (``"switching.*"``) to run; default all.
+    exact : bool
+        Decide every condition over Q.
+    tol : Tolerance
+    options : mapping, optional
+        Checker options (``lambda0``, ``max_zeros``, ``zda_method``, ``max_agents`` ...).
+        ``options["simulate"]``, when given, overrides ``simulate``.
+    progress : callable, optional
+        Called with each condition id before it runs.
+    escalate : {"auto", "never"}
+        Re-decide numeric ``undecided`` results over Q within ``exact_budget``.
+    exact_budget : float or None
+        Seconds for all escalations of this call together (None: no limit).
+    fragile_below : float
+        Robustness tolerance of ``fragile``.
+    simulate : {"auto", "always", "never"}
+        Run the simulation of ``switching.detects`` (Theorem III.3's conclusion, one simulated
+        switch per safe mode): ``auto`` on at most :data:`DETECTS_MAX_AGENTS` agents (the
+        command line's default too). It never decides the answer; it is shown beside it.
+
+    Returns
+    -------
+    Report
+        With :attr:`Report.assessment` attached.
+    """
+    opts = dict(options or {})
+    opts.setdefault("simulate", simulates(system, simulate))
+    report = run_checkers(
+        system, only, exact=exact, tol=tol, options=opts, progress=progress, escalate=escalate, exact_budget=exact_budget, fragile_below=fragile_below
+    )
+    return with_assessment(report)
