@@ -213,6 +213,10 @@ class ConditionResult:
     def holds(self) -> bool:
         return self.status is Status.HOLDS
 
+    def __repr__(self) -> str:
+        scope = ", ".join(f"{k}={v}" for k, v in self.scope.items()) or "global"
+        return f"<ConditionResult {self.id} [{scope}]: {self.status.value}, {self.polarity.value}{', fragile' if self.fragile else ''}>"
+
     @property
     def fails(self) -> bool:
         return self.status is Status.FAILS
@@ -356,6 +360,31 @@ class Report:
         cid = ALIASES.get(cid, cid)
         return [r for r in self.conditions if r.id == cid]
 
+    def ids(self) -> list[str]:
+        """The condition ids with results, in report order."""
+        return list(dict.fromkeys(r.id for r in self.conditions))
+
+    def __getitem__(self, cid: str) -> tuple[ConditionResult, ...]:
+        """``report["privacy.kernel"]``: the results of one id (KeyError naming the ids present)."""
+        rs = self.results(cid)
+        if not rs:
+            raise KeyError(f"{cid!r}: no result with this id (ids: {', '.join(self.ids())})")
+        return tuple(rs)
+
+    def __iter__(self) -> Any:
+        """Iterate over the condition ids, as a mapping does (``for cid in report``)."""
+        return iter(self.ids())
+
+    def __len__(self) -> int:
+        return len(self.ids())
+
+    def __contains__(self, cid: object) -> bool:
+        return isinstance(cid, str) and bool(self.results(cid))
+
+    def items(self) -> list[tuple[str, tuple[ConditionResult, ...]]]:
+        """(id, results) pairs in report order."""
+        return [(cid, self[cid]) for cid in self.ids()]
+
     def to_json(self) -> dict[str, Any]:
         """The report as JSON (schema ``glocal-verify/report@1``); ``assessment`` when attached."""
         out: dict[str, Any] = {
@@ -377,20 +406,13 @@ class Report:
         out["findings"] = [f.to_json() for f in self.findings]
         return out
 
-    def _summary_rows(self) -> list[tuple[str, int, int, int, int, int, int]]:
-        """Per condition id (first-seen order): holds, fails, undecided, favourable, unfavourable, fragile."""
-        order: list[str] = []
-        rows: dict[str, list[int]] = {}
-        for r in self.conditions:
-            if r.id not in rows:
-                order.append(r.id)
-                rows[r.id] = [0, 0, 0, 0, 0, 0]
-            c = rows[r.id]
-            c[(Status.HOLDS, Status.FAILS, Status.UNDECIDED).index(r.status)] += 1
-            c[3] += r.favourable is True
-            c[4] += r.favourable is False
-            c[5] += bool(r.fragile)
-        return [(cid, *rows[cid]) for cid in order]  # type: ignore[misc]
+    def _summary_rows(self) -> list[tuple[Any, ...]]:
+        """Per condition id (first-seen order): favourable, unfavourable, vacuous, undecided, fragile."""
+        out = []
+        for cid in self.ids():
+            rs = self.results(cid)
+            out.append((cid, *(sum(1 for r in rs if r.polarity is p) for p in Polarity), sum(1 for r in rs if r.fragile)))
+        return out
 
     def _headline(self) -> str:
         s = self.system
@@ -402,27 +424,32 @@ class Report:
         )
 
     def summary(self) -> str:
-        """A small text table: per condition id, the count of each status and of favourable results.
+        """A small text table: per condition id, the count of each polarity.
 
-        Columns ``holds``, ``fails``, ``undecided`` count the statuses; ``good`` and ``bad``
-        count the results that are favourable / unfavourable for the defender (the catalogue's
-        polarity, :attr:`ConditionResult.favourable`; undecided results are neither);
-        ``fragile`` counts results whose margin is below the robustness tolerance.
+        Columns ``favourable``, ``unfavourable``, ``vacuous``, ``undecided`` count the results
+        by what they mean for the defender (:attr:`ConditionResult.polarity`); ``fragile``
+        counts results whose margin is below the robustness tolerance.
         """
-        head = ("condition", "holds", "fails", "undecided", "good", "bad", "fragile")
+        head = ("condition", "favourable", "unfavourable", "vacuous", "undecided", "fragile")
         rows = [tuple(str(x) for x in row) for row in self._summary_rows()]
         width = max([len(head[0])] + [len(r[0]) for r in rows])
         fmt = "{:<" + str(width) + "}" + "".join(" {:>" + str(len(h)) + "}" for h in head[1:])
         lines = [self._headline(), fmt.format(*head)] + [fmt.format(*r) for r in rows]
         return "\n".join(lines)
 
+    def _answer_line(self) -> str:
+        a = self.assessment
+        return a.headline() if a is not None and hasattr(a, "headline") else ""
+
     def _repr_markdown_(self) -> str:
-        """The summary as a Markdown table (Jupyter)."""
+        """The answer, then the summary as a Markdown table (Jupyter)."""
         lines = [
-            f"**glocal-verify report** {self._headline()}",
+            f"**{self._answer_line() or 'glocal-verify report'}**",
             "",
-            "| condition | holds | fails | undecided | favourable | unfavourable | fragile |",
-            "|---|---|---|---|---|---|---|",
+            self._headline(),
+            "",
+            "| condition | ✓ favourable | ✗ unfavourable | – vacuous | ? undecided | fragile |",
+            "|---|---|---|---|---|---|",
         ]
         lines += [f"| `{cid}` | " + " | ".join(str(x) for x in rest) + " |" for cid, *rest in self._summary_rows()]
         return "\n".join(lines) + "\n"
@@ -431,14 +458,20 @@ class Report:
         """The summary as an HTML table (Jupyter); every string is HTML-escaped."""
         from html import escape
 
-        head = "".join(f"<th>{h}</th>" for h in ("condition", "holds", "fails", "undecided", "favourable", "unfavourable", "fragile"))
+        head = "".join(f"<th>{h}</th>" for h in ("condition", "✓ favourable", "✗ unfavourable", "– vacuous", "? undecided", "fragile"))
         body = "".join(
             f"<tr><td><code>{escape(cid)}</code></td>" + "".join(f"<td>{x}</td>" for x in rest) + "</tr>" for cid, *rest in self._summary_rows()
         )
-        return f"<div><p><b>glocal-verify report</b> {escape(self._headline())}</p><table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table></div>"
+        answer = escape(self._answer_line())
+        lead = f"<p><b>{answer}</b></p>" if answer else ""
+        return f"<div>{lead}<p>glocal-verify report {escape(self._headline())}</p><table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table></div>"
 
     def __repr__(self) -> str:
-        return f"<Report {self._headline()}>"
+        s = self.system
+        n = {p: sum(1 for r in self.conditions if r.polarity is p) for p in Polarity}
+        counts = ", ".join(f"{n[p]} {p.value}" for p in Polarity if n[p])
+        answer = self._answer_line()
+        return f"<Report {s.name}: {answer + '; ' if answer else ''}{len(self.conditions)} results ({counts})>"
 
 
 def jsonable(x: Any) -> Any:

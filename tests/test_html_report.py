@@ -196,9 +196,9 @@ def test_a_report_has_a_short_repr_and_a_summary_table(report: Report) -> None:
     assert len(repr(report)) < 200 and "paper19" in repr(report)
     text = report.summary()
     rows = [line.split() for line in text.splitlines()[2:]]
-    assert sum(int(r[1]) + int(r[2]) + int(r[3]) for r in rows) == len(report.conditions)
-    assert sum(int(r[4]) for r in rows) == sum(1 for r in report.conditions if r.favourable is True)
-    assert sum(int(r[5]) for r in rows) == sum(1 for r in report.conditions if r.favourable is False)
+    assert sum(int(r[1]) + int(r[2]) + int(r[3]) + int(r[4]) for r in rows) == len(report.conditions)
+    for col, pol in enumerate(("favourable", "unfavourable", "vacuous", "undecided"), start=1):
+        assert sum(int(r[col]) for r in rows) == sum(1 for r in report.conditions if r.polarity.value == pol)
     assert {r[0] for r in rows} == {r.id for r in report.conditions}
     md = report._repr_markdown_()
     assert md.count("\n| `") == len(rows)

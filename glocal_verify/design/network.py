@@ -23,10 +23,18 @@
 6. **monitor check** -- :func:`glocal_verify.design.monitors.design_monitors` with the audited
    monitors required, so Theorem III.3 (i) and Lemma A.2 hold for the designed modes and
    privacy is re-verified (monitors are not removed: fewer monitors would create new stealthy
-   attacks the audit did not see);
-7. **re-audit** of the designed spec: every target must now be ``detected``.
+   attacks the audit did not see); the monitors of steps 5 and 6 together stay within
+   ``monitor_budget``;
+7. **schedule** -- a set a mode exposes but no local observer can raise an alarm for (an
+   attack on a boundary agent: Proposition III.2 (iii) fails there at every lambda) is never
+   switched for under Algorithm 1; a ``[switching]`` schedule through the exposing modes
+   switches whatever the observers see, and detects it;
+8. **re-audit** of the designed spec, with the answer ``verify`` gives (:mod:`glocal_verify.answer.attack`).
 
-What no design within the budget achieves is listed in :attr:`NetworkDesign.unmet`, one line each.
+Every change is listed with what it achieves (:attr:`NetworkDesign.changes`, the designed
+spec's header, the command's summary). When a requirement is not met the design is still
+returned (the best one within the budgets) and :attr:`NetworkDesign.unmet` names each
+obstacle, one line each, with the sets it concerns.
 """
 
 from __future__ import annotations
@@ -48,36 +56,74 @@ from glocal_verify.design.safe_modes import (
 from glocal_verify.errors import GlocalVerifyError
 from glocal_verify.model import System
 from glocal_verify.spec.types import (
+    NORMAL_MODE,
     ClusterSpec,
     Label,
     MonitorSpec,
     ObserverSpec,
+    SwitchingSpec,
+    SwitchStep,
     SystemSpec,
 )
 
-__all__ = ["NetworkDesign", "before_table", "design_comments", "design_network"]
+__all__ = ["SCHEDULE_DWELL", "DesignChange", "NetworkDesign", "before_table", "design_comments", "design_network"]
+
+#: dwell time of each mode of a designed ``[switching]`` schedule
+SCHEDULE_DWELL = 10.0
+
+
+@dataclass(frozen=True, slots=True)
+class DesignChange:
+    """One change the design made to the spec, and what it achieves.
+
+    Attributes
+    ----------
+    kind : {"monitor", "observer", "mode", "schedule"}
+    action : str
+        ``added``, ``replaced``, ``moved``.
+    subject : str
+        What changed, e.g. ``velocity monitor at 8`` or ``mode designed-1 (add 4-7 (w=1))``.
+    achieves : str
+        Why, in one sentence (which condition or attack it serves).
+    """
+
+    kind: str
+    action: str
+    subject: str
+    achieves: str
+
+    def text(self) -> str:
+        """``"added velocity monitor at 8: ..."``."""
+        return f"{self.action} {self.subject}: {self.achieves}"
+
+    def to_json(self) -> dict[str, str]:
+        return {"kind": self.kind, "action": self.action, "subject": self.subject, "achieves": self.achieves}
 
 
 @dataclass(frozen=True)
 class NetworkDesign:
-    """The designed specification and the evidence for each choice.
+    """The designed specification, every change it made and the evidence for each.
 
     Attributes
     ----------
     spec : SystemSpec
-        The complete designed specification.
+        The complete designed specification (a partial design when :attr:`unmet` is not empty:
+        the best one found within the budgets).
     monitors : MonitorDesign
     observers : tuple of ObserverProposal
-    added_monitors : tuple of (label, attack set)
-        Velocity monitors added in step 5, each with the target whose stealthy direction chose it.
-        Observers added (one per covered cluster).
     safe_modes : SafeModeDesign
     before, after : AuditResult
-        Audits of the original and of the designed spec.
+        Audits of the original and of the designed spec (one answer per set: the rule of
+        ``verify``).
     targets : tuple of attack sets
-        Sets undetected after steps 1-2 (to be exposed by safe modes).
+        Stealthy sets no mode exposed after steps 1-2 (to be exposed by safe modes).
     unmet : tuple of str
-        Requirements no design within the budget met, with the reason.
+        What no design within the budgets achieves, one line per obstacle (with the sets it
+        concerns and what would remove it).
+    added_monitors : tuple of (label, attack set)
+        Velocity monitors added in step 5, each with the target whose stealthy direction chose it.
+    changes : tuple of DesignChange
+        Every change to the spec (monitors, observers, modes, schedule) with what it achieves.
     notes : tuple of str
     """
 
@@ -90,12 +136,29 @@ class NetworkDesign:
     targets: tuple[tuple[Label, ...], ...]
     unmet: tuple[str, ...] = ()
     added_monitors: tuple[tuple[Label, tuple[Label, ...]], ...] = ()
+    changes: tuple[DesignChange, ...] = ()
     notes: tuple[str, ...] = field(default_factory=tuple)
 
     @property
     def complete(self) -> bool:
         """Every requirement met."""
         return not self.unmet
+
+    def summary(self) -> list[str]:
+        """The before/after counts, every change and every unmet requirement, one line each."""
+        b, a = self.before.summary()["counts"], self.after.summary()["counts"]
+        n = len(self.after.rows)
+        lines = [
+            f"audit before: {b['detected']} detected, {b['undetected']} undetected, {b['undecided']} undecided of {n} attack sets",
+            f"audit after:  {a['detected']} detected, {a['undetected']} undetected, {a['undecided']} undecided",
+        ]
+        lines += [f"- {c.text()}" for c in self.changes] or ["- no change was needed"]
+        lines += [f"NOT MET: {u}" for u in self.unmet]
+        return lines
+
+    def __repr__(self) -> str:
+        a = self.after.summary()["counts"]
+        return f"<NetworkDesign {self.before.system}: {len(self.changes)} changes; after: {a['undetected']} undetected, {a['undecided']} undecided{'; incomplete' if self.unmet else ''}>"
 
 
 def _velocity_only(spec: SystemSpec) -> SystemSpec:
@@ -110,6 +173,7 @@ def _velocity_only(spec: SystemSpec) -> SystemSpec:
 
 
 def _observers(system: System, exact_limit: int) -> tuple[SystemSpec, list[ObserverProposal], list[str]]:
+    """Step 2: one more (or a wider) observer per cluster for its interior agents (or the spec's attack)."""
     props: list[ObserverProposal] = []
     notes: list[str] = []
     clusters: list[ClusterSpec] = []
@@ -146,8 +210,9 @@ def design_network(
     exact_limit: int = 2000,
     max_links: int = 2,
     monitor_budget: int = 3,
+    schedule_dwell: float = SCHEDULE_DWELL,
 ) -> NetworkDesign:
-    """Design monitors, local observers and safe modes for ``system`` (module docstring).
+    """Design monitors, local observers, safe modes and, where needed, a switching schedule (module docstring).
 
     Parameters
     ----------
@@ -167,11 +232,15 @@ def design_network(
     exact_limit : int
         Exhaustive-search limit of the observer placement.
     monitor_budget : int
-        Largest number of velocity monitors step 5 adds.
+        Largest number of velocity monitors the design adds in all (steps 5 and 6).
+    schedule_dwell : float
+        Dwell time of each mode of a designed ``[switching]`` schedule (step 7).
 
     Returns
     -------
     NetworkDesign
+        Also when some requirement is not met: the best design within the budgets, with
+        :attr:`NetworkDesign.unmet` naming each obstacle.
     """
     before = before_table(system, max_attackers, candidates)
     spec = _velocity_only(system.spec)
@@ -181,9 +250,8 @@ def design_network(
         spec, props, notes = _observers(System(spec), exact_limit)
     mid_sys = System(spec)
     mid = audit(mid_sys, max_attackers, candidates)
-    targets = tuple(r.actuators for r in mid.rows if r.verdict == "undetected")
+    targets = tuple(r.actuators for r in mid.rows if r.verdict != "detected" and r.stealthy is True and not r.exposed_by_modes)
     lambdas = {r.actuators: r.lambda0 for r in mid.rows if r.lambda0 is not None}
-    unmet: list[str] = []
     if targets:
         safe = design_safe_modes(mid_sys, targets, None, budget, weights=weights, lambdas=lambdas, max_links=max_links)
     else:
@@ -195,20 +263,111 @@ def design_network(
         spec, added, safe = _monitor_unexposed(spec, pending, monitor_budget, safe, budget, weights, max_links)
     final = System(spec)
     mon = design_monitors(final, required=spec.monitor.velocities)
-    if mon.velocities != spec.monitor.velocities:
+    extra = [a for a in mon.velocities if a not in spec.monitor.velocities]
+    room = monitor_budget - len(added)
+    if extra and len(extra) <= room:
         spec = dataclasses.replace(spec, monitor=MonitorSpec((), mon.velocities))
         final = System(spec)
-    bad = [cid for cid, st in mon.verification.items() if st != "holds" and cid.startswith("privacy.")]
-    unmet += [f"{cid}: {mon.verification[cid]} on the designed spec" for cid in bad]
+    elif extra:
+        notes.append(
+            f"Theorem III.3 (i) and Lemma A.2 in every mode (the spec's own included) would need {len(extra)} more velocity monitor(s) "
+            f"({', '.join(map(str, extra))}); the monitor budget leaves {max(room, 0)}, so none was added"
+        )
+        extra = []
     after = audit(final, max_attackers, candidates)
-    for F in targets:
-        row = next(r for r in after.rows if r.actuators == F)
-        key = ",".join(map(str, F))
-        if row.verdict != "detected":
-            why = safe.unexposed.get(key, f"still {row.verdict} after the design")
-            more = f"; {len(added)} added velocity monitor(s) did not remove its ZDA" if added and key in safe.unexposed else ""
-            unmet.append(f"attack on {key}: {why}{more}")
-    return NetworkDesign(spec, mon, tuple(props), safe, before, after, targets, tuple(unmet), notes=tuple(notes), added_monitors=tuple(added))
+    spec, after, schedule = _schedule_if_needed(spec, after, system, max_attackers, candidates, schedule_dwell)
+    final = System(spec)
+    unmet = [f"{cid}: {mon.verification[cid]} on the designed spec" for cid, st in mon.verification.items() if st != "holds" and cid.startswith("privacy.")]
+    unmet += _obstacles(after, safe, added)
+    changes = _changes(system.spec, spec, props, safe, added, extra, schedule)
+    return NetworkDesign(spec, mon, tuple(props), safe, before, after, targets, tuple(unmet), tuple(added), tuple(changes), tuple(notes))
+
+
+def _schedule_if_needed(
+    spec: SystemSpec, after: AuditResult, original: System, max_attackers: int, candidates: Sequence[Label] | None, dwell: float
+) -> tuple[SystemSpec, AuditResult, tuple[str, ...]]:
+    """Step 7: a ``[switching]`` schedule through the safe modes that expose sets no local alarm can trigger.
+
+    Under Algorithm 1 a switch needs a local alarm; an attack on a boundary agent raises none
+    (Proposition III.2 (iii) fails at every lambda for a suspected boundary agent). A schedule
+    switches whatever the observers see, so every set an exposing mode of the schedule
+    touches is detected. The schedule keeps the spec's own visits first.
+    """
+    need = [r for r in after.rows if r.verdict != "detected" and r.exposed_by_modes and r.answer is not None and r.answer.caught_locally is not True]
+    if not need:
+        return spec, after, ()
+    order = [m.name for m in spec.modes]
+    wanted = sorted({q for r in need for q in r.exposed_by_modes}, key=order.index)
+    old = spec.switching
+    steps: list[SwitchStep] = []
+    if old is not None and old.sequence:
+        steps = list(old.sequence)
+    elif old is not None and old.mode is not None:
+        steps = [SwitchStep(NORMAL_MODE, float(old.time or dwell)), SwitchStep(old.mode, dwell)]
+    visited = {st.mode for st in steps}
+    if not steps:
+        steps = [SwitchStep(NORMAL_MODE, dwell)]
+    steps += [SwitchStep(q, dwell) for q in wanted if q not in visited]
+    new = dataclasses.replace(spec, switching=SwitchingSpec(sequence=tuple(steps)))
+    return new, audit(System(new), max_attackers, candidates), tuple(q for q in wanted if q not in visited)
+
+
+def _obstacles(after: AuditResult, safe: SafeModeDesign, added: Sequence[tuple[Label, tuple[Label, ...]]]) -> list[str]:
+    """One line per obstacle that leaves sets undetected or undecided, with the sets it concerns."""
+    groups: dict[str, list[tuple[Label, ...]]] = {}
+    for r in after.rows:
+        if r.verdict == "detected":
+            continue
+        key = ",".join(map(str, r.actuators))
+        if key in safe.unexposed:
+            why = f"no safe mode within the budget exposes it: {safe.unexposed[key]}"
+            if added:
+                why += f" ({len(added)} added velocity monitor(s) did not remove its ZDA)"
+        else:
+            chain = r.answer.chain if r.answer is not None else (str(r.witness.get("reason", "")),)
+            why = f"{r.verdict}: {chain[-2] if len(chain) > 2 and chain[-1] == 'no switch' else chain[-1]}"
+        groups.setdefault(why, []).append(r.actuators)
+    out = []
+    for why, sets in sorted(groups.items(), key=lambda kv: -len(kv[1])):
+        shown = "; ".join("{" + ", ".join(map(str, F)) + "}" for F in sets[:6]) + (f" and {len(sets) - 6} more" if len(sets) > 6 else "")
+        out.append(f"{len(sets)} attack set(s) ({shown}): {why}")
+    return out
+
+
+def _changes(
+    old: SystemSpec,
+    new: SystemSpec,
+    props: Sequence[ObserverProposal],
+    safe: SafeModeDesign,
+    added: Sequence[tuple[Label, tuple[Label, ...]]],
+    extra: Sequence[Label],
+    schedule: Sequence[str],
+) -> list[DesignChange]:
+    out: list[DesignChange] = []
+    for a in old.monitor.positions:
+        out.append(DesignChange("monitor", "moved", f"position monitor at {a} to its velocity", "no position is measured, so [1; 0] stays unobservable: x(t0) and x* stay private (Lemma III.1)"))
+    for a, F in added:
+        out.append(DesignChange("monitor", "added", f"velocity monitor at {a}", f"the stealthy direction of the attack on {{{', '.join(map(str, F))}}}, which no safe mode within the budget touched, is largest there"))
+    for a in extra:
+        out.append(DesignChange("monitor", "added", f"velocity monitor at {a}", "Theorem III.3 (i) for the designed modes (every switching component meets a monitor)"))
+    before_obs = {(c.name, o.center): o for c in old.clusters for o in c.observers}
+    for p in props:
+        what = f"Proposition III.2 (ii), (iii) and its UIO hold for suspected {list(p.suspected)}, so a local alarm is raised for every attack on them"
+        if (p.cluster, p.center) in before_obs:
+            o = before_obs[(p.cluster, p.center)]
+            was = "its neighbours" if o.positions is None else f"{list(o.positions)}"
+            out.append(DesignChange("observer", "replaced", f"observer at {p.center} of {p.cluster}: now measures {list(p.measured)} (was {was})", what))
+        else:
+            out.append(DesignChange("observer", "added", f"observer at {p.center} of {p.cluster} measuring {list(p.measured)}", what))
+    for m in safe.modes:
+        ex = [list(F) for F in m.exposes[:4]]
+        out.append(DesignChange("mode", "added", f"mode {m.name} ({m.describe()})", f"Theorem III.3 (i)-(iii) hold ({m.method}) and it touches every stealthy direction of {len(m.exposes)} audited attack set(s), e.g. {ex}"))
+    if schedule:
+        sw = new.switching
+        text = " -> ".join(f"{st.mode}({st.duration:g})" for st in sw.sequence) if sw is not None else ""
+        out.append(DesignChange("schedule", "added", f"[switching] schedule {text}",
+                                f"switches to {', '.join(schedule)} whatever the local observers see: exposes attacks no local observer can raise an alarm for (e.g. on boundary agents)"))
+    return out
 
 
 def _monitor_unexposed(
@@ -298,32 +457,12 @@ def _witness_xis(system: System, rows: Sequence[Any]) -> dict[tuple[Label, ...],
 
 
 def design_comments(d: NetworkDesign) -> str:
-    """TOML comment lines saying what each design choice achieves.
+    """TOML comment lines naming every change of the design and what it achieves, and what it does not meet.
 
     Parameters
     ----------
     d : NetworkDesign
     """
-    b, a = d.before.summary()["counts"], d.after.summary()["counts"]
-    lines = [
-        f"# Designed by glocal-verify design from {d.before.system!r}.",
-        f"# Audit (k = {d.after.max_attackers}): before {b['undetected']} undetected / {b['undecided']} undecided sets,"
-        f" after {a['undetected']} undetected / {a['undecided']} undecided.",
-        f"# [monitor] velocities only (positions private: Lemma III.1, privacy.* {'hold' if all(v == 'holds' for k, v in d.monitors.verification.items() if k.startswith('privacy.')) else 'see verify'});"
-        f" Theorem III.3 (i) and Lemma A.2 hold for every designed mode.",
-    ]
-    for p in d.observers:
-        lines.append(
-            f"# [[clusters]] {p.cluster}: observer at {p.center} measures {list(p.measured)}: Proposition III.2 (ii), (iii) and the UIO hold"
-            f" for suspected {list(p.suspected)} ({'proven minimum' if p.optimal else 'greedy'} size)."
-        )
-    for m in d.safe_modes.modes:
-        lines.append(
-            f"# [[modes]] {m.name}: {m.describe()}; Theorem III.3 (i)-(iii) hold ({m.method}) and it touches every stealthy"
-            f" direction of {len(m.exposes)} audited attack set(s), e.g. {[list(F) for F in m.exposes[:4]]}."
-        )
-    for agent, F in d.added_monitors:
-        lines.append(f"# [monitor] velocity of {agent} added: the stealthy direction of the attack on {list(F)} (no safe mode within the budget touches it) is largest there.")
-    for u in d.unmet:
-        lines.append(f"# NOT MET: {u}")
+    lines = [f"# Designed by glocal-verify design from {d.before.system!r} (audit k = {d.after.max_attackers}).", "#"]
+    lines += [f"# {line}" for line in d.summary()]
     return "\n".join(lines) + "\n"

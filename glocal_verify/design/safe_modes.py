@@ -400,10 +400,41 @@ def _admissible(system: System, cands: Sequence[LinkCandidate], err: np.ndarray 
     return ok
 
 
+def _repeated_obstacle(system: System) -> str:
+    """Why the one-link search cannot start on a repeated spectrum of L_1, and which weight change would break the symmetry.
+
+    A repeated eigenvalue of L_1 comes from a symmetry of the weighted graph (a rotation of a
+    ring, twin leaves of a hub ...). Changing the weight of a link i-j adds a multiple of
+    (e_i - e_j)(e_i - e_j)^T, which on the eigenspace U_g is the rank-one (U_g[i] - U_g[j])
+    outer product: it splits the eigenvalue iff U_g[i] != U_g[j]. The link named is one of the
+    normal graph that splits the most repeated eigenvalues (floating point: a suggestion to try,
+    not a verdict).
+    """
+    sp = system.spectrum()
+    groups = [g for g in sp.clusters if len(g) > 1]
+    U = np.asarray(sp.vectors)
+    w = np.asarray(sp.values)
+    shown = ", ".join(f"{float(w[g[0]]):.4g} (multiplicity {len(g)})" for g in groups[:4]) + (f" and {len(groups) - 4} more" if len(groups) > 4 else "")
+    best, count = None, -1
+    for key in system.edges():
+        i, j = (system.index[a] for a in key)
+        c = sum(1 for g in groups if float(np.linalg.norm(U[i, list(g)] - U[j, list(g)])) > 1e-6)
+        if c > count:
+            best, count = tuple(sorted(key, key=system.index.__getitem__)), c
+    hint = ""
+    if best is not None and count > 0:
+        hint = (f"; changing the weight of the normal graph's link {best[0]}-{best[1]} would split {count} of these {len(groups)} "
+                "(a weight change of link i-j splits an eigenvalue whose eigenvectors differ at i and j), after which the design can run")
+    return (
+        f"L_1 has repeated eigenvalues ({shown}), the mark of a symmetry of the weighted graph (e.g. a rotation of a ring with equal "
+        "weights): the one-link search needs a simple spectrum, and Theorem III.3 (ii) asks every safe mode for distinct eigenvalues" + hint
+    )
+
+
 def _blocking(system: System, cands: Sequence[LinkCandidate], err: np.ndarray | None) -> str:
     """Why no candidate meets (i)-(iii): the reason met most often, with its eigenvector."""
     if err is None:
-        return "L_1 has eigenvalues that are not certified distinct: the one-link theorem (and Theorem III.3 (ii) after one link) cannot be certified"
+        return _repeated_obstacle(system)
     M = set(system.monitored)
     near = [c for c in cands if c.u in M or c.v in M]
     if not near:

@@ -113,7 +113,7 @@ def _result_notes(r: ConditionResult, a: Assessment) -> str:
     notes = a.notes_for(r)
     if r.fragile:
         notes.append(f"fragile: margin {_fmt_num(r.margin)} is below the robustness tolerance")
-    if r.method is Method.ESCALATED:
+    if r.method is Method.ESCALATED and not r.note.startswith("escalated"):
         notes.append("escalated to exact arithmetic")
     if r.note:
         notes.append(r.note)
