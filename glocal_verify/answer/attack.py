@@ -372,9 +372,8 @@ def _cluster_catches(ev: AttackEvidence) -> tuple[ClusterCatch, ...]:
         elif not mine:
             out.append(ClusterCatch(cluster, agents, False, (), f"{cluster} has no local observer"))
         elif all(e.catches is False for e in mine):
-            why = "; ".join(
-                f"{e.name}: " + ", ".join(c for c, st in (("local.pencil", e.pencil), ("local.uio", e.uio)) if st is Status.FAILS) + " fails" for e in mine
-            )
+            # the pencil decides alone when it fails (no UIO can see a hidden input then)
+            why = "; ".join(f"{e.name}: {'local.pencil' if e.pencil is Status.FAILS else 'local.uio'} fails" for e in mine)
             out.append(ClusterCatch(cluster, agents, False, (), f"no observer of {cluster} catches {_agents(agents)} ({why})"))
         else:
             open_ = [e.name + (" (not evaluated)" if None in (e.pencil, e.uio) else "") for e in mine if e.catches is None]
