@@ -17,10 +17,11 @@ Caught locally
 Exposed by a safe mode q (algebra)
     Theorem III.3 (i)-(iii) hold for q and the switch touches every stealthy direction at the
     attack's lambda0 (``switching.avoids-attack`` fails): the attack's part of the global
-    residual is nonzero after the switch. ``avoids-attack`` holding (the attacker keeps a
-    direction the switch cannot see) or nothing being measured means q does not expose it.
-    A touch with some of (i)-(iii) failing or undecided, or the covert touch test (an
-    over-approximation), leaves q unsettled. The simulation of ``switching.detects``, when
+    residual is nonzero after the switch. q gives no guarantee (``exposes`` False) when one
+    of (i)-(iii) fails (a touch alone proves nothing), when ``avoids-attack`` holds (the
+    attacker keeps a direction the switch cannot see), when nothing is measured, or when the
+    covert touch test (an over-approximation) is all there is. q is unsettled (None) only
+    when a status it needs is undecided. The simulation of ``switching.detects``, when
     run, is shown next to the algebra and warned about when it disagrees; it never decides
     (one simulated initial state is not a proof, and it runs only on small networks: the
     audit could not give the same answer).
@@ -385,20 +386,22 @@ def _exposure(ev: AttackEvidence, m: ModeEvidence) -> ModeExposure:
     exposes: bool | None
     if not ev.monitored:
         exposes, why = False, "nothing is measured globally, so no switch can expose anything"
-    elif m.avoids is None:
-        exposes, why = None, "switching.avoids-attack was not evaluated"
-    elif m.avoids is Status.HOLDS:
-        exposes, why = False, "the attacker keeps a stealthy direction the switch does not touch (switching.avoids-attack holds): its part of the residual stays bounded and vanishing"
-    elif m.avoids is Status.UNDECIDED:
-        exposes, why = None, "whether the switch touches the attack is undecided (switching.avoids-attack)"
-    elif ev.kind == "covert":
-        exposes, why = None, "the switch touches agents the covert attack reaches, but that test over-approximates what the attack moves: no proof of exposure"
     else:
         failed = [_LABEL[c] for c in THEOREM_IDS if m.theorem.get(c) is Status.FAILS]
         unknown = [_LABEL[c] for c in THEOREM_IDS if m.theorem.get(c) in (None, Status.UNDECIDED)]
         if failed:
+            # the theorem is the guarantee: without it a touch proves nothing (finding 6 hides a
+            # touched ZDA), so this mode gives no guarantee, whatever the touch test says
             verb = "fails" if len(failed) == 1 else "fail"
-            exposes, why = None, f"the switch touches every stealthy direction, but Theorem III.3 {' '.join(failed)} {verb}: no guarantee either way"
+            exposes, why = False, f"no guarantee: Theorem III.3 {' '.join(failed)} {verb} for this mode"
+        elif m.avoids is Status.HOLDS:
+            exposes, why = False, "the attacker keeps a stealthy direction the switch does not touch (switching.avoids-attack holds): its part of the residual stays bounded and vanishing"
+        elif m.avoids is None:
+            exposes, why = None, "switching.avoids-attack was not evaluated"
+        elif m.avoids is Status.UNDECIDED:
+            exposes, why = None, "whether the switch touches the attack is undecided (switching.avoids-attack)"
+        elif ev.kind == "covert":
+            exposes, why = False, "no guarantee: the switch touches agents the covert attack reaches, but that test over-approximates what the attack moves"
         elif unknown:
             exposes, why = None, f"the switch touches every stealthy direction; Theorem III.3 {' '.join(unknown)} undecided or not evaluated"
         else:
