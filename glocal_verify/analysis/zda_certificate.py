@@ -175,6 +175,23 @@ def u_direction_certificate(rows: Sequence[Sequence[Fraction]], pattern: np.ndar
     return None, bound
 
 
+def _rationalised(v: np.ndarray, max_denominator: int) -> list[Fraction] | None:
+    """``v`` scaled to a largest entry of 1, each entry the nearest fraction with denominator <= ``max_denominator``.
+
+    None when ``v`` is empty, not finite, zero, or not real after the scaling.
+    """
+    w = np.asarray(v, dtype=complex)
+    if w.size == 0 or not np.all(np.isfinite(w)):
+        return None
+    k = int(np.argmax(np.abs(w)))
+    if w[k] == 0:
+        return None
+    w = w / w[k]
+    if np.any(np.abs(w.imag) > 1e-9):
+        return None
+    return [Fraction(float(x)).limit_denominator(max_denominator) for x in w.real]
+
+
 def rational_kernel_vector(rows: Sequence[Sequence[Fraction]], v: np.ndarray, max_denominator: int = 10**6) -> list[Fraction] | None:
     """An exact rational kernel vector of ``rows`` recovered from the float candidate ``v``, or None.
 
@@ -190,16 +207,9 @@ def rational_kernel_vector(rows: Sequence[Sequence[Fraction]], v: np.ndarray, ma
         Candidate (real, or complex with a zero imaginary part after scaling).
     max_denominator : int
     """
-    v = np.asarray(v, dtype=complex)
-    if v.size == 0 or not np.all(np.isfinite(v)):
+    q = _rationalised(v, max_denominator)
+    if q is None:
         return None
-    k = int(np.argmax(np.abs(v)))
-    if v[k] == 0:
-        return None
-    v = v / v[k]
-    if np.any(np.abs(v.imag) > 1e-9):
-        return None
-    q = [Fraction(float(x)).limit_denominator(max_denominator) for x in v.real]
     for r in rows:
         if sum((r[j] * q[j] for j in range(len(q)) if r[j] != 0 and q[j] != 0), Fraction(0)) != 0:
             return None
@@ -233,16 +243,9 @@ def sparse_kernel_certificate(
     """
     from glocal_verify.analysis.twins import laplacian_entries
 
-    v = np.asarray(xi, dtype=complex)
-    if v.size != system.n or not np.all(np.isfinite(v)):
+    q = _rationalised(xi, max_denominator) if np.size(xi) == system.n else None
+    if q is None:
         return False
-    k = int(np.argmax(np.abs(v)))
-    if v[k] == 0:
-        return False
-    v = v / v[k]
-    if np.any(np.abs(v.imag) > 1e-9):
-        return False
-    q = [Fraction(float(x)).limit_denominator(max_denominator) for x in v.real]
     out = system.monitored_positions if lam == 0 else system.monitored
     if any(q[i] != 0 for i in system.idx(out)):
         return False

@@ -26,7 +26,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from glocal_verify.answer.attack import AttackAnswer, answer_attack, format_labels, format_lambda, not_assessed
+from glocal_verify.answer.attack import ANSWER_IDS, AttackAnswer, answer_attack, format_labels, format_lambda, not_assessed
 from glocal_verify.answer.evidence import combine, evidence_from_report
 from glocal_verify.conditions.catalogue import CATALOGUE
 from glocal_verify.results import ConditionResult, Polarity, Report, Status
@@ -267,8 +267,7 @@ def assess(report: Report) -> Assessment:
     if fragile:
         ids = sorted({r.id for r in fragile})
         warnings.append(f"{_plural(len(fragile), 'fragile result')} ({', '.join(ids)}): proven, but a small change of the weights could flip them")
-    based = ["privacy.initial-state", "privacy.consensus-value", "privacy.connected", "stealthy.zda", "stealthy.covert", "local.pencil", "local.uio",
-             "switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences", "switching.avoids-attack", "switching.detects"]
+    based = ["privacy.initial-state", "privacy.consensus-value", "privacy.connected", *ANSWER_IDS]
     present = {r.id for r in report.conditions}
     return Assessment(privacy, attack, tuple(warnings), notes, not_evaluated, tuple(c for c in based if c in present))
 

@@ -45,6 +45,7 @@ from typing import Any
 from glocal_verify.results import FRAGILE_BELOW, Status, jsonable
 
 __all__ = [
+    "ANSWER_IDS",
     "ATTACK_VERDICTS",
     "THEOREM_IDS",
     "AttackAnswer",
@@ -64,6 +65,8 @@ __all__ = [
 ATTACK_VERDICTS = ("detected", "undetected", "undecided", "not assessed")
 #: the conditions of Theorem III.3 (i)-(iii), per safe mode
 THEOREM_IDS = ("switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences")
+#: every condition the answer reads (``switching.detects`` only to show it beside the algebra)
+ANSWER_IDS = ("stealthy.zda", "stealthy.covert", "local.pencil", "local.uio", *THEOREM_IDS, "switching.avoids-attack", "switching.detects")
 _LABEL = {"switching.image-kernel": "(i)", "switching.distinct-eigenvalues": "(ii)", "switching.eigenvector-differences": "(iii)"}
 
 
