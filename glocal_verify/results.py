@@ -22,6 +22,7 @@ __all__ = [
     "FRAGILE_BELOW",
     "Status",
     "Method",
+    "Verdict",
     "ConditionResult",
     "Finding",
     "Report",
@@ -61,6 +62,45 @@ class Method(str, Enum):
 
     def __str__(self) -> str:
         return self.value
+
+
+@dataclass(frozen=True, slots=True)
+class Verdict:
+    """A condition's decision in one scope, as the analysis layer returns it (no id, scope or wording).
+
+    The checker of ``glocal_verify.conditions`` adds the condition id, the scope, the
+    catalogue's reference, statement and polarity, and the tolerance of its run
+    (``glocal_verify.conditions.registry.verdict_result``).
+
+    Attributes
+    ----------
+    status : Status
+    margin : float or None
+        Distance from the boundary on the scale the condition documents.
+    error_bound : float or None
+        The certified bound on the floating-point error of the quantity decided.
+    witness : mapping
+        What proves the verdict, in the user's node labels.
+    exact : bool
+        Decided in exact arithmetic. An exact run whose verdict is neither exact nor
+        combinatorial fell back to a certified numeric decision (its result says ``numeric``).
+    combinatorial : bool
+        No rounding involved (no tolerance recorded), in either arithmetic.
+    premise : str or None
+        Set when the condition's premise is absent: the verdict is vacuous, and this says
+        which premise.
+    note : str
+        Why the verdict is undecided (which bound failed), or what decided it.
+    """
+
+    status: Status
+    margin: float | None = None
+    error_bound: float | None = None
+    witness: Mapping[str, Any] = field(default_factory=dict)
+    exact: bool = False          # decided in exact arithmetic
+    combinatorial: bool = False  # no rounding involved (no tolerance recorded)
+    premise: str | None = None   # set when the condition's premise is absent: the verdict is vacuous, and this says which premise
+    note: str = ""
 
 
 @dataclass(frozen=True, slots=True)

@@ -72,6 +72,7 @@ __all__ = [
     "eigen_residuals",
     "modal_exponential",
     "block_exponentials",
+    "apply_A",
 ]
 
 # --------------------------------------------------------------------------------------------
@@ -607,7 +608,15 @@ def modal_exponential(system: System, mode: str, t: float, X: np.ndarray) -> np.
     return out[:, 0] if vec else out
 
 
-def _apply_A(system: System, mode: str, X: np.ndarray) -> np.ndarray:
+def apply_A(system: System, mode: str, X: np.ndarray) -> np.ndarray:
+    """``A_q X`` for a 2N x k array X, through the sparse Laplacian (no 2N x 2N matrix).
+
+    Parameters
+    ----------
+    system : System
+    mode : str
+    X : ndarray
+    """
     n = system.n
     L = system.laplacian_sparse(mode)
     return np.vstack([X[n:], -system.alpha * (L @ X[:n]) - system.gamma * X[n:]])

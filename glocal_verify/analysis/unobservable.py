@@ -20,10 +20,10 @@ import scipy.linalg
 from glocal_verify.analysis.modal import EigenGroupPart, form_bases, modal_decomposition
 from glocal_verify.model import System
 from glocal_verify.numerics.exact_subspace import (
-    _kernel,
-    _qmat,
-    _row_closure,
-    _to_fraction_cols,
+    kernel_basis,
+    qmat,
+    row_closure,
+    to_fraction_cols,
 )
 from glocal_verify.numerics.minors import RATIONAL_ZERO
 from glocal_verify.numerics.spectrum import EPS, Spectrum
@@ -38,6 +38,10 @@ __all__ = [
     "certified_unobservable",
     "structural_basis",
     "rational_unobservable_candidates",
+    "exact_A",
+    "exact_C",
+    "exact_N",
+    "exact_observable_rows",
 ]
 
 def _assemble(n: int, groups: Sequence[EigenGroupPart], upper: bool) -> tuple[np.ndarray, bool]:
@@ -159,7 +163,14 @@ def unobservable_subspace(system: System, mode: str = NORMAL_MODE, tol: Toleranc
     return sub
 
 
-def _exact_A(system: System, mode: str) -> flint.fmpq_mat:
+def exact_A(system: System, mode: str) -> flint.fmpq_mat:
+    """``A_q = [[0, I], [-alpha L_q, -gamma I]]`` over Q (2N x 2N).
+
+    Parameters
+    ----------
+    system : System
+    mode : str
+    """
     n = system.n
     L = system.laplacian_exact(mode)
     al, ga = system.alpha_q, system.gamma_q
@@ -168,25 +179,37 @@ def _exact_A(system: System, mode: str) -> flint.fmpq_mat:
         rows.append([Fraction(int(j == n + i)) for j in range(2 * n)])
     for i in range(n):
         rows.append([-al * L[i][j] for j in range(n)] + [(-ga if j == i else Fraction(0)) for j in range(n)])
-    return _qmat(rows, 2 * n)
+    return qmat(rows, 2 * n)
 
 
-def _exact_C(system: System) -> flint.fmpq_mat:
+def exact_C(system: System) -> flint.fmpq_mat:
+    """The selection output ``C = blkdiag(S_{M_x}, S_{M_v})`` over Q.
+
+    Parameters
+    ----------
+    system : System
+    """
     n = system.n
     rows = []
     for i in system.idx(system.monitored_positions):
         rows.append([int(j == i) for j in range(2 * n)])
     for i in system.idx(system.monitored_velocities):
         rows.append([int(j == n + i) for j in range(2 * n)])
-    return _qmat(rows, 2 * n)
+    return qmat(rows, 2 * n)
 
 
-def _exact_obs_rows(system: System, mode: str) -> flint.fmpq_mat:
-    """Row basis of the observable row space of (A_q, C): the annihilator of N(A_q, C)."""
+def exact_observable_rows(system: System, mode: str) -> flint.fmpq_mat:
+    """Row basis of the observable row space of (A_q, C): the annihilator of N(A_q, C).
+
+    Parameters
+    ----------
+    system : System
+    mode : str
+    """
     key = ("exact-rows", mode)
     cache = system.analysis
     if key not in cache:
-        cache[key] = _row_closure(_exact_C(system), [_exact_A(system, mode)])
+        cache[key] = row_closure(exact_C(system), [exact_A(system, mode)])
     return cache[key]  # type: ignore[no-any-return]
 
 
@@ -206,15 +229,22 @@ def unobservable_subspace_exact(system: System, mode: str = NORMAL_MODE) -> list
     mode : str
         The mode q.
     """
-    K = _kernel(_exact_obs_rows(system, mode))
-    return _to_fraction_cols(K)
+    K = kernel_basis(exact_observable_rows(system, mode))
+    return to_fraction_cols(K)
 
 
-def _exact_N(system: System, mode: str) -> flint.fmpq_mat:
+def exact_N(system: System, mode: str) -> flint.fmpq_mat:
+    """A rational basis of ``N(A_q, C)`` as the columns of a 2N x k matrix (kept on the system).
+
+    Parameters
+    ----------
+    system : System
+    mode : str
+    """
     key = ("exact-N", mode)
     cache = system.analysis
     if key not in cache:
-        cache[key] = _kernel(_exact_obs_rows(system, mode))
+        cache[key] = kernel_basis(exact_observable_rows(system, mode))
     return cache[key]  # type: ignore[no-any-return]
 
 

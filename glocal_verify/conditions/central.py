@@ -17,9 +17,9 @@ import flint
 import numpy as np
 
 from glocal_verify.analysis.unobservable import (
-    _exact_A,
-    _exact_C,
-    _exact_N,
+    exact_A,
+    exact_C,
+    exact_N,
     certified_unobservable,
 )
 from glocal_verify.conditions.registry import (
@@ -46,12 +46,12 @@ __all__ = [
 def _exact_observable_hurwitz(system: System, obsv: CentralObserver) -> tuple[bool, str]:
     """Exactly: is the observable part of A_1 - H C Hurwitz, for H rounded to its binary rationals?"""
     n2 = 2 * system.n
-    A = _exact_A(system, obsv.mode)
-    C = _exact_C(system)
+    A = exact_A(system, obsv.mode)
+    C = exact_C(system)
     p = C.nrows()
     Hq = flint.fmpq_mat(n2, p, [flint.fmpq(*Fraction(float(x)).as_integer_ratio()) for x in obsv.H.ravel()])
     chi = observer_charpoly_exact(system, Hq, obsv.mode)  # det(sI - A + Hq C) by the modal structure
-    X = _exact_N(system, obsv.mode)
+    X = exact_N(system, obsv.mode)
     if X.ncols():
         # A X = X B: B = (X^T X)^{-1} X^T A X, the restriction of A (= A - HC) to N
         XT = X.transpose()

@@ -33,6 +33,7 @@ from glocal_verify.results import (
     Report,
     Status,
     SystemInfo,
+    Verdict,
 )
 
 __all__ = [
@@ -42,6 +43,7 @@ __all__ = [
     "checker",
     "finding_rule",
     "result",
+    "verdict_result",
     "implemented_ids",
     "resolve_ids",
     "verify",
@@ -157,6 +159,41 @@ def result(
         fragile=bool(fragile),
         error_bound=None if error_bound is None else float(error_bound),
         note=note,
+    )
+
+
+def verdict_result(cid: str, ctx: CheckContext, verdict: Verdict, *, scope: Mapping[str, Any] | None = None) -> ConditionResult:
+    """The :class:`ConditionResult` of condition ``cid`` in ``scope`` from the analysis layer's ``verdict``.
+
+    A combinatorial verdict records no tolerance. In an exact run (``ctx.exact``) a verdict
+    that is neither exact nor combinatorial is the certified numeric fallback of a question
+    exact arithmetic could not settle: its result is built in a numeric context (method
+    ``numeric``, the run's tolerance), the only way an exact run reports a numeric result.
+    The verdict's ``premise`` is not yet a field of the result.
+
+    Parameters
+    ----------
+    cid : str
+        Catalogue id.
+    ctx : CheckContext
+        The run's options.
+    verdict : Verdict
+        The decision, from ``glocal_verify.analysis`` (or ``glocal_verify.observers``).
+    scope : mapping, optional
+        The result's scope (empty: global).
+    """
+    if ctx.exact and not (verdict.exact or verdict.combinatorial):
+        ctx = dataclasses.replace(ctx, exact=False, escalated=False)
+    return result(
+        cid,
+        ctx,
+        verdict.status,
+        scope=scope,
+        margin=verdict.margin,
+        witness=verdict.witness,
+        numeric_decision=not verdict.combinatorial,
+        error_bound=verdict.error_bound,
+        note=verdict.note,
     )
 
 
