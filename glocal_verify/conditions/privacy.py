@@ -72,7 +72,7 @@ def check_privacy_initial_state(system: System, ctx: CheckContext) -> list[Condi
 
     (Lemma II.3: x(t0) is reconstructable iff the unobservable subspace is trivial). Scopes:
     every mode alone and the spec's schedule (scope ``{}``) if any. Numeric and exact
-    decisions as in :func:`check_switched_observability`, with holds and fails exchanged.
+    decisions as in :func:`~glocal_verify.conditions.observability.check_switched_observability`, with holds and fails exchanged.
 
     Margin
         The number of independent unobservable directions (``dim N``; 0 on failure). The
