@@ -18,6 +18,7 @@ import pytest
 from glocal_verify import System
 from glocal_verify.design.generators import random_clustered_spec
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE
+from glocal_verify.numerics import hurwitz
 from glocal_verify.observers import uio_existence as ue
 from glocal_verify.observers.uio import _REDUCED_MIN, design_uio, local_uio
 from glocal_verify.results import Status
@@ -61,7 +62,8 @@ def test_designed_observers_satisfy_the_error_identity(network: System) -> None:
 
 def test_the_reduced_certificate_agrees_with_the_dense_one(network: System) -> None:
     for A, E, C, d in _designs(network):
-        st, ratio = ue.hurwitz_certificate(d["F"], DEFAULT_TOLERANCE)
+        cert = hurwitz.hurwitz_certificate(d["F"], DEFAULT_TOLERANCE)
+        st, ratio = cert.status, cert.ratio
         assert d["hurwitz"] is st
         assert d["hurwitz_ratio"] == pytest.approx(ratio, rel=1e-3)
 
@@ -120,16 +122,16 @@ def test_triangular_condition_numbers_match_their_definition(seed: int) -> None:
     n = 12
     M = rng.standard_normal((n, n))
     S, _ = scipy.linalg.schur(M, output="real")
-    Tc = ue._real_to_complex_schur(S)
+    Tc = hurwitz._real_to_complex_schur(S)
     assert np.allclose(np.tril(Tc, -1), 0.0)
     w0 = np.linalg.eigvals(M)
     assert max(float(np.min(np.abs(w0 - z))) for z in np.diag(Tc)) <= 1e-10 * float(np.max(np.abs(w0)))
-    kappa = ue._triangular_kappa(Tc)
+    kappa = hurwitz._triangular_kappa(Tc)
     w, vl, vr = scipy.linalg.eig(Tc, left=True, right=True)
     ref = np.linalg.norm(vl, axis=0) * np.linalg.norm(vr, axis=0) / np.abs(np.sum(vl.conj() * vr, axis=0))
     twin = np.zeros(n, dtype=bool)
     twin[np.flatnonzero(np.diag(S, -1) != 0.0) + 1] = True  # second members of conjugate pairs
-    paired = ue._triangular_kappa(Tc, twin)
+    paired = hurwitz._triangular_kappa(Tc, twin)
     for i, z in enumerate(np.diag(Tc)):
         j = int(np.argmin(np.abs(w - z)))
         assert kappa[i] == pytest.approx(ref[j], rel=1e-6)
@@ -142,7 +144,7 @@ def test_the_sparse_krylov_split_spans_the_same_subspaces_as_the_dense_one(netwo
     C = cm.C(lo.positions, lo.velocities)
     ex = ue.uio_existence(cm.A, cm.E, C)
     assert ex.A1 is not None and ex.split is not None
-    monkeypatch.setattr(ue, "_SPARSE_MIN", 10**9)
+    monkeypatch.setattr(hurwitz, "SPARSE_MIN", 10**9)
     dense = ue.observable_split(ex.A1, C)
     sp = ex.split
     assert sp.Qo.shape == dense.Qo.shape and sp.decided == dense.decided
@@ -160,7 +162,7 @@ def test_large_cluster_designs_are_certified_without_the_dense_eigendecompositio
     def dense(F: np.ndarray, tol: object) -> None:
         raise AssertionError("dense certificate used")
 
-    monkeypatch.setattr(uio, "_hurwitz", dense)
+    monkeypatch.setattr(uio, "hurwitz_eigenvalues", dense)
     for A, E, C, d in _designs(network):
         assert d["hurwitz"] is Status.HOLDS
 
@@ -172,9 +174,9 @@ def test_the_slow_mode_ladder_keeps_the_reduced_certificate_exact(network: Syste
     calls: list[int] = []
 
     def first_undecided(F, Qo, Qu, red, tol):  # type: ignore[no-untyped-def]
-        st_, r, w = real(F, Qo, Qu, red, tol)
+        got = real(F, Qo, Qu, red, tol)
         calls.append(1)
-        return (Status.UNDECIDED, r, w) if len(calls) == 1 else (st_, r, w)
+        return hurwitz.HurwitzCertificate(Status.UNDECIDED, got.ratio, got.eigenvalues) if len(calls) == 1 else got
 
     monkeypatch.setattr(uio, "_certify", first_undecided)
     monkeypatch.setattr(uio, "_LADDER_GAIN", 0.0)
@@ -183,7 +185,8 @@ def test_the_slow_mode_ladder_keeps_the_reduced_certificate_exact(network: Syste
     C = cm.C(lo.positions, lo.velocities)
     _, d = design_uio(cm.A, cm.E, C, gamma=network.gamma)
     assert len(calls) >= 2 and any("retried moving only" in n for n in d["notes"])
-    st, ratio = ue.hurwitz_certificate(d["F"], DEFAULT_TOLERANCE)
+    cert = hurwitz.hurwitz_certificate(d["F"], DEFAULT_TOLERANCE)
+    st, ratio = cert.status, cert.ratio
     assert d["hurwitz"] is st
     assert d["hurwitz_ratio"] == pytest.approx(ratio, rel=1e-3)
     w = np.linalg.eigvals(d["F"])

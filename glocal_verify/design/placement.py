@@ -27,7 +27,7 @@ has full column rank for every complex s. Two tests on it:
 
 A necessary count: |M| >= |I| (Q(s) must be tall), i.e. |M \\ dP_i| >= |S|. Both tests, and
 the proofs that they decide (iii), live in :mod:`glocal_verify.analysis.cluster_pencil`, shared with the
-structured ``local.pencil`` checker (:func:`glocal_verify.conditions.local_pencil.pencil_verdict`).
+structured ``local.pencil`` checker (:func:`glocal_verify.analysis.local_pencil.pencil_verdict`).
 
 **Search.** Greedy set cover: start from M = dP_i and add the agent whose measurement forces
 the most agents, until zero forcing completes (structural, no arithmetic: O(|P_i|) closures per
@@ -375,15 +375,16 @@ def _center(cm: ClusterModel, nbrs: list[list[int]], M: Sequence[int]) -> tuple[
 
 def _verify(system: System, cm: ClusterModel, center: Label, measured: tuple[Label, ...], suspected: tuple[Label, ...], tol: Tolerance) -> dict[str, str]:
     from glocal_verify.analysis.local_cases import LocalCase
-    from glocal_verify.conditions.local import rank_verdict, uio_verdict
-    from glocal_verify.conditions.local_pencil import pencil_verdict
+    from glocal_verify.analysis.local_pencil import pencil_verdict
+    from glocal_verify.analysis.local_structure import rank_verdict
+    from glocal_verify.observers.uio_verdict import uio_verdict
 
     obs = LocalObserver(cm.name, center, measured, measured, None)
     case = LocalCase(cm, obs, "attack", suspected, NORMAL_MODE)
     return {
-        "local.rank": rank_verdict(case, tol)[0].value,
-        "local.pencil": pencil_verdict(system, case, tol, margin=False)[0].value,
-        "local.uio": uio_verdict(system, case, tol)[0].value,
+        "local.rank": rank_verdict(case, tol).status.value,
+        "local.pencil": pencil_verdict(system, case, tol, margin=False).status.value,
+        "local.uio": uio_verdict(system, case, tol).status.value,
     }
 
 

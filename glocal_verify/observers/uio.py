@@ -33,7 +33,7 @@ of (A_1, C) are eigenvalues of F for every K_1 and must be stable.
 Default poles (:func:`default_poles`): with sigma = gamma / 2, the observable eigenvalues mu
 of A_1 with Re mu <= -0.9 sigma stay, the others move to -|Re mu| - sigma + i Im mu; only the
 moved ones are placed (ordered Schur form), which keeps the gain small on large clusters. If
-the resulting F is not certified Hurwitz (:func:`hurwitz_certificate`) and the gain is large
+the resulting F is not certified Hurwitz (:func:`~glocal_verify.numerics.hurwitz.hurwitz_certificate`) and the gain is large
 (||K1||_2 > 10 max(||A1||_2, 1)), the design is redone moving only the modes with
 Re > -theta sigma for theta in :data:`SLOW_LADDER` (0.3, 0.1, 0.02):
 on large clusters measured at a few agents the slow, stable modes are weakly observable, and
@@ -53,19 +53,16 @@ import numpy as np
 from glocal_verify.analysis.cluster_modal import interior_modes, state_rounding_bound
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import LocalObserver, System
+from glocal_verify.numerics.hurwitz import HurwitzCertificate, hurwitz_eigenvalues, hurwitz_reduced, matrix_operator, norm2
 from glocal_verify.numerics.threads import single_threaded
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
 from glocal_verify.observers.uio_existence import (
     _LADDER_GAIN,
     SLOW_LADDER,
     UIOExistence,
-    _hurwitz,
-    _hurwitz_reduced,
-    _norm2,
-    _operator,
     _place_dual,
     _place_slow,
-    _decoupling,
+    decoupling,
     _Reduction,
     _slow_schur,
     uio_existence,
@@ -119,7 +116,7 @@ class UnknownInputObserver:
     hurwitz_margin : float
         -max Re eig(F).
     hurwitz : Status
-        :func:`hurwitz_certificate` verdict on F (eigenvalue sensitivity included).
+        :func:`~glocal_verify.numerics.hurwitz.hurwitz_certificate` verdict on F (eigenvalue sensitivity included).
     hurwitz_ratio : float
         Worst -Re lambda_i / rho_i of that certificate.
     notes : tuple of str
@@ -193,15 +190,15 @@ def _place(Aoo: np.ndarray, Co: np.ndarray, poles: np.ndarray, tol: Tolerance) -
 _REDUCED_MIN = 150
 
 
-def _certify(F: np.ndarray, Qo: np.ndarray, Qu: np.ndarray, red: _Reduction | None, tol: Tolerance) -> tuple[Status, float, np.ndarray]:
-    """The Hurwitz certificate of F: reduced (:func:`~glocal_verify.observers.uio_existence._hurwitz_reduced`,
+def _certify(F: np.ndarray, Qo: np.ndarray, Qu: np.ndarray, red: _Reduction | None, tol: Tolerance) -> HurwitzCertificate:
+    """The Hurwitz certificate of F: reduced (:func:`~glocal_verify.numerics.hurwitz.hurwitz_reduced`,
     from the default design's Schur basis W = [Qo Q, Qu]) when it applies and F has at least
     :data:`_REDUCED_MIN` states (below that the dense eigen-decomposition is cheap), else dense."""
     if red is not None and F.shape[0] >= _REDUCED_MIN and Qo.shape[1] + Qu.shape[1] == F.shape[0]:
-        got = _hurwitz_reduced(F, np.hstack([Qo @ red.Q, Qu]), red.kept, red.sub, tol)
+        got = hurwitz_reduced(F, np.hstack([Qo @ red.Q, Qu]), red.kept, red.sub, tol)
         if got is not None:
             return got
-    return _hurwitz(F, tol)
+    return hurwitz_eigenvalues(F, tol)
 
 
 @single_threaded
@@ -244,7 +241,7 @@ def design_uio(
     least :data:`_REDUCED_MIN` states the certificate reuses that Schur form: W = [Qo Q, Qu]
     block-triangularises F^T, only the small trailing block (moved and unobservable modes) is
     factorised, and the eigenvector condition numbers come from triangular back substitution
-    (:func:`~glocal_verify.observers.uio_existence._hurwitz_reduced`: the same bound
+    (:func:`~glocal_verify.numerics.hurwitz.hurwitz_reduced`: the same bound
     kappa_i rtol ||F||_2, enlarged by the entries the reduction drops; the dense
     eigen-decomposition with left and right vectors when the reduction does not apply). With
     default poles, an F that is not certified is redesigned along :data:`SLOW_LADDER` (one
@@ -262,7 +259,7 @@ def design_uio(
     Qo = ex_.split.Qo
     no = Qo.shape[1]
     notes: list[str] = []
-    Aoo = Qo.T @ np.asarray(_operator(A1) @ Qo)
+    Aoo = Qo.T @ np.asarray(matrix_operator(A1) @ Qo)
     Co = C @ Qo
     placed: np.ndarray
     ladder: tuple[float, ...] = (SLOW_LADDER[0],)
@@ -295,16 +292,18 @@ def design_uio(
     K1 = Qo @ Lo
     F = A1 - K1 @ C
     Qu = ex_.split.Qu
-    hurwitz, hurwitz_ratio, eig = _certify(F, Qo, Qu, red, tol)
+    cert = _certify(F, Qo, Qu, red, tol)
+    hurwitz, hurwitz_ratio, eig = cert.status, cert.ratio, cert.eigenvalues
     for theta in ladder[1:]:
         # moving weakly observable slow modes that are already stable can take a huge gain
         # and make F too ill-conditioned to certify: keep more of them, move only the slowest
         # (a small gain means the trouble is elsewhere, e.g. a repeated eigenvalue: no retry)
-        if hurwitz is Status.HOLDS or _norm2(K1) <= _LADDER_GAIN * max(_norm2(A1), 1.0):
+        if hurwitz is Status.HOLDS or norm2(K1) <= _LADDER_GAIN * max(norm2(A1), 1.0):
             break
         Lo2, want2, placed2, red2 = _place_slow(Aoo, Co, gamma, tol, theta, sch)
         F2 = A1 - (Qo @ Lo2) @ C
-        h2, r2, e2 = _certify(F2, Qo, Qu, red2, tol)
+        cert2 = _certify(F2, Qo, Qu, red2, tol)
+        h2, r2, e2 = cert2.status, cert2.ratio, cert2.eigenvalues
         notes.append(
             f"default placement (modes with Re > -{ladder[ladder.index(theta) - 1]:g} sigma moved) not certified Hurwitz "
             f"(ratio {hurwitz_ratio:.3g}, ||K1||_2 {float(np.linalg.norm(K1, 2)):.3g}); retried moving only Re > -{theta:g} sigma"
@@ -340,8 +339,9 @@ def _modal_design(system: System, observer: LocalObserver, mode: str, C: np.ndar
     """The design dict of :func:`design_uio` from :func:`~glocal_verify.observers.uio_modal.design_uio_modal`
     (None when the rank condition does not hold or the modal basis does not apply)."""
     cm = system.cluster_model(observer.cluster, mode)
-    rank_st, h = _decoupling(cm.E, C, tol)
-    if rank_st is not Status.HOLDS or h is None:
+    dec = decoupling(cm.E, C, tol)
+    h = dec.h
+    if dec.status is not Status.HOLDS or h is None:
         return None
     idx = {a: k for k, a in enumerate(cm.nodes)}
     try:
