@@ -102,3 +102,40 @@ def test_the_package_imports_its_public_names_on_first_use() -> None:
     probe = "import sys, glocal_verify; print('numpy' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True).stdout.strip()
     assert out == "False"
+
+
+#: (importing module, imported module, name): private names still imported across subpackages,
+#: being moved by the answer-layer work (the ZDA and avoidance rules); nothing else may join
+_PRIVATE_IMPORTS_BEING_MOVED = {
+    ("conditions.safe_switch", "analysis.avoidance", "_exact_mode"),
+    ("conditions.safe_switch", "analysis.avoidance", "_numeric_mode"),
+    ("conditions.safe_switch", "analysis.avoidance", "_stealthy_bases"),
+    ("conditions.safe_switch", "analysis.zda", "_Modal"),
+    ("design.audit", "analysis.avoidance", "_exact_mode"),
+    ("design.audit", "analysis.avoidance", "_numeric_mode"),
+    ("design.audit", "analysis.avoidance", "_stealthy_bases"),
+    ("design.audit", "analysis.zda", "_growth"),
+    ("design.audit", "analysis.zda", "_Modal"),
+    ("design.audit", "analysis.zda", "_normalize"),
+    ("design.audit_screens", "analysis.zda", "_Modal"),
+    ("design.network", "analysis.zda", "_Modal"),
+    ("design.safe_modes", "analysis.avoidance", "_split"),
+    ("design.safe_modes", "analysis.avoidance", "_stealthy_bases"),
+    ("design.safe_modes", "analysis.zda", "_Modal"),
+}
+
+
+def test_no_module_imports_a_private_name_from_another_subpackage() -> None:
+    leaks = []
+    for name, path in _modules():
+        home = name.split(".")[0]
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if not (isinstance(node, ast.ImportFrom) and node.module and node.level == 0 and node.module.startswith("glocal_verify.")):
+                continue
+            target = node.module[len("glocal_verify.") :]
+            if target.split(".")[0] == home:
+                continue
+            for alias in node.names:
+                if alias.name.startswith("_") and (name, target, alias.name) not in _PRIVATE_IMPORTS_BEING_MOVED:
+                    leaks.append(f"{name}:{node.lineno} imports {alias.name} from {target}")
+    assert not leaks, leaks

@@ -283,7 +283,7 @@ def _origin_zero(system: System, case: LocalCase, st: _Structure, tol: Tolerance
 def _pencil_structured(system: System, case: LocalCase, tol: Tolerance, margin: bool) -> Verdict:
     """Structured numeric verdict of (iii): zero forcing, else the reduced pencil (module
     :mod:`glocal_verify.analysis.cluster_pencil`), every zero lifted and verified on the full pencil."""
-    from glocal_verify.numerics.pencil import _cluster, analyze_pencil
+    from glocal_verify.numerics.pencil import cluster_points, analyze_pencil
 
     cm = case.model
     st = _structure(case)
@@ -374,7 +374,7 @@ def _pencil_structured(system: System, case: LocalCase, tol: Tolerance, margin: 
             groups.append((zs.value, zs.multiplicity))
     else:
         raw = [complex(z.value) for z in pa.zeros]
-        clusters = _cluster(raw, math.sqrt(tol.upper) * pa.scale)
+        clusters = cluster_points(raw, math.sqrt(tol.upper) * pa.scale)
     merged: dict[int, list[int]] = {}  # group -> its raw members, until its mean is checked
     for members in clusters:
         if len(members) > 1:

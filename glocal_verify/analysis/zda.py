@@ -21,7 +21,7 @@ from glocal_verify.model import System
 from glocal_verify.numerics.balancing import block_norm
 from glocal_verify.numerics.pencil import (
     PencilAnalysis,
-    _cluster,
+    cluster_points as _cluster,
     analyze_pencil,
     direction_at,
     pencil_matrix,

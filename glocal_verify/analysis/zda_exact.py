@@ -18,16 +18,16 @@ from glocal_verify.analysis.zda import (
     _lambda_request,
     _normalize,
 )
+from glocal_verify.analysis.transfer import laplacian_transfer as _transfer
 from glocal_verify.analysis.twins import laplacian_entries
 from glocal_verify.model import System
-from glocal_verify.numerics.cluster_transfer import adjugate_columns
 from glocal_verify.numerics.minors import GroundedTables, MinorCertificate, full_rank_certificate, grounded_tables, twin_modes
 from glocal_verify.numerics.pencil_exact import (
     RootEnclosures,
     analyze_pencil_exact,
     classify_real_parts,
-    _inv_mod,
-    _kernel,
+    inv_mod as _inv_mod,
+    rational_kernel as _kernel,
     eval_at_root,
     kernel_over_field,
 )
@@ -156,28 +156,6 @@ def _q_matrix(system: System, F: Sequence[int], rows_out: Sequence[int], s_poly:
     for r in rows_out:
         rows.append([flint.fmpq_poly(int(j == r)) for j in range(N)] + [flint.fmpq_poly(0)] * len(F))
     return rows
-
-
-def _transfer(system: System, F: Sequence[int], mode: str = NORMAL_MODE) -> tuple[Any, list[list[Any]]]:
-    """d(s) = det(sI + alpha L_q) and the numerators P(s) = adj(sI + alpha L_q) S_F^T (N x m, in s).
-
-    Faddeev-LeVerrier on the input columns only: with A = -alpha L_q and d(s) = sum_j c_j s^j,
-    adj(sI - A) = sum_{j<N} s^j B_j, B_{N-1} = I, B_{j-1} = A B_j + c_j I; so W_j = B_j S_F^T
-    costs N products of A with an N x m matrix over Q. Kept on ``system.analysis``; the
-    mode q is the normal one unless given.
-    """
-    key = ("zda-exact-transfer", tuple(F)) if mode == NORMAL_MODE else ("zda-exact-transfer", tuple(F), mode)
-    cache = system.analysis
-    if key in cache:
-        return cache[key]  # type: ignore[no-any-return]
-    N = system.n
-    L = system.laplacian_exact(mode)
-    a = system.alpha_q
-    A = flint.fmpq_mat(N, N, [_fq(-a * L[i][j]) for i in range(N) for j in range(N)])
-    d, cols = adjugate_columns(A, F)
-    P = [list(row) for row in cols]
-    cache[key] = (d, P)
-    return d, P
 
 
 def transfer_kernel(

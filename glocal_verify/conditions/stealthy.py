@@ -68,7 +68,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from glocal_verify.analysis.covert import (
-    _channel_label,
+    channel_label as _channel_label,
     covert_required_channels,
     reachable_agents,
 )

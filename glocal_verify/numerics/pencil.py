@@ -108,6 +108,7 @@ __all__ = [
     "analyze_pencil",
     "direction_at",
     "pencil_matrix",
+    "cluster_points",
 ]
 
 #: seed of the fixed pseudo-random points at which the normal rank is cross-checked
@@ -366,11 +367,11 @@ def _direction(
     return v, res, _decide_small(res, pt.err, scale, tol)
 
 
-#: up to this many points :func:`_cluster` compares all pairs directly
+#: up to this many points :func:`cluster_points` compares all pairs directly
 _CLUSTER_DENSE_MAX = 256
 
 
-def _cluster(values: Sequence[complex], radius: float) -> list[list[int]]:
+def cluster_points(values: Sequence[complex], radius: float) -> list[list[int]]:
     """Single-linkage clusters of points closer than ``radius`` (Euclidean, in the complex plane).
 
     The close pairs come from a k-d tree (``scipy.spatial.cKDTree.query_pairs``), the

@@ -56,7 +56,7 @@ from glocal_verify.analysis.unobservable import (
     certified_unobservable,
     unobservable_subspace,
 )
-from glocal_verify.analysis.zda_exact import _transfer
+from glocal_verify.analysis.transfer import laplacian_transfer
 from glocal_verify.model import System
 from glocal_verify.numerics.spectrum import EPS, product_rounding
 from glocal_verify.numerics.subspace import Subspace
@@ -470,7 +470,7 @@ def observer_charpoly_exact(system: System, H: Any, mode: str = NORMAL_MODE) -> 
     rows = pos + vel
     p = len(rows)
     agents = sorted(set(rows))
-    d_t, Nm = _transfer(system, agents, mode)
+    d_t, Nm = laplacian_transfer(system, agents, mode)
     col = {a: k for k, a in enumerate(agents)}
     gq = flint.fmpq(system.gamma_q.numerator, system.gamma_q.denominator)
     sx = flint.fmpq_poly([0, 1])
