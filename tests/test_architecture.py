@@ -139,3 +139,18 @@ def test_no_module_imports_a_private_name_from_another_subpackage() -> None:
                 if alias.name.startswith("_") and (name, target, alias.name) not in _PRIVATE_IMPORTS_BEING_MOVED:
                     leaks.append(f"{name}:{node.lineno} imports {alias.name} from {target}")
     assert not leaks, leaks
+
+
+#: library calls that compute verdicts or simulations; reporting is handed their results
+_COMPUTATIONS = {"verify", "algorithm1", "simulate", "check_detects", "run_case", "run_case_study", "simulate_system", "verify_findings", "check_case", "audit"}
+
+
+def test_reporting_renders_results_it_is_given_and_computes_none() -> None:
+    calls = []
+    for name, path in _modules():
+        if name.split(".")[0] != "reporting":
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("glocal_verify."):
+                calls += [f"{name}:{node.lineno} imports {a.name}" for a in node.names if a.name in _COMPUTATIONS]
+    assert not calls, calls

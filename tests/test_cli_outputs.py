@@ -113,7 +113,7 @@ def _fail_if_computed(monkeypatch: pytest.MonkeyPatch) -> None:
         raise AssertionError("computed before checking the output location")
 
     monkeypatch.setattr("glocal_verify.cli.verify.verify", boom)
-    monkeypatch.setattr("glocal_verify.reporting.simulation_report.algorithm1", boom)
+    monkeypatch.setattr("glocal_verify.design.case_study.algorithm1", boom)
 
 
 def test_an_unwritable_output_location_fails_at_once_with_one_line(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:

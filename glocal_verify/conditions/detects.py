@@ -43,6 +43,7 @@ __all__ = [
     "rank_safe_modes",
     "check_detects",
     "algorithm1",
+    "zda_touch",
 ]
 
 #: the conditions Algorithm 1 (line 4) evaluates for a safe mode
@@ -98,8 +99,8 @@ def rank_safe_modes(system: System, modes: Sequence[str] | None = None) -> tuple
 # the switching.detects checker
 
 
-def _dl_xi(system: System, mode: str, attack: AttackModel) -> float | None:
-    """||dL_q xi|| / ||xi|| (complex xi allowed): does the switch touch the ZDA (Remark III.3.1)?"""
+def zda_touch(system: System, mode: str, attack: AttackModel) -> float | None:
+    """||dL_q xi|| / ||xi|| (complex xi allowed): does the switch touch the ZDA (Remark III.3.1)? None without xi."""
     if attack.xi is None:
         return None
     xi = np.asarray(attack.xi)
@@ -217,7 +218,7 @@ def check_detects(system: System, ctx: CheckContext) -> list[ConditionResult]:
             "seed": spec.simulation.seed,
         }
         if atk_q is not None:
-            d = _dl_xi(system, q, atk_q)
+            d = zda_touch(system, q, atk_q)
             if d is not None:
                 witness["dL_xi_relative"] = d
         if r.global_before is not None and r.global_before.detected:
