@@ -26,6 +26,7 @@ import networkx as nx
 import numpy as np
 import scipy.sparse
 
+from glocal_verify import config
 from glocal_verify.errors import ModelError, SpecError
 from glocal_verify.numerics.block_spectrum import clustered_spectrum, laplacian_csr
 from glocal_verify.numerics.spectrum import Spectrum
@@ -47,16 +48,6 @@ __all__ = [
 ]
 
 T = TypeVar("T")
-
-#: from this many agents a safe mode's spectrum is the normal mode's times rank-one factors
-RANK_ONE_MIN_AGENTS = 500
-#: ... for at most this many changed links (one factor each)
-RANK_ONE_MAX_CHANGES = 3
-#: from this many agents a clustered normal mode is decomposed cluster by cluster, with at most
-#: BLOCK_MAX_CUT_LINKS links between clusters as rank-one factors (each O(N^2), and one more
-#: factor every computed row goes through)
-BLOCK_MIN_AGENTS = 2000
-BLOCK_MAX_CUT_LINKS = 16
 
 
 class Analysis:
@@ -472,7 +463,7 @@ class System:
 
         A large clustered normal mode is decomposed cluster by cluster, the links between
         clusters added as rank-one factors (:meth:`_block_spectrum`); a safe mode that changes at
-        most :data:`RANK_ONE_MAX_CHANGES` links is the normal spectrum times one factor per
+        most ``rank_one_max_changes`` (:mod:`glocal_verify.config`) links is the normal spectrum times one factor per
         change. Both are certified from their factors (:mod:`glocal_verify.numerics.updated_spectrum`,
         which also computes the rows the checks read) or replaced by one ``eigh`` of L_q.
 
@@ -485,13 +476,13 @@ class System:
         if mode not in self._spectra:
             L = self.laplacian_sparse(mode)
             sp: Spectrum | None = None
-            if mode == NORMAL_MODE and self.n >= BLOCK_MIN_AGENTS:
+            if mode == NORMAL_MODE and self.n >= config.get("block_min_agents"):
                 sp = self._block_spectrum(L)
-            if mode != NORMAL_MODE and self.n >= RANK_ONE_MIN_AGENTS:
+            if mode != NORMAL_MODE and self.n >= config.get("rank_one_min_agents"):
                 # a safe mode that changes a few links: rank-one updates of the normal mode's
                 # spectrum, certified like eigh's output (Spectrum.updated), else a fresh eigh
                 changes = [(self.index[a], self.index[b], float(d)) for a, b, d in self.switching_links(mode)]
-                if 0 < len(changes) <= RANK_ONE_MAX_CHANGES:
+                if 0 < len(changes) <= config.get("rank_one_max_changes"):
                     sp = Spectrum.updated(L, self.spectrum(NORMAL_MODE), changes)
             self._spectra[mode] = sp if sp is not None else Spectrum(L)
             if not self._spectra[mode].explicit:  # the rows every check reads, in one pass over the factors
@@ -502,14 +493,14 @@ class System:
         """The normal mode from its clusters' blocks and its links between them (:func:`clustered_spectrum`).
 
         None unless the spec's clusters (two or more) hold every agent once and share between one
-        and :data:`BLOCK_MAX_CUT_LINKS` links, or when the update is refused.
+        and ``block_max_cut_links`` (:mod:`glocal_verify.config`) links, or when the update is refused.
         """
         if len(self.clusters) < 2 or sum(len(c.nodes) for c in self.clusters) != self.n or len(self._cluster_of) != self.n:
             return None
         edges = self._edges[NORMAL_MODE].items()
         inside = [(k, w) for k, w in edges if len({self._cluster_of[x] for x in k}) == 1]
         cut = [(i, j, float(w)) for i, j, w in self._links((k, w) for k, w in edges if len({self._cluster_of[x] for x in k}) == 2)]
-        if not 0 < len(cut) <= BLOCK_MAX_CUT_LINKS:
+        if not 0 < len(cut) <= config.get("block_max_cut_links"):
             return None
         blocks = [np.array(sorted(self.index[x] for x in c.nodes), dtype=np.intp) for c in self.clusters]
         return clustered_spectrum(L, laplacian_csr(self.n, self._links(inside)), blocks, cut)

@@ -18,6 +18,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from glocal_verify import config
 __all__ = [
     "FRAGILE_BELOW",
     "Status",
@@ -32,8 +33,9 @@ __all__ = [
     "REPORT_SCHEMA_ID",
 ]
 
-#: a margin below this marks a result fragile (the default of ``--fragile-below``)
-FRAGILE_BELOW = 1e-9
+#: a margin below this marks a result fragile: the default of the tunable ``fragile_below`` of
+#: :mod:`glocal_verify.config` (read that for the value in force) and of ``--fragile-below``
+FRAGILE_BELOW: float = config.default("fragile_below")
 
 REPORT_SCHEMA_ID = "glocal-verify/report@1"
 

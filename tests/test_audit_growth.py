@@ -18,6 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from strategies import clustered_systems
 
+from glocal_verify import config
 from glocal_verify import System
 from glocal_verify.design.audit import audit
 from glocal_verify.design.audit_screens import disjoint_paths
@@ -136,13 +137,13 @@ def test_candidate_zeros_on_one_vertical_line_cluster_as_the_pairwise_rule_says(
 
 @pytest.mark.parametrize("seed", range(5))
 def test_a_few_candidate_zeros_cluster_as_the_pairwise_rule_says_without_the_tree(seed: int) -> None:
-    from glocal_verify.numerics.pencil import _CLUSTER_DENSE_MAX, cluster_points
+    from glocal_verify.numerics.pencil import cluster_points
 
     rng = np.random.default_rng(seed)
     base = rng.normal(size=20) + 1j * rng.normal(size=20)
     # chains of near points (single linkage joins them) and exact duplicates
     pts = [complex(z) for z in base] + [complex(base[0] + 0.9e-6), complex(base[0] + 1.8e-6), complex(base[3]), complex(base[5] + 2e-6j)]
-    assert len(pts) <= _CLUSTER_DENSE_MAX
+    assert len(pts) <= config.get("cluster_dense_max")
     groups = cluster_points(pts, 1e-6)
     label = _assert_single_linkage(pts, groups, 1e-6)
     assert label[0] == label[20] == label[21] and label[3] == label[22] and label[5] != label[23]

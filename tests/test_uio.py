@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 from strategies import clustered_systems
 
+from glocal_verify import config
 from glocal_verify import NotApplicableError, System, load_example, spec_from_graph
 from glocal_verify.observers.uio import UnknownInputObserver, design_uio, local_uio
 from glocal_verify.observers.uio_existence import (
@@ -333,14 +334,14 @@ def test_an_uncertified_large_gain_design_is_redone_moving_fewer_slow_modes(pape
         return uio.HurwitzCertificate(uio.Status.UNDECIDED, got.ratio, got.eigenvalues) if len(seen) == 1 else got
 
     monkeypatch.setattr(uio, "hurwitz_eigenvalues", first_undecided)
-    monkeypatch.setattr(uio, "_LADDER_GAIN", 0.0)
-    ex, d = design_uio(cm.A, cm.E, C, gamma=paper19.gamma)
-    assert len(seen) == 2 and d["hurwitz"].value == "holds"
-    assert any("retried moving only Re > -0.3 sigma" in n for n in d["notes"])
-    assert ex.A1 is not None
-    mu = np.linalg.eigvals(ex.A1)
-    kept = [m for m in mu if m.real <= -0.3 * paper19.gamma / 2]
-    for m in kept:  # not moved
-        assert np.min(np.abs(d["eigenvalues"] - m)) < 1e-6
-    assert np.max(d["eigenvalues"].real) < 0
-    assert np.allclose(d["T"] @ cm.A - d["F"] @ d["T"] - d["K"] @ C, 0.0, atol=1e-9)
+    with config.override(uio_ladder_gain=0.0):
+        ex, d = design_uio(cm.A, cm.E, C, gamma=paper19.gamma)
+        assert len(seen) == 2 and d["hurwitz"].value == "holds"
+        assert any("retried moving only Re > -0.3 sigma" in n for n in d["notes"])
+        assert ex.A1 is not None
+        mu = np.linalg.eigvals(ex.A1)
+        kept = [m for m in mu if m.real <= -0.3 * paper19.gamma / 2]
+        for m in kept:  # not moved
+            assert np.min(np.abs(d["eigenvalues"] - m)) < 1e-6
+        assert np.max(d["eigenvalues"].real) < 0
+        assert np.allclose(d["T"] @ cm.A - d["F"] @ d["T"] - d["K"] @ C, 0.0, atol=1e-9)

@@ -40,6 +40,7 @@ from typing import Sequence
 import numpy as np
 import scipy.sparse
 
+from glocal_verify import config
 from glocal_verify.model import System
 from glocal_verify.numerics.spectrum import gamma_bound
 from glocal_verify.numerics.threads import blas_threads
@@ -53,8 +54,6 @@ __all__ = [
 ]
 
 EPS = float(np.finfo(float).eps)
-#: interior blocks of at least this many agents are decomposed on every core
-_ALL_CORES_MIN = 1000
 
 
 @dataclass(frozen=True, slots=True)
@@ -110,7 +109,7 @@ def interior_modes_of(L: np.ndarray, boundary: Sequence[int]) -> InteriorModes:
         # a large symmetric factorization: every core, also inside the single-threaded
         # observer designs that call this (eigh of 3300 interior agents: 7.1-7.2 s on one
         # thread, 3.5-4.6 s on two; see glocal_verify.numerics.threads)
-        with blas_threads(None) if len(inner) >= _ALL_CORES_MIN else contextlib.nullcontext():
+        with blas_threads(None) if len(inner) >= config.get("all_cores_min_agents") else contextlib.nullcontext():
             mu, U = np.linalg.eigh(LII)
             G = U.T @ U
         G[np.diag_indices_from(G)] -= 1.0

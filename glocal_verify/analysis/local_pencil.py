@@ -20,6 +20,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from glocal_verify import config
 from glocal_verify.analysis.cluster_pencil import (
     SymmetricZero,
     backward_error,
@@ -48,21 +49,13 @@ from glocal_verify.results import Status, Verdict
 from glocal_verify.spec.types import Label
 
 __all__ = [
-    "DENSE_MAX_AGENTS",
     "PENCIL_METHODS",
     "pencil_verdict",
     "pencil_verdict_exact",
     "witness_number",
 ]
 
-#: in ``method="auto"`` clusters with at most this many agents use the dense generic analysis
-DENSE_MAX_AGENTS = 16
 PENCIL_METHODS = ("auto", "structured", "dense")
-
-#: zeros reported (and verified) per case
-_MAX_REPORTED_ZEROS = 12
-#: full pencils with at most this many columns get an exact ||P||_2 in residuals
-_EXACT_NORM_COLUMNS = 400
 
 
 def _moves(xi: np.ndarray, nodes: Sequence[Label]) -> list[Label]:
@@ -96,7 +89,7 @@ def _residual(case: LocalCase, lam: complex, v: np.ndarray) -> float:
     its lower bound :func:`~glocal_verify.analysis.cluster_pencil.norm2_lower` on the sparse
     pencil (the ratio can then only be larger)."""
     n = 2 * len(case.model.nodes)
-    if n + min(case.C.shape[0], case.B.shape[1] + case.model.E.shape[1]) <= _EXACT_NORM_COLUMNS:
+    if n + min(case.C.shape[0], case.B.shape[1] + case.model.E.shape[1]) <= config.get("exact_norm_columns"):
         P = full_pencil(case, lam)
         return float(np.linalg.norm(P @ v)) / max(float(np.linalg.norm(P, 2)) * float(np.linalg.norm(v)), 1e-300)
     return backward_error(full_pencil_sparse(case, lam), v)
@@ -181,7 +174,7 @@ def _resolve_method(case: LocalCase, method: str) -> str:
     if method not in PENCIL_METHODS:
         raise ValueError(f"local.pencil method must be one of {PENCIL_METHODS}, not {method!r}")
     if method == "auto":
-        return "dense" if len(case.model.nodes) <= DENSE_MAX_AGENTS else "structured"
+        return "dense" if len(case.model.nodes) <= config.get("dense_max_agents") else "structured"
     return method
 
 
@@ -407,7 +400,7 @@ def _pencil_structured(system: System, case: LocalCase, tol: Tolerance, margin: 
     while cands:
         lam, g, mult = cands.pop(0)
         # report the first 12; if none of them verifies, look at up to 24 more for one that does
-        if len(reported) >= _MAX_REPORTED_ZEROS and (any(w["verified"] for w in reported) or len(reported) >= 3 * _MAX_REPORTED_ZEROS):
+        if len(reported) >= config.get("max_reported_zeros") and (any(w["verified"] for w in reported) or len(reported) >= 3 * config.get("max_reported_zeros")):
             witness["zeros_not_reported"] = len(cands) + 1
             break
         if g in merged:
@@ -489,7 +482,7 @@ def _pencil_dense(system: System, case: LocalCase, tol: Tolerance, margin: bool)
         witness["zeros"].append(w)
     if pa.zeros:
         witness["zero_count"] = sum(w.get("multiplicity", 1) for w in witness["zeros"])
-        witness["zeros"] = witness["zeros"][:_MAX_REPORTED_ZEROS]
+        witness["zeros"] = witness["zeros"][:config.get("max_reported_zeros")]
         status = Status.UNDECIDED if (undecided and not any(w["verified"] for w in witness["zeros"])) else Status.FAILS
         return Verdict(status, margin=0.0, witness=witness)
     margin_value = min(_relative_sigma_min(case, lam) for lam in _sample_points(system)) if margin else float("nan")
@@ -511,7 +504,7 @@ def pencil_verdict(
         Compute the sampled margin; when False the margin returned is NaN on success.
     method : str
         ``"structured"``, ``"dense"`` or ``"auto"`` (dense for clusters of at most
-        :data:`DENSE_MAX_AGENTS` agents, structured otherwise). The witness records it.
+        ``dense_max_agents`` (:mod:`glocal_verify.config`) agents, structured otherwise). The witness records it.
 
     Notes
     -----
@@ -594,7 +587,7 @@ def _pencil_exact(system: System, case: LocalCase) -> Verdict:
         if d is not None:
             witness["direction"] = _direction_witness(case, lam, d[0], d[1])
     zs = []
-    for z in pe.zeros[:_MAX_REPORTED_ZEROS]:
+    for z in pe.zeros[:config.get("max_reported_zeros")]:
         w: dict[str, Any] = _direction_witness(case, z.value, z.x, z.u) if (z.x.size or z.u.size) else {"lambda": witness_number(z.value)}
         w.update(
             {
@@ -759,7 +752,7 @@ def _pencil_exact_structured(system: System, case: LocalCase, *, fast: bool = Tr
     entries.sort(key=lambda t: (-t[0].real, -abs(t[0].imag)))
     witness["zero_count"] = sum(e[5] for e in entries)
     zs = []
-    for value, rational, sign, hstr, fstr, mult, has_u in entries[:_MAX_REPORTED_ZEROS]:
+    for value, rational, sign, hstr, fstr, mult, has_u in entries[:config.get("max_reported_zeros")]:
         sv = value * value + system.gamma * value
         w: dict[str, Any]
         xq: np.ndarray | None = None

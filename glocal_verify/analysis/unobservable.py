@@ -17,6 +17,7 @@ import flint
 import numpy as np
 import scipy.linalg
 
+from glocal_verify import config
 from glocal_verify.analysis.modal import EigenGroupPart, form_bases, modal_decomposition
 from glocal_verify.model import System
 from glocal_verify.numerics.exact_subspace import (
@@ -333,19 +334,11 @@ def structural_basis(system: System, comps: Sequence[Sequence[object]]) -> tuple
     return tuple(out)
 
 
-#: singular values of S_M U_g below this are read as numerically zero when rationalising
-#: unobservable candidates (a candidate is only used after its exact proof)
-CANDIDATE_ZERO = 1e-9
-
-#: most candidate vectors the exact verification of :func:`certified_unobservable` takes on
-MAX_VERIFIED_CANDIDATES = 400
-
-
 def rational_unobservable_candidates(E: np.ndarray, measured: Sequence[int]) -> list[list[Fraction]]:
     """Rationalised echelon rows spanning ``span(E) ∩ ker S_M`` (floating point, unproven).
 
     ``E`` (N x k) is the computed basis of an eigenvalue cluster; the right singular vectors
-    of ``E[M, :]`` with singular value <= :data:`CANDIDATE_ZERO` give the numerical null
+    of ``E[M, :]`` with singular value <= ``candidate_zero`` (:mod:`glocal_verify.config`) give the numerical null
     space; its basis is brought to reduced echelon form (pivoted QR, then a solve) and each
     entry rounded to the nearest fraction with denominator <= 10^6 (entries below 1e-9 to 0).
     Twin modes come out exact; the caller must prove whatever it uses.
@@ -359,7 +352,7 @@ def rational_unobservable_candidates(E: np.ndarray, measured: Sequence[int]) -> 
     S = E[list(measured), :]
     if S.size:
         _, sv, vh = np.linalg.svd(S)
-        r = int(np.sum(sv > CANDIDATE_ZERO))
+        r = int(np.sum(sv > config.get("candidate_zero")))
         null = vh[r:].conj().T
     else:
         null = np.eye(E.shape[1])
@@ -393,7 +386,7 @@ def _verified_singular_part(
     for a, b, s, e, sv in singular:
         proven = int(np.sum(sv * math.sqrt(max(0.0, 1.0 - s * s)) - s - e > 0)) if math.isfinite(s) else 0
         upper_w += (b - a + 1) - proven
-    if upper_w > MAX_VERIFIED_CANDIDATES or any(float(sv[-1]) > CANDIDATE_ZERO for *_, sv in singular):
+    if upper_w > config.get("max_verified_candidates") or any(float(sv[-1]) > config.get("candidate_zero") for *_, sv in singular):
         return (), upper_w
     entries = laplacian_entries(system, mode)
     kept: list[list[Fraction]] = []

@@ -41,6 +41,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from glocal_verify import config
 from glocal_verify.analysis.avoidance import Avoidance, _block_norm, _delta_block
 from glocal_verify.analysis.twins import laplacian_entries
 from glocal_verify.analysis.zda import ZdaDirection, ZdaZero
@@ -99,7 +100,7 @@ def _grounded(system: System) -> Any:
 
 #: the modular screen inverts the grounded Laplacian modulo a prime (O(N^3) once per system) up
 #: to this many agents; above, every set takes the exact solve
-MODULAR_MAX_AGENTS = 2000
+MODULAR_MAX_AGENTS = config.get("zero_touch_modular_max_agents")
 
 
 def _inverse_mod(system: System) -> tuple[int, np.ndarray] | None:

@@ -15,6 +15,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from glocal_verify import config
 from glocal_verify.conditions.registry import (
     CheckContext,
     checker,
@@ -49,8 +50,9 @@ __all__ = [
 #: the conditions Algorithm 1 (line 4) evaluates for a safe mode
 THEOREM_III3_IDS = ("switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences")
 
-#: largest network on which ``switching.detects`` simulates (each mode: one 2N-column batch)
-DETECTS_MAX_AGENTS = 150
+#: largest network on which ``switching.detects`` simulates: the default of the tunable
+#: ``detects_max_agents`` of :mod:`glocal_verify.config` (read at each check)
+DETECTS_MAX_AGENTS = config.default("detects_max_agents")
 
 
 def rank_safe_modes(system: System, modes: Sequence[str] | None = None) -> tuple[ModeRanking, ...]:
@@ -144,7 +146,7 @@ def check_detects(system: System, ctx: CheckContext) -> list[ConditionResult]:
     spec = system.spec
     if spec.attack is None or spec.switching is None or not system.safe_modes:
         return []
-    limit = int(ctx.options.get("max_agents", DETECTS_MAX_AGENTS))
+    limit = int(ctx.options.get("max_agents", config.get("detects_max_agents")))
     key = ("switching.detects", ctx.tol.rtol, ctx.tol.band, limit)
     if key in system.analysis:
         return list(system.analysis[key])

@@ -27,12 +27,12 @@ Scale. (iii) is decided on the structure of the pencil (:mod:`glocal_verify.anal
 zero forcing from the measured agents (a combinatorial proof), else the n-sized reduced pencil
 Q(s) = (s I + alpha L)[R, U], s = lam^2 + gamma lam, whose zeros are lifted to the 2n pencil
 and verified there by their backward error; the dense analysis of the 2n pencil is kept for
-small clusters (at most :data:`~glocal_verify.analysis.local_pencil.DENSE_MAX_AGENTS` agents) and as the reference of the tests.
+small clusters (at most ``dense_max_agents`` (:mod:`glocal_verify.config`) agents) and as the reference of the tests.
 The UIO check decides detectability structurally (:func:`glocal_verify.observers.uio_existence.cluster_detectability`,
 cross-checking the generic observable split) and designs one observer per distinct cluster
 block: the two suspected sets of an observer, and the modes that do not change its cluster,
 share it. On clusters of at least
-:data:`~glocal_verify.observers.uio_modal.MODAL_MIN_AGENTS` agents (option
+``modal_min_agents`` (:mod:`glocal_verify.config`) agents (option
 ``local_uio_method``: ``auto``, ``modal`` or ``dense``) the design and its Hurwitz
 certificate come from one symmetric eigenproblem of the interior block L[P_i \\ dP_i, P_i \\ dP_i]
 (:mod:`glocal_verify.observers.uio_modal_verdict`), shared by every observer of the cluster and
@@ -151,7 +151,7 @@ def check_pencil(system: System, ctx: CheckContext) -> list[ConditionResult]:
     pencil, by an SVD (dense method) or by the backward error of its lifted direction
     (structured method)). Exact: :func:`~glocal_verify.analysis.local_pencil.pencil_verdict_exact` over Q. The method (option
     ``local_pencil_method``: ``auto``, ``structured`` or ``dense``; auto is dense for clusters
-    of at most :data:`~glocal_verify.analysis.local_pencil.DENSE_MAX_AGENTS` agents) is recorded in the witness.
+    of at most ``dense_max_agents`` (:mod:`glocal_verify.config`) agents) is recorded in the witness.
 
     Certification (numeric): a verdict of either method stands only when it is proved for the
     exact pencil (``certificate`` in the witness; see

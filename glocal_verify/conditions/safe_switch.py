@@ -105,6 +105,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from glocal_verify import config
 from glocal_verify.analysis.avoidance import (
     Avoidance,
     _exact_mode,
@@ -157,7 +158,7 @@ MARGIN_SCALE = (
 
 
 #: up to this many agents an undecided touch test at a computed lambda0 = 0 notes what Q says there
-ZERO_TOUCH_NOTE_AGENTS = 500
+ZERO_TOUCH_NOTE_AGENTS = config.get("zero_touch_note_agents")
 
 
 def _readings(touches: bool | None, predicted: str) -> tuple[dict[str, Any], dict[str, Any]]:

@@ -49,6 +49,7 @@ from typing import Any
 
 import numpy as np
 
+from glocal_verify import config
 from glocal_verify.analysis.avoidance import _exact_mode, _numeric_mode, _stealthy_bases
 from glocal_verify.analysis.zero_touch import touch_at_zero
 from glocal_verify.analysis.zda import (
@@ -95,21 +96,21 @@ __all__ = [
 THEOREM_III3 = ("switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences")
 GROWTH_NULL = "null"
 #: by default numeric ``undecided`` parts are re-decided over Q up to this many agents
-EXACT_FALLBACK_MAX_AGENTS = 60
+EXACT_FALLBACK_MAX_AGENTS = config.get("exact_fallback_max_agents")
 #: above this many agents (and up to :data:`EXACT_FALLBACK_MAX_AGENTS`) the default re-decides
 #: the ZDA and safe-mode parts over Q only for rows whose verdict they leave undecided
-EXACT_FALLBACK_FULL_AGENTS = 20
+EXACT_FALLBACK_FULL_AGENTS = config.get("exact_fallback_full_agents")
 #: up to this many agents every stealthy set gets its whole zero set by default (``growth="full"``)
-GROWTH_FULL_MAX_AGENTS = 60
+GROWTH_FULL_MAX_AGENTS = config.get("growth_full_max_agents")
 #: above this many agents a row's witness direction leaves out xi (N entries per row)
-WITNESS_XI_MAX_AGENTS = 100
+WITNESS_XI_MAX_AGENTS = config.get("witness_xi_max_agents")
 #: with ``growth="verdict"`` and a proven witness, the minor certificate stops after this many
 #: minors in a row leave the gcd's degree unchanged
-WITNESS_CERTIFICATE_PATIENCE = 1
+WITNESS_CERTIFICATE_PATIENCE = config.get("witness_certificate_patience")
 #: ... and tries at most this many of the costlier minors with an extra replaced row (in the
 #: whole N = 200, k = 2 audit of the benchmarks, none of the 7,854 pair certificates that
 #: succeeded used one; the 2,876 that failed spent a third of their time there)
-WITNESS_CERTIFICATE_EXTRA_ROWS = 0
+WITNESS_CERTIFICATE_EXTRA_ROWS = config.get("witness_certificate_extra_rows")
 
 
 # ------------------------------------------------------------------------------------------

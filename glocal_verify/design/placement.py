@@ -32,7 +32,7 @@ structured ``local.pencil`` checker (:func:`glocal_verify.analysis.local_pencil.
 **Search.** Greedy set cover: start from M = dP_i and add the agent whose measurement forces
 the most agents, until zero forcing completes (structural, no arithmetic: O(|P_i|) closures per
 added agent); then drop agents (last added first) while the pencil test still holds (clusters
-of at most :data:`FULL_DELETE_MAX` agents) or while zero forcing still completes (larger ones:
+of at most ``full_delete_max`` (:mod:`glocal_verify.config`) agents) or while zero forcing still completes (larger ones:
 no dense factorization per candidate; the full test runs once on the result). For small
 clusters an exhaustive search by increasing |M| (at most ``exact_limit`` candidate sets)
 proves the minimum. The centre is the agent whose closed neighbourhood covers most of M (the
@@ -58,6 +58,7 @@ from typing import Any, Iterable, Sequence
 import numpy as np
 from tqdm import tqdm
 
+from glocal_verify import config
 from glocal_verify.analysis.cluster_pencil import (
     intra_neighbours,
     reduced_pencil_holds,
@@ -79,11 +80,6 @@ __all__ = [
     "parse_suspected",
     "connectivity_warnings",
 ]
-
-DEFAULT_EXACT_LIMIT = 2000
-
-#: largest cluster whose greedy reverse delete runs the full (numeric) test on every trial
-FULL_DELETE_MAX = 80
 
 
 @dataclass(frozen=True, slots=True)
@@ -334,7 +330,7 @@ def _greedy(pb: _Problem) -> tuple[list[int], list[int]]:
     Forward, only the structural test (zero forcing, no arithmetic) decides when to stop; the
     full test (:func:`_holds`: safe-mode UIO existence too) runs once on the result and keeps
     adding agents only if it fails. The reverse delete uses the full test (reduced pencil when
-    zero forcing is incomplete) for clusters of at most :data:`FULL_DELETE_MAX` agents, and
+    zero forcing is incomplete) for clusters of at most ``full_delete_max`` (:mod:`glocal_verify.config`) agents, and
     zero forcing alone above (the full test then runs once on the result; on failure the
     zero-forcing set is kept). The second value is the set before the reverse delete: zero
     forcing completes on it, so the checkers decide it combinatorially.
@@ -351,7 +347,7 @@ def _greedy(pb: _Problem) -> tuple[list[int], list[int]]:
         M.add(c)
         order.append(c)
     before = sorted(M)
-    full = n <= FULL_DELETE_MAX
+    full = n <= config.get("full_delete_max")
     for c in reversed(order):
         trial = M - {c}
         if _holds(pb, trial) if full else _zf_complete(pb, trial):
@@ -394,7 +390,7 @@ def place_cluster(
     suspected: str | Sequence[Label] = "attack",
     *,
     tol: Tolerance = DEFAULT_TOLERANCE,
-    exact_limit: int = DEFAULT_EXACT_LIMIT,
+    exact_limit: int = config.get("placement_exact_limit"),
     progress: bool = True,
 ) -> ObserverProposal:
     """Propose one local observer for ``cluster`` (see the module docstring).
@@ -504,7 +500,7 @@ def place_observers(
     suspected: str | Sequence[Label] = "attack",
     *,
     tol: Tolerance = DEFAULT_TOLERANCE,
-    exact_limit: int = DEFAULT_EXACT_LIMIT,
+    exact_limit: int = config.get("placement_exact_limit"),
     progress: bool = True,
 ) -> Placement:
     """Propose a local observer for every cluster (or one) of ``system``.

@@ -46,6 +46,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
+from glocal_verify import config
 from glocal_verify.errors import GlocalVerifyError, SpecError
 
 __all__ = [
@@ -95,8 +96,6 @@ COLUMNS = (
     "error",
     "seconds",
 )
-
-_MAX_MEMBERS = 1_000_000
 
 
 @dataclass(frozen=True, slots=True)
@@ -241,8 +240,8 @@ def plan_from_dict(data: Mapping[str, Any], source: str | None = None, base: Pat
         else:
             fixed[k] = v
     count = len(seeds) * math.prod(len(v) for v in grid.values())
-    if count > _MAX_MEMBERS:
-        raise _fail("ensemble", f"{count} members exceed the limit of {_MAX_MEMBERS}", source)
+    if count > config.get("sweep_max_members"):
+        raise _fail("ensemble", f"{count} members exceed the limit of {config.get('sweep_max_members')}", source)
     generated: list[Member] = []
     axes = list(grid)
     for combo in itertools.product(*(grid[a] for a in axes)):
@@ -261,7 +260,7 @@ def _seeds(spec: Any, source: str | None) -> list[int]:
         return list(spec)
     if isinstance(spec, Mapping):
         start, count = spec.get("start", 0), spec.get("count")
-        if not isinstance(start, int) or not isinstance(count, int) or isinstance(count, bool) or count < 1 or count > _MAX_MEMBERS:
+        if not isinstance(start, int) or not isinstance(count, int) or isinstance(count, bool) or count < 1 or count > config.get("sweep_max_members"):
             raise _fail("ensemble.seeds", "needs integers start and count (1 <= count)", source)
         return list(range(start, start + count))
     raise _fail("ensemble.seeds", "must be a list of integers or {start, count}", source)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from glocal_verify import config
+
 import math
 from fractions import Fraction
 from typing import Any, Sequence
@@ -10,7 +12,6 @@ import flint
 import numpy as np
 
 __all__ = [
-    "MAX_PRIMES",
     "annihilator",
     "cols_closure",
     "kernel_basis",
@@ -72,7 +73,7 @@ def row_closure(R0: flint.fmpq_mat, mats: Sequence[flint.fmpq_mat]) -> flint.fmp
     matrix M exactly, so ker K^perp is an invariant subspace of ker R0 of dimension n - r, while
     the rank r_p of the closure mod p is at most the rank over Q (reduction mod p of integer
     vectors cannot raise rank), so dim of the largest invariant subspace is at most n - r_p = n - r.
-    When no candidate is proved within :data:`MAX_PRIMES` primes, the dense rational iteration
+    When no candidate is proved within ``max_primes`` (:mod:`glocal_verify.config`) primes, the dense rational iteration
     (:func:`_row_closure_direct`) decides. No tolerance either way.
     """
     n = R0.ncols()
@@ -144,9 +145,6 @@ def to_fraction_cols(K: flint.fmpq_mat) -> list[list[Fraction]]:
 
 # --------------------------------------------------------------------------------------------
 # closure modulo primes, lifted to Q and proved
-
-#: primes tried by :func:`_lift_closure` before it leaves the closure to the rational iteration
-MAX_PRIMES = 48
 
 
 def _primes_below(bound: int, count: int) -> list[int]:
@@ -244,14 +242,14 @@ def _ratrecon(a: int, m: int) -> Fraction | None:
 def _lift_closure(R0: flint.fmpq_mat, mats: Sequence[flint.fmpq_mat], primes: Sequence[int] | None = None) -> flint.fmpq_mat | None:
     """The closure of :func:`row_closure` via primes, proved over Q; None when not proved.
 
-    ``primes`` (default the :data:`MAX_PRIMES` largest below sqrt(2^53 / (n + 2))) must keep
+    ``primes`` (default the ``max_primes`` (:mod:`glocal_verify.config`) largest below sqrt(2^53 / (n + 2))) must keep
     n p^2 < 2^53; any primes are sound (unlucky ones only delay or prevent the proof).
     """
     n = R0.ncols()
     R0i = _int_entries(R0)
     Mi = [_int_entries(M) for M in mats]
     if primes is None:
-        primes = _primes_below(math.isqrt((1 << 53) // (n + 2)), MAX_PRIMES)
+        primes = _primes_below(math.isqrt((1 << 53) // (n + 2)), config.get("max_primes"))
     best: tuple[int, tuple[int, ...]] | None = None
     residues: list[list[int]] = []
     modulus = 1

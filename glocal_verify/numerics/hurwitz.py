@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from glocal_verify import config
 from glocal_verify.numerics.subspace import EPS
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
 from glocal_verify.results import Status
@@ -150,11 +151,6 @@ def _triangular_kappa(T: np.ndarray, twin: np.ndarray | None = None) -> np.ndarr
     return np.where(np.isfinite(kappa), kappa, np.inf)
 
 
-#: the reduced certificate is used when the trailing (moved and unobservable) block is at most
-#: this large and the entries it drops are at most rtol ||F||_2 (else the dense one)
-_REDUCED_TAIL = 400
-
-
 def hurwitz_reduced(F: np.ndarray, W: np.ndarray, kept: int, sub: np.ndarray, tol: Tolerance) -> HurwitzCertificate | None:
     """:func:`hurwitz_eigenvalues` from a known block triangularisation of F^T; None when it does not apply.
 
@@ -170,13 +166,13 @@ def hurwitz_reduced(F: np.ndarray, W: np.ndarray, kept: int, sub: np.ndarray, to
     the eigenvalues of S (its diagonal blocks) and their condition numbers
     (:func:`_triangular_kappa`, invariant under the unitary similarities) with
     delta = rtol ||F||_2 + d, never smaller than the dense certificate's. Used only when
-    d <= rtol ||F||_2 and the trailing block has at most :data:`_REDUCED_TAIL` states.
+    d <= rtol ||F||_2 and the trailing block has at most ``hurwitz_reduced_tail`` (:mod:`glocal_verify.config`) states.
     """
     import scipy.linalg
 
     n = F.shape[0]
     m = n - kept
-    if n == 0 or m > _REDUCED_TAIL or W.shape != (n, n) or len(sub) != max(kept - 1, 0):
+    if n == 0 or m > config.get("hurwitz_reduced_tail") or W.shape != (n, n) or len(sub) != max(kept - 1, 0):
         return None
     R = W.T @ np.asarray(matrix_operator(F.T) @ W)
     if m:
@@ -215,16 +211,11 @@ def matrix_operator(A: np.ndarray) -> Any:
     row), else A itself; products A V are then O(nnz(A) k) instead of O(n^2 k) and differ from
     the dense ones only by rounding (each entry is the same sum of products)."""
     n = A.shape[0]
-    if n < SPARSE_MIN or np.count_nonzero(A) > SPARSE_DENSITY * n * n:
+    if n < config.get("sparse_min") or np.count_nonzero(A) > config.get("sparse_density") * n * n:
         return A
     import scipy.sparse
 
     return scipy.sparse.csr_matrix(A)
-
-
-#: A^T products go through a CSR matrix for n >= SPARSE_MIN and density <= SPARSE_DENSITY
-SPARSE_MIN = 64
-SPARSE_DENSITY = 0.05
 
 
 def _decide_ratios(ratio: np.ndarray, tol: Tolerance) -> Status:

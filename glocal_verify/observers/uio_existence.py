@@ -18,6 +18,7 @@ import numpy as np
 
 import flint
 
+from glocal_verify import config
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.numerics import exact as ex
 from glocal_verify.numerics.hurwitz import matrix_operator
@@ -31,7 +32,6 @@ from glocal_verify.numerics.tolerance import (
 from glocal_verify.results import Status
 
 __all__ = [
-    "SLOW_LADDER",
     "Decoupling",
     "Detectability",
     "ObservableSplit",
@@ -181,13 +181,6 @@ def _schur_eigvals(T: np.ndarray) -> np.ndarray:
             out.append(complex(T[k, k]))
             k += 1
     return np.asarray(out)
-
-
-#: fallback ladder of the default design: the modes with Re > -theta * sigma are moved, for
-#: theta in this order, until F is certified Hurwitz (0.9 is :func:`default_poles`' rule)
-SLOW_LADDER = (0.9, 0.3, 0.1, 0.02)
-#: the ladder is climbed only while ||K1||_2 > _LADDER_GAIN * max(||A1||_2, 1)
-_LADDER_GAIN = 10.0
 
 
 def _slow_schur(Aoo: np.ndarray, gamma: float) -> tuple[np.ndarray, np.ndarray, int]:

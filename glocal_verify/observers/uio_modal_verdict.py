@@ -30,6 +30,7 @@ import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
 
+from glocal_verify import config
 from glocal_verify.analysis.cluster_modal import interior_modes, state_rounding_bound
 from glocal_verify.analysis.cluster_pencil import intra_neighbours, zero_forcing_closure
 from glocal_verify.analysis.local_pencil import witness_number
@@ -39,10 +40,10 @@ from glocal_verify.numerics.pencil_exact import rank_bounds
 from glocal_verify.numerics.threads import single_threaded
 from glocal_verify.numerics.tolerance import Decision, Tolerance
 from glocal_verify.observers.uio_existence import cluster_detectability, decoupling
-from glocal_verify.observers.uio_modal import MODAL_MIN_AGENTS, design_uio_modal
+from glocal_verify.observers.uio_modal import design_uio_modal
 from glocal_verify.results import Status, Verdict
 
-__all__ = ["MODAL_MIN_AGENTS", "UIO_METHODS", "modal_applicable", "uio_one_modal"]
+__all__ = ["UIO_METHODS", "modal_applicable", "uio_one_modal"]
 
 #: values of the checker option ``local_uio_method``
 UIO_METHODS = ("auto", "modal", "dense")
@@ -50,7 +51,7 @@ UIO_METHODS = ("auto", "modal", "dense")
 
 def modal_applicable(cm: ClusterModel, obs: LocalObserver, exact: bool, method: str) -> bool:
     """Whether the modal path is tried: numeric mode, default poles, and ``method`` ``modal``
-    or ``auto`` with at least :data:`MODAL_MIN_AGENTS` agents.
+    or ``auto`` with at least ``modal_min_agents`` (:mod:`glocal_verify.config`) agents.
 
     Parameters
     ----------
@@ -62,7 +63,7 @@ def modal_applicable(cm: ClusterModel, obs: LocalObserver, exact: bool, method: 
     """
     if exact or obs.poles is not None or method == "dense":
         return False
-    return method == "modal" or len(cm.nodes) >= MODAL_MIN_AGENTS
+    return method == "modal" or len(cm.nodes) >= config.get("modal_min_agents")
 
 
 @single_threaded

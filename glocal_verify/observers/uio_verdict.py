@@ -311,7 +311,7 @@ def uio_verdict(
     method : str
         ``auto`` (default: the modal design and certificate of
         :mod:`glocal_verify.observers.uio_modal_verdict` for numeric checks of clusters of at least
-        :data:`~glocal_verify.observers.uio_modal.MODAL_MIN_AGENTS` agents with default
+        ``modal_min_agents`` (:mod:`glocal_verify.config`) agents with default
         poles, the dense one otherwise), ``modal`` (whenever it applies) or ``dense``.
     """
     per_mode: dict[str, Any] = {}
