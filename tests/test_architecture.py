@@ -10,7 +10,7 @@ import glocal_verify
 PACKAGE = Path(glocal_verify.__file__).parent
 
 #: lowest first; a module may import only its own layer and the ones before it
-LAYERS = ["errors", "config", "results", "spec", "numerics", "model", "analysis", "observers", "simulation", "conditions", "design", "reporting", "cli"]
+LAYERS = ["errors", "config", "results", "derived", "spec", "numerics", "model", "analysis", "observers", "simulation", "conditions", "design", "reporting", "cli"]
 
 
 def _modules() -> list[tuple[str, Path]]:
@@ -154,3 +154,58 @@ def test_reporting_renders_results_it_is_given_and_computes_none() -> None:
             if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("glocal_verify."):
                 calls += [f"{name}:{node.lineno} imports {a.name}" for a in node.names if a.name in _COMPUTATIONS]
     assert not calls, calls
+
+
+def _declared_kinds() -> dict[str, list[tuple[str, str]]]:
+    """Kind name -> [(declaring module, constant name)] from every ``X = Kind("name", __name__, ...)``."""
+    out: dict[str, list[tuple[str, str]]] = {}
+    for name, path in _modules():
+        for node in ast.parse(path.read_text(encoding="utf-8")).body:
+            value = node.value if isinstance(node, (ast.Assign, ast.AnnAssign)) else None
+            if isinstance(value, ast.Call) and isinstance(value.func, ast.Name) and value.func.id == "Kind":
+                target = node.targets[0] if isinstance(node, ast.Assign) else node.target
+                kind, owner = value.args[0], value.args[1]
+                assert isinstance(kind, ast.Constant) and isinstance(owner, ast.Name) and owner.id == "__name__", f"{name}: a Kind names itself and its owner (__name__)"
+                assert isinstance(target, ast.Name)
+                out.setdefault(str(kind.value), []).append((name, target.id))
+    return out
+
+
+def test_each_kind_of_derived_result_is_declared_and_written_by_one_module() -> None:
+    kinds = _declared_kinds()
+    assert len(kinds) >= 30
+    twice = {k: v for k, v in kinds.items() if len(v) > 1}
+    assert not twice, twice
+    constants = {const: module for v in kinds.values() for module, const in v}
+    shared = []
+    for name, path in _modules():
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom):
+                shared += [f"{name} imports {a.name}" for a in node.names if a.name in constants and constants[a.name] != name]
+    assert not shared, shared
+    from glocal_verify import System, load_example, verify
+
+    system = System(load_example("paper19"))
+    verify(system, exact=False)
+    undeclared = set(system.analysis.kinds()) - set(kinds)
+    assert not undeclared, undeclared
+
+
+def test_no_code_reaches_the_derived_results_by_a_bare_key() -> None:
+    bare = []
+    for name, path in _modules():
+        if name == "derived":
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            target = None
+            if isinstance(node, ast.Subscript):
+                target = node.value
+            elif isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr == "get":
+                target = node.func.value
+            elif isinstance(node, ast.Compare) and any(isinstance(op, (ast.In, ast.NotIn)) for op in node.ops):
+                target = node.comparators[0]
+            elif isinstance(node, ast.Assign):
+                target = node.value
+            if isinstance(target, ast.Attribute) and target.attr == "analysis":
+                bare.append(f"{name}:{node.lineno}")
+    assert not bare, bare

@@ -41,6 +41,7 @@ import numpy as np
 import scipy.sparse
 
 from glocal_verify import config
+from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.numerics.spectrum import gamma_bound
 from glocal_verify.numerics.threads import blas_threads
@@ -52,6 +53,10 @@ __all__ = [
     "interior_modes_of",
     "state_rounding_bound",
 ]
+
+#: derived results this module keeps on the system (glocal_verify.derived)
+_INTERIOR_MODES_KIND: Kind[InteriorModes] = Kind("interior-modes", __name__, "InteriorModes")
+_STATE_ROUNDING_KIND: Kind[float] = Kind("state-rounding", __name__, "float")
 
 EPS = float(np.finfo(float).eps)
 
@@ -139,7 +144,7 @@ def interior_modes(system: System, name: str, mode: str) -> InteriorModes:
     b = tuple(sorted(idx[a] for a in cm.boundary))
     h = hashlib.sha256(np.ascontiguousarray(cm.L).tobytes())
     h.update(repr((cm.L.shape, b)).encode())
-    return system.analysis.get(("interior-modes", name, h.hexdigest()), lambda: interior_modes_of(cm.L, b))  # type: ignore[no-any-return]
+    return _INTERIOR_MODES_KIND.get(system, (name, h.hexdigest()), lambda: interior_modes_of(cm.L, b))  # type: ignore[no-any-return]
 
 
 def state_rounding_bound(system: System, name: str, mode: str) -> float:
@@ -186,4 +191,4 @@ def state_rounding_bound(system: System, name: str, mode: str) -> float:
             k += 1
         return math.sqrt(total) * (1.0 + (k + 4) * EPS) + 1e-300 if total > 0 else 0.0
 
-    return system.analysis.get(("state-rounding", name, mode), compute)  # type: ignore[no-any-return]
+    return _STATE_ROUNDING_KIND.get(system, (name, mode), compute)  # type: ignore[no-any-return]

@@ -15,6 +15,7 @@ from typing import Any, Mapping
 import numpy as np
 import scipy.sparse
 
+from glocal_verify.derived import Kind
 from glocal_verify.model import ClusterModel, LocalObserver, System
 from glocal_verify.numerics.minors import RATIONAL_ZERO
 from glocal_verify.results import Status, Verdict
@@ -34,6 +35,13 @@ __all__ = [
     "pencil_matrices",
     "pencil_matrices_exact",
 ]
+
+#: derived results this module keeps on the system (glocal_verify.derived)
+_ALPHA_LAPLACIAN_MOD_KIND: Kind[Any] = Kind("alpha-laplacian-mod", __name__, "Any")
+_EXACT_A_KIND: Kind[Any] = Kind("exact-A", __name__, "Any")
+_GROUNDED_TABLES_KIND: Kind[Any] = Kind("grounded-tables", __name__, "Any")
+_LOCAL_MINOR_CERTIFICATE_KIND: Kind[str | None] = Kind("local-minor-certificate", __name__, "str | None")
+_TWIN_MODES_KIND: Kind[Any] = Kind("twin-modes", __name__, "Any")
 
 # --------------------------------------------------------------------------------------------
 # cases
@@ -194,7 +202,7 @@ def exact_A_float(system: System, case: LocalCase) -> tuple[list[list[Fraction]]
     system : System
     case : LocalCase
     """
-    return system.analysis.get(("exact-A", case.model.name, case.mode), lambda: _exact_A_float(system, case))  # type: ignore[no-any-return]
+    return _EXACT_A_KIND.get(system, (case.model.name, case.mode), lambda: _exact_A_float(system, case))  # type: ignore[no-any-return]
 
 
 def _exact_A_float(system: System, case: LocalCase) -> tuple[list[list[Fraction]], np.ndarray, np.ndarray]:
@@ -398,7 +406,7 @@ def minor_certificate(system: System, case: LocalCase, cache: dict[Any, Any] | N
     def build() -> Any:
         return grounded_tables(len(nodes), system.cluster_laplacian_entries(cm.name, case.mode), alpha, measured)
 
-    tables = system.analysis.get(("grounded-tables", cm.name, case.mode, tuple(measured)), build)
+    tables = _GROUNDED_TABLES_KIND.get(system, (cm.name, case.mode, tuple(measured)), build)
     if tables is None:
         return None
     inputs = [idx[a] for a in case.suspected] + [idx[a] for a in cm.boundary]
@@ -410,9 +418,7 @@ def minor_certificate(system: System, case: LocalCase, cache: dict[Any, Any] | N
         mx = {idx[a] for a in obs.positions}
         # alpha L[P_i \ I, P_i \ M_x] modulo the tables' prime (which divides no denominator of
         # alpha L): the residues of alpha L are kept per cluster and mode
-        res = system.analysis.get(
-            ("alpha-laplacian-mod", cm.name, case.mode, tables.prime), lambda: residues_mod_p([[alpha * x for x in row] for row in system.cluster_laplacian_exact(cm.name, case.mode)], tables.prime)
-        )
+        res = _ALPHA_LAPLACIAN_MOD_KIND.get(system, (cm.name, case.mode, tables.prime), lambda: residues_mod_p([[alpha * x for x in row] for row in system.cluster_laplacian_exact(cm.name, case.mode)], tables.prime))
         inset = set(inputs)
         if not submatrix_full_rank_mod_p(res, [i for i in range(len(nodes)) if i not in inset], [j for j in range(len(nodes)) if j not in mx], tables.prime):
             return None
@@ -420,8 +426,7 @@ def minor_certificate(system: System, case: LocalCase, cache: dict[Any, Any] | N
 
     # the outcome (a proof or None) depends only on the exact tables and the input rows: the
     # audit's screen and the certification of a numeric verdict ask for the same one
-    key = ("local-minor-certificate", cm.name, case.mode, tuple(measured), tuple(obs.positions), tuple(sorted(inputs)))
-    return system.analysis.get(key, prove)  # type: ignore[no-any-return]
+    return _LOCAL_MINOR_CERTIFICATE_KIND.get(system, (cm.name, case.mode, tuple(measured), tuple(obs.positions), tuple(sorted(inputs))), prove)
 
 
 def twin_failure(system: System, case: LocalCase) -> str | None:
@@ -453,7 +458,7 @@ def twin_failure(system: System, case: LocalCase) -> str | None:
     def compute() -> Any:
         return twin_modes(len(nodes), system.cluster_laplacian_entries(cm.name, case.mode), measured)
 
-    modes = system.analysis.get(("twin-modes", cm.name, case.mode, tuple(measured)), compute)
+    modes = _TWIN_MODES_KIND.get(system, (cm.name, case.mode, tuple(measured)), compute)
     for mu, pairs in modes:
         a, r = pairs[0]
         return (

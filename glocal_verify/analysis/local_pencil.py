@@ -42,6 +42,7 @@ from glocal_verify.analysis.local_cases import (
     pencil_matrices,
     pencil_matrices_exact,
 )
+from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.numerics import exact as ex
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
@@ -54,6 +55,9 @@ __all__ = [
     "pencil_verdict_exact",
     "witness_number",
 ]
+
+#: derived results this module keeps on the system (glocal_verify.derived)
+_CLUSTER_TRANSFER_KIND: Kind[Any] = Kind("cluster-transfer", __name__, "Any")
 
 PENCIL_METHODS = ("auto", "structured", "dense")
 
@@ -726,7 +730,7 @@ def _pencil_exact_structured(system: System, case: LocalCase, *, fast: bool = Tr
     R_all = list(range(n))
     tr = None
     if fast and pe.factors:
-        tr = system.analysis.get(("cluster-transfer", cm.name, case.mode, tuple(st.inputs)), lambda: cluster_transfer(Lq, Fraction(aq), st.inputs))
+        tr = _CLUSTER_TRANSFER_KIND.get(system, (cm.name, case.mode, tuple(st.inputs)), lambda: cluster_transfer(Lq, Fraction(aq), st.inputs))
     kernels: dict[str, tuple[Any, tuple[Any, ...] | None, RootEnclosures]] = {}
     for f, mult in pe.factors:
         g = f(s_of_lam)

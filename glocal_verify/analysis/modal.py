@@ -57,6 +57,7 @@ from typing import Union
 
 import numpy as np
 
+from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.numerics.spectrum import Spectrum
 from glocal_verify.numerics.subspace import EPS, decide_with_error
@@ -74,6 +75,9 @@ __all__ = [
     "block_exponentials",
     "apply_A",
 ]
+
+#: the modal decomposition per (mode, tolerance), kept on the system
+_MODAL_KIND: Kind[ModalDecomposition] = Kind("modal", __name__, "ModalDecomposition")
 
 # --------------------------------------------------------------------------------------------
 # modal decomposition of one mode
@@ -491,10 +495,10 @@ def modal_decomposition(system: System, mode: str = NORMAL_MODE, tol: Tolerance 
     For a safe mode kept in factored form only the monitored rows are computed (``|M| N^2``
     per factor), and a group's ``E`` only when it is read.
     """
-    key = ("modal", mode, tol.rtol, tol.band)
-    cache = system.analysis
-    if key in cache:
-        return cache[key]  # type: ignore[no-any-return]
+    params = (mode, tol.rtol, tol.band)
+    kept = _MODAL_KIND.peek(system, params)
+    if kept is not None:
+        return kept
     system.check_mode(mode)
     sp = system.spectrum(mode)
     w = sp.values
@@ -508,7 +512,7 @@ def modal_decomposition(system: System, mode: str = NORMAL_MODE, tol: Tolerance 
     groups = _group_parts(sp, split, scale, mx, m, tol, K)
     mgroups = groups if decided else _group_parts(sp, merged, scale, mx, m, tol, K)
     md = ModalDecomposition(mode, groups, mgroups, scale, decided)
-    cache[key] = md
+    _MODAL_KIND.put(system, params, md)
     return md
 
 

@@ -23,6 +23,7 @@ from glocal_verify.analysis.unobservable import (
     structural_basis,
     unobservable_subspace,
 )
+from glocal_verify.derived import Kind
 from glocal_verify.errors import ModelError
 from glocal_verify.model import System
 from glocal_verify.numerics.exact_subspace import (
@@ -49,6 +50,11 @@ __all__ = [
     "check_sequence",
     "sequence_text",
 ]
+
+#: derived results this module keeps on the system (glocal_verify.derived)
+_SWITCHED_KIND: Kind[Subspace] = Kind("switched", __name__, "Subspace")
+_SWITCHED_EXACT_KIND: Kind[SwitchedBounds] = Kind("switched-exact", __name__, "SwitchedBounds")
+_CERTIFIED_SWITCHED_KIND: Kind[CertifiedSwitched] = Kind("certified-switched", __name__, "CertifiedSwitched")
 
 def mode_sequence(system: System) -> list[tuple[str, float]] | None:
     """The mode schedule of the spec: ``switching.sequence``, else ``[normal, switching.mode]``.
@@ -185,11 +191,7 @@ def switched_unobservable_subspace(
         Basis of ``N_1^m`` as initial states ``x(t_0)``; ``margin`` is the smallest certainly
         nonzero sine met in the intersections (1.0 if none).
     """
-    key = ("switched", tuple((m, float(t)) for m, t in sequence), tol.rtol, tol.band)
-    cache = system.analysis
-    if key not in cache:
-        cache[key] = _switched_recursion(system, sequence, tol)
-    return cache[key]  # type: ignore[no-any-return]
+    return _SWITCHED_KIND.get(system, (tuple((m, float(t)) for m, t in sequence), tol.rtol, tol.band), lambda: _switched_recursion(system, sequence, tol))
 
 
 def _switched_recursion(
@@ -300,11 +302,7 @@ def switched_unobservable_bounds_exact(system: System, sequence: Sequence[tuple[
     sequence : sequence of (mode, duration)
         The schedule; durations are validated but not used.
     """
-    key = ("switched-exact", tuple((m, float(t)) for m, t in sequence))
-    cache = system.analysis
-    if key not in cache:
-        cache[key] = _switched_bounds_exact(system, sequence)
-    return cache[key]  # type: ignore[no-any-return]
+    return _SWITCHED_EXACT_KIND.get(system, (tuple((m, float(t)) for m, t in sequence),), lambda: _switched_bounds_exact(system, sequence))
 
 
 def _switched_bounds_exact(system: System, sequence: Sequence[tuple[str, float]]) -> SwitchedBounds:
@@ -435,10 +433,10 @@ def certified_switched(system: System, sequence: Sequence[tuple[str, float]]) ->
         The schedule.
     """
     seq = check_sequence(system, sequence)
-    key = ("certified-switched", tuple(m for m, _ in seq))
-    cache = system.analysis
-    if key in cache:
-        return cache[key]  # type: ignore[no-any-return]
+    params = (tuple(m for m, _ in seq),)
+    kept = _CERTIFIED_SWITCHED_KIND.peek(system, params)
+    if kept is not None:
+        return kept
     modes = [m for m, _ in seq]
     inner = structural_basis(system, union_components(system, modes))
     per = {m: certified_unobservable(system, m) for m in dict.fromkeys(modes)}
@@ -466,5 +464,5 @@ def certified_switched(system: System, sequence: Sequence[tuple[str, float]]) ->
         error_bound=max(c.error_bound for c in per.values()),
         note=note,
     )
-    cache[key] = out
+    _CERTIFIED_SWITCHED_KIND.put(system, params, out)
     return out

@@ -14,11 +14,15 @@ from typing import Any, Sequence
 
 import flint
 
+from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.numerics.cluster_transfer import adjugate_columns
 from glocal_verify.spec.types import NORMAL_MODE
 
 __all__ = ["laplacian_transfer"]
+
+#: the transfer function per (F, mode), kept on the system
+_TRANSFER_KIND: Kind[tuple[Any, list[list[Any]]]] = Kind("laplacian-transfer", __name__, "tuple[fmpq_poly, list[list[fmpq_poly]]]")
 
 
 def _fq(x: Fraction) -> Any:
@@ -30,7 +34,7 @@ def laplacian_transfer(system: System, F: Sequence[int], mode: str = NORMAL_MODE
 
     Faddeev-LeVerrier on the input columns only: with A = -alpha L_q and d(s) = sum_j c_j s^j,
     adj(sI - A) = sum_{j<N} s^j B_j, B_{N-1} = I, B_{j-1} = A B_j + c_j I; so W_j = B_j S_F^T
-    costs N products of A with an N x m matrix over Q. Kept on ``system.analysis``; the
+    costs N products of A with an N x m matrix over Q. Kept on the system (:data:`_TRANSFER_KIND`); the
     mode q is the normal one unless given.
 
     Parameters
@@ -40,15 +44,15 @@ def laplacian_transfer(system: System, F: Sequence[int], mode: str = NORMAL_MODE
         Input agent indices.
     mode : str
     """
-    key = ("zda-exact-transfer", tuple(F)) if mode == NORMAL_MODE else ("zda-exact-transfer", tuple(F), mode)
-    cache = system.analysis
-    if key in cache:
-        return cache[key]  # type: ignore[no-any-return]
+    params = (tuple(F),) if mode == NORMAL_MODE else (tuple(F), mode)
+    kept = _TRANSFER_KIND.peek(system, params)
+    if kept is not None:
+        return kept
     N = system.n
     L = system.laplacian_exact(mode)
     a = system.alpha_q
     A = flint.fmpq_mat(N, N, [_fq(-a * L[i][j]) for i in range(N) for j in range(N)])
     d, cols = adjugate_columns(A, F)
     P = [list(row) for row in cols]
-    cache[key] = (d, P)
+    _TRANSFER_KIND.put(system, params, (d, P))
     return d, P

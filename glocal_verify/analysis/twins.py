@@ -19,11 +19,16 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.numerics.minors import charpoly_mod, prime_for, twin_modes
 from glocal_verify.results import Status, Verdict
 
 __all__ = ["distinct_eigenvalues_modular", "eigenvector_differences_modular", "laplacian_entries"]
+
+#: derived results this module keeps on the system (glocal_verify.derived)
+_CHARPOLY_MOD_KIND: Kind[tuple[int, Any]] = Kind("charpoly-mod", __name__, "tuple[int, Any]")
+_LAPLACIAN_ENTRIES_KIND: Kind[Mapping[tuple[int, int], Fraction]] = Kind("laplacian-entries", __name__, "Mapping[tuple[int, int], Fraction]")
 
 
 def laplacian_entries(system: System, mode: str) -> Mapping[tuple[int, int], Fraction]:
@@ -48,7 +53,7 @@ def laplacian_entries(system: System, mode: str) -> Mapping[tuple[int, int], Fra
             ent[(v, v)] = ent.get((v, v), Fraction(0)) + w
         return ent
 
-    return system.analysis.get(("laplacian-entries", system.check_mode(mode)), build)  # type: ignore[no-any-return]
+    return _LAPLACIAN_ENTRIES_KIND.get(system, (system.check_mode(mode),), build)  # type: ignore[no-any-return]
 
 
 def eigenvector_differences_modular(system: System, mode: str) -> Verdict | None:
@@ -119,7 +124,7 @@ def _charpoly_mod(system: System, mode: str, ent: Mapping[tuple[int, int], Fract
         p = prime_for(list(ent.values()))
         return p, charpoly_mod(system.n, ent, p)
 
-    return system.analysis.get(("charpoly-mod", mode), compute)  # type: ignore[no-any-return]
+    return _CHARPOLY_MOD_KIND.get(system, (mode,), compute)  # type: ignore[no-any-return]
 
 
 def distinct_eigenvalues_modular(system: System, mode: str) -> Verdict | None:

@@ -19,6 +19,7 @@ import scipy.linalg
 
 from glocal_verify import config
 from glocal_verify.analysis.modal import EigenGroupPart, form_bases, modal_decomposition
+from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.numerics.exact_subspace import (
     kernel_basis,
@@ -44,6 +45,12 @@ __all__ = [
     "exact_N",
     "exact_observable_rows",
 ]
+
+#: derived results this module keeps on the system (glocal_verify.derived)
+_N_KIND: Kind[Subspace] = Kind("N", __name__, "Subspace")
+_EXACT_ROWS_KIND: Kind[flint.fmpq_mat] = Kind("exact-rows", __name__, "fmpq_mat")
+_EXACT_N_KIND: Kind[flint.fmpq_mat] = Kind("exact-N", __name__, "fmpq_mat")
+_CERTIFIED_N_KIND: Kind[CertifiedUnobservable] = Kind("certified-N", __name__, "CertifiedUnobservable")
 
 def _assemble(n: int, groups: Sequence[EigenGroupPart], upper: bool) -> tuple[np.ndarray, bool]:
     """Basis of (W^x_0 x W_0) ⊕ ⊕_{mu>0} (W_mu x W_mu) for one reading; also 'zero decisions certain'.
@@ -109,10 +116,10 @@ def unobservable_subspace(system: System, mode: str = NORMAL_MODE, tol: Toleranc
         ``margin`` = min over eigen-groups of ``sigma_min(S E_mu)`` (``S = S_{M_x}`` for
         ``mu = 0``, ``S_M`` otherwise; 0 when some group has an unobservable part).
     """
-    key = ("N", mode, tol.rtol, tol.band)
-    cache = system.analysis
-    if key in cache:
-        return cache[key]  # type: ignore[no-any-return]
+    params = (mode, tol.rtol, tol.band)
+    kept = _N_KIND.peek(system, params)
+    if kept is not None:
+        return kept
     md = modal_decomposition(system, mode, tol)
     n = system.n
     # the bases of the groups with an unobservable part W (the kernel's is exact), formed together:
@@ -160,7 +167,7 @@ def unobservable_subspace(system: System, mode: str = NORMAL_MODE, tol: Toleranc
         rtol=tol.rtol,
         evidence=evidence,
     )
-    cache[key] = sub
+    _N_KIND.put(system, params, sub)
     return sub
 
 
@@ -207,11 +214,7 @@ def exact_observable_rows(system: System, mode: str) -> flint.fmpq_mat:
     system : System
     mode : str
     """
-    key = ("exact-rows", mode)
-    cache = system.analysis
-    if key not in cache:
-        cache[key] = row_closure(exact_C(system), [exact_A(system, mode)])
-    return cache[key]  # type: ignore[no-any-return]
+    return _EXACT_ROWS_KIND.get(system, (mode,), lambda: row_closure(exact_C(system), [exact_A(system, mode)]))
 
 
 def unobservable_subspace_exact(system: System, mode: str = NORMAL_MODE) -> list[list[Fraction]]:
@@ -242,11 +245,7 @@ def exact_N(system: System, mode: str) -> flint.fmpq_mat:
     system : System
     mode : str
     """
-    key = ("exact-N", mode)
-    cache = system.analysis
-    if key not in cache:
-        cache[key] = kernel_basis(exact_observable_rows(system, mode))
-    return cache[key]  # type: ignore[no-any-return]
+    return _EXACT_N_KIND.get(system, (mode,), lambda: kernel_basis(exact_observable_rows(system, mode)))
 
 
 # --------------------------------------------------------------------------------------------
@@ -447,10 +446,9 @@ def certified_unobservable(system: System, mode: str = NORMAL_MODE) -> Certified
     mode : str
         The mode q.
     """
-    key = ("certified-N", mode)
-    cache = system.analysis
-    if key in cache:
-        return cache[key]  # type: ignore[no-any-return]
+    kept = _CERTIFIED_N_KIND.peek(system, (mode,))
+    if kept is not None:
+        return kept
     system.check_mode(mode)
     n = system.n
     comps = system.components(mode)
@@ -458,7 +456,7 @@ def certified_unobservable(system: System, mode: str = NORMAL_MODE) -> Certified
     m = system.idx(system.monitored)
     if not m:
         cu = CertifiedUnobservable(mode, 2 * n, 2 * n, struct, 0.0, "", 1.0)
-        cache[key] = cu
+        _CERTIFIED_N_KIND.put(system, (mode,), cu)
         return cu
     sp = system.spectrum(mode)
     w = sp.values
@@ -527,5 +525,5 @@ def certified_unobservable(system: System, mode: str = NORMAL_MODE) -> Certified
             if base + len(verified) == upper:
                 note = ""
     cu = CertifiedUnobservable(mode, base + len(verified), min(2 * n, upper), struct, worst_err, note, slack_min, verified)
-    cache[key] = cu
+    _CERTIFIED_N_KIND.put(system, (mode,), cu)
     return cu

@@ -20,6 +20,7 @@ from glocal_verify.analysis.zda import (
 )
 from glocal_verify.analysis.transfer import laplacian_transfer as _transfer
 from glocal_verify.analysis.twins import laplacian_entries
+from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.numerics.minors import GroundedTables, MinorCertificate, full_rank_certificate, grounded_tables, twin_modes
 from glocal_verify.numerics.pencil_exact import (
@@ -42,6 +43,11 @@ __all__ = [
     "transfer_kernel",
     "has_fast_exact_path",
 ]
+
+#: derived results this module keeps on the system (glocal_verify.derived)
+_ZDA_EXACT_MINORS_KIND: Kind[dict[Any, Any]] = Kind("zda-exact-minor-cache", __name__, "dict[Any, Any]")
+_ZDA_EXACT_MINOR_TABLES_KIND: Kind[Any] = Kind("zda-exact-minor-tables", __name__, "Any")
+_ZDA_EXACT_TWINS_KIND: Kind[Any] = Kind("zda-exact-twins", __name__, "Any")
 
 # ------------------------------------------------------------------------------------------
 # exact path
@@ -290,7 +296,7 @@ def _twins(system: System) -> tuple[tuple[Fraction, tuple[tuple[int, int], ...]]
         fams = twin_modes(system.n, laplacian_entries(system, NORMAL_MODE), M)
         return tuple((mu, pairs) for mu, pairs in fams if _twin_vectors_hold(Lq, mu, pairs, set(M)))
 
-    return system.analysis.get(("zda-exact-twins",), build)  # type: ignore[no-any-return]
+    return _ZDA_EXACT_TWINS_KIND.get(system, (), build)  # type: ignore[no-any-return]
 
 
 def _proved_zero_polynomial(system: System, F: Sequence[int]) -> Any | None:
@@ -321,10 +327,7 @@ def _minor_tables(system: System) -> GroundedTables | None:
     """Numerator tables of the normal mode's reduced pencil with outputs M = M_x ∪ M_v (kept on ``system.analysis``)."""
     if not system.monitored:
         return None
-    return system.analysis.get(
-        ("zda-exact-minor-tables",),
-        lambda: grounded_tables(system.n, laplacian_entries(system, NORMAL_MODE), Fraction(system.alpha_q), system.idx(system.monitored)),
-    )
+    return _ZDA_EXACT_MINOR_TABLES_KIND.get(system, (), lambda: grounded_tables(system.n, laplacian_entries(system, NORMAL_MODE), Fraction(system.alpha_q), system.idx(system.monitored)),)
 
 
 def has_fast_exact_path(system: System, actuators: Iterable[Label] | None = None) -> bool:
@@ -345,7 +348,7 @@ def has_fast_exact_path(system: System, actuators: Iterable[Label] | None = None
     tables = _minor_tables(system)
     if not labels or tables is None or any(mu == 0 for mu, _ in tables.twins):
         return False
-    cache: dict[Any, Any] = system.analysis.get(("zda-exact-minor-cache",), dict)
+    cache: dict[Any, Any] = _ZDA_EXACT_MINORS_KIND.get(system, (), dict)
     return full_rank_certificate(tables, system.idx(labels), cache, modulo_twins=True) is not None
 
 
@@ -421,7 +424,7 @@ def _certified_analysis(system: System, F_lab: tuple[Label, ...], F: Sequence[in
     tables = _minor_tables(system)
     if tables is None or any(mu == 0 for mu, _ in tables.twins):
         return None  # s0 = 0 (isolated twins) would put a twin factor at lambda = 0: general path
-    cache: dict[Any, Any] = system.analysis.get(("zda-exact-minor-cache",), dict)
+    cache: dict[Any, Any] = _ZDA_EXACT_MINORS_KIND.get(system, (), dict)
     cert: MinorCertificate | None = full_rank_certificate(tables, F, cache, modulo_twins=True)
     if cert is None:
         return None

@@ -22,6 +22,7 @@ from glocal_verify.conditions.registry import (
     implemented_ids,
     verify,
 )
+from glocal_verify.derived import Kind
 from glocal_verify.errors import GlocalVerifyError, NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.results import ConditionResult, Method, Status
@@ -46,6 +47,9 @@ __all__ = [
     "algorithm1",
     "zda_touch",
 ]
+
+#: the switching.detects results per (tolerance, size limit), kept on the system
+_DETECTS_KIND: Kind[list[ConditionResult]] = Kind("switching.detects", __name__, "list[ConditionResult]")
 
 #: the conditions Algorithm 1 (line 4) evaluates for a safe mode
 THEOREM_III3_IDS = ("switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences")
@@ -147,9 +151,10 @@ def check_detects(system: System, ctx: CheckContext) -> list[ConditionResult]:
     if spec.attack is None or spec.switching is None or not system.safe_modes:
         return []
     limit = int(ctx.options.get("max_agents", config.get("detects_max_agents")))
-    key = ("switching.detects", ctx.tol.rtol, ctx.tol.band, limit)
-    if key in system.analysis:
-        return list(system.analysis[key])
+    params = (ctx.tol.rtol, ctx.tol.band, limit)
+    kept = _DETECTS_KIND.peek(system, params)
+    if kept is not None:
+        return list(kept)
     out: list[ConditionResult] = []
 
     def res(mode: str, status: Status, margin: float | None, witness: Mapping[str, Any]) -> ConditionResult:
@@ -226,7 +231,7 @@ def check_detects(system: System, ctx: CheckContext) -> list[ConditionResult]:
         if r.global_before is not None and r.global_before.detected:
             witness["note"] = "the global residual already crossed before the switch: the attack is not stealthy for this observer"
         out.append(res(q, status, margin, witness))
-    system.analysis[key] = list(out)
+    _DETECTS_KIND.put(system, params, list(out))
     return out
 
 

@@ -33,6 +33,7 @@ from glocal_verify.analysis.twins import laplacian_entries
 from glocal_verify.analysis.unobservable import rational_unobservable_candidates
 from glocal_verify.analysis.zda import ZdaZero
 from glocal_verify.analysis.zda_batch import batch_directions
+from glocal_verify.derived import Kind
 from glocal_verify.errors import ModelError
 from glocal_verify.model import System
 from glocal_verify.numerics.minors import (
@@ -43,6 +44,9 @@ from glocal_verify.numerics.minors import (
 from glocal_verify.spec.types import NORMAL_MODE, Label
 
 __all__ = ["disjoint_paths", "global_tables"]
+
+#: derived results this module keeps on the system (glocal_verify.derived)
+_AUDIT_KIND: Kind[Any] = Kind("audit", __name__, "Any")
 
 
 def disjoint_paths(system: System, F: Sequence[Label]) -> int:
@@ -71,7 +75,7 @@ def disjoint_paths(system: System, F: Sequence[Label]) -> int:
     if len(set(F)) <= 2:
         return _few_disjoint_paths(system, F)
     n = system.n
-    data, indices, indptr = system.analysis.get(("audit", "split-graph"), lambda: _split_graph(system))
+    data, indices, indptr = _AUDIT_KIND.get(system, ("split-graph",), lambda: _split_graph(system))
     # the source is the last vertex: its row (arcs to every f_in) is the only per-set part
     Fi = np.unique(np.asarray(system.idx(F), dtype=np.int32))
     cap = scipy.sparse.csr_matrix(
@@ -90,7 +94,7 @@ def _few_disjoint_paths(system: System, F: Sequence[Label]) -> int:
     undefined (f not connected to t). By Menger's theorem the count of vertex-disjoint
     paths is |F| unless one of these holds.
     """
-    dom = system.analysis.get(("audit", "dominators"), lambda: _dominators(system))
+    dom = _AUDIT_KIND.get(system, ("dominators",), lambda: _dominators(system))
     sets = [dom.get(f) for f in dict.fromkeys(F)]
     if any(c is None for c in sets):
         return 0 if len(sets) == 1 else (0 if all(c is None for c in sets) else 1)

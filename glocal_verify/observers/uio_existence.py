@@ -18,7 +18,6 @@ import numpy as np
 
 import flint
 
-from glocal_verify import config
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.numerics import exact as ex
 from glocal_verify.numerics.hurwitz import matrix_operator

@@ -32,6 +32,7 @@ from glocal_verify.analysis.local_cases import (
     pencil_matrices_exact,
 )
 from glocal_verify.analysis.local_pencil import witness_number
+from glocal_verify.derived import Kind
 from glocal_verify.model import ClusterModel, LocalObserver, System
 from glocal_verify.numerics.pencil_exact import (
     hurwitz_enclosure,
@@ -56,6 +57,9 @@ from glocal_verify.results import Status, Verdict
 from glocal_verify.spec.types import NORMAL_MODE
 
 __all__ = ["uio_verdict"]
+
+#: derived results this module keeps on the system (glocal_verify.derived)
+_CLUSTER_BLOCK_DIGEST_KIND: Kind[str] = Kind("cluster-block-digest", __name__, "str")
 
 
 def _structured_detectability(cm: ClusterModel, obs: LocalObserver, existence: UIOExistence, tol: Tolerance, w: dict[str, Any]) -> UIOExistence:
@@ -88,7 +92,7 @@ def _uio_key(system: System, cm: ClusterModel, C: np.ndarray, obs: LocalObserver
     ``system.analysis`` (hashing the 2n x 2n A^i of every case cost seconds at n = 1333).
     """
     h = hashlib.sha256(method.encode())
-    digest = system.analysis.get(("cluster-block-digest", cm.name, cm.mode), lambda: hashlib.sha256(np.ascontiguousarray(cm.L).tobytes()).hexdigest())
+    digest = _CLUSTER_BLOCK_DIGEST_KIND.get(system, (cm.name, cm.mode), lambda: hashlib.sha256(np.ascontiguousarray(cm.L).tobytes()).hexdigest())
     h.update(repr((cm.L.shape, digest)).encode())
     for M in (cm.E, C):
         h.update(repr(M.shape).encode())
