@@ -14,6 +14,7 @@ import math
 from dataclasses import dataclass, field
 from enum import Enum
 from fractions import Fraction
+from types import MappingProxyType
 from typing import Any, Mapping
 
 import numpy as np
@@ -40,7 +41,7 @@ FRAGILE_BELOW: float = config.default("fragile_below")
 REPORT_SCHEMA_ID = "glocal-verify/report@1"
 
 #: condition ids renamed, still accepted for one release: old id -> current id
-ALIASES: dict[str, str] = {"switching.safe": "switching.avoids-attack"}
+ALIASES: Mapping[str, str] = MappingProxyType({"switching.safe": "switching.avoids-attack"})
 
 
 class Status(str, Enum):

@@ -209,3 +209,44 @@ def test_no_code_reaches_the_derived_results_by_a_bare_key() -> None:
             if isinstance(target, ast.Attribute) and target.attr == "analysis":
                 bare.append(f"{name}:{node.lineno}")
     assert not bare, bare
+
+
+#: module-level state that is not a frozen constant, each with the reason it stays
+_STATE_ALLOWED = {
+    ("config", "_REGISTRY"): "the one registry of tunables (glocal_verify.config)",
+    ("conditions.registry", "_CHECKERS"): "the checker registration: filled by @checker while the checker modules import, read-only after",
+    ("conditions.registry", "_FINDINGS"): "the finding-rule registration: filled by @finding_rule the same way",
+    ("conditions.registry", "_loaded"): "whether that registration has run (set once by _load)",
+    ("numerics.threads", "_DEFAULT"): "a ContextVar: the BLAS thread count a `with` block sets, local to its context",
+    ("numerics.threads", "_SINGLE"): "a ContextVar: inside a single_threaded call, local to its context",
+    ("simulation.limits", "_ALLOW_LARGE"): "a ContextVar: allow_large's switch, local to its context",
+}
+
+_MUTABLE_CALLS = {"dict", "list", "set", "defaultdict", "OrderedDict", "Counter", "deque", "bytearray", "ContextVar", "WeakKeyDictionary", "WeakValueDictionary"}
+
+
+def _mutable_value(value: ast.expr, classes: set[str]) -> bool:
+    if isinstance(value, (ast.Dict, ast.List, ast.Set, ast.DictComp, ast.ListComp, ast.SetComp)):
+        return True
+    if isinstance(value, ast.Call):
+        f = value.func
+        name = f.id if isinstance(f, ast.Name) else f.attr if isinstance(f, ast.Attribute) else ""
+        return name in _MUTABLE_CALLS or name in classes
+    return False
+
+
+def test_no_module_keeps_mutable_state_but_the_config_registry_and_the_checker_registration() -> None:
+    found = []
+    for name, path in _modules():
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        classes = {n.name for n in tree.body if isinstance(n, ast.ClassDef) and not any(isinstance(d, ast.Call) and getattr(d.func, "id", "") == "dataclass" and any(k.arg == "frozen" for k in d.keywords) for d in n.decorator_list)}
+        for node in tree.body:
+            if isinstance(node, (ast.Assign, ast.AnnAssign)) and node.value is not None:
+                target = node.targets[0] if isinstance(node, ast.Assign) else node.target
+                var = getattr(target, "id", None)
+                if var != "__all__" and _mutable_value(node.value, classes) and (name, var) not in _STATE_ALLOWED:
+                    found.append(f"{name}:{node.lineno} {var}")
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Global):
+                found += [f"{name}:{node.lineno} global {v}" for v in node.names if (name, v) not in _STATE_ALLOWED]
+    assert not found, found

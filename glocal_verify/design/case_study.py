@@ -10,6 +10,7 @@ writes these results; it computes nothing.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import Any, Callable, Mapping, Sequence
 
 from glocal_verify.conditions.detects import THEOREM_III3_IDS, algorithm1, zda_touch
@@ -43,7 +44,7 @@ PhaseHook = Callable[[str], None] | None
 #: the paper's sentences per (system name, mode), with the observable outcome they predict:
 #: ``"vanishing"`` -- the post-switch global residual is bounded and vanishes;
 #: ``"unbounded"`` -- it grows without bound; ``"no-detection"`` -- the control centre does not detect.
-PAPER_CLAIMS: dict[tuple[str, str], tuple[str, str]] = {
+PAPER_CLAIMS: Mapping[tuple[str, str], tuple[str, str]] = MappingProxyType({
     ("paper19", "case-1"): (
         "vanishing",
         "Section IV: conditions (i)-(iii) are met; 'the global residual r_{0_1}(t) for case 1 is bounded and vanishing after topology switching'",
@@ -56,7 +57,7 @@ PAPER_CLAIMS: dict[tuple[str, str], tuple[str, str]] = {
         "no-detection",
         "Section IV: 'none of the Theorem III.3's conditions are met in case 3, yielding the global residuals ... remain unaffected by the switching topology. Consequently, stealthy attack is not detectable'",
     ),
-}
+})
 
 #: the sentence every case shares
 PRE_SWITCH_CLAIM = "ZDA is stealthy in the global residuals before topology switching; it is detectable in a local residual"

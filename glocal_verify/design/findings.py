@@ -42,7 +42,7 @@ __all__ = [
 
 DEFAULT_DIR = Path("reports/findings")
 
-TEXTUAL_FINDINGS: list[tuple[str, str, str]] = [
+TEXTUAL_FINDINGS: tuple[tuple[str, str, str], ...] = (
     (
         "Section IV: global residual indices",
         "Section IV",
@@ -55,7 +55,7 @@ TEXTUAL_FINDINGS: list[tuple[str, str, str]] = [
         "The communication topology of the example exists only as an empty \\includegraphics; "
         "glocal_verify/data/paper19.toml reconstructs a graph that fits every sentence and cites them.",
     ),
-]
+)
 
 
 @dataclass(frozen=True, slots=True)

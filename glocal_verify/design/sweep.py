@@ -44,6 +44,7 @@ import time
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
 from glocal_verify import config
@@ -64,8 +65,8 @@ __all__ = [
 ]
 
 #: generators a sweep may name, and the sweep key -> generator keyword of each
-GENERATORS: dict[str, dict[str, str]] = {
-    "random-clustered": {
+GENERATORS: Mapping[str, Mapping[str, str]] = MappingProxyType({
+    "random-clustered": MappingProxyType({
         "agents": "n",
         "clusters": "clusters",
         "chords": "chords",
@@ -77,8 +78,8 @@ GENERATORS: dict[str, dict[str, str]] = {
         "observers_per_cluster": "observers_per_cluster",
         "horizon": "horizon",
         "step": "step",
-    }
-}
+    })
+})
 
 #: columns of the results file, in order (member parameters come first as ``param.<name>``)
 COLUMNS = (
@@ -223,7 +224,7 @@ def plan_from_dict(data: Mapping[str, Any], source: str | None = None, base: Pat
     gen = ens.get("generator")
     if gen not in GENERATORS:
         raise _fail("ensemble.generator", f"unknown generator {gen!r} (known: {', '.join(GENERATORS)})", source)
-    keys = GENERATORS[gen]
+    keys = GENERATORS[str(gen)]
     seeds_spec = ens.get("seeds", {"start": 0, "count": 1})
     seeds = _seeds(seeds_spec, source)
     grid: dict[str, tuple[Any, ...]] = {}

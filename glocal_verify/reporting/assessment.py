@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from types import MappingProxyType
 from typing import Any, Iterable, Mapping, Sequence
 
 from glocal_verify.conditions.detects import DETECTS_MAX_AGENTS
@@ -52,7 +53,7 @@ __all__ = [
 
 #: the conditions of Theorem III.3 (i)-(iii), per safe mode
 THEOREM_IDS = ("switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences")
-_LABEL = {"switching.image-kernel": "(i)", "switching.distinct-eigenvalues": "(ii)", "switching.eigenvector-differences": "(iii)"}
+_LABEL = MappingProxyType({"switching.image-kernel": "(i)", "switching.distinct-eigenvalues": "(ii)", "switching.eigenvector-differences": "(iii)"})
 
 NO_ATTACK = "no attack in the spec: use `glocal-verify audit` to check every attacker"
 NO_MONITORS = "no global monitors: the control centre measures nothing"

@@ -26,6 +26,7 @@ from __future__ import annotations
 import json
 import math
 from html import escape
+from types import MappingProxyType
 from typing import Any, Mapping, Sequence
 
 import numpy as np
@@ -64,7 +65,7 @@ details > summary { cursor: pointer; color: #1f4e9c; } pre.witness { max-height:
 """
 
 #: a status is coloured by what it means for the defender (green good news, red bad news)
-_FAV_CLASS = {True: "good", False: "bad", None: "unknown"}
+_FAV_CLASS = MappingProxyType({True: "good", False: "bad", None: "unknown"})
 
 
 def _e(x: Any) -> str:
