@@ -250,3 +250,35 @@ def test_no_module_keeps_mutable_state_but_the_config_registry_and_the_checker_r
             if isinstance(node, ast.Global):
                 found += [f"{name}:{node.lineno} global {v}" for v in node.names if (name, v) not in _STATE_ALLOWED]
     assert not found, found
+
+
+#: checker modules whose rules live in analysis/ or observers/ (the rest are being consolidated)
+_THIN_CHECKERS = ("conditions.privacy", "conditions.observability", "conditions.switching", "conditions.local", "conditions.central")
+
+
+def test_the_checkers_only_wrap_the_rule_of_their_condition() -> None:
+    thick = []
+    for name, path in _modules():
+        if name not in _THIN_CHECKERS:
+            continue
+        for node in ast.parse(path.read_text(encoding="utf-8")).body:
+            if not (isinstance(node, ast.FunctionDef) and any(isinstance(d, ast.Call) and getattr(d.func, "id", "") == "checker" for d in node.decorator_list)):
+                continue
+            names = {n.id for n in ast.walk(node) if isinstance(n, ast.Name)}
+            if "Status" in names or "result" in names or "verdict_result" not in names:
+                thick.append(f"{name}.{node.name}")
+    assert not thick, thick
+
+
+def test_docs_architecture_names_the_one_function_holding_each_rule() -> None:
+    import importlib
+    import re
+
+    from glocal_verify.conditions.catalogue import CATALOGUE
+
+    text = (PACKAGE.parent / "docs" / "architecture.md").read_text(encoding="utf-8")
+    rows = {m.group(1): m.group(2) for m in re.finditer(r"^\| `([a-z.-]+)` \| `(glocal_verify/[^`]+\.py)` : `(\w+)`", text, re.M)}
+    assert set(rows) == set(CATALOGUE), set(CATALOGUE) ^ set(rows)
+    for m in re.finditer(r"^\| `([a-z.-]+)` \| `(glocal_verify/[^`]+)\.py` : `(\w+)`", text, re.M):
+        module = importlib.import_module(m.group(2).replace("/", "."))
+        assert callable(getattr(module, m.group(3), None)), m.group(0)
