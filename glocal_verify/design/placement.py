@@ -390,7 +390,7 @@ def place_cluster(
     suspected: str | Sequence[Label] = "attack",
     *,
     tol: Tolerance = DEFAULT_TOLERANCE,
-    exact_limit: int = config.get("placement_exact_limit"),
+    exact_limit: int | None = None,
     progress: bool = True,
 ) -> ObserverProposal:
     """Propose one local observer for ``cluster`` (see the module docstring).
@@ -403,8 +403,9 @@ def place_cluster(
         See :func:`suspected_set`.
     tol : Tolerance
         Tolerance of the pencil tests and of the final verification.
-    exact_limit : int
-        Largest number of candidate sets the exhaustive search may visit (0 disables it).
+    exact_limit : int, optional
+        Largest number of candidate sets the exhaustive search may visit (0 disables it;
+        default: the tunable ``placement_exact_limit`` of :mod:`glocal_verify.config`, 2000).
     progress : bool
         Show a tqdm bar on stderr during the exhaustive search.
 
@@ -440,6 +441,8 @@ def place_cluster(
     M, zf_set = _greedy(pb)
     method, optimal = "greedy", len(M) <= lower
     free = [k for k in range(len(cm.nodes)) if k not in base]
+    if exact_limit is None:
+        exact_limit = int(config.get("placement_exact_limit"))
     if not optimal and exact_limit > 0:
         kmin = max(lower - len(base), 0)
         kmax = len(M) - len(base) - 1
@@ -500,7 +503,7 @@ def place_observers(
     suspected: str | Sequence[Label] = "attack",
     *,
     tol: Tolerance = DEFAULT_TOLERANCE,
-    exact_limit: int = config.get("placement_exact_limit"),
+    exact_limit: int | None = None,
     progress: bool = True,
 ) -> Placement:
     """Propose a local observer for every cluster (or one) of ``system``.
@@ -513,7 +516,7 @@ def place_observers(
     suspected : str or sequence of labels
         See :func:`suspected_set`.
     tol : Tolerance
-    exact_limit : int
+    exact_limit : int, optional
         See :func:`place_cluster`.
     progress : bool
         Show tqdm progress bars on stderr (only when stderr is a terminal).

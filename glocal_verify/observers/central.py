@@ -217,7 +217,7 @@ def design_central_observer(
     tol: Tolerance = DEFAULT_TOLERANCE,
     *,
     mode: str = NORMAL_MODE,
-    max_design: int = config.get("central_max_design"),
+    max_design: int | None = None,
 ) -> CentralObserver:
     """Gain H of the centralised observer (eq. ``obs_cent``) for ``A_1``, stable on the observable part.
 
@@ -240,13 +240,16 @@ def design_central_observer(
         Tolerance of the modal decomposition (:func:`~glocal_verify.analysis.unobservable.unobservable_subspace`).
     mode : str
         The mode the observer is built for (the paper: the normal mode).
-    max_design : int
-        Largest designed block for the Riccati design.
+    max_design : int, optional
+        Largest designed block for the Riccati design (default: the tunable
+        ``central_max_design`` of :mod:`glocal_verify.config`, 100).
 
     Returns
     -------
     CentralObserver
     """
+    if max_design is None:
+        max_design = int(config.get("central_max_design"))
     C = system.C()
     p = C.shape[0]
     n = system.n
