@@ -31,7 +31,7 @@ from scipy.integrate import solve_ivp
 
 from glocal_verify import System, load_example, spec_from_dict
 from glocal_verify.design.generators import random_clustered_spec
-from glocal_verify.reporting.case_study import cases_for, companion_systems, run_case
+from glocal_verify.design.case_study import cases_for, companion_systems, run_case
 from glocal_verify.simulation.attacks import zda_attack
 from glocal_verify.simulation.engine import simulate
 from glocal_verify.simulation.observer_models import (

@@ -21,7 +21,8 @@ registry and checkers), ``answer`` (the one answer per attacker, the assessment,
 figures, case study, findings) and ``cli``.
 """
 
-from typing import TYPE_CHECKING
+from types import MappingProxyType
+from typing import Mapping, TYPE_CHECKING
 
 from glocal_verify._lazy import lazy_getattr
 
@@ -80,7 +81,7 @@ if TYPE_CHECKING:  # the names below load on first use (PEP 562): `import glocal
     )
 
 #: public name -> module that defines it
-_LAZY: dict[str, str] = {
+_LAZY: Mapping[str, str] = MappingProxyType({
     "dump_spec": "glocal_verify.spec",
     "load_graph": "glocal_verify.spec",
     "Assessment": "glocal_verify.answer.assessment",
@@ -145,7 +146,7 @@ _LAZY: dict[str, str] = {
     "loads_spec": "glocal_verify.spec",
     "spec_from_dict": "glocal_verify.spec",
     "spec_from_graph": "glocal_verify.spec",
-}
+})
 
 
 #: ``glocal_verify.X`` loads X from its module on first access

@@ -12,6 +12,7 @@ __all__ = [
     "ModelError",
     "UnknownConditionError",
     "NotApplicableError",
+    "ConfigError",
 ]
 
 class GlocalVerifyError(Exception):
@@ -52,3 +53,7 @@ class UnknownConditionError(KeyError, GlocalVerifyError):
 
 class NotApplicableError(ValueError, GlocalVerifyError):
     """A check cannot be run on this system (e.g. a switching check without safe modes)."""
+
+
+class ConfigError(ValueError, GlocalVerifyError):
+    """An unknown tunable, or a value outside its domain (:mod:`glocal_verify.config`)."""

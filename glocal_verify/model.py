@@ -17,15 +17,17 @@ of the boundary agents dP_i, and E^i = [0; S_{dP_i}^T] has one column per bounda
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Hashable, Iterable, Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import Any, TypeVar
+from typing import Any
 
 import networkx as nx
 import numpy as np
 import scipy.sparse
 
+from glocal_verify import config
+from glocal_verify.derived import Analysis, Kind
 from glocal_verify.errors import ModelError, SpecError
 from glocal_verify.numerics.block_spectrum import clustered_spectrum, laplacian_csr
 from glocal_verify.numerics.spectrum import Spectrum
@@ -46,116 +48,13 @@ __all__ = [
     "state_matrix",
 ]
 
-T = TypeVar("T")
-
-#: from this many agents a safe mode's spectrum is the normal mode's times rank-one factors
-RANK_ONE_MIN_AGENTS = 500
-#: ... for at most this many changed links (one factor each)
-RANK_ONE_MAX_CHANGES = 3
-#: from this many agents a clustered normal mode is decomposed cluster by cluster, with at most
-#: BLOCK_MAX_CUT_LINKS links between clusters as rank-one factors (each O(N^2), and one more
-#: factor every computed row goes through)
-BLOCK_MIN_AGENTS = 2000
-BLOCK_MAX_CUT_LINKS = 16
-
-
-class Analysis:
-    """The derived results of one :class:`System`, computed on first use and kept with it.
-
-    Every analysis that more than one checker needs (modal decompositions, unobservable and
-    switched subspaces, zero-dynamics analyses, simulated detections ...) is stored here under
-    a key ``(kind, *parameters)`` naming what it depends on: the mode, the tolerance, the
-    actuators, the schedule. A ``System`` is immutable once built, so nothing here goes stale;
-    :meth:`clear` forgets everything (e.g. to measure a cold run). The eigendecompositions
-    themselves are :class:`~glocal_verify.numerics.spectrum.Spectrum` objects held by the
-    system (:meth:`System.spectrum`).
-
-    Examples
-    --------
-    >>> a = Analysis()
-    >>> a.get(("answer",), lambda: 42)
-    42
-    >>> a.kinds()
-    {'answer': 1}
-    """
-
-    def __init__(self) -> None:
-        self._store: dict[Hashable, Any] = {}
-
-    def get(self, key: Hashable, compute: Callable[[], T]) -> T:
-        """The result stored under ``key``, computing and storing it first if absent.
-
-        Parameters
-        ----------
-        key : hashable
-            ``(kind, *parameters)``.
-        compute : callable
-            Called without arguments when the key is absent.
-        """
-        if key not in self._store:
-            self._store[key] = compute()
-        return self._store[key]  # type: ignore[no-any-return]
-
-    def __contains__(self, key: object) -> bool:
-        return key in self._store
-
-    def __getitem__(self, key: Hashable) -> Any:
-        return self._store[key]
-
-    def __setitem__(self, key: Hashable, value: Any) -> None:
-        self._store[key] = value
-
-    def __iter__(self) -> Iterator[Hashable]:
-        return iter(self._store)
-
-    def __len__(self) -> int:
-        return len(self._store)
-
-    def kinds(self) -> dict[str, int]:
-        """How many results of each kind are held (the first element of each key)."""
-        out: dict[str, int] = {}
-        for key in self._store:
-            kind = str(key[0]) if isinstance(key, tuple) and key else str(key)
-            out[kind] = out.get(kind, 0) + 1
-        return out
-
-    def clear(self) -> None:
-        """Forget every derived result."""
-        self._store.clear()
-
-    def __repr__(self) -> str:
-        inner = ", ".join(f"{k}: {v}" for k, v in self.kinds().items())
-        return f"Analysis({inner})"
-
-    def __getstate__(self) -> dict[str, Any]:
-        """The portable results only: a system sent to another process (a Dask worker) keeps
-        its spectra and tables, and recomputes what holds python-flint objects (which do not
-        pickle)."""
-        return {"_store": {k: v for k, v in self._store.items() if _portable(v)}}
-
-    def __setstate__(self, state: dict[str, Any]) -> None:
-        self._store = dict(state["_store"])
-
-
-def _portable(value: Any, depth: int = 0) -> bool:
-    """Whether ``value`` pickles: plain data, numpy and scipy arrays, and containers or
-    dataclasses of them (python-flint objects are not)."""
-    if value is None or isinstance(value, (bool, int, float, complex, str, bytes, Fraction)):
-        return True
-    if isinstance(value, np.ndarray):
-        return value.dtype != object or all(_portable(x, depth + 1) for x in value.ravel()[:64])
-    if type(value).__module__.startswith("flint"):
-        return False
-    if depth > 6:
-        return True  # deep structures are plain data here; pickling will say otherwise
-    if isinstance(value, (tuple, list, set, frozenset)):
-        return all(_portable(x, depth + 1) for x in value)
-    if isinstance(value, dict):
-        return all(_portable(k, depth + 1) and _portable(v, depth + 1) for k, v in value.items())
-    if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return all(_portable(getattr(value, f.name), depth + 1) for f in dataclasses.fields(value))
-    return True
-
+#: derived results this module keeps on the system (glocal_verify.derived)
+_CLUSTER_LAPLACIAN_ENTRIES_KIND: Kind[dict[tuple[int, int], Fraction]] = Kind("cluster-laplacian-entries", __name__, "dict[tuple[int, int], Fraction]")
+_CLUSTER_LAPLACIAN_EXACT_KIND: Kind[list[list[Fraction]]] = Kind("cluster-laplacian-exact", __name__, "list[list[Fraction]]")
+_MONITORED_KIND: Kind[tuple[Label, ...]] = Kind("monitored", __name__, "tuple[Label, ...]")
+_OBSERVERS_KIND: Kind[tuple[LocalObserver, ...]] = Kind("observers", __name__, "tuple[LocalObserver, ...]")
+_SWITCHING_LINKS_KIND: Kind[list[tuple[Label, Label, Fraction]]] = Kind("switching-links", __name__, "list[tuple[Label, Label, Fraction]]")
+_DELTA_LAPLACIAN_KIND: Kind[scipy.sparse.csr_matrix] = Kind("delta-laplacian", __name__, "scipy.sparse.csr_matrix")
 
 def selection(indices: Sequence[int], n: int) -> np.ndarray:
     """Selection matrix S_X with rows e_i^T, i in ``indices`` (shape ``len(indices) x n``)."""
@@ -410,9 +309,9 @@ class System:
         to 3 + 1e-15 would vanish). Entries that are exactly zero are not stored, so the
         support of the matrix is the exact support of dL_q.
         """
-        key = ("delta-laplacian", self.check_mode(mode))
-        if key in self.analysis:
-            return self.analysis[key]  # type: ignore[no-any-return]
+        kept = _DELTA_LAPLACIAN_KIND.peek(self, (self.check_mode(mode),))
+        if kept is not None:
+            return kept
         rows: list[int] = []
         cols: list[int] = []
         vals: list[float] = []
@@ -430,7 +329,7 @@ class System:
                 cols.append(i)
                 vals.append(float(d))
         D = scipy.sparse.csr_matrix((vals, (rows, cols)), shape=(self.n, self.n))  # no duplicates: one entry per link
-        self.analysis[key] = D
+        _DELTA_LAPLACIAN_KIND.put(self, (mode,), D)
         return D
 
     def delta_laplacian_exact(self, mode: str) -> list[list[Fraction]]:
@@ -453,7 +352,7 @@ class System:
                     out.append((u, v, d))
             return out
 
-        return list(self.analysis.get(("switching-links", mode), build))
+        return list(_SWITCHING_LINKS_KIND.get(self, (mode,), build))
 
     def switching_components(self, mode: str) -> tuple[tuple[Label, ...], ...]:
         """Connected components D_c (>= 2 nodes) of the graph of switching links (Definition A.1).
@@ -472,7 +371,7 @@ class System:
 
         A large clustered normal mode is decomposed cluster by cluster, the links between
         clusters added as rank-one factors (:meth:`_block_spectrum`); a safe mode that changes at
-        most :data:`RANK_ONE_MAX_CHANGES` links is the normal spectrum times one factor per
+        most ``rank_one_max_changes`` (:mod:`glocal_verify.config`) links is the normal spectrum times one factor per
         change. Both are certified from their factors (:mod:`glocal_verify.numerics.updated_spectrum`,
         which also computes the rows the checks read) or replaced by one ``eigh`` of L_q.
 
@@ -485,13 +384,13 @@ class System:
         if mode not in self._spectra:
             L = self.laplacian_sparse(mode)
             sp: Spectrum | None = None
-            if mode == NORMAL_MODE and self.n >= BLOCK_MIN_AGENTS:
+            if mode == NORMAL_MODE and self.n >= config.get("block_min_agents"):
                 sp = self._block_spectrum(L)
-            if mode != NORMAL_MODE and self.n >= RANK_ONE_MIN_AGENTS:
+            if mode != NORMAL_MODE and self.n >= config.get("rank_one_min_agents"):
                 # a safe mode that changes a few links: rank-one updates of the normal mode's
                 # spectrum, certified like eigh's output (Spectrum.updated), else a fresh eigh
                 changes = [(self.index[a], self.index[b], float(d)) for a, b, d in self.switching_links(mode)]
-                if 0 < len(changes) <= RANK_ONE_MAX_CHANGES:
+                if 0 < len(changes) <= config.get("rank_one_max_changes"):
                     sp = Spectrum.updated(L, self.spectrum(NORMAL_MODE), changes)
             self._spectra[mode] = sp if sp is not None else Spectrum(L)
             if not self._spectra[mode].explicit:  # the rows every check reads, in one pass over the factors
@@ -502,14 +401,14 @@ class System:
         """The normal mode from its clusters' blocks and its links between them (:func:`clustered_spectrum`).
 
         None unless the spec's clusters (two or more) hold every agent once and share between one
-        and :data:`BLOCK_MAX_CUT_LINKS` links, or when the update is refused.
+        and ``block_max_cut_links`` (:mod:`glocal_verify.config`) links, or when the update is refused.
         """
         if len(self.clusters) < 2 or sum(len(c.nodes) for c in self.clusters) != self.n or len(self._cluster_of) != self.n:
             return None
         edges = self._edges[NORMAL_MODE].items()
         inside = [(k, w) for k, w in edges if len({self._cluster_of[x] for x in k}) == 1]
         cut = [(i, j, float(w)) for i, j, w in self._links((k, w) for k, w in edges if len({self._cluster_of[x] for x in k}) == 2)]
-        if not 0 < len(cut) <= BLOCK_MAX_CUT_LINKS:
+        if not 0 < len(cut) <= config.get("block_max_cut_links"):
             return None
         blocks = [np.array(sorted(self.index[x] for x in c.nodes), dtype=np.intp) for c in self.clusters]
         return clustered_spectrum(L, laplacian_csr(self.n, self._links(inside)), blocks, cut)
@@ -536,7 +435,7 @@ class System:
             s = set(self.monitored_positions) | set(self.monitored_velocities)
             return tuple(lab for lab in self.labels if lab in s)
 
-        return self.analysis.get(("monitored",), compute)  # type: ignore[no-any-return]
+        return _MONITORED_KIND.get(self, (), compute)
 
     @property
     def attacked(self) -> tuple[Label, ...]:
@@ -640,7 +539,7 @@ class System:
         def resolve() -> tuple[LocalObserver, ...]:
             return tuple(self.resolve_observer(c, o) for c in self.spec.clusters if cluster is None or c.name == cluster for o in c.observers)
 
-        return list(self.analysis.get(("observers", cluster), resolve))
+        return list(_OBSERVERS_KIND.get(self, (cluster,), resolve))
 
     def resolve_observer(self, cluster: ClusterSpec, obs: ObserverSpec) -> LocalObserver:
         near = set(self.neighbours(obs.center))
@@ -722,7 +621,7 @@ class System:
                 L[i][j] = v
             return L
 
-        return [row[:] for row in self.analysis.get(("cluster-laplacian-exact", name, mode), build)]
+        return [row[:] for row in _CLUSTER_LAPLACIAN_EXACT_KIND.get(self, (name, mode), build)]
 
     def cluster_laplacian_entries(self, name: str, mode: str = NORMAL_MODE) -> dict[tuple[int, int], Fraction]:
         """The nonzero entries of L[P_i, P_i] (cluster indices) as exact rationals.
@@ -750,7 +649,7 @@ class System:
                 ent[(i, i)] = deg
             return {k: v for k, v in ent.items() if v}
 
-        return self.analysis.get(("cluster-laplacian-entries", name, mode), build)  # type: ignore[no-any-return]
+        return _CLUSTER_LAPLACIAN_ENTRIES_KIND.get(self, (name, mode), build)
 
     # -- convenience ------------------------------------------------------------------------
     @classmethod

@@ -14,10 +14,12 @@ import math
 from dataclasses import dataclass, field
 from enum import Enum
 from fractions import Fraction
+from types import MappingProxyType
 from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from glocal_verify import config
 __all__ = [
     "FRAGILE_BELOW",
     "Status",
@@ -37,13 +39,14 @@ __all__ = [
     "REPORT_SCHEMA_ID",
 ]
 
-#: a margin below this marks a result fragile (the default of ``--fragile-below``)
-FRAGILE_BELOW = 1e-9
+#: a margin below this marks a result fragile: the default of the tunable ``fragile_below`` of
+#: :mod:`glocal_verify.config` (read that for the value in force) and of ``--fragile-below``
+FRAGILE_BELOW: float = config.default("fragile_below")
 
 REPORT_SCHEMA_ID = "glocal-verify/report@1"
 
 #: condition ids renamed, still accepted for one release: old id -> current id
-ALIASES: dict[str, str] = {"switching.safe": "switching.avoids-attack"}
+ALIASES: Mapping[str, str] = MappingProxyType({"switching.safe": "switching.avoids-attack"})
 
 
 class Status(str, Enum):
@@ -132,6 +135,45 @@ def id_polarity(results: "Sequence[ConditionResult]") -> Polarity | None:
 @dataclass(frozen=True, slots=True)
 class Verdict:
     """A condition's decision in one scope, as the analysis layer returns it (no id, scope or wording)."""
+    status: Status
+    margin: float | None = None
+    error_bound: float | None = None
+    witness: Mapping[str, Any] = field(default_factory=dict)
+    exact: bool = False          # decided in exact arithmetic
+    combinatorial: bool = False  # no rounding involved (no tolerance recorded)
+    premise: str | None = None   # set when the condition's premise is absent: the verdict is vacuous, and this says which premise
+    note: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class Verdict:
+    """A condition's decision in one scope, as the analysis layer returns it (no id, scope or wording).
+
+    The checker of ``glocal_verify.conditions`` adds the condition id, the scope, the
+    catalogue's reference, statement and polarity, and the tolerance of its run
+    (``glocal_verify.conditions.registry.verdict_result``).
+
+    Attributes
+    ----------
+    status : Status
+    margin : float or None
+        Distance from the boundary on the scale the condition documents.
+    error_bound : float or None
+        The certified bound on the floating-point error of the quantity decided.
+    witness : mapping
+        What proves the verdict, in the user's node labels.
+    exact : bool
+        Decided in exact arithmetic. An exact run whose verdict is neither exact nor
+        combinatorial fell back to a certified numeric decision (its result says ``numeric``).
+    combinatorial : bool
+        No rounding involved (no tolerance recorded), in either arithmetic.
+    premise : str or None
+        Set when the condition's premise is absent: the verdict is vacuous, and this says
+        which premise.
+    note : str
+        Why the verdict is undecided (which bound failed), or what decided it.
+    """
+
     status: Status
     margin: float | None = None
     error_bound: float | None = None

@@ -18,6 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from strategies import clustered_systems
 
+from glocal_verify import config
 from glocal_verify import System
 from glocal_verify.design.audit import audit
 from glocal_verify.analysis.zda_screens import disjoint_paths
@@ -127,23 +128,23 @@ def _assert_single_linkage(pts: list[complex], groups: list[list[int]], radius: 
 
 
 def test_candidate_zeros_on_one_vertical_line_cluster_as_the_pairwise_rule_says() -> None:
-    from glocal_verify.numerics.pencil import _cluster
+    from glocal_verify.numerics.pencil import cluster_points
 
     # many candidates share the real part -gamma / 2 (complex zeros of s = lambda^2 + gamma lambda)
     pts = [complex(-0.5, y) for y in np.linspace(-4.0, 4.0, 801)] + [complex(-0.5, 0.0) + 1e-7, complex(3.0, 0.0)]
-    _assert_single_linkage(pts, _cluster(pts, 1e-6), 1e-6)
+    _assert_single_linkage(pts, cluster_points(pts, 1e-6), 1e-6)
 
 
 @pytest.mark.parametrize("seed", range(5))
 def test_a_few_candidate_zeros_cluster_as_the_pairwise_rule_says_without_the_tree(seed: int) -> None:
-    from glocal_verify.numerics.pencil import _CLUSTER_DENSE_MAX, _cluster
+    from glocal_verify.numerics.pencil import cluster_points
 
     rng = np.random.default_rng(seed)
     base = rng.normal(size=20) + 1j * rng.normal(size=20)
     # chains of near points (single linkage joins them) and exact duplicates
     pts = [complex(z) for z in base] + [complex(base[0] + 0.9e-6), complex(base[0] + 1.8e-6), complex(base[3]), complex(base[5] + 2e-6j)]
-    assert len(pts) <= _CLUSTER_DENSE_MAX
-    groups = _cluster(pts, 1e-6)
+    assert len(pts) <= config.get("cluster_dense_max")
+    groups = cluster_points(pts, 1e-6)
     label = _assert_single_linkage(pts, groups, 1e-6)
     assert label[0] == label[20] == label[21] and label[3] == label[22] and label[5] != label[23]
     # groups and their members are ordered by (real, imag), as on the tree path

@@ -19,6 +19,7 @@ from strategies import assert_numeric_matches_exact, dense_laplacian, extended_p
 
 import glocal_verify.model as model
 import glocal_verify.numerics.updated_spectrum as updated_module
+from glocal_verify import config
 from glocal_verify import System, spec_from_dict, verify
 from glocal_verify.design.generators import random_clustered_spec
 from glocal_verify.numerics.block_spectrum import BlockSpectrum
@@ -83,8 +84,7 @@ def test_the_normal_mode_from_blocks_and_links_bounds_itself_in_extended_precisi
     inside, cut = _split(blocks, links)
     L = dense_laplacian(n, links)
     base = BlockSpectrum(dense_laplacian(n, inside), tuple(np.array(b) for b in blocks))
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(updated_module, "UPDATE_ACCEPT", math.inf)
+    with config.override(update_accept=math.inf):
         sp = update_spectrum(L, base, cut)
     if sp is None:
         return
@@ -99,8 +99,7 @@ def test_the_normal_mode_from_blocks_and_links_bounds_itself_in_extended_precisi
     # the safe mode that adds a link continues the chain
     i, j = blocks[0][0], blocks[-1][-1]
     Lq = L + dense_laplacian(n, [(i, j, 1.0)])
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(updated_module, "UPDATE_ACCEPT", math.inf)
+    with config.override(update_accept=math.inf):
         sq = update_spectrum(Lq, sp, [(i, j, 1.0)])
     if sq is None:
         return
@@ -140,15 +139,13 @@ GLOBAL = ["switching.distinct-eigenvalues", "switching.eigenvector-differences",
 @settings(max_examples=30, deadline=None)
 @given(_clustered_systems_with_modes())
 def test_numeric_verdicts_from_a_normal_mode_built_from_blocks_never_contradict_exact_arithmetic(system: System) -> None:
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(model, "BLOCK_MIN_AGENTS", 0)
-        mp.setattr(model, "RANK_ONE_MIN_AGENTS", 0)
+    with config.override(block_min_agents=0, rank_one_min_agents=0):
         fresh = System(system.spec)
         assert_numeric_matches_exact(fresh, GLOBAL)
 
 
 def test_the_normal_mode_of_a_large_clustered_network_is_built_from_blocks_and_gives_the_eigh_verdicts(monkeypatch: pytest.MonkeyPatch) -> None:
-    spec = random_clustered_spec(model.BLOCK_MIN_AGENTS, 3, seed=7)
+    spec = random_clustered_spec(config.get("block_min_agents"), 3, seed=7)
     system = System(spec)
     factored = verify(system)
     sp = system.spectrum()
@@ -158,9 +155,8 @@ def test_the_normal_mode_of_a_large_clustered_network_is_built_from_blocks_and_g
         assert isinstance(s, UpdatedSpectrum) and not s.formed, f"{mode}: a check formed the whole basis"
     fresh = Spectrum(system.laplacian_sparse())
     assert np.max(np.abs(sp.values - fresh.values)) <= sp.error_radius + fresh.error_radius
-    monkeypatch.setattr(model, "BLOCK_MIN_AGENTS", 10**9)
-    monkeypatch.setattr(model, "RANK_ONE_MIN_AGENTS", 10**9)
-    reference = verify(System(spec))
+    with config.override(block_min_agents=10**9, rank_one_min_agents=10**9):
+        reference = verify(System(spec))
     assert [(c.id, c.scope, c.status) for c in factored.conditions] == [(c.id, c.scope, c.status) for c in reference.conditions]
 
 
@@ -168,7 +164,7 @@ def test_a_normal_mode_of_many_small_clusters_is_kept_from_blocks_and_is_as_shar
     # ten clusters of 200 agents and nine links between them: the blocks' radius is far below
     # eigh's, the links cost some of it, and the result is still kept (its radius against the one
     # an eigh of the whole matrix carries)
-    system = System(random_clustered_spec(model.BLOCK_MIN_AGENTS, 10, seed=3, cut_edges=1, chords=1.0))
+    system = System(random_clustered_spec(config.get("block_min_agents"), 10, seed=3, cut_edges=1, chords=1.0))
     sp = system.spectrum()
     assert isinstance(sp, UpdatedSpectrum) and isinstance(sp.base, BlockSpectrum) and len(sp.factors) == 9
     fresh = Spectrum(system.laplacian_sparse())

@@ -9,7 +9,7 @@ import flint
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from glocal_verify.analysis.unobservable import _exact_A, _exact_C
+from glocal_verify.analysis.unobservable import exact_A, exact_C
 from glocal_verify.model import System
 from glocal_verify.observers.central import (
     _routh_hurwitz_rational,
@@ -23,10 +23,10 @@ from tests.strategies import systems
 
 def _dense_and_modal(system: System, mode: str, rng: random.Random) -> tuple[flint.fmpq_poly, flint.fmpq_poly]:
     n2 = 2 * system.n
-    C = _exact_C(system)
+    C = exact_C(system)
     p = C.nrows()
     H = flint.fmpq_mat(n2, p, [flint.fmpq(rng.randint(-4, 4), rng.randint(1, 3)) if rng.random() < 0.7 else 0 for _ in range(n2 * p)])
-    A = _exact_A(system, mode)
+    A = exact_A(system, mode)
     dense = (A - H * C).charpoly() if p else A.charpoly()
     return dense, observer_charpoly_exact(system, H, mode)
 
@@ -43,9 +43,9 @@ def test_the_observer_characteristic_polynomial_by_the_determinant_lemma_is_the_
 def test_the_observer_characteristic_polynomial_of_the_designed_gain_on_paper19_is_the_dense_one() -> None:
     system = System(load_example("paper19"))
     obsv = design_central_observer(system)
-    C = _exact_C(system)
+    C = exact_C(system)
     H = flint.fmpq_mat(2 * system.n, C.nrows(), [flint.fmpq(*Fraction(float(x)).as_integer_ratio()) for x in obsv.H.ravel()])
-    assert observer_charpoly_exact(system, H) == (_exact_A(system, obsv.mode) - H * C).charpoly()
+    assert observer_charpoly_exact(system, H) == (exact_A(system, obsv.mode) - H * C).charpoly()
 
 
 def _polys() -> st.SearchStrategy[flint.fmpq_poly]:

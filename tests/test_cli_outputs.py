@@ -16,11 +16,12 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import glocal_verify
+from glocal_verify import config
 from glocal_verify.cli import main
 from glocal_verify.errors import ModelError
 from glocal_verify.reporting import output as output_mod
 from glocal_verify.reporting.output import OutputFolder, safe_component, write_text_atomic
-from glocal_verify.simulation.engine import MAX_SAMPLES, check_size, estimate_size
+from glocal_verify.simulation.engine import check_size, estimate_size
 
 SAFE = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
 
@@ -113,7 +114,7 @@ def _fail_if_computed(monkeypatch: pytest.MonkeyPatch) -> None:
         raise AssertionError("computed before checking the output location")
 
     monkeypatch.setattr("glocal_verify.cli.verify.verify", boom)
-    monkeypatch.setattr("glocal_verify.reporting.simulation_report.algorithm1", boom)
+    monkeypatch.setattr("glocal_verify.design.case_study.algorithm1", boom)
 
 
 def test_an_unwritable_output_location_fails_at_once_with_one_line(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
@@ -301,7 +302,7 @@ def test_an_astronomical_horizon_is_refused_before_allocating(tmp_path: Path, ca
 
 def test_the_size_limits_are_checked_from_the_estimate() -> None:
     est = estimate_size(19, 1e16, 0.01)
-    assert est.samples > MAX_SAMPLES
+    assert est.samples > config.get("simulation_max_samples")
     with pytest.raises(ModelError):
         check_size(est, allow=False)
     check_size(est, allow=True)  # lifted: the estimate alone allocates nothing

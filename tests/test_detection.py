@@ -12,7 +12,7 @@ import pytest
 from glocal_verify import System, load_example, load_spec, spec_from_dict, verify
 from glocal_verify.cli import main
 from glocal_verify.conditions.detects import algorithm1, rank_safe_modes
-from glocal_verify.reporting.case_study import (
+from glocal_verify.design.case_study import (
     case_findings,
     cases_for,
     companion_systems,

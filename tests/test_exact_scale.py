@@ -13,7 +13,7 @@ from glocal_verify import System
 from glocal_verify.analysis.zda_exact import _q_matrix, transfer_kernel
 from glocal_verify.numerics.exact_subspace import (
     _lift_closure,
-    _row_closure,
+    row_closure,
     _row_closure_direct,
 )
 from glocal_verify.numerics.pencil_exact import (
@@ -52,7 +52,7 @@ def test_closure_through_primes_equals_the_dense_rational_closure(seed: int) -> 
     n = rng.randint(3, 9)
     C, A = _block_invariant(rng, n, rng.randint(0, n - 1))
     mats = [A] if seed % 2 else [A, _random_q(rng, n, n, 0.3)]
-    assert _row_closure(C, mats) == _row_closure_direct(C, mats)
+    assert row_closure(C, mats) == _row_closure_direct(C, mats)
 
 
 @pytest.mark.parametrize("seed", range(12))
@@ -65,13 +65,13 @@ def test_unlucky_small_primes_never_give_a_wrong_closure(seed: int) -> None:
 
 
 def test_closure_of_the_paper_example_matches_the_dense_closure_in_every_mode() -> None:
-    from glocal_verify.analysis.unobservable import _exact_A, _exact_C
+    from glocal_verify.analysis.unobservable import exact_A, exact_C
 
     system = System(load_example("paper19"))
-    C = _exact_C(system)
+    C = exact_C(system)
     for mode in system.modes:
-        A = _exact_A(system, mode)
-        assert _row_closure(C, [A]) == _row_closure_direct(C, [A])
+        A = exact_A(system, mode)
+        assert row_closure(C, [A]) == _row_closure_direct(C, [A])
 
 
 def test_linear_field_kernel_is_the_same_basis_as_the_field_elimination() -> None:

@@ -7,11 +7,8 @@ from pathlib import Path
 import pytest
 
 from glocal_verify.cli import main
-from glocal_verify.reporting.findings import (
-    build_findings_report,
-    check_case,
-    load_cases,
-)
+from glocal_verify.design.findings import check_case, load_cases, verify_findings
+from glocal_verify.reporting.findings import findings_markdown
 
 ROOT = Path(__file__).resolve().parent.parent
 CASES = load_cases(ROOT / "reports" / "findings")
@@ -25,7 +22,7 @@ def test_each_counterexample_reproduces_its_documented_verdicts(case, exact: boo
 
 
 def test_the_findings_report_regenerates_and_confirms_every_case(tmp_path: Path) -> None:
-    text = build_findings_report(ROOT / "reports" / "findings")
+    text = findings_markdown(verify_findings(ROOT / "reports" / "findings"))
     assert "NOT CONFIRMED" not in text
     assert "UNEXPECTED-PASS" not in text and "| ERROR |" not in text and "| UNDECIDED |" not in text
     out = tmp_path / "findings.md"

@@ -335,13 +335,14 @@ def test_the_structured_margin_is_zero_on_failure_and_positive_on_success(paper1
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_structured_and_dense_agree_on_generated_networks_with_every_zero_verified(seed: int) -> None:
-    from glocal_verify.conditions.local_pencil import pencil_verdict
+    from glocal_verify.analysis.local_pencil import pencil_verdict
     from glocal_verify.design.generators import random_clustered_spec
 
     system = System(random_clustered_spec(120, 3, seed=seed))
     for case in local_cases(system):
-        sd, _, wd = pencil_verdict(system, case, method="dense", margin=False)
-        ss, _, ws = pencil_verdict(system, case, method="structured", margin=False)
+        d = pencil_verdict(system, case, method="dense", margin=False)
+        s_ = pencil_verdict(system, case, method="structured", margin=False)
+        sd, wd, ss, ws = d.status, d.witness, s_.status, s_.witness
         assert ss is sd, (seed, case.scope, wd, ws)
         if case.structural:
             continue
@@ -366,10 +367,11 @@ def test_a_star_of_equal_leaves_gives_a_multiple_zero_found_by_the_symmetric_ana
     nodes = list(range(2, 13))
     s = System(spec_from_graph(G, clusters={"A": nodes, "B": [1, 13]}, observers={"A": [{"center": 3, "positions": [], "velocities": [2, 4]}], "B": [1]}))
     case = LocalCase(s.cluster_model("A"), s.observers("A")[0], "attack", ())
-    from glocal_verify.conditions.local_pencil import pencil_verdict
+    from glocal_verify.analysis.local_pencil import pencil_verdict
 
-    sd, _, wd = pencil_verdict(s, case, method="dense")
-    ss, _, ws = pencil_verdict(s, case, method="structured")
+    d = pencil_verdict(s, case, method="dense")
+    s_ = pencil_verdict(s, case, method="structured")
+    sd, wd, ss, ws = d.status, d.witness, s_.status, s_.witness
     assert sd is ss is Status.FAILS
     assert ws["reduced"]["analysis"] == "symmetric"
     got = sorted(((complex(z["lambda"]), z.get("multiplicity", 1)) for z in ws["zeros"]), key=lambda t: (t[0].imag, t[0].real))

@@ -15,11 +15,13 @@ import warnings
 import numpy as np
 import pytest
 
+from glocal_verify import config
 from glocal_verify import System
 from glocal_verify.design.generators import random_clustered_spec
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE
+from glocal_verify.numerics import hurwitz
 from glocal_verify.observers import uio_existence as ue
-from glocal_verify.observers.uio import _REDUCED_MIN, design_uio, local_uio
+from glocal_verify.observers.uio import design_uio, local_uio
 from glocal_verify.results import Status
 
 
@@ -40,7 +42,7 @@ def _designs(system: System) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, d
 
 def test_the_random_clusters_are_large_enough_for_the_reduced_certificate(network: System) -> None:
     for lo in network.observers():
-        assert 2 * len(network.cluster_model(lo.cluster).nodes) >= _REDUCED_MIN
+        assert 2 * len(network.cluster_model(lo.cluster).nodes) >= config.get("uio_reduced_min_states")
 
 
 def test_designed_observers_meet_the_decoupling_condition_of_proposition_III_2(network: System) -> None:
@@ -61,7 +63,8 @@ def test_designed_observers_satisfy_the_error_identity(network: System) -> None:
 
 def test_the_reduced_certificate_agrees_with_the_dense_one(network: System) -> None:
     for A, E, C, d in _designs(network):
-        st, ratio = ue.hurwitz_certificate(d["F"], DEFAULT_TOLERANCE)
+        cert = hurwitz.hurwitz_certificate(d["F"], DEFAULT_TOLERANCE)
+        st, ratio = cert.status, cert.ratio
         assert d["hurwitz"] is st
         assert d["hurwitz_ratio"] == pytest.approx(ratio, rel=1e-3)
 
@@ -89,7 +92,7 @@ def test_local_uio_on_a_large_cluster_gives_a_certified_observer() -> None:
     system = System(random_clustered_spec(240, clusters=3, seed=3))
     lo = next(iter(system.observers()))
     obs = local_uio(system, lo)
-    assert obs.n_states >= _REDUCED_MIN
+    assert obs.n_states >= config.get("uio_reduced_min_states")
     assert obs.hurwitz is Status.HOLDS
     assert np.max(np.linalg.eigvals(obs.F).real) < 0
 
@@ -120,16 +123,16 @@ def test_triangular_condition_numbers_match_their_definition(seed: int) -> None:
     n = 12
     M = rng.standard_normal((n, n))
     S, _ = scipy.linalg.schur(M, output="real")
-    Tc = ue._real_to_complex_schur(S)
+    Tc = hurwitz._real_to_complex_schur(S)
     assert np.allclose(np.tril(Tc, -1), 0.0)
     w0 = np.linalg.eigvals(M)
     assert max(float(np.min(np.abs(w0 - z))) for z in np.diag(Tc)) <= 1e-10 * float(np.max(np.abs(w0)))
-    kappa = ue._triangular_kappa(Tc)
+    kappa = hurwitz._triangular_kappa(Tc)
     w, vl, vr = scipy.linalg.eig(Tc, left=True, right=True)
     ref = np.linalg.norm(vl, axis=0) * np.linalg.norm(vr, axis=0) / np.abs(np.sum(vl.conj() * vr, axis=0))
     twin = np.zeros(n, dtype=bool)
     twin[np.flatnonzero(np.diag(S, -1) != 0.0) + 1] = True  # second members of conjugate pairs
-    paired = ue._triangular_kappa(Tc, twin)
+    paired = hurwitz._triangular_kappa(Tc, twin)
     for i, z in enumerate(np.diag(Tc)):
         j = int(np.argmin(np.abs(w - z)))
         assert kappa[i] == pytest.approx(ref[j], rel=1e-6)
@@ -142,16 +145,16 @@ def test_the_sparse_krylov_split_spans_the_same_subspaces_as_the_dense_one(netwo
     C = cm.C(lo.positions, lo.velocities)
     ex = ue.uio_existence(cm.A, cm.E, C)
     assert ex.A1 is not None and ex.split is not None
-    monkeypatch.setattr(ue, "_SPARSE_MIN", 10**9)
-    dense = ue.observable_split(ex.A1, C)
-    sp = ex.split
-    assert sp.Qo.shape == dense.Qo.shape and sp.decided == dense.decided
-    # same subspace: the projections onto them agree
-    assert np.linalg.norm(sp.Qo @ sp.Qo.T - dense.Qo @ dense.Qo.T, 2) <= 1e-6
-    if sp.Qu.shape[1]:
-        assert np.linalg.norm(C @ sp.Qu) <= 1e-9 * max(1.0, float(np.linalg.norm(C)))
-        AQ = ex.A1 @ sp.Qu
-        assert np.linalg.norm(AQ - sp.Qu @ (sp.Qu.T @ AQ)) <= 1e-6 * max(1.0, float(np.linalg.norm(ex.A1, 2)))
+    with config.override(sparse_min=10**9):
+        dense = ue.observable_split(ex.A1, C)
+        sp = ex.split
+        assert sp.Qo.shape == dense.Qo.shape and sp.decided == dense.decided
+        # same subspace: the projections onto them agree
+        assert np.linalg.norm(sp.Qo @ sp.Qo.T - dense.Qo @ dense.Qo.T, 2) <= 1e-6
+        if sp.Qu.shape[1]:
+            assert np.linalg.norm(C @ sp.Qu) <= 1e-9 * max(1.0, float(np.linalg.norm(C)))
+            AQ = ex.A1 @ sp.Qu
+            assert np.linalg.norm(AQ - sp.Qu @ (sp.Qu.T @ AQ)) <= 1e-6 * max(1.0, float(np.linalg.norm(ex.A1, 2)))
 
 
 def test_large_cluster_designs_are_certified_without_the_dense_eigendecomposition(network: System, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -160,7 +163,7 @@ def test_large_cluster_designs_are_certified_without_the_dense_eigendecompositio
     def dense(F: np.ndarray, tol: object) -> None:
         raise AssertionError("dense certificate used")
 
-    monkeypatch.setattr(uio, "_hurwitz", dense)
+    monkeypatch.setattr(uio, "hurwitz_eigenvalues", dense)
     for A, E, C, d in _designs(network):
         assert d["hurwitz"] is Status.HOLDS
 
@@ -172,19 +175,20 @@ def test_the_slow_mode_ladder_keeps_the_reduced_certificate_exact(network: Syste
     calls: list[int] = []
 
     def first_undecided(F, Qo, Qu, red, tol):  # type: ignore[no-untyped-def]
-        st_, r, w = real(F, Qo, Qu, red, tol)
+        got = real(F, Qo, Qu, red, tol)
         calls.append(1)
-        return (Status.UNDECIDED, r, w) if len(calls) == 1 else (st_, r, w)
+        return hurwitz.HurwitzCertificate(Status.UNDECIDED, got.ratio, got.eigenvalues) if len(calls) == 1 else got
 
     monkeypatch.setattr(uio, "_certify", first_undecided)
-    monkeypatch.setattr(uio, "_LADDER_GAIN", 0.0)
-    lo = next(iter(network.observers()))
-    cm = network.cluster_model(lo.cluster)
-    C = cm.C(lo.positions, lo.velocities)
-    _, d = design_uio(cm.A, cm.E, C, gamma=network.gamma)
-    assert len(calls) >= 2 and any("retried moving only" in n for n in d["notes"])
-    st, ratio = ue.hurwitz_certificate(d["F"], DEFAULT_TOLERANCE)
-    assert d["hurwitz"] is st
-    assert d["hurwitz_ratio"] == pytest.approx(ratio, rel=1e-3)
-    w = np.linalg.eigvals(d["F"])
-    assert max(float(np.min(np.abs(w - z))) for z in d["eigenvalues"]) <= 1e-8 * max(1.0, float(np.max(np.abs(w))))
+    with config.override(uio_ladder_gain=0.0):
+        lo = next(iter(network.observers()))
+        cm = network.cluster_model(lo.cluster)
+        C = cm.C(lo.positions, lo.velocities)
+        _, d = design_uio(cm.A, cm.E, C, gamma=network.gamma)
+        assert len(calls) >= 2 and any("retried moving only" in n for n in d["notes"])
+        cert = hurwitz.hurwitz_certificate(d["F"], DEFAULT_TOLERANCE)
+        st, ratio = cert.status, cert.ratio
+        assert d["hurwitz"] is st
+        assert d["hurwitz_ratio"] == pytest.approx(ratio, rel=1e-3)
+        w = np.linalg.eigvals(d["F"])
+        assert max(float(np.min(np.abs(w - z))) for z in d["eigenvalues"]) <= 1e-8 * max(1.0, float(np.max(np.abs(w))))

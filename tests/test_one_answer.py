@@ -209,3 +209,44 @@ velocities = [1, 7]
             if new or replaced:
                 assert any(ch.kind == "observer" and f"observer at {o.center} of {c.name}" in ch.subject for ch in d.changes)
     assert all(line.startswith(("audit", "- ", "NOT MET")) for line in d.summary())
+
+
+def _called(fn_codes: dict[str, Any], run: Any) -> set[str]:
+    """The rule functions (by condition id) whose code ran during ``run()``."""
+    import sys
+    import threading
+
+    seen: set[str] = set()
+    by_code = {code: cid for cid, code in fn_codes.items()}
+
+    def prof(frame: Any, event: str, arg: Any) -> None:
+        if event == "call" and frame.f_code in by_code:
+            seen.add(by_code[frame.f_code])
+
+    sys.setprofile(prof)
+    threading.setprofile(prof)
+    try:
+        run()
+    finally:
+        sys.setprofile(None)
+        threading.setprofile(None)  # type: ignore[arg-type]
+    return seen
+
+
+def test_each_condition_the_answer_reads_is_decided_by_one_function_that_verify_and_audit_both_call(paper19: System) -> None:
+    import importlib
+    import re
+    from pathlib import Path
+
+    import glocal_verify
+
+    text = (Path(glocal_verify.__file__).parent.parent / "docs" / "architecture.md").read_text(encoding="utf-8")
+    rules = {m.group(1): (m.group(2).replace("/", "."), m.group(3)) for m in re.finditer(r"^\| `([a-z.-]+)` \| `(glocal_verify/[^`]+)\.py` : `(\w+)`", text, re.M)}
+    read = ["stealthy.zda", "local.pencil", "local.uio", "switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences", "switching.avoids-attack"]
+    codes = {cid: getattr(importlib.import_module(rules[cid][0]), rules[cid][1]).__code__ for cid in read}
+    by_verify = _called(codes, lambda: verify(paper19, simulate="never", exact_budget=None))
+    by_audit = _called(codes, lambda: audit(paper19, 2, [2, 3, 4, 5, 8]))
+    assert by_verify == set(read), set(read) - by_verify
+    # local.pencil: the audit's screens (a suspected boundary agent, a failing subset, twins,
+    # the exact minors) decide most sets before the rule is needed; some still reach it
+    assert by_audit == set(read), set(read) - by_audit

@@ -11,7 +11,7 @@ import pytest
 from glocal_verify import NotApplicableError, System, load_example, verify
 from glocal_verify.analysis.local_cases import LocalCase
 from glocal_verify.cli import main
-from glocal_verify.conditions.local_pencil import pencil_verdict
+from glocal_verify.analysis.local_pencil import pencil_verdict
 from glocal_verify.design.generators import random_clustered_spec
 from glocal_verify.design.placement import (
     Placement,
@@ -63,7 +63,7 @@ def test_the_p1_placement_is_minimal_by_brute_force(paper19: System) -> None:
         for extra in itertools.combinations(others, k):
             m = (7,) + extra
             case = LocalCase(cm, LocalObserver("P1", 7, m, m), "attack", (3, 4))
-            assert pencil_verdict(paper19, case, margin=False)[0] is not Status.HOLDS, m
+            assert pencil_verdict(paper19, case, margin=False).status is not Status.HOLDS, m
 
 
 def test_the_toml_fragment_parses_and_names_the_measured_sets(paper19: System) -> None:

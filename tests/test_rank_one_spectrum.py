@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 from strategies import assert_numeric_matches_exact, dense_laplacian, graphs, systems
 
 import glocal_verify.model as model
+from glocal_verify import config
 from glocal_verify import System, verify
 from glocal_verify.design.generators import random_clustered_spec
 from glocal_verify.numerics.rank_one import eigh_rank_one_update, eigh_updated
@@ -130,8 +131,8 @@ def test_a_poor_update_is_refused_and_eigh_decides() -> None:
 def test_verdicts_with_updated_safe_mode_spectra_equal_those_with_fresh_eigendecompositions(monkeypatch: pytest.MonkeyPatch) -> None:
     spec = random_clustered_spec(520, 3, seed=11)
     updated = verify(System(spec))
-    monkeypatch.setattr(model, "RANK_ONE_MIN_AGENTS", 10**9)
-    fresh = verify(System(spec))
+    with config.override(rank_one_min_agents=10**9):
+        fresh = verify(System(spec))
     assert [(c.id, c.status) for c in updated.conditions] == [(c.id, c.status) for c in fresh.conditions]
 
 
@@ -144,7 +145,6 @@ SPECTRAL = ["switching.distinct-eigenvalues", "switching.eigenvector-differences
 def test_numeric_verdicts_from_updated_spectra_never_contradict_exact_arithmetic(system: System) -> None:
     # force the update path at every size (it serves N >= 500 by default): a fresh System reads
     # the threshold when it builds each safe mode's spectrum
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(model, "RANK_ONE_MIN_AGENTS", 0)
+    with config.override(rank_one_min_agents=0):
         fresh = System(system.spec)
         assert_numeric_matches_exact(fresh, SPECTRAL)

@@ -12,6 +12,7 @@ import networkx as nx
 import pytest
 
 import glocal_verify.model as model
+from glocal_verify import config
 from glocal_verify import spec_from_graph
 from glocal_verify.cli import main
 from glocal_verify.cli.common import check_cost
@@ -76,7 +77,7 @@ def test_the_verify_estimate_is_the_documented_formula() -> None:
     # clusters of >= 60 agents get the modal UIO design in a numeric run
     uio = cost.C_UIO_MODAL * ((666.0**3) * 1 + (668.0**3) * 3 + (666.0**3) * 1)
     pencil = cost.C_PENCIL * 2 * (666.0**3 + 668.0**3 + 666.0**3)
-    # below BLOCK_MIN_AGENTS the normal mode is one eigh; both safe modes (no mode_changes given) are fresh
+    # below block_min_agents the normal mode is one eigh; both safe modes (no mode_changes given) are fresh
     glob = (cost.C_EIGH + 2 * cost.C_GLOBAL_MODE + cost.C_GLOBAL_REST) * n3 + cost.C_GLOBAL_REST_SQ * n2
     assert est.seconds == pytest.approx(cost.C_START + glob + uio + pencil)
     arrays = cost.A_GLOBAL + 2 * cost.A_GLOBAL_MODE
@@ -95,7 +96,7 @@ def test_one_link_safe_modes_cost_a_rank_one_factor_not_an_eigendecomposition() 
     n3, n2 = 1000.0**3, 1000.0**2
     assert fresh.seconds - updated.seconds == pytest.approx(2 * (cost.C_GLOBAL_MODE * n3 - cost.C_FACTOR * n2))
     assert fresh.bytes - updated.bytes == pytest.approx(2 * cost.A_GLOBAL_MODE * 8.0 * n2)  # a factored mode keeps O(N)
-    # below RANK_ONE_MIN_AGENTS, or with more changed links, every safe mode gets its own eigh
+    # below rank_one_min_agents, or with more changed links, every safe mode gets its own eigh
     small = dataclasses.replace(_clustered(300), mode_changes=(1, 1))
     assert estimate_verify(small, exact_budget=None).seconds == pytest.approx(estimate_verify(_clustered(300), exact_budget=None).seconds)
     many = dataclasses.replace(_clustered(1000), mode_changes=(4, 1))
@@ -113,9 +114,9 @@ def test_a_clustered_normal_mode_costs_its_blocks_and_its_links_between_clusters
     assert a.seconds - b.seconds == pytest.approx(cost.C_EIGH * (n3 - sum3) - cost.C_FACTOR * 4 * n2)
     assert a.dense_arrays - b.dense_arrays == cost.A_GLOBAL - cost.A_GLOBAL_BLOCKS
     # too many links between clusters, too few agents, or clusters that leave agents out: one eigh
-    for other in (dataclasses.replace(blocks, cut_links=model.BLOCK_MAX_CUT_LINKS + 1), dataclasses.replace(blocks, partitioned=False)):
+    for other in (dataclasses.replace(blocks, cut_links=config.get("block_max_cut_links") + 1), dataclasses.replace(blocks, partitioned=False)):
         assert not other.block_built
-    assert not dataclasses.replace(_clustered(model.BLOCK_MIN_AGENTS - 1), cut_links=4, partitioned=True).block_built
+    assert not dataclasses.replace(_clustered(config.get("block_min_agents") - 1), cut_links=4, partitioned=True).block_built
 
 
 def test_the_verify_estimate_matches_the_calibration_runs_within_a_factor_of_two() -> None:

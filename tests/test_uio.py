@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 from strategies import clustered_systems
 
+from glocal_verify import config
 from glocal_verify import NotApplicableError, System, load_example, spec_from_graph
 from glocal_verify.observers.uio import UnknownInputObserver, design_uio, local_uio
 from glocal_verify.observers.uio_existence import (
@@ -221,7 +222,8 @@ def test_structured_detectability_finds_the_marginal_mode_of_a_velocity_only_bou
     G.add_weighted_edges_from([(1, 2, 1), (2, 3, 1), (1, 4, 1), (4, 5, 1)])
     s = System(spec_from_graph(G, clusters={"A": [1, 2, 3], "B": [4, 5]}, observers={"A": [{"center": 1, "positions": [], "velocities": [1]}], "B": [4]}))
     A, E, C, bnd, pos = _case_matrices(s, "A", [], [1])
-    st, p, how = cluster_detectability(s.cluster_model("A").L, bnd, pos)
+    got = cluster_detectability(s.cluster_model("A").L, bnd, pos)
+    st, p, how = got.status, got.positions, got.by
     assert st.value == "fails" and how == "rank" and p is not None
     ex = uio_existence(A, E, C)
     assert ex.status.value == "fails"
@@ -230,10 +232,12 @@ def test_structured_detectability_finds_the_marginal_mode_of_a_velocity_only_bou
     assert ex.A1 is not None
     assert np.allclose(ex.A1 @ x, 0.0) and np.allclose(C @ x, 0.0) and np.linalg.norm(x) > 0.5
     # the position of 1 too: decided by rank (1 is an input row and cannot force)
-    st1, p1, how1 = cluster_detectability(s.cluster_model("A").L, bnd, [0])
+    got1 = cluster_detectability(s.cluster_model("A").L, bnd, [0])
+    st1, p1, how1 = got1.status, got1.positions, got1.by
     assert st1.value == "holds" and p1 is None and how1 == "rank"
     # the position of 3: zero forcing proves it (3 forces 2, 2 forces 1)
-    st2, p2, how2 = cluster_detectability(s.cluster_model("A").L, bnd, [2])
+    got2 = cluster_detectability(s.cluster_model("A").L, bnd, [2])
+    st2, p2, how2 = got2.status, got2.positions, got2.by
     assert st2.value == "holds" and p2 is None and how2 == "zero forcing"
 
 
@@ -250,7 +254,8 @@ def test_structured_and_generic_detectability_agree(system: System, data: st.Dat
         A, E, C, bnd, pidx = _case_matrices(system, c.name, pos, vel)
         ex = uio_existence(A, E, C)
         assert ex.rank_condition.value == "holds"
-        st_, p, _ = cluster_detectability(cm.L, bnd, pidx)
+        got = cluster_detectability(cm.L, bnd, pidx)
+        st_, p = got.status, got.positions
         if ex.detectable.value != "undecided" and st_.value != "undecided":
             assert st_ is ex.detectable, (c.name, pos, vel, ex.unobservable_eigenvalues)
         if p is not None:
@@ -276,8 +281,9 @@ def test_the_observable_split_is_orthonormal_and_invariant_on_a_generated_cluste
 
 
 def test_local_uio_reuses_one_design_per_cluster_block_and_gets_the_same_results(monkeypatch: pytest.MonkeyPatch) -> None:
-    import glocal_verify.conditions.local as local
+    import glocal_verify.observers.uio_verdict as local
     from glocal_verify import verify
+    from glocal_verify.analysis.local_cases import local_cases
     from glocal_verify.design.generators import random_clustered_spec
 
     s = System(random_clustered_spec(60, 3, seed=2))
@@ -298,11 +304,12 @@ def test_local_uio_reuses_one_design_per_cluster_block_and_gets_the_same_results
     assert len(calls) == len(s.clusters) + changed < 2 * len(s.clusters) * len(s.modes)
     calls.clear()
     uncached = {}
-    for case in local.local_cases(s):
+    for case in local_cases(s):
         uncached[tuple(sorted(case.scope.items(), key=str))] = local.uio_verdict(s, case)
     assert len(calls) == 2 * len(s.clusters) * len(s.modes)
     for r in rep.conditions:
-        st_, mg, w = uncached[tuple(sorted(r.scope.items(), key=str))]
+        got = uncached[tuple(sorted(r.scope.items(), key=str))]
+        st_, mg, w = got.status, got.margin, got.witness
         assert r.status is st_ and r.margin == pytest.approx(mg)
         assert w["normal"]["eigenvalues_F"] == r.witness["normal"]["eigenvalues_F"]
         assert w.get("normal", {}).get("attack_invisible") == r.witness["normal"].get("attack_invisible")
@@ -318,23 +325,23 @@ def test_an_uncertified_large_gain_design_is_redone_moving_fewer_slow_modes(pape
     assert not d0["notes"] and d0["hurwitz"].value == "holds"
     # pretend the default design were not certified and its gain large: the ladder moves only
     # the modes with Re > -0.3 sigma, keeps the others where they are, and says so
-    real = uio._hurwitz
+    real = uio.hurwitz_eigenvalues
     seen: list[int] = []
 
     def first_undecided(F, tol):  # type: ignore[no-untyped-def]
-        st_, r, w = real(F, tol)
+        got = real(F, tol)
         seen.append(1)
-        return (uio.Status.UNDECIDED, r, w) if len(seen) == 1 else (st_, r, w)
+        return uio.HurwitzCertificate(uio.Status.UNDECIDED, got.ratio, got.eigenvalues) if len(seen) == 1 else got
 
-    monkeypatch.setattr(uio, "_hurwitz", first_undecided)
-    monkeypatch.setattr(uio, "_LADDER_GAIN", 0.0)
-    ex, d = design_uio(cm.A, cm.E, C, gamma=paper19.gamma)
-    assert len(seen) == 2 and d["hurwitz"].value == "holds"
-    assert any("retried moving only Re > -0.3 sigma" in n for n in d["notes"])
-    assert ex.A1 is not None
-    mu = np.linalg.eigvals(ex.A1)
-    kept = [m for m in mu if m.real <= -0.3 * paper19.gamma / 2]
-    for m in kept:  # not moved
-        assert np.min(np.abs(d["eigenvalues"] - m)) < 1e-6
-    assert np.max(d["eigenvalues"].real) < 0
-    assert np.allclose(d["T"] @ cm.A - d["F"] @ d["T"] - d["K"] @ C, 0.0, atol=1e-9)
+    monkeypatch.setattr(uio, "hurwitz_eigenvalues", first_undecided)
+    with config.override(uio_ladder_gain=0.0):
+        ex, d = design_uio(cm.A, cm.E, C, gamma=paper19.gamma)
+        assert len(seen) == 2 and d["hurwitz"].value == "holds"
+        assert any("retried moving only Re > -0.3 sigma" in n for n in d["notes"])
+        assert ex.A1 is not None
+        mu = np.linalg.eigvals(ex.A1)
+        kept = [m for m in mu if m.real <= -0.3 * paper19.gamma / 2]
+        for m in kept:  # not moved
+            assert np.min(np.abs(d["eigenvalues"] - m)) < 1e-6
+        assert np.max(d["eigenvalues"].real) < 0
+        assert np.allclose(d["T"] @ cm.A - d["F"] @ d["T"] - d["K"] @ C, 0.0, atol=1e-9)

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from strategies import clustered_systems
 
 from glocal_verify import System, load_example, verify
-from glocal_verify.conditions import local
+from glocal_verify.observers import uio_verdict as local
 from glocal_verify.observers.uio_existence import uio_existence_exact
 
 

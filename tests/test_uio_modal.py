@@ -14,6 +14,7 @@ from glocal_verify import NotApplicableError, System
 from glocal_verify.analysis.cluster_modal import interior_modes, interior_modes_of, state_rounding_bound
 from glocal_verify.analysis.local_cases import LocalCase, local_cases
 from glocal_verify.conditions import local
+from glocal_verify.observers import uio_verdict
 from glocal_verify.conditions.registry import CheckContext
 from glocal_verify.design.generators import random_clustered_spec
 from glocal_verify.model import state_matrix
@@ -44,12 +45,12 @@ def test_the_fast_uio_design_agrees_with_the_dense_one_on_generated_networks(see
     for case in local_cases(s):
         if case.kind != "all":
             continue
-        a = local.uio_verdict(s, case, method="modal")
-        b = local.uio_verdict(s, case, method="dense")
-        assert a[0] is b[0], (case.scope, a[2], b[2])
+        a = uio_verdict.uio_verdict(s, case, method="modal")
+        b = uio_verdict.uio_verdict(s, case, method="dense")
+        assert a.status is b.status, (case.scope, a.witness, b.witness)
         for mode in s.modes:
-            wa = a[2]["normal"] if mode == "normal" else a[2]["modes"][mode]
-            wb = b[2]["normal"] if mode == "normal" else b[2]["modes"][mode]
+            wa = a.witness["normal"] if mode == "normal" else a.witness["modes"][mode]
+            wb = b.witness["normal"] if mode == "normal" else b.witness["modes"][mode]
             assert wa["status"] == wb["status"]
             if "eigenvalues_F" in wa and "eigenvalues_F" in wb:
                 assert wa.get("method") == "modal"
@@ -63,13 +64,13 @@ def test_the_fast_uio_design_agrees_with_the_dense_one_on_generated_networks(see
 @given(clustered_systems(max_n=14))
 def test_the_fast_uio_verdict_agrees_with_the_dense_one_and_never_contradicts_exact_arithmetic(system: System) -> None:
     for case in local_cases(system):
-        a = local.uio_verdict(system, case, method="modal")
-        b = local.uio_verdict(system, case, method="dense")
-        if a[0].value != "undecided" and b[0].value != "undecided":
-            assert a[0] is b[0], (case.scope, a[2], b[2])
-        if a[0].value != "undecided":
-            e = local.uio_verdict(system, case, exact=True)
-            assert e[0] is a[0], (case.scope, a[2], e[2])
+        a = uio_verdict.uio_verdict(system, case, method="modal")
+        b = uio_verdict.uio_verdict(system, case, method="dense")
+        if a.status.value != "undecided" and b.status.value != "undecided":
+            assert a.status is b.status, (case.scope, a.witness, b.witness)
+        if a.status.value != "undecided":
+            e = uio_verdict.uio_verdict(system, case, exact=True)
+            assert e.status is a.status, (case.scope, a.witness, e.witness)
 
 
 def _exact_F_is_hurwitz(system: System, case: LocalCase, K1: np.ndarray) -> bool:

@@ -20,6 +20,7 @@ from hypothesis import strategies as st
 from strategies import dense_laplacian, extended_product
 
 import glocal_verify.numerics.updated_spectrum as updated_module
+from glocal_verify import config
 from glocal_verify import System, verify
 from glocal_verify.design.generators import random_clustered_spec
 from glocal_verify.numerics.rank_one import RankOneFactor, rank_one_factor, tree_rowsum
@@ -109,8 +110,7 @@ def test_a_factored_spectrum_bounds_its_residuals_orthonormality_and_entries(cas
     L0 = dense_laplacian(n, edges)
     Lq = L0 + dense_laplacian(n, changes)
     base = Spectrum(L0)
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(updated_module, "UPDATE_ACCEPT", math.inf)  # every bound is checked, kept or not
+    with config.override(update_accept=math.inf):  # every bound is checked, kept or not
         sp = update_spectrum(Lq, base, changes)
     if sp is None:
         return
@@ -150,4 +150,4 @@ def test_a_factored_spectrum_encloses_the_eigenvalues_of_a_fresh_decomposition()
         fresh = Spectrum(system.laplacian_sparse(mode))
         assert np.max(np.abs(sp.values - fresh.values)) <= sp.error_radius + fresh.error_radius
         # the certificate is about as sharp as eigh's own (the acceptance rule keeps it so)
-        assert sp.error_radius <= updated_module.UPDATE_ACCEPT * system.spectrum().error_radius
+        assert sp.error_radius <= config.get("update_accept") * system.spectrum().error_radius

@@ -1,4 +1,14 @@
-"""Analysis: the paper's objects on a given system, as typed results (no verdicts).
+"""Analysis: the paper's objects on a given system as typed results, and the rules of the conditions.
+
+Each condition's decision is one function here returning a frozen
+:class:`~glocal_verify.results.Verdict` (``docs/architecture.md`` names them per condition id);
+the checkers of :mod:`glocal_verify.conditions` only wrap them.
+
+- :mod:`.observability` -- ``switched-observability`` (Lemma II.3) and the state-map witnesses;
+- :mod:`.privacy` -- the ``privacy.*`` rules (Lemma III.1, Problem 1 (i));
+- :mod:`.switching`, :mod:`.eigenstructure` -- Theorem III.3 (i)-(iii) and Lemma A.2;
+- :mod:`.local_structure`, :mod:`.local_pencil` -- Proposition III.2 (i)-(iii);
+- :mod:`.twins`, :mod:`.transfer` -- exact twin modes and the exact transfer function shared by rules;
 
 - :mod:`.modal` -- eigen-groups of L_q with their unobservable parts (the modal structure);
 - :mod:`.unobservable` -- unobservable subspaces per mode (modal, exact);
@@ -10,5 +20,6 @@
 - :mod:`.cluster_modal` -- the interior eigen-decomposition of a cluster block shared by the UIO checks.
 
 Layer: imports :mod:`glocal_verify.numerics`, :mod:`glocal_verify.model` and the spec types.
-Derived results are kept on the system's explicit :class:`~glocal_verify.model.Analysis`.
+Derived results are kept on the system's explicit :class:`~glocal_verify.derived.Analysis`,
+each kind declared by the module that computes it (:class:`~glocal_verify.derived.Kind`).
 """

@@ -17,6 +17,7 @@ from typing import Any, Sequence
 import flint
 import numpy as np
 
+from glocal_verify import config
 from glocal_verify.analysis.zda import (
     ZdaDirection,
     ZdaZero,
@@ -618,7 +619,7 @@ class AvoidanceVerdict:
     status : Status
         ``HOLDS``: some stealthy direction at lambda0 is untouched by the switch (the attack
         survives it); ``FAILS``: every one is touched; ``UNDECIDED``.
-    analysis : Avoidance or None
+    avoidance : Avoidance or None
         The touch analysis (None when vacuous or when the ZDA status is undecided).
     premise : str or None
         Set when no stealthy ZDA exists: the verdict holds vacuously (nothing to avoid).
@@ -633,7 +634,7 @@ class AvoidanceVerdict:
 
     mode: str
     status: Status
-    analysis: Avoidance | None
+    avoidance: Avoidance | None
     premise: str | None = None
     exact: bool = False
     certificate: Mapping[str, Any] = field(default_factory=dict)
@@ -664,10 +665,6 @@ def _certify_numeric(system: System, F: Sequence[Label], av: Avoidance, exact_la
         )
         return av, cert
     return dataclasses.replace(av, status=Status.UNDECIDED, notes=(*av.notes, cert["note"])), cert
-
-
-#: up to this many agents an undecided touch test at a computed (not exact) lambda0 = 0 notes what Q says there
-ZERO_TOUCH_NOTE_AGENTS = 500
 
 
 def decide_avoidance(
@@ -759,7 +756,7 @@ def decide_avoidance(
         if ea.direction is not None:
             ex_av = exact_mode_avoidance(system, mode, ea.direction, ea.direction_source, Fi, tol)
             return AvoidanceVerdict(mode, ex_av.status, ex_av, exact=True, note=f"escalated to exact arithmetic: {cert.get('note', '')}")
-    if complex(d.value) == 0 and system.n <= ZERO_TOUCH_NOTE_AGENTS and (ex0 := touch_at_zero(system, mode, d, zda.direction_source, Fi)) is not None:
+    if complex(d.value) == 0 and system.n <= config.get("zero_touch_note_agents") and (ex0 := touch_at_zero(system, mode, d, zda.direction_source, Fi)) is not None:
         # the exponent itself is a computed fastest zero: say what Q says at 0, stay undecided
         what = "avoids the attack" if ex0.status is Status.HOLDS else "touches every stealthy direction"
         cert = {**cert, "note": f"{cert.get('note', '')}; over Q the switch {what} at lambda0 = 0 (attack.lambda0 = 0 in the spec makes this the verdict)"}

@@ -40,6 +40,8 @@ from typing import Sequence
 import numpy as np
 import scipy.sparse
 
+from glocal_verify import config
+from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.numerics.spectrum import gamma_bound
 from glocal_verify.numerics.threads import blas_threads
@@ -52,9 +54,11 @@ __all__ = [
     "state_rounding_bound",
 ]
 
+#: derived results this module keeps on the system (glocal_verify.derived)
+_INTERIOR_MODES_KIND: Kind[InteriorModes] = Kind("interior-modes", __name__, "InteriorModes")
+_STATE_ROUNDING_KIND: Kind[float] = Kind("state-rounding", __name__, "float")
+
 EPS = float(np.finfo(float).eps)
-#: interior blocks of at least this many agents are decomposed on every core
-_ALL_CORES_MIN = 1000
 
 
 @dataclass(frozen=True, slots=True)
@@ -110,7 +114,7 @@ def interior_modes_of(L: np.ndarray, boundary: Sequence[int]) -> InteriorModes:
         # a large symmetric factorization: every core, also inside the single-threaded
         # observer designs that call this (eigh of 3300 interior agents: 7.1-7.2 s on one
         # thread, 3.5-4.6 s on two; see glocal_verify.numerics.threads)
-        with blas_threads(None) if len(inner) >= _ALL_CORES_MIN else contextlib.nullcontext():
+        with blas_threads(None) if len(inner) >= config.get("all_cores_min_agents") else contextlib.nullcontext():
             mu, U = np.linalg.eigh(LII)
             G = U.T @ U
         G[np.diag_indices_from(G)] -= 1.0
@@ -140,7 +144,7 @@ def interior_modes(system: System, name: str, mode: str) -> InteriorModes:
     b = tuple(sorted(idx[a] for a in cm.boundary))
     h = hashlib.sha256(np.ascontiguousarray(cm.L).tobytes())
     h.update(repr((cm.L.shape, b)).encode())
-    return system.analysis.get(("interior-modes", name, h.hexdigest()), lambda: interior_modes_of(cm.L, b))  # type: ignore[no-any-return]
+    return _INTERIOR_MODES_KIND.get(system, (name, h.hexdigest()), lambda: interior_modes_of(cm.L, b))  # type: ignore[no-any-return]
 
 
 def state_rounding_bound(system: System, name: str, mode: str) -> float:
@@ -187,4 +191,4 @@ def state_rounding_bound(system: System, name: str, mode: str) -> float:
             k += 1
         return math.sqrt(total) * (1.0 + (k + 4) * EPS) + 1e-300 if total > 0 else 0.0
 
-    return system.analysis.get(("state-rounding", name, mode), compute)  # type: ignore[no-any-return]
+    return _STATE_ROUNDING_KIND.get(system, (name, mode), compute)  # type: ignore[no-any-return]

@@ -10,6 +10,7 @@ from glocal_verify.model import System
 from glocal_verify.spec.types import Label
 
 __all__ = [
+    "channel_label",
     "covert_required_channels",
     "reachable_agents",
 ]
@@ -62,13 +63,21 @@ def covert_required_channels(system: System) -> list[str]:
     R = set(reachable_agents(system))
     out = []
     for ch in system.output_channels():
-        lab = _channel_label(system, ch)
+        lab = channel_label(system, ch)
         if lab in R:
             out.append(ch)
     return out
 
 
-def _channel_label(system: System, ch: str) -> Label:
+def channel_label(system: System, ch: str) -> Label:
+    """The agent of an output channel name (``"x:<label>"`` or ``"v:<label>"``).
+
+    Parameters
+    ----------
+    system : System
+    ch : str
+        A name of :meth:`System.output_channels`.
+    """
     kind, _, rest = ch.partition(":")
     for lab in system.labels:
         if str(lab) == rest:

@@ -10,19 +10,22 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 import scipy.sparse
 
+from glocal_verify.derived import Kind
 from glocal_verify.model import ClusterModel, LocalObserver, System
 from glocal_verify.numerics.minors import RATIONAL_ZERO
-from glocal_verify.results import Status
+from glocal_verify.results import Status, Verdict
 from glocal_verify.spec.types import NORMAL_MODE, Label
 
 __all__ = [
     "LocalCase",
+    "certificate_verdict",
     "certify_pencil_verdict",
+    "exact_int",
     "cluster_summary",
     "exact_A_float",
     "full_pencil",
@@ -32,6 +35,13 @@ __all__ = [
     "pencil_matrices",
     "pencil_matrices_exact",
 ]
+
+#: derived results this module keeps on the system (glocal_verify.derived)
+_ALPHA_LAPLACIAN_MOD_KIND: Kind[Any] = Kind("alpha-laplacian-mod", __name__, "Any")
+_EXACT_A_KIND: Kind[Any] = Kind("exact-A", __name__, "Any")
+_GROUNDED_TABLES_KIND: Kind[Any] = Kind("grounded-tables", __name__, "Any")
+_LOCAL_MINOR_CERTIFICATE_KIND: Kind[str | None] = Kind("local-minor-certificate", __name__, "str | None")
+_TWIN_MODES_KIND: Kind[Any] = Kind("twin-modes", __name__, "Any")
 
 # --------------------------------------------------------------------------------------------
 # cases
@@ -192,7 +202,7 @@ def exact_A_float(system: System, case: LocalCase) -> tuple[list[list[Fraction]]
     system : System
     case : LocalCase
     """
-    return system.analysis.get(("exact-A", case.model.name, case.mode), lambda: _exact_A_float(system, case))  # type: ignore[no-any-return]
+    return _EXACT_A_KIND.get(system, (case.model.name, case.mode), lambda: _exact_A_float(system, case))  # type: ignore[no-any-return]
 
 
 def _exact_A_float(system: System, case: LocalCase) -> tuple[list[list[Fraction]], np.ndarray, np.ndarray]:
@@ -221,7 +231,8 @@ def _exact_A_float(system: System, case: LocalCase) -> tuple[list[list[Fraction]
     return A, Af, support
 
 
-def _exact_int(M: np.ndarray) -> list[list[Fraction]]:
+def exact_int(M: np.ndarray) -> list[list[Fraction]]:
+    """An integer-valued float matrix (0/1 selections and incidences) as exact rationals."""
     return [[Fraction(round(float(x))) for x in row] for row in M]
 
 
@@ -235,7 +246,7 @@ def pencil_matrices_exact(system: System, case: LocalCase) -> tuple[list[list[Fr
     """
     A = _exact_A(system, case)
     G, C = input_output_matrices(case)
-    return A, _exact_int(G), _exact_int(C)
+    return A, exact_int(G), exact_int(C)
 
 
 # --------------------------------------------------------------------------------------------
@@ -395,7 +406,7 @@ def minor_certificate(system: System, case: LocalCase, cache: dict[Any, Any] | N
     def build() -> Any:
         return grounded_tables(len(nodes), system.cluster_laplacian_entries(cm.name, case.mode), alpha, measured)
 
-    tables = system.analysis.get(("grounded-tables", cm.name, case.mode, tuple(measured)), build)
+    tables = _GROUNDED_TABLES_KIND.get(system, (cm.name, case.mode, tuple(measured)), build)
     if tables is None:
         return None
     inputs = [idx[a] for a in case.suspected] + [idx[a] for a in cm.boundary]
@@ -407,9 +418,7 @@ def minor_certificate(system: System, case: LocalCase, cache: dict[Any, Any] | N
         mx = {idx[a] for a in obs.positions}
         # alpha L[P_i \ I, P_i \ M_x] modulo the tables' prime (which divides no denominator of
         # alpha L): the residues of alpha L are kept per cluster and mode
-        res = system.analysis.get(
-            ("alpha-laplacian-mod", cm.name, case.mode, tables.prime), lambda: residues_mod_p([[alpha * x for x in row] for row in system.cluster_laplacian_exact(cm.name, case.mode)], tables.prime)
-        )
+        res = _ALPHA_LAPLACIAN_MOD_KIND.get(system, (cm.name, case.mode, tables.prime), lambda: residues_mod_p([[alpha * x for x in row] for row in system.cluster_laplacian_exact(cm.name, case.mode)], tables.prime))
         inset = set(inputs)
         if not submatrix_full_rank_mod_p(res, [i for i in range(len(nodes)) if i not in inset], [j for j in range(len(nodes)) if j not in mx], tables.prime):
             return None
@@ -417,8 +426,7 @@ def minor_certificate(system: System, case: LocalCase, cache: dict[Any, Any] | N
 
     # the outcome (a proof or None) depends only on the exact tables and the input rows: the
     # audit's screen and the certification of a numeric verdict ask for the same one
-    key = ("local-minor-certificate", cm.name, case.mode, tuple(measured), tuple(obs.positions), tuple(sorted(inputs)))
-    return system.analysis.get(key, prove)  # type: ignore[no-any-return]
+    return _LOCAL_MINOR_CERTIFICATE_KIND.get(system, (cm.name, case.mode, tuple(measured), tuple(obs.positions), tuple(sorted(inputs))), prove)
 
 
 def twin_failure(system: System, case: LocalCase) -> str | None:
@@ -450,7 +458,7 @@ def twin_failure(system: System, case: LocalCase) -> str | None:
     def compute() -> Any:
         return twin_modes(len(nodes), system.cluster_laplacian_entries(cm.name, case.mode), measured)
 
-    modes = system.analysis.get(("twin-modes", cm.name, case.mode, tuple(measured)), compute)
+    modes = _TWIN_MODES_KIND.get(system, (cm.name, case.mode, tuple(measured)), compute)
     for mu, pairs in modes:
         a, r = pairs[0]
         return (
@@ -460,15 +468,37 @@ def twin_failure(system: System, case: LocalCase) -> str | None:
     return None
 
 
-def certify_pencil_verdict(system: System, case: LocalCase, status: Status, witness: dict[str, Any]) -> tuple[Status, dict[str, Any]]:
+def certificate_verdict(status: Status, margin: float | None, witness: Mapping[str, Any], *, exact: bool = False) -> Verdict:
+    """A local verdict whose numeric certificate sets its error bound and note.
+
+    The local checks record their floating-point certificate in ``witness["certificate"]``
+    (``error_bound``, ``note``, ``by``); exact verdicts have none.
+
+    Parameters
+    ----------
+    status : Status
+    margin : float or None
+    witness : mapping
+    exact : bool
+        Decided in exact arithmetic.
+    """
+    cert = witness.get("certificate")
+    if not isinstance(cert, Mapping):
+        return Verdict(status, margin=margin, witness=witness, exact=exact)
+    eb = cert.get("error_bound")
+    return Verdict(status, margin=margin, error_bound=None if eb is None else float(eb), witness=witness, exact=exact, note=str(cert.get("note", "")))
+
+
+def certify_pencil_verdict(system: System, case: LocalCase, numeric: Verdict) -> Verdict:
     """Certify a numeric verdict of Proposition III.2 (iii) for the exact pencil, or make it undecided.
 
     (Zero forcing first, then the exact maximal-minor certificate of :func:`minor_certificate`,
     which proves ``holds`` whatever the numeric status was.)
 
-    Returns ``(status, witness)`` with ``witness["certificate"]`` (``by``, ``error_bound``,
-    ``note``); ``status`` is the numeric one when proved, ``holds`` when zero forcing proves
-    it, else ``undecided``.
+    Returns the verdict with ``witness["certificate"]`` (``by``, ``error_bound``, ``note``,
+    which also set the verdict's error bound and note, :func:`certificate_verdict`) and the
+    numeric margin; its status is the numeric one when proved, ``holds`` when zero forcing
+    proves it, else ``undecided``.
 
     * ``holds`` (full column rank for every lam) is proved combinatorially by zero forcing
       (:func:`~glocal_verify.analysis.cluster_pencil.zero_forcing_closure` on the exact support
@@ -489,11 +519,9 @@ def certify_pencil_verdict(system: System, case: LocalCase, status: Status, witn
     ----------
     system : System
     case : LocalCase
-    status : Status
-        The numeric verdict.
-    witness : dict
-        Its witness (directions with ``lambda``, ``positions``, ``velocities``,
-        ``attack_input``, ``coupling_input``); updated in place.
+    numeric : Verdict
+        The numeric verdict; its witness (directions with ``lambda``, ``positions``,
+        ``velocities``, ``attack_input``, ``coupling_input``) is extended with the certificate.
     """
     from glocal_verify.analysis.cluster_pencil import zero_forcing_closure
     from glocal_verify.analysis.zda_certificate import rational_kernel_vector
@@ -502,6 +530,11 @@ def certify_pencil_verdict(system: System, case: LocalCase, status: Status, witn
         rounding_error,
         structural_rank,
     )
+
+    status, margin, witness = numeric.status, numeric.margin, dict(numeric.witness)
+
+    def verdict(status_now: Status) -> Verdict:
+        return certificate_verdict(status_now, margin, witness)
 
     cm = case.model
     idx = {a: k for k, a in enumerate(cm.nodes)}
@@ -519,12 +552,12 @@ def certify_pencil_verdict(system: System, case: LocalCase, status: Status, witn
     ncols = 2 * n + len(case.suspected) + len(cm.boundary)
     cert: dict[str, Any] = {"error_bound": None}
 
-    def proved(status_now: Status, by: str, how: str) -> tuple[Status, dict[str, Any]]:
+    def proved(status_now: Status, by: str, how: str) -> Verdict:
         cert["by"] = by
         witness["certificate"] = cert
         if status is not status_now:
             cert["note"] = f"the numeric analysis said {status.value}; {how}"
-        return status_now, witness
+        return verdict(status_now)
 
     if ok and ok0:
         return proved(Status.HOLDS, "zero forcing from the measured agents on the exact support (every lam)", "zero forcing proves full column rank for every lam")
@@ -571,7 +604,7 @@ def certify_pencil_verdict(system: System, case: LocalCase, status: Status, witn
             if rb.lower == ncols:
                 cert["by"] = "zero forcing (lam != 0) and a Weyl bound at lam = 0"
                 witness["certificate"] = cert
-                return Status.HOLDS, witness
+                return verdict(Status.HOLDS)
             cert["note"] = f"lam = 0: sigma_min(P(0)) = {rb.singular_values[-1]:.3g} is not above the certified error bound {rb.error_bound:.3g}"
         else:
             cert["note"] = (
@@ -579,7 +612,7 @@ def certify_pencil_verdict(system: System, case: LocalCase, status: Status, witn
                 f"{n - len(forced)} agent(s) unforced"
             )
         witness["certificate"] = cert
-        return Status.UNDECIDED, witness
+        return verdict(Status.UNDECIDED)
     if status is Status.FAILS:
         zs = [w.get("lambda") for w in witness.get("zeros", []) if w.get("verified")]
         cert["note"] = (
@@ -587,7 +620,7 @@ def certify_pencil_verdict(system: System, case: LocalCase, status: Status, witn
             "pencil (no structural certificate)" if zs else "the rank loss has no structural certificate"
         )
         witness["certificate"] = cert
-        return Status.UNDECIDED, witness
+        return verdict(Status.UNDECIDED)
     cert["note"] = str(witness.get("verification", "the numeric rank decisions fell inside the tolerance band"))
     witness["certificate"] = cert
-    return status, witness
+    return verdict(status)

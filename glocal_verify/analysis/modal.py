@@ -57,6 +57,7 @@ from typing import Union
 
 import numpy as np
 
+from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.numerics.spectrum import Spectrum
 from glocal_verify.numerics.subspace import EPS, decide_with_error
@@ -72,7 +73,11 @@ __all__ = [
     "eigen_residuals",
     "modal_exponential",
     "block_exponentials",
+    "apply_A",
 ]
+
+#: the modal decomposition per (mode, tolerance), kept on the system
+_MODAL_KIND: Kind[ModalDecomposition] = Kind("modal", __name__, "ModalDecomposition")
 
 # --------------------------------------------------------------------------------------------
 # modal decomposition of one mode
@@ -490,10 +495,10 @@ def modal_decomposition(system: System, mode: str = NORMAL_MODE, tol: Tolerance 
     For a safe mode kept in factored form only the monitored rows are computed (``|M| N^2``
     per factor), and a group's ``E`` only when it is read.
     """
-    key = ("modal", mode, tol.rtol, tol.band)
-    cache = system.analysis
-    if key in cache:
-        return cache[key]  # type: ignore[no-any-return]
+    params = (mode, tol.rtol, tol.band)
+    kept = _MODAL_KIND.peek(system, params)
+    if kept is not None:
+        return kept
     system.check_mode(mode)
     sp = system.spectrum(mode)
     w = sp.values
@@ -507,7 +512,7 @@ def modal_decomposition(system: System, mode: str = NORMAL_MODE, tol: Tolerance 
     groups = _group_parts(sp, split, scale, mx, m, tol, K)
     mgroups = groups if decided else _group_parts(sp, merged, scale, mx, m, tol, K)
     md = ModalDecomposition(mode, groups, mgroups, scale, decided)
-    cache[key] = md
+    _MODAL_KIND.put(system, params, md)
     return md
 
 
@@ -607,7 +612,15 @@ def modal_exponential(system: System, mode: str, t: float, X: np.ndarray) -> np.
     return out[:, 0] if vec else out
 
 
-def _apply_A(system: System, mode: str, X: np.ndarray) -> np.ndarray:
+def apply_A(system: System, mode: str, X: np.ndarray) -> np.ndarray:
+    """``A_q X`` for a 2N x k array X, through the sparse Laplacian (no 2N x 2N matrix).
+
+    Parameters
+    ----------
+    system : System
+    mode : str
+    X : ndarray
+    """
     n = system.n
     L = system.laplacian_sparse(mode)
     return np.vstack([X[n:], -system.alpha * (L @ X[:n]) - system.gamma * X[n:]])

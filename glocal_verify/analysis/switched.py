@@ -17,22 +17,23 @@ import numpy as np
 
 from glocal_verify.analysis.modal import modal_exponential
 from glocal_verify.analysis.unobservable import (
-    _exact_A,
-    _exact_obs_rows,
+    exact_A,
+    exact_observable_rows,
     certified_unobservable,
     structural_basis,
     unobservable_subspace,
 )
+from glocal_verify.derived import Kind
 from glocal_verify.errors import ModelError
 from glocal_verify.model import System
 from glocal_verify.numerics.exact_subspace import (
-    _annihilator,
-    _cols_closure,
-    _kernel,
-    _row_basis,
-    _row_closure,
-    _to_fraction_cols,
-    _vstack,
+    annihilator,
+    cols_closure,
+    kernel_basis,
+    row_basis,
+    row_closure,
+    to_fraction_cols,
+    stack_rows,
 )
 from glocal_verify.numerics.subspace import EPS, Subspace, decide_with_error
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
@@ -46,8 +47,14 @@ __all__ = [
     "switched_unobservable_subspace",
     "switched_unobservable_bounds_exact",
     "mode_sequence",
+    "check_sequence",
     "sequence_text",
 ]
+
+#: derived results this module keeps on the system (glocal_verify.derived)
+_SWITCHED_KIND: Kind[Subspace] = Kind("switched", __name__, "Subspace")
+_SWITCHED_EXACT_KIND: Kind[SwitchedBounds] = Kind("switched-exact", __name__, "SwitchedBounds")
+_CERTIFIED_SWITCHED_KIND: Kind[CertifiedSwitched] = Kind("certified-switched", __name__, "CertifiedSwitched")
 
 def mode_sequence(system: System) -> list[tuple[str, float]] | None:
     """The mode schedule of the spec: ``switching.sequence``, else ``[normal, switching.mode]``.
@@ -118,7 +125,19 @@ def _intersect(P: np.ndarray, V: np.ndarray, err: float, tol: Tolerance, upper: 
     return V @ Z, r_lo == r_hi, margin
 
 
-def _check_sequence(system: System, sequence: Sequence[tuple[str, float]]) -> list[tuple[str, float]]:
+def check_sequence(system: System, sequence: Sequence[tuple[str, float]]) -> list[tuple[str, float]]:
+    """``sequence`` as ``(mode, duration)`` pairs of known modes and positive finite dwell times.
+
+    Parameters
+    ----------
+    system : System
+    sequence : sequence of (mode, duration)
+
+    Raises
+    ------
+    ModelError
+        For an empty sequence, an unknown mode or a dwell time that is not positive and finite.
+    """
     seq = [(str(m), float(d)) for m, d in sequence]
     if not seq:
         raise ModelError("a mode sequence needs at least one mode")
@@ -172,18 +191,14 @@ def switched_unobservable_subspace(
         Basis of ``N_1^m`` as initial states ``x(t_0)``; ``margin`` is the smallest certainly
         nonzero sine met in the intersections (1.0 if none).
     """
-    key = ("switched", tuple((m, float(t)) for m, t in sequence), tol.rtol, tol.band)
-    cache = system.analysis
-    if key not in cache:
-        cache[key] = _switched_recursion(system, sequence, tol)
-    return cache[key]  # type: ignore[no-any-return]
+    return _SWITCHED_KIND.get(system, (tuple((m, float(t)) for m, t in sequence), tol.rtol, tol.band), lambda: _switched_recursion(system, sequence, tol))
 
 
 def _switched_recursion(
     system: System, sequence: Sequence[tuple[str, float]], tol: Tolerance = DEFAULT_TOLERANCE
 ) -> Subspace:
     """Uncached body of :func:`switched_unobservable_subspace`."""
-    seq = _check_sequence(system, sequence)
+    seq = check_sequence(system, sequence)
     subs = {m: unobservable_subspace(system, m, tol) for m, _ in seq}
     results: dict[bool, tuple[np.ndarray, float]] = {}
     decided = all(subs[m].decided for m, _ in seq)
@@ -287,49 +302,45 @@ def switched_unobservable_bounds_exact(system: System, sequence: Sequence[tuple[
     sequence : sequence of (mode, duration)
         The schedule; durations are validated but not used.
     """
-    key = ("switched-exact", tuple((m, float(t)) for m, t in sequence))
-    cache = system.analysis
-    if key not in cache:
-        cache[key] = _switched_bounds_exact(system, sequence)
-    return cache[key]  # type: ignore[no-any-return]
+    return _SWITCHED_EXACT_KIND.get(system, (tuple((m, float(t)) for m, t in sequence),), lambda: _switched_bounds_exact(system, sequence))
 
 
 def _switched_bounds_exact(system: System, sequence: Sequence[tuple[str, float]]) -> SwitchedBounds:
     """Uncached body of :func:`switched_unobservable_bounds_exact`."""
-    seq = _check_sequence(system, sequence)
+    seq = check_sequence(system, sequence)
     n2 = 2 * system.n
     modes = [m for m, _ in seq]
-    A = {m: _exact_A(system, m) for m in set(modes)}
-    R = {m: _exact_obs_rows(system, m) for m in set(modes)}
+    A = {m: exact_A(system, m) for m in set(modes)}
+    R = {m: exact_observable_rows(system, m) for m in set(modes)}
     m = len(seq)
     if m == 1:
-        K = _kernel(R[modes[0]])
-        basis = _to_fraction_cols(K)
+        K = kernel_basis(R[modes[0]])
+        basis = to_fraction_cols(K)
         return SwitchedBounds(len(basis), len(basis), basis, basis, [], True)
     # inner: annihilator rows of L_{k}
     lo_rows = R[modes[-1]]
     for k in range(m - 2, 0, -1):
-        lo_rows = _row_closure(_vstack([R[modes[k]], lo_rows], n2), [A[modes[k]]])
-    first = _row_basis(_vstack([R[modes[0]], lo_rows], n2))
+        lo_rows = row_closure(stack_rows([R[modes[k]], lo_rows], n2), [A[modes[k]]])
+    first = row_basis(stack_rows([R[modes[0]], lo_rows], n2))
     dim_lo = n2 - first.nrows()
-    inner = _kernel(_row_closure(first, [A[modes[0]]]))
+    inner = kernel_basis(row_closure(first, [A[modes[0]]]))
     # outer: column bases of U_k
-    U = _kernel(R[modes[-1]])
+    U = kernel_basis(R[modes[-1]])
     for k in range(m - 2, 0, -1):
-        S = _kernel(_vstack([R[modes[k]], _annihilator(U)], n2)) if U.ncols() else U
-        U = _cols_closure(S, A[modes[k]])
+        S = kernel_basis(stack_rows([R[modes[k]], annihilator(U)], n2)) if U.ncols() else U
+        U = cols_closure(S, A[modes[k]])
     if U.ncols():
-        S1 = _kernel(_vstack([R[modes[0]], _annihilator(U)], n2))
+        S1 = kernel_basis(stack_rows([R[modes[0]], annihilator(U)], n2))
     else:
         S1 = U
     dim_hi = S1.ncols()
-    outer = _cols_closure(S1, A[modes[0]]) if S1.ncols() else S1
-    at_switch = _to_fraction_cols(S1) if m == 2 else []
+    outer = cols_closure(S1, A[modes[0]]) if S1.ncols() else S1
+    at_switch = to_fraction_cols(S1) if m == 2 else []
     return SwitchedBounds(
         dim_lower=dim_lo,
         dim_upper=dim_hi,
-        inner=_to_fraction_cols(inner),
-        outer=_to_fraction_cols(outer),
+        inner=to_fraction_cols(inner),
+        outer=to_fraction_cols(outer),
         at_first_switch=at_switch,
         exact_dimension=dim_lo == dim_hi,
     )
@@ -421,11 +432,11 @@ def certified_switched(system: System, sequence: Sequence[tuple[str, float]]) ->
     sequence : sequence of (mode, duration)
         The schedule.
     """
-    seq = _check_sequence(system, sequence)
-    key = ("certified-switched", tuple(m for m, _ in seq))
-    cache = system.analysis
-    if key in cache:
-        return cache[key]  # type: ignore[no-any-return]
+    seq = check_sequence(system, sequence)
+    params = (tuple(m for m, _ in seq),)
+    kept = _CERTIFIED_SWITCHED_KIND.peek(system, params)
+    if kept is not None:
+        return kept
     modes = [m for m, _ in seq]
     inner = structural_basis(system, union_components(system, modes))
     per = {m: certified_unobservable(system, m) for m in dict.fromkeys(modes)}
@@ -453,5 +464,5 @@ def certified_switched(system: System, sequence: Sequence[tuple[str, float]]) ->
         error_bound=max(c.error_bound for c in per.values()),
         note=note,
     )
-    cache[key] = out
+    _CERTIFIED_SWITCHED_KIND.put(system, params, out)
     return out

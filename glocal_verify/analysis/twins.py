@@ -19,11 +19,16 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.numerics.minors import charpoly_mod, prime_for, twin_modes
-from glocal_verify.results import Status
+from glocal_verify.results import Status, Verdict
 
 __all__ = ["distinct_eigenvalues_modular", "eigenvector_differences_modular", "laplacian_entries"]
+
+#: derived results this module keeps on the system (glocal_verify.derived)
+_CHARPOLY_MOD_KIND: Kind[tuple[int, Any]] = Kind("charpoly-mod", __name__, "tuple[int, Any]")
+_LAPLACIAN_ENTRIES_KIND: Kind[Mapping[tuple[int, int], Fraction]] = Kind("laplacian-entries", __name__, "Mapping[tuple[int, int], Fraction]")
 
 
 def laplacian_entries(system: System, mode: str) -> Mapping[tuple[int, int], Fraction]:
@@ -48,10 +53,10 @@ def laplacian_entries(system: System, mode: str) -> Mapping[tuple[int, int], Fra
             ent[(v, v)] = ent.get((v, v), Fraction(0)) + w
         return ent
 
-    return system.analysis.get(("laplacian-entries", system.check_mode(mode)), build)  # type: ignore[no-any-return]
+    return _LAPLACIAN_ENTRIES_KIND.get(system, (system.check_mode(mode),), build)  # type: ignore[no-any-return]
 
 
-def eigenvector_differences_modular(system: System, mode: str) -> tuple[Status, dict[str, Any]] | None:
+def eigenvector_differences_modular(system: System, mode: str) -> Verdict | None:
     """Decide Theorem III.3 (iii) for ``mode`` exactly and cheaply, or return None.
 
     * fails: an exact twin mode e_a - e_r of L_q (:func:`glocal_verify.numerics.minors.twin_modes`)
@@ -71,7 +76,9 @@ def eigenvector_differences_modular(system: System, mode: str) -> tuple[Status, 
 
     Returns
     -------
-    (Status, witness) or None
+    Verdict or None
+        The exact decision (status and witness; ``exact``), or None when neither certificate
+        applies.
     """
 
     pairs = [(c[x], c[y]) for c in system.switching_components(mode) for x in range(len(c)) for y in range(x + 1, len(c))]
@@ -87,13 +94,13 @@ def eigenvector_differences_modular(system: System, mode: str) -> tuple[Status, 
                 if {a, r}.isdisjoint((i, j)):
                     la, lr = system.labels[a], system.labels[r]
                     l = int(np.argmin(np.abs(w_num - float(mu))))
-                    return Status.FAILS, {
+                    return Verdict(Status.FAILS, witness={
                         "pair": list(pr), "l": l + 1, "eigenvalue": float(mu), "eigenvalue_exact": mu,
                         "entries": [0.0, 0.0],
                         "eigenvector_exact": {la: Fraction(1), lr: Fraction(-1)},
                         "reason": f"{la} and {lr} are twins in L_q: e_{la} - e_{lr} is an exact eigenvector (eigenvalue {mu}) "
                         f"whose entries on the pair are both 0",
-                    }
+                    }, exact=True)
     p, P = _charpoly_mod(system, mode, ent)
     if P.gcd(P.derivative()).degree() != 0 or int(P.coeffs()[0]) != 0:
         return None
@@ -104,10 +111,10 @@ def eigenvector_differences_modular(system: System, mode: str) -> tuple[Status, 
             e2[key] = e2.get(key, Fraction(0)) + d
         if P0.gcd(charpoly_mod(n, e2, p) - P).degree() != 0:
             return None
-    return Status.HOLDS, {
+    return Verdict(Status.HOLDS, witness={
         "pairs_checked": len(pairs),
         "certificate": f"charpoly(L_q) squarefree and gcd(p(mu)/mu, q_ij) = 1 for every pair, modulo the prime {p} (exact)",
-    }
+    }, exact=True)
 
 
 def _charpoly_mod(system: System, mode: str, ent: Mapping[tuple[int, int], Fraction]) -> tuple[int, Any]:
@@ -117,10 +124,10 @@ def _charpoly_mod(system: System, mode: str, ent: Mapping[tuple[int, int], Fract
         p = prime_for(list(ent.values()))
         return p, charpoly_mod(system.n, ent, p)
 
-    return system.analysis.get(("charpoly-mod", mode), compute)  # type: ignore[no-any-return]
+    return _CHARPOLY_MOD_KIND.get(system, (mode,), compute)  # type: ignore[no-any-return]
 
 
-def distinct_eigenvalues_modular(system: System, mode: str) -> tuple[Status, dict[str, Any]] | None:
+def distinct_eigenvalues_modular(system: System, mode: str) -> Verdict | None:
     """Decide Theorem III.3 (ii) for ``mode`` exactly and cheaply, or return None.
 
     * fails: two independent exact twin modes e_a - e_r of L_q with the same eigenvalue mu
@@ -140,8 +147,8 @@ def distinct_eigenvalues_modular(system: System, mode: str) -> tuple[Status, dic
 
     Returns
     -------
-    (Status, witness) or None
-        None when neither certificate applies (the prime may divide a discriminant that is
+    Verdict or None
+        The exact decision (status and witness; ``exact``); None when neither certificate applies (the prime may divide a discriminant that is
         not 0 over Q); the caller keeps its undecided verdict and escalates.
     """
     n = system.n
@@ -159,15 +166,15 @@ def distinct_eigenvalues_modular(system: System, mode: str) -> tuple[Status, dic
         v2 = [y - c * x for x, y in zip(v1, v2)]
         unit = [np.array([float(x) for x in v]) for v in (v1, v2)]
         names = ", ".join(f"{system.labels[a]} ~ {system.labels[r]}" for a, r in tw[:4])
-        return Status.FAILS, {
+        return Verdict(Status.FAILS, exact=True, witness={
             "eigenvalue": float(mu),
             "eigenvalue_exact": mu,
             "multiplicity_at_least": len(tw),
             "reason": f"twin agents ({names}) give {len(tw)} independent exact eigenvectors e_a - e_r of L_q with eigenvalue {mu}",
             "rational_eigenvectors": [system.vector_by_label(v) for v in (v1, v2)],
             "eigenvectors": [system.vector_by_label(u / np.linalg.norm(u)) for u in unit],
-        }
+        })
     p, P = _charpoly_mod(system, mode, ent)
     if P.gcd(P.derivative()).degree() != 0:
         return None
-    return Status.HOLDS, {"certificate": f"charpoly(L_q) squarefree modulo the prime {p}: gcd(p, p') = 1 (exact)"}
+    return Verdict(Status.HOLDS, witness={"certificate": f"charpoly(L_q) squarefree modulo the prime {p}: gcd(p, p') = 1 (exact)"}, exact=True)

@@ -17,13 +17,15 @@ import flint
 import numpy as np
 import scipy.linalg
 
+from glocal_verify import config
 from glocal_verify.analysis.modal import EigenGroupPart, form_bases, modal_decomposition
+from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.numerics.exact_subspace import (
-    _kernel,
-    _qmat,
-    _row_closure,
-    _to_fraction_cols,
+    kernel_basis,
+    qmat,
+    row_closure,
+    to_fraction_cols,
 )
 from glocal_verify.numerics.minors import RATIONAL_ZERO
 from glocal_verify.numerics.spectrum import EPS, Spectrum
@@ -38,7 +40,17 @@ __all__ = [
     "certified_unobservable",
     "structural_basis",
     "rational_unobservable_candidates",
+    "exact_A",
+    "exact_C",
+    "exact_N",
+    "exact_observable_rows",
 ]
+
+#: derived results this module keeps on the system (glocal_verify.derived)
+_N_KIND: Kind[Subspace] = Kind("N", __name__, "Subspace")
+_EXACT_ROWS_KIND: Kind[flint.fmpq_mat] = Kind("exact-rows", __name__, "fmpq_mat")
+_EXACT_N_KIND: Kind[flint.fmpq_mat] = Kind("exact-N", __name__, "fmpq_mat")
+_CERTIFIED_N_KIND: Kind[CertifiedUnobservable] = Kind("certified-N", __name__, "CertifiedUnobservable")
 
 def _assemble(n: int, groups: Sequence[EigenGroupPart], upper: bool) -> tuple[np.ndarray, bool]:
     """Basis of (W^x_0 x W_0) ⊕ ⊕_{mu>0} (W_mu x W_mu) for one reading; also 'zero decisions certain'.
@@ -104,10 +116,10 @@ def unobservable_subspace(system: System, mode: str = NORMAL_MODE, tol: Toleranc
         ``margin`` = min over eigen-groups of ``sigma_min(S E_mu)`` (``S = S_{M_x}`` for
         ``mu = 0``, ``S_M`` otherwise; 0 when some group has an unobservable part).
     """
-    key = ("N", mode, tol.rtol, tol.band)
-    cache = system.analysis
-    if key in cache:
-        return cache[key]  # type: ignore[no-any-return]
+    params = (mode, tol.rtol, tol.band)
+    kept = _N_KIND.peek(system, params)
+    if kept is not None:
+        return kept
     md = modal_decomposition(system, mode, tol)
     n = system.n
     # the bases of the groups with an unobservable part W (the kernel's is exact), formed together:
@@ -155,11 +167,18 @@ def unobservable_subspace(system: System, mode: str = NORMAL_MODE, tol: Toleranc
         rtol=tol.rtol,
         evidence=evidence,
     )
-    cache[key] = sub
+    _N_KIND.put(system, params, sub)
     return sub
 
 
-def _exact_A(system: System, mode: str) -> flint.fmpq_mat:
+def exact_A(system: System, mode: str) -> flint.fmpq_mat:
+    """``A_q = [[0, I], [-alpha L_q, -gamma I]]`` over Q (2N x 2N).
+
+    Parameters
+    ----------
+    system : System
+    mode : str
+    """
     n = system.n
     L = system.laplacian_exact(mode)
     al, ga = system.alpha_q, system.gamma_q
@@ -168,26 +187,34 @@ def _exact_A(system: System, mode: str) -> flint.fmpq_mat:
         rows.append([Fraction(int(j == n + i)) for j in range(2 * n)])
     for i in range(n):
         rows.append([-al * L[i][j] for j in range(n)] + [(-ga if j == i else Fraction(0)) for j in range(n)])
-    return _qmat(rows, 2 * n)
+    return qmat(rows, 2 * n)
 
 
-def _exact_C(system: System) -> flint.fmpq_mat:
+def exact_C(system: System) -> flint.fmpq_mat:
+    """The selection output ``C = blkdiag(S_{M_x}, S_{M_v})`` over Q.
+
+    Parameters
+    ----------
+    system : System
+    """
     n = system.n
     rows = []
     for i in system.idx(system.monitored_positions):
         rows.append([int(j == i) for j in range(2 * n)])
     for i in system.idx(system.monitored_velocities):
         rows.append([int(j == n + i) for j in range(2 * n)])
-    return _qmat(rows, 2 * n)
+    return qmat(rows, 2 * n)
 
 
-def _exact_obs_rows(system: System, mode: str) -> flint.fmpq_mat:
-    """Row basis of the observable row space of (A_q, C): the annihilator of N(A_q, C)."""
-    key = ("exact-rows", mode)
-    cache = system.analysis
-    if key not in cache:
-        cache[key] = _row_closure(_exact_C(system), [_exact_A(system, mode)])
-    return cache[key]  # type: ignore[no-any-return]
+def exact_observable_rows(system: System, mode: str) -> flint.fmpq_mat:
+    """Row basis of the observable row space of (A_q, C): the annihilator of N(A_q, C).
+
+    Parameters
+    ----------
+    system : System
+    mode : str
+    """
+    return _EXACT_ROWS_KIND.get(system, (mode,), lambda: row_closure(exact_C(system), [exact_A(system, mode)]))
 
 
 def unobservable_subspace_exact(system: System, mode: str = NORMAL_MODE) -> list[list[Fraction]]:
@@ -206,16 +233,19 @@ def unobservable_subspace_exact(system: System, mode: str = NORMAL_MODE) -> list
     mode : str
         The mode q.
     """
-    K = _kernel(_exact_obs_rows(system, mode))
-    return _to_fraction_cols(K)
+    K = kernel_basis(exact_observable_rows(system, mode))
+    return to_fraction_cols(K)
 
 
-def _exact_N(system: System, mode: str) -> flint.fmpq_mat:
-    key = ("exact-N", mode)
-    cache = system.analysis
-    if key not in cache:
-        cache[key] = _kernel(_exact_obs_rows(system, mode))
-    return cache[key]  # type: ignore[no-any-return]
+def exact_N(system: System, mode: str) -> flint.fmpq_mat:
+    """A rational basis of ``N(A_q, C)`` as the columns of a 2N x k matrix (kept on the system).
+
+    Parameters
+    ----------
+    system : System
+    mode : str
+    """
+    return _EXACT_N_KIND.get(system, (mode,), lambda: kernel_basis(exact_observable_rows(system, mode)))
 
 
 # --------------------------------------------------------------------------------------------
@@ -303,19 +333,11 @@ def structural_basis(system: System, comps: Sequence[Sequence[object]]) -> tuple
     return tuple(out)
 
 
-#: singular values of S_M U_g below this are read as numerically zero when rationalising
-#: unobservable candidates (a candidate is only used after its exact proof)
-CANDIDATE_ZERO = 1e-9
-
-#: most candidate vectors the exact verification of :func:`certified_unobservable` takes on
-MAX_VERIFIED_CANDIDATES = 400
-
-
 def rational_unobservable_candidates(E: np.ndarray, measured: Sequence[int]) -> list[list[Fraction]]:
     """Rationalised echelon rows spanning ``span(E) ∩ ker S_M`` (floating point, unproven).
 
     ``E`` (N x k) is the computed basis of an eigenvalue cluster; the right singular vectors
-    of ``E[M, :]`` with singular value <= :data:`CANDIDATE_ZERO` give the numerical null
+    of ``E[M, :]`` with singular value <= ``candidate_zero`` (:mod:`glocal_verify.config`) give the numerical null
     space; its basis is brought to reduced echelon form (pivoted QR, then a solve) and each
     entry rounded to the nearest fraction with denominator <= 10^6 (entries below 1e-9 to 0).
     Twin modes come out exact; the caller must prove whatever it uses.
@@ -329,7 +351,7 @@ def rational_unobservable_candidates(E: np.ndarray, measured: Sequence[int]) -> 
     S = E[list(measured), :]
     if S.size:
         _, sv, vh = np.linalg.svd(S)
-        r = int(np.sum(sv > CANDIDATE_ZERO))
+        r = int(np.sum(sv > config.get("candidate_zero")))
         null = vh[r:].conj().T
     else:
         null = np.eye(E.shape[1])
@@ -363,7 +385,7 @@ def _verified_singular_part(
     for a, b, s, e, sv in singular:
         proven = int(np.sum(sv * math.sqrt(max(0.0, 1.0 - s * s)) - s - e > 0)) if math.isfinite(s) else 0
         upper_w += (b - a + 1) - proven
-    if upper_w > MAX_VERIFIED_CANDIDATES or any(float(sv[-1]) > CANDIDATE_ZERO for *_, sv in singular):
+    if upper_w > config.get("max_verified_candidates") or any(float(sv[-1]) > config.get("candidate_zero") for *_, sv in singular):
         return (), upper_w
     entries = laplacian_entries(system, mode)
     kept: list[list[Fraction]] = []
@@ -424,10 +446,9 @@ def certified_unobservable(system: System, mode: str = NORMAL_MODE) -> Certified
     mode : str
         The mode q.
     """
-    key = ("certified-N", mode)
-    cache = system.analysis
-    if key in cache:
-        return cache[key]  # type: ignore[no-any-return]
+    kept = _CERTIFIED_N_KIND.peek(system, (mode,))
+    if kept is not None:
+        return kept
     system.check_mode(mode)
     n = system.n
     comps = system.components(mode)
@@ -435,7 +456,7 @@ def certified_unobservable(system: System, mode: str = NORMAL_MODE) -> Certified
     m = system.idx(system.monitored)
     if not m:
         cu = CertifiedUnobservable(mode, 2 * n, 2 * n, struct, 0.0, "", 1.0)
-        cache[key] = cu
+        _CERTIFIED_N_KIND.put(system, (mode,), cu)
         return cu
     sp = system.spectrum(mode)
     w = sp.values
@@ -504,5 +525,5 @@ def certified_unobservable(system: System, mode: str = NORMAL_MODE) -> Certified
             if base + len(verified) == upper:
                 note = ""
     cu = CertifiedUnobservable(mode, base + len(verified), min(2 * n, upper), struct, worst_err, note, slack_min, verified)
-    cache[key] = cu
+    _CERTIFIED_N_KIND.put(system, (mode,), cu)
     return cu

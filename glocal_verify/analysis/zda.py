@@ -16,12 +16,13 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
+from glocal_verify.derived import Kind
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.numerics.balancing import block_norm
 from glocal_verify.numerics.pencil import (
     PencilAnalysis,
-    _cluster,
+    cluster_points as _cluster,
     analyze_pencil,
     direction_at,
     pencil_matrix,
@@ -43,6 +44,9 @@ __all__ = [
     "GROWTH_DECAYING",
     "GROWTH_UNDECIDED",
 ]
+
+#: derived results this module keeps on the system (glocal_verify.derived)
+_ZDA_KIND: Kind[ZdaAnalysis] = Kind("zda", __name__, "ZdaAnalysis")
 
 #: growth classes of a zero-dynamics attack by Re(lambda0)
 GROWTH_UNBOUNDED = "unbounded"
@@ -516,9 +520,8 @@ def zda_analysis(
     lam_req = requested_lambda0(system, lambda0)
     if method not in ("structured", "dense"):
         raise NotApplicableError(f"unknown ZDA method {method!r} (expected 'structured' or 'dense')")
-    key = ("zda", tol, F, lam_req, method)
-    return system.analysis.get(
-        key, lambda: _structured(system, F, tol, lam_req) if method == "structured" else _dense(system, F, tol, lam_req)
+    return _ZDA_KIND.get(
+        system, (tol, F, lam_req, method), lambda: _structured(system, F, tol, lam_req) if method == "structured" else _dense(system, F, tol, lam_req)
     )
 
 

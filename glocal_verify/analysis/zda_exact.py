@@ -18,16 +18,17 @@ from glocal_verify.analysis.zda import (
     requested_lambda0,
     normalize_direction,
 )
+from glocal_verify.analysis.transfer import laplacian_transfer as _transfer
 from glocal_verify.analysis.twins import laplacian_entries
+from glocal_verify.derived import Kind
 from glocal_verify.model import System
-from glocal_verify.numerics.cluster_transfer import adjugate_columns
 from glocal_verify.numerics.minors import GroundedTables, MinorCertificate, full_rank_certificate, grounded_tables, twin_modes
 from glocal_verify.numerics.pencil_exact import (
     RootEnclosures,
     analyze_pencil_exact,
     classify_real_parts,
-    _inv_mod,
-    _kernel,
+    inv_mod as _inv_mod,
+    rational_kernel as _kernel,
     eval_at_root,
     kernel_over_field,
 )
@@ -42,6 +43,11 @@ __all__ = [
     "transfer_kernel",
     "has_fast_exact_path",
 ]
+
+#: derived results this module keeps on the system (glocal_verify.derived)
+_ZDA_EXACT_MINORS_KIND: Kind[dict[Any, Any]] = Kind("zda-exact-minor-cache", __name__, "dict[Any, Any]")
+_ZDA_EXACT_MINOR_TABLES_KIND: Kind[Any] = Kind("zda-exact-minor-tables", __name__, "Any")
+_ZDA_EXACT_TWINS_KIND: Kind[Any] = Kind("zda-exact-twins", __name__, "Any")
 
 # ------------------------------------------------------------------------------------------
 # exact path
@@ -156,28 +162,6 @@ def _q_matrix(system: System, F: Sequence[int], rows_out: Sequence[int], s_poly:
     for r in rows_out:
         rows.append([flint.fmpq_poly(int(j == r)) for j in range(N)] + [flint.fmpq_poly(0)] * len(F))
     return rows
-
-
-def _transfer(system: System, F: Sequence[int], mode: str = NORMAL_MODE) -> tuple[Any, list[list[Any]]]:
-    """d(s) = det(sI + alpha L_q) and the numerators P(s) = adj(sI + alpha L_q) S_F^T (N x m, in s).
-
-    Faddeev-LeVerrier on the input columns only: with A = -alpha L_q and d(s) = sum_j c_j s^j,
-    adj(sI - A) = sum_{j<N} s^j B_j, B_{N-1} = I, B_{j-1} = A B_j + c_j I; so W_j = B_j S_F^T
-    costs N products of A with an N x m matrix over Q. Kept on ``system.analysis``; the
-    mode q is the normal one unless given.
-    """
-    key = ("zda-exact-transfer", tuple(F)) if mode == NORMAL_MODE else ("zda-exact-transfer", tuple(F), mode)
-    cache = system.analysis
-    if key in cache:
-        return cache[key]  # type: ignore[no-any-return]
-    N = system.n
-    L = system.laplacian_exact(mode)
-    a = system.alpha_q
-    A = flint.fmpq_mat(N, N, [_fq(-a * L[i][j]) for i in range(N) for j in range(N)])
-    d, cols = adjugate_columns(A, F)
-    P = [list(row) for row in cols]
-    cache[key] = (d, P)
-    return d, P
 
 
 def transfer_kernel(
@@ -312,7 +296,7 @@ def _twins(system: System) -> tuple[tuple[Fraction, tuple[tuple[int, int], ...]]
         fams = twin_modes(system.n, laplacian_entries(system, NORMAL_MODE), M)
         return tuple((mu, pairs) for mu, pairs in fams if _twin_vectors_hold(Lq, mu, pairs, set(M)))
 
-    return system.analysis.get(("zda-exact-twins",), build)  # type: ignore[no-any-return]
+    return _ZDA_EXACT_TWINS_KIND.get(system, (), build)  # type: ignore[no-any-return]
 
 
 def _proved_zero_polynomial(system: System, F: Sequence[int]) -> Any | None:
@@ -343,10 +327,7 @@ def _minor_tables(system: System) -> GroundedTables | None:
     """Numerator tables of the normal mode's reduced pencil with outputs M = M_x ∪ M_v (kept on ``system.analysis``)."""
     if not system.monitored:
         return None
-    return system.analysis.get(
-        ("zda-exact-minor-tables",),
-        lambda: grounded_tables(system.n, laplacian_entries(system, NORMAL_MODE), Fraction(system.alpha_q), system.idx(system.monitored)),
-    )
+    return _ZDA_EXACT_MINOR_TABLES_KIND.get(system, (), lambda: grounded_tables(system.n, laplacian_entries(system, NORMAL_MODE), Fraction(system.alpha_q), system.idx(system.monitored)),)
 
 
 def has_fast_exact_path(system: System, actuators: Iterable[Label] | None = None) -> bool:
@@ -367,7 +348,7 @@ def has_fast_exact_path(system: System, actuators: Iterable[Label] | None = None
     tables = _minor_tables(system)
     if not labels or tables is None or any(mu == 0 for mu, _ in tables.twins):
         return False
-    cache: dict[Any, Any] = system.analysis.get(("zda-exact-minor-cache",), dict)
+    cache: dict[Any, Any] = _ZDA_EXACT_MINORS_KIND.get(system, (), dict)
     return full_rank_certificate(tables, system.idx(labels), cache, modulo_twins=True) is not None
 
 
@@ -443,7 +424,7 @@ def _certified_analysis(system: System, F_lab: tuple[Label, ...], F: Sequence[in
     tables = _minor_tables(system)
     if tables is None or any(mu == 0 for mu, _ in tables.twins):
         return None  # s0 = 0 (isolated twins) would put a twin factor at lambda = 0: general path
-    cache: dict[Any, Any] = system.analysis.get(("zda-exact-minor-cache",), dict)
+    cache: dict[Any, Any] = _ZDA_EXACT_MINORS_KIND.get(system, (), dict)
     cert: MinorCertificate | None = full_rank_certificate(tables, F, cache, modulo_twins=True)
     if cert is None:
         return None

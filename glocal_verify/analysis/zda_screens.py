@@ -27,7 +27,7 @@ lambda0 = 0 (:func:`zero_exponent_status`)
     M_x on the exact graph (rows of attacked agents never force) that reaches every agent
     proves there is none; otherwise the certified rank bounds of
     :func:`~glocal_verify.analysis.zda_certificate.u_direction_certificate` decide, up to
-    :data:`ZERO_EXPONENT_DENSE_MAX_AGENTS` agents.
+    ``config.get("zero_exponent_dense_max_agents")`` agents.
 """
 
 from __future__ import annotations
@@ -38,8 +38,10 @@ from typing import Any
 
 import numpy as np
 
+from glocal_verify import config
 from glocal_verify.analysis.twins import laplacian_entries
 from glocal_verify.analysis.unobservable import rational_unobservable_candidates
+from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.numerics.minors import (
     GroundedTables,
@@ -49,10 +51,11 @@ from glocal_verify.numerics.minors import (
 from glocal_verify.results import Status
 from glocal_verify.spec.types import NORMAL_MODE, Label
 
-__all__ = ["ZERO_EXPONENT_DENSE_MAX_AGENTS", "disjoint_paths", "global_tables", "zero_exponent_status"]
+__all__ = ["disjoint_paths", "global_tables", "zero_exponent_status"]
 
-#: with monitored positions, lambda0 = 0 is decided by dense certified rank bounds up to this many agents
-ZERO_EXPONENT_DENSE_MAX_AGENTS = 400
+
+#: derived results this module keeps on the system (glocal_verify.derived)
+_AUDIT_KIND: Kind[Any] = Kind("audit", __name__, "Any")
 
 
 def disjoint_paths(system: System, F: Sequence[Label]) -> int:
@@ -81,7 +84,7 @@ def disjoint_paths(system: System, F: Sequence[Label]) -> int:
     if len(set(F)) <= 2:
         return _few_disjoint_paths(system, F)
     n = system.n
-    data, indices, indptr = system.analysis.get(("audit", "split-graph"), lambda: _split_graph(system))
+    data, indices, indptr = _AUDIT_KIND.get(system, ("split-graph",), lambda: _split_graph(system))
     # the source is the last vertex: its row (arcs to every f_in) is the only per-set part
     Fi = np.unique(np.asarray(system.idx(F), dtype=np.int32))
     cap = scipy.sparse.csr_matrix(
@@ -100,7 +103,7 @@ def _few_disjoint_paths(system: System, F: Sequence[Label]) -> int:
     undefined (f not connected to t). By Menger's theorem the count of vertex-disjoint
     paths is |F| unless one of these holds.
     """
-    dom = system.analysis.get(("audit", "dominators"), lambda: _dominators(system))
+    dom = _AUDIT_KIND.get(system, ("dominators",), lambda: _dominators(system))
     sets = [dom.get(f) for f in dict.fromkeys(F)]
     if any(c is None for c in sets):
         return 0 if len(sets) == 1 else (0 if all(c is None for c in sets) else 1)
@@ -237,8 +240,8 @@ def zero_exponent_status(system: System, F: Sequence[Label], memo: MutableMappin
     Fi, Mx = system.idx(F), system.idx(system.monitored_positions)
     if len(zero_forcing_closure(store["exact-neighbours"], Mx, Fi)) == system.n:
         return Status.FAILS, "zero forcing from M_x on the exact graph reaches every agent: ker Q_0 = {0}"
-    if system.n > ZERO_EXPONENT_DENSE_MAX_AGENTS:
-        return Status.UNDECIDED, f"zero forcing from M_x leaves agents unforced, and certified rank bounds are not tried above {ZERO_EXPONENT_DENSE_MAX_AGENTS} agents"
+    if system.n > (limit := config.get("zero_exponent_dense_max_agents")):
+        return Status.UNDECIDED, f"zero forcing from M_x leaves agents unforced, and certified rank bounds are not tried above {limit} agents"
     from glocal_verify.analysis.zda_certificate import exact_q_rows, u_direction_certificate
 
     rows0, pat0 = exact_q_rows(system, Fi, Mx, Fraction(0))

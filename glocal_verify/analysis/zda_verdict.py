@@ -51,6 +51,7 @@ from typing import Any, Iterable
 
 import numpy as np
 
+from glocal_verify import config
 from glocal_verify.analysis.zda import (
     GROWTH_PERSISTENT,
     GROWTH_UNBOUNDED,
@@ -87,13 +88,6 @@ __all__ = [
 
 #: growth class of an actuator set without a stealthy ZDA
 GROWTH_NULL = "null"
-#: with ``growth="verdict"`` and a proven witness, the minor certificate stops after this many
-#: minors in a row leave the gcd's degree unchanged
-WITNESS_CERTIFICATE_PATIENCE = 1
-#: ... and tries at most this many of the costlier minors with an extra replaced row (in the
-#: whole N = 200, k = 2 audit of the benchmarks, none of the 7,854 pair certificates that
-#: succeeded used one; the 2,876 that failed spent a third of their time there)
-WITNESS_CERTIFICATE_EXTRA_ROWS = 0
 
 
 def growth_rank(g: str) -> int:
@@ -171,7 +165,7 @@ class ZdaVerdict:
         Certified bound of a floating-point certificate, when one was used.
     note : str
         Why the status is undecided (which bound failed).
-    analysis : ZdaAnalysis or None
+    numeric_analysis : ZdaAnalysis or None
         The numeric zero set, when computed.
     exact_analysis : ExactZdaAnalysis or None
         The exact analysis, when computed.
@@ -196,7 +190,7 @@ class ZdaVerdict:
     screened: bool = False
     error_bound: float | None = None
     note: str = ""
-    analysis: ZdaAnalysis | None = None
+    numeric_analysis: ZdaAnalysis | None = None
     exact_analysis: ExactZdaAnalysis | None = None
     certificate: ZdaCertificate | None = None
     zeros_exact: bool = False
@@ -261,7 +255,7 @@ def _numeric(system: System, F: tuple[Label, ...], opt: ZdaOptions) -> ZdaVerdic
         growth = max((z.growth for z in za.zeros), key=growth_rank, default="undecided")
     return ZdaVerdict(
         F, status, growth, za.left_invertible if za.decided else None, za.direction, za.direction_source, "numeric",
-        cert.by if status is not Status.UNDECIDED else "", error_bound=cert.error_bound, note=note, analysis=za, certificate=cert,
+        cert.by if status is not Status.UNDECIDED else "", error_bound=cert.error_bound, note=note, numeric_analysis=za, certificate=cert,
     )
 
 
@@ -479,7 +473,7 @@ def _decide(system: System, F: tuple[Label, ...], opt: ZdaOptions, memo: Mutable
             # genuine zero)
             if opt.minors is not None and not zw.screened and all(proven_single(system, a, opt, memo) for a in F):
                 at0 = at if zw.direction is not None and zw.direction.value == 0 else None
-                zc = _by_minors(system, F, opt, memo, WITNESS_CERTIFICATE_PATIENCE, WITNESS_CERTIFICATE_EXTRA_ROWS, at0)
+                zc = _by_minors(system, F, opt, memo, config.get("witness_certificate_patience"), config.get("witness_certificate_extra_rows"), at0)
                 if zc is not None:
                     return zc
             return zw

@@ -41,14 +41,21 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from glocal_verify import config
 from glocal_verify.analysis.avoidance import Avoidance, _block_norm, _delta_block
 from glocal_verify.analysis.twins import laplacian_entries
 from glocal_verify.analysis.zda import ZdaDirection, ZdaZero
+from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.results import Status
 from glocal_verify.spec.types import NORMAL_MODE
 
 __all__ = ["ZeroTouch", "zero_touch", "touch_at_zero"]
+
+#: derived results this module keeps on the system (glocal_verify.derived)
+_DELTA_NORM_KIND: Kind[float] = Kind("delta-norm", __name__, "float")
+_GROUNDED_LAPLACIAN_INVERSE_MOD_KIND: Kind[Any] = Kind("grounded-laplacian-inverse-mod", __name__, "Any")
+_NORMAL_GRAPH_CONNECTED_KIND: Kind[bool] = Kind("normal-graph-connected", __name__, "bool")
 
 
 @dataclasses.dataclass(frozen=True, slots=True)
@@ -99,7 +106,7 @@ def _grounded(system: System) -> Any:
 
 #: the modular screen inverts the grounded Laplacian modulo a prime (O(N^3) once per system) up
 #: to this many agents; above, every set takes the exact solve
-MODULAR_MAX_AGENTS = 2000
+MODULAR_MAX_AGENTS = config.get("zero_touch_modular_max_agents")
 
 
 def _inverse_mod(system: System) -> tuple[int, np.ndarray] | None:
@@ -135,7 +142,7 @@ def _inverse_mod(system: System) -> tuple[int, np.ndarray] | None:
 
     if system.n - 1 > MODULAR_MAX_AGENTS:
         return None
-    return system.analysis.get(("grounded-laplacian-inverse-mod", NORMAL_MODE), build)  # type: ignore[no-any-return]
+    return _GROUNDED_LAPLACIAN_INVERSE_MOD_KIND.get(system, (NORMAL_MODE,), build)  # type: ignore[no-any-return]
 
 
 def _applies(system: System, F: Sequence[int]) -> bool:
@@ -144,7 +151,7 @@ def _applies(system: System, F: Sequence[int]) -> bool:
         and len(F) >= 2
         and len(set(F)) == len(F)
         and not system.monitored_positions
-        and system.analysis.get(("normal-graph-connected",), lambda: len(system.components(NORMAL_MODE)) == 1)
+        and _NORMAL_GRAPH_CONNECTED_KIND.get(system, (), lambda: len(system.components(NORMAL_MODE)) == 1)
     )
 
 
@@ -169,7 +176,7 @@ def _ratio(system: System, mode: str, F: Sequence[int], rows: Sequence[int], lin
         d = float(dw) * float((U[i, :] - U[j, :]) @ c)
         col[pos[i]] += d
         col[pos[j]] -= d
-    dl_norm = system.analysis.get(("delta-norm", mode), lambda: _block_norm(_delta_block(system, mode)[1]))
+    dl_norm = _DELTA_NORM_KIND.get(system, (mode,), lambda: _block_norm(_delta_block(system, mode)[1]))
     ny = float(np.linalg.norm(c))
     return float(np.linalg.norm(col)) / (dl_norm * ny) if dl_norm > 0 and ny > 0 else 0.0
 

@@ -38,6 +38,7 @@ Detected
 from __future__ import annotations
 
 import math
+from types import MappingProxyType
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -67,7 +68,7 @@ ATTACK_VERDICTS = ("detected", "undetected", "undecided", "not assessed")
 THEOREM_IDS = ("switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences")
 #: every condition the answer reads (``switching.detects`` only to show it beside the algebra)
 ANSWER_IDS = ("stealthy.zda", "stealthy.covert", "local.pencil", "local.uio", *THEOREM_IDS, "switching.avoids-attack", "switching.detects")
-_LABEL = {"switching.image-kernel": "(i)", "switching.distinct-eigenvalues": "(ii)", "switching.eigenvector-differences": "(iii)"}
+_LABEL = MappingProxyType({"switching.image-kernel": "(i)", "switching.distinct-eigenvalues": "(ii)", "switching.eigenvector-differences": "(iii)"})
 
 
 def format_labels(xs: Sequence[Any]) -> str:

@@ -18,7 +18,7 @@ from glocal_verify.conditions.registry import verify as run_checkers
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
-from glocal_verify.results import FRAGILE_BELOW, Report
+from glocal_verify.results import Report
 
 __all__ = ["SIMULATE_CHOICES", "simulates", "verify"]
 
@@ -46,7 +46,7 @@ def verify(
     progress: Callable[[str], None] | None = None,
     escalate: str = "auto",
     exact_budget: float | None = 30.0,
-    fragile_below: float = FRAGILE_BELOW,
+    fragile_below: float | None = None,
     simulate: str = "auto",
 ) -> Report:
     """Check the conditions on ``system`` and attach the assessment (what ``glocal-verify verify`` reports).
@@ -68,8 +68,8 @@ def verify(
         Re-decide numeric ``undecided`` results over Q within ``exact_budget``.
     exact_budget : float or None
         Seconds for all escalations of this call together (None: no limit).
-    fragile_below : float
-        Robustness tolerance of ``fragile``.
+    fragile_below : float, optional
+        Robustness tolerance of ``fragile`` (default: ``config.get("fragile_below")``).
     simulate : {"auto", "always", "never"}
         Run the simulation of ``switching.detects`` (Theorem III.3's conclusion, one simulated
         switch per safe mode): ``auto`` on at most :data:`DETECTS_MAX_AGENTS` agents (the

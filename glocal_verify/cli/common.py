@@ -129,7 +129,7 @@ def check_cost(est: CostEstimate, args: argparse.Namespace, *, how: Iterable[str
     Above the limits of :func:`glocal_verify.conditions.cost.default_limits` (unless
     ``--allow-large``) this raises :class:`~glocal_verify.conditions.cost.SizeLimitError`: one
     line on stderr, exit code 2. Otherwise, when the estimate exceeds
-    :data:`~glocal_verify.conditions.cost.NOTICE_SECONDS` (or a limit, with ``--allow-large``),
+    the tunable ``notice_seconds`` (:mod:`glocal_verify.config`) (or a limit, with ``--allow-large``),
     one line with the estimate goes to stderr, unless ``--quiet``.
 
     Parameters

@@ -19,7 +19,8 @@ DEFAULT_OUT = "glocal-out"
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     """Run Algorithm 1 (or the case study) and write its folder; every check comes first."""
-    from glocal_verify.reporting.output import safe_component
+    from glocal_verify.design.case_study import run_case_study, simulate_system
+    from glocal_verify.reporting.output import check_output_dir, safe_component
     from glocal_verify.reporting.simulation_report import (
         write_case_study,
         write_simulation,
@@ -50,13 +51,18 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     with allow_large() if args.allow_large else contextlib.nullcontext():
         if args.cases:
             command = " ".join(["glocal-verify simulate"] + ([f"--example {args.example}"] if args.example else [str(args.spec)]) + ["--cases"] + (["--out", str(args.out)] if args.out else []))
-            outcomes, _ = write_case_study(system, out, rule=rule, method=args.method, progress=progress, command=command, figures=figures, phase=phase)
-            for oc in outcomes:
+            check_output_dir(out)
+            study = run_case_study(system, rule=rule, method=args.method, progress=progress, phase=phase)
+            write_case_study(study, out, command=command, figures=figures, phase=phase)
+            for oc in study.outcomes:
                 det = "detected" if oc.detected else "not detected"
                 agree = "" if oc.agrees is None else ("  (agrees with the paper)" if oc.agrees else "  (DISAGREES with the paper)")
                 print(f"{oc.case.name:10s} {oc.case.system.name:16s} global residual after switch: {oc.observed:10s} {det}{agree}")
         else:
-            res, _ = write_simulation(system, out, mode=args.mode, no_switch=args.no_switch, trigger=args.trigger, rule=rule, method=args.method, progress=progress, figures=figures, phase=phase)
+            check_output_dir(out)
+            run = simulate_system(system, mode=args.mode, no_switch=args.no_switch, trigger=args.trigger, rule=rule, method=args.method, progress=progress, phase=phase)
+            write_simulation(system, run, out, figures=figures, phase=phase)
+            res = run.result
             for e in res.events:
                 print(f"t = {e.time:8.3f}  {e.kind:30s} {e.detail}")
     wrote(out)

@@ -160,10 +160,11 @@ def cmd_conditions(args: argparse.Namespace) -> int:
 
 
 def cmd_findings(args: argparse.Namespace) -> int:
-    from glocal_verify.reporting.findings import build_findings_report
+    from glocal_verify.design.findings import verify_findings
+    from glocal_verify.reporting.findings import findings_markdown
 
     check_out_file(args)
-    write_output(build_findings_report(args.dir), args.out)
+    write_output(findings_markdown(verify_findings(args.dir)), args.out)
     return 0
 
 

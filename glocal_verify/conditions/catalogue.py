@@ -7,6 +7,8 @@ command lines never load the numerics.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Mapping
 
 from glocal_verify.results import Status
 
@@ -43,7 +45,7 @@ class ConditionInfo:
 
 _H, _F = Status.HOLDS, Status.FAILS
 
-_ENTRIES = [
+_ENTRIES = (
     ("switched-observability", "Lemma II.3", "The switched pair (A_sigma, C) over the mode sequence is observable: N_1^m = {0}.", _H, True),
     ("stealthy.zda", "Proposition II.4 (ii), Definition II.2", "A stealthy zero-dynamics attack exists for (A_1, B, C, 0).", _F, False),
     ("stealthy.covert", "Proposition II.4 (i)", "A covert attack is feasible: every monitored channel reached by u_a is compromised.", _F, False),
@@ -69,10 +71,10 @@ _ENTRIES = [
         False,
     ),
     ("switching.detects", "Theorem III.3 (conclusion)", "After the switch the global residual leaves its attack-free band (simulation).", _H, False),
-]
+)
 
 
-CATALOGUE: dict[str, ConditionInfo] = {e[0]: ConditionInfo(*e) for e in _ENTRIES}
+CATALOGUE: Mapping[str, ConditionInfo] = MappingProxyType({e[0]: ConditionInfo(*e) for e in _ENTRIES})
 
 #: the conditions of a design's before/after assessment (``glocal-verify design``): privacy,
 #: stealthy ZDA, the local observers and Theorem III.3 with the attack's avoidance

@@ -31,9 +31,9 @@ import dataclasses
 from dataclasses import dataclass, field
 from typing import Iterable, Sequence
 
+from glocal_verify import config
 from glocal_verify.conditions.catalogue import CATALOGUE, DESIGN_ASSESSMENT_IDS
 from glocal_verify.errors import ModelError
-from glocal_verify.model import BLOCK_MAX_CUT_LINKS, BLOCK_MIN_AGENTS, RANK_ONE_MAX_CHANGES, RANK_ONE_MIN_AGENTS
 from glocal_verify.spec.types import SystemSpec
 
 __all__ = [
@@ -47,6 +47,8 @@ __all__ = [
     "estimate_audit",
     "audit_set_seconds",
     "estimate_design",
+    "exact_seconds",
+    "zda_certificate_seconds",
     "refusal",
     "check_limits",
     "format_seconds",
@@ -72,7 +74,7 @@ B_BASE = 300 * MIB
 #: per N^2 for each rank-one factor (a link between clusters of a block-built normal mode, a
 #: changed link of a safe mode: its secular equation, certificate and the rows read through
 #: it, 4.3-8 s at 10,000), C_GLOBAL_MODE per N^3 for a safe mode decomposed afresh (more than
-#: RANK_ONE_MAX_CHANGES links, or fewer than RANK_ONE_MIN_AGENTS agents). The rest of the global
+#: rank_one_max_changes links, or fewer than rank_one_min_agents agents). The rest of the global
 #: work (the ZDA staircase on the modal pencil, the modal analyses, the switched recursion) is
 #: C_GLOBAL_REST N^3 + C_GLOBAL_REST_SQ N^2: 10 s at 4000, 82 s at 10,000.
 C_EIGH = 2.1e-10
@@ -94,14 +96,12 @@ A_LOCAL_ONLY = 1.0
 #: block: the normal mode and every safe mode that changes the cluster). Measured 9.8-13.4 s per
 #: design at 2 n_i = 1334 (4.1e-9 - 5.7e-9), 2.1 s at 2 n_i = 667 (6.9e-9).
 C_UIO = 6.5e-9
-#: local.uio on clusters of at least MODAL_MIN_AGENTS agents (numeric): the modal design and
+#: local.uio on clusters of at least modal_min_agents agents (numeric): the modal design and
 #: certificate (one eigh of the interior block, n-sized work per observer), seconds per
 #: (2 n_i)^3 per design: 9.6 s for the five designs of 2 n_i ~ 2666 at N = 4000 (11.2 s before
 #: the sparse residual checks), 2.8 s at 2000, about 60 s for the designs of 2 n_i ~ 6666 at
 #: 10,000 (the n-sized work makes the cubic term err high there)
 C_UIO_MODAL = 0.8e-10
-#: smallest cluster that gets the modal UIO (glocal_verify.observers.uio_modal.MODAL_MIN_AGENTS)
-UIO_MODAL_MIN_AGENTS = 60
 #: arrays of (2 n_i)^2 doubles each design keeps until the checker ends (measured 6.3 beside
 #: the global arrays, 12 alone, at N = 2000 and 3000)
 A_UIO = 10.0
@@ -117,20 +117,10 @@ C_PENCIL = 0.6e-10
 #: per safe mode (61 s for one N = 1000 run, reports/benchmarks.md)
 C_SIMULATE = 6.1e-8
 
-#: exact arithmetic (``--exact``): central.observer's rational characteristic polynomial from
-#: the matrix determinant lemma and its fraction-free Routh test, seconds per N^4 (24 s of CPU at
-#: N = 200, 2.8 s at N = 100, random_clustered_spec(N, 3, seed=7))
-C_EXACT_CENTRAL = 2.5e-8
-#: stealthy.zda and switching.avoids-attack in exact arithmetic, each: seconds per N^3 on the
-#: proved zero polynomial (1.8-2.6 s of CPU at N = 200, 1.2-1.4 s at N = 100). Which path runs
-#: is not known from the sizes: a pencil that is not left-invertible, or a zero whose
-#: multiplicity the two bounds do not settle, takes the dense V* iteration over Q (104 s at
-#: N = 80, hours at N = 200), which this estimate does not foresee
-C_EXACT_ZDA = 1e-6
-#: the other exact global checkers (switched-observability, privacy.*): seconds per N^3
-#: (1.1 s at N = 120)
-C_EXACT_GLOBAL = 1e-6
-#: exact local.uio per design and local.pencil per case: seconds per (2 n_i)^3 (3.8 s for 5
+#: exact arithmetic (``--exact``, and ``verify``'s re-decisions): :func:`exact_seconds`, with the
+#: tunables ``exact_central_seconds_n4``, ``exact_zda_seconds_n3``, ``exact_zda_dense_seconds_n4``,
+#: ``zda_certificate_seconds_n3`` and ``exact_global_seconds_n3`` of :mod:`glocal_verify.config`
+#: (their measurements are documented there). Exact local.uio per design and local.pencil per case: seconds per (2 n_i)^3 (3.8 s for 5
 #: designs and 5.5 s for 6 cases at 2 n_i ~ 134, random_clustered_spec(200, 3, seed=7))
 C_EXACT_UIO = 5e-7
 C_EXACT_PENCIL = 6e-7
@@ -182,12 +172,8 @@ C_AUDIT_ROW_OUT = 2e-4
 #: exact audit rows (``--exact``): a factor on the per-set seconds
 F_AUDIT_EXACT = 10.0
 
-#: default limits: seconds, and bytes as min(8 GiB, 80 % of the available memory)
-MAX_SECONDS = 600.0
-MAX_BYTES = 8 * GIB
-MEMORY_FRACTION = 0.8
-#: above this many seconds (and below the limit) a command says what it expects before starting
-NOTICE_SECONDS = 30.0
+#: the default limits are the tunables ``max_seconds``, ``max_bytes`` (with ``memory_fraction`` of
+#: the available memory) and ``notice_seconds`` of :mod:`glocal_verify.config`
 
 #: condition ids of the cluster-level checkers (the rest need the global spectra)
 LOCAL_CHEAP = frozenset({"local.k-connected", "local.rank"})
@@ -258,7 +244,7 @@ class SpecSizes:
     @property
     def block_built(self) -> bool:
         """Whether the normal mode is built from its clusters' blocks (the rule of :class:`~glocal_verify.model.System`)."""
-        return self.partitioned and self.n >= BLOCK_MIN_AGENTS and 0 < self.cut_links <= BLOCK_MAX_CUT_LINKS
+        return self.partitioned and self.n >= config.get("block_min_agents") and 0 < self.cut_links <= config.get("block_max_cut_links")
 
     @classmethod
     def from_spec(cls, spec: SystemSpec) -> SpecSizes:
@@ -413,13 +399,13 @@ def estimate_verify(
     clusters' blocks (``K`` links between clusters, :attr:`SpecSizes.block_built`; then
     ``A`` = :data:`A_GLOBAL_BLOCKS`), else ``C_e N^3`` (``A`` = :data:`A_GLOBAL`); ``S_e``
     the safe modes decomposed afresh and ``c_u`` the changed links of each factored one (at most
-    :data:`RANK_ONE_MAX_CHANGES`, N >= :data:`RANK_ONE_MIN_AGENTS`); plus, with ``simulate``,
+    ``rank_one_max_changes``, N >= ``rank_one_min_agents``); plus, with ``simulate``,
     :math:`C_{sim} N^3 \\max(1, S)` for ``switching.detects`` above
-    150 agents, and with ``exact`` the rational terms (:data:`C_EXACT_CENTRAL` N^4,
-    :data:`C_EXACT_ZDA` N^3 for each of ``stealthy.zda`` and ``switching.avoids-attack``, between
-    their fast and slow paths, :data:`C_EXACT_GLOBAL` N^3, :data:`C_EXACT_UIO` and :data:`C_EXACT_PENCIL` per
+    150 agents, and with ``exact`` the rational terms of :func:`exact_seconds` (``central.observer``
+    in N^4, ``stealthy.zda`` and ``switching.avoids-attack`` on their fast path in N^3 each, the
+    other global checkers in N^3), :data:`C_EXACT_UIO` and :data:`C_EXACT_PENCIL` per
     design and case, :data:`B_EXACT` N^2 bytes). :math:`C_{uio}` is :data:`C_UIO_MODAL` = 0.8e-10
-    for clusters of at least :data:`UIO_MODAL_MIN_AGENTS` agents in a numeric run (the modal
+    for clusters of at least ``modal_min_agents`` agents in a numeric run (the modal
     design), else :data:`C_UIO` = 6.5e-9. Constants: :data:`C_START` = 3 s,
     :data:`C_EIGH` (``C_e``) = 2.1e-10, :data:`C_FACTOR` (``C_f``) = 8e-8,
     :data:`C_GLOBAL_MODE` = 0.5e-9, :data:`C_GLOBAL_REST` (``C_r``) = 3.3e-11,
@@ -453,7 +439,7 @@ def estimate_verify(
     glob = any(not c.startswith("local.") and c != "switching.detects" for c in ids)
     uio, pencil = "local.uio" in ids, "local.pencil" in ids
     n3 = float(n) ** 3
-    updated = [c for c in sizes.mode_changes if 0 < c <= RANK_ONE_MAX_CHANGES][:S] if n >= RANK_ONE_MIN_AGENTS else []
+    updated = [c for c in sizes.mode_changes if 0 < c <= config.get("rank_one_max_changes")][:S] if n >= config.get("rank_one_min_agents") else []
     fresh = S - len(updated)
     if glob:
         n2 = float(n) ** 2
@@ -463,8 +449,9 @@ def estimate_verify(
             normal = C_EIGH * n3
         phases["global spectra"] = normal + C_GLOBAL_MODE * fresh * n3 + C_FACTOR * sum(updated) * n2
         phases["global checkers"] = C_GLOBAL_REST * n3 + C_GLOBAL_REST_SQ * n2
+    modal_min = config.get("modal_min_agents")
     if uio:
-        phases["local.uio"] = sum((C_UIO if exact or m < 2 * UIO_MODAL_MIN_AGENTS else C_UIO_MODAL) * d * float(m) ** 3 for m, d in _designs(sizes))
+        phases["local.uio"] = sum((C_UIO if exact or m < 2 * modal_min else C_UIO_MODAL) * d * float(m) ** 3 for m, d in _designs(sizes))
     if pencil:
         phases["local.pencil"] = sum(C_PENCIL * c * float(m) ** 3 for m, c in _cases(sizes))
     if simulate and "switching.detects" in ids and n > 150:
@@ -472,15 +459,15 @@ def estimate_verify(
     arrays = ((A_GLOBAL_BLOCKS if sizes.block_built else A_GLOBAL) + A_GLOBAL_MODE * fresh) if glob else A_LOCAL_ONLY
     nbytes = B_BASE + arrays * _dense(n)
     if uio:
-        nbytes += sum((A_UIO if exact or m < 2 * UIO_MODAL_MIN_AGENTS else A_UIO_MODAL) * d * _dense(m) for m, d in _designs(sizes))
+        nbytes += sum((A_UIO if exact or m < 2 * modal_min else A_UIO_MODAL) * d * _dense(m) for m, d in _designs(sizes))
     if exact:
         if "central.observer" in ids:
-            phases["exact central.observer"] = C_EXACT_CENTRAL * float(n) ** 4
+            phases["exact central.observer"] = exact_seconds("central.observer", n)
         zda = sum(1 for c in ("stealthy.zda", "switching.avoids-attack") if c in ids)
         if zda:
-            phases["exact ZDA analysis"] = zda * C_EXACT_ZDA * n3
+            phases["exact ZDA analysis"] = zda * exact_seconds("stealthy.zda", n)
         if glob:
-            phases["exact global checkers"] = C_EXACT_GLOBAL * n3
+            phases["exact global checkers"] = exact_seconds("switched-observability", n)
         if uio:
             phases["exact local.uio"] = sum(C_EXACT_UIO * d * float(m) ** 3 for m, d in _designs(sizes))
         if pencil:
@@ -663,6 +650,63 @@ def estimate_design(sizes: SpecSizes, *, max_attackers: int = 2, place: bool = T
 
 
 # --------------------------------------------------------------------------------------------
+# exact arithmetic: one model for the size estimate and verify's re-decisions
+
+#: the ZDA paths of :func:`exact_seconds`
+ZDA_PATHS = ("fast", "dense")
+
+
+def zda_certificate_seconds(n: int) -> float:
+    """Seconds of the minor certificate of the exact ZDA analysis (a characteristic polynomial
+    modulo a prime): ``zda_certificate_seconds_n3`` N^3.
+
+    Parameters
+    ----------
+    n : int
+        Agents.
+    """
+    return float(config.get("zda_certificate_seconds_n3")) * float(n) ** 3
+
+
+def exact_seconds(condition: str, n: int, *, zda_path: str | None = None) -> float:
+    """Estimated seconds of one condition's checker in exact arithmetic on N agents.
+
+    The one exact-cost model: ``verify --exact``'s size estimate (:func:`estimate_verify`) and
+    the scheduler of ``verify``'s exact re-decisions (which does not start one whose estimate
+    is far beyond the budget) both read it. With the tunables of :mod:`glocal_verify.config`:
+
+    * ``central.observer``: ``exact_central_seconds_n4`` N^4 (the rational characteristic
+      polynomial by the matrix determinant lemma and its Routh test);
+    * ``stealthy.zda``, ``switching.avoids-attack``: on the proved zero polynomial (``zda_path``
+      ``"fast"``, or None when unknown, as from the sizes alone) ``exact_zda_seconds_n3`` N^3;
+      when the pencil needs the dense V* iteration over Q (``"dense"``: not left-invertible, or
+      a zero multiplicity the bounds leave open) the minor certificate
+      (:func:`zda_certificate_seconds`) plus ``exact_zda_dense_seconds_n4`` N^4;
+    * every other global condition: ``exact_global_seconds_n3`` N^3; the local ones are
+      estimated per design and case by :func:`estimate_verify`.
+
+    Parameters
+    ----------
+    condition : str
+        Condition id.
+    n : int
+        Agents.
+    zda_path : {"fast", "dense"}, optional
+        The exact ZDA analysis' path, when known.
+    """
+    nf = float(n)
+    if condition == "central.observer":
+        return float(config.get("exact_central_seconds_n4")) * nf**4
+    if condition in ("stealthy.zda", "switching.avoids-attack"):
+        if zda_path not in (None, *ZDA_PATHS):
+            raise ValueError(f"zda_path must be one of {ZDA_PATHS} or None, not {zda_path!r}")
+        if zda_path == "dense":
+            return zda_certificate_seconds(n) + float(config.get("exact_zda_dense_seconds_n4")) * nf**4
+        return float(config.get("exact_zda_seconds_n3")) * nf**3
+    return float(config.get("exact_global_seconds_n3")) * nf**3
+
+
+# --------------------------------------------------------------------------------------------
 # limits
 
 
@@ -678,9 +722,9 @@ class Limits:
         Above this (and within the limits) the command prints its estimate before starting.
     """
 
-    seconds: float = MAX_SECONDS
-    bytes: float = MAX_BYTES
-    notice_seconds: float = NOTICE_SECONDS
+    seconds: float = field(default_factory=lambda: float(config.get("max_seconds")))
+    bytes: float = field(default_factory=lambda: float(config.get("max_bytes")))
+    notice_seconds: float = field(default_factory=lambda: float(config.get("notice_seconds")))
 
 
 def available_memory() -> float | None:
@@ -699,7 +743,7 @@ def available_memory() -> float | None:
 
 
 def default_limits(available: float | None = None) -> Limits:
-    """:data:`MAX_SECONDS` (10 min) and min(:data:`MAX_BYTES`, 80 % of the available memory).
+    """``max_seconds`` (10 min) and min(``max_bytes``, ``memory_fraction`` (80 %) of the available memory).
 
     Parameters
     ----------
@@ -707,8 +751,9 @@ def default_limits(available: float | None = None) -> Limits:
         Available memory in bytes (default :func:`available_memory`, read now).
     """
     avail = available_memory() if available is None else available
-    cap = MAX_BYTES if avail is None else min(MAX_BYTES, MEMORY_FRACTION * avail)
-    return Limits(MAX_SECONDS, cap)
+    most = float(config.get("max_bytes"))
+    cap = most if avail is None else min(most, config.get("memory_fraction") * avail)
+    return Limits(float(config.get("max_seconds")), cap)
 
 
 def refusal(est: CostEstimate, limits: Limits) -> str | None:

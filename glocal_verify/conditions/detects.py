@@ -15,12 +15,14 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from glocal_verify import config
 from glocal_verify.conditions.registry import (
     CheckContext,
     checker,
     implemented_ids,
     verify,
 )
+from glocal_verify.derived import Kind
 from glocal_verify.errors import GlocalVerifyError, NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.results import ConditionResult, Method, Status
@@ -43,13 +45,18 @@ __all__ = [
     "rank_safe_modes",
     "check_detects",
     "algorithm1",
+    "zda_touch",
 ]
+
+#: the switching.detects results per (tolerance, size limit), kept on the system
+_DETECTS_KIND: Kind[list[ConditionResult]] = Kind("switching.detects", __name__, "list[ConditionResult]")
 
 #: the conditions Algorithm 1 (line 4) evaluates for a safe mode
 THEOREM_III3_IDS = ("switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences")
 
-#: largest network on which ``switching.detects`` simulates (each mode: one 2N-column batch)
-DETECTS_MAX_AGENTS = 150
+#: largest network on which ``switching.detects`` simulates: the default of the tunable
+#: ``detects_max_agents`` of :mod:`glocal_verify.config` (read at each check)
+DETECTS_MAX_AGENTS = config.default("detects_max_agents")
 
 
 def rank_safe_modes(system: System, modes: Sequence[str] | None = None) -> tuple[ModeRanking, ...]:
@@ -98,8 +105,8 @@ def rank_safe_modes(system: System, modes: Sequence[str] | None = None) -> tuple
 # the switching.detects checker
 
 
-def _dl_xi(system: System, mode: str, attack: AttackModel) -> float | None:
-    """||dL_q xi|| / ||xi|| (complex xi allowed): does the switch touch the ZDA (Remark III.3.1)?"""
+def zda_touch(system: System, mode: str, attack: AttackModel) -> float | None:
+    """||dL_q xi|| / ||xi|| (complex xi allowed): does the switch touch the ZDA (Remark III.3.1)? None without xi."""
     if attack.xi is None:
         return None
     xi = np.asarray(attack.xi)
@@ -143,10 +150,11 @@ def check_detects(system: System, ctx: CheckContext) -> list[ConditionResult]:
     spec = system.spec
     if spec.attack is None or spec.switching is None or not system.safe_modes:
         return []
-    limit = int(ctx.options.get("max_agents", DETECTS_MAX_AGENTS))
-    key = ("switching.detects", ctx.tol.rtol, ctx.tol.band, limit)
-    if key in system.analysis:
-        return list(system.analysis[key])
+    limit = int(ctx.options.get("max_agents", config.get("detects_max_agents")))
+    params = (ctx.tol.rtol, ctx.tol.band, limit)
+    kept = _DETECTS_KIND.peek(system, params)
+    if kept is not None:
+        return list(kept)
     out: list[ConditionResult] = []
 
     def res(mode: str, status: Status, margin: float | None, witness: Mapping[str, Any]) -> ConditionResult:
@@ -209,13 +217,13 @@ def check_detects(system: System, ctx: CheckContext) -> list[ConditionResult]:
             "seed": spec.simulation.seed,
         }
         if atk_q is not None:
-            d = _dl_xi(system, q, atk_q)
+            d = zda_touch(system, q, atk_q)
             if d is not None:
                 witness["dL_xi_relative"] = d
         if r.global_before is not None and r.global_before.detected:
             witness["note"] = "the global residual already crossed before the switch: the attack is not stealthy for this observer"
         out.append(res(q, status, margin, witness))
-    system.analysis[key] = list(out)
+    _DETECTS_KIND.put(system, params, list(out))
     return out
 
 

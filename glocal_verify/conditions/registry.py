@@ -13,12 +13,14 @@ import difflib
 import importlib
 import math
 import time
+from types import MappingProxyType
 from dataclasses import dataclass, field
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 import scipy.linalg
 
+from glocal_verify import config
 from glocal_verify.conditions.catalogue import CATALOGUE, ConditionInfo
 from glocal_verify.conditions.premises import vacuous_premise
 from glocal_verify.errors import GlocalVerifyError, ModelError, UnknownConditionError
@@ -29,13 +31,13 @@ from glocal_verify.results import (
     ALIASES,
     AttackScenario,
     ScheduleInfo,
-    FRAGILE_BELOW,
     ConditionResult,
     Finding,
     Method,
     Report,
     Status,
     SystemInfo,
+    Verdict,
 )
 
 __all__ = [
@@ -45,6 +47,7 @@ __all__ = [
     "checker",
     "finding_rule",
     "result",
+    "verdict_result",
     "implemented_ids",
     "resolve_ids",
     "system_info",
@@ -69,7 +72,7 @@ class CheckContext:
         Free-form extra options (e.g. ``{"lambda0": 0.5}``).
     fragile_below : float
         Robustness tolerance: a result whose margin (on a relative scale) is below it is
-        marked ``fragile`` (default 1e-9).
+        marked ``fragile`` (default: the tunable ``fragile_below`` of :mod:`glocal_verify.config`, 1e-9).
     escalated : bool
         This exact run re-decides a numeric ``undecided`` (results say ``exact (escalated)``).
     """
@@ -77,7 +80,7 @@ class CheckContext:
     exact: bool = False
     tol: Tolerance = DEFAULT_TOLERANCE
     options: Mapping[str, Any] = field(default_factory=dict)
-    fragile_below: float = FRAGILE_BELOW
+    fragile_below: float = field(default_factory=lambda: float(config.get("fragile_below")))
     escalated: bool = False
 
     @property
@@ -166,6 +169,42 @@ def result(
         error_bound=None if error_bound is None else float(error_bound),
         note=note,
         premise=premise or None,
+    )
+
+
+def verdict_result(cid: str, ctx: CheckContext, verdict: Verdict, *, scope: Mapping[str, Any] | None = None) -> ConditionResult:
+    """The :class:`ConditionResult` of condition ``cid`` in ``scope`` from the analysis layer's ``verdict``.
+
+    A combinatorial verdict records no tolerance. In an exact run (``ctx.exact``) a verdict
+    that is neither exact nor combinatorial is the certified numeric fallback of a question
+    exact arithmetic could not settle: its result is built in a numeric context (method
+    ``numeric``, the run's tolerance), the only way an exact run reports a numeric result.
+    The verdict's ``premise`` (an absent premise: a vacuous verdict) becomes the result's.
+
+    Parameters
+    ----------
+    cid : str
+        Catalogue id.
+    ctx : CheckContext
+        The run's options.
+    verdict : Verdict
+        The decision, from ``glocal_verify.analysis`` (or ``glocal_verify.observers``).
+    scope : mapping, optional
+        The result's scope (empty: global).
+    """
+    if ctx.exact and not (verdict.exact or verdict.combinatorial):
+        ctx = dataclasses.replace(ctx, exact=False, escalated=False)
+    return result(
+        cid,
+        ctx,
+        verdict.status,
+        scope=scope,
+        margin=verdict.margin,
+        witness=verdict.witness,
+        numeric_decision=not verdict.combinatorial,
+        error_bound=verdict.error_bound,
+        note=verdict.note,
+        premise=verdict.premise,
     )
 
 
@@ -305,40 +344,44 @@ def _run_checker(system: System, cid: str, ctx: CheckContext) -> list[ConditionR
 #: exact re-decisions whose cost grows fastest with N (dense rational characteristic
 #: polynomials, the exact V* of a pencil with genuine zeros): escalated after the others, so
 #: that they cannot spend the budget the cheap ones need
-_COSTLY_EXACT = {"central.observer": 2, "stealthy.zda": 1, "switching.avoids-attack": 1}
+_COSTLY_EXACT: Mapping[str, int] = MappingProxyType({"central.observer": 2, "stealthy.zda": 1, "switching.avoids-attack": 1})
 
 #: what an estimate may raise; it then gives no estimate (the budget alone limits the run)
 _ESTIMATE_FAILURES: tuple[type[BaseException], ...] = (GlocalVerifyError, *NUMERICAL_FAILURES)
 
 
-#: stealthy.zda and switching.avoids-attack: the minor certificate (a characteristic polynomial
-#: modulo a prime, 46 s measured at N = 2000, scaled by N^3), then nothing more when it gives
-#: the exact ZDA analysis its fast path, else the dense V* iteration over Q (> 150 s at
-#: N = 200; a quarter of that, scaled by N^4). The certificate is tried here, in this process,
-#: only while it costs at most 10 s (N <~ 1700); beyond that its own cost is the estimate.
-def _zda_exact_seconds(system: System) -> float:
+def exact_estimate(system: System, cid: str) -> float | None:
+    """Estimated seconds of re-deciding checker ``cid`` exactly on ``system``, or None (no estimate).
+
+    From the one exact-cost model, :func:`glocal_verify.conditions.cost.exact_seconds`, for the
+    checkers whose exact cost is one dense rational computation of known size:
+    ``central.observer``, and ``stealthy.zda`` / ``switching.avoids-attack``, whose path is
+    learnt from the minor certificate (:func:`~glocal_verify.analysis.zda_exact.has_fast_exact_path`)
+    while that certificate costs at most ``zda_certificate_max_seconds``
+    (:mod:`glocal_verify.config`; N <~ 1700), beyond which its own cost is the estimate.
+
+    Parameters
+    ----------
+    system : System
+    cid : str
+    """
+    from glocal_verify.conditions.cost import exact_seconds, zda_certificate_seconds
+
+    if cid == "central.observer":
+        return exact_seconds(cid, system.n)
+    if cid not in ("stealthy.zda", "switching.avoids-attack"):
+        return None
+    certificate = zda_certificate_seconds(system.n)
+    if certificate > config.get("zda_certificate_max_seconds"):
+        return certificate
     from glocal_verify.analysis.zda_exact import has_fast_exact_path
 
-    certificate = 46.0 * (system.n / 2000.0) ** 3
-    if certificate > 10.0:
-        return certificate
     try:
         fast = has_fast_exact_path(system)
     except _ESTIMATE_FAILURES:
-        return 0.0  # no estimate: the budget alone limits it
-    return 0.0 if fast else certificate + 40.0 * (system.n / 200.0) ** 4
+        return None  # no estimate: the budget alone limits it
+    return exact_seconds(cid, system.n, zda_path="fast" if fast else "dense")
 
-
-#: a lower estimate of the seconds an exact re-decision takes, for the checkers whose exact
-#: cost is one dense rational computation of known size: central.observer's characteristic
-#: polynomial of the 2N x 2N closed loop (277 s measured at N = 200; the estimate is a quarter
-#: of that, scaled by N^4), and :func:`_zda_exact_seconds`. An escalation whose estimate
-#: exceeds the budget is not started.
-_EXACT_SECONDS: dict[str, Callable[[System], float]] = {
-    "central.observer": lambda system: 70.0 * (system.n / 200.0) ** 4,
-    "stealthy.zda": _zda_exact_seconds,
-    "switching.avoids-attack": _zda_exact_seconds,
-}
 
 #: checkers whose undecided result is not re-decided exactly (the simulation is the evidence)
 _NOT_ESCALATED = frozenset({"switching.detects"})
@@ -355,9 +398,11 @@ def _escalate_all(
     pending = [cid for cid, rs in per_checker.items() if cid not in _NOT_ESCALATED and any(r.status is Status.UNDECIDED for r in rs)]
     pending.sort(key=lambda cid: _COSTLY_EXACT.get(cid, 0))
     if budget is not None:
-        # an escalation estimated beyond the whole budget is not started, and takes no share
-        estimates = {c: _EXACT_SECONDS[c](system) for c in pending if c in _EXACT_SECONDS}
-        for cid in [c for c, est in estimates.items() if est > budget]:
+        # an escalation estimated far beyond the whole budget (a fraction of its estimate above
+        # it: the model holds within a factor of about two) is not started, and takes no share
+        fraction = config.get("escalation_estimate_fraction")
+        estimates = {c: est for c in pending if (est := exact_estimate(system, c)) is not None}
+        for cid in [c for c, est in estimates.items() if fraction * est > budget]:
             note = (
                 f"undecided numerically; an exact re-decision would take at least about {estimates[cid]:.3g} s at "
                 f"N = {system.n} (estimate), more than --exact-budget ({budget:g} s), so it was not started (run --exact, or raise --exact-budget)"
@@ -413,7 +458,7 @@ def verify(
     progress: Callable[[str], None] | None = None,
     escalate: str = "auto",
     exact_budget: float | None = 30.0,
-    fragile_below: float = FRAGILE_BELOW,
+    fragile_below: float | None = None,
 ) -> Report:
     """Run the registered checkers on ``system``.
 
@@ -439,12 +484,13 @@ def verify(
         Seconds of wall time for all escalated exact runs of this call together (None: no
         limit). They run after every numeric checker, the cheap ones first; each gets a fair
         share of what is left (what it does not use passes on) and is stopped, not merely
-        warned, at the end of its share. One whose estimated cost (``_EXACT_SECONDS``)
-        exceeds the whole budget is not started and takes no share; its note gives the
-        estimate.
-    fragile_below : float
+        warned, at the end of its share. One whose estimated cost (:func:`exact_estimate`)
+        times ``escalation_estimate_fraction`` (:mod:`glocal_verify.config`) exceeds the whole
+        budget is not started and takes no share; its note gives the estimate.
+    fragile_below : float, optional
         Robustness tolerance: a verdict whose relative margin is below it is ``fragile`` (a
-        warning; the status never changes).
+        warning; the status never changes). Default: the tunable ``fragile_below``
+        (:mod:`glocal_verify.config`, 1e-9).
 
     Returns
     -------
@@ -454,6 +500,8 @@ def verify(
         raise ValueError(f"escalate must be 'auto' or 'never', not {escalate!r}")
     _load()
     ids = resolve_ids(only) if only is not None else implemented_ids()
+    if fragile_below is None:
+        fragile_below = float(config.get("fragile_below"))
     ctx = CheckContext(exact=exact, tol=tol, options=dict(options or {}), fragile_below=fragile_below)
     per_checker: dict[str, list[ConditionResult]] = {}
     for cid in ids:

@@ -245,7 +245,7 @@ def _zda_results(system: System, ctx: CheckContext) -> list[ConditionResult]:
     memo: dict[Any, Any] = {}
     for mode in system.safe_modes:
         v = decide_avoidance(system, mode, zda, tol=ctx.tol, memo=memo)
-        if v.analysis is None:
+        if v.avoidance is None:
             decided = v.status is not Status.UNDECIDED
             remark, sec4 = _readings(False if decided else None, PRED_BOUNDED)
             base: dict[str, Any] = {
@@ -265,9 +265,9 @@ def _zda_results(system: System, ctx: CheckContext) -> list[ConditionResult]:
             assert zda.exact_analysis is not None and zda.exact_analysis.direction is not None
             d_ex = zda.exact_analysis.direction
             lam_ex = str(d_ex.rational) if d_ex.rational is not None else d_ex.factor
-            out.append(_avoidance_result(system, ctx, F, v.analysis, {"lambda0_exact": lam_ex}))
+            out.append(_avoidance_result(system, ctx, F, v.avoidance, {"lambda0_exact": lam_ex}))
             continue
-        out.append(_avoidance_result(system, ctx, F, v.analysis, cert=dict(v.certificate)))
+        out.append(_avoidance_result(system, ctx, F, v.avoidance, cert=dict(v.certificate)))
     return out
 
 

@@ -68,7 +68,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from glocal_verify.analysis.covert import (
-    _channel_label,
+    channel_label as _channel_label,
     covert_required_channels,
     reachable_agents,
 )
@@ -207,7 +207,7 @@ def check_zda(system: System, ctx: CheckContext) -> list[ConditionResult]:
         unobs: Sequence[ZdaZero | ExactZdaZero] = ea.unobservable
         notes = ea.notes
     else:
-        za = v.analysis
+        za = v.numeric_analysis
         assert za is not None
         left_inv, nrank, k0 = za.left_invertible, za.normal_rank, za.normal_kernel_dim
         zeros, unobs, notes = za.zeros, za.unobservable, za.notes
@@ -223,7 +223,7 @@ def check_zda(system: System, ctx: CheckContext) -> list[ConditionResult]:
         "zeros": [_zero_json(system, F, z, tol) for z in zeros[:max_z]],
         "zeros_total": len(zeros),
         "unobservable_modes": [[z.value.real, z.value.imag] for z in unobs[:max_z]],
-        "method": "exact (N-sized pencil in s over Q)" if ctx.exact else f"{v.analysis.method if v.analysis else ''} (N-sized pencil in s = lambda^2 + gamma lambda)",
+        "method": "exact (N-sized pencil in s over Q)" if ctx.exact else f"{v.numeric_analysis.method if v.numeric_analysis else ''} (N-sized pencil in s = lambda^2 + gamma lambda)",
     }
     if v.exact_analysis is not None:
         witness["s_zero_polynomial"] = v.exact_analysis.s_zero_polynomial

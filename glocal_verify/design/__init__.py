@@ -10,6 +10,8 @@
 - :mod:`.network` -- the whole design (monitors, local observers, safe modes) of a spec;
 - :mod:`.placement` -- local observer placement (Remark III.2.1);
 - :mod:`.generators` -- random clustered networks for tests, benchmarks and sweeps;
+- :mod:`.case_study` -- the cases of Section IV (and one Algorithm 1 run), simulated and checked;
+- :mod:`.findings` -- the counterexample specs of ``reports/findings/``, verified;
 - :mod:`.sweep`, :mod:`.distributed` -- ensembles of networks and audits on Dask.
 
 Layer: imports :mod:`glocal_verify.conditions` and below.

@@ -49,6 +49,7 @@ from typing import Any
 
 import numpy as np
 
+from glocal_verify import config
 from glocal_verify.analysis.avoidance import decide_avoidance
 from glocal_verify.analysis.zda_screens import disjoint_paths, global_tables
 from glocal_verify.analysis.zda_verdict import ZdaOptions, ZdaVerdict, decide_zda, prepare_witnesses, proven_single
@@ -82,15 +83,6 @@ __all__ = [
 ]
 
 THEOREM_III3 = THEOREM_IDS
-#: by default numeric ``undecided`` parts are re-decided over Q up to this many agents
-EXACT_FALLBACK_MAX_AGENTS = 60
-#: above this many agents (and up to :data:`EXACT_FALLBACK_MAX_AGENTS`) the default re-decides
-#: the ZDA and safe-mode parts over Q only for rows whose verdict they leave undecided
-EXACT_FALLBACK_FULL_AGENTS = 20
-#: up to this many agents every stealthy set gets its whole zero set by default (``growth="full"``)
-GROWTH_FULL_MAX_AGENTS = 60
-#: above this many agents a row's witness direction leaves out xi (N entries per row)
-WITNESS_XI_MAX_AGENTS = 100
 
 
 # ------------------------------------------------------------------------------------------
@@ -200,12 +192,12 @@ class _Shared:
 
 def _shared(system: System, tol: Tolerance, exact: bool, exact_fallback: bool | str | None, screen: bool, growth: str | None = None) -> _Shared:
     if growth is None:
-        growth = "full" if system.n <= GROWTH_FULL_MAX_AGENTS else "verdict"
+        growth = "full" if system.n <= config.get("growth_full_max_agents") else "verdict"
     if growth not in ("full", "verdict"):
         raise NotApplicableError(f"growth: must be 'full' or 'verdict', not {growth!r}")
     if exact_fallback is None:
         n = system.n
-        exact_fallback = True if n <= EXACT_FALLBACK_FULL_AGENTS else "verdicts" if n <= EXACT_FALLBACK_MAX_AGENTS else False
+        exact_fallback = True if n <= config.get("exact_fallback_full_agents") else "verdicts" if n <= config.get("exact_fallback_max_agents") else False
     if exact_fallback not in (True, False, "verdicts"):
         raise NotApplicableError(f"exact_fallback: must be True, False or 'verdicts', not {exact_fallback!r}")
     system.spectrum()  # the one eigendecomposition of L_1 every set reuses
@@ -290,7 +282,7 @@ def _mode_evidence(sh: _Shared, F: tuple[Label, ...], z: ZdaVerdict, mode: str, 
     """The touch test of one safe mode for the set, as evidence of the answer and as witness detail."""
     ok = sh.modes.get(mode)
     v = decide_avoidance(sh.system, mode, z, tol=sh.tol, fallback=_zda_fallback(sh), memo=memo.setdefault(("avoidance", F), {}), zero_first=True)
-    av = v.analysis
+    av = v.avoidance
     detail: dict[str, Any] = {
         "theorem_iii3": ok,
         "switching.avoids-attack": v.status.value,
@@ -358,16 +350,17 @@ def _audit_set(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any]) -> Audit
         witness["zda_note"] = z.note
     if z.direction is not None:
         d = z.direction
+        xi_max = config.get("witness_xi_max_agents")
         witness["direction"] = {
             "lambda0": [d.value.real, d.value.imag],
             "source": z.direction_source,
-            "xi": _xi_json(system, np.asarray(d.xi), tol) if system.n <= WITNESS_XI_MAX_AGENTS else None,
+            "xi": _xi_json(system, np.asarray(d.xi), tol) if system.n <= xi_max else None,
             "u0": _u_json(F, np.asarray(d.u0)),
             "residual": float(getattr(d, "residual", 0.0)),
         }
-        if system.n > WITNESS_XI_MAX_AGENTS:
+        if system.n > xi_max:
             witness["direction"]["xi_note"] = (
-                f"xi (N entries) omitted above {WITNESS_XI_MAX_AGENTS} agents; verify on this attack with this lambda0 reports it"
+                f"xi (N entries) omitted above {xi_max} agents; verify on this attack with this lambda0 reports it"
             )
     if ans.fragile:
         witness["fragile"] = ans.fragile
@@ -570,8 +563,8 @@ def audit(
         Re-decide numeric ``undecided`` parts over Q (as ``verify`` escalates). ``"verdicts"``:
         the local parts as with True, the ZDA and safe-mode parts only for rows whose verdict
         is otherwise undecided (a row caught by a local observer keeps growth ``undecided``).
-        Default: True for N <= :data:`EXACT_FALLBACK_FULL_AGENTS`, ``"verdicts"`` up to
-        :data:`EXACT_FALLBACK_MAX_AGENTS` (the exact ZDA analysis grows fast with N), else
+        Default: True for N <= ``config.get("exact_fallback_full_agents")``, ``"verdicts"`` up to
+        ``config.get("exact_fallback_max_agents")`` (the exact ZDA analysis grows fast with N), else
         False (the part stays ``undecided``).
     screen : bool
         Use the separator screen of the module docstring.
@@ -586,7 +579,7 @@ def audit(
         ``growth_at_least``; the touch test of a mode that fails Theorem III.3 is not
         evaluated. Verdicts, catching observers and exposing modes are those of ``"full"``.
         Default ``"full"`` up to
-        :data:`GROWTH_FULL_MAX_AGENTS` agents, ``"verdict"`` above.
+        ``config.get("growth_full_max_agents")`` agents, ``"verdict"`` above.
     chunk_size : int
         Sets per chunk (progress granularity; the unit of work of an executor).
     executor : callable, optional

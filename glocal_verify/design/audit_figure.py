@@ -8,6 +8,7 @@ coloured by its verdict. Drawn with matplotlib's Agg backend (no display needed)
 from __future__ import annotations
 
 from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
 
@@ -15,7 +16,7 @@ from glocal_verify.design.audit import AuditResult
 
 __all__ = ["audit_figure", "verdict_matrix"]
 
-_CODE = {"detected": 0.0, "undecided": 1.0, "undetected": 2.0}
+_CODE = MappingProxyType({"detected": 0.0, "undecided": 1.0, "undetected": 2.0})
 
 
 def verdict_matrix(result: AuditResult) -> np.ndarray:

@@ -14,9 +14,9 @@ from __future__ import annotations
 from typing import Any
 
 from glocal_verify.analysis.local_cases import LocalCase, minor_certificate, twin_failure
+from glocal_verify.analysis.local_pencil import pencil_verdict, pencil_verdict_exact
 from glocal_verify.answer.attack import LocalEvidence
-from glocal_verify.conditions.local import uio_verdict
-from glocal_verify.conditions.local_pencil import pencil_verdict, pencil_verdict_exact
+from glocal_verify.observers.uio_verdict import uio_verdict
 from glocal_verify.results import Status
 from glocal_verify.spec.types import Label
 
@@ -45,11 +45,11 @@ def pencil_status(sh: Any, cm: Any, obs: Any, sus: tuple[Label, ...], memo: dict
         st = Status.HOLDS
     if st is None:
         if sh.exact:
-            st = pencil_verdict_exact(sh.system, case, margin=False)[0]
+            st = pencil_verdict_exact(sh.system, case, margin=False).status
         else:
-            st = pencil_verdict(sh.system, case, sh.tol, margin=False)[0]
+            st = pencil_verdict(sh.system, case, sh.tol, margin=False).status
             if st is Status.UNDECIDED and sh.exact_fallback:
-                st = pencil_verdict_exact(sh.system, case, margin=False)[0]
+                st = pencil_verdict_exact(sh.system, case, margin=False).status
     memo[pkey] = st
     return st
 
@@ -80,9 +80,9 @@ def local_part(sh: Any, F: tuple[Label, ...], memo: dict[Any, Any]) -> tuple[lis
                 us: Status | None = None  # not needed when the pencil fails: no UIO catches the attack then
                 if ps is not Status.FAILS:
                     case = LocalCase(cm, obs, "attack", sus)
-                    us = uio_verdict(system, case, sh.tol, sh.exact, cache=memo.setdefault("uio", {}))[0]
+                    us = uio_verdict(system, case, sh.tol, sh.exact, cache=memo.setdefault("uio", {})).status
                     if us is Status.UNDECIDED and sh.exact_fallback and not sh.exact:
-                        us = uio_verdict(system, case, sh.tol, True)[0]
+                        us = uio_verdict(system, case, sh.tol, True).status
                 memo[key] = (ps, us)
             ps, us = memo[key]
             detail[f"{c.name}@{obs.center}"] = {"suspected": list(sus), "local.pencil": ps.value, "local.uio": "not evaluated" if us is None else us.value}

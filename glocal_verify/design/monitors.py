@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any, Iterable, Mapping, Sequence
 
+from glocal_verify import config
 from glocal_verify.conditions.registry import verify
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
@@ -43,7 +44,7 @@ from glocal_verify.spec.types import Label, MonitorSpec, ModeSpec
 __all__ = ["MonitorDesign", "design_monitors", "EXACT_MAX_AGENTS"]
 
 #: exhaustive search up to this many agents in the union of the switching components
-EXACT_MAX_AGENTS = 30
+EXACT_MAX_AGENTS = config.get("monitors_exact_max_agents")
 PRIVACY_IDS = ("privacy.connected", "privacy.kernel", "privacy.unobservable", "privacy.initial-state", "privacy.consensus-value")
 CHECK_IDS = PRIVACY_IDS + ("switching.image-kernel", "switching.coverage")
 

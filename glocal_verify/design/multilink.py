@@ -26,13 +26,15 @@ from fractions import Fraction
 
 import numpy as np
 
+from glocal_verify import config
+
 __all__ = ["BISECTION_STEPS", "SCREEN_MARGIN", "image_kernel_holds", "link_forest", "rank_one_update", "screen_changes", "touch_cover"]
 
 #: a change is proposed only when its screened gaps and eigenvector differences exceed this
-SCREEN_MARGIN = 1e-8
+SCREEN_MARGIN = config.get("multilink_screen_margin")
 #: bisection steps of the secular equation (each halves the interlacing bracket; plain
 #: Newton steps from either side converge badly next to a pole, so none are taken)
-BISECTION_STEPS = 64
+BISECTION_STEPS = config.get("multilink_bisection_steps")
 
 Pair = tuple[int, int]
 

@@ -27,12 +27,12 @@ has full column rank for every complex s. Two tests on it:
 
 A necessary count: |M| >= |I| (Q(s) must be tall), i.e. |M \\ dP_i| >= |S|. Both tests, and
 the proofs that they decide (iii), live in :mod:`glocal_verify.analysis.cluster_pencil`, shared with the
-structured ``local.pencil`` checker (:func:`glocal_verify.conditions.local_pencil.pencil_verdict`).
+structured ``local.pencil`` checker (:func:`glocal_verify.analysis.local_pencil.pencil_verdict`).
 
 **Search.** Greedy set cover: start from M = dP_i and add the agent whose measurement forces
 the most agents, until zero forcing completes (structural, no arithmetic: O(|P_i|) closures per
 added agent); then drop agents (last added first) while the pencil test still holds (clusters
-of at most :data:`FULL_DELETE_MAX` agents) or while zero forcing still completes (larger ones:
+of at most ``full_delete_max`` (:mod:`glocal_verify.config`) agents) or while zero forcing still completes (larger ones:
 no dense factorization per candidate; the full test runs once on the result). For small
 clusters an exhaustive search by increasing |M| (at most ``exact_limit`` candidate sets)
 proves the minimum. The centre is the agent whose closed neighbourhood covers most of M (the
@@ -58,6 +58,7 @@ from typing import Any, Iterable, Sequence
 import numpy as np
 from tqdm import tqdm
 
+from glocal_verify import config
 from glocal_verify.analysis.cluster_pencil import (
     intra_neighbours,
     reduced_pencil_holds,
@@ -79,11 +80,6 @@ __all__ = [
     "parse_suspected",
     "connectivity_warnings",
 ]
-
-DEFAULT_EXACT_LIMIT = 2000
-
-#: largest cluster whose greedy reverse delete runs the full (numeric) test on every trial
-FULL_DELETE_MAX = 80
 
 
 @dataclass(frozen=True, slots=True)
@@ -334,7 +330,7 @@ def _greedy(pb: _Problem) -> tuple[list[int], list[int]]:
     Forward, only the structural test (zero forcing, no arithmetic) decides when to stop; the
     full test (:func:`_holds`: safe-mode UIO existence too) runs once on the result and keeps
     adding agents only if it fails. The reverse delete uses the full test (reduced pencil when
-    zero forcing is incomplete) for clusters of at most :data:`FULL_DELETE_MAX` agents, and
+    zero forcing is incomplete) for clusters of at most ``full_delete_max`` (:mod:`glocal_verify.config`) agents, and
     zero forcing alone above (the full test then runs once on the result; on failure the
     zero-forcing set is kept). The second value is the set before the reverse delete: zero
     forcing completes on it, so the checkers decide it combinatorially.
@@ -351,7 +347,7 @@ def _greedy(pb: _Problem) -> tuple[list[int], list[int]]:
         M.add(c)
         order.append(c)
     before = sorted(M)
-    full = n <= FULL_DELETE_MAX
+    full = n <= config.get("full_delete_max")
     for c in reversed(order):
         trial = M - {c}
         if _holds(pb, trial) if full else _zf_complete(pb, trial):
@@ -375,15 +371,16 @@ def _center(cm: ClusterModel, nbrs: list[list[int]], M: Sequence[int]) -> tuple[
 
 def _verify(system: System, cm: ClusterModel, center: Label, measured: tuple[Label, ...], suspected: tuple[Label, ...], tol: Tolerance) -> dict[str, str]:
     from glocal_verify.analysis.local_cases import LocalCase
-    from glocal_verify.conditions.local import rank_verdict, uio_verdict
-    from glocal_verify.conditions.local_pencil import pencil_verdict
+    from glocal_verify.analysis.local_pencil import pencil_verdict
+    from glocal_verify.analysis.local_structure import rank_verdict
+    from glocal_verify.observers.uio_verdict import uio_verdict
 
     obs = LocalObserver(cm.name, center, measured, measured, None)
     case = LocalCase(cm, obs, "attack", suspected, NORMAL_MODE)
     return {
-        "local.rank": rank_verdict(case, tol)[0].value,
-        "local.pencil": pencil_verdict(system, case, tol, margin=False)[0].value,
-        "local.uio": uio_verdict(system, case, tol)[0].value,
+        "local.rank": rank_verdict(case, tol).status.value,
+        "local.pencil": pencil_verdict(system, case, tol, margin=False).status.value,
+        "local.uio": uio_verdict(system, case, tol).status.value,
     }
 
 
@@ -393,7 +390,7 @@ def place_cluster(
     suspected: str | Sequence[Label] = "attack",
     *,
     tol: Tolerance = DEFAULT_TOLERANCE,
-    exact_limit: int = DEFAULT_EXACT_LIMIT,
+    exact_limit: int | None = None,
     progress: bool = True,
 ) -> ObserverProposal:
     """Propose one local observer for ``cluster`` (see the module docstring).
@@ -406,8 +403,9 @@ def place_cluster(
         See :func:`suspected_set`.
     tol : Tolerance
         Tolerance of the pencil tests and of the final verification.
-    exact_limit : int
-        Largest number of candidate sets the exhaustive search may visit (0 disables it).
+    exact_limit : int, optional
+        Largest number of candidate sets the exhaustive search may visit (0 disables it;
+        default: the tunable ``placement_exact_limit`` of :mod:`glocal_verify.config`, 2000).
     progress : bool
         Show a tqdm bar on stderr during the exhaustive search.
 
@@ -443,6 +441,8 @@ def place_cluster(
     M, zf_set = _greedy(pb)
     method, optimal = "greedy", len(M) <= lower
     free = [k for k in range(len(cm.nodes)) if k not in base]
+    if exact_limit is None:
+        exact_limit = int(config.get("placement_exact_limit"))
     if not optimal and exact_limit > 0:
         kmin = max(lower - len(base), 0)
         kmax = len(M) - len(base) - 1
@@ -503,7 +503,7 @@ def place_observers(
     suspected: str | Sequence[Label] = "attack",
     *,
     tol: Tolerance = DEFAULT_TOLERANCE,
-    exact_limit: int = DEFAULT_EXACT_LIMIT,
+    exact_limit: int | None = None,
     progress: bool = True,
 ) -> Placement:
     """Propose a local observer for every cluster (or one) of ``system``.
@@ -516,7 +516,7 @@ def place_observers(
     suspected : str or sequence of labels
         See :func:`suspected_set`.
     tol : Tolerance
-    exact_limit : int
+    exact_limit : int, optional
         See :func:`place_cluster`.
     progress : bool
         Show tqdm progress bars on stderr (only when stderr is a terminal).

@@ -86,6 +86,7 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
+from glocal_verify import config
 from glocal_verify.analysis.avoidance import split_basis, stealthy_bases
 from glocal_verify.analysis.zda import ModalPencil
 from glocal_verify.conditions.registry import verify
@@ -114,7 +115,7 @@ __all__ = [
 ]
 
 DEFAULT_WEIGHTS = (Fraction(1), Fraction(2), Fraction(3))
-EXACT_MAX_AGENTS = 40
+EXACT_MAX_AGENTS = config.get("safe_modes_exact_max_agents")
 THEOREM_IDS = ("switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences")
 
 
@@ -501,14 +502,14 @@ def _confirm(system: System, links: Sequence[LinkCandidate], name: str, attacks:
 # multi-link changes (module docstring, "Multi-link modes")
 
 #: at most this many multi-link changes are scored, and this many screened per chosen mode
-MAX_COMBINATIONS = 200_000
-MAX_SCREENS = 4000
+MAX_COMBINATIONS = config.get("safe_modes_max_combinations")
+MAX_SCREENS = config.get("safe_modes_max_screens")
 #: and at most about this many entry operations of the screen per chosen mode (64 s N^2 each)
-MAX_SCREEN_WORK = 2e9
+MAX_SCREEN_WORK = config.get("safe_modes_max_screen_work")
 #: changes screened together (one batched secular solve), at most about this many array
 #: entries (B (N - 1)^2) per temporary
-SCREEN_BATCH = 64
-SCREEN_BATCH_ENTRIES = 4e6
+SCREEN_BATCH = config.get("safe_modes_screen_batch")
+SCREEN_BATCH_ENTRIES = config.get("safe_modes_screen_batch_entries")
 
 
 def _pairs(system: System, links: Sequence[LinkCandidate]) -> list[tuple[int, int]]:

@@ -44,8 +44,10 @@ import time
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
+from glocal_verify import config
 from glocal_verify.errors import GlocalVerifyError, SpecError
 
 __all__ = [
@@ -63,8 +65,8 @@ __all__ = [
 ]
 
 #: generators a sweep may name, and the sweep key -> generator keyword of each
-GENERATORS: dict[str, dict[str, str]] = {
-    "random-clustered": {
+GENERATORS: Mapping[str, Mapping[str, str]] = MappingProxyType({
+    "random-clustered": MappingProxyType({
         "agents": "n",
         "clusters": "clusters",
         "chords": "chords",
@@ -76,8 +78,8 @@ GENERATORS: dict[str, dict[str, str]] = {
         "observers_per_cluster": "observers_per_cluster",
         "horizon": "horizon",
         "step": "step",
-    }
-}
+    })
+})
 
 #: columns of the results file, in order (member parameters come first as ``param.<name>``)
 COLUMNS = (
@@ -95,8 +97,6 @@ COLUMNS = (
     "error",
     "seconds",
 )
-
-_MAX_MEMBERS = 1_000_000
 
 
 @dataclass(frozen=True, slots=True)
@@ -224,7 +224,7 @@ def plan_from_dict(data: Mapping[str, Any], source: str | None = None, base: Pat
     gen = ens.get("generator")
     if gen not in GENERATORS:
         raise _fail("ensemble.generator", f"unknown generator {gen!r} (known: {', '.join(GENERATORS)})", source)
-    keys = GENERATORS[gen]
+    keys = GENERATORS[str(gen)]
     seeds_spec = ens.get("seeds", {"start": 0, "count": 1})
     seeds = _seeds(seeds_spec, source)
     grid: dict[str, tuple[Any, ...]] = {}
@@ -241,8 +241,8 @@ def plan_from_dict(data: Mapping[str, Any], source: str | None = None, base: Pat
         else:
             fixed[k] = v
     count = len(seeds) * math.prod(len(v) for v in grid.values())
-    if count > _MAX_MEMBERS:
-        raise _fail("ensemble", f"{count} members exceed the limit of {_MAX_MEMBERS}", source)
+    if count > config.get("sweep_max_members"):
+        raise _fail("ensemble", f"{count} members exceed the limit of {config.get('sweep_max_members')}", source)
     generated: list[Member] = []
     axes = list(grid)
     for combo in itertools.product(*(grid[a] for a in axes)):
@@ -261,7 +261,7 @@ def _seeds(spec: Any, source: str | None) -> list[int]:
         return list(spec)
     if isinstance(spec, Mapping):
         start, count = spec.get("start", 0), spec.get("count")
-        if not isinstance(start, int) or not isinstance(count, int) or isinstance(count, bool) or count < 1 or count > _MAX_MEMBERS:
+        if not isinstance(start, int) or not isinstance(count, int) or isinstance(count, bool) or count < 1 or count > config.get("sweep_max_members"):
             raise _fail("ensemble.seeds", "needs integers start and count (1 <= count)", source)
         return list(range(start, start + count))
     raise _fail("ensemble.seeds", "must be a list of integers or {start, count}", source)

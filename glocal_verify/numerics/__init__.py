@@ -14,9 +14,10 @@
 - :mod:`.exact`, :mod:`.exact_subspace` -- python-flint helpers over Q;
 - :mod:`.zero_polynomial` -- the zero polynomial of a left-invertible selection system,
   proved by minors modulo a prime and exact kernels (no V* iteration).
+- :mod:`.hurwitz` -- certified Hurwitz tests of a real matrix from its eigenvalue condition numbers;
 - :mod:`.threads`, :mod:`.collection` -- BLAS threads and deferred full garbage collections for
   a block of code (resources, no numbers).
 
-Layer: imports only :mod:`glocal_verify.errors` (and :mod:`glocal_verify.results` for the
-status enum); everything here takes matrices, never a ``System``.
+Layer: imports only :mod:`glocal_verify.errors`, :mod:`glocal_verify.config` (and
+:mod:`glocal_verify.results` for the status enum); everything here takes matrices, never a ``System``.
 """

@@ -19,6 +19,7 @@ import scipy.sparse
 import scipy.sparse.csgraph
 import scipy.sparse.linalg
 
+from glocal_verify import config
 from glocal_verify.numerics.threads import ThreadSwitch
 from glocal_verify.numerics.tolerance import Tolerance
 
@@ -46,14 +47,10 @@ _EPS = float(np.finfo(np.float64).eps)
 _MAX_EXPONENT = 400
 
 
-#: matrices with at most this many rows or columns get their 2-norm from an SVD
-_EXACT_NORM_MAX = 600
-
-
 def _norm2(M: np.ndarray) -> float:
     if M.size == 0:
         return 0.0
-    if min(M.shape) <= _EXACT_NORM_MAX:
+    if min(M.shape) <= config.get("exact_norm_max"):
         return float(np.linalg.norm(M, 2))
     # power iteration on M^H M: a lower estimate within a few per cent after 60 steps
     rng = np.random.default_rng(0)
@@ -180,7 +177,7 @@ class _Balanced:
         n, m, p = self.A.shape[0], self.B.shape[1], self.C.shape[0]
         if not ((n + p) and (n + m)):
             return 0.0
-        if min(n + p, n + m) <= _EXACT_NORM_MAX:
+        if min(n + p, n + m) <= config.get("exact_norm_max"):
             return _norm2(np.block([[self.A, self.B], [self.C, self.D]]))
         diagonal = np.count_nonzero(self.A) == np.count_nonzero(np.diagonal(self.A))
         a = float(np.abs(np.diagonal(self.A)).max(initial=0.0)) if diagonal else _norm2(self.A)
@@ -290,16 +287,8 @@ def _q_right(Y: np.ndarray, T: np.ndarray, M: np.ndarray) -> np.ndarray:
     return M - ((M @ Y) @ T) @ Y.conj().T
 
 
-#: from this order on the symmetric step's two large products use every core (below, one
-#: thread is as fast and skips the thread-pool switch)
-_THREADED_MIN = 1500
-
 #: rows per strip of :func:`_mirror_upper` and :func:`_is_symmetric`
 _STRIP_ROWS = 256
-
-#: from this order on a deflation step uses the fused update (below, two reflector
-#: applications are faster: 30 against 46 us at n = 30, 44 against 51 us at n = 100)
-_FUSED_MIN = 128
 
 
 def _similarity_blocks(Y: np.ndarray, T: np.ndarray, A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -355,9 +344,9 @@ def _symmetric_similarity_blocks(Y: np.ndarray, T: np.ndarray, A: np.ndarray, bu
     """
     nu = Y.shape[1]
     YT = Y @ T
-    # the two O(n^2 nu) products on every core from _THREADED_MIN states on, the rest (small
+    # the two O(n^2 nu) products on every core from threaded_min states on, the rest (small
     # products, the copy) on the one thread the deflation runs with
-    cores = None if A.shape[0] >= _THREADED_MIN else 1
+    cores = None if A.shape[0] >= config.get("threaded_min") else 1
     # A.T is the Fortran-ordered view of the same memory: its lower triangle is A's upper one
     with switch.limit(cores):
         W = scipy.linalg.blas.dsymm(1.0, A.T, YT, side=0, lower=1)
@@ -441,7 +430,7 @@ def _reduce(
     # a complex B, C or D makes the reflectors complex: the real BLAS calls of the symmetric step do not
     # apply (analyze_pencil gives all four one dtype; this guards direct calls)
     real = not any(np.iscomplexobj(X) for X in (B, C, D))
-    symmetric = symmetric_step and real and A.shape[0] >= _FUSED_MIN and _is_symmetric(A)
+    symmetric = symmetric_step and real and A.shape[0] >= config.get("fused_min") and _is_symmetric(A)
     if not symmetric:
         return _reduce_steps(A, B, C, D, tol, scale, delta, None)
     switch = ThreadSwitch()
@@ -491,12 +480,12 @@ def _reduce_steps(
             C, D = C2, D2
             break
         Y, Tw = _block_reflector(Vh[:nu].conj().T)
-        if switch is not None and A.shape[0] >= _FUSED_MIN:
+        if switch is not None and A.shape[0] >= config.get("fused_min"):
             if bufs is None:
                 bufs = [np.empty((A.shape[0] - nu) ** 2), np.empty(0)]
             A, top = _symmetric_similarity_blocks(Y, Tw, A, bufs, switch)
             upper = True
-        elif A.shape[0] >= _FUSED_MIN:
+        elif A.shape[0] >= config.get("fused_min"):
             A, top = _similarity_blocks(Y, Tw, A)
         else:  # small: fewer, cheaper calls win
             if upper:  # a copy: the buffers are not kept alive by the small steps

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from glocal_verify import config
+
 import math
 from fractions import Fraction
 from typing import Any, Sequence
@@ -10,13 +12,22 @@ import flint
 import numpy as np
 
 __all__ = [
+    "annihilator",
+    "cols_closure",
+    "kernel_basis",
+    "qmat",
+    "row_basis",
+    "row_closure",
+    "stack_rows",
+    "to_fraction_cols",
 ]
 
 # --------------------------------------------------------------------------------------------
 # exact (rational) subspaces
 
 
-def _qmat(rows: Sequence[Sequence[Fraction | int]], ncols: int) -> flint.fmpq_mat:
+def qmat(rows: Sequence[Sequence[Fraction | int]], ncols: int) -> flint.fmpq_mat:
+    """The rational matrix with the given rows (``ncols`` columns, also when there are no rows)."""
     flat: list[Any] = []
     for r in rows:
         for x in r:
@@ -29,7 +40,8 @@ def _qmat(rows: Sequence[Sequence[Fraction | int]], ncols: int) -> flint.fmpq_ma
     return flint.fmpq_mat(len(rows), ncols, flat)
 
 
-def _vstack(mats: Sequence[flint.fmpq_mat], ncols: int) -> flint.fmpq_mat:
+def stack_rows(mats: Sequence[flint.fmpq_mat], ncols: int) -> flint.fmpq_mat:
+    """The rows of ``mats`` stacked into one matrix of ``ncols`` columns."""
     entries: list[Any] = []
     m = 0
     for M in mats:
@@ -39,7 +51,7 @@ def _vstack(mats: Sequence[flint.fmpq_mat], ncols: int) -> flint.fmpq_mat:
     return flint.fmpq_mat(m, ncols, entries)
 
 
-def _row_basis(M: flint.fmpq_mat) -> flint.fmpq_mat:
+def row_basis(M: flint.fmpq_mat) -> flint.fmpq_mat:
     """RREF rows spanning the row space of M (no zero rows)."""
     n = M.ncols()
     if M.nrows() == 0:
@@ -49,7 +61,7 @@ def _row_basis(M: flint.fmpq_mat) -> flint.fmpq_mat:
     return flint.fmpq_mat(r, n, R.entries()[: r * n])
 
 
-def _row_closure(R0: flint.fmpq_mat, mats: Sequence[flint.fmpq_mat]) -> flint.fmpq_mat:
+def row_closure(R0: flint.fmpq_mat, mats: Sequence[flint.fmpq_mat]) -> flint.fmpq_mat:
     """Smallest row space containing R0's rows and closed under right multiplication by each matrix.
 
     Its kernel is the largest subspace of ker(R0) invariant under every matrix. Returned as its
@@ -61,7 +73,7 @@ def _row_closure(R0: flint.fmpq_mat, mats: Sequence[flint.fmpq_mat]) -> flint.fm
     matrix M exactly, so ker K^perp is an invariant subspace of ker R0 of dimension n - r, while
     the rank r_p of the closure mod p is at most the rank over Q (reduction mod p of integer
     vectors cannot raise rank), so dim of the largest invariant subspace is at most n - r_p = n - r.
-    When no candidate is proved within :data:`MAX_PRIMES` primes, the dense rational iteration
+    When no candidate is proved within ``max_primes`` (:mod:`glocal_verify.config`) primes, the dense rational iteration
     (:func:`_row_closure_direct`) decides. No tolerance either way.
     """
     n = R0.ncols()
@@ -73,21 +85,21 @@ def _row_closure(R0: flint.fmpq_mat, mats: Sequence[flint.fmpq_mat]) -> flint.fm
 
 
 def _row_closure_direct(R0: flint.fmpq_mat, mats: Sequence[flint.fmpq_mat]) -> flint.fmpq_mat:
-    """:func:`_row_closure` by dense rational elimination (RREF of the stacked products per step)."""
+    """:func:`row_closure` by dense rational elimination (RREF of the stacked products per step)."""
     n = R0.ncols()
-    B = _row_basis(R0)
+    B = row_basis(R0)
     while True:
         r = B.nrows()
         if r == n or r == 0:
             return B
         new = [B * M for M in mats]
-        B2 = _row_basis(_vstack([B, *new], n))
+        B2 = row_basis(stack_rows([B, *new], n))
         if B2.nrows() == r:
             return B
         B = B2
 
 
-def _kernel(R: flint.fmpq_mat) -> flint.fmpq_mat:
+def kernel_basis(R: flint.fmpq_mat) -> flint.fmpq_mat:
     """Basis of the right kernel of R as the columns of an ``n x k`` matrix."""
     n = R.ncols()
     if R.nrows() == 0:
@@ -110,20 +122,21 @@ def _kernel(R: flint.fmpq_mat) -> flint.fmpq_mat:
     return K
 
 
-def _annihilator(X: flint.fmpq_mat) -> flint.fmpq_mat:
+def annihilator(X: flint.fmpq_mat) -> flint.fmpq_mat:
     """Rows spanning the orthogonal complement of the column space of X."""
-    K = _kernel(X.transpose())
+    K = kernel_basis(X.transpose())
     return K.transpose()
 
 
-def _cols_closure(X: flint.fmpq_mat, A: flint.fmpq_mat) -> flint.fmpq_mat:
+def cols_closure(X: flint.fmpq_mat, A: flint.fmpq_mat) -> flint.fmpq_mat:
     """Smallest A-invariant subspace containing the columns of X (as columns)."""
     if X.ncols() == 0:
         return X
-    return _row_basis(_row_closure(X.transpose(), [A.transpose()])).transpose()
+    return row_basis(row_closure(X.transpose(), [A.transpose()])).transpose()
 
 
-def _to_fraction_cols(K: flint.fmpq_mat) -> list[list[Fraction]]:
+def to_fraction_cols(K: flint.fmpq_mat) -> list[list[Fraction]]:
+    """The columns of ``K`` as lists of Fractions."""
     out = []
     for c in range(K.ncols()):
         out.append([Fraction(int(K[r, c].p), int(K[r, c].q)) for r in range(K.nrows())])
@@ -132,9 +145,6 @@ def _to_fraction_cols(K: flint.fmpq_mat) -> list[list[Fraction]]:
 
 # --------------------------------------------------------------------------------------------
 # closure modulo primes, lifted to Q and proved
-
-#: primes tried by :func:`_lift_closure` before it leaves the closure to the rational iteration
-MAX_PRIMES = 48
 
 
 def _primes_below(bound: int, count: int) -> list[int]:
@@ -230,16 +240,16 @@ def _ratrecon(a: int, m: int) -> Fraction | None:
 
 
 def _lift_closure(R0: flint.fmpq_mat, mats: Sequence[flint.fmpq_mat], primes: Sequence[int] | None = None) -> flint.fmpq_mat | None:
-    """The closure of :func:`_row_closure` via primes, proved over Q; None when not proved.
+    """The closure of :func:`row_closure` via primes, proved over Q; None when not proved.
 
-    ``primes`` (default the :data:`MAX_PRIMES` largest below sqrt(2^53 / (n + 2))) must keep
+    ``primes`` (default the ``max_primes`` (:mod:`glocal_verify.config`) largest below sqrt(2^53 / (n + 2))) must keep
     n p^2 < 2^53; any primes are sound (unlucky ones only delay or prevent the proof).
     """
     n = R0.ncols()
     R0i = _int_entries(R0)
     Mi = [_int_entries(M) for M in mats]
     if primes is None:
-        primes = _primes_below(math.isqrt((1 << 53) // (n + 2)), MAX_PRIMES)
+        primes = _primes_below(math.isqrt((1 << 53) // (n + 2)), config.get("max_primes"))
     best: tuple[int, tuple[int, ...]] | None = None
     residues: list[list[int]] = []
     modulus = 1

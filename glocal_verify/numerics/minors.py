@@ -49,6 +49,8 @@ Arithmetic
 
 from __future__ import annotations
 
+from glocal_verify import config
+
 import itertools
 import math
 from collections.abc import Mapping, MutableMapping, Sequence
@@ -74,12 +76,6 @@ __all__ = [
     "twin_modes",
 ]
 
-#: input sets with more than this many unmeasured input agents are not certified here
-MAX_INPUTS = 4
-#: at most this many choices of M'' are tried per input set
-MAX_ROW_CHOICES = 6
-#: at most this many extra replaced rows (anchors) per input set
-MAX_EXTRA_ROWS = 80
 _UNREACHABLE = 1 << 30
 #: the shared rational zero (Fractions are immutable): rows that use it for their zero entries
 #: are read without a comparison per entry (:func:`verified_invariant_subspace`)
@@ -434,7 +430,7 @@ def full_rank_certificate(
     Mp = [k for k, m in enumerate(tables.measured) if m not in Iset]
     k = len(Ip)
     n = len(tables.grounded)
-    if k > MAX_INPUTS or len(Mp) < k:
+    if k > config.get("minor_max_inputs") or len(Mp) < k:
         return None
     detK = _charpoly(tables, cache)
 
@@ -500,18 +496,18 @@ def full_rank_certificate(
 
     def candidates() -> Any:
         """(replaced rows, output rows) of the minors, in the order they are tried."""
-        yield from ((Ip, rows) for rows in itertools.islice(itertools.combinations(Mp, k), MAX_ROW_CHOICES))
+        yield from ((Ip, rows) for rows in itertools.islice(itertools.combinations(Mp, k), config.get("minor_max_row_choices")))
         if k == 0:
-            yield from (([int(np.argmin(tables.distance[q]))], [q]) for q in Mp[:MAX_ROW_CHOICES])
+            yield from (([int(np.argmin(tables.distance[q]))], [q]) for q in Mp[:config.get("minor_max_row_choices")])
         # one more replaced row, in another part of U: breaks factors det K_R shared by the
         # minors above (e.g. a component of G[U] that holds no input)
         if len(Mp) > k:
-            extra = [j for j in tables.anchors if j not in Ip][:MAX_EXTRA_ROWS]
+            extra = [j for j in tables.anchors if j not in Ip][:config.get("minor_max_extra_rows")]
 
             def with_extra() -> Any:
                 for j in extra:  # one per component of G[U] first (each breaks that component's det K_c)
                     yield from ((Ip + [j], rows) for rows in itertools.islice(itertools.combinations(Mp, k + 1), 1))
-                for j in extra[:MAX_ROW_CHOICES]:
+                for j in extra[:config.get("minor_max_row_choices")]:
                     yield from ((Ip + [j], rows) for rows in itertools.islice(itertools.combinations(Mp, k + 1), 1, 3))
 
             yield from (with_extra() if extra_rows is None else itertools.islice(with_extra(), extra_rows))

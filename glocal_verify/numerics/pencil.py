@@ -91,6 +91,7 @@ import scipy.sparse
 import scipy.sparse.csgraph
 import scipy.sparse.linalg
 
+from glocal_verify import config
 from glocal_verify.errors import ModelError
 from glocal_verify.numerics.balancing import (
     _REAL_CUTOFF,
@@ -108,13 +109,11 @@ __all__ = [
     "analyze_pencil",
     "direction_at",
     "pencil_matrix",
+    "cluster_points",
 ]
 
 #: seed of the fixed pseudo-random points at which the normal rank is cross-checked
 _NORMAL_RANK_SEED = 20211007
-_NORMAL_RANK_POINTS = 3
-#: below this condition number of the final square D, zeros come from eig(A - B D^{-1} C)
-_STANDARD_EIG_COND = 1e4
 
 
 # ------------------------------------------------------------------------------------------
@@ -366,11 +365,7 @@ def _direction(
     return v, res, _decide_small(res, pt.err, scale, tol)
 
 
-#: up to this many points :func:`_cluster` compares all pairs directly
-_CLUSTER_DENSE_MAX = 256
-
-
-def _cluster(values: Sequence[complex], radius: float) -> list[list[int]]:
+def cluster_points(values: Sequence[complex], radius: float) -> list[list[int]]:
     """Single-linkage clusters of points closer than ``radius`` (Euclidean, in the complex plane).
 
     The close pairs come from a k-d tree (``scipy.spatial.cKDTree.query_pairs``), the
@@ -386,7 +381,7 @@ def _cluster(values: Sequence[complex], radius: float) -> list[list[int]]:
         return []
     order = sorted(range(n), key=lambda i: (values[i].real, values[i].imag))
     pts = np.array([[complex(v).real, complex(v).imag] for v in values], dtype=float)
-    if n <= _CLUSTER_DENSE_MAX:
+    if n <= config.get("cluster_dense_max"):
         # few points (a cluster pencil's zeros): all pairwise distances, without the tree's set-up
         d = np.hypot(pts[:, None, 0] - pts[None, :, 0], pts[:, None, 1] - pts[None, :, 1])
         pairs = np.argwhere(np.triu(d <= radius, 1)) if radius >= 0 else np.zeros((0, 2), int)
@@ -512,7 +507,7 @@ def analyze_pencil(
     eigs: list[complex] = []
     if n2 > 0:
         dcond = float(np.linalg.cond(D2)) if k > 0 else 1.0
-        if dcond <= _STANDARD_EIG_COND:
+        if dcond <= config.get("standard_eig_cond"):
             # D square and well conditioned: the zeros are eig(A - B D^{-1} C) (the Schur
             # complement of D); a standard eigenproblem is several times cheaper than QZ
             M = A2 - B2 @ np.linalg.solve(D2, C2) if k > 0 else A2
@@ -548,7 +543,7 @@ def analyze_pencil(
     rng = np.random.default_rng(_NORMAL_RANK_SEED)
     a_scale = max(float(np.abs(bal.A).max()) if bal.A.size else 0.0, 1.0)
     ranks: list[tuple[int, int]] = []
-    for _ in range(_NORMAL_RANK_POINTS):
+    for _ in range(config.get("normal_rank_points")):
         z = math.sqrt(a_scale) * (0.5 + rng.random()) * np.exp(2j * np.pi * rng.random())
         P = bal.pencil(z)
         s = np.linalg.svd(P, compute_uv=False) if P.size else np.zeros(0)

@@ -29,7 +29,7 @@ __all__ = [
     "rank_over_field",
     "poly_pencil",
     "classify_real_parts",
-    "eval_at_root",
+    "eval_at_root", "inv_mod", "rational_kernel",
     "SVD_BACKWARD_CONSTANT",
     "RankBounds",
     "rounding_error",
@@ -52,15 +52,15 @@ def _check_rows(M: ex.Rows, nrows: int, ncols: int, name: str) -> None:
 def _v_star_exact(A: Any, B: Any, C: Any) -> Any:
     """Largest (A, B)-invariant subspace in ker C (columns of an fmpq_mat)."""
     n = A.nrows()
-    V = _kernel(C) if C.nrows() else _identity(n)
+    V = rational_kernel(C) if C.nrows() else _identity(n)
     while True:
         W = _hstack(V, B) if B.ncols() else V
         if W.ncols() == 0:
             Wperp = _identity(n)
         else:
-            Wperp = _kernel(W.transpose()).transpose()
+            Wperp = rational_kernel(W.transpose()).transpose()
         stack = _vstack(C, Wperp * A) if C.nrows() else Wperp * A
-        Vn = _kernel(stack) if stack.nrows() else _identity(n)
+        Vn = rational_kernel(stack) if stack.nrows() else _identity(n)
         if Vn.ncols() == V.ncols():
             return V
         V = Vn
@@ -109,7 +109,7 @@ def _pivots(R: Any, r: int) -> list[int]:
     return piv
 
 
-def _kernel(M: Any) -> Any:
+def rational_kernel(M: Any) -> Any:
     """Basis of the right kernel over Q as the columns of an fmpq_mat."""
     n = M.ncols()
     if M.nrows() == 0:
@@ -139,7 +139,7 @@ def _intersect(X: Any, Y: Any) -> Any:
     n = X.nrows()
     if X.ncols() == 0 or Y.ncols() == 0:
         return flint.fmpq_mat(n, 0)
-    K = _kernel(_hstack(X, -Y))
+    K = rational_kernel(_hstack(X, -Y))
     if K.ncols() == 0:
         return flint.fmpq_mat(n, 0)
     Ka = _mat(K.tolist()[: X.ncols()], X.ncols(), K.ncols())
@@ -185,7 +185,8 @@ def poly_pencil(A: ex.Rows, B: ex.Rows, C: ex.Rows, n: int, m: int, p: int) -> l
     return rows
 
 
-def _inv_mod(a: Any, f: Any) -> Any:
+def inv_mod(a: Any, f: Any) -> Any:
+    """The inverse of ``a`` in the field Q[x]/(f) (f irreducible)."""
     g, s, _t = a.xgcd(f)
     if g.degree() != 0:
         raise AssertionError("division by a zero divisor of Q[x]/(f): f is not irreducible")
@@ -201,7 +202,7 @@ def _echelon_mod(M: Sequence[Sequence[Any]], f: Any, ncols: int) -> tuple[list[l
         if k is None:
             continue
         rows[r], rows[k] = rows[k], rows[r]
-        inv = _inv_mod(rows[r][col], f)
+        inv = inv_mod(rows[r][col], f)
         rows[r] = [(e * inv) % f for e in rows[r]]
         for i in range(len(rows)):
             if i != r and not rows[i][col].is_zero():
@@ -360,7 +361,7 @@ def kernel_over_field(M: Sequence[Sequence[Any]], f: Any, ncols: int) -> FieldKe
     if not M:
         return FieldKernel(f, tuple(tuple(flint.fmpq_poly(int(i == j)) for i in range(ncols)) for j in range(ncols)))
     if f.degree() == 1:  # Q[x]/(f) = Q: flint's RREF over Q (the RREF is unique, so the same basis)
-        Kq = _kernel(ex.at_rational_root(M, f, ncols))
+        Kq = rational_kernel(ex.at_rational_root(M, f, ncols))
         return FieldKernel(f, tuple(tuple(flint.fmpq_poly(Kq[i, c]) for i in range(ncols)) for c in range(Kq.ncols())))
     R, piv = _echelon_mod(M, f, ncols)
     free = [j for j in range(ncols) if j not in piv]
@@ -634,7 +635,6 @@ def analyze_pencil_exact(
 
 # ------------------------------------------------------------------------------------------
 # floating-point certificates (rigorous bounds that make a numeric verdict exact-sound)
-
 _EPS = float(np.finfo(float).eps)
 
 #: the stated constant c of the SVD backward error used by every rank certificate: the

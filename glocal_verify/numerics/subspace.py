@@ -17,15 +17,50 @@ import numpy as np
 from glocal_verify.numerics.tolerance import Decision, Tolerance
 
 __all__ = [
+    "SVD_BACKWARD_CONSTANT",
     "Subspace",
     "decide_with_error",
+    "svd_rank_bound",
 ]
 
 EPS = float(np.finfo(float).eps)
+_U = EPS / 2.0
+#: constant c of the SVD backward-error bound c * max(m, n) * eps * ||M||_2 used for ranks
+SVD_BACKWARD_CONSTANT = 10.0
 
 
 # --------------------------------------------------------------------------------------------
 # decisions with an error estimate
+
+
+def svd_rank_bound(M: np.ndarray) -> tuple[np.ndarray, float]:
+    """Singular values of ``M`` and a rigorous bound on their distance to those of the exact matrix.
+
+    ``M`` holds correctly rounded copies of exact entries. The computed singular values are
+    those of ``M + E`` with ``||E||_2 <= c max(m, n) eps ||M||_2`` (backward stability of the
+    Golub-Kahan SVD, ``c = SVD_BACKWARD_CONSTANT = 10``), and the rounding of the input adds
+    ``u ||M||_F``; by Weyl's theorem for singular values each computed ``s_k`` is within
+
+    .. math:: \\beta = c \\max(m, n)\\, \\varepsilon\\, s_1 (1 + 2\\varepsilon) + u \\|M\\|_F
+
+    of the k-th singular value of the exact matrix. A singular value ``s_k > beta`` is
+    certainly nonzero; a smaller one proves nothing (it is never read as zero).
+
+    Parameters
+    ----------
+    M : ndarray
+        A real matrix (correctly rounded from exact data).
+
+    Returns
+    -------
+    tuple
+        ``(singular values (descending), beta)``.
+    """
+    if M.size == 0:
+        return np.zeros(0), 0.0
+    sv = np.linalg.svd(M, compute_uv=False)
+    beta = SVD_BACKWARD_CONSTANT * max(M.shape) * EPS * float(sv[0]) * (1 + 2 * EPS) + _U * float(np.linalg.norm(M, "fro"))
+    return sv, beta
 
 
 def decide_with_error(value: float, error: float, tol: Tolerance, scale: float = 1.0) -> Decision:

@@ -32,7 +32,7 @@ Entries
     certified checks add it to their own error terms.
 
 The update is kept only when its bounds are as good as those of ``eigh`` (module constant
-``UPDATE_ACCEPT``: its eigenvalue radius within 1.5 times the larger of the base's and the one an
+``update_accept`` (:mod:`glocal_verify.config`): its eigenvalue radius within 1.5 times the larger of the base's and the one an
 ``eigh`` of the whole matrix carries); otherwise the caller decomposes ``L_q`` afresh.
 """
 
@@ -47,23 +47,18 @@ from typing import Sequence
 import numpy as np
 import scipy.sparse
 
+from glocal_verify import config
 from glocal_verify.numerics.rank_one import RankOneFactor, rank_one_factor
 from glocal_verify.numerics.spectrum import EPS, Spectrum
 from glocal_verify.numerics.spectrum import gamma_bound as gamma
 
-__all__ = ["UpdatedSpectrum", "update_spectrum", "UPDATE_ACCEPT"]
+__all__ = ["UpdatedSpectrum", "update_spectrum"]
 
-#: an update is kept when its certified eigenvalue radius (:attr:`Spectrum.error_radius`, which
-#: holds its residual and orthonormality bounds) is at most this many times the larger of the
-#: base spectrum's and the one an eigh of the whole matrix carries (update_spectrum)
-UPDATE_ACCEPT = 1.5
 #: columns per block of the certificate's products (bounded temporaries); more when rotations
 #: are many, since each rotation costs a call per block
 _COLS = 256
 _COLS_ROTATED = 1024
 _U = EPS / 2.0
-#: columns a factored spectrum keeps at most from one request (more: a request for most of the basis)
-_KEEP_COLUMNS_MAX = 2048
 
 
 @dataclass(frozen=True)
@@ -221,7 +216,7 @@ class UpdatedSpectrum(Spectrum):
             if not np.all(unit):
                 got[:, ~unit] = inner.apply(Y[:, ~unit])
             fresh = {i: got[:, k] for k, i in enumerate(want)}
-            if len(want) <= _KEEP_COLUMNS_MAX:  # a request for most of the basis is not kept (read vectors instead)
+            if len(want) <= config.get("keep_columns_max"):  # a request for most of the basis is not kept (read vectors instead)
                 for i, col in fresh.items():
                     col = col.copy()
                     col.setflags(write=False)
@@ -385,7 +380,7 @@ def update_spectrum(matrix: np.ndarray | scipy.sparse.csr_matrix, base: Spectrum
     -------
     UpdatedSpectrum or None
         None when a factor fails (:func:`~glocal_verify.numerics.rank_one.rank_one_factor`) or
-        the certified bounds are not as good as ``eigh``'s (``UPDATE_ACCEPT``): the caller
+        the certified bounds are not as good as ``eigh``'s (``update_accept`` (:mod:`glocal_verify.config`)): the caller
         decomposes ``matrix`` afresh.
     """
     n = base.size
@@ -461,11 +456,11 @@ def update_spectrum(matrix: np.ndarray | scipy.sparse.csr_matrix, base: Spectrum
         entry_error=max(entry_rows, entry_cols) * (1.0 + gamma(8)),
     )
     sp = UpdatedSpectrum(matrix, root, tuple(factors), bounds, base if isinstance(base, UpdatedSpectrum) else None)
-    # as good as eigh: within UPDATE_ACCEPT of the base's radius, or of the radius an eigh of the
+    # as good as eigh: within update_accept of the base's radius, or of the radius an eigh of the
     # whole matrix carries (its certificate's product rounding, ~N^2 u for delocalized
     # eigenvectors, times 2 max|w|), whichever is larger: a base built from small blocks is far
     # sharper than eigh, and its links may cost some of that
     eigh_level = 2.0 * gamma(n + 1) * n * float(np.max(np.abs(sp.values)))
-    if not sp.error_radius <= UPDATE_ACCEPT * max(base.error_radius, eigh_level):
+    if not sp.error_radius <= config.get("update_accept") * max(base.error_radius, eigh_level):
         return None
     return sp

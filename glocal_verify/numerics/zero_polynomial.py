@@ -50,16 +50,10 @@ from typing import Any, Mapping, Sequence
 
 import flint
 
+from glocal_verify import config
 from glocal_verify.numerics.pencil_exact import rank_over_field
 
 __all__ = ["ZeroPolynomialProof", "left_invertible_zero_polynomial", "poly_det"]
-
-#: at most this many output subsets R give exact minors mu_R
-MAX_SUBSETS = 8
-#: random compressions modulo the prime before the bounds are compared
-COMPRESSIONS = 2
-#: further attempts (one more compression and a new prime each) when the bounds do not meet
-RETRIES = 2
 
 
 @dataclass(frozen=True, slots=True)
@@ -253,7 +247,7 @@ def left_invertible_zero_polynomial(
     rng = random.Random(seed)
     d = charpoly
     minors: list[tuple[tuple[int, ...], Any]] = []
-    for R in itertools.islice(itertools.combinations(range(p_out), m), MAX_SUBSETS):
+    for R in itertools.islice(itertools.combinations(range(p_out), m), config.get("zero_polynomial_subsets")):
         num = poly_det([[numerators[M[r]][k] for k in range(m)] for r in R])
         if num.is_zero():
             continue
@@ -276,7 +270,7 @@ def left_invertible_zero_polynomial(
     factors = [] if h_q.degree() <= 0 else [(g / g.leading_coefficient(), int(e)) for g, e in h_q.factor()[1]]
     bounds: dict[int, int] = {}
     inv = invariant_factor if invariant_factor is not None else flint.fmpq_poly(1)
-    for attempt in range(RETRIES + 1):
+    for attempt in range(config.get("zero_polynomial_retries") + 1):
         p = _prime(values, used, rng)
         used.add(p)
         R0, mu0 = next(((R, mu) for R, mu in minors if _poly_mod(mu, p).degree() == mu.degree()), (None, None))
@@ -285,7 +279,7 @@ def left_invertible_zero_polynomial(
         h_p = _poly_mod(mu0, p)
         for _, mu in minors:
             h_p = h_p.gcd(_poly_mod(mu, p))
-        for _ in range(COMPRESSIONS + attempt):
+        for _ in range(config.get("zero_polynomial_compressions") + attempt):
             if h_p.degree() <= 0:
                 break
             c = _compression_mod_p(n, A, F, M, p, rng)

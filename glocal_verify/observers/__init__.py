@@ -4,7 +4,13 @@
 - :mod:`.uio_existence` -- existence of the UIO (Chen, Patton & Zhang) and its certificates;
 - :mod:`.uio` -- the verified UIO design of eqs. ``uio_conds_1``-``uio_conds_3``;
 - :mod:`.uio_modal` -- the same default design and its Hurwitz certificate from the cluster's
-  modal structure (one symmetric eigenproblem of the interior block; large clusters).
+  modal structure (one symmetric eigenproblem of the interior block; large clusters);
+- :mod:`.uio_verdict`, :mod:`.uio_modal_verdict` -- the rule of ``local.uio`` (existence, design
+  and certified verification per mode);
+- :mod:`.central_verdict` -- the rule of ``central.observer``.
+
+The two observer conditions have their rules here because each certifies an observer it
+designs first.
 
 Layer: imports :mod:`glocal_verify.analysis` and below.
 """

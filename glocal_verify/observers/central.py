@@ -51,12 +51,13 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
+from glocal_verify import config
 from glocal_verify.analysis.modal import EigenGroupPart, form_bases, modal_decomposition
 from glocal_verify.analysis.unobservable import (
     certified_unobservable,
     unobservable_subspace,
 )
-from glocal_verify.analysis.zda_exact import _transfer
+from glocal_verify.analysis.transfer import laplacian_transfer
 from glocal_verify.model import System
 from glocal_verify.numerics.spectrum import EPS, product_rounding
 from glocal_verify.numerics.subspace import Subspace
@@ -66,7 +67,6 @@ from glocal_verify.numerics.zero_polynomial import poly_det
 from glocal_verify.spec.types import NORMAL_MODE
 
 __all__ = [
-    "CERTIFY_MAX_STATES",
     "CentralObserver",
     "StabilityCertificate",
     "certify_observable_stability",
@@ -75,11 +75,6 @@ __all__ = [
     "routh_hurwitz",
     "routh_hurwitz_poly",
 ]
-
-#: largest observable part (states) for the dense Bauer-Fike certificate
-CERTIFY_MAX_STATES = 800
-
-DEFAULT_MAX_DESIGN = 100
 
 
 @dataclass(frozen=True, slots=True)
@@ -222,7 +217,7 @@ def design_central_observer(
     tol: Tolerance = DEFAULT_TOLERANCE,
     *,
     mode: str = NORMAL_MODE,
-    max_design: int = DEFAULT_MAX_DESIGN,
+    max_design: int | None = None,
 ) -> CentralObserver:
     """Gain H of the centralised observer (eq. ``obs_cent``) for ``A_1``, stable on the observable part.
 
@@ -245,13 +240,16 @@ def design_central_observer(
         Tolerance of the modal decomposition (:func:`~glocal_verify.analysis.unobservable.unobservable_subspace`).
     mode : str
         The mode the observer is built for (the paper: the normal mode).
-    max_design : int
-        Largest designed block for the Riccati design.
+    max_design : int, optional
+        Largest designed block for the Riccati design (default: the tunable
+        ``central_max_design`` of :mod:`glocal_verify.config`, 100).
 
     Returns
     -------
     CentralObserver
     """
+    if max_design is None:
+        max_design = int(config.get("central_max_design"))
     C = system.C()
     p = C.shape[0]
     n = system.n
@@ -470,7 +468,7 @@ def observer_charpoly_exact(system: System, H: Any, mode: str = NORMAL_MODE) -> 
     rows = pos + vel
     p = len(rows)
     agents = sorted(set(rows))
-    d_t, Nm = _transfer(system, agents, mode)
+    d_t, Nm = laplacian_transfer(system, agents, mode)
     col = {a: k for k, a in enumerate(agents)}
     gq = flint.fmpq(system.gamma_q.numerator, system.gamma_q.denominator)
     sx = flint.fmpq_poly([0, 1])
@@ -544,7 +542,7 @@ def certify_observable_stability(system: System, obsv: CentralObserver) -> Stabi
     ``sigma_min(V)`` lowered by its own SVD backward error ``10 (2N) eps ||V||``). Stable iff
     ``max Re lam + r < 0``; unstable iff a disc isolated from all others (hence holding exactly
     one eigenvalue) lies in ``Re > 0``; undecided otherwise, or when N is not proven, or when
-    the observable part exceeds :data:`CERTIFY_MAX_STATES` states (dense certificate).
+    the observable part exceeds ``central_certify_max_states`` (:mod:`glocal_verify.config`) states (dense certificate).
 
     Parameters
     ----------
@@ -560,9 +558,9 @@ def certify_observable_stability(system: System, obsv: CentralObserver) -> Stabi
     k = 2 * n - cu.dim_lower
     if k == 0:
         return StabilityCertificate("stable", -math.inf, 0.0, "")
-    if k > CERTIFY_MAX_STATES:
+    if k > config.get("central_certify_max_states"):
         return StabilityCertificate(
-            "undecided", math.nan, math.inf, f"the observable part has {k} states, more than the dense certificate handles ({CERTIFY_MAX_STATES})"
+            "undecided", math.nan, math.inf, f"the observable part has {k} states, more than the dense certificate handles ({config.get('central_certify_max_states')})"
         )
     Nb = np.array([[float(x) for x in b] for b in cu.exact_basis]).T if cu.exact_basis else np.zeros((2 * n, 0))
     if Nb.shape[1]:

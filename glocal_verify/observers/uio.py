@@ -33,9 +33,9 @@ of (A_1, C) are eigenvalues of F for every K_1 and must be stable.
 Default poles (:func:`default_poles`): with sigma = gamma / 2, the observable eigenvalues mu
 of A_1 with Re mu <= -0.9 sigma stay, the others move to -|Re mu| - sigma + i Im mu; only the
 moved ones are placed (ordered Schur form), which keeps the gain small on large clusters. If
-the resulting F is not certified Hurwitz (:func:`hurwitz_certificate`) and the gain is large
+the resulting F is not certified Hurwitz (:func:`~glocal_verify.numerics.hurwitz.hurwitz_certificate`) and the gain is large
 (||K1||_2 > 10 max(||A1||_2, 1)), the design is redone moving only the modes with
-Re > -theta sigma for theta in :data:`SLOW_LADDER` (0.3, 0.1, 0.02):
+Re > -theta sigma for theta in ``slow_ladder`` (:mod:`glocal_verify.config`) (0.3, 0.1, 0.02):
 on large clusters measured at a few agents the slow, stable modes are weakly observable, and
 moving them took gains of 1e3-1e10 and eigenvalue condition numbers that no certificate can
 accept; keeping them costs margin (reported), not correctness. User poles (``poles`` of ``[[clusters.observers]]``) are
@@ -50,27 +50,23 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from glocal_verify import config
 from glocal_verify.analysis.cluster_modal import interior_modes, state_rounding_bound
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import LocalObserver, System
+from glocal_verify.numerics.hurwitz import HurwitzCertificate, hurwitz_eigenvalues, hurwitz_reduced, matrix_operator, norm2
 from glocal_verify.numerics.threads import single_threaded
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
 from glocal_verify.observers.uio_existence import (
-    _LADDER_GAIN,
-    SLOW_LADDER,
     UIOExistence,
-    _hurwitz,
-    _hurwitz_reduced,
-    _norm2,
-    _operator,
     _place_dual,
     _place_slow,
-    _decoupling,
+    decoupling,
     _Reduction,
     _slow_schur,
     uio_existence,
 )
-from glocal_verify.observers.uio_modal import MODAL_MIN_AGENTS, design_uio_modal
+from glocal_verify.observers.uio_modal import design_uio_modal
 from glocal_verify.results import Status
 from glocal_verify.spec.types import NORMAL_MODE, Label
 
@@ -119,7 +115,7 @@ class UnknownInputObserver:
     hurwitz_margin : float
         -max Re eig(F).
     hurwitz : Status
-        :func:`hurwitz_certificate` verdict on F (eigenvalue sensitivity included).
+        :func:`~glocal_verify.numerics.hurwitz.hurwitz_certificate` verdict on F (eigenvalue sensitivity included).
     hurwitz_ratio : float
         Worst -Re lambda_i / rho_i of that certificate.
     notes : tuple of str
@@ -189,19 +185,15 @@ def _place(Aoo: np.ndarray, Co: np.ndarray, poles: np.ndarray, tol: Tolerance) -
     return _place_dual(Aoo.T, Co.T, poles, tol).T
 
 
-#: smallest F certified through the reduction of the default design
-_REDUCED_MIN = 150
-
-
-def _certify(F: np.ndarray, Qo: np.ndarray, Qu: np.ndarray, red: _Reduction | None, tol: Tolerance) -> tuple[Status, float, np.ndarray]:
-    """The Hurwitz certificate of F: reduced (:func:`~glocal_verify.observers.uio_existence._hurwitz_reduced`,
+def _certify(F: np.ndarray, Qo: np.ndarray, Qu: np.ndarray, red: _Reduction | None, tol: Tolerance) -> HurwitzCertificate:
+    """The Hurwitz certificate of F: reduced (:func:`~glocal_verify.numerics.hurwitz.hurwitz_reduced`,
     from the default design's Schur basis W = [Qo Q, Qu]) when it applies and F has at least
-    :data:`_REDUCED_MIN` states (below that the dense eigen-decomposition is cheap), else dense."""
-    if red is not None and F.shape[0] >= _REDUCED_MIN and Qo.shape[1] + Qu.shape[1] == F.shape[0]:
-        got = _hurwitz_reduced(F, np.hstack([Qo @ red.Q, Qu]), red.kept, red.sub, tol)
+    ``uio_reduced_min_states`` (:mod:`glocal_verify.config`) states (below that the dense eigen-decomposition is cheap), else dense."""
+    if red is not None and F.shape[0] >= config.get("uio_reduced_min_states") and Qo.shape[1] + Qu.shape[1] == F.shape[0]:
+        got = hurwitz_reduced(F, np.hstack([Qo @ red.Q, Qu]), red.kept, red.sub, tol)
         if got is not None:
             return got
-    return _hurwitz(F, tol)
+    return hurwitz_eigenvalues(F, tol)
 
 
 @single_threaded
@@ -241,13 +233,13 @@ def design_uio(
     the observable part (the kept and placed eigenvalues are read off it), a small pole
     placement on the slow block (closed form when it has as many independent outputs as
     states), and the Hurwitz certificate of F with its eigenvalues. With default poles and at
-    least :data:`_REDUCED_MIN` states the certificate reuses that Schur form: W = [Qo Q, Qu]
+    least ``uio_reduced_min_states`` (:mod:`glocal_verify.config`) states the certificate reuses that Schur form: W = [Qo Q, Qu]
     block-triangularises F^T, only the small trailing block (moved and unobservable modes) is
     factorised, and the eigenvector condition numbers come from triangular back substitution
-    (:func:`~glocal_verify.observers.uio_existence._hurwitz_reduced`: the same bound
+    (:func:`~glocal_verify.numerics.hurwitz.hurwitz_reduced`: the same bound
     kappa_i rtol ||F||_2, enlarged by the entries the reduction drops; the dense
     eigen-decomposition with left and right vectors when the reduction does not apply). With
-    default poles, an F that is not certified is redesigned along :data:`SLOW_LADDER` (one
+    default poles, an F that is not certified is redesigned along ``slow_ladder`` (:mod:`glocal_verify.config`) (one
     more small placement and certificate per step; the notes say so).
     """
     ex_ = existence if existence is not None else uio_existence(A, E, C, tol)
@@ -262,16 +254,16 @@ def design_uio(
     Qo = ex_.split.Qo
     no = Qo.shape[1]
     notes: list[str] = []
-    Aoo = Qo.T @ np.asarray(_operator(A1) @ Qo)
+    Aoo = Qo.T @ np.asarray(matrix_operator(A1) @ Qo)
     Co = C @ Qo
     placed: np.ndarray
-    ladder: tuple[float, ...] = (SLOW_LADDER[0],)
+    ladder: tuple[float, ...] = (config.get("slow_ladder")[0],)
     sch: tuple[np.ndarray, np.ndarray, int] | None = None
     red: _Reduction | None = None
     if poles is None:
         if no:
             sch = _slow_schur(Aoo, gamma)
-            ladder = SLOW_LADDER if sch[2] < no else ladder
+            ladder = config.get("slow_ladder") if sch[2] < no else ladder
             Lo, want, placed, red = _place_slow(Aoo, Co, gamma, tol, ladder[0], sch)
         else:
             Lo, want, placed = np.zeros((0, C.shape[0])), np.zeros(0), np.zeros(0)
@@ -295,16 +287,18 @@ def design_uio(
     K1 = Qo @ Lo
     F = A1 - K1 @ C
     Qu = ex_.split.Qu
-    hurwitz, hurwitz_ratio, eig = _certify(F, Qo, Qu, red, tol)
+    cert = _certify(F, Qo, Qu, red, tol)
+    hurwitz, hurwitz_ratio, eig = cert.status, cert.ratio, cert.eigenvalues
     for theta in ladder[1:]:
         # moving weakly observable slow modes that are already stable can take a huge gain
         # and make F too ill-conditioned to certify: keep more of them, move only the slowest
         # (a small gain means the trouble is elsewhere, e.g. a repeated eigenvalue: no retry)
-        if hurwitz is Status.HOLDS or _norm2(K1) <= _LADDER_GAIN * max(_norm2(A1), 1.0):
+        if hurwitz is Status.HOLDS or norm2(K1) <= config.get("uio_ladder_gain") * max(norm2(A1), 1.0):
             break
         Lo2, want2, placed2, red2 = _place_slow(Aoo, Co, gamma, tol, theta, sch)
         F2 = A1 - (Qo @ Lo2) @ C
-        h2, r2, e2 = _certify(F2, Qo, Qu, red2, tol)
+        cert2 = _certify(F2, Qo, Qu, red2, tol)
+        h2, r2, e2 = cert2.status, cert2.ratio, cert2.eigenvalues
         notes.append(
             f"default placement (modes with Re > -{ladder[ladder.index(theta) - 1]:g} sigma moved) not certified Hurwitz "
             f"(ratio {hurwitz_ratio:.3g}, ||K1||_2 {float(np.linalg.norm(K1, 2)):.3g}); retried moving only Re > -{theta:g} sigma"
@@ -340,8 +334,9 @@ def _modal_design(system: System, observer: LocalObserver, mode: str, C: np.ndar
     """The design dict of :func:`design_uio` from :func:`~glocal_verify.observers.uio_modal.design_uio_modal`
     (None when the rank condition does not hold or the modal basis does not apply)."""
     cm = system.cluster_model(observer.cluster, mode)
-    rank_st, h = _decoupling(cm.E, C, tol)
-    if rank_st is not Status.HOLDS or h is None:
+    dec = decoupling(cm.E, C, tol)
+    h = dec.h
+    if dec.status is not Status.HOLDS or h is None:
         return None
     idx = {a: k for k, a in enumerate(cm.nodes)}
     try:
@@ -413,7 +408,7 @@ def local_uio(
         (:func:`~glocal_verify.observers.uio_modal.design_uio_modal`: the same default poles
         from one eigh of the cluster's interior block, certified by its modal bound; used
         with default poles only, else dense) or ``auto`` (modal from
-        :data:`~glocal_verify.observers.uio_modal.MODAL_MIN_AGENTS` agents on).
+        ``modal_min_agents`` (:mod:`glocal_verify.config`) agents on).
 
     Raises
     ------
@@ -424,7 +419,7 @@ def local_uio(
     C = cm.C(observer.positions, observer.velocities)
     want = poles if poles is not None else (None if observer.poles is None else [float(p) for p in observer.poles])
     d = None
-    if want is None and (method == "modal" or (method == "auto" and len(cm.nodes) >= MODAL_MIN_AGENTS)):
+    if want is None and (method == "modal" or (method == "auto" and len(cm.nodes) >= config.get("modal_min_agents"))):
         d = _modal_design(system, observer, mode, C, tol)
     if d is None:
         try:

@@ -20,7 +20,7 @@ import flint
 
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.numerics import exact as ex
-from glocal_verify.numerics.subspace import EPS
+from glocal_verify.numerics.hurwitz import matrix_operator
 from glocal_verify.numerics.threads import single_threaded
 from glocal_verify.numerics.tolerance import (
     DEFAULT_TOLERANCE,
@@ -31,12 +31,13 @@ from glocal_verify.numerics.tolerance import (
 from glocal_verify.results import Status
 
 __all__ = [
-    "SLOW_LADDER",
+    "Decoupling",
+    "Detectability",
     "ObservableSplit",
     "UIOExistence",
     "cluster_detectability",
+    "decoupling",
     "default_poles",
-    "hurwitz_certificate",
     "is_hurwitz_exact",
     "observable_split",
     "uio_existence",
@@ -86,7 +87,7 @@ def _observable_split(A: np.ndarray, C: np.ndarray, tol: Tolerance, scale: float
     decided = True
     if C.size == 0:
         return ObservableSplit(np.zeros((n, 0)), np.eye(n), True)
-    At = _operator(A.T)
+    At = matrix_operator(A.T)
     U, s, _ = np.linalg.svd(C.T, full_matrices=False)
     keep = s > tol.upper * scale
     if np.any((s > tol.rtol * scale) & ~keep):
@@ -117,23 +118,6 @@ def _observable_split(A: np.ndarray, C: np.ndarray, tol: Tolerance, scale: float
     Qfull = np.linalg.qr(V, mode="complete")[0]
     Qu = np.ascontiguousarray(Qfull[:, k:])
     return ObservableSplit(V, Qu, decided)
-
-
-def _operator(A: np.ndarray) -> Any:
-    """A as a CSR matrix when it is sparse (the cluster matrices A_1 are: a few nonzeros per
-    row), else A itself; products A V are then O(nnz(A) k) instead of O(n^2 k) and differ from
-    the dense ones only by rounding (each entry is the same sum of products)."""
-    n = A.shape[0]
-    if n < _SPARSE_MIN or np.count_nonzero(A) > _SPARSE_DENSITY * n * n:
-        return A
-    import scipy.sparse
-
-    return scipy.sparse.csr_matrix(A)
-
-
-#: A^T products go through a CSR matrix for n >= _SPARSE_MIN and density <= _SPARSE_DENSITY
-_SPARSE_MIN = 64
-_SPARSE_DENSITY = 0.05
 
 
 def _keep_threshold(gamma: float) -> float:
@@ -198,13 +182,6 @@ def _schur_eigvals(T: np.ndarray) -> np.ndarray:
     return np.asarray(out)
 
 
-#: fallback ladder of the default design: the modes with Re > -theta * sigma are moved, for
-#: theta in this order, until F is certified Hurwitz (0.9 is :func:`default_poles`' rule)
-SLOW_LADDER = (0.9, 0.3, 0.1, 0.02)
-#: the ladder is climbed only while ||K1||_2 > _LADDER_GAIN * max(||A1||_2, 1)
-_LADDER_GAIN = 10.0
-
-
 def _slow_schur(Aoo: np.ndarray, gamma: float) -> tuple[np.ndarray, np.ndarray, int]:
     """Real Schur form of Aoo^T ordered with the eigenvalues Re <= -0.9 sigma first."""
     import scipy.linalg
@@ -239,7 +216,7 @@ def _place_slow(
     Returns (Lo, requested poles, eigenvalues of Aoo - Lo Co, the reduction), the eigenvalues
     read off the (block) triangular form instead of a new eigen-decomposition; the reduction
     (the orthogonal basis and the size of the untouched quasi-triangular block) lets
-    :func:`_hurwitz_reduced` certify F without a new dense eigen-decomposition.
+    :func:`~glocal_verify.numerics.hurwitz.hurwitz_reduced` certify F without a new dense eigen-decomposition.
     """
     import scipy.linalg
 
@@ -324,163 +301,6 @@ def _place_dual(X: np.ndarray, Y: np.ndarray, poles: np.ndarray, tol: Tolerance)
     return np.asarray(Vh[:r].T @ res.gain_matrix)
 
 
-def hurwitz_certificate(F: np.ndarray, tol: Tolerance = DEFAULT_TOLERANCE) -> tuple[Status, float]:
-    """Decide whether F is Hurwitz, allowing for eigenvalue sensitivity.
-
-    With backward error delta = rtol * ||F||_2 and kappa_i = 1 / |y_i^H x_i| the condition
-    number of eigenvalue lambda_i (unit left and right eigenvectors), lambda_i is known to within
-    rho_i = kappa_i * delta. F is certified Hurwitz when Re lambda_i < -band * rho_i for every i,
-    certainly not Hurwitz when some Re lambda_i > band * rho_i, undecided otherwise.
-
-    Parameters
-    ----------
-    F : ndarray
-    tol : Tolerance
-
-    Returns
-    -------
-    (Status, float)
-        The verdict and the worst ratio -Re lambda_i / rho_i (the margin in units of uncertainty).
-    """
-    st, worst, _ = _hurwitz(F, tol)
-    return st, worst
-
-
-def _hurwitz(F: np.ndarray, tol: Tolerance) -> tuple[Status, float, np.ndarray]:
-    """:func:`hurwitz_certificate` and the eigenvalues of F (one eigen-decomposition)."""
-    import scipy.linalg
-
-    if F.size == 0:
-        return Status.HOLDS, float("inf"), np.zeros(0, dtype=complex)
-    w, vl, vr = scipy.linalg.eig(F, left=True, right=True)
-    vl = vl / np.linalg.norm(vl, axis=0)
-    vr = vr / np.linalg.norm(vr, axis=0)
-    kappa = 1.0 / np.maximum(np.abs(np.sum(vl.conj() * vr, axis=0)), 1e-300)
-    rho = kappa * tol.rtol * max(_norm2(F), 1e-300)
-    ratio = -w.real / rho
-    return _decide_ratios(ratio, tol), float(np.min(ratio)), w
-
-
-def _real_to_complex_schur(S: np.ndarray) -> np.ndarray:
-    """Complex upper triangular unitarily similar to the real quasi-triangular S (each 2 x 2
-    block split by a Givens rotation, as :func:`scipy.linalg.rsf2csf`, without the basis)."""
-    T = S.astype(complex)
-    n = T.shape[0]
-    for m in range(n - 1, 0, -1):
-        if T[m, m - 1] != 0.0:
-            mu = np.linalg.eigvals(T[m - 1 : m + 1, m - 1 : m + 1]) - T[m, m]
-            r = float(np.hypot(abs(mu[0]), abs(T[m, m - 1])))
-            c, sn = mu[0] / r, T[m, m - 1] / r
-            G = np.array([[np.conj(c), sn], [-sn, c]])
-            T[m - 1 : m + 1, m - 1 :] = G @ T[m - 1 : m + 1, m - 1 :]
-            T[: m + 1, m - 1 : m + 1] = T[: m + 1, m - 1 : m + 1] @ G.conj().T
-        T[m, m - 1] = 0.0
-    return T
-
-
-def _triangular_kappa(T: np.ndarray, twin: np.ndarray | None = None) -> np.ndarray:
-    """Condition numbers kappa_i = ||x_i|| ||y_i|| / |y_i^H x_i| of the eigenvalues T[i, i] of an
-    upper triangular T, from its right (x_i) and left (y_i) eigenvectors by back substitution.
-
-    x_i has x_i[i] = 1 and zeros below i, y_i^H has y_i[i] = 1 and zeros before i, so
-    y_i^H x_i = 1. A divisor T[j, j] - T[i, i] smaller than u (|Re| + |Im|) of T[i, i] is
-    replaced by that value (the perturbation of LAPACK's xTREVC); a non-finite result gives
-    kappa = inf (nothing can be certified from it). ``twin[i]`` True means that T[i, i] is the
-    conjugate of T[i - 1, i - 1] in a T unitarily similar to a real matrix: its condition number
-    is the same (conjugate eigenvectors of the real matrix) and is not computed again.
-    """
-    n = T.shape[0]
-    lam = np.diag(T).copy()
-    smin = np.maximum(EPS / 2 * (np.abs(lam.real) + np.abs(lam.imag)), np.finfo(float).tiny)
-    tw = np.zeros(n, dtype=bool) if twin is None else np.asarray(twin, dtype=bool)
-    cols = np.flatnonzero(~tw)  # ascending; the eigenvalues whose vectors are computed
-    nc = len(cols)
-    lc, sc = lam[cols], smin[cols]
-
-    def guard(d: np.ndarray, m: np.ndarray) -> np.ndarray:
-        return np.where(np.abs(d) < m, m, d)
-
-    X = np.zeros((n, nc), dtype=complex)  # columns: right eigenvectors of T[cols, cols]
-    Yh = np.zeros((nc, n), dtype=complex)  # rows: left eigenvectors (conjugated)
-    X[cols, np.arange(nc)] = 1.0
-    Yh[np.arange(nc), cols] = 1.0
-    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        for j in range(n - 2, -1, -1):
-            a = int(np.searchsorted(cols, j + 1))  # columns c with cols[c] > j
-            if a < nc:
-                X[j, a:] = -(T[j, j + 1 :] @ X[j + 1 :, a:]) / guard(T[j, j] - lc[a:], sc[a:])
-        for j in range(1, n):
-            b = int(np.searchsorted(cols, j))  # rows c with cols[c] < j
-            if b:
-                Yh[:b, j] = -(Yh[:b, :j] @ T[:j, j]) / guard(T[j, j] - lc[:b], sc[:b])
-        kc = np.linalg.norm(X, axis=0) * np.linalg.norm(Yh, axis=1)
-    kappa = np.empty(n)
-    kappa[cols] = kc
-    for i in np.flatnonzero(tw):
-        kappa[i] = kappa[i - 1]
-    return np.where(np.isfinite(kappa), kappa, np.inf)
-
-
-#: the reduced certificate is used when the trailing (moved and unobservable) block is at most
-#: this large and the entries it drops are at most rtol ||F||_2 (else the dense one)
-_REDUCED_TAIL = 400
-
-
-def _hurwitz_reduced(F: np.ndarray, W: np.ndarray, kept: int, sub: np.ndarray, tol: Tolerance) -> tuple[Status, float, np.ndarray] | None:
-    """:func:`_hurwitz` from a known block triangularisation of F^T; None when it does not apply.
-
-    W (n x n, orthonormal columns) is such that R = W^T F^T W is block upper triangular with a
-    quasi-triangular leading block of size ``kept`` (2 x 2 blocks where ``sub`` is True): for
-    the UIO, W = [Qo Q, Qu] with Q the ordered Schur basis of the default design (the kept
-    eigenvalues stay, the moved ones and the unobservable ones form the trailing block). The
-    trailing block is brought to real Schur form, the rest of R is kept upper quasi-triangular
-    and the entries dropped below it (rounding, and the part of A_1 Qu outside Qu that the
-    numerical observable split leaves) have Frobenius norm ``d``. Then F^T is within d (plus
-    the rounding of orthogonal transformations, far below rtol ||F||_2) of a matrix similar to
-    the quasi-triangular S, and the certificate of :func:`hurwitz_certificate` is applied to
-    the eigenvalues of S (its diagonal blocks) and their condition numbers
-    (:func:`_triangular_kappa`, invariant under the unitary similarities) with
-    delta = rtol ||F||_2 + d, never smaller than the dense certificate's. Used only when
-    d <= rtol ||F||_2 and the trailing block has at most :data:`_REDUCED_TAIL` states.
-    """
-    import scipy.linalg
-
-    n = F.shape[0]
-    m = n - kept
-    if n == 0 or m > _REDUCED_TAIL or W.shape != (n, n) or len(sub) != max(kept - 1, 0):
-        return None
-    R = W.T @ np.asarray(_operator(F.T) @ W)
-    if m:
-        S2, Z2 = scipy.linalg.schur(R[kept:, kept:], output="real")
-        R[:, kept:] = R[:, kept:] @ Z2
-        R[kept:, :] = Z2.T @ R[kept:, :]
-        R[kept:, kept:] = S2
-    keep_sub = np.zeros(max(n - 1, 0), dtype=bool)
-    keep_sub[: max(kept - 1, 0)] = sub
-    if m:
-        keep_sub[kept:] = np.diag(R[kept:, kept:], -1) != 0.0
-    S = np.triu(R)
-    i = np.flatnonzero(keep_sub)
-    S[i + 1, i] = R[i + 1, i]
-    dropped = float(np.linalg.norm(R - S))
-    delta = tol.rtol * max(_norm2(F), 1e-300)
-    if not dropped <= delta:
-        return None
-    Tc = _real_to_complex_schur(S)
-    w = np.diag(Tc).copy()
-    twin = np.zeros(n, dtype=bool)
-    twin[i + 1] = True  # the second eigenvalue of every 2 x 2 block: the conjugate of the first
-    rho = _triangular_kappa(Tc, twin) * (delta + dropped)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        ratio = np.where(np.isfinite(rho), -w.real / rho, 0.0)
-    return _decide_ratios(ratio, tol), float(np.min(ratio)), w
-
-
-def _norm2(M: np.ndarray) -> float:
-    """||M||_2 (an SVD; the norm enters the uncertainty rho, so it is never underestimated)."""
-    return float(np.linalg.norm(M, 2)) if M.size else 0.0
-
-
 # --------------------------------------------------------------------------------------------
 # existence
 
@@ -522,15 +342,35 @@ class UIOExistence:
     margin: float
 
 
-def _decoupling(E: np.ndarray, C: np.ndarray, tol: Tolerance) -> tuple[Status, np.ndarray | None]:
+@dataclass(frozen=True, slots=True)
+class Decoupling:
+    """The rank condition rank(C E) = rank(E) of a UIO and, when it holds, h = E (C E)^+.
+
+    Attributes
+    ----------
+    status : Status
+    h : ndarray or None
+    """
+
+    status: Status
+    h: np.ndarray | None = None
+
+
+def decoupling(E: np.ndarray, C: np.ndarray, tol: Tolerance) -> Decoupling:
+    """Decide rank(C E) = rank(E) at ``tol`` (:func:`~glocal_verify.numerics.tolerance.numeric_rank`) and give h.
+
+    Parameters
+    ----------
+    E, C : ndarray
+    tol : Tolerance
+    """
     rE = numeric_rank(E, tol)
     rCE = numeric_rank(C @ E, tol, scale=max(rE.scale, 1e-300))
     if not (rE.decided and rCE.decided):
-        return Status.UNDECIDED, None
+        return Decoupling(Status.UNDECIDED)
     if rCE.rank < rE.rank:
-        return Status.FAILS, None
-    h = E @ np.linalg.pinv(C @ E, rcond=tol.upper)
-    return Status.HOLDS, h
+        return Decoupling(Status.FAILS)
+    return Decoupling(Status.HOLDS, E @ np.linalg.pinv(C @ E, rcond=tol.upper))
 
 
 @single_threaded
@@ -543,7 +383,8 @@ def uio_existence(A: np.ndarray, E: np.ndarray, C: np.ndarray, tol: Tolerance = 
     Re(mu) > -rtol * ||A_1|| unstable, in between undecided.
     """
     n = A.shape[0]
-    rank_st, h = _decoupling(E, C, tol)
+    dc = decoupling(E, C, tol)
+    rank_st, h = dc.status, dc.h
     empty = np.zeros(0, dtype=complex)
     if h is None:
         return UIOExistence(rank_st if rank_st is Status.UNDECIDED else Status.FAILS, rank_st, Status.FAILS if rank_st is Status.FAILS else Status.UNDECIDED, None, None, None, None, empty, None, -np.inf)
@@ -573,10 +414,28 @@ def uio_existence(A: np.ndarray, E: np.ndarray, C: np.ndarray, tol: Tolerance = 
     return UIOExistence(det, rank_st, det, h, T, A1, split, mu, mode, float(-mu[worst].real))
 
 
+@dataclass(frozen=True, slots=True)
+class Detectability:
+    """The structured detectability verdict of a cluster model (:func:`cluster_detectability`).
+
+    Attributes
+    ----------
+    status : Status
+    positions : ndarray or None
+        On failure the positions p of an unobservable mode at lam = 0 (the mode is [p; 0]).
+    by : str
+        ``"zero forcing"`` or ``"rank"``.
+    """
+
+    status: Status
+    positions: np.ndarray | None
+    by: str
+
+
 @single_threaded
 def cluster_detectability(
     L: np.ndarray, boundary: Sequence[int], positions: Sequence[int], tol: Tolerance = DEFAULT_TOLERANCE
-) -> tuple[Status, np.ndarray | None, str]:
+) -> Detectability:
     """Detectability of (C_loc, A_1) for the cluster model of eq. ``cluster_dyn2``, structurally.
 
     Assumes A = [[0, I], [-alpha L, -gamma I]] with alpha, gamma > 0 and L = L[P_i, P_i]
@@ -610,7 +469,7 @@ def cluster_detectability(
 
     Returns
     -------
-    (Status, ndarray or None, str)
+    Detectability
         The verdict, on failure the positions p of an unobservable mode at lam = 0 (the mode
         is [p; 0]), and how it was decided (``"zero forcing"`` or ``"rank"``).
     """
@@ -623,24 +482,24 @@ def cluster_detectability(
     inp = set(boundary)
     known = set(positions)
     if len(zero_forcing_closure(intra_neighbours(L), known, inp)) == n:
-        return Status.HOLDS, None, "zero forcing"
+        return Detectability(Status.HOLDS, None, "zero forcing")
     rows = [k for k in range(n) if k not in inp]
     cols = [k for k in range(n) if k not in known]
     p = np.zeros(n)
     if not rows:  # every agent on the boundary: nothing constrains the unmeasured positions
         p[cols[0]] = 1.0
-        return Status.FAILS, p, "rank"
+        return Detectability(Status.FAILS, p, "rank")
     M0 = np.asarray(L, dtype=float)[np.ix_(rows, cols)]
     if len(rows) < len(cols):
         p[cols] = np.linalg.svd(M0, full_matrices=True)[2][-1]
-        return Status.FAILS, p, "rank"
+        return Detectability(Status.FAILS, p, "rank")
     # the singular values decide; the vectors (a 2-5 times dearer SVD) only for a failure
     sv = np.linalg.svd(M0, compute_uv=False)
     d = tol.decide(sv[-1], sv[0]) if sv[0] > 0 else Decision.ZERO
     if d is Decision.ZERO:
         p[cols] = np.linalg.svd(M0, full_matrices=True)[2][-1]
-        return Status.FAILS, p, "rank"
-    return (Status.HOLDS if d is Decision.NONZERO else Status.UNDECIDED), None, "rank"
+        return Detectability(Status.FAILS, p, "rank")
+    return Detectability(Status.HOLDS if d is Decision.NONZERO else Status.UNDECIDED, None, "rank")
 
 
 # --------------------------------------------------------------------------------------------
@@ -779,12 +638,3 @@ def _uio_existence_exact_reference(A: ex.Rows, E: ex.Rows, C: ex.Rows) -> _Exact
     coeffs = [ex.to_fraction(p[k]) for k in range(p.degree() + 1)]
     st = Status.HOLDS if is_hurwitz_exact(coeffs) else Status.FAILS
     return _ExactExistence(st, Status.HOLDS, rE, rCE, len(N), coeffs, hq)
-
-
-def _decide_ratios(ratio: np.ndarray, tol: Tolerance) -> Status:
-    """Hurwitz from the ratios -Re(w_i) / rho_i: holds when all exceed the band, fails when one is below -band."""
-    if np.all(ratio > tol.band):
-        return Status.HOLDS
-    if np.any(ratio < -tol.band):
-        return Status.FAILS
-    return Status.UNDECIDED

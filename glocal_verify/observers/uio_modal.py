@@ -45,23 +45,20 @@ from typing import Any, Sequence
 import numpy as np
 import scipy.sparse
 
+from glocal_verify import config
 from glocal_verify.analysis.cluster_modal import EPS, InteriorModes, gamma_bound
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.numerics.pencil_exact import svd_error
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
 from glocal_verify.observers.uio_existence import (
-    _LADDER_GAIN,
-    SLOW_LADDER,
     _observable_split,
     _place_dual,
     default_poles,
 )
 from glocal_verify.results import Status
 
-__all__ = ["MODAL_MIN_AGENTS", "ModalCertificate", "ModalUIODesign", "design_uio_modal", "modal_certificate"]
+__all__ = ["ModalCertificate", "ModalUIODesign", "design_uio_modal", "modal_certificate"]
 
-#: clusters of at least this many agents get the modal design when the method is ``auto``
-MODAL_MIN_AGENTS = 60
 
 
 @dataclass(frozen=True, slots=True)
@@ -451,7 +448,7 @@ def design_uio_modal(
     Cost: the products with U of the boundary columns (n^2 |dP_i|), a sparse product of A_1
     with the kept columns (nnz(L) n), an m-sized split, placement and eigen-decomposition,
     and the certificate's O(n^2 (m + p)) residuals. With an uncertified design and a large
-    gain the slow modes are moved along :data:`~glocal_verify.observers.uio_existence.SLOW_LADDER`
+    gain the slow modes are moved along ``slow_ladder`` (:mod:`glocal_verify.config`)
     as in the dense design.
     """
     n = modes.size
@@ -465,8 +462,8 @@ def design_uio_modal(
     rows_i = sorted(set(_state_rows(modes, positions, velocities)[0]) | set(_state_rows(modes, positions, velocities)[1]))
     notes: list[str] = []
     best: ModalUIODesign | None = None
-    prev = SLOW_LADDER[0]
-    for theta in SLOW_LADDER:
+    prev = config.get("slow_ladder")[0]
+    for theta in config.get("slow_ladder"):
         B = _Basis(modes, alpha, gamma, theta)
         got = _design_one(A1, modes, B, C_rows, rows_i, gamma, tol, input_error, theta)
         if best is not None:
@@ -480,7 +477,7 @@ def design_uio_modal(
         if got.detectable is not Status.HOLDS or (got.certificate is not None and got.certificate.certified):
             break
         scale = max(float(abs(A1).sum(axis=1).max()), 1.0)
-        if got.gain_norm <= _LADDER_GAIN * scale or B.m == 2 * B.nb:
+        if got.gain_norm <= config.get("uio_ladder_gain") * scale or B.m == 2 * B.nb:
             break
     assert best is not None
     return dataclasses.replace(best, notes=tuple(notes))

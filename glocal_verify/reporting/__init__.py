@@ -1,12 +1,14 @@
-"""Reporting: renderers, figures, the Section IV case study and the findings report.
+"""Reporting: renderers of given results (reports, figures, the case study's folder, the findings report).
 
 - :mod:`.assessment` -- the bottom line of a report (Problems 1 and 2), from its results alone;
 - :mod:`.render` -- Markdown, JSON and HTML reports and the report schema (``schemas/``);
 - :mod:`.html`, :mod:`.network_svg` -- the self-contained HTML report and the network drawing;
 - :mod:`.figures` -- figures drawn from given results (no simulation inside);
-- :mod:`.case_study` -- the three cases of Section IV, simulated and checked;
 - :mod:`.simulation_report` -- writes simulation and case-study reports to a folder;
-- :mod:`.findings` -- re-verifies every finding spec and writes ``findings.md``.
+- :mod:`.findings` -- writes ``findings.md`` from the verified finding specs.
+
+Reporting renders only: it never runs a checker, the simulator or Algorithm 1 (the runs are
+computed by :mod:`glocal_verify.design.case_study` and :mod:`glocal_verify.design.findings`).
 
 Layer: the top of the library; imports anything below, nothing imports it but the CLI.
 """

@@ -26,6 +26,7 @@ the audit's, nothing is re-decided.
 from __future__ import annotations
 
 from html import escape
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -38,8 +39,8 @@ __all__ = ["VERDICT_ORDER", "audit_to_html", "exposure_svg", "heatmap_svg", "ord
 #: the order of the table's groups (bad news first)
 VERDICT_ORDER = ("undetected", "undecided", "detected")
 
-_COLOUR = {"detected": "#4caf50", "undecided": "#ffc107", "undetected": "#e53935"}
-_CLASS = {"detected": "good", "undecided": "unknown", "undetected": "bad"}
+_COLOUR = MappingProxyType({"detected": "#4caf50", "undecided": "#ffc107", "undetected": "#e53935"})
+_CLASS = MappingProxyType({"detected": "good", "undecided": "unknown", "undetected": "bad"})
 
 _CSS = """
 body { font-family: system-ui, -apple-system, "Segoe UI", sans-serif; margin: 0 auto; max-width: 1150px; padding: 16px 24px; color: #1d1d1d; line-height: 1.4; }

@@ -28,7 +28,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from glocal_verify.model import System
-from glocal_verify.reporting.case_study import CaseOutcome
+from glocal_verify.design.case_study import CaseOutcome
 from glocal_verify.reporting.output import write_bytes_atomic
 from glocal_verify.simulation.algorithm1 import Algorithm1Result
 from glocal_verify.spec.types import NORMAL_MODE, Label

@@ -1,146 +1,34 @@
-"""Generate ``reports/findings.md`` from the counterexample specs in ``reports/findings/``.
+"""Render ``reports/findings.md`` from verified counterexample specs.
 
-Each ``reports/findings/*.toml`` is a system specification with a ``[finding]`` table::
-
-    [finding]
-    claim = "Remark III.2.1: B^i = I can be used to select local monitors"
-    reference = "Remark III.2.1"
-    paper_says = "..."
-    explanation = "..."
-    conditions = ["local.pencil"]
-    expect = [{id = "local.pencil", status = "fails", suspected = "all"}]
-
-:func:`build_findings_report` verifies every spec with the listed conditions (numeric and
-exact), checks that the verdicts match ``expect`` and renders the Markdown; textual findings
-(places where the paper is inconsistent without a system to show it) are listed from
-:data:`TEXTUAL_FINDINGS`. Regenerate with ``glocal-verify findings``.
+The specs are verified by :func:`glocal_verify.design.findings.verify_findings`;
+:func:`findings_markdown` writes the Markdown (regenerate with ``glocal-verify findings``).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, Sequence
 
-from glocal_verify.conditions.registry import implemented_ids, verify
-from glocal_verify.errors import SpecError
-from glocal_verify.model import System
-from glocal_verify.results import ALIASES, ConditionResult, json_preview
-from glocal_verify.spec import load_spec
+from glocal_verify.design.findings import TEXTUAL_FINDINGS, FindingsCheck
+from glocal_verify.results import json_preview
 
-__all__ = [
-    "FindingCase",
-    "TEXTUAL_FINDINGS",
-    "load_cases",
-    "check_case",
-    "build_findings_report",
-]
-
-DEFAULT_DIR = Path("reports/findings")
-
-TEXTUAL_FINDINGS: list[tuple[str, str, str]] = [
-    (
-        "Section IV: global residual indices",
-        "Section IV",
-        "The text fixes the global monitors as M_v = {7, 12, 14} but then names the global residuals "
-        "r_{0_i}, i in {1, 12, 14}; agent 1 is not monitored. The bundled paper19 follows M_v = {7, 12, 14}.",
-    ),
-    (
-        "Section IV: Figure 2 is missing",
-        "Section IV, Figure 2",
-        "The communication topology of the example exists only as an empty \\includegraphics; "
-        "glocal_verify/data/paper19.toml reconstructs a graph that fits every sentence and cites them.",
-    ),
-]
-
-
-@dataclass(frozen=True, slots=True)
-class FindingCase:
-    """A counterexample spec with its claim and the verdicts it must produce."""
-
-    path: Path
-    system: System
-    claim: str
-    reference: str
-    paper_says: str
-    explanation: str
-    conditions: tuple[str, ...]
-    expect: tuple[dict[str, Any], ...]
-
-
-def load_cases(directory: str | Path = DEFAULT_DIR) -> list[FindingCase]:
-    """All counterexample specs of ``directory`` (sorted by file name)."""
-    out = []
-    for p in sorted(Path(directory).glob("*.toml")):
-        spec = load_spec(p)
-        f = spec.finding
-        if not f:
-            raise SpecError("finding", "a findings spec needs a [finding] table", str(p))
-        out.append(
-            FindingCase(
-                p,
-                System(spec),
-                str(f["claim"]),
-                str(f["reference"]),
-                str(f.get("paper_says", "")),
-                str(f.get("explanation", "")),
-                tuple(ALIASES.get(c, c) for c in f.get("conditions", [])),
-                tuple({**dict(e), "id": ALIASES.get(e["id"], e["id"])} for e in f.get("expect", [])),
-            )
-        )
-    return out
-
-
-def _matches(r: ConditionResult, e: dict[str, Any]) -> bool:
-    if r.id != e["id"]:
-        return False
-    return all(r.scope.get(k) == v for k, v in e.items() if k not in ("id", "status"))
-
-
-def check_case(case: FindingCase, exact: bool = False) -> tuple[list[ConditionResult], list[str]]:
-    """Verify a case; return its results and the list of unmet expectations (empty if all met)."""
-    ids = [c for c in case.conditions if c in implemented_ids()]
-    results = list(verify(case.system, ids, exact=exact).conditions) if ids else []
-    problems = []
-    for e in case.expect:
-        if e["id"] not in implemented_ids():
-            problems.append(f"{e['id']}: not implemented")
-            continue
-        hits = [r for r in results if _matches(r, e)]
-        if not hits:
-            problems.append(f"{e['id']} {e}: no matching result")
-        for r in hits:
-            if r.status.value != e["status"]:
-                problems.append(f"{e['id']} {dict(r.scope)}: expected {e['status']}, got {r.status.value}")
-    return results, problems
+__all__ = ["findings_markdown"]
 
 
 def _short(obj: Any, limit: int = 140) -> str:
     return json_preview(obj, limit)
 
 
-def proof_findings() -> list[tuple[str, str, str, str]]:
-    """Paper errors documented by ``proofs_checks``: (step, equation, explanation, verdict).
+def findings_markdown(check: FindingsCheck, extra: Sequence[tuple[str, str, str]] = ()) -> str:
+    """Markdown of every finding: the counterexample specs verified by
+    :func:`~glocal_verify.design.findings.verify_findings`, the paper errors the proof checks
+    exhibit (when run) and the textual findings.
 
-    Only the steps marked as paper errors are run (each is an exact symbolic or rational
-    computation); the verdict is ``EXPECTED-FAIL`` when the error is confirmed.
+    Parameters
+    ----------
+    check : FindingsCheck
+    extra : sequence of (title, reference, detail)
+        Textual findings after :data:`~glocal_verify.design.findings.TEXTUAL_FINDINGS`.
     """
-    from proofs_checks.core import all_steps, check
-
-    out = []
-    for step in all_steps():
-        if step.paper_error:
-            o = check(step)
-            out.append((f"{step.module}.{step.name}", step.equation, step.paper_error, o.verdict.value))
-    return out
-
-
-def build_findings_report(
-    directory: str | Path = DEFAULT_DIR, extra: Sequence[tuple[str, str, str]] = (), proofs: bool = True
-) -> str:
-    """Markdown of every finding: counterexample specs (verified now), the paper errors that
-    ``proofs_checks`` exhibits (run now when ``proofs``) and textual findings."""
-    cases = load_cases(directory)
     lines = [
         "# Findings: where the paper is loose or wrong",
         "",
@@ -149,9 +37,8 @@ def build_findings_report(
         "when this file was generated, numerically and in exact rational arithmetic.",
         "",
     ]
-    for k, case in enumerate(cases, 1):
-        num, pn = check_case(case)
-        exa, pe = check_case(case, exact=True)
+    for k, cc in enumerate(check.cases, 1):
+        case, num, pn, exa, pe = cc.case, cc.numeric, cc.numeric_problems, cc.exact, cc.exact_problems
         rel = case.path.as_posix()
         only = ",".join(case.conditions)
         lines += [
@@ -172,8 +59,8 @@ def build_findings_report(
                 f"| `{rn.id}` | {scope} | {rn.status.value} | {re_.status.value if re_ else '-'} | `{_short(re_.witness if re_ else rn.witness)}` |"
             )
         lines.append("")
-    if proofs:
-        rows = proof_findings()
+    if check.proofs is not None:
+        rows = check.proofs
         lines += [
             "## Paper errors exhibited by the proof checks",
             "",

@@ -26,6 +26,7 @@ from __future__ import annotations
 import json
 import math
 from html import escape
+from types import MappingProxyType
 from typing import Any, Mapping, Sequence
 
 import numpy as np
@@ -66,7 +67,7 @@ details > summary { cursor: pointer; color: #1f4e9c; } pre.witness { max-height:
 """
 
 #: a status is coloured by what it means for the defender (green good news, red bad news, grey vacuous)
-_POL_CLASS = {Polarity.FAVOURABLE: "good", Polarity.UNFAVOURABLE: "bad", Polarity.VACUOUS: "vacuous", Polarity.UNDECIDED: "unknown"}
+_POL_CLASS = MappingProxyType({Polarity.FAVOURABLE: "good", Polarity.UNFAVOURABLE: "bad", Polarity.VACUOUS: "vacuous", Polarity.UNDECIDED: "unknown"})
 
 
 def _e(x: Any) -> str:

@@ -9,6 +9,7 @@ from __future__ import annotations
 import importlib
 import json
 from importlib import resources
+from types import MappingProxyType
 from typing import Any
 
 import jsonschema
@@ -68,12 +69,12 @@ def _short(obj: Any, limit: int = 110) -> str:
     return json_preview(obj, limit)
 
 
-_ICON = {"holds": "holds", "fails": "**fails**", "undecided": "*undecided*"}
+_ICON = MappingProxyType({"holds": "holds", "fails": "**fails**", "undecided": "*undecided*"})
 #: the legend of the polarity marks (one vocabulary: results.Polarity)
 LEGEND = "✓ favourable for the defender, ✗ unfavourable, – vacuous (the condition's premise is absent), ? undecided."
 
 #: what the scope key ``suspected`` means, for the summary rows
-_SUSPECTED = {"attack": "suspected = the spec's attacked agents", "all": "suspected = all (worst case, Remark III.2.1)"}
+_SUSPECTED = MappingProxyType({"attack": "suspected = the spec's attacked agents", "all": "suspected = all (worst case, Remark III.2.1)"})
 
 
 def _polarity(cid: str) -> str:

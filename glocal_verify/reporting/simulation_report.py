@@ -4,7 +4,8 @@ Every folder is written all-or-nothing through :class:`~glocal_verify.reporting.
 (staged, then moved into place; an error or Ctrl-C leaves the folder as it was), and every
 file name derived from the spec (mode and case names) goes through
 :func:`~glocal_verify.reporting.output.safe_component`. Figures are optional
-(``figures=False`` never imports matplotlib).
+(``figures=False`` never imports matplotlib). The runs are computed by
+:mod:`glocal_verify.design.case_study`; this module only writes them.
 """
 
 from __future__ import annotations
@@ -13,19 +14,11 @@ import json
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
-from glocal_verify.conditions.detects import algorithm1
+from glocal_verify.design.case_study import CaseOutcome, CaseStudy, SimulationRun
 from glocal_verify.model import System
-from glocal_verify.reporting.case_study import (
-    CaseOutcome,
-    case_findings,
-    cases_for,
-    companion_systems,
-    run_case,
-)
-from glocal_verify.reporting.output import OutputFolder, check_output_dir, safe_component
+from glocal_verify.reporting.output import OutputFolder, safe_component
 from glocal_verify.results import jsonable
 from glocal_verify.simulation.algorithm1 import Algorithm1Result
-from glocal_verify.simulation.thresholds import ThresholdRule
 
 __all__ = [
     "write_run",
@@ -248,40 +241,15 @@ def _put_cases(
     folder.write_text("cases.md", "\n".join(lines) + "\n")
 
 
-def write_simulation(
-    system: System,
-    out_dir: str | Path,
-    *,
-    mode: str | None = None,
-    no_switch: bool = False,
-    trigger: str = "auto",
-    rule: ThresholdRule = ThresholdRule(),
-    method: str = "auto",
-    progress: bool = False,
-    detects: bool = True,
-    figures: bool = True,
-    phase: PhaseHook = None,
-) -> tuple[Algorithm1Result, list[Path]]:
-    """Run :func:`~glocal_verify.conditions.detects.algorithm1` and write its summary and figure
-    (what ``glocal-verify simulate SPEC`` does).
+def write_simulation(system: System, run: SimulationRun, out_dir: str | Path, *, figures: bool = True, phase: PhaseHook = None) -> list[Path]:
+    """Write the summary and figure of one run of :func:`~glocal_verify.design.case_study.simulate_system`
+    (what ``glocal-verify simulate SPEC`` writes).
 
     Parameters
     ----------
     system : System
+    run : SimulationRun
     out_dir : path
-    mode : str, optional
-        Safe mode to switch to.
-    no_switch : bool
-        Stay in the normal mode.
-    trigger : str
-        ``"auto"``, ``"schedule"`` or ``"local"`` (:func:`~glocal_verify.conditions.detects.algorithm1`).
-    rule : ThresholdRule
-    method : str
-        Simulation method.
-    progress : bool
-        Progress bars on stderr.
-    detects : bool
-        Also record the ``switching.detects`` verdicts of every safe mode.
     figures : bool
         Draw the figure (False: matplotlib is not imported).
     phase : callable, optional
@@ -289,51 +257,37 @@ def write_simulation(
 
     Notes
     -----
-    The output folder is checked (:func:`~glocal_verify.reporting.output.check_output_dir`)
-    before anything is computed; the files are ``simulation-<mode>.{json,png,svg}`` with
-    ``<mode>`` the :func:`~glocal_verify.reporting.output.safe_component` of the chosen mode.
+    The files are ``simulation-<mode>.{json,png,svg}`` with ``<mode>`` the
+    :func:`~glocal_verify.reporting.output.safe_component` of the chosen mode; the
+    ``switching.detects`` verdicts, when computed, are stored under ``"verdicts"``.
     """
-    check_output_dir(out_dir)
-    _say(phase, f"simulating {system.name}: thresholds, attacked run and Algorithm 1")
-    res = algorithm1(system, mode=mode, no_switch=no_switch, trigger=trigger, rule=rule, method=method, progress=progress)
-    verdicts = None
-    if detects:
-        from glocal_verify.conditions.registry import verify
-
-        _say(phase, "switching.detects: one simulated switch per safe mode")
-        rep = verify(system, ["switching.detects"], options={"simulate": True})
-        verdicts = [r.to_json() for r in rep.conditions]
+    res = run.result
     stem = "simulation-" + safe_component(res.chosen_mode or "normal")
     _say(phase, "writing the summary" + (" and the figure" if figures else ""))
-    return res, write_run(system, res, out_dir, stem, verdicts=verdicts, figures=figures)
+    return write_run(system, res, out_dir, stem, verdicts=run.detects, figures=figures)
 
 
-def write_case_study(
-    system: System,
-    out_dir: str | Path,
-    *,
-    companions: dict[str, System] | None = None,
-    rule: ThresholdRule = ThresholdRule(),
-    method: str = "auto",
-    progress: bool = False,
-    command: str = "",
-    figures: bool = True,
-    phase: PhaseHook = None,
-) -> tuple[list[CaseOutcome], list[Path]]:
-    """One case per safe mode (:func:`~glocal_verify.reporting.case_study.cases_for`), simulated with the
-    scheduled switch, written by :func:`write_cases` with the findings of
-    :func:`~glocal_verify.reporting.case_study.case_findings` (what ``glocal-verify simulate --cases`` does).
+def _local_trigger_section(system: System, alg: Algorithm1Result) -> str:
+    """The paragraph on Algorithm 1 with the local trigger."""
+    fl = alg.first_local
+    ranking = ", ".join(f"{r.mode} ({'eligible' if r.eligible else 'not eligible'}, score {r.score:.3g})" for r in alg.ranking)
+    return (
+        f"Algorithm 1 as written, on `{system.name}`: the observers run in the normal mode; the first local "
+        f"detection is {fl.observer + ' at t = ' + format(fl.time or 0.0, '.2f') + ' s' if fl else 'none'}; line 4 "
+        f"ranks the safe modes by Theorem III.3 (i)-(iii) and their margins: {ranking}; it switches to "
+        f"**{alg.chosen_mode}** at t = {alg.switch_time if alg.switch_time is not None else '-'} s, and the control centre "
+        + (f"detects the attack at t = {alg.global_after.time:.2f} s." if alg.detected_globally and alg.global_after else "**never detects** the attack.")
+    )
+
+
+def write_case_study(study: CaseStudy, out_dir: str | Path, *, command: str = "", figures: bool = True, phase: PhaseHook = None) -> list[Path]:
+    """Write a case study of :func:`~glocal_verify.design.case_study.run_case_study` with
+    :func:`write_cases` (what ``glocal-verify simulate --cases`` writes).
 
     Parameters
     ----------
-    system : System
+    study : CaseStudy
     out_dir : path
-    companions : dict, optional
-        Mode -> System carrying that case's own attack (default
-        :func:`~glocal_verify.reporting.case_study.companion_systems`).
-    rule : ThresholdRule
-    method : str
-    progress : bool
     command : str
         The command line, recorded in ``cases.md``.
     figures : bool
@@ -341,43 +295,12 @@ def write_case_study(
     phase : callable, optional
         Told the name of each phase as it starts.
     """
-    check_output_dir(out_dir)
-    comp = companions
-    if comp is None:
-        try:
-            comp = companion_systems(system)
-        except ValueError:  # a mode name that is no file-name component: no companion file can match
-            comp = {}
-    outcomes = []
-    for c in cases_for(system, comp):
-        _say(phase, f"case {c.name}: simulating {c.system.name} with the switch to {c.mode}")
-        outcomes.append(run_case(c, rule=rule, method=method, progress=progress))
     pre = "Generated by `" + (command or "glocal-verify simulate --cases") + "`; never edited by hand."
     pre += " Every run is an exact piecewise-LTI simulation (matrix exponentials; see `glocal_verify/simulation/engine.py`)."
-    if comp:
-        pre += " Companion specs: " + ", ".join(f"{q} uses `{s.name}`" for q, s in comp.items()) + "."
+    if study.companions:
+        pre += " Companion specs: " + ", ".join(f"{q} uses `{s.name}`" for q, s in study.companions.items()) + "."
     sections: list[tuple[str, str]] = []
-    findings = case_findings(outcomes)
-    if system.spec.attack is not None and system.safe_modes:
-        _say(phase, "Algorithm 1 with the local trigger")
-        alg = algorithm1(system, trigger="local", rule=rule, method=method, progress=progress)
-        fl = alg.first_local
-        ranking = ", ".join(f"{r.mode} ({'eligible' if r.eligible else 'not eligible'}, score {r.score:.3g})" for r in alg.ranking)
-        text = (
-            f"Algorithm 1 as written, on `{system.name}`: the observers run in the normal mode; the first local "
-            f"detection is {fl.observer + ' at t = ' + format(fl.time or 0.0, '.2f') + ' s' if fl else 'none'}; line 4 "
-            f"ranks the safe modes by Theorem III.3 (i)-(iii) and their margins: {ranking}; it switches to "
-            f"**{alg.chosen_mode}** at t = {alg.switch_time if alg.switch_time is not None else '-'} s, and the control centre "
-            + (f"detects the attack at t = {alg.global_after.time:.2f} s." if alg.detected_globally and alg.global_after else "**never detects** the attack.")
-        )
-        sections.append(("Algorithm 1 with the local trigger", text))
-        if not alg.detected_globally and alg.chosen_mode is not None:
-            findings.append(
-                f"Algorithm 1, line 4 ('identify a safe mode that satisfies conditions (i)-(iii)') can choose a mode that "
-                f"never detects: on {system.name} the best-ranked mode satisfying (i)-(iii) is {alg.chosen_mode}, and after "
-                f"switching to it the control centre never detects the ZDA. Conditions (i)-(iii) do not depend on the attack; "
-                f"the local centre must also pick a switch that touches the agents its residual shows moving (dL_q xi != 0)."
-            )
+    if study.local_run is not None:
+        sections.append(("Algorithm 1 with the local trigger", _local_trigger_section(study.system, study.local_run)))
     _say(phase, "writing the outcome table" + (" and the figures" if figures else ""))
-    paths = write_cases(outcomes, out_dir, preamble=pre, findings=findings, sections=sections, figures=figures)
-    return outcomes, paths
+    return write_cases(study.outcomes, out_dir, preamble=pre, findings=study.findings, sections=sections, figures=figures)

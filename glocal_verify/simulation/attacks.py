@@ -13,6 +13,7 @@ from typing import Any, Sequence
 import numpy as np
 import scipy.linalg
 
+from glocal_verify.analysis.covert import channel_label
 from glocal_verify.errors import ModelError, NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.spec.types import NORMAL_MODE, Label
@@ -291,7 +292,7 @@ def covert_attack(
     if not F:
         raise ModelError("a covert attack needs at least one attacked actuator")
     sens = tuple(system.spec.attack.sensors if (sensors is None and system.spec.attack) else (sensors or ()))
-    spoofed = tuple(ch for ch in system.output_channels() if _channel_label(system, ch) in sens)
+    spoofed = tuple(ch for ch in system.output_channels() if channel_label(system, ch) in sens)
     notes: list[str] = []
     if signal == "step":
         exo = Exosystem.step(amplitude, len(F))
@@ -318,14 +319,6 @@ def covert_attack(
         reached,
         tuple(notes),
     )
-
-
-def _channel_label(system: System, channel: str) -> Label:
-    text = channel.split(":", 1)[1]
-    for lab in system.labels:
-        if str(lab) == text:
-            return lab
-    raise ModelError(f"unknown output channel {channel!r}")
 
 
 def _reached_agents(system: System, actuators: Sequence[Label]) -> tuple[Label, ...]:

@@ -70,7 +70,7 @@ Conventions (documented choices the paper leaves open):
 * a covert attacker's copy starts from :math:`\\tilde x(t_a) = 0` (Assumption II.1 (ii)).
 
 **Size limits and interrupts.** :func:`simulate` estimates samples and memory before
-allocating (:func:`estimate_size`) and refuses above :data:`MAX_SAMPLES` / :data:`MAX_BYTES`
+allocating (:func:`estimate_size`) and refuses above ``simulation_max_samples`` / ``simulation_max_bytes`` (:mod:`glocal_verify.config`)
 unless ``allow_large=True`` or inside :func:`allow_large` (``simulate --allow-large``).
 Ctrl-C propagates as ``KeyboardInterrupt``; no partial result is returned.
 """
@@ -84,12 +84,11 @@ from typing import Any, Sequence
 import numpy as np
 import scipy.linalg
 
+from glocal_verify import config
 from glocal_verify.errors import ModelError
 from glocal_verify.model import System
 from glocal_verify.simulation.attacks import AttackModel
 from glocal_verify.simulation.limits import (
-    MAX_BYTES,
-    MAX_SAMPLES,
     RHO_MAX,
     SizeEstimate,
     allow_large,
@@ -109,8 +108,6 @@ from glocal_verify.spec.types import NORMAL_MODE
 
 __all__ = [
     "UNIT_ROUNDOFF",
-    "MAX_SAMPLES",
-    "MAX_BYTES",
     "SizeEstimate",
     "allow_large",
     "estimate_size",
@@ -125,10 +122,6 @@ __all__ = [
 
 #: unit roundoff of IEEE double precision
 UNIT_ROUNDOFF = 2.0**-53
-
-#: largest augmented dimension for which ``method="auto"`` picks the dense propagator
-DENSE_LIMIT = 600
-
 
 
 def taylor_order(rho: float, tol: float = UNIT_ROUNDOFF) -> int:
@@ -677,7 +670,7 @@ def _run(
     check_size(SizeEstimate(est.samples, est.bytes * runs), allow=allow_large)
     meth = method
     if meth == "auto":
-        meth = "dense" if dim <= DENSE_LIMIT else "modal"
+        meth = "dense" if dim <= config.get("dense_limit") else "modal"
     if meth not in ("dense", "modal"):
         raise ModelError(f"unknown method {method!r} (expected auto, dense or modal)")
     engine: _DenseEngine | _ModalEngine

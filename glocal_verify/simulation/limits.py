@@ -16,20 +16,16 @@ from typing import Iterator
 
 import numpy as np
 
+from glocal_verify import config
 from glocal_verify.errors import ModelError
 from glocal_verify.model import System
 
-__all__ = ["MAX_SAMPLES", "MAX_BYTES", "MAX_INTERNAL_STEPS", "RHO_MAX", "SizeEstimate", "estimate_size", "check_size", "check_stiffness", "allow_large", "horizon_and_step"]
+__all__ = ["RHO_MAX", "SizeEstimate", "estimate_size", "check_size", "check_stiffness", "allow_large", "horizon_and_step"]
 
 #: largest rho = h_int * nu of one internal step of the modal propagator (the Taylor terms of the
 #: observer input then stay below e^2 times the state norm: at most a few ulps of cancellation)
 RHO_MAX = 2.0
 
-#: most output samples (horizon / step + 1) one simulation may store without ``allow_large``
-MAX_SAMPLES = 10**7
-
-#: most bytes (estimate of :func:`estimate_size`) one simulation may allocate without ``allow_large``
-MAX_BYTES = 2 * 1024**3
 
 #: set by :func:`allow_large` for the simulations run inside its ``with`` block
 _ALLOW_LARGE: ContextVar[bool] = ContextVar("glocal_verify_allow_large", default=False)
@@ -81,7 +77,7 @@ def estimate_size(n_agents: int, horizon: float, step: float, *, channels: int |
 
 def check_size(est: SizeEstimate, *, allow: bool | None = None) -> None:
     """Raise :class:`~glocal_verify.errors.ModelError` (one line with the estimate) above
-    :data:`MAX_SAMPLES` samples or :data:`MAX_BYTES` bytes, unless ``allow`` (default: inside
+    ``simulation_max_samples`` (:mod:`glocal_verify.config`) samples or ``simulation_max_bytes`` (:mod:`glocal_verify.config`) bytes, unless ``allow`` (default: inside
     :func:`allow_large`).
 
     Parameters
@@ -91,16 +87,11 @@ def check_size(est: SizeEstimate, *, allow: bool | None = None) -> None:
     """
     if _ALLOW_LARGE.get() if allow is None else allow:
         return
-    if est.samples > MAX_SAMPLES or est.bytes > MAX_BYTES:
+    if est.samples > config.get("simulation_max_samples") or est.bytes > config.get("simulation_max_bytes"):
         raise ModelError(
-            f"simulation too large: {est.describe()} (limits {MAX_SAMPLES:.0e} samples, {MAX_BYTES / 1024**3:g} GiB); "
+            f"simulation too large: {est.describe()} (limits {config.get('simulation_max_samples'):.0e} samples, {config.get('simulation_max_bytes') / 1024**3:g} GiB); "
             "shorten simulation.horizon, enlarge simulation.step or allow large runs (--allow-large)"
         )
-
-
-#: most internal (Taylor) steps one simulation may take: stiff systems (large alpha * mu or
-#: gamma against the step) need ceil(nu h / RHO_MAX) sub-steps per output step
-MAX_INTERNAL_STEPS = 5 * 10**6
 
 
 def check_stiffness(system: System, horizon: float, step: float, *, allow: bool | None = None) -> int:
@@ -125,7 +116,7 @@ def check_stiffness(system: System, horizon: float, step: float, *, allow: bool 
     Raises
     ------
     ModelError
-        Above :data:`MAX_INTERNAL_STEPS`, one line with the estimate.
+        Above ``simulation_max_internal_steps`` (:mod:`glocal_verify.config`), one line with the estimate.
     """
     nu = 0.0
     for q in system.modes:
@@ -134,10 +125,10 @@ def check_stiffness(system: System, horizon: float, step: float, *, allow: bool 
         nu = max(nu, math.sqrt(1.0 + (system.alpha * mu) ** 2 + system.gamma**2))
     samples = max(1.0, float(horizon) / float(step))
     steps = samples * max(1.0, math.ceil(nu * float(step) / RHO_MAX))
-    if steps > MAX_INTERNAL_STEPS and not (_ALLOW_LARGE.get() if allow is None else allow):
+    if steps > config.get("simulation_max_internal_steps") and not (_ALLOW_LARGE.get() if allow is None else allow):
         raise ModelError(
             f"simulation too stiff: about {steps:.3g} internal steps (||A|| ~ {nu:.3g} against step {step:g}; "
-            f"limit {MAX_INTERNAL_STEPS:.0e}); shorten the horizon, lower the gains or allow large runs (--allow-large)"
+            f"limit {config.get('simulation_max_internal_steps'):.0e}); shorten the horizon, lower the gains or allow large runs (--allow-large)"
         )
     return int(min(steps, 2**62))
 

@@ -11,7 +11,8 @@ Layer: lowest with :mod:`glocal_verify.errors` and :mod:`glocal_verify.results`;
 nothing else of the package.
 """
 
-from typing import TYPE_CHECKING
+from types import MappingProxyType
+from typing import Mapping, TYPE_CHECKING
 
 from glocal_verify._lazy import lazy_getattr
 
@@ -42,7 +43,7 @@ if TYPE_CHECKING:  # loaded on first use (PEP 562): listing examples never loads
     from glocal_verify.spec.writer import dump_spec
 
 #: public name -> module that defines it
-_LAZY: dict[str, str] = {
+_LAZY: Mapping[str, str] = MappingProxyType({
     "example_names": "glocal_verify.spec.examples",
     "example_text": "glocal_verify.spec.examples",
     "load_example": "glocal_verify.spec.examples",
@@ -65,7 +66,7 @@ _LAZY: dict[str, str] = {
     "SwitchStep": "glocal_verify.spec.types",
     "SystemSpec": "glocal_verify.spec.types",
     "dump_spec": "glocal_verify.spec.writer",
-}
+})
 
 
 #: ``glocal_verify.spec.X`` loads X from its module on first access

@@ -44,7 +44,7 @@ __all__ = [
 GRAPH_SUFFIXES = (".graphml", ".gml", ".edgelist", ".txt", ".csv")
 
 _INT = re.compile(r"^-?(0|[1-9][0-9]*)$")
-_CSV_HEADERS = {("source", "target"), ("u", "v"), ("from", "to"), ("node1", "node2"), ("i", "j")}
+_CSV_HEADERS = frozenset({("source", "target"), ("u", "v"), ("from", "to"), ("node1", "node2"), ("i", "j")})
 
 
 def _label(raw: Any, where: str, source: str) -> Label:

@@ -13,12 +13,13 @@ from __future__ import annotations
 import json
 import sys
 from importlib import resources
-from typing import Any, Iterator
+from types import MappingProxyType
+from typing import Any, Iterator, Mapping
 
 __all__ = ["KEYS", "schema", "schema_keys", "type_text", "generate", "main"]
 
 #: key path -> (default, TOML example); "-" = no default (required, or absent means "none")
-KEYS: dict[str, tuple[str, str]] = {
+KEYS: Mapping[str, tuple[str, str]] = MappingProxyType({
     "format": ("- (required)", "format = 1"),
     "name": ("the file name without extension", 'name = "drones8"'),
     "description": ('""', 'description = "8 drones, two clusters"'),
@@ -76,15 +77,15 @@ KEYS: dict[str, tuple[str, str]] = {
     "finding.expect[].cluster": ("any cluster", 'cluster = "P1"'),
     "finding.expect[].observer": ("any observer", "observer = 5"),
     "finding.expect[].suspected": ("any suspected set", 'suspected = "all"'),
-}
+})
 
-_DEF_TEXT = {
+_DEF_TEXT = MappingProxyType({
     "label": "label (integer or string)",
     "labels": "list of labels",
     "number": "exact number (integer, decimal, or a fraction string such as \"1/3\")",
     "edge": "[u, v] or [u, v, weight]",
     "pair": "[u, v]",
-}
+})
 
 
 def schema() -> dict[str, Any]:

@@ -19,7 +19,7 @@ from glocal_verify.analysis.local_cases import (
     pencil_matrices,
     pencil_matrices_exact,
 )
-from glocal_verify.conditions.local_pencil import pencil_verdict, pencil_verdict_exact
+from glocal_verify.analysis.local_pencil import pencil_verdict, pencil_verdict_exact
 from glocal_verify.design.placement import (
     _intra_neighbours,
     reduced_pencil_holds,
@@ -113,8 +113,9 @@ def test_structured_and_dense_pencils_agree_on_status_normal_rank_and_zeros(syst
             continue
         seen.add(case0.model.name)
         case = _random_case(system, case0, data)
-        sd, md, wd = pencil_verdict(system, case, method="dense")
-        ss, ms, ws = pencil_verdict(system, case, method="structured")
+        d = pencil_verdict(system, case, method="dense")
+        s_ = pencil_verdict(system, case, method="structured")
+        sd, md, wd, ss, ms, ws = d.status, d.margin, d.witness, s_.status, s_.margin, s_.witness
         if Status.UNDECIDED in (sd, ss):
             continue
         assert ss is sd, (case.observer, case.suspected, wd, ws)
@@ -156,8 +157,9 @@ def test_structured_exact_agrees_with_dense_exact_and_with_numeric(system: Syste
             continue
         seen.add(case0.model.name)
         case = _random_case(system, case0, data)
-        sd, _, wd = pencil_verdict_exact(system, case, method="dense", margin=False)
-        ss, _, ws = pencil_verdict_exact(system, case, method="structured", margin=False)
+        d = pencil_verdict_exact(system, case, method="dense", margin=False)
+        s_ = pencil_verdict_exact(system, case, method="structured", margin=False)
+        sd, wd, ss, ws = d.status, d.witness, s_.status, s_.witness
         assert ss is sd, (case.observer, case.suspected, wd, ws)
         if not case.structural:
             assert ws["normal_rank"] == wd["normal_rank"]
@@ -168,7 +170,7 @@ def test_structured_exact_agrees_with_dense_exact_and_with_numeric(system: Syste
                     v = _full_vector(case, z)
                     P = full_pencil(case, complex(z["lambda"]))
                     assert np.linalg.norm(P @ v) <= 1e-8 * np.linalg.norm(P, 2) * np.linalg.norm(v)
-        sn, _, _ = pencil_verdict(system, case, method="structured", margin=False)
+        sn = pencil_verdict(system, case, method="structured", margin=False).status
         if sn is not Status.UNDECIDED:
             assert sn is ss
 

@@ -1,11 +1,19 @@
-"""The three cases of Section IV: companion systems, simulated outcomes, the paper's claims checked."""
+"""The three cases of Section IV: companion systems, simulated outcomes, the paper's claims checked.
+
+Everything ``glocal-verify simulate`` computes lives here: one run of Algorithm 1 with the
+``switching.detects`` verdicts (:func:`simulate_system`), and the case study
+(:func:`run_case_study`: one case per safe mode, its verdicts and simulated outcome, the
+findings, Algorithm 1 with the local trigger). :mod:`glocal_verify.reporting.simulation_report`
+writes these results; it computes nothing.
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any, Mapping, Sequence
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any, Callable, Mapping, Sequence
 
-from glocal_verify.conditions.detects import THEOREM_III3_IDS, _dl_xi, algorithm1
+from glocal_verify.conditions.detects import THEOREM_III3_IDS, algorithm1, zda_touch
 from glocal_verify.conditions.registry import implemented_ids, verify
 from glocal_verify.model import System
 from glocal_verify.results import jsonable
@@ -15,12 +23,19 @@ from glocal_verify.simulation.thresholds import ThresholdRule
 __all__ = [
     "CaseSpec",
     "CaseOutcome",
+    "CaseStudy",
     "PAPER_CLAIMS",
+    "SimulationRun",
     "cases_for",
     "companion_systems",
     "run_case",
+    "run_case_study",
     "case_findings",
+    "simulate_system",
 ]
+
+#: a callback told the name of each phase of a long run (one line per phase on stderr)
+PhaseHook = Callable[[str], None] | None
 
 # --------------------------------------------------------------------------------------------
 # cases (the paper's Section IV)
@@ -29,7 +44,7 @@ __all__ = [
 #: the paper's sentences per (system name, mode), with the observable outcome they predict:
 #: ``"vanishing"`` -- the post-switch global residual is bounded and vanishes;
 #: ``"unbounded"`` -- it grows without bound; ``"no-detection"`` -- the control centre does not detect.
-PAPER_CLAIMS: dict[tuple[str, str], tuple[str, str]] = {
+PAPER_CLAIMS: Mapping[tuple[str, str], tuple[str, str]] = MappingProxyType({
     ("paper19", "case-1"): (
         "vanishing",
         "Section IV: conditions (i)-(iii) are met; 'the global residual r_{0_1}(t) for case 1 is bounded and vanishing after topology switching'",
@@ -42,7 +57,7 @@ PAPER_CLAIMS: dict[tuple[str, str], tuple[str, str]] = {
         "no-detection",
         "Section IV: 'none of the Theorem III.3's conditions are met in case 3, yielding the global residuals ... remain unaffected by the switching topology. Consequently, stealthy attack is not detectable'",
     ),
-}
+})
 
 #: the sentence every case shares
 PRE_SWITCH_CLAIM = "ZDA is stealthy in the global residuals before topology switching; it is detectable in a local residual"
@@ -253,7 +268,7 @@ def case_findings(outcomes: Sequence[CaseOutcome]) -> list[str]:
         evaluated = [v for v in th if v is not None]
         atk = oc.result.attack
         if evaluated and all(v == "holds" for v in evaluated) and not oc.detected and atk is not None and atk.kind == "zda":
-            d = _dl_xi(oc.case.system, oc.case.mode, atk)
+            d = zda_touch(oc.case.system, oc.case.mode, atk)
             out.append(
                 f"Theorem III.3 (sufficiency) fails on {oc.case.system.name} / {oc.case.name}: conditions "
                 f"{', '.join(c for c, v in zip(THEOREM_III3_IDS, th) if v is not None)} hold, the initial state is "
@@ -264,7 +279,7 @@ def case_findings(outcomes: Sequence[CaseOutcome]) -> list[str]:
                 f"(Section IV) cannot hold for such a switch on any graph: there is no detection, slow or fast. "
                 f"Minimal counterexample (3 agents): reports/findings/theorem3-sufficiency-switch-avoids-zda.toml."
             )
-    touch = {oc.case.name: _dl_xi(oc.case.system, oc.case.mode, oc.result.attack) for oc in outcomes if oc.result.attack is not None and oc.result.attack.xi is not None}
+    touch = {oc.case.name: zda_touch(oc.case.system, oc.case.mode, oc.result.attack) for oc in outcomes if oc.result.attack is not None and oc.result.attack.xi is not None}
     bounded = [nm for nm, d in touch.items() if d is not None and d <= 1e-9 and any(o.case.name == nm and o.observed == "vanishing" for o in outcomes)]
     unbounded = [oc.case.name for oc in outcomes if oc.observed == "unbounded"]
     if any(oc.case.expect == "unbounded" for oc in outcomes) and unbounded:
@@ -280,3 +295,148 @@ def case_findings(outcomes: Sequence[CaseOutcome]) -> list[str]:
             "the residual stays exactly attack-free, because Theorem III.3 (ii) fails there."
         )
     return out
+
+
+def _say(phase: PhaseHook, text: str) -> None:
+    if phase is not None:
+        phase(text)
+
+
+# --------------------------------------------------------------------------------------------
+# one run (``glocal-verify simulate SPEC``)
+
+
+@dataclass(frozen=True, slots=True)
+class SimulationRun:
+    """One simulated run of Algorithm 1 and, when asked, the ``switching.detects`` verdicts.
+
+    Attributes
+    ----------
+    result : Algorithm1Result
+    detects : list of dict or None
+        The JSON form of every ``switching.detects`` result (one per safe mode).
+    """
+
+    result: Algorithm1Result
+    detects: list[dict[str, Any]] | None = None
+
+
+def simulate_system(
+    system: System,
+    *,
+    mode: str | None = None,
+    no_switch: bool = False,
+    trigger: str = "auto",
+    rule: ThresholdRule = ThresholdRule(),
+    method: str = "auto",
+    progress: bool = False,
+    detects: bool = True,
+    phase: PhaseHook = None,
+) -> SimulationRun:
+    """Run :func:`~glocal_verify.conditions.detects.algorithm1` and, with ``detects``, the
+    ``switching.detects`` check of every safe mode (what ``glocal-verify simulate SPEC`` computes).
+
+    Parameters
+    ----------
+    system : System
+    mode : str, optional
+        Safe mode to switch to.
+    no_switch : bool
+        Stay in the normal mode.
+    trigger : str
+        ``"auto"``, ``"schedule"`` or ``"local"`` (:func:`~glocal_verify.conditions.detects.algorithm1`).
+    rule : ThresholdRule
+    method : str
+        Simulation method.
+    progress : bool
+        Progress bars on stderr.
+    detects : bool
+        Also record the ``switching.detects`` verdicts of every safe mode.
+    phase : callable, optional
+        Told the name of each phase as it starts.
+    """
+    _say(phase, f"simulating {system.name}: thresholds, attacked run and Algorithm 1")
+    res = algorithm1(system, mode=mode, no_switch=no_switch, trigger=trigger, rule=rule, method=method, progress=progress)
+    verdicts = None
+    if detects:
+        _say(phase, "switching.detects: one simulated switch per safe mode")
+        rep = verify(system, ["switching.detects"], options={"simulate": True})
+        verdicts = [r.to_json() for r in rep.conditions]
+    return SimulationRun(res, verdicts)
+
+
+# --------------------------------------------------------------------------------------------
+# the case study (``glocal-verify simulate --cases``)
+
+
+@dataclass(frozen=True, slots=True)
+class CaseStudy:
+    """The cases of a system, simulated, with their findings.
+
+    Attributes
+    ----------
+    system : System
+    outcomes : tuple of CaseOutcome
+    companions : mapping of mode name to System
+        The companion systems the cases used.
+    findings : tuple of str
+        Markdown sentences: where the simulated cases contradict the paper
+        (:func:`case_findings`, and Algorithm 1 choosing a mode that never detects).
+    local_run : Algorithm1Result or None
+        Algorithm 1 with the local trigger (None without an attack or safe modes).
+    """
+
+    system: System
+    outcomes: tuple[CaseOutcome, ...]
+    companions: Mapping[str, System] = field(default_factory=dict)
+    findings: tuple[str, ...] = ()
+    local_run: Algorithm1Result | None = None
+
+
+def run_case_study(
+    system: System,
+    *,
+    companions: Mapping[str, System] | None = None,
+    rule: ThresholdRule = ThresholdRule(),
+    method: str = "auto",
+    progress: bool = False,
+    phase: PhaseHook = None,
+) -> CaseStudy:
+    """One case per safe mode (:func:`cases_for`) simulated with the scheduled switch
+    (:func:`run_case`), the findings of :func:`case_findings`, and Algorithm 1 with the local
+    trigger (what ``glocal-verify simulate --cases`` computes).
+
+    Parameters
+    ----------
+    system : System
+    companions : mapping, optional
+        Mode -> System carrying that case's own attack (default :func:`companion_systems`).
+    rule : ThresholdRule
+    method : str
+    progress : bool
+    phase : callable, optional
+        Told the name of each phase as it starts.
+    """
+    comp = dict(companions) if companions is not None else None
+    if comp is None:
+        try:
+            comp = companion_systems(system)
+        except ValueError:  # a mode name that is no file-name component: no companion file can match
+            comp = {}
+    outcomes = []
+    for c in cases_for(system, comp):
+        _say(phase, f"case {c.name}: simulating {c.system.name} with the switch to {c.mode}")
+        outcomes.append(run_case(c, rule=rule, method=method, progress=progress))
+    findings = case_findings(outcomes)
+    alg = None
+    if system.spec.attack is not None and system.safe_modes:
+        _say(phase, "Algorithm 1 with the local trigger")
+        alg = algorithm1(system, trigger="local", rule=rule, method=method, progress=progress)
+        if not alg.detected_globally and alg.chosen_mode is not None:
+            findings.append(
+                f"Algorithm 1, line 4 ('identify a safe mode that satisfies conditions (i)-(iii)') can choose a mode that "
+                f"never detects: on {system.name} the best-ranked mode satisfying (i)-(iii) is {alg.chosen_mode}, and after "
+                f"switching to it the control centre never detects the ZDA. Conditions (i)-(iii) do not depend on the attack; "
+                f"the local centre must also pick a switch that touches the agents its residual shows moving (dL_q xi != 0)."
+            )
+    return CaseStudy(system, tuple(outcomes), comp, tuple(findings), alg)

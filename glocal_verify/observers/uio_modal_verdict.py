@@ -1,6 +1,6 @@
 """local.uio on large clusters: the verdict of one observer and mode from the modal design.
 
-The dense check (:func:`glocal_verify.conditions.local._uio_one_uncached`) costs an
+The dense check (:mod:`glocal_verify.observers.uio_verdict`) costs an
 observable split, an ordered Schur form, a Hurwitz certificate from a nonsymmetric
 eigen-decomposition with its SVD, all of size 2 n. Here the same questions are answered from
 one ``eigh`` of the interior block L_II (:func:`glocal_verify.analysis.cluster_modal.interior_modes`,
@@ -30,19 +30,20 @@ import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
 
+from glocal_verify import config
 from glocal_verify.analysis.cluster_modal import interior_modes, state_rounding_bound
 from glocal_verify.analysis.cluster_pencil import intra_neighbours, zero_forcing_closure
-from glocal_verify.conditions.local_pencil import _num
+from glocal_verify.analysis.local_pencil import witness_number
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import ClusterModel, LocalObserver, System
 from glocal_verify.numerics.pencil_exact import rank_bounds
 from glocal_verify.numerics.threads import single_threaded
 from glocal_verify.numerics.tolerance import Decision, Tolerance
-from glocal_verify.observers.uio_existence import _decoupling, cluster_detectability
-from glocal_verify.observers.uio_modal import MODAL_MIN_AGENTS, design_uio_modal
-from glocal_verify.results import Status
+from glocal_verify.observers.uio_existence import cluster_detectability, decoupling
+from glocal_verify.observers.uio_modal import design_uio_modal
+from glocal_verify.results import Status, Verdict
 
-__all__ = ["MODAL_MIN_AGENTS", "UIO_METHODS", "modal_applicable", "uio_one_modal"]
+__all__ = ["UIO_METHODS", "modal_applicable", "uio_one_modal"]
 
 #: values of the checker option ``local_uio_method``
 UIO_METHODS = ("auto", "modal", "dense")
@@ -50,7 +51,7 @@ UIO_METHODS = ("auto", "modal", "dense")
 
 def modal_applicable(cm: ClusterModel, obs: LocalObserver, exact: bool, method: str) -> bool:
     """Whether the modal path is tried: numeric mode, default poles, and ``method`` ``modal``
-    or ``auto`` with at least :data:`MODAL_MIN_AGENTS` agents.
+    or ``auto`` with at least ``modal_min_agents`` (:mod:`glocal_verify.config`) agents.
 
     Parameters
     ----------
@@ -62,12 +63,12 @@ def modal_applicable(cm: ClusterModel, obs: LocalObserver, exact: bool, method: 
     """
     if exact or obs.poles is not None or method == "dense":
         return False
-    return method == "modal" or len(cm.nodes) >= MODAL_MIN_AGENTS
+    return method == "modal" or len(cm.nodes) >= config.get("modal_min_agents")
 
 
 @single_threaded
-def uio_one_modal(system: System, cm: ClusterModel, obs: LocalObserver, C: np.ndarray, mode: str, tol: Tolerance) -> tuple[Status, float, dict[str, Any]] | None:
-    """The per-mode verdict ``(status, margin, witness)`` of local.uio by the modal method.
+def uio_one_modal(system: System, cm: ClusterModel, obs: LocalObserver, C: np.ndarray, mode: str, tol: Tolerance) -> Verdict | None:
+    """The per-mode verdict of local.uio by the modal method (status, margin, witness).
 
     None when the method does not apply (the rank condition does not hold, so the cheap
     dense path reports it; or the interior block is singular); the caller then uses the dense
@@ -84,8 +85,9 @@ def uio_one_modal(system: System, cm: ClusterModel, obs: LocalObserver, C: np.nd
     mode : str
     tol : Tolerance
     """
-    rank_st, h = _decoupling(cm.E, C, tol)
-    if rank_st is not Status.HOLDS or h is None:
+    dec = decoupling(cm.E, C, tol)
+    h = dec.h
+    if dec.status is not Status.HOLDS or h is None:
         return None
     # the certificate needs h = E (C E)^T exact: C E with orthonormal columns, certified ranks
     CE = C @ cm.E
@@ -113,7 +115,8 @@ def uio_one_modal(system: System, cm: ClusterModel, obs: LocalObserver, C: np.nd
         w["detectability"] = {"structured": "not run", "by": "proved by the certified Hurwitz F", "generic": det.value, "generic_by": "modal split of the moved block"}
         sd = det
     else:
-        sd, p0, how = cluster_detectability(cm.L, bnd, pos, tol)
+        got = cluster_detectability(cm.L, bnd, pos, tol)
+        sd, p0, how = got.status, got.positions, got.by
         w["detectability"] = {"structured": sd.value, "by": how, "generic": det.value, "generic_by": "modal split of the moved block"}
     if sd is not det and sd is not Status.UNDECIDED:
         if det is Status.UNDECIDED:
@@ -122,7 +125,7 @@ def uio_one_modal(system: System, cm: ClusterModel, obs: LocalObserver, C: np.nd
         else:
             det = Status.UNDECIDED
             w["detectability"]["note"] = "the structured and the modal detectability tests disagree"
-    w["unobservable_eigenvalues"] = [_num(m, 9) for m in md.unobservable]
+    w["unobservable_eigenvalues"] = [witness_number(m, 9) for m in md.unobservable]
     if det is not Status.HOLDS or md.certificate is None:
         mode_ = md.unstable_mode
         if mode_ is None and sd is Status.FAILS and p0 is not None:
@@ -131,15 +134,15 @@ def uio_one_modal(system: System, cm: ClusterModel, obs: LocalObserver, C: np.nd
             lam, vec = mode_
             vec = vec / vec[int(np.argmax(np.abs(vec)))]
             w["unstable_unobservable_mode"] = {
-                "eigenvalue": _num(lam, 9),
+                "eigenvalue": witness_number(lam, 9),
                 "positions": {a: (complex(c).real if complex(c).imag == 0 else complex(c)) for a, c in zip(cm.nodes, vec[:n]) if c != 0},
                 "velocities": {a: (complex(c).real if complex(c).imag == 0 else complex(c)) for a, c in zip(cm.nodes, vec[n:]) if c != 0},
             }
         if det is Status.HOLDS:
             w["design_error"] = "the modal split did not decide the moved block; no modal design"
-            return Status.UNDECIDED, 0.0, w
+            return Verdict(Status.UNDECIDED, margin=0.0, witness=w)
         margin = -float(mode_[0].real) if mode_ is not None else 0.0
-        return det, margin, w
+        return Verdict(det, margin=margin, witness=w)
     cert = md.certificate
     eig = md.eigenvalues
     K1 = md.K1
@@ -161,8 +164,8 @@ def uio_one_modal(system: System, cm: ClusterModel, obs: LocalObserver, C: np.nd
         {
             "method": "modal",
             "observable_dim": int(2 * n - len(md.unobservable)),
-            "poles": [_num(p, 9) for p in md.poles],
-            "eigenvalues_F": [_num(p, 9) for p in sorted(eig, key=lambda z: (z.real, z.imag))],
+            "poles": [witness_number(p, 9) for p in md.poles],
+            "eigenvalues_F": [witness_number(p, 9) for p in sorted(eig, key=lambda z: (z.real, z.imag))],
             "hurwitz_margin": margin,
             "hurwitz_certificate": {"status": hurwitz.value, "ratio": ratio},
             "decoupling_residual": dec_res,
@@ -184,7 +187,7 @@ def uio_one_modal(system: System, cm: ClusterModel, obs: LocalObserver, C: np.nd
     w["certificate"] = cw
     checks = {"decoupling": tol.decide(dec_res, 1.0), "error_free_of_state": tol.decide(err_res, 1.0)}
     if all(v is Decision.ZERO for v in checks.values()) and cert.certified:
-        return Status.HOLDS, margin, w
+        return Verdict(Status.HOLDS, margin=margin, witness=w)
     failed = [k for k, v in checks.items() if v is not Decision.ZERO] + ([] if cert.certified else ["hurwitz"])
     w["verification_failed"] = failed
-    return Status.UNDECIDED, margin, w
+    return Verdict(Status.UNDECIDED, margin=margin, witness=w)

@@ -1,15 +1,18 @@
-"""Proposition III.2 (iii): the verdict on the local pencil, numeric (structured or dense) and exact.
+"""Proposition III.2 (iii): the rule of ``local.pencil``, numeric (structured or dense) and exact.
 
 ``[[lam I - A^i, -B^i, E^i], [C_loc, 0, 0]]`` must have full column rank for every complex lam.
 The structured path runs zero forcing on the cluster graph, then decides the reduced n-sized
 pencil of :mod:`glocal_verify.analysis.cluster_pencil` and verifies lifted zeros by their
 backward error on the full pencil; the dense path is :func:`~glocal_verify.numerics.pencil.analyze_pencil`
-on the full pencil; the exact path works over Q. Each returns ``(status, margin, witness)``;
-the checker is in :mod:`glocal_verify.conditions.local`.
+on the full pencil; the exact path works over Q. Each returns a
+:class:`~glocal_verify.results.Verdict`; the checker in :mod:`glocal_verify.conditions.local`
+wraps :func:`pencil_verdict` and :func:`pencil_verdict_exact`, and the audit and the observer
+placement call them too.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from fractions import Fraction
@@ -17,6 +20,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from glocal_verify import config
 from glocal_verify.analysis.cluster_pencil import (
     SymmetricZero,
     backward_error,
@@ -38,25 +42,24 @@ from glocal_verify.analysis.local_cases import (
     pencil_matrices,
     pencil_matrices_exact,
 )
+from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.numerics import exact as ex
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
-from glocal_verify.results import Status
+from glocal_verify.results import Status, Verdict
 from glocal_verify.spec.types import Label
 
 __all__ = [
+    "PENCIL_METHODS",
     "pencil_verdict",
     "pencil_verdict_exact",
+    "witness_number",
 ]
 
-#: in ``method="auto"`` clusters with at most this many agents use the dense generic analysis
-DENSE_MAX_AGENTS = 16
-PENCIL_METHODS = ("auto", "structured", "dense")
+#: derived results this module keeps on the system (glocal_verify.derived)
+_CLUSTER_TRANSFER_KIND: Kind[Any] = Kind("cluster-transfer", __name__, "Any")
 
-#: zeros reported (and verified) per case
-_MAX_REPORTED_ZEROS = 12
-#: full pencils with at most this many columns get an exact ||P||_2 in residuals
-_EXACT_NORM_COLUMNS = 400
+PENCIL_METHODS = ("auto", "structured", "dense")
 
 
 def _moves(xi: np.ndarray, nodes: Sequence[Label]) -> list[Label]:
@@ -66,7 +69,14 @@ def _moves(xi: np.ndarray, nodes: Sequence[Label]) -> list[Label]:
     return [a for a, v in zip(nodes, xi) if abs(v) > 1e-6 * m]
 
 
-def _num(z: complex, digits: int = 12) -> complex | float:
+def witness_number(z: complex, digits: int = 12) -> complex | float:
+    """``z`` rounded to ``digits`` decimals for a witness: a float when its imaginary part rounds to 0.
+
+    Parameters
+    ----------
+    z : complex
+    digits : int
+    """
     z = complex(z)
     re, im = round(z.real, digits), round(z.imag, digits)
     return re if im == 0.0 else complex(re, im)
@@ -83,7 +93,7 @@ def _residual(case: LocalCase, lam: complex, v: np.ndarray) -> float:
     its lower bound :func:`~glocal_verify.analysis.cluster_pencil.norm2_lower` on the sparse
     pencil (the ratio can then only be larger)."""
     n = 2 * len(case.model.nodes)
-    if n + min(case.C.shape[0], case.B.shape[1] + case.model.E.shape[1]) <= _EXACT_NORM_COLUMNS:
+    if n + min(case.C.shape[0], case.B.shape[1] + case.model.E.shape[1]) <= config.get("exact_norm_columns"):
         P = full_pencil(case, lam)
         return float(np.linalg.norm(P @ v)) / max(float(np.linalg.norm(P, 2)) * float(np.linalg.norm(v)), 1e-300)
     return backward_error(full_pencil_sparse(case, lam), v)
@@ -104,7 +114,7 @@ def _direction_witness(case: LocalCase, lam: complex, x: np.ndarray, u: np.ndarr
     # full pencil columns: [x, u_B, u_E] with -B^i u_B + E^i u_E; G = [B, -E] gives the same
     # full double precision; only exact zeros are left out (no relative cut)
     return {
-        "lambda": _num(lam),
+        "lambda": witness_number(lam),
         "positions": {a: _full(c) for a, c in zip(nodes, xv[:n]) if c != 0},
         "velocities": {a: _full(c) for a, c in zip(nodes, xv[n:]) if c != 0},
         "attack_input": {a: _full(c) for a, c in zip(case.suspected, uv[:mb]) if c != 0},
@@ -168,7 +178,7 @@ def _resolve_method(case: LocalCase, method: str) -> str:
     if method not in PENCIL_METHODS:
         raise ValueError(f"local.pencil method must be one of {PENCIL_METHODS}, not {method!r}")
     if method == "auto":
-        return "dense" if len(case.model.nodes) <= DENSE_MAX_AGENTS else "structured"
+        return "dense" if len(case.model.nodes) <= config.get("dense_max_agents") else "structured"
     return method
 
 
@@ -267,10 +277,10 @@ def _origin_zero(system: System, case: LocalCase, st: _Structure, tol: Tolerance
     return d, w
 
 
-def _pencil_structured(system: System, case: LocalCase, tol: Tolerance, margin: bool) -> tuple[Status, float, dict[str, Any]]:
+def _pencil_structured(system: System, case: LocalCase, tol: Tolerance, margin: bool) -> Verdict:
     """Structured numeric verdict of (iii): zero forcing, else the reduced pencil (module
     :mod:`glocal_verify.analysis.cluster_pencil`), every zero lifted and verified on the full pencil."""
-    from glocal_verify.numerics.pencil import _cluster, analyze_pencil
+    from glocal_verify.numerics.pencil import cluster_points, analyze_pencil
 
     cm = case.model
     st = _structure(case)
@@ -279,7 +289,7 @@ def _pencil_structured(system: System, case: LocalCase, tol: Tolerance, margin: 
     witness: dict[str, Any] = {"method": "structured", "columns": st.columns, "zero_forcing": zfw}
     nan = float("nan")
 
-    def holds(extra_undecided: bool = False) -> tuple[Status, float, dict[str, Any]]:
+    def holds(extra_undecided: bool = False) -> Verdict:
         witness.update({"normal_rank": st.columns, "full_normal_column_rank": True, "zeros": []})
         mg, decs = _structured_margin(system, case, st, tol) if (margin or not ok) else (nan, [])
         undecided = extra_undecided
@@ -289,7 +299,7 @@ def _pencil_structured(system: System, case: LocalCase, tol: Tolerance, margin: 
             if not any(d is Decision.NONZERO for d in decs) or any(d is Decision.ZERO for d in decs):
                 undecided = True
                 witness["verification"] = "the reduced pencil's rank at the sample points contradicts the analysis"
-        return (Status.UNDECIDED if undecided else Status.HOLDS), (mg if margin else nan), witness
+        return Verdict(Status.UNDECIDED if undecided else Status.HOLDS, margin=mg if margin else nan, witness=witness)
 
     if ok and ok0:
         return holds()
@@ -299,7 +309,7 @@ def _pencil_structured(system: System, case: LocalCase, tol: Tolerance, margin: 
             return holds()
         witness.update({"normal_rank": st.columns, "full_normal_column_rank": True, "zeros": [w0] if w0 else []})
         verified = bool(w0 and w0["verified"] and d0 is Decision.ZERO)
-        return (Status.FAILS if verified else Status.UNDECIDED), 0.0, witness
+        return Verdict(Status.FAILS if verified else Status.UNDECIDED, margin=0.0, witness=witness)
 
     rp = reduced_pencil(cm.L, system.alpha, st.inputs, st.measured)
     nU = len(rp.cols)
@@ -344,7 +354,7 @@ def _pencil_structured(system: System, case: LocalCase, tol: Tolerance, margin: 
         if tol.decide(eta, 1.0) is not Decision.ZERO:
             undecided = True
             witness.setdefault("verification", "the lifted direction does not verify on the full pencil")
-        return (Status.UNDECIDED if undecided else Status.FAILS), 0.0, witness
+        return Verdict(Status.UNDECIDED if undecided else Status.FAILS, margin=0.0, witness=witness)
 
     # finite zeros s_k of Q -> lam with lam^2 + gamma lam = s_k
     gamma = system.gamma
@@ -361,7 +371,7 @@ def _pencil_structured(system: System, case: LocalCase, tol: Tolerance, margin: 
             groups.append((zs.value, zs.multiplicity))
     else:
         raw = [complex(z.value) for z in pa.zeros]
-        clusters = _cluster(raw, math.sqrt(tol.upper) * pa.scale)
+        clusters = cluster_points(raw, math.sqrt(tol.upper) * pa.scale)
     merged: dict[int, list[int]] = {}  # group -> its raw members, until its mean is checked
     for members in clusters:
         if len(members) > 1:
@@ -394,7 +404,7 @@ def _pencil_structured(system: System, case: LocalCase, tol: Tolerance, margin: 
     while cands:
         lam, g, mult = cands.pop(0)
         # report the first 12; if none of them verifies, look at up to 24 more for one that does
-        if len(reported) >= _MAX_REPORTED_ZEROS and (any(w["verified"] for w in reported) or len(reported) >= 3 * _MAX_REPORTED_ZEROS):
+        if len(reported) >= config.get("max_reported_zeros") and (any(w["verified"] for w in reported) or len(reported) >= 3 * config.get("max_reported_zeros")):
             witness["zeros_not_reported"] = len(cands) + 1
             break
         if g in merged:
@@ -418,7 +428,7 @@ def _pencil_structured(system: System, case: LocalCase, tol: Tolerance, margin: 
         v, cols = directions[g]
         vec, eta = _lifted(system, case, st, lam, cols, v)
         w = _direction_witness(case, lam, vec[: 2 * n], vec[2 * n :], residual=eta)
-        w["s"] = _num(groups[g][0])
+        w["s"] = witness_number(groups[g][0])
         w["growth"] = "unbounded" if lam.real > 0 else ("persistent" if lam.real == 0 else "decaying")
         w["verified"] = tol.decide(eta, 1.0) is Decision.ZERO
         if not w["verified"]:
@@ -430,11 +440,11 @@ def _pencil_structured(system: System, case: LocalCase, tol: Tolerance, margin: 
     witness["zeros"] = reported
     if reported:
         status = Status.FAILS if any(w["verified"] for w in reported) else Status.UNDECIDED
-        return status, 0.0, witness
+        return Verdict(status, margin=0.0, witness=witness)
     return holds(undecided)
 
 
-def _pencil_dense(system: System, case: LocalCase, tol: Tolerance, margin: bool) -> tuple[Status, float, dict[str, Any]]:
+def _pencil_dense(system: System, case: LocalCase, tol: Tolerance, margin: bool) -> Verdict:
     """Dense generic verdict of (iii): :func:`glocal_verify.numerics.pencil.analyze_pencil` on the
     2n-state Rosenbrock pencil, every zero re-verified by an SVD of the full pencil."""
     from glocal_verify.numerics.pencil import analyze_pencil, direction_at
@@ -460,8 +470,7 @@ def _pencil_dense(system: System, case: LocalCase, tol: Tolerance, margin: bool)
         if tol.decide(sm, 1.0) is Decision.NONZERO:
             undecided = True
             witness["verification"] = "the full pencil does not lose rank at the sample lam"
-        status = Status.UNDECIDED if undecided else Status.FAILS
-        return status, 0.0, witness
+        return Verdict(Status.UNDECIDED if undecided else Status.FAILS, margin=0.0, witness=witness)
     for z in pa.zeros:
         w = _direction_witness(case, z.value, z.x, z.u)
         sm = _relative_sigma_min(case, z.value)
@@ -477,17 +486,17 @@ def _pencil_dense(system: System, case: LocalCase, tol: Tolerance, margin: bool)
         witness["zeros"].append(w)
     if pa.zeros:
         witness["zero_count"] = sum(w.get("multiplicity", 1) for w in witness["zeros"])
-        witness["zeros"] = witness["zeros"][:_MAX_REPORTED_ZEROS]
+        witness["zeros"] = witness["zeros"][:config.get("max_reported_zeros")]
         status = Status.UNDECIDED if (undecided and not any(w["verified"] for w in witness["zeros"])) else Status.FAILS
-        return status, 0.0, witness
+        return Verdict(status, margin=0.0, witness=witness)
     margin_value = min(_relative_sigma_min(case, lam) for lam in _sample_points(system)) if margin else float("nan")
-    return (Status.UNDECIDED if undecided else Status.HOLDS), margin_value, witness
+    return Verdict(Status.UNDECIDED if undecided else Status.HOLDS, margin=margin_value, witness=witness)
 
 
 def pencil_verdict(
     system: System, case: LocalCase, tol: Tolerance = DEFAULT_TOLERANCE, *, margin: bool = True, method: str = "auto"
-) -> tuple[Status, float, dict[str, Any]]:
-    """Numeric verdict of (iii) for one case: ``(status, margin, witness)``.
+) -> Verdict:
+    """Numeric verdict of (iii) for one case, certified for the exact pencil (else undecided).
 
     Parameters
     ----------
@@ -499,7 +508,7 @@ def pencil_verdict(
         Compute the sampled margin; when False the margin returned is NaN on success.
     method : str
         ``"structured"``, ``"dense"`` or ``"auto"`` (dense for clusters of at most
-        :data:`DENSE_MAX_AGENTS` agents, structured otherwise). The witness records it.
+        ``dense_max_agents`` (:mod:`glocal_verify.config`) agents, structured otherwise). The witness records it.
 
     Notes
     -----
@@ -541,19 +550,18 @@ def pencil_verdict(
     Both margins are 0 on failure.
     """
     if case.structural:
-        return Status.FAILS, 0.0, {"method": _resolve_method(case, method), **_structural_witness(case)}
+        return Verdict(Status.FAILS, margin=0.0, witness={"method": _resolve_method(case, method), **_structural_witness(case)})
     if _resolve_method(case, method) == "dense":
-        status, mg, witness = _pencil_dense(system, case, tol, margin)
+        numeric = _pencil_dense(system, case, tol, margin)
     else:
-        status, mg, witness = _pencil_structured(system, case, tol, margin)
-    status, witness = certify_pencil_verdict(system, case, status, witness)
-    return status, mg, witness
+        numeric = _pencil_structured(system, case, tol, margin)
+    return certify_pencil_verdict(system, case, numeric)
 
 
 # -- exact ------------------------------------------------------------------------------------
 
 
-def _pencil_exact(system: System, case: LocalCase) -> tuple[Status, dict[str, Any]]:
+def _pencil_exact(system: System, case: LocalCase) -> Verdict:
     """Exact verdict of (iii) on the 2n pencil: full column rank for every lam iff
     (A^i, [B^i, -E^i], C_loc) is left-invertible and V* = {0}
     (:func:`glocal_verify.numerics.pencil_exact.analyze_pencil_exact`)."""
@@ -561,7 +569,7 @@ def _pencil_exact(system: System, case: LocalCase) -> tuple[Status, dict[str, An
     from glocal_verify.numerics.pencil_exact import analyze_pencil_exact
 
     if case.structural:
-        return Status.FAILS, _structural_witness(case)
+        return Verdict(Status.FAILS, witness=_structural_witness(case), exact=True)
     A, G, C = pencil_matrices_exact(system, case)
     pe = analyze_pencil_exact(A, G, C, None)
     witness: dict[str, Any] = {
@@ -574,7 +582,7 @@ def _pencil_exact(system: System, case: LocalCase) -> tuple[Status, dict[str, An
         "zero_polynomial": str(pe.zero_polynomial),
     }
     if pe.full_normal_column_rank and not pe.v_star:
-        return Status.HOLDS, witness
+        return Verdict(Status.HOLDS, witness=witness, exact=True)
     if not pe.full_normal_column_rank:
         lam = _lambda0(system)
         An, Gn, Cn = pencil_matrices(case)
@@ -583,8 +591,8 @@ def _pencil_exact(system: System, case: LocalCase) -> tuple[Status, dict[str, An
         if d is not None:
             witness["direction"] = _direction_witness(case, lam, d[0], d[1])
     zs = []
-    for z in pe.zeros[:_MAX_REPORTED_ZEROS]:
-        w: dict[str, Any] = _direction_witness(case, z.value, z.x, z.u) if (z.x.size or z.u.size) else {"lambda": _num(z.value)}
+    for z in pe.zeros[:config.get("max_reported_zeros")]:
+        w: dict[str, Any] = _direction_witness(case, z.value, z.x, z.u) if (z.x.size or z.u.size) else {"lambda": witness_number(z.value)}
         w.update(
             {
                 "factor": z.factor,
@@ -598,7 +606,7 @@ def _pencil_exact(system: System, case: LocalCase) -> tuple[Status, dict[str, An
             w["lambda"] = z.rational
         zs.append(w)
     witness["zeros"] = zs
-    return Status.FAILS, witness
+    return Verdict(Status.FAILS, witness=witness, exact=True)
 
 
 def _poly_rows(L: Sequence[Sequence[Fraction]], alpha: Fraction, rows: Sequence[int], cols: Sequence[int]) -> list[list[Any]]:
@@ -634,7 +642,7 @@ def _factor_kernel(
     return len(K.basis) > du, (K.basis[0] if K.basis else None), "field"
 
 
-def _pencil_exact_structured(system: System, case: LocalCase, *, fast: bool = True) -> tuple[Status, dict[str, Any]] | None:
+def _pencil_exact_structured(system: System, case: LocalCase, *, fast: bool = True) -> Verdict | None:
     """Exact structured verdict of (iii) (module :mod:`glocal_verify.analysis.cluster_pencil`): zero
     forcing on the exact sparsity pattern, else the reduced pencil over Q by
     :func:`glocal_verify.numerics.pencil_exact.analyze_pencil_exact` on its D = 0 embedding; the zero
@@ -667,7 +675,7 @@ def _pencil_exact_structured(system: System, case: LocalCase, *, fast: bool = Tr
     n = st.n
     if ok and ok0:
         witness.update({"normal_rank": st.columns, "full_normal_column_rank": True, "zero_polynomial": "1"})
-        return Status.HOLDS, witness
+        return Verdict(Status.HOLDS, witness=witness, exact=True)
     if ok:  # lam = 0 with the positions only: the rank of alpha L[R, P_i \ M_x] over Q
         R = [k for k in range(n) if k not in st.inputs]
         U0 = [k for k in range(n) if k not in st.measured_pos]
@@ -675,14 +683,14 @@ def _pencil_exact_structured(system: System, case: LocalCase, *, fast: bool = Tr
         witness.update({"normal_rank": st.columns, "full_normal_column_rank": True})
         if ex.rank(M0, len(U0)) == len(U0):
             witness["zero_polynomial"] = "1"
-            return Status.HOLDS, witness
+            return Verdict(Status.HOLDS, witness=witness, exact=True)
         kern = ex.nullspace(M0, len(U0))
         vec, eta = _lifted(system, case, st, 0.0, U0, np.array([float(x) for x in kern[0]]))
         w0 = _direction_witness(case, 0.0, vec[: 2 * n], vec[2 * n :], residual=eta)
         w0.update({"lambda": Fraction(0), "growth": "persistent", "kernel_dim": len(kern)})
         witness["zeros"] = [w0]
         witness["note"] = "lam = 0 is a zero: only the positions constrain xi there"
-        return Status.FAILS, witness
+        return Verdict(Status.FAILS, witness=witness, exact=True)
     if st.origin_apart:
         return None
     A, B, C, rows, cols, k = reduced_system_exact(Lq, aq, st.inputs, st.measured)
@@ -710,7 +718,7 @@ def _pencil_exact_structured(system: System, case: LocalCase, *, fast: bool = Tr
     s_of_lam = flint.fmpq_poly([0, _fq(gq), 1])
     if pe.full_normal_column_rank and not pe.v_star:
         witness["zero_polynomial"] = "1"
-        return Status.HOLDS, witness
+        return Verdict(Status.HOLDS, witness=witness, exact=True)
     if not pe.full_normal_column_rank:
         lam = _lambda0(system)
         Q, qcols = _reduced_matrix(case, system.alpha, system.gamma, st, lam)
@@ -722,7 +730,7 @@ def _pencil_exact_structured(system: System, case: LocalCase, *, fast: bool = Tr
     R_all = list(range(n))
     tr = None
     if fast and pe.factors:
-        tr = system.analysis.get(("cluster-transfer", cm.name, case.mode, tuple(st.inputs)), lambda: cluster_transfer(Lq, Fraction(aq), st.inputs))
+        tr = _CLUSTER_TRANSFER_KIND.get(system, (cm.name, case.mode, tuple(st.inputs)), lambda: cluster_transfer(Lq, Fraction(aq), st.inputs))
     kernels: dict[str, tuple[Any, tuple[Any, ...] | None, RootEnclosures]] = {}
     for f, mult in pe.factors:
         g = f(s_of_lam)
@@ -748,7 +756,7 @@ def _pencil_exact_structured(system: System, case: LocalCase, *, fast: bool = Tr
     entries.sort(key=lambda t: (-t[0].real, -abs(t[0].imag)))
     witness["zero_count"] = sum(e[5] for e in entries)
     zs = []
-    for value, rational, sign, hstr, fstr, mult, has_u in entries[:_MAX_REPORTED_ZEROS]:
+    for value, rational, sign, hstr, fstr, mult, has_u in entries[:config.get("max_reported_zeros")]:
         sv = value * value + system.gamma * value
         w: dict[str, Any]
         xq: np.ndarray | None = None
@@ -764,10 +772,10 @@ def _pencil_exact_structured(system: System, case: LocalCase, *, fast: bool = Tr
             vec, eta = _lifted(system, case, st, value, cols, xq)
             w = _direction_witness(case, value, vec[: 2 * n], vec[2 * n :], residual=eta)
         else:
-            w = {"lambda": _num(value)}
+            w = {"lambda": witness_number(value)}
         w.update(
             {
-                "s": _num(sv),
+                "s": witness_number(sv),
                 "factor": hstr,
                 "factor_s": fstr,
                 "multiplicity": mult,
@@ -779,7 +787,7 @@ def _pencil_exact_structured(system: System, case: LocalCase, *, fast: bool = Tr
             w["lambda"] = rational
         zs.append(w)
     witness["zeros"] = zs
-    return Status.FAILS, witness
+    return Verdict(Status.FAILS, witness=witness, exact=True)
 
 
 def _fq(x: Fraction) -> Any:
@@ -788,8 +796,8 @@ def _fq(x: Fraction) -> Any:
     return flint.fmpq(x.numerator, x.denominator)
 
 
-def pencil_verdict_exact(system: System, case: LocalCase, *, margin: bool = True, method: str = "auto") -> tuple[Status, float, dict[str, Any]]:
-    """Exact verdict of (iii) for one case: ``(status, margin, witness)``; never undecided.
+def pencil_verdict_exact(system: System, case: LocalCase, *, margin: bool = True, method: str = "auto") -> Verdict:
+    """Exact verdict of (iii) for one case; never undecided.
 
     Parameters
     ----------
@@ -817,12 +825,11 @@ def pencil_verdict_exact(system: System, case: LocalCase, *, margin: bool = True
     """
     m = _resolve_method(case, method)
     if case.structural:
-        return Status.FAILS, 0.0, {"method": m, **_structural_witness(case)}
+        return Verdict(Status.FAILS, margin=0.0, witness={"method": m, **_structural_witness(case)}, exact=True)
     out = _pencil_exact_structured(system, case) if m == "structured" else None
     if out is None:
-        status, witness = _pencil_exact(system, case)
-        mg = min(_relative_sigma_min(case, lam) for lam in _sample_points(system)) if (margin and status is Status.HOLDS) else float("nan")
+        out = _pencil_exact(system, case)
+        mg = min(_relative_sigma_min(case, lam) for lam in _sample_points(system)) if (margin and out.status is Status.HOLDS) else float("nan")
     else:
-        status, witness = out
-        mg = _structured_margin(system, case, _structure(case), DEFAULT_TOLERANCE)[0] if (margin and status is Status.HOLDS) else float("nan")
-    return status, (0.0 if status is Status.FAILS else mg), witness
+        mg = _structured_margin(system, case, _structure(case), DEFAULT_TOLERANCE)[0] if (margin and out.status is Status.HOLDS) else float("nan")
+    return dataclasses.replace(out, margin=0.0 if out.status is Status.FAILS else mg)

@@ -1,0 +1,186 @@
+"""The counterexample specs of ``reports/findings/``, verified: what ``reports/findings.md`` shows.
+
+Each ``reports/findings/*.toml`` is a system specification with a ``[finding]`` table::
+
+    [finding]
+    claim = "Remark III.2.1: B^i = I can be used to select local monitors"
+    reference = "Remark III.2.1"
+    paper_says = "..."
+    explanation = "..."
+    conditions = ["local.pencil"]
+    expect = [{id = "local.pencil", status = "fails", suspected = "all"}]
+
+:func:`verify_findings` verifies every spec with the listed conditions (numeric and exact),
+checks that the verdicts match ``expect`` and runs the proof checks that exhibit paper errors;
+:func:`glocal_verify.reporting.findings.findings_markdown` renders the result with the textual
+findings (places where the paper is inconsistent without a system to show it,
+:data:`TEXTUAL_FINDINGS`). Regenerate with ``glocal-verify findings``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from glocal_verify.conditions.registry import implemented_ids, verify
+from glocal_verify.errors import SpecError
+from glocal_verify.model import System
+from glocal_verify.results import ALIASES, ConditionResult
+from glocal_verify.spec import load_spec
+
+__all__ = [
+    "CaseCheck",
+    "FindingCase",
+    "FindingsCheck",
+    "TEXTUAL_FINDINGS",
+    "load_cases",
+    "check_case",
+    "proof_findings",
+    "verify_findings",
+]
+
+DEFAULT_DIR = Path("reports/findings")
+
+TEXTUAL_FINDINGS: tuple[tuple[str, str, str], ...] = (
+    (
+        "Section IV: global residual indices",
+        "Section IV",
+        "The text fixes the global monitors as M_v = {7, 12, 14} but then names the global residuals "
+        "r_{0_i}, i in {1, 12, 14}; agent 1 is not monitored. The bundled paper19 follows M_v = {7, 12, 14}.",
+    ),
+    (
+        "Section IV: Figure 2 is missing",
+        "Section IV, Figure 2",
+        "The communication topology of the example exists only as an empty \\includegraphics; "
+        "glocal_verify/data/paper19.toml reconstructs a graph that fits every sentence and cites them.",
+    ),
+)
+
+
+@dataclass(frozen=True, slots=True)
+class FindingCase:
+    """A counterexample spec with its claim and the verdicts it must produce."""
+
+    path: Path
+    system: System
+    claim: str
+    reference: str
+    paper_says: str
+    explanation: str
+    conditions: tuple[str, ...]
+    expect: tuple[dict[str, Any], ...]
+
+
+def load_cases(directory: str | Path = DEFAULT_DIR) -> list[FindingCase]:
+    """All counterexample specs of ``directory`` (sorted by file name)."""
+    out = []
+    for p in sorted(Path(directory).glob("*.toml")):
+        spec = load_spec(p)
+        f = spec.finding
+        if not f:
+            raise SpecError("finding", "a findings spec needs a [finding] table", str(p))
+        out.append(
+            FindingCase(
+                p,
+                System(spec),
+                str(f["claim"]),
+                str(f["reference"]),
+                str(f.get("paper_says", "")),
+                str(f.get("explanation", "")),
+                tuple(ALIASES.get(c, c) for c in f.get("conditions", [])),
+                tuple({**dict(e), "id": ALIASES.get(e["id"], e["id"])} for e in f.get("expect", [])),
+            )
+        )
+    return out
+
+
+def _matches(r: ConditionResult, e: dict[str, Any]) -> bool:
+    if r.id != e["id"]:
+        return False
+    return all(r.scope.get(k) == v for k, v in e.items() if k not in ("id", "status"))
+
+
+def check_case(case: FindingCase, exact: bool = False) -> tuple[list[ConditionResult], list[str]]:
+    """Verify a case; return its results and the list of unmet expectations (empty if all met)."""
+    ids = [c for c in case.conditions if c in implemented_ids()]
+    results = list(verify(case.system, ids, exact=exact).conditions) if ids else []
+    problems = []
+    for e in case.expect:
+        if e["id"] not in implemented_ids():
+            problems.append(f"{e['id']}: not implemented")
+            continue
+        hits = [r for r in results if _matches(r, e)]
+        if not hits:
+            problems.append(f"{e['id']} {e}: no matching result")
+        for r in hits:
+            if r.status.value != e["status"]:
+                problems.append(f"{e['id']} {dict(r.scope)}: expected {e['status']}, got {r.status.value}")
+    return results, problems
+
+
+def proof_findings() -> list[tuple[str, str, str, str]]:
+    """Paper errors documented by ``proofs_checks``: (step, equation, explanation, verdict).
+
+    Only the steps marked as paper errors are run (each is an exact symbolic or rational
+    computation); the verdict is ``EXPECTED-FAIL`` when the error is confirmed.
+    """
+    from proofs_checks.core import all_steps, check
+
+    out = []
+    for step in all_steps():
+        if step.paper_error:
+            o = check(step)
+            out.append((f"{step.module}.{step.name}", step.equation, step.paper_error, o.verdict.value))
+    return out
+
+
+@dataclass(frozen=True, slots=True)
+class CaseCheck:
+    """One counterexample spec verified numerically and exactly.
+
+    Attributes
+    ----------
+    case : FindingCase
+    numeric, exact : list of ConditionResult
+    numeric_problems, exact_problems : list of str
+        Unmet expectations (empty when the case is confirmed).
+    """
+
+    case: FindingCase
+    numeric: list[ConditionResult]
+    exact: list[ConditionResult]
+    numeric_problems: list[str]
+    exact_problems: list[str]
+
+
+@dataclass(frozen=True, slots=True)
+class FindingsCheck:
+    """Every counterexample spec of a folder, verified, and the paper errors of the proof checks.
+
+    Attributes
+    ----------
+    cases : tuple of CaseCheck
+    proofs : tuple of (step, equation, explanation, verdict) or None
+        :func:`proof_findings`; None when not run.
+    """
+
+    cases: tuple[CaseCheck, ...]
+    proofs: tuple[tuple[str, str, str, str], ...] | None = None
+
+
+def verify_findings(directory: str | Path = DEFAULT_DIR, proofs: bool = True) -> FindingsCheck:
+    """Verify every counterexample spec of ``directory`` (numeric and exact) and, with
+    ``proofs``, run the proof checks that exhibit paper errors.
+
+    Parameters
+    ----------
+    directory : path
+    proofs : bool
+    """
+    checks = []
+    for case in load_cases(directory):
+        num, pn = check_case(case)
+        exa, pe = check_case(case, exact=True)
+        checks.append(CaseCheck(case, num, exa, pn, pe))
+    return FindingsCheck(tuple(checks), tuple(proof_findings()) if proofs else None)
