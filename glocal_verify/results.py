@@ -134,19 +134,6 @@ def id_polarity(results: "Sequence[ConditionResult]") -> Polarity | None:
 
 @dataclass(frozen=True, slots=True)
 class Verdict:
-    """A condition's decision in one scope, as the analysis layer returns it (no id, scope or wording)."""
-    status: Status
-    margin: float | None = None
-    error_bound: float | None = None
-    witness: Mapping[str, Any] = field(default_factory=dict)
-    exact: bool = False          # decided in exact arithmetic
-    combinatorial: bool = False  # no rounding involved (no tolerance recorded)
-    premise: str | None = None   # set when the condition's premise is absent: the verdict is vacuous, and this says which premise
-    note: str = ""
-
-
-@dataclass(frozen=True, slots=True)
-class Verdict:
     """A condition's decision in one scope, as the analysis layer returns it (no id, scope or wording).
 
     The checker of ``glocal_verify.conditions`` adds the condition id, the scope, the
