@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import importlib.util
 import re
-import shutil
 import subprocess
 import xml.etree.ElementTree as ET
 from html.parser import HTMLParser
@@ -17,6 +16,7 @@ from pathlib import Path
 
 import networkx as nx
 import pytest
+from browser import chromium_command
 
 from glocal_verify import ModelError, Report, System, load_example, spec_from_graph, verify
 from glocal_verify.reporting.html import residual_svg, to_html
@@ -218,18 +218,10 @@ def test_a_system_has_a_short_repr(paper19: System, hostile: System) -> None:
 # headless Chromium
 
 
-def _chromium() -> str:
-    exe = shutil.which("chromium") or shutil.which("chromium-browser")
-    if exe is None:
-        pytest.fail("Chromium is not installed: `apt-get install -y chromium` (Debian; .ci/run installs it when missing)")
-    return exe
-
-
 def test_chromium_renders_the_page_with_the_drawn_network(tmp_path: Path, page: str, report: Report) -> None:
-    exe = _chromium()
+    common = chromium_command(tmp_path / "profile")
     html = tmp_path / "report.html"
     html.write_text(page, encoding="utf-8")
-    common = [exe, "--headless=new", "--no-sandbox", "--disable-gpu", "--no-first-run", f"--user-data-dir={tmp_path / 'profile'}"]
     dom = subprocess.run(common + ["--dump-dom", html.as_uri()], capture_output=True, text=True, timeout=180, check=True).stdout
     assert dom.lstrip().lower().startswith("<html") or "<body" in dom
     body = re.sub(r"<[^>]+>", " ", dom)
