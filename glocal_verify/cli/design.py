@@ -46,11 +46,11 @@ def cmd_design(args: argparse.Namespace) -> int:
     from glocal_verify.conditions.cost import SpecSizes, estimate_design
 
     exact = not args.numeric and system.n <= 60
-    est = estimate_design(SpecSizes.from_spec(system.spec), max_attackers=args.max_attackers, place=not args.no_observers, exact_assessment=exact)
+    est = estimate_design(SpecSizes.from_spec(system.spec), max_attackers=args.max_attackers, place=not args.keep_observers, exact_assessment=exact)
     check_cost(est, args, how=("a smaller --max-attackers",))
     if not args.quiet:
         print("auditing, placing observers, designing safe modes ...", file=sys.stderr)
-    d = design_network(system, budget=args.budget, max_attackers=args.max_attackers, place=not args.no_observers, max_links=args.max_links)
+    d = design_network(system, budget=args.budget, max_attackers=args.max_attackers, place=not args.keep_observers, max_links=args.max_links)
     if d.unmet:
         raise UsageError(f"no design within the budget of {args.budget} safe mode(s) meets: {d.unmet[0]}" + (f" (and {len(d.unmet) - 1} more)" if len(d.unmet) > 1 else ""))
     from glocal_verify.model import System
@@ -76,7 +76,9 @@ def register(sub: Any) -> None:
     p.add_argument("--budget", type=int, default=3, metavar="N", help="largest number of designed safe modes")
     p.add_argument("--max-links", type=int, default=2, metavar="K", help="largest number of link changes in one safe mode (one-link modes are tried first; default 2)")
     p.add_argument("--max-attackers", type=int, default=2, metavar="K", help="k of the audit (default 2)")
-    p.add_argument("--no-observers", action="store_true", help="keep the spec's local observers")
+    p.add_argument("--keep-observers", action="store_true", help="keep the spec's local observers instead of placing new ones")
+    # the former spelling of --keep-observers, still accepted
+    p.add_argument("--no-observers", dest="keep_observers", action="store_true", help=argparse.SUPPRESS)
     p.add_argument("--numeric", action="store_true", help="before/after assessment in floating point (default exact for N <= 60)")
     p.add_argument("--quiet", action="store_true")
     add_allow_large(p)
