@@ -255,11 +255,12 @@ def test_simulate_rejects_cases_with_a_forced_mode(capsys: pytest.CaptureFixture
 def test_switching_detects_simulates_the_direction_an_informed_attacker_would_choose() -> None:
     # stealthy.zda reports a direction that the switch touches, but xi = [1, 0, -1, 0] is a
     # stealthy direction at every lambda0 that the switch does not touch: the attacker uses it
-    # and the control centre never detects (reports/findings/theorem3-signed-switch-keeps-zda)
+    # and the control centre never detects (the bundled example findings/theorem3-signed-switch-keeps-zda)
     from glocal_verify import loads_spec
 
-    root = Path(__file__).resolve().parent.parent
-    spec_text = (root / "reports/findings/theorem3-signed-switch-keeps-zda.toml").read_text()
+    from glocal_verify.spec.examples import example_text
+
+    spec_text = example_text("findings/theorem3-signed-switch-keeps-zda")
     spec_text = spec_text[: spec_text.index("[finding]")]
     text = spec_text + """
 [switching]

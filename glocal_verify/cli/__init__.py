@@ -68,7 +68,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"{PROG}: interrupted", file=sys.stderr)
         return 130
     except MemoryError:
-        print(f"{PROG}: error: out of memory: the problem is too large for this machine (see the size limits in docs/spec.md)", file=sys.stderr)
+        print(f"{PROG}: error: out of memory: the problem is too large for this machine (the size limits are explained in docs/performance.md of the glocal-verify source, \"Size limits and estimates\")", file=sys.stderr)
         return 2
     except Exception as exc:  # a bug of the toolkit: one line for the user, the traceback on request
         if os.environ.get("GLOCAL_DEBUG"):

@@ -18,7 +18,7 @@ from glocal_verify.cli.common import (
     write_output,
 )
 from glocal_verify.conditions.catalogue import CATALOGUE
-from glocal_verify.spec.examples import example_names, example_text
+from glocal_verify.spec.examples import example_names, example_text, finding_names
 
 if TYPE_CHECKING:
     from glocal_verify.model import System
@@ -152,7 +152,7 @@ def cmd_verify(args: argparse.Namespace) -> int:
 
 def cmd_example(args: argparse.Namespace) -> int:
     if args.list or not args.name:
-        print("\n".join(example_names()))
+        print("\n".join(example_names() + finding_names()))
         return 0
     sys.stdout.write(example_text(args.name))
     return 0
@@ -166,9 +166,11 @@ def cmd_conditions(args: argparse.Namespace) -> int:
 
 
 def cmd_findings(args: argparse.Namespace) -> int:
-    from glocal_verify.reporting.findings import build_findings_report
+    from glocal_verify.reporting.findings import PROOFS_INSTALL, build_findings_report, proofs_available
 
     check_out_file(args)
+    if not proofs_available():
+        print(f"{PROG}: warning: the proof checks' paper errors are left out of the report: they need sympy ({PROOFS_INSTALL})", file=sys.stderr)
     write_output(build_findings_report(args.dir), args.out)
     return 0
 
@@ -204,14 +206,14 @@ def register(sub: Any) -> None:
 
     e = sub.add_parser("example", help="print a bundled example specification")
     e.add_argument("name", nargs="?", help="example name (e.g. paper19)")
-    e.add_argument("--list", action="store_true", help="list the bundled examples")
+    e.add_argument("--list", action="store_true", help="list the bundled examples (the counterexamples of the findings report are findings/NAME)")
     e.set_defaults(func=cmd_example)
 
     c = sub.add_parser("conditions", help="list the condition ids")
     c.set_defaults(func=cmd_conditions)
 
-    f = sub.add_parser("findings", help="regenerate the findings report from reports/findings/*.toml")
-    f.add_argument("--dir", default="reports/findings", help="folder of counterexample specs")
+    f = sub.add_parser("findings", help="re-verify the bundled counterexamples and write the findings report")
+    f.add_argument("--dir", metavar="FOLDER", help="verify the counterexample specs (*.toml with a [finding] table) of FOLDER instead of the bundled ones")
     f.add_argument("--out", metavar="FILE", help="write to FILE (e.g. reports/findings.md) instead of stdout")
     f.set_defaults(func=cmd_findings)
 

@@ -1,6 +1,9 @@
-"""Generate ``reports/findings.md`` from the counterexample specs in ``reports/findings/``.
+"""Generate ``reports/findings.md`` from the bundled counterexample specs.
 
-Each ``reports/findings/*.toml`` is a system specification with a ``[finding]`` table::
+The counterexamples ship with the package (``glocal_verify/spec/data/findings/*.toml``, the
+bundled examples ``findings/NAME``: ``glocal-verify example findings/NAME`` prints one), so
+``glocal-verify findings`` writes the same report from an installed wheel as from the
+repository. Each is a system specification with a ``[finding]`` table::
 
     [finding]
     claim = "Remark III.2.1: B^i = I can be used to select local monitors"
@@ -11,13 +14,16 @@ Each ``reports/findings/*.toml`` is a system specification with a ``[finding]`` 
     expect = [{id = "local.pencil", status = "fails", suspected = "all"}]
 
 :func:`build_findings_report` verifies every spec with the listed conditions (numeric and
-exact), checks that the verdicts match ``expect`` and renders the Markdown; textual findings
+exact), checks that the verdicts match ``expect`` and renders the Markdown (the paper errors
+of ``proofs_checks`` need sympy, ``pip install 'glocal-verify[proofs]'``; without it the report
+says they were not run); textual findings
 (places where the paper is inconsistent without a system to show it) are listed from
 :data:`TEXTUAL_FINDINGS`. Regenerate with ``glocal-verify findings``.
 """
 
 from __future__ import annotations
 
+import importlib.util
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
@@ -25,18 +31,22 @@ from typing import Any, Sequence
 from glocal_verify.conditions.registry import implemented_ids, verify
 from glocal_verify.errors import SpecError
 from glocal_verify.model import System
+from glocal_verify.reporting.words import counted
 from glocal_verify.results import ALIASES, ConditionResult, json_preview
-from glocal_verify.spec import load_spec
+from glocal_verify.spec import load_spec, loads_spec
+from glocal_verify.spec.examples import example_text, finding_names
 
 __all__ = [
     "FindingCase",
     "TEXTUAL_FINDINGS",
     "load_cases",
     "check_case",
+    "proofs_available",
     "build_findings_report",
 ]
 
-DEFAULT_DIR = Path("reports/findings")
+#: the command that installs what the proof-check section needs
+PROOFS_INSTALL = "pip install 'glocal-verify[proofs]'"
 
 TEXTUAL_FINDINGS: list[tuple[str, str, str]] = [
     (
@@ -49,16 +59,22 @@ TEXTUAL_FINDINGS: list[tuple[str, str, str]] = [
         "Section IV: Figure 2 is missing",
         "Section IV, Figure 2",
         "The communication topology of the example exists only as an empty \\includegraphics; "
-        "glocal_verify/data/paper19.toml reconstructs a graph that fits every sentence and cites them.",
+        "the bundled example paper19 (`glocal-verify example paper19` prints it) reconstructs a graph "
+        "that fits every sentence and cites them.",
     ),
 ]
 
 
 @dataclass(frozen=True, slots=True)
 class FindingCase:
-    """A counterexample spec with its claim and the verdicts it must produce."""
+    """A counterexample spec with its claim and the verdicts it must produce.
 
-    path: Path
+    ``source`` is how the report names it: the bundled example ``findings/NAME``, or the file
+    path of a spec read from a folder (``--dir``); ``bundled`` says which.
+    """
+
+    source: str
+    bundled: bool
     system: System
     claim: str
     reference: str
@@ -68,17 +84,35 @@ class FindingCase:
     expect: tuple[dict[str, Any], ...]
 
 
-def load_cases(directory: str | Path = DEFAULT_DIR) -> list[FindingCase]:
-    """All counterexample specs of ``directory`` (sorted by file name)."""
+def load_cases(directory: str | Path | None = None) -> list[FindingCase]:
+    """The counterexample specs bundled with the package (``directory`` None, sorted by name)
+    or those of ``directory`` (its ``*.toml`` files, sorted by file name).
+
+    Raises
+    ------
+    SpecError
+        When ``directory`` holds no ``*.toml`` file or a spec has no ``[finding]`` table.
+    """
+    specs = []
+    if directory is None:
+        specs = [(name, True, loads_spec(example_text(name), source=f"<example {name}>")) for name in finding_names()]
+    else:
+        folder = Path(directory)
+        if not folder.is_dir():
+            raise SpecError("", f"{folder} is not a folder of counterexample specs")
+        specs = [(p.as_posix(), False, load_spec(p)) for p in sorted(folder.glob("*.toml"))]
+    if not specs:
+        where = "the package (its data folder glocal_verify/spec/data/findings/ is missing)" if directory is None else str(directory)
+        raise SpecError("", f"no counterexample specs (*.toml) in {where}")
     out = []
-    for p in sorted(Path(directory).glob("*.toml")):
-        spec = load_spec(p)
+    for source, bundled, spec in specs:
         f = spec.finding
         if not f:
-            raise SpecError("finding", "a findings spec needs a [finding] table", str(p))
+            raise SpecError("finding", "a findings spec needs a [finding] table", source)
         out.append(
             FindingCase(
-                p,
+                source,
+                bundled,
                 System(spec),
                 str(f["claim"]),
                 str(f["reference"]),
@@ -119,6 +153,11 @@ def _short(obj: Any, limit: int = 140) -> str:
     return json_preview(obj, limit)
 
 
+def proofs_available() -> bool:
+    """Whether the proof checks can run (they need sympy, the ``proofs`` extra)."""
+    return importlib.util.find_spec("sympy") is not None
+
+
 def proof_findings() -> list[tuple[str, str, str, str]]:
     """Paper errors documented by ``proofs_checks``: (step, equation, explanation, verdict).
 
@@ -136,15 +175,31 @@ def proof_findings() -> list[tuple[str, str, str, str]]:
 
 
 def build_findings_report(
-    directory: str | Path = DEFAULT_DIR, extra: Sequence[tuple[str, str, str]] = (), proofs: bool = True
+    directory: str | Path | None = None, extra: Sequence[tuple[str, str, str]] = (), proofs: bool = True
 ) -> str:
     """Markdown of every finding: counterexample specs (verified now), the paper errors that
-    ``proofs_checks`` exhibits (run now when ``proofs``) and textual findings."""
+    ``proofs_checks`` exhibits (run now when ``proofs``; a line says they were not run when
+    sympy is missing, see :func:`proofs_available`) and textual findings.
+
+    Parameters
+    ----------
+    directory : str or Path, optional
+        A folder of counterexample specs; default: the ones bundled with the package.
+    extra : sequence of (title, reference, detail)
+        More textual findings.
+    proofs : bool
+        Run the proof checks' paper errors.
+    """
     cases = load_cases(directory)
+    origin = (
+        "the counterexample specs bundled with\nthe package (the examples `findings/NAME`: `glocal-verify example findings/NAME` prints one)"
+        if directory is None
+        else f"the specs in `{Path(directory).as_posix()}`"
+    )
     lines = [
         "# Findings: where the paper is loose or wrong",
         "",
-        "Generated by `glocal-verify findings` from the specs in `reports/findings/`; never edited by hand.",
+        f"Generated by `glocal-verify findings` from {origin}; never edited by hand.",
         "Each counterexample is reproducible with the command shown; the verdicts below were computed",
         "when this file was generated, numerically and in exact rational arithmetic.",
         "",
@@ -152,14 +207,14 @@ def build_findings_report(
     for k, case in enumerate(cases, 1):
         num, pn = check_case(case)
         exa, pe = check_case(case, exact=True)
-        rel = case.path.as_posix()
         only = ",".join(case.conditions)
+        arg = f"--example {case.source}" if case.bundled else case.source
         lines += [
             f"## {k}. {case.claim}",
             "",
             f"- paper: {case.reference}" + (f" — {case.paper_says}" if case.paper_says else ""),
-            f"- counterexample: `{rel}` ({case.system.n} agents)",
-            f"- reproduce: `glocal-verify verify {rel}" + (f" --only {only}" if only else "") + " --exact`",
+            f"- counterexample: `{case.source}` ({counted(case.system.n, 'agent')})",
+            f"- reproduce: `glocal-verify verify {arg}" + (f" --only {only}" if only else "") + " --exact`",
         ]
         if case.explanation:
             lines.append(f"- why: {case.explanation}")
@@ -172,7 +227,14 @@ def build_findings_report(
                 f"| `{rn.id}` | {scope} | {rn.status.value} | {re_.status.value if re_ else '-'} | `{_short(re_.witness if re_ else rn.witness)}` |"
             )
         lines.append("")
-    if proofs:
+    if proofs and not proofs_available():
+        lines += [
+            "## Paper errors exhibited by the proof checks",
+            "",
+            f"Not run: the proof checks need sympy (`{PROOFS_INSTALL}`).",
+            "",
+        ]
+    elif proofs:
         rows = proof_findings()
         lines += [
             "## Paper errors exhibited by the proof checks",
