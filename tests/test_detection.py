@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from glocal_verify import System, load_example, load_spec, spec_from_dict, verify
+from glocal_verify import System, load_example, spec_from_dict, verify
 from glocal_verify.cli import main
 from glocal_verify.conditions.detects import algorithm1, rank_safe_modes
 from glocal_verify.reporting.case_study import (
@@ -155,7 +155,7 @@ def test_the_cases_yield_the_theorem_and_remark_findings(outcomes: dict[str, Any
 
 
 def test_the_finding_spec_reproduces_an_undetected_zda_under_theorem_iii3() -> None:
-    system = System(load_spec(ROOT / "reports" / "findings" / "theorem3-sufficiency-switch-avoids-zda.toml"))
+    system = System(load_example("findings/theorem3-sufficiency-switch-avoids-zda"))
     rep = verify(system, ["switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences", "switching.detects"], options={"simulate": True})
     assert all(r.status is Status.HOLDS for r in rep.conditions if r.id != "switching.detects")
     (d,) = rep.results("switching.detects")
