@@ -163,7 +163,7 @@ def test_the_drawing_marks_agents_monitors_centres_attack_and_switching_links(pa
     for lab in attacked:
         (node,) = [el for el in by_label[lab] if el.get("class") == "node"]
         assert node.get("stroke") == "#d62828"
-    lines = [el for el in root.iter(f"{SVG}line") if (el.get("class") or "").startswith("edge")]
+    lines = [el for el in root.iter(f"{SVG}polyline") if (el.get("class") or "").startswith("edge")]
     kinds = [el.get("class") for el in lines]
     links = paper19.switching_links("case-3")
     assert kinds.count("edge added") == sum(1 for *_, d in links if d > 0) == 2
@@ -233,7 +233,7 @@ def test_chromium_renders_the_page_with_the_drawn_network(tmp_path: Path, page: 
     svgs = re.findall(r"<svg\b.*?</svg>", dom, flags=re.S)
     assert svgs, "the dumped DOM holds no svg"
     first = svgs[0]
-    assert first.count("<circle") >= 19 and first.count("<line") >= 27
+    assert first.count("<circle") >= 19 and first.count("<polyline") >= 27
     shot = tmp_path / "report.png"
     subprocess.run(common + [f"--screenshot={shot}", "--window-size=1200,2000", html.as_uri()], capture_output=True, timeout=180, check=True)
     assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
