@@ -38,6 +38,7 @@ from dataclasses import dataclass
 
 import networkx as nx
 import numpy as np
+from scipy.spatial import cKDTree
 
 from glocal_verify.model import System
 from glocal_verify.spec.types import NORMAL_MODE, Label
@@ -71,7 +72,7 @@ _CORNERS = 8
 #: the polygon's edges keep this factor above CLEARANCE from the centre
 _POLYGON_SLACK = 1.04
 #: relaxation sweeps inside a cluster
-_SWEEPS = 60
+_SWEEPS = 40
 
 
 @dataclass(frozen=True, slots=True)
@@ -133,11 +134,19 @@ class NetworkLayout:
 
 
 def segment_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Distances from each of ``points`` (k x 2) to the segment from ``a`` to ``b``."""
-    d = b - a
-    dd = float(d @ d)
-    t = np.zeros(len(points)) if dd == 0.0 else np.clip((points - a) @ d / dd, 0.0, 1.0)
-    return np.hypot(*(a + t[:, None] * d - points).T)
+    """Distances from each of ``points`` (k x 2) to each segment from ``a[i]`` to ``b[i]``.
+
+    ``a`` and ``b`` are one point (2,) each, giving a (k,) result, or m points (m x 2) each,
+    giving an (m x k) matrix.
+    """
+    A, B = np.atleast_2d(a).astype(float), np.atleast_2d(b).astype(float)
+    D = B - A  # m x 2
+    dd = np.einsum("ij,ij->i", D, D)
+    rel = points[None, :, :] - A[:, None, :]  # m x k x 2
+    t = np.einsum("mkj,mj->mk", rel, D) / np.where(dd > 0, dd, 1.0)[:, None]
+    t = np.clip(np.where(dd[:, None] > 0, t, 0.0), 0.0, 1.0)
+    out = np.hypot(rel[..., 0] - t * D[:, None, 0], rel[..., 1] - t * D[:, None, 1])
+    return out[0] if np.ndim(a) == 1 else out
 
 
 # --------------------------------------------------------------------------------------------
@@ -175,35 +184,52 @@ def _separate(P: np.ndarray) -> bool:
     return len(close) == 0
 
 
+def _close_pairs(P: np.ndarray, ends: np.ndarray, within: float) -> list[tuple[int, int, float]]:
+    """(link, agent, distance) for every agent closer than ``within`` to a link it does not
+    join; ``ends`` (m x 2) are the links' agent indices. Candidates come from a k-d tree
+    (agents within half the link's length plus ``within`` of its midpoint)."""
+    A, B = P[ends[:, 0]], P[ends[:, 1]]
+    near = cKDTree(P).query_ball_point(0.5 * (A + B), 0.5 * np.hypot(*(B - A).T) + within)
+    m_idx = np.repeat(np.arange(len(ends)), [len(x) for x in near])
+    w_idx = np.fromiter((w for x in near for w in x), dtype=int, count=len(m_idx))
+    keep = (w_idx != ends[m_idx, 0]) & (w_idx != ends[m_idx, 1])
+    m_idx, w_idx = m_idx[keep], w_idx[keep]
+    D = B[m_idx] - A[m_idx]
+    rel = P[w_idx] - A[m_idx]
+    t = np.clip(np.einsum("ij,ij->i", rel, D) / np.maximum(np.einsum("ij,ij->i", D, D), 1e-12), 0.0, 1.0)
+    gap = np.hypot(*(rel - t[:, None] * D).T)
+    return [(int(m), int(w), float(g)) for m, w, g in zip(m_idx, w_idx, gap) if g < within]
+
+
 def _clear_links(P: np.ndarray, links: Sequence[tuple[int, int]]) -> bool:
     """Push agents off the links of their cluster they do not join (one sweep); True if clear."""
-    clear = True
+    if not links:
+        return True
     want = CLEARANCE * 1.5
-    for i, j in links:
+    hits = _close_pairs(P, np.asarray(links), want)
+    for m, w, g in hits:
+        i, j = links[m]
         a, b = P[i], P[j]
-        dist = segment_distance(P, a, b)
-        dist[[i, j]] = np.inf
-        for w in np.flatnonzero(dist < want):
-            clear = False
-            d = b - a
-            foot = a + np.clip((P[w] - a) @ d / max(float(d @ d), 1e-12), 0.0, 1.0) * d
-            away = P[w] - foot
-            n = float(np.hypot(*away))
-            if n < 1e-9:
-                away, n = np.array([-d[1], d[0]]), float(np.hypot(*d)) or 1.0
-            step = (want - dist[w]) * away / n
-            P[w] += 0.6 * step
-            P[i] -= 0.2 * step
-            P[j] -= 0.2 * step
-    return clear
+        d = b - a
+        foot = a + np.clip((P[w] - a) @ d / max(float(d @ d), 1e-12), 0.0, 1.0) * d
+        away = P[w] - foot
+        n = float(np.hypot(*away))
+        if n < 1e-9:
+            away, n = np.array([-d[1], d[0]]), float(np.hypot(*d)) or 1.0
+        step = (want - g) * away / n
+        P[w] += 0.6 * step
+        P[i] -= 0.2 * step
+        P[j] -= 0.2 * step
+    return len(hits) == 0
 
 
-def _cluster_layout(G: nx.Graph, nodes: Sequence[Label]) -> np.ndarray:
-    """Positions of one cluster, centred at the origin (k x 2)."""
+def _cluster_layout(G: nx.Graph, nodes: Sequence[Label], clear: bool) -> np.ndarray:
+    """Positions of one cluster, centred at the origin (k x 2); ``clear``: push agents off
+    the cluster's links too (not only apart)."""
     P = _scaled_spring(G, nodes)
     if len(nodes) > 1:
         where = {a: k for k, a in enumerate(nodes)}
-        links = [(where[u], where[v]) for u, v in G.subgraph(nodes).edges]
+        links = [(where[u], where[v]) for u, v in G.subgraph(nodes).edges] if clear else []
         for _ in range(_SWEEPS):
             links_clear = _clear_links(P, links)
             if _separate(P) and links_clear:
@@ -272,22 +298,23 @@ def _orient(local: list[np.ndarray], centres: np.ndarray, members: list[list[int
 # routing
 
 
-def _clear(P: np.ndarray, a: np.ndarray, b: np.ndarray, skip: tuple[int, int]) -> bool:
-    dist = segment_distance(P, a, b)
-    dist[list(skip)] = np.inf
-    return bool(dist.min(initial=np.inf) > CLEARANCE)
-
-
 def _route(P: np.ndarray, corners: np.ndarray, owner: np.ndarray, i: int, j: int, *, local: bool) -> list[np.ndarray] | None:
     """Shortest clear polyline from agent i to agent j through polygon corners (A*), or None;
     ``local``: only the corners of the agents near the straight segment."""
+    start, goal = P[i], P[j]
+    span = float(np.hypot(*(goal - start)))
     keep = np.ones(len(P), dtype=bool)
     keep[[i, j]] = False
+    if local:
+        # the corners of the agents near the straight segment; every segment between them
+        # stays within `reach` of it, so agents farther than reach + CLEARANCE cannot block
+        reach = span / 2 + 4 * CLEARANCE
+        gap = segment_distance(P, start, goal)
+        near = gap < reach
+        keep &= gap < reach + 2 * CLEARANCE
+    else:
+        near = np.ones(len(P), dtype=bool)
     others = P[keep]
-    start, goal = P[i], P[j]
-    # only the corners of agents near the straight segment and not inside another clearance disc
-    span = float(np.hypot(*(goal - start)))
-    near = segment_distance(P, start, goal) < span / 2 + 4 * CLEARANCE if local else np.ones(len(P), dtype=bool)
     usable = near[owner]
     pts = [start, goal] + [c for c in corners[usable]]
     V = np.array(pts)
@@ -310,18 +337,18 @@ def _route(P: np.ndarray, corners: np.ndarray, owner: np.ndarray, i: int, j: int
                 path.append(prev[path[-1]])
             return [V[k] for k in reversed(path)]
         done.add(u)
-        for v in range(len(V)):
-            if v in done or v == u:
-                continue
-            step = float(np.hypot(*(V[v] - V[u])))
-            cand = dist[u] + step
-            if cand >= dist.get(v, math.inf):
-                continue
-            if len(others) and segment_distance(others, V[u], V[v]).min() <= CLEARANCE:
-                continue
-            dist[v] = cand
-            prev[v] = u
-            heapq.heappush(heap, (cand + float(h[v]), v))
+        steps = np.hypot(*(V - V[u]).T)
+        best = np.array([dist.get(v, math.inf) for v in range(len(V))])
+        cand = dist[u] + steps
+        todo = np.flatnonzero(cand < best)
+        todo = todo[[v not in done and v != u for v in todo]] if len(todo) else todo
+        if len(todo) and len(others):
+            # the segments u -> todo that keep the clearance from every other agent
+            todo = todo[segment_distance(others, np.repeat(V[u][None, :], len(todo), axis=0), V[todo]).min(axis=1) > CLEARANCE]
+        for v in todo:
+            dist[int(v)] = float(cand[v])
+            prev[int(v)] = u
+            heapq.heappush(heap, (float(cand[v] + h[v]), int(v)))
     return None
 
 
@@ -376,7 +403,8 @@ def network_layout(system: System, extra: Iterable[tuple[Label, Label]] = ()) ->
     rest = [a for a in labels if a not in covered]
     if rest:
         named.append((None, rest))
-    local = [_cluster_layout(G, nodes) for _, nodes in named]
+    routed = len(labels) <= ROUTE_MAX_AGENTS
+    local = [_cluster_layout(G, nodes, routed) for _, nodes in named]
     radii = [float(np.hypot(*L.T).max(initial=0.0)) + CLUSTER_MARGIN for L in local]
     centres = _place_groups(radii)
     members = [[index[a] for a in nodes] for _, nodes in named]
@@ -392,12 +420,13 @@ def network_layout(system: System, extra: Iterable[tuple[Label, Label]] = ()) ->
         P[idx] = centres[g] + local[g]
     routes: dict[tuple[Label, Label], tuple[Point, ...]] = {}
     blocked: list[tuple[Label, Label]] = []
-    if len(labels) <= ROUTE_MAX_AGENTS:
+    if routed and pairs:
         corners, owner = _corners(P)
-        for u, v in dict.fromkeys(pairs):
+        unique = list(dict.fromkeys(pairs))
+        crossing = {m for m, _, _ in _close_pairs(P, np.array([(index[u], index[v]) for u, v in unique]), CLEARANCE)}
+        for m in sorted(crossing):
+            u, v = unique[m]
             i, j = index[u], index[v]
-            if _clear(P, P[i], P[j], (i, j)):
-                continue
             path = _route(P, corners, owner, i, j, local=True) or _route(P, corners, owner, i, j, local=False)
             if path is None:
                 blocked.append((u, v))
