@@ -29,7 +29,7 @@ __all__ = ["main", "build_parser", "COMMAND_MODULES"]
 INTERNAL_ERROR = 70
 
 #: modules of this package that add subcommands, in the order ``--help`` lists them
-COMMAND_MODULES = ("verify", "placement", "simulate", "audit", "design", "sweep", "draw")
+COMMAND_MODULES = ("verify", "placement", "simulate", "audit", "design", "sweep", "draw", "export")
 
 
 def build_parser() -> Parser:
