@@ -6,7 +6,7 @@
 - :mod:`.figures` -- figures drawn from given results (no simulation inside);
 - :mod:`.case_study` -- the three cases of Section IV, simulated and checked;
 - :mod:`.simulation_report` -- writes simulation and case-study reports to a folder;
-- :mod:`.findings` -- re-verifies every finding spec and writes ``findings.md``.
+- :mod:`.findings` -- re-verifies every finding spec and writes ``findings.md``;
 - :mod:`.layout`, :mod:`.network_figure` -- where agents and links go in every network drawing
   (no link passes through an agent it does not join), and the drawing on a matplotlib axes;
 - :mod:`.export` -- the designed observers, thresholds and schedule as a ``.mat``, JSON or
