@@ -101,6 +101,13 @@ class NetworkLayout:
     blocked: tuple[tuple[Label, Label], ...] = ()
     clearance: float = CLEARANCE
 
+    def __repr__(self) -> str:
+        return (
+            f"NetworkLayout({len(self.positions)} agents, {len(self.groups)} groups, {len(self.routes)} routed links"
+            + (f", {len(self.blocked)} blocked" if self.blocked else "")
+            + f", clearance {self.clearance:g} radii)"
+        )
+
     def route(self, u: Label, v: Label) -> tuple[Point, ...]:
         """The polyline drawn for the pair (u, v), from u's centre to v's."""
         if (u, v) in self.routes:
