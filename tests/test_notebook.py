@@ -9,6 +9,7 @@ joins the list.
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 from typing import Any, Callable
 
@@ -88,7 +89,11 @@ SHORT_REPRS: list[tuple[str, Callable[[], Any]]] = [
 def executed(tmp_path_factory: pytest.TempPathFactory) -> Any:
     nb = nbformat.read(NOTEBOOK, as_version=4)
     where = tmp_path_factory.mktemp("tour")
-    nbclient.NotebookClient(nb, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(where)}}).execute()
+    limit = sys.getrecursionlimit()  # the Jupyter client raises it to 3000 for this process
+    try:
+        nbclient.NotebookClient(nb, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(where)}}).execute()
+    finally:
+        sys.setrecursionlimit(limit)
     return nb
 
 
