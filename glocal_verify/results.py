@@ -246,6 +246,18 @@ class ConditionResult:
         scope = ", ".join(f"{k}={v}" for k, v in self.scope.items()) or "global"
         return f"<ConditionResult {self.id} [{scope}]: {self.status.value}, {self.polarity.value}{', fragile' if self.fragile else ''}>"
 
+    def _repr_html_(self) -> str:
+        """The verdict first, then what proves it (Jupyter); every string is HTML-escaped."""
+        from html import escape
+
+        scope = ", ".join(f"{k} = {v}" for k, v in self.scope.items()) or "global"
+        extra = f"<br>premise absent: {escape(self.premise)}" if self.premise else (f"<br>{escape(self.note)}" if self.note else "")
+        return (
+            f"<div><p><b>{self.polarity.mark} {escape(self.id)}: {escape(self.status.value)} ({escape(self.polarity.value)})</b> "
+            f"&mdash; {escape(scope)}, {escape(self.reference)}</p><p>{escape(self.statement)}{extra}</p>"
+            f"<p>margin {escape(str(self.margin))}, method {escape(self.method.value)}; witness: <code>{escape(json_preview(self.witness, 200))}</code></p></div>"
+        )
+
     @property
     def fails(self) -> bool:
         return self.status is Status.FAILS

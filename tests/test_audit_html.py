@@ -7,13 +7,13 @@ first, nothing fetched), a hostile spec checks the escaping, and headless Chromi
 from __future__ import annotations
 
 import re
-import shutil
 import subprocess
 from html.parser import HTMLParser
 from pathlib import Path
 
 import networkx as nx
 import pytest
+from browser import chromium_command
 
 from glocal_verify import System, load_example, spec_from_graph
 from glocal_verify.cli import main
@@ -162,12 +162,9 @@ def test_audit_command_writes_the_html_page(tmp_path: Path) -> None:
 
 
 def test_chromium_renders_the_audit_page_with_its_heat_map(tmp_path: Path, page: str, result: AuditResult) -> None:
-    exe = shutil.which("chromium") or shutil.which("chromium-browser")
-    if exe is None:
-        pytest.fail("Chromium is not installed: `apt-get install -y chromium` (Debian; .ci/run installs it when missing)")
+    common = chromium_command(tmp_path / "profile")
     html = tmp_path / "audit.html"
     html.write_text(page, encoding="utf-8")
-    common = [exe, "--headless=new", "--no-sandbox", "--disable-gpu", "--no-first-run", f"--user-data-dir={tmp_path / 'profile'}"]
     dom = subprocess.run(common + ["--dump-dom", html.as_uri()], capture_output=True, text=True, timeout=180, check=True).stdout
     heat = re.search(r'<svg\b[^>]*class="heatmap".*?</svg>', dom, flags=re.DOTALL)
     assert heat is not None

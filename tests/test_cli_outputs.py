@@ -460,3 +460,30 @@ def test_a_finding_rule_whose_numerics_overflow_costs_no_verdict(tmp_path: Path)
     }
     report = verify(System(spec_from_dict(data)))
     assert report.results("switched-observability")
+
+
+def test_design_keeps_the_specs_observers_under_either_spelling_of_the_option(capsys: pytest.CaptureFixture[str]) -> None:
+    from glocal_verify.cli import build_parser
+
+    parser = build_parser()
+    assert parser.parse_args(["design", "x.toml"]).keep_observers is False
+    assert parser.parse_args(["design", "x.toml", "--keep-observers"]).keep_observers is True
+    assert parser.parse_args(["design", "x.toml", "--no-observers"]).keep_observers is True
+    assert main(["design", "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "--keep-observers keep the spec's local observers instead of placing new ones" in text
+    assert "--no-observers" not in text
+
+
+def test_the_exact_budget_is_described_as_one_budget_per_run(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["verify", "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    help_text = text[text.rindex("--exact-budget SECONDS") :][:160]
+    assert "one time budget for all the exact escalations of the run" in help_text and "each" not in help_text
+
+
+def test_counted_nouns_take_their_number() -> None:
+    from glocal_verify.reporting.words import counted
+
+    assert [counted(k, "mode") for k in (0, 1, 2)] == ["0 modes", "1 mode", "2 modes"]
+    assert counted(1, "matrix", "matrices") == "1 matrix" and counted(3, "matrix", "matrices") == "3 matrices"

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from glocal_verify import System, load_example, load_spec, spec_from_dict, verify
+from glocal_verify import System, load_example, spec_from_dict, verify
 from glocal_verify.cli import main
 from glocal_verify.conditions.detects import algorithm1, rank_safe_modes
 from glocal_verify.design.case_study import (
@@ -155,7 +155,7 @@ def test_the_cases_yield_the_theorem_and_remark_findings(outcomes: dict[str, Any
 
 
 def test_the_finding_spec_reproduces_an_undetected_zda_under_theorem_iii3() -> None:
-    system = System(load_spec(ROOT / "reports" / "findings" / "theorem3-sufficiency-switch-avoids-zda.toml"))
+    system = System(load_example("findings/theorem3-sufficiency-switch-avoids-zda"))
     rep = verify(system, ["switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences", "switching.detects"], options={"simulate": True})
     assert all(r.status is Status.HOLDS for r in rep.conditions if r.id != "switching.detects")
     (d,) = rep.results("switching.detects")
@@ -255,11 +255,12 @@ def test_simulate_rejects_cases_with_a_forced_mode(capsys: pytest.CaptureFixture
 def test_switching_detects_simulates_the_direction_an_informed_attacker_would_choose() -> None:
     # stealthy.zda reports a direction that the switch touches, but xi = [1, 0, -1, 0] is a
     # stealthy direction at every lambda0 that the switch does not touch: the attacker uses it
-    # and the control centre never detects (reports/findings/theorem3-signed-switch-keeps-zda)
+    # and the control centre never detects (the bundled example findings/theorem3-signed-switch-keeps-zda)
     from glocal_verify import loads_spec
 
-    root = Path(__file__).resolve().parent.parent
-    spec_text = (root / "reports/findings/theorem3-signed-switch-keeps-zda.toml").read_text()
+    from glocal_verify.spec.examples import example_text
+
+    spec_text = example_text("findings/theorem3-signed-switch-keeps-zda")
     spec_text = spec_text[: spec_text.index("[finding]")]
     text = spec_text + """
 [switching]

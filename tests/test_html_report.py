@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import importlib.util
 import re
-import shutil
 import subprocess
 import xml.etree.ElementTree as ET
 from html.parser import HTMLParser
@@ -17,6 +16,7 @@ from pathlib import Path
 
 import networkx as nx
 import pytest
+from browser import chromium_command
 
 from glocal_verify import ModelError, Report, System, load_example, spec_from_graph, verify
 from glocal_verify.reporting.html import residual_svg, to_html
@@ -164,7 +164,7 @@ def test_the_drawing_marks_agents_monitors_centres_attack_and_switching_links(pa
     for lab in attacked:
         (node,) = [el for el in by_label[lab] if el.get("class") == "node"]
         assert node.get("stroke") == "#d62828"
-    lines = [el for el in root.iter(f"{SVG}line") if (el.get("class") or "").startswith("edge")]
+    lines = [el for el in root.iter(f"{SVG}polyline") if (el.get("class") or "").startswith("edge")]
     kinds = [el.get("class") for el in lines]
     links = paper19.switching_links("case-3")
     assert kinds.count("edge added") == sum(1 for *_, d in links if d > 0) == 2
@@ -219,18 +219,10 @@ def test_a_system_has_a_short_repr(paper19: System, hostile: System) -> None:
 # headless Chromium
 
 
-def _chromium() -> str:
-    exe = shutil.which("chromium") or shutil.which("chromium-browser")
-    if exe is None:
-        pytest.fail("Chromium is not installed: `apt-get install -y chromium` (Debian; .ci/run installs it when missing)")
-    return exe
-
-
 def test_chromium_renders_the_page_with_the_drawn_network(tmp_path: Path, page: str, report: Report) -> None:
-    exe = _chromium()
+    common = chromium_command(tmp_path / "profile")
     html = tmp_path / "report.html"
     html.write_text(page, encoding="utf-8")
-    common = [exe, "--headless=new", "--no-sandbox", "--disable-gpu", "--no-first-run", f"--user-data-dir={tmp_path / 'profile'}"]
     dom = subprocess.run(common + ["--dump-dom", html.as_uri()], capture_output=True, text=True, timeout=180, check=True).stdout
     assert dom.lstrip().lower().startswith("<html") or "<body" in dom
     body = re.sub(r"<[^>]+>", " ", dom)
@@ -242,7 +234,7 @@ def test_chromium_renders_the_page_with_the_drawn_network(tmp_path: Path, page: 
     svgs = re.findall(r"<svg\b.*?</svg>", dom, flags=re.S)
     assert svgs, "the dumped DOM holds no svg"
     first = svgs[0]
-    assert first.count("<circle") >= 19 and first.count("<line") >= 27
+    assert first.count("<circle") >= 19 and first.count("<polyline") >= 27
     shot = tmp_path / "report.png"
     subprocess.run(common + [f"--screenshot={shot}", "--window-size=1200,2000", html.as_uri()], capture_output=True, timeout=180, check=True)
     assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

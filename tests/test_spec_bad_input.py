@@ -255,7 +255,8 @@ def _graph(*edges: tuple[object, ...]) -> object:
         (lambda: _graph((1, 2, 1e30), (2, 3)), "must be at most 1e+12"),
         (lambda: _graph((1, 2, [1]), (2, 3)), "expected number"),
         (lambda: _graph((1, "1"), (1, 2)), "ambiguous"),
-        (lambda: _graph(((1, 2), 3), ("(1, 2)", 3)), "listed twice"),
+        # a tuple label is refused before its text could collide with the string "(1, 2)"
+        (lambda: _graph(((1, 2), 3), ("(1, 2)", 3)), "node (1, 2) is a tuple"),
         (lambda: __import__("networkx").MultiGraph([(1, 2), (1, 2)]), "multigraph"),
         (lambda: __import__("networkx").DiGraph([(1, 2)]), "undirected"),
         (lambda: [(1, 2)], "expected a networkx.Graph"),
@@ -349,3 +350,30 @@ def test_simulate_refuses_a_sample_count_it_cannot_allocate_before_allocating(tm
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "simulation too large" in err[0]
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+
+
+def test_a_graph_with_tuple_labels_is_refused_with_the_way_to_relabel_it() -> None:
+    import networkx as nx
+
+    from glocal_verify.spec import dump_spec, loads_spec
+
+    with pytest.raises(SpecError) as info:
+        spec_from_graph(nx.grid_2d_graph(2, 2), monitor_velocities=[(0, 0)])
+    text = str(info.value)
+    assert "graph.nodes[0]" in text and "(0, 0)" in text and "tuple" in text and "relabel" in text
+    assert len(text.splitlines()) == 1
+    # the two relabelings the message proposes are accepted and round-trip exactly
+    for G in (nx.convert_node_labels_to_integers(nx.grid_2d_graph(2, 2), first_label=1), nx.relabel_nodes(nx.grid_2d_graph(2, 2), str)):
+        spec = spec_from_graph(G, monitor_velocities=[next(iter(G.nodes))])
+        assert loads_spec(dump_spec(spec), source=spec.source) == spec
+    with pytest.raises(SpecError, match=r"monitor\.velocities\[0\]"):
+        spec_from_graph(nx.path_graph([1, 2, 3]), monitor_velocities=[(1, 2)])
+
+
+def test_every_bundled_example_and_every_written_spec_ends_with_one_newline() -> None:
+    from glocal_verify.spec import dump_spec
+    from glocal_verify.spec.examples import example_names, example_text, load_example
+
+    for name in example_names():
+        for text in (example_text(name), dump_spec(load_example(name))):
+            assert text.endswith("\n") and not text.endswith("\n\n"), name

@@ -29,7 +29,7 @@ __all__ = ["main", "build_parser", "COMMAND_MODULES"]
 INTERNAL_ERROR = 70
 
 #: modules of this package that add subcommands, in the order ``--help`` lists them
-COMMAND_MODULES = ("verify", "placement", "simulate", "audit", "design", "sweep", "draw")
+COMMAND_MODULES = ("verify", "placement", "simulate", "audit", "design", "sweep", "draw", "export")
 
 
 def build_parser() -> Parser:
@@ -68,7 +68,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"{PROG}: interrupted", file=sys.stderr)
         return 130
     except MemoryError:
-        print(f"{PROG}: error: out of memory: the problem is too large for this machine (see the size limits in docs/spec.md)", file=sys.stderr)
+        print(f"{PROG}: error: out of memory: the problem is too large for this machine (the size limits are explained in docs/performance.md of the glocal-verify source, \"Size limits and estimates\")", file=sys.stderr)
         return 2
     except Exception as exc:  # a bug of the toolkit: one line for the user, the traceback on request
         if os.environ.get("GLOCAL_DEBUG"):

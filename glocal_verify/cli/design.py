@@ -66,7 +66,9 @@ def register(sub: Any) -> None:
     p.add_argument("--budget", type=int, default=3, metavar="N", help="largest number of designed safe modes (default 3; the added velocity monitors have their own budget of 3)")
     p.add_argument("--max-links", type=int, default=2, metavar="K", help="largest number of link changes in one safe mode (one-link modes are tried first; default 2)")
     p.add_argument("--max-attackers", type=int, default=2, metavar="K", help="k of the audit (default 2)")
-    p.add_argument("--keep-observers", "--no-observers", dest="keep_observers", action="store_true", help="keep the spec's local observers: design no new ones")
+    p.add_argument("--keep-observers", action="store_true", help="keep the spec's local observers instead of placing new ones")
+    # the former spelling of --keep-observers, still accepted
+    p.add_argument("--no-observers", dest="keep_observers", action="store_true", help=argparse.SUPPRESS)
     p.add_argument("--numeric", action="store_true", help="before/after assessment in floating point (default exact for N <= 60)")
     p.add_argument("--quiet", action="store_true")
     add_allow_large(p)

@@ -27,7 +27,7 @@ def cmd_draw(args: argparse.Namespace) -> int:
         raise UsageError("draw is not available: glocal_verify.reporting.network_svg has no network_svg(system, mode)")
     system = load_system(args)
     system.check_mode(args.mode)
-    svg = str(network_svg(system, args.mode))
+    svg = str(network_svg(system, args.mode) if args.weights is None else network_svg(system, args.mode, weights=args.weights))
     write_output(svg if svg.endswith("\n") else svg + "\n", args.out, inputs=spec_inputs(args))
     return 0
 
@@ -38,5 +38,11 @@ def register(sub: Any) -> None:
     d.add_argument("spec", nargs="?", help="system specification (TOML, format 1)")
     d.add_argument("--example", metavar="NAME", help=f"use a bundled example ({', '.join(example_names())})")
     d.add_argument("--mode", metavar="NAME", default=NORMAL_MODE, help=f"mode to draw (default {NORMAL_MODE})")
+    d.add_argument(
+        "--weights",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="write each link's weight halfway along it (default: when the links' weights are not all equal)",
+    )
     d.add_argument("--out", metavar="FILE", help="write the SVG to FILE instead of stdout")
     d.set_defaults(func=cmd_draw)

@@ -18,7 +18,7 @@ from glocal_verify.cli.common import (
     write_output,
 )
 from glocal_verify.conditions.catalogue import CATALOGUE
-from glocal_verify.spec.examples import example_names, example_text
+from glocal_verify.spec.examples import example_names, example_text, finding_names
 
 if TYPE_CHECKING:
     from glocal_verify.model import System
@@ -146,7 +146,7 @@ def cmd_verify(args: argparse.Namespace) -> int:
 
 def cmd_example(args: argparse.Namespace) -> int:
     if args.list or not args.name:
-        print("\n".join(example_names()))
+        print("\n".join(example_names() + finding_names()))
         return 0
     sys.stdout.write(example_text(args.name))
     return 0
@@ -160,10 +160,12 @@ def cmd_conditions(args: argparse.Namespace) -> int:
 
 
 def cmd_findings(args: argparse.Namespace) -> int:
-    from glocal_verify.design.findings import verify_findings
+    from glocal_verify.design.findings import PROOFS_INSTALL, proofs_available, verify_findings
     from glocal_verify.reporting.findings import findings_markdown
 
     check_out_file(args)
+    if not proofs_available():
+        print(f"{PROG}: warning: the proof checks' paper errors are left out of the report: they need sympy ({PROOFS_INSTALL})", file=sys.stderr)
     write_output(findings_markdown(verify_findings(args.dir)), args.out)
     return 0
 
@@ -192,7 +194,7 @@ def register(sub: Any) -> None:
         help="run switching.detects (Theorem III.3's conclusion, one simulated switch per safe mode; auto: up to 150 agents)",
     )
     v.add_argument("--escalate", choices=("auto", "never"), default="auto", help="auto (default): re-decide a numeric undecided exactly within --exact-budget")
-    v.add_argument("--exact-budget", type=float, default=30.0, metavar="SECONDS", help="time for all exact escalations of the run together (default 30; 0: no limit)")
+    v.add_argument("--exact-budget", type=float, default=30.0, metavar="SECONDS", help="one time budget for all the exact escalations of the run, shared among them (default 30; 0: no limit)")
     v.add_argument("--fragile-below", type=float, default=1e-9, metavar="X", help="mark a verdict fragile when its margin is below X (default 1e-9)")
     v.add_argument("--quiet", action="store_true", help="no progress on stderr")
     add_allow_large(v)
@@ -200,14 +202,14 @@ def register(sub: Any) -> None:
 
     e = sub.add_parser("example", help="print a bundled example specification")
     e.add_argument("name", nargs="?", help="example name (e.g. paper19)")
-    e.add_argument("--list", action="store_true", help="list the bundled examples")
+    e.add_argument("--list", action="store_true", help="list the bundled examples (the counterexamples of the findings report are findings/NAME)")
     e.set_defaults(func=cmd_example)
 
     c = sub.add_parser("conditions", help="list the condition ids")
     c.set_defaults(func=cmd_conditions)
 
-    f = sub.add_parser("findings", help="regenerate the findings report from reports/findings/*.toml")
-    f.add_argument("--dir", default="reports/findings", help="folder of counterexample specs")
+    f = sub.add_parser("findings", help="re-verify the bundled counterexamples and write the findings report")
+    f.add_argument("--dir", metavar="FOLDER", help="verify the counterexample specs (*.toml with a [finding] table) of FOLDER instead of the bundled ones")
     f.add_argument("--out", metavar="FILE", help="write to FILE (e.g. reports/findings.md) instead of stdout")
     f.set_defaults(func=cmd_findings)
 

@@ -628,7 +628,7 @@ def estimate_design(sizes: SpecSizes, *, max_attackers: int = 2, place: bool = T
     max_attackers : int
         ``--max-attackers`` (k of both audits).
     place : bool
-        Observers are placed (not ``--no-observers``).
+        Observers are placed (not ``--keep-observers``).
     exact_assessment : bool, optional
         The assessments run exactly (default: N <= 60, as ``design`` does without ``--numeric``).
 

@@ -277,7 +277,7 @@ def case_findings(outcomes: Sequence[CaseOutcome]) -> list[str]:
                 f"ZDA is still a zero direction of (A_q, B, C) and the residual equals the attack-free one). "
                 f"The paper's 'trade-off between a faster attack detection ... and a slower detection' "
                 f"(Section IV) cannot hold for such a switch on any graph: there is no detection, slow or fast. "
-                f"Minimal counterexample (3 agents): reports/findings/theorem3-sufficiency-switch-avoids-zda.toml."
+                f"Minimal counterexample (3 agents): the bundled example findings/theorem3-sufficiency-switch-avoids-zda."
             )
     touch = {oc.case.name: zda_touch(oc.case.system, oc.case.mode, oc.result.attack) for oc in outcomes if oc.result.attack is not None and oc.result.attack.xi is not None}
     bounded = [nm for nm, d in touch.items() if d is not None and d <= 1e-9 and any(o.case.name == nm and o.observed == "vanishing" for o in outcomes)]
@@ -291,7 +291,7 @@ def case_findings(outcomes: Sequence[CaseOutcome]) -> list[str]:
             f"the states the attack moves': the cases whose switch avoids the moved agents ({', '.join(bounded) or 'none'}) "
             f"are bounded and vanishing, the case whose switch touches them ({', '.join(unbounded)}) is unbounded. "
             "Sentence (b) is the one that fails: it is case 1, not case 2, that meets (unsafe_set). Touching is not "
-            "sufficient either: reports/findings/remark-touching-switch-hides-zda.toml (3 agents) touches the ZDA and "
+            "sufficient either: the bundled example findings/remark-touching-switch-hides-zda (3 agents) touches the ZDA and "
             "the residual stays exactly attack-free, because Theorem III.3 (ii) fails there."
         )
     return out

@@ -1,6 +1,9 @@
-"""The counterexample specs of ``reports/findings/``, verified: what ``reports/findings.md`` shows.
+"""The counterexample specs, verified: what ``reports/findings.md`` shows.
 
-Each ``reports/findings/*.toml`` is a system specification with a ``[finding]`` table::
+The counterexamples ship with the package (``glocal_verify/spec/data/findings/*.toml``, the
+bundled examples ``findings/NAME``: ``glocal-verify example findings/NAME`` prints one), so
+``glocal-verify findings`` writes the same report from an installed wheel as from the
+repository. Each is a system specification with a ``[finding]`` table::
 
     [finding]
     claim = "Remark III.2.1: B^i = I can be used to select local monitors"
@@ -11,7 +14,9 @@ Each ``reports/findings/*.toml`` is a system specification with a ``[finding]`` 
     expect = [{id = "local.pencil", status = "fails", suspected = "all"}]
 
 :func:`verify_findings` verifies every spec with the listed conditions (numeric and exact),
-checks that the verdicts match ``expect`` and runs the proof checks that exhibit paper errors;
+checks that the verdicts match ``expect`` and runs the proof checks that exhibit paper errors
+(they need sympy, ``pip install 'glocal-verify[proofs]'``; without it the report says they were
+not run);
 :func:`glocal_verify.reporting.findings.findings_markdown` renders the result with the textual
 findings (places where the paper is inconsistent without a system to show it,
 :data:`TEXTUAL_FINDINGS`). Regenerate with ``glocal-verify findings``.
@@ -19,6 +24,7 @@ findings (places where the paper is inconsistent without a system to show it,
 
 from __future__ import annotations
 
+import importlib.util
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -27,20 +33,24 @@ from glocal_verify.conditions.registry import implemented_ids, verify
 from glocal_verify.errors import SpecError
 from glocal_verify.model import System
 from glocal_verify.results import ALIASES, ConditionResult
-from glocal_verify.spec import load_spec
+from glocal_verify.spec import load_spec, loads_spec
+from glocal_verify.spec.examples import example_text, finding_names
 
 __all__ = [
     "CaseCheck",
     "FindingCase",
     "FindingsCheck",
+    "PROOFS_INSTALL",
     "TEXTUAL_FINDINGS",
     "load_cases",
     "check_case",
     "proof_findings",
+    "proofs_available",
     "verify_findings",
 ]
 
-DEFAULT_DIR = Path("reports/findings")
+#: the command that installs what the proof-check section needs
+PROOFS_INSTALL = "pip install 'glocal-verify[proofs]'"
 
 TEXTUAL_FINDINGS: tuple[tuple[str, str, str], ...] = (
     (
@@ -53,16 +63,22 @@ TEXTUAL_FINDINGS: tuple[tuple[str, str, str], ...] = (
         "Section IV: Figure 2 is missing",
         "Section IV, Figure 2",
         "The communication topology of the example exists only as an empty \\includegraphics; "
-        "glocal_verify/data/paper19.toml reconstructs a graph that fits every sentence and cites them.",
+        "the bundled example paper19 (`glocal-verify example paper19` prints it) reconstructs a graph "
+        "that fits every sentence and cites them.",
     ),
 )
 
 
 @dataclass(frozen=True, slots=True)
 class FindingCase:
-    """A counterexample spec with its claim and the verdicts it must produce."""
+    """A counterexample spec with its claim and the verdicts it must produce.
 
-    path: Path
+    ``source`` is how the report names it: the bundled example ``findings/NAME``, or the file
+    path of a spec read from a folder (``--dir``); ``bundled`` says which.
+    """
+
+    source: str
+    bundled: bool
     system: System
     claim: str
     reference: str
@@ -72,17 +88,34 @@ class FindingCase:
     expect: tuple[dict[str, Any], ...]
 
 
-def load_cases(directory: str | Path = DEFAULT_DIR) -> list[FindingCase]:
-    """All counterexample specs of ``directory`` (sorted by file name)."""
+def load_cases(directory: str | Path | None = None) -> list[FindingCase]:
+    """The counterexample specs bundled with the package (``directory`` None, sorted by name)
+    or those of ``directory`` (its ``*.toml`` files, sorted by file name).
+
+    Raises
+    ------
+    SpecError
+        When ``directory`` holds no ``*.toml`` file or a spec has no ``[finding]`` table.
+    """
+    if directory is None:
+        specs = [(name, True, loads_spec(example_text(name), source=f"<example {name}>")) for name in finding_names()]
+    else:
+        folder = Path(directory)
+        if not folder.is_dir():
+            raise SpecError("", f"{folder} is not a folder of counterexample specs")
+        specs = [(p.as_posix(), False, load_spec(p)) for p in sorted(folder.glob("*.toml"))]
+    if not specs:
+        where = "the package (its data folder glocal_verify/spec/data/findings/ is missing)" if directory is None else str(directory)
+        raise SpecError("", f"no counterexample specs (*.toml) in {where}")
     out = []
-    for p in sorted(Path(directory).glob("*.toml")):
-        spec = load_spec(p)
+    for source, bundled, spec in specs:
         f = spec.finding
         if not f:
-            raise SpecError("finding", "a findings spec needs a [finding] table", str(p))
+            raise SpecError("finding", "a findings spec needs a [finding] table", source)
         out.append(
             FindingCase(
-                p,
+                source,
+                bundled,
                 System(spec),
                 str(f["claim"]),
                 str(f["reference"]),
@@ -117,6 +150,11 @@ def check_case(case: FindingCase, exact: bool = False) -> tuple[list[ConditionRe
             if r.status.value != e["status"]:
                 problems.append(f"{e['id']} {dict(r.scope)}: expected {e['status']}, got {r.status.value}")
     return results, problems
+
+
+def proofs_available() -> bool:
+    """Whether the proof checks can run (they need sympy, the ``proofs`` extra)."""
+    return importlib.util.find_spec("sympy") is not None
 
 
 def proof_findings() -> list[tuple[str, str, str, str]]:
@@ -163,19 +201,26 @@ class FindingsCheck:
     cases : tuple of CaseCheck
     proofs : tuple of (step, equation, explanation, verdict) or None
         :func:`proof_findings`; None when not run.
+    directory : str or None
+        The folder the specs came from (None: the bundled ones).
+    proofs_missing : bool
+        The proof checks were asked for but sympy is not installed.
     """
 
     cases: tuple[CaseCheck, ...]
     proofs: tuple[tuple[str, str, str, str], ...] | None = None
+    directory: str | None = None
+    proofs_missing: bool = False
 
 
-def verify_findings(directory: str | Path = DEFAULT_DIR, proofs: bool = True) -> FindingsCheck:
-    """Verify every counterexample spec of ``directory`` (numeric and exact) and, with
-    ``proofs``, run the proof checks that exhibit paper errors.
+def verify_findings(directory: str | Path | None = None, proofs: bool = True) -> FindingsCheck:
+    """Verify every counterexample spec (numeric and exact) and, with ``proofs``, run the proof
+    checks that exhibit paper errors (when sympy is installed).
 
     Parameters
     ----------
-    directory : path
+    directory : path, optional
+        A folder of counterexample specs; default: the ones bundled with the package.
     proofs : bool
     """
     checks = []
@@ -183,4 +228,6 @@ def verify_findings(directory: str | Path = DEFAULT_DIR, proofs: bool = True) ->
         num, pn = check_case(case)
         exa, pe = check_case(case, exact=True)
         checks.append(CaseCheck(case, num, exa, pn, pe))
-    return FindingsCheck(tuple(checks), tuple(proof_findings()) if proofs else None)
+    run = proofs and proofs_available()
+    where = None if directory is None else Path(directory).as_posix()
+    return FindingsCheck(tuple(checks), tuple(proof_findings()) if run else None, where, proofs and not run)

@@ -156,6 +156,14 @@ class NetworkDesign:
         lines += [f"NOT MET: {u}" for u in self.unmet]
         return lines
 
+    def _repr_html_(self) -> str:
+        from html import escape
+
+        lines = self.summary()
+        head = "incomplete design" if self.unmet else "design"
+        items = "".join(f"<li>{escape(x)}</li>" for x in lines[2:])
+        return f"<div><p><b>{escape(head)}</b>: {escape(lines[1].replace('audit after:', 'after:').strip())}</p><p>{escape(lines[0])}</p><ul>{items}</ul></div>"
+
     def __repr__(self) -> str:
         a = self.after.summary()["counts"]
         return f"<NetworkDesign {self.before.system}: {len(self.changes)} changes; after: {a['undetected']} undetected, {a['undecided']} undecided{'; incomplete' if self.unmet else ''}>"

@@ -45,10 +45,13 @@ import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, Callable, Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping, Sequence
 
 from glocal_verify import config
 from glocal_verify.errors import GlocalVerifyError, SpecError
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = [
     "Member",
@@ -57,6 +60,7 @@ __all__ = [
     "load_sweep",
     "plan_from_dict",
     "run_member",
+    "rates_figure",
     "run_sweep",
     "summarize",
     "wilson_interval",
@@ -379,6 +383,20 @@ class SweepResult:
     computed: int
     resumed: int
 
+    def __repr__(self) -> str:
+        members = len({r.get("member") for r in self.rows})
+        return f"<SweepResult {members} members, {len(self.rows)} rows ({self.computed} computed, {self.resumed} resumed) in {self.out.name}>"
+
+    def _repr_html_(self) -> str:
+        from html import escape
+
+        pol: dict[str, int] = {}
+        for r in self.rows:
+            key = str(r.get("polarity") or ("favourable" if r.get("favourable") else "unfavourable" if r.get("favourable") is False else "undecided"))
+            pol[key] = pol.get(key, 0) + 1
+        counts = ", ".join(f"{n} {k}" for k, n in sorted(pol.items()))
+        return f"<div><p><b>{escape(counts)}</b> &mdash; sweep results in <code>{escape(str(self.out))}</code></p></div>"
+
 
 def _atomic_write(path: Path, data: bytes) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -503,24 +521,53 @@ def summarize(rows: Sequence[Mapping[str, Any]], grid: Mapping[str, Sequence[Any
     return out_md
 
 
-def _plot_rates(axis: str, values: Sequence[Any], series: Mapping[str, Sequence[tuple[float, float, float]]], path: Path) -> None:
+def rates_figure(axis: str, values: Sequence[Any], series: Mapping[str, Sequence[tuple[float, float, float]]]) -> Figure:
+    """The rate of ``holds`` of each condition against one swept parameter, with Wilson intervals.
+
+    Parameters
+    ----------
+    axis : str
+        The parameter's name (the x label).
+    values : sequence
+        Its values (the x ticks).
+    series : mapping of condition id to sequence of (rate, low, high)
+        One point per value; a NaN rate is drawn as a gap.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Curves that coincide stay visible (each condition is shifted sideways by a small offset
+        and has its own marker and dash pattern); the legend is outside the axes.
+    """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(7, 4))
+    fig = Figure(figsize=(9, 4), layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(1, 1, 1)
     xs = list(range(len(values)))
-    for c, pts in series.items():
+    # curves that coincide (eight conditions all at 1.0) stay apart: each series is shifted
+    # sideways by a small offset and has its own marker and dash pattern
+    k = len(series)
+    width = min(0.5, 0.06 * k)
+    markers, dashes = "osD^vP*Xh<>p", ("-", "--", "-.", ":")
+    for j, (c, pts) in enumerate(series.items()):
+        shift = (j - (k - 1) / 2) * (width / max(k - 1, 1)) if k > 1 else 0.0
         ys = [p[0] for p in pts]
         lo = [max(0.0, p[0] - p[1]) if math.isfinite(p[0]) else 0.0 for p in pts]
         hi = [max(0.0, p[2] - p[0]) if math.isfinite(p[0]) else 0.0 for p in pts]
-        ax.errorbar(xs, ys, yerr=[lo, hi], marker="o", capsize=3, label=c)
+        ax.errorbar([x + shift for x in xs], ys, yerr=[lo, hi], marker=markers[j % len(markers)], ls=dashes[j % len(dashes)], ms=5, capsize=2, lw=1.2, label=c)
     ax.set_xticks(xs, [str(v) for v in values])
     ax.set_xlabel(axis)
     ax.set_ylabel("rate of holds (Wilson 95%)")
     ax.set_ylim(-0.05, 1.05)
-    ax.legend(fontsize=7, loc="best")
+    # outside the axes: the legend never covers a curve
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, frameon=False, title="condition (markers offset sideways)", title_fontsize=7)
+    return fig
+
+
+def _plot_rates(axis: str, values: Sequence[Any], series: Mapping[str, Sequence[tuple[float, float, float]]], path: Path) -> None:
+    fig = rates_figure(axis, values, series)
     buf = io.StringIO()
     fig.savefig(buf, format="svg")
     _atomic_write(path, buf.getvalue().encode("utf-8"))

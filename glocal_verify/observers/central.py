@@ -116,6 +116,13 @@ class CentralObserver:
     unobservable: Subspace
     mode: str = NORMAL_MODE
 
+    def __repr__(self) -> str:
+        return (
+            f"CentralObserver(mode {self.mode}, H {self.H.shape[0]}x{self.H.shape[1]}, {self.method} on {self.designed_states} "
+            f"of {self.observable_states} observable states, stability margin {self.stability_margin:.3g}, "
+            f"{len(self.fixed_eigenvalues)} fixed eigenvalues)"
+        )
+
 
 @dataclass(frozen=True, slots=True)
 class _Block:

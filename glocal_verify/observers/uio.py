@@ -146,6 +146,13 @@ class UnknownInputObserver:
     hurwitz_ratio: float
     notes: tuple[str, ...] = field(default_factory=tuple)
 
+    def __repr__(self) -> str:
+        return (
+            f"UnknownInputObserver({self.cluster}@{self.center}, mode {self.mode}, {self.n_states} states, "
+            f"measures {len(self.positions)} positions and {len(self.velocities)} velocities, "
+            f"Hurwitz {self.hurwitz.value} (margin {self.hurwitz_margin:.3g}))"
+        )
+
     @property
     def n_states(self) -> int:
         return int(self.F.shape[0])

@@ -16,12 +16,11 @@ curve exceeds 1).
 from __future__ import annotations
 
 import io
-import math
 from pathlib import Path
 from typing import Sequence
 
-import networkx as nx
 import numpy as np
+from matplotlib.artist import Artist
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
@@ -29,9 +28,10 @@ from matplotlib.lines import Line2D
 
 from glocal_verify.model import System
 from glocal_verify.design.case_study import CaseOutcome
+from glocal_verify.reporting.network_figure import draw_network
 from glocal_verify.reporting.output import write_bytes_atomic
 from glocal_verify.simulation.algorithm1 import Algorithm1Result
-from glocal_verify.spec.types import NORMAL_MODE, Label
+from glocal_verify.spec.types import NORMAL_MODE
 
 __all__ = [
     "plot_run",
@@ -86,6 +86,11 @@ def _switch_lines(ax: Axes, res: Algorithm1Result) -> None:
         ax.annotate(f"switch to {m}", (t, 1.0), xycoords=("data", "axes fraction"), xytext=(3, -10), textcoords="offset points", fontsize=7)
 
 
+def _legend_outside(ax: Axes, handles: Sequence[Artist]) -> None:
+    """The legend right of the axes, where it cannot cover a curve (constrained layout makes room)."""
+    ax.legend(handles=handles, fontsize=6, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, frameon=False)
+
+
 def _states_panel(ax: Axes, system: System, res: Algorithm1Result) -> None:
     sim = res.simulation
     if sim.x is None:
@@ -114,7 +119,7 @@ def _states_panel(ax: Axes, system: System, res: Algorithm1Result) -> None:
             Line2D([], [], color=RED, label=f"position, moved by attack {sorted(moved, key=str)}"),
             Line2D([], [], color=RED, ls="--", label="velocity, moved by attack"),
         ]
-    ax.legend(handles=handles, fontsize=6, loc="upper left")
+    _legend_outside(ax, handles)
     _switch_lines(ax, res)
 
 
@@ -142,7 +147,7 @@ def _global_panel(ax: Axes, res: Algorithm1Result) -> None:
         ax.annotate(f"detected t = {ga.time:.2f}", (ga.time, 0.05), xycoords=("data", "axes fraction"), xytext=(3, 0), textcoords="offset points", fontsize=7, color=RED)
     handles, _ = ax.get_legend_handles_labels()
     handles.append(Line2D([], [], color="k", ls="--", lw=0.8, label="thresholds (dashed)"))
-    ax.legend(handles=handles, fontsize=6, loc="upper left")
+    _legend_outside(ax, handles)
     _switch_lines(ax, res)
 
 
@@ -168,84 +173,8 @@ def _local_panel(ax: Axes, res: Algorithm1Result) -> None:
     ax.set_xlabel("time t [s]")
     handles, _ = ax.get_legend_handles_labels()
     handles.append(Line2D([], [], color="k", ls="--", lw=0.8, label="threshold (= 1); star: local detection"))
-    ax.legend(handles=handles, fontsize=6, loc="upper left")
+    _legend_outside(ax, handles)
     _switch_lines(ax, res)
-
-
-def _layout(system: System) -> dict[Label, np.ndarray]:
-    """Clusters on a circle, each cluster laid out by a seeded spring layout around its spot."""
-    G = system.graph(NORMAL_MODE)
-    pos: dict[Label, np.ndarray] = {}
-    clusters = list(system.clusters) or []
-    if not clusters:
-        return {k: np.asarray(v) for k, v in nx.spring_layout(G, seed=1).items()}
-    kc = len(clusters)
-    for j, c in enumerate(clusters):
-        sub = G.subgraph(c.nodes)
-        size = 0.35 * math.sqrt(len(c.nodes)) + 0.3
-        inner = nx.spring_layout(sub, seed=1, weight=None, scale=size)
-        ang = 2 * math.pi * j / kc + math.pi / 2
-        radius = 1.2 * size * kc / math.pi + 1.5
-        centre = np.array([radius * math.cos(ang), radius * math.sin(ang)]) if kc > 1 else np.zeros(2)
-        for lab, p in inner.items():
-            pos[lab] = centre + np.asarray(p)
-    return pos
-
-
-def _graph_panel(ax: Axes, system: System, mode: str | None, attack_moved: Sequence[Label], attacked: Sequence[Label], title: str) -> None:
-    pos = _layout(system)
-    G = system.graph(NORMAL_MODE)
-    changed = {frozenset((u, v)): d for u, v, d in system.switching_links(mode)} if mode and mode != NORMAL_MODE else {}
-    normal_edges = system.edges(NORMAL_MODE)
-    mode_edges = system.edges(mode) if mode else normal_edges
-    removed = {k for k in changed if k in normal_edges and k not in mode_edges}
-    added = {k for k in changed if k not in normal_edges}
-    reweighted = set(changed) - removed - added
-    plain = [(u, v) for u, v in G.edges if frozenset((u, v)) not in changed]
-    nx.draw_networkx_edges(G, pos, edgelist=plain, ax=ax, edge_color=GREY, width=[0.6 + 0.4 * G[u][v]["weight"] for u, v in plain])
-    if added:
-        nx.draw_networkx_edges(nx.Graph([tuple(k) for k in added]), pos, ax=ax, edge_color=ORANGE, style="dashed", width=2.0)
-    if removed:
-        nx.draw_networkx_edges(nx.Graph([tuple(k) for k in removed]), pos, ax=ax, edge_color=GREY, style="dotted", width=2.0)
-    if reweighted:
-        nx.draw_networkx_edges(nx.Graph([tuple(k) for k in reweighted]), pos, ax=ax, edge_color=ORANGE, style="dashdot", width=2.0)
-    monitored = set(system.monitored)
-    centres = {o.center for o in system.observers()}
-    moved = set(attack_moved)
-    att = set(attacked)
-    fill = []
-    for lab in G.nodes:
-        if lab in moved:
-            fill.append(RED)
-        elif lab in monitored:
-            fill.append(GREEN)
-        elif lab in centres:
-            fill.append("#4a90d9")
-        else:
-            fill.append("white")
-    edge = [RED if lab in att else ("#1f4e9c" if lab in centres else "k") for lab in G.nodes]
-    lw = [3.0 if lab in att else (2.5 if lab in centres else 1.0) for lab in G.nodes]
-    nx.draw_networkx_nodes(G, pos, ax=ax, node_color=fill, edgecolors=edge, linewidths=lw, node_size=260)
-    nx.draw_networkx_labels(G, pos, ax=ax, font_size=7)
-    for c in system.clusters:
-        pts = np.array([pos[a] for a in c.nodes])
-        ctr = pts.mean(axis=0)
-        top = pts[:, 1].max()
-        ax.text(ctr[0], top + 0.35, c.name, ha="center", fontsize=9, fontweight="bold")
-    handles = [
-        Line2D([], [], marker="o", ls="", color=GREEN, mec="k", label="globally monitored"),
-        Line2D([], [], marker="o", ls="", color="#4a90d9", mec="#1f4e9c", mew=2, label="local control centre"),
-        Line2D([], [], marker="o", ls="", color="white", mec=RED, mew=2.5, label="attacked actuator"),
-        Line2D([], [], marker="o", ls="", color=RED, mec="k", label="moved by the attack"),
-        Line2D([], [], color=ORANGE, ls="--", lw=2, label="switching link (added)"),
-    ]
-    if removed:
-        handles.append(Line2D([], [], color=GREY, ls=":", lw=2, label="switching link (removed)"))
-    if reweighted:
-        handles.append(Line2D([], [], color=ORANGE, ls="-.", lw=2, label="switching link (reweighted)"))
-    ax.legend(handles=handles, fontsize=6, loc="upper center", bbox_to_anchor=(0.5, 0.0), ncol=2, frameon=False)
-    ax.set_title(title, fontsize=9)
-    ax.set_axis_off()
 
 
 def _run_title(system: System, res: Algorithm1Result) -> str:
@@ -283,7 +212,7 @@ def plot_run(system: System, res: Algorithm1Result) -> Figure:
     _local_panel(c, res)
     c.set_title("(c) local residuals of the unknown-input observers, relative to their thresholds", fontsize=9)
     atk = res.attack
-    _graph_panel(d, system, res.chosen_mode, atk.moved if atk else (), atk.actuators if atk else (), f"(d) communication topology, mode {res.chosen_mode or NORMAL_MODE}")
+    draw_network(d, system, res.chosen_mode, atk.moved if atk else (), atk.actuators if atk else (), f"(d) communication topology, mode {res.chosen_mode or NORMAL_MODE}")
     fig.suptitle(_run_title(system, res), fontsize=10)
     return fig
 
@@ -310,6 +239,6 @@ def plot_cases(outcomes: Sequence[CaseOutcome]) -> Figure:
         _global_panel(b, res)
         _local_panel(c, res)
         atk = res.attack
-        _graph_panel(d, system, oc.case.mode, atk.moved if atk else (), atk.actuators if atk else (), f"topology of {oc.case.name} ({system.name})")
+        draw_network(d, system, oc.case.mode, atk.moved if atk else (), atk.actuators if atk else (), f"topology of {oc.case.name} ({system.name})")
     fig.suptitle("Privacy-preserving stealthy attack detection: the cases of Section IV (exact simulation)", fontsize=11)
     return fig

@@ -1,8 +1,9 @@
 """The network of a :class:`~glocal_verify.model.System` drawn as a standalone SVG string.
 
-:func:`network_svg` needs no plotting library: the layout comes from networkx (a seeded
-spring layout per cluster, clusters placed on a circle, so the same system always gives the
-same picture) and the SVG is written as text. It shows
+:func:`network_svg` needs no plotting library: the geometry comes from
+:func:`~glocal_verify.reporting.layout.network_layout` (a seeded layout per cluster, clusters
+on a circle, links routed around the agents they do not join, so the same system always gives
+the same picture and no link passes through an agent) and the SVG is written as text. It shows
 
 - the clusters (one colour each, a tinted disc behind each cluster, its name);
 - the globally monitored agents (a green ring; the badge ``x``, ``v`` or ``xv`` says
@@ -12,20 +13,21 @@ same picture) and the SVG is written as text. It shows
 - the attacked actuators of the spec (a thick red outline);
 - the given safe mode's switching links: added (dashed orange), removed (dotted red),
   reweighted (dash-dot orange), taken exactly from the spec's ``add``/``remove`` lists;
-- a legend.
+- the links' weights (optional: shown by default when they are not all equal);
+- a legend, below the drawing (it never covers it).
+
+Every link and every spoke is a ``<polyline>`` (two points when straight).
 
 Every label and name is XML-escaped, so the string is safe to inline into an HTML page.
 """
 
 from __future__ import annotations
 
-import math
 from html import escape
 
-import networkx as nx
-import numpy as np
-
 from glocal_verify.model import System
+from glocal_verify.reporting.layout import network_layout
+from glocal_verify.reporting.words import counted
 from glocal_verify.spec.types import NORMAL_MODE, Label
 
 __all__ = [
@@ -49,26 +51,6 @@ WIDTH = 760
 LEGEND_ROW = 18
 
 
-def _layout(system: System) -> dict[Label, tuple[float, float]]:
-    """Clusters on a circle, each laid out by a seeded spring layout (seed 1) around its spot."""
-    G = system.graph(NORMAL_MODE)
-    if not system.clusters:
-        raw = nx.spring_layout(G, seed=1, weight=None) if G.number_of_nodes() > 1 else {n: np.zeros(2) for n in G.nodes}
-        return {k: (float(v[0]), float(v[1])) for k, v in raw.items()}
-    pos: dict[Label, tuple[float, float]] = {}
-    kc = len(system.clusters)
-    for j, c in enumerate(system.clusters):
-        sub = G.subgraph(c.nodes)
-        size = 0.35 * math.sqrt(len(c.nodes)) + 0.3
-        inner = nx.spring_layout(sub, seed=1, weight=None, scale=size) if len(c.nodes) > 1 else {c.nodes[0]: np.zeros(2)}
-        ang = 2 * math.pi * j / kc + math.pi / 2
-        radius = 1.2 * size * kc / math.pi + 1.5 if kc > 1 else 0.0
-        cx, cy = radius * math.cos(ang), radius * math.sin(ang)
-        for lab, p in inner.items():
-            pos[lab] = (cx + float(p[0]), cy + float(p[1]))
-    return pos
-
-
 def _attr(x: object) -> str:
     return escape(str(x), quote=True)
 
@@ -90,14 +72,18 @@ def _legend(entries: list[tuple[str, str]], y0: float) -> list[str]:
 
 
 def _too_large(system: System) -> str:
-    msg = f"{system.name}: {system.n} agents, too many to draw (at most {MAX_DRAWN_AGENTS})"
+    msg = f"{system.name}: {counted(system.n, 'agent')}, too many to draw (at most {MAX_DRAWN_AGENTS})"
     return (
         f'<svg xmlns="http://www.w3.org/2000/svg" class="network" viewBox="0 0 {WIDTH} 40" width="{WIDTH}" height="40" '
         f'role="img" aria-label="{_attr(msg)}"><text x="10" y="24" font-family="sans-serif" font-size="13">{escape(msg)}</text></svg>'
     )
 
 
-def network_svg(system: System, mode: str = NORMAL_MODE, *, attack: bool = True) -> str:
+def _points(pts: list[tuple[float, float]]) -> str:
+    return " ".join(f"{_fmt(x)},{_fmt(y)}" for x, y in pts)
+
+
+def network_svg(system: System, mode: str = NORMAL_MODE, *, attack: bool = True, weights: bool | None = None) -> str:
     """Draw ``system``'s network with the switching links of ``mode`` as an SVG document.
 
     Parameters
@@ -110,13 +96,18 @@ def network_svg(system: System, mode: str = NORMAL_MODE, *, attack: bool = True)
         entries of :math:`\\Delta L_q = L_q - L_1` computed from the spec's exact rationals.
     attack : bool
         Outline the spec's attacked actuators in red (when the spec has an attack).
+    weights : bool, optional
+        Write each link's weight (exact, as in the spec) halfway along it; default: when
+        the links of the drawn mode do not all have the same weight.
 
     Returns
     -------
     str
         A standalone ``<svg>`` element (inline CSS, no external resources); node positions
-        come from a seeded layout, so the output is deterministic. Networks with more than
-        :data:`MAX_DRAWN_AGENTS` agents get a one-line note instead of a drawing.
+        and link routes come from :func:`~glocal_verify.reporting.layout.network_layout`, so
+        the output is deterministic and no link passes through an agent it does not join.
+        Networks with more than :data:`MAX_DRAWN_AGENTS` agents get a one-line note instead
+        of a drawing.
 
     Raises
     ------
@@ -126,34 +117,22 @@ def network_svg(system: System, mode: str = NORMAL_MODE, *, attack: bool = True)
     system.check_mode(mode)
     if system.n > MAX_DRAWN_AGENTS:
         return _too_large(system)
-    pos = _layout(system)
-    xs = [p[0] for p in pos.values()]
-    ys = [p[1] for p in pos.values()]
-    span = max(max(xs) - min(xs), max(ys) - min(ys), 1e-9)
-    r = max(4.0, min(13.0, 200.0 / math.sqrt(max(system.n, 1))))
-    margin = 3 * r + 24
-    scale = (WIDTH - 2 * margin) / span
-    x0, y1 = min(xs), max(ys)
+    lay = network_layout(system)
+    lo_x, lo_y, hi_x, hi_y = lay.bounds()
+    top = 18.0  # room for the cluster names above their discs
+    # one layout unit is one node radius: r pixels
+    r = max(1.5, min(13.0, (WIDTH - 20) / max(hi_x - lo_x, 1e-9)))
+    off_x = (WIDTH - (hi_x - lo_x) * r) / 2
+    height_draw = (hi_y - lo_y) * r + top + 10
 
-    pix = {lab: (margin + (px - x0) * scale, margin + (y1 - py) * scale) for lab, (px, py) in pos.items()}
-    discs: list[tuple[float, float, float]] = []
-    for c in system.clusters:
-        pts = np.array([pix[a] for a in c.nodes])
-        cx, cy = pts.mean(axis=0)
-        discs.append((float(cx), float(cy), float(np.max(np.hypot(pts[:, 0] - cx, pts[:, 1] - cy))) + 2.2 * r))
-    # fit nodes, discs and the cluster names into the width
-    lo_x = min([p[0] - r - 8 for p in pix.values()] + [d[0] - d[2] for d in discs])
-    hi_x = max([p[0] + r + 16 for p in pix.values()] + [d[0] + d[2] for d in discs])
-    lo_y = min([p[1] - r - 16 for p in pix.values()] + [d[1] - d[2] - 18 for d in discs])
-    hi_y = max([p[1] + r + 8 for p in pix.values()] + [d[1] + d[2] for d in discs])
-    fit = min(1.0, (WIDTH - 20) / max(hi_x - lo_x, 1e-9))
-    off_x = (WIDTH - (hi_x - lo_x) * fit) / 2
-    height_draw = (hi_y - lo_y) * fit + 20
-    final = {lab: (off_x + (px - lo_x) * fit, 10 + (py - lo_y) * fit) for lab, (px, py) in pix.items()}
-    discs = [(off_x + (cx - lo_x) * fit, 10 + (cy - lo_y) * fit, rad * fit) for cx, cy, rad in discs]
+    def xy(p: tuple[float, float]) -> tuple[float, float]:
+        return (off_x + (p[0] - lo_x) * r, top + (hi_y - p[1]) * r)
 
-    def xy(lab: Label) -> tuple[float, float]:
-        return final[lab]
+    def at(lab: Label) -> tuple[float, float]:
+        return xy(lay.positions[lab])
+
+    def route(u: Label, v: Label) -> list[tuple[float, float]]:
+        return [xy(p) for p in lay.route(u, v)]
 
     cluster_of: dict[Label, int] = {}
     for k, c in enumerate(system.clusters):
@@ -171,21 +150,24 @@ def network_svg(system: System, mode: str = NORMAL_MODE, *, attack: bool = True)
     centres = {o.center for o in observers}
     attacked = set(system.attacked) if attack else set()
     show_labels = system.n <= 200
+    show_weights = (len(set(current.values())) > 1) if weights is None else weights
 
     parts: list[str] = []
     # cluster discs
     for k, c in enumerate(system.clusters):
-        cx, cy, rad = discs[k]
+        name, _, centre, radius = lay.groups[k]
+        cx, cy = xy(centre)
+        rad = radius * r
         colour = CLUSTER_COLOURS[k % len(CLUSTER_COLOURS)]
         parts.append(
-            f'<g class="cluster" data-cluster="{_attr(c.name)}"><title>cluster {escape(c.name)}: {len(c.nodes)} agents</title>'
+            f'<g class="cluster" data-cluster="{_attr(c.name)}"><title>cluster {escape(c.name)}: {escape(counted(len(c.nodes), "agent"))}</title>'
             f'<circle cx="{_fmt(cx)}" cy="{_fmt(cy)}" r="{_fmt(rad)}" fill="{colour}" fill-opacity="0.15" stroke="{colour}" stroke-width="1.5"/>'
             f'<text x="{_fmt(cx)}" y="{_fmt(cy - rad - 4)}" text-anchor="middle" font-weight="bold">{escape(c.name)}</text></g>'
         )
     # edges of the normal graph and of the mode
+    labels: list[str] = []
     for key in sorted(set(normal) | set(current), key=lambda k: sorted(system.index[a] for a in k)):
         u, v = sorted(key, key=system.index.__getitem__)
-        (ax, ay), (bx, by) = xy(u), xy(v)
         if key in added:
             style, cls, colour, width = ' stroke-dasharray="7 4"', "edge added", ORANGE, 2.5
             what = f"added by {mode} (weight {current[key]})"
@@ -200,22 +182,30 @@ def network_svg(system: System, mode: str = NORMAL_MODE, *, attack: bool = True)
             style, cls, colour, width = "", "edge", GREY, 0.8 + 0.5 * min(w, 4.0)
             what = f"weight {current[key]}"
         parts.append(
-            f'<line class="{cls}" x1="{_fmt(ax)}" y1="{_fmt(ay)}" x2="{_fmt(bx)}" y2="{_fmt(by)}" stroke="{colour}" '
-            f'stroke-width="{width:.1f}"{style}><title>{escape(str(u))} - {escape(str(v))}: {escape(what)}</title></line>'
+            f'<polyline class="{cls}" data-ends="{_attr(u)} {_attr(v)}" points="{_points(route(u, v))}" fill="none" stroke="{colour}" '
+            f'stroke-width="{width:.1f}"{style}><title>{escape(str(u))} - {escape(str(v))}: {escape(what)}</title></polyline>'
         )
+        if show_weights and key in current:
+            mx, my = xy(lay.midpoint(u, v))
+            text = escape(str(current[key]))
+            labels.append(
+                f'<text class="weight" x="{_fmt(mx)}" y="{_fmt(my + 3)}" text-anchor="middle" font-size="9" fill="#444444" '
+                f'stroke="#ffffff" stroke-width="3" paint-order="stroke">{text}</text>'
+            )
     # what each local observer measures
     for o in observers:
-        cx, cy = xy(o.center)
         measured = [a for a in dict.fromkeys(tuple(o.positions) + tuple(o.velocities)) if a != o.center]
         tip = f"observer {o.center} of {o.cluster}: positions {list(o.positions)}, velocities {list(o.velocities)}"
         spokes = "".join(
-            f'<line x1="{_fmt(cx)}" y1="{_fmt(cy)}" x2="{_fmt(xy(a)[0])}" y2="{_fmt(xy(a)[1])}" stroke="{BLUE}" stroke-width="1.3" stroke-opacity="0.6" stroke-dasharray="2 2"/>'
+            f'<polyline class="spoke" data-ends="{_attr(o.center)} {_attr(a)}" points="{_points(route(o.center, a))}" fill="none" stroke="{BLUE}" '
+            f'stroke-width="1.3" stroke-opacity="0.6" stroke-dasharray="2 2"/>'
             for a in measured
         )
         parts.append(f'<g class="measures" data-observer="{_attr(o.center)}"><title>{escape(tip)}</title>{spokes}</g>')
+    parts.extend(labels)
     # agents
     for lab in system.labels:
-        x, y = xy(lab)
+        x, y = at(lab)
         ck = cluster_of.get(lab)
         fill = CLUSTER_COLOURS[ck % len(CLUSTER_COLOURS)] if ck is not None else "#ffffff"
         info = [f"agent {lab}"]
@@ -230,9 +220,9 @@ def network_svg(system: System, mode: str = NORMAL_MODE, *, attack: bool = True)
             info.append("attacked actuator")
         g = [f'<g class="agent" data-label="{_attr(lab)}"><title>{escape(", ".join(info))}</title>']
         if badge:
-            g.append(f'<circle class="monitor" cx="{_fmt(x)}" cy="{_fmt(y)}" r="{_fmt(r + 4)}" fill="none" stroke="{GREEN}" stroke-width="2.5"/>')
+            g.append(f'<circle class="monitor" cx="{_fmt(x)}" cy="{_fmt(y)}" r="{_fmt(1.35 * r)}" fill="none" stroke="{GREEN}" stroke-width="2.5"/>')
         if lab in centres:
-            s = r + 1.5
+            s = 0.95 * r
             g.append(f'<rect class="centre" x="{_fmt(x - s)}" y="{_fmt(y - s)}" width="{_fmt(2 * s)}" height="{_fmt(2 * s)}" fill="{fill}" stroke="{BLUE}" stroke-width="2.5"/>')
         else:
             stroke, sw = (RED, 3.5) if lab in attacked else ("#333333", 1.0)
@@ -242,21 +232,21 @@ def network_svg(system: System, mode: str = NORMAL_MODE, *, attack: bool = True)
         if show_labels:
             g.append(f'<text x="{_fmt(x)}" y="{_fmt(y + 3.5)}" text-anchor="middle" font-size="{max(7, int(r * 0.85))}">{escape(str(lab))}</text>')
         if badge:
-            g.append(f'<text class="badge" x="{_fmt(x + r + 3)}" y="{_fmt(y - r - 2)}" fill="{GREEN}" font-size="10" font-weight="bold">{badge}</text>')
+            g.append(f'<text class="badge" x="{_fmt(x + 1.35 * r + 2)}" y="{_fmt(y - 1.35 * r)}" fill="{GREEN}" font-size="10" font-weight="bold">{badge}</text>')
         g.append("</g>")
         parts.append("".join(g))
 
     entries: list[tuple[str, str]] = []
     for k, c in enumerate(system.clusters[:10]):
-        entries.append((f'<circle r="6" fill="{CLUSTER_COLOURS[k % len(CLUSTER_COLOURS)]}" stroke="#333333"/>', f"cluster {c.name} ({len(c.nodes)} agents)"))
+        entries.append((f'<circle r="6" fill="{CLUSTER_COLOURS[k % len(CLUSTER_COLOURS)]}" stroke="#333333"/>', f"cluster {c.name} ({counted(len(c.nodes), 'agent')})"))
     if len(system.clusters) > 10:
-        entries.append(("", f"... and {len(system.clusters) - 10} more clusters"))
+        entries.append(("", f"... and {counted(len(system.clusters) - 10, 'more cluster')}"))
     entries.append((f'<circle r="9" fill="none" stroke="{GREEN}" stroke-width="2.5"/>', "globally monitored (badge x: position, v: velocity)"))
     entries.append((f'<rect x="-6" y="-6" width="12" height="12" fill="#ffffff" stroke="{BLUE}" stroke-width="2.5"/>', "local observer centre"))
     entries.append((f'<line x1="-8" y1="0" x2="8" y2="0" stroke="{BLUE}" stroke-width="1.3" stroke-dasharray="2 2"/>', "measured by a local observer"))
     if attacked:
         entries.append((f'<circle r="6" fill="#ffffff" stroke="{RED}" stroke-width="3.5"/>', "attacked actuator"))
-    entries.append((f'<line x1="-8" y1="0" x2="8" y2="0" stroke="{GREY}" stroke-width="2"/>', "link of the normal graph"))
+    entries.append((f'<line x1="-8" y1="0" x2="8" y2="0" stroke="{GREY}" stroke-width="2"/>', "link of the normal graph" + (" (its weight halfway)" if show_weights else "")))
     if added:
         entries.append((f'<line x1="-8" y1="0" x2="8" y2="0" stroke="{ORANGE}" stroke-width="2.5" stroke-dasharray="7 4"/>', f"link added by {mode}"))
     if removed:
@@ -265,7 +255,7 @@ def network_svg(system: System, mode: str = NORMAL_MODE, *, attack: bool = True)
         entries.append((f'<line x1="-8" y1="0" x2="8" y2="0" stroke="{ORANGE}" stroke-width="2.5" stroke-dasharray="8 3 2 3"/>', f"link reweighted by {mode}"))
     legend_h = 30 + ((len(entries) + 1) // 2) * LEGEND_ROW
     height = height_draw + legend_h
-    title = f"{system.name}, mode {mode}: {system.n} agents, {len(current)} links"
+    title = f"{system.name}, mode {mode}: {counted(system.n, 'agent')}, {counted(len(current), 'link')}"
     head = (
         f'<svg xmlns="http://www.w3.org/2000/svg" class="network" viewBox="0 0 {WIDTH} {_fmt(height)}" width="{WIDTH}" '
         f'height="{_fmt(height)}" role="img" aria-label="{_attr(title)}" font-family="sans-serif" font-size="11">'

@@ -98,6 +98,10 @@ class ObserverBank:
     observers: tuple[ObserverModel, ...]
     notes: tuple[str, ...] = ()
 
+    def __repr__(self) -> str:
+        names = ", ".join(self.names[:6]) + (f", ... ({len(self.observers)} in all)" if len(self.observers) > 6 else "")
+        return f"ObserverBank([{names}]" + (f", {len(self.notes)} notes" if self.notes else "") + ")"
+
     @property
     def names(self) -> tuple[str, ...]:
         """Observer names, in order."""

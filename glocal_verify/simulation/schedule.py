@@ -167,6 +167,14 @@ class SimulationResult:
     interrupted: bool = False
     notes: tuple[str, ...] = ()
 
+    def __repr__(self) -> str:
+        modes = " -> ".join(self.schedule.modes)
+        attack = f", attack on {list(self.attack.actuators)}" if self.attack is not None else ""
+        return (
+            f"SimulationResult({len(self.labels)} agents, t = 0..{float(self.t[-1]) if len(self.t) else 0.0:g} s in {len(self.t)} samples, "
+            f"{modes}{attack}, residuals of {len(self.residuals)} observers, {self.method})"
+        )
+
     @property
     def n(self) -> int:
         """Number of agents."""

@@ -680,17 +680,29 @@ class _Builder:
 # library construction
 
 
+#: how a graph with other labels is made acceptable (the text of the refusal)
+RELABEL_HINT = (
+    "labels are integers or strings: relabel the graph first, e.g. "
+    "nx.convert_node_labels_to_integers(G, first_label=1, label_attribute='name') "
+    "(the old label stays a node attribute) or nx.relabel_nodes(G, str)"
+)
+
+
 def _label(x: Any) -> Any:
-    """A node label as the spec writes it: ints and strings stay, integer-like objects (numpy
-    integers) become ``int``, other hashables become their ``str``; anything else is left for
-    the validator to refuse."""
-    if isinstance(x, (int, str)) and not isinstance(x, bool):
+    """A node label as the spec writes it: ints and strings stay (a ``str`` subclass becomes
+    ``str``), integer-like objects (numpy integers) become ``int``; anything else (a tuple of a
+    grid graph, a float, an object) is left as it is for the validator to refuse, naming its key
+    path: turning it into its text would not round-trip (``dump_spec`` would write the text,
+    and results would name ``"(0, 1)"`` where the graph has ``(0, 1)``)."""
+    if isinstance(x, bool):
         return x
-    if isinstance(x, bool) or isinstance(x, (list, dict, set, float, Fraction, Decimal)):
-        return x
-    if hasattr(x, "__index__"):
+    if isinstance(x, int):
+        return int(x)
+    if isinstance(x, str):
+        return str(x)
+    if not isinstance(x, float) and hasattr(x, "__index__"):
         return int(x.__index__())
-    return str(x) if getattr(type(x), "__hash__", None) is not None else x
+    return x
 
 
 def _number(x: Any) -> Any:
@@ -745,7 +757,10 @@ def spec_from_graph(
     Parameters
     ----------
     graph : networkx.Graph
-        Undirected graph; edge attribute ``weight`` (default 1) is the coupling weight.
+        Undirected graph; edge attribute ``weight`` (default 1) is the coupling weight. Node
+        labels are integers or strings (numpy integers are read as ``int``); other labels
+        (the tuples of ``nx.grid_2d_graph``) are refused with a :class:`SpecError` that says
+        how to relabel, since their text would not round-trip through :func:`~glocal_verify.spec.writer.dump_spec`.
     name : str
         System name used in reports.
     alpha, gamma : number or str
@@ -778,6 +793,9 @@ def spec_from_graph(
         raise SpecError("graph", "parallel edges are not supported (got a multigraph); merge them into one weighted edge")
     for u, v in nx.selfloop_edges(graph):
         raise SpecError("graph.edges", f"self-loop at node {show(u)}")
+    for k, node in enumerate(graph.nodes):
+        if type(_label(node)) not in (int, str):
+            raise SpecError(f"graph.nodes[{k}]", f"node {show(node)} is a {type(node).__name__}; {RELABEL_HINT}")
     data: dict[str, Any] = {
         "format": 1,
         "name": name,

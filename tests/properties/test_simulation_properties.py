@@ -17,7 +17,7 @@
   slow lambda0, and ``switching.detects`` then fails honestly), and the residual grows at the
   rate Re lambda0 whenever the switched transfer C (lambda0 I - A_q)^-1 B u0 does not vanish.
 
-Counterexamples to paper claims found here are kept under ``reports/findings/``:
+Counterexamples to paper claims found here are kept as the bundled examples ``findings/NAME`` (``glocal_verify/spec/data/findings/``):
 ``theorem3-sufficiency-switch-avoids-zda.toml`` ((i)-(iii) hold, switch avoids the ZDA: no
 detection) and ``remark-touching-switch-hides-zda.toml`` (the switch touches the ZDA, yet the
 residual stays at zero because (ii) fails).
@@ -114,9 +114,9 @@ def _system(n: int, edges: list[list[Any]], mv: list[int], F: list[int], add: li
     )
 
 
-#: reports/findings/theorem3-sufficiency-switch-avoids-zda.toml (switch avoids the ZDA)
+#: findings/theorem3-sufficiency-switch-avoids-zda (switch avoids the ZDA)
 AVOIDS = _system(3, [[1, 2, 1], [2, 3, 1]], [1], [2, 3], [[1, 2, 2]], [[1, 2]])
-#: reports/findings/remark-touching-switch-hides-zda.toml (touches it, (ii) fails: hidden)
+#: findings/remark-touching-switch-hides-zda (touches it, (ii) fails: hidden)
 HIDES = _system(3, [[1, 2, 1], [1, 3, 1]], [1], [1, 2], [[2, 3, 1]], [])
 #: stealthy.zda's direction is touched, yet xi = [1, 0, -1, 0] avoids the switch (switching.safe holds)
 AVOIDABLE = _system(4, [[1, 3, "1/2"], [2, 4, 2], [3, 4, 1]], [2], [1, 3, 4], [[1, 2, 1], [2, 3, 1]], [[1, 3]], lam=1.0)
@@ -190,7 +190,7 @@ def test_the_attack_reaches_the_global_residual_after_a_switch_iff_its_discrepan
     # switching.safe (Remark III.3.1, the remark's reading): "does not touch" predicts a
     # bounded, vanishing residual -- the attack part must stay at rounding level; "touches"
     # with an unbounded ZDA predicts an unbounded residual -- the attack must show, unless its
-    # discrepancy hides in an unobservable eigenspace (reports/findings/remark-touching-switch-hides-zda.toml)
+    # discrepancy hides in an unobservable eigenspace (findings/remark-touching-switch-hides-zda)
     (safe,) = [r for r in verify(system, ["switching.safe"]).conditions if r.scope.get("mode") == "q"]
     if safe.status is Status.HOLDS and safe.witness["chosen_direction"]["touched"] is False:
         assert np.max(rel[~pre]) <= 1e-9, safe.witness  # the simulated direction is the avoiding one
@@ -250,7 +250,7 @@ def test_theorem_iii3_detects_an_unstable_zda_that_the_switch_touches(system: Sy
 
 
 def test_a_switch_touching_the_zda_can_still_hide_it_when_theorem_iii3_ii_fails() -> None:
-    """The counterexample kept in reports/findings/remark-touching-switch-hides-zda.toml."""
+    """The counterexample kept in findings/remark-touching-switch-hides-zda."""
     atk = zda_attack(HIDES, lambda0=0.5)
     assert np.linalg.norm(HIDES.delta_laplacian("q") @ atk.xi) > 1.0  # the switch touches agent 2
     assert _hidden_margin(HIDES, atk.xi) < 1e-12

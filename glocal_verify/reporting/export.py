@@ -1,0 +1,456 @@
+"""The designed observers as a deployment file: MATLAB ``.mat``, JSON or NumPy ``.npz``.
+
+:func:`export_observers` writes what a vehicle, a MATLAB/Octave script or a ROS node needs to
+run the detectors the toolkit designed and simulated, in the stated and versioned schema of
+``docs/export.md`` (:data:`SCHEMA`, :data:`SCHEMA_VERSION`):
+
+- the central observer of eq. ``obs_cent`` (``A``, ``C``, the gain ``H``, ``F = A - H C``:
+  :math:`\\dot z = F z + H y`, :math:`r_0 = y - C z`), designed by
+  :func:`~glocal_verify.observers.central.design_central_observer`;
+- every local unknown-input observer of eqs. ``obs_decent``, ``uio_conds_1``-``uio_conds_3``
+  (``C_loc``, ``E``, ``A``, ``h``, ``T``, ``A1``, ``K1``, ``F``, ``K`` with the measured channels,
+  the selection ``S`` of its cluster's state, the residual maps ``Ry = I - C_loc h`` and
+  ``Rz = C_loc``, and the mode-matched ``F``, ``K`` it switches to after a topology switch),
+  designed by :func:`~glocal_verify.observers.uio.local_uio`;
+- the attack-free thresholds the simulator uses
+  (:func:`~glocal_verify.simulation.thresholds.attack_free_thresholds` for the spec's
+  switching schedule), the monitor sets, the modes' Laplacians and the switching schedule.
+
+The observers are exactly the :class:`~glocal_verify.simulation.observer_models.ObserverBank`
+that :func:`glocal_verify.simulate` runs (the same designs, bit for bit), so rebuilding them
+from the file reproduces the simulator's residuals. :func:`read_deployment` reads any of the
+three formats back into the same nested structure of dicts, lists, strings, numbers and
+arrays.
+
+Formats
+-------
+``mat``
+    MATLAB v5 (``scipy.io.savemat``): the tree as nested structs, lists of records as cell
+    arrays of structs, lists of strings as cell arrays of char; every field name is a valid
+    MATLAB identifier. Reads with ``load`` in MATLAB/Octave and ``scipy.io.loadmat``.
+``json``
+    One JSON object; matrices as lists of rows, complex eigenvalues as ``*_re``/``*_im``
+    vectors, a non-finite number as ``null``.
+``npz``
+    ``numpy.savez_compressed`` with one array per leaf, keyed by its path
+    (``local/0/F``, ``thresholds/observers/1/envelope``); strings are unicode arrays, so
+    ``numpy.load(allow_pickle=False)`` reads it.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from glocal_verify.errors import GlocalVerifyError, NotApplicableError
+from glocal_verify.model import System
+from glocal_verify.reporting.output import write_bytes_atomic
+from glocal_verify.spec.types import NORMAL_MODE, Label
+
+__all__ = [
+    "EXPORT_FORMATS",
+    "SCHEMA",
+    "SCHEMA_VERSION",
+    "ExportError",
+    "deployment_tree",
+    "export_observers",
+    "read_deployment",
+]
+
+#: the schema's name, stored in every file (``schema``)
+SCHEMA = "glocal-verify.observers"
+#: the schema's version (``schema_version``); docs/export.md says what each version holds
+SCHEMA_VERSION = 1
+#: the file formats, by the name ``--format`` takes (and the file suffix it implies)
+EXPORT_FORMATS = ("mat", "json", "npz")
+
+# the kinds of the schema's leaves, by field name (what read_deployment restores)
+_TEXT = frozenset({"schema", "generator", "name", "label_type", "state", "mode", "method", "note", "cluster", "center", "hurwitz", "kind", "description", "equations"})
+_TEXTS = frozenset({"labels", "positions", "velocities", "channels", "nodes", "notes", "u", "v"})
+_NUMBER = frozenset({"schema_version", "n", "alpha", "gamma", "present", "stability_margin", "hurwitz_margin", "box", "rounding", "time", "horizon", "step"})
+_VECTOR = frozenset({"eigenvalues_re", "eigenvalues_im", "t", "delta"})
+_RECORDS = frozenset({"modes", "local", "designs", "segments", "observers", "switches"})
+
+
+class ExportError(GlocalVerifyError, ValueError):
+    """A deployment file that cannot be written or read (unknown format, wrong schema)."""
+
+
+# --------------------------------------------------------------------------------------------
+# the tree
+
+
+def _text(label: Label) -> str:
+    return str(label)
+
+
+def _texts(labels: Any) -> list[str]:
+    return [_text(a) for a in labels]
+
+
+def _selection(system: System, nodes: tuple[Label, ...]) -> np.ndarray:
+    """S with x_cluster = S x ([positions of nodes; velocities of nodes])."""
+    idx = system.idx(nodes)
+    n, k = system.n, len(idx)
+    S = np.zeros((2 * k, 2 * n))
+    for r, i in enumerate(idx):
+        S[r, i] = 1.0
+        S[k + r, n + i] = 1.0
+    return S
+
+
+def _central(system: System) -> tuple[dict[str, Any], np.ndarray | None]:
+    from glocal_verify.observers.central import design_central_observer
+
+    C = system.C()
+    empty: dict[str, Any] = {"present": 0, "note": "", "mode": NORMAL_MODE}
+    if C.shape[0] == 0:
+        return {**empty, "note": "no globally monitored channel: no central observer"}, None
+    try:
+        co = design_central_observer(system)
+    except (ImportError, NotApplicableError) as exc:
+        return {**empty, "note": f"central observer: {exc}"}, None
+    H = np.asarray(co.H, dtype=float)
+    A = system.A(NORMAL_MODE)
+    eig = np.asarray(co.eigenvalues, dtype=complex)
+    tree = {
+        "present": 1,
+        "note": "",
+        "mode": co.mode,
+        "equations": "dz/dt = F z + H y, r = y - C z, z(0) = 0, F = A - H C (A: normal-mode model, kept in every mode)",
+        "channels": list(system.output_channels()),
+        "A": A,
+        "C": C,
+        "H": H,
+        "F": A - H @ C,
+        "eigenvalues_re": eig.real.copy(),
+        "eigenvalues_im": eig.imag.copy(),
+        "stability_margin": float(co.stability_margin),
+        "method": co.method,
+    }
+    return tree, H
+
+
+def _local(system: System, model: Any) -> dict[str, Any]:
+    """One local observer: the normal-mode design and the mode-matched dynamics of the bank's ``model``."""
+    from glocal_verify.observers.uio import local_uio
+    from glocal_verify.simulation.schedule import ANY_MODE
+
+    lo = next(o for o in system.observers() if o.cluster == model.cluster and o.center == model.center)
+    d = local_uio(system, lo, mode=NORMAL_MODE)
+    p = d.C.shape[0]
+    eig = np.asarray(d.eigenvalues, dtype=complex)
+    designs = [{"mode": m, "F": np.asarray(model.F[m], dtype=float), "K": np.asarray(model.G[m], dtype=float)} for m in model.F if m != ANY_MODE]
+    return {
+        "name": model.name,
+        "cluster": d.cluster,
+        "center": _text(d.center),
+        "equations": "dz/dt = F z + K y, x_hat = z + h y, r = y - C_loc x_hat = Ry y - Rz z, z(0) = -h y(0), y = C_loc S x",
+        "nodes": _texts(d.nodes),
+        "positions": _texts(d.positions),
+        "velocities": _texts(d.velocities),
+        "channels": list(model.inputs),
+        "S": _selection(system, d.nodes),
+        "C_loc": d.C,
+        "E": d.E,
+        "A": d.A,
+        "h": d.h,
+        "T": d.T,
+        "A1": d.A1,
+        "K1": d.K1,
+        "F": np.asarray(model.F[ANY_MODE], dtype=float),
+        "K": np.asarray(model.G[ANY_MODE], dtype=float),
+        "Ry": np.eye(p) - d.C @ d.h,
+        "Rz": d.C.copy(),
+        "designs": designs,
+        "eigenvalues_re": eig.real.copy(),
+        "eigenvalues_im": eig.imag.copy(),
+        "hurwitz_margin": float(d.hurwitz_margin),
+        "hurwitz": d.hurwitz.value,
+        "notes": list(model.notes),
+    }
+
+
+def deployment_tree(system: System, *, thresholds: bool = True, progress: bool = False) -> dict[str, Any]:
+    """The designed observers of ``system`` as the nested structure of the export schema.
+
+    Parameters
+    ----------
+    system : System
+    thresholds : bool
+        Compute the attack-free thresholds for the spec's switching schedule (the exact
+        envelope of :func:`~glocal_verify.simulation.thresholds.attack_free_thresholds`, over
+        the spec's horizon and step); False leaves ``thresholds.present = 0``.
+    progress : bool
+        Report the thresholds' progress on stderr.
+
+    Returns
+    -------
+    dict
+        Keys and meaning in ``docs/export.md``: ``schema``, ``schema_version``, ``generator``,
+        ``system``, ``monitors``, ``central``, ``local``, ``thresholds``, ``schedule``, ``notes``.
+        Labels are written as text (``system.label_type`` says whether they were integers).
+    """
+    from glocal_verify import __version__
+    from glocal_verify.simulation.observer_models import ObserverBank, central_observer_model, local_observer_models
+    from glocal_verify.simulation.schedule import Schedule
+    from glocal_verify.simulation.thresholds import ThresholdRule, attack_free_thresholds
+
+    central, H = _central(system)
+    models, notes = local_observer_models(system)
+    bank = ObserverBank(((central_observer_model(system, H),) if H is not None else ()) + tuple(models), tuple(notes))
+    schedule = Schedule.from_spec(system)
+    sim = system.spec.simulation
+    tree_thr: dict[str, Any] = {"present": 0, "horizon": float(sim.horizon), "step": float(sim.step)}
+    if thresholds and len(bank):
+        rule = ThresholdRule()
+        th = attack_free_thresholds(system, bank, schedule, rule, progress=progress)
+        tree_thr = {
+            "present": 1,
+            "horizon": float(sim.horizon),
+            "step": float(sim.step),
+            "rule": {"kind": rule.kind, "box": float(rule.box), "rounding": float(rule.rounding), "description": rule.describe()},
+            "equations": "threshold_k(t) = envelope[t, k] + rounding * max(box, ||s(t)||_2), s the plant and observer state; "
+            "envelope[t, k] + rounding * box is the state-free lower bound",
+            "t": np.asarray(th.t, dtype=float),
+            "observers": [{"name": name, "channels": list(bank[name].channels), "envelope": np.asarray(env, dtype=float)} for name, env in th.envelope.items()],
+        }
+    modes = [{"name": m, "L": system.laplacian(m)} for m in system.modes]
+    switches = []
+    for m in system.modes:
+        if m == NORMAL_MODE:
+            continue
+        links = system.switching_links(m)
+        switches.append({"mode": m, "u": [_text(u) for u, _, _ in links], "v": [_text(v) for _, v, _ in links], "delta": np.array([float(w) for *_, w in links])})
+    return {
+        "schema": SCHEMA,
+        "schema_version": SCHEMA_VERSION,
+        "generator": f"glocal-verify {__version__}",
+        "system": {
+            "name": system.name,
+            "n": system.n,
+            "labels": _texts(system.labels),
+            "label_type": "int" if all(isinstance(a, int) for a in system.labels) else "str",
+            "state": "x = [positions; velocities] of the agents in the order of labels (2N entries)",
+            "alpha": float(system.alpha),
+            "gamma": float(system.gamma),
+            "modes": modes,
+        },
+        "monitors": {
+            "positions": _texts(system.monitored_positions),
+            "velocities": _texts(system.monitored_velocities),
+            "channels": list(system.output_channels()),
+            "C": system.C(),
+        },
+        "central": central,
+        "local": [_local(system, m) for m in models],
+        "thresholds": tree_thr,
+        "schedule": {
+            "segments": [{"time": float(t), "mode": m} for t, m in schedule.segments],
+            "switches": switches,
+        },
+        "notes": list(notes),
+    }
+
+
+# --------------------------------------------------------------------------------------------
+# writers
+
+
+def _json_value(x: Any) -> Any:
+    if isinstance(x, Mapping):
+        return {k: _json_value(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_json_value(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return _json_value(x.tolist())
+    if isinstance(x, (bool, np.bool_)):
+        return int(x)
+    if isinstance(x, (int, np.integer)):
+        return int(x)
+    if isinstance(x, (float, np.floating)):
+        return float(x) if math.isfinite(float(x)) else None
+    return x
+
+
+def _mat_value(x: Any) -> Any:
+    if isinstance(x, Mapping):
+        return {k: _mat_value(v) for k, v in x.items()}
+    if isinstance(x, list):
+        out = np.empty((1, len(x)), dtype=object)
+        for k, v in enumerate(x):
+            out[0, k] = _mat_value(v)
+        return out
+    if isinstance(x, np.ndarray):
+        return np.asarray(x, dtype=float)
+    if isinstance(x, float) and not math.isfinite(x):
+        return np.array(x)
+    return x
+
+
+def _flatten(x: Any, prefix: str, out: dict[str, np.ndarray]) -> None:
+    if isinstance(x, Mapping):
+        for k, v in x.items():
+            _flatten(v, f"{prefix}{k}/", out)
+        return
+    key = prefix[:-1]
+    if isinstance(x, list) and (not x or isinstance(x[0], (Mapping, list))) and key.rsplit("/", 1)[-1] in _RECORDS:
+        out[f"{key}/#"] = np.array(len(x))
+        for k, v in enumerate(x):
+            _flatten(v, f"{prefix}{k}/", out)
+        return
+    if isinstance(x, list):
+        out[key] = np.array([str(v) for v in x], dtype=str) if x else np.zeros(0, dtype="<U1")
+    else:
+        out[key] = np.asarray(x)
+
+
+def _encode(tree: Mapping[str, Any], fmt: str) -> bytes:
+    if fmt == "json":
+        return (json.dumps(_json_value(tree), indent=1, allow_nan=False) + "\n").encode("utf-8")
+    buf = io.BytesIO()
+    if fmt == "mat":
+        import scipy.io
+
+        scipy.io.savemat(buf, {k: _mat_value(v) for k, v in tree.items()}, format="5", long_field_names=True, do_compression=True, oned_as="row")
+    else:
+        flat: dict[str, np.ndarray] = {}
+        _flatten(tree, "", flat)
+        np.savez_compressed(buf, **flat)  # type: ignore[arg-type]
+    return buf.getvalue()
+
+
+def _format_of(path: Path, fmt: str | None) -> str:
+    chosen = fmt if fmt is not None else path.suffix.lower().lstrip(".")
+    if chosen not in EXPORT_FORMATS:
+        how = f"format {fmt!r}" if fmt is not None else f"the suffix of {path.name!r}"
+        raise ExportError(f"{how} is not one of {', '.join(EXPORT_FORMATS)}")
+    return chosen
+
+
+def export_observers(system: System, path: str | Path, fmt: str | None = None, *, thresholds: bool = True, progress: bool = False) -> Path:
+    """Write the designed observers of ``system`` to ``path`` (module docstring, ``docs/export.md``).
+
+    Parameters
+    ----------
+    system : System
+    path : str or Path
+        Output file, written atomically.
+    fmt : str, optional
+        ``"mat"``, ``"json"`` or ``"npz"``; default: the suffix of ``path``.
+    thresholds : bool
+        Include the attack-free thresholds (:func:`deployment_tree`).
+    progress : bool
+        Report the thresholds' progress on stderr.
+
+    Returns
+    -------
+    Path
+        The file written.
+
+    Raises
+    ------
+    ExportError
+        For an unknown format.
+    """
+    p = Path(path)
+    chosen = _format_of(p, fmt)
+    return write_bytes_atomic(p, _encode(deployment_tree(system, thresholds=thresholds, progress=progress), chosen))
+
+
+# --------------------------------------------------------------------------------------------
+# reader
+
+
+def _restore(key: str, x: Any) -> Any:
+    """A leaf or subtree, as read by any format, in the schema's kind for ``key``."""
+    if isinstance(x, Mapping):
+        return {k: _restore(k, v) for k, v in x.items()}
+    if key in _RECORDS:
+        return [_restore("", v) for v in x]
+    if key in _TEXT:
+        return str(x)
+    if key in _TEXTS:
+        return [str(v) for v in x]
+    if key in _NUMBER:
+        flat = np.asarray(np.nan if x is None else x, dtype=float).reshape(-1)
+        v = float(flat[0]) if flat.size else math.nan
+        return int(v) if key in ("schema_version", "n", "present") else v
+    if key in _VECTOR:
+        return np.asarray(x, dtype=float).reshape(-1)
+    return np.atleast_2d(np.asarray(x, dtype=float))
+
+
+def _from_mat(x: Any) -> Any:
+    import scipy.io
+
+    if isinstance(x, scipy.io.matlab.mat_struct):
+        return {k: _from_mat(getattr(x, k)) for k in x._fieldnames}
+    if isinstance(x, np.ndarray) and x.dtype == object:
+        items = list(x.reshape(-1))
+        if len(items) == 1 and isinstance(items[0], scipy.io.matlab.mat_struct):
+            return _from_mat(items[0])  # a struct (loadmat wraps it in a 1 x 1 array)
+        return [_from_mat(v) for v in items]  # a cell array: the schema's lists
+    if isinstance(x, np.ndarray) and x.dtype.kind == "U":
+        return "".join(x.reshape(-1)) if x.size else ""
+    return x
+
+
+def _from_npz(flat: Mapping[str, np.ndarray]) -> dict[str, Any]:
+    tree: dict[str, Any] = {}
+    for key, value in flat.items():
+        node = tree
+        parts = key.split("/")
+        for part in parts[:-1]:
+            node = node.setdefault(part, {})
+        node[parts[-1]] = value.item() if value.ndim == 0 and value.dtype.kind in "Uif" else value
+
+    def lists(x: Any) -> Any:
+        if isinstance(x, dict):
+            if "#" in x:
+                return [lists(x[str(k)]) for k in range(int(x["#"]))]
+            return {k: lists(v) for k, v in x.items()}
+        return x
+
+    return dict(lists(tree))
+
+
+def read_deployment(path: str | Path) -> dict[str, Any]:
+    """Read a file of :func:`export_observers` (any format, by its suffix) into the schema's tree.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    dict
+        The structure :func:`deployment_tree` returns: matrices as 2-D float arrays, vectors
+        as 1-D arrays, lists of strings as lists, numbers as Python numbers.
+
+    Raises
+    ------
+    ExportError
+        For an unknown suffix or a file of another schema or a newer version.
+    """
+    p = Path(path)
+    fmt = _format_of(p, None)
+    if fmt == "json":
+        raw: Any = json.loads(p.read_text(encoding="utf-8"))
+    elif fmt == "mat":
+        import scipy.io
+
+        data = scipy.io.loadmat(p, squeeze_me=False, struct_as_record=False, chars_as_strings=True)
+        raw = {k: _from_mat(v) for k, v in data.items() if not k.startswith("__")}
+    else:
+        with np.load(p, allow_pickle=False) as z:
+            raw = _from_npz({k: z[k] for k in z.files})
+    tree = {k: _restore(k, v) for k, v in raw.items()}
+    if tree.get("schema") != SCHEMA or int(tree.get("schema_version", 0)) > SCHEMA_VERSION:
+        raise ExportError(f"{p}: not a {SCHEMA} file of version <= {SCHEMA_VERSION} (schema {tree.get('schema')!r}, version {tree.get('schema_version')!r})")
+    return tree
