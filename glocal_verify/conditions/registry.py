@@ -48,7 +48,7 @@ __all__ = [
 ]
 
 #: modules of this package that register checkers and finding rules (imported on first use)
-CHECKER_MODULES = ("privacy", "switching", "observability", "stealthy", "safe_switch", "central", "local", "detects", "paper_findings")
+CHECKER_MODULES = ("privacy", "switching", "observability", "stealthy", "safe_switch", "central", "local", "detects", "sampled", "detection", "paper_findings")
 
 
 @dataclass(frozen=True, slots=True)
@@ -324,7 +324,7 @@ _EXACT_SECONDS: dict[str, Callable[[System], float]] = {
 }
 
 #: checkers whose undecided result is not re-decided exactly (the simulation is the evidence)
-_NOT_ESCALATED = frozenset({"switching.detects"})
+_NOT_ESCALATED = frozenset({"switching.detects", "detection.thresholds", "detection.local-alarm", "detection.guarantee"})
 
 
 def _escalate_all(

@@ -54,6 +54,9 @@ __all__ = [
     "to_float",
     "consensus_quotient",
     "design_sampled_central",
+    "SampledClusterModel",
+    "DecouplingError",
+    "sampled_cluster_model",
     "design_sampled_uio",
     "sampled_observers",
 ]
@@ -259,15 +262,49 @@ def design_sampled_central(system: System, implementation: ImplementationSpec | 
     )
 
 
-def design_sampled_uio(system: System, observer: LocalObserver, implementation: ImplementationSpec | None = None) -> SampledObserver:
-    """The local UIO of the sampled implementation (module docstring), normal mode.
+@dataclass(frozen=True, slots=True)
+class SampledClusterModel:
+    """The exact sampled model of one local observer's cluster (module docstring).
+
+    Attributes
+    ----------
+    name : str
+    rows : tuple of int
+        Plant coordinates of the cluster (positions, then velocities).
+    A, E, C : fmpq_mat
+        ``A^i_d`` (the cluster's block of Phi_1), ``E_d`` and the observer's measurement map.
+    H, T, Abar : fmpq_mat
+        ``H = E_d (C E_d)^+``, ``T = I - H C`` and ``T A_d``.
+    C_global : fmpq_mat
+        The measurement map on the whole plant state.
+    channels : tuple of str
+    """
+
+    name: str
+    rows: tuple[int, ...]
+    A: Any
+    E: Any
+    C: Any
+    H: Any
+    T: Any
+    Abar: Any
+    C_global: Any
+    channels: tuple[str, ...]
+
+
+class DecouplingError(NotApplicableError):
+    """``rank(C E_d) < rank(E_d)``: no UIO decouples the neighbours (an exact, combinatorial fact)."""
+
+
+def sampled_cluster_model(system: System, observer: LocalObserver, implementation: ImplementationSpec | None = None) -> SampledClusterModel:
+    """The exact sampled model of a local observer's cluster and its decoupling (module docstring).
 
     Raises
     ------
     NotApplicableError
-        For the continuous loop (the neighbours' states vary inside a period: no sampled UIO
-        decouples them), when ``rank(C E_d) < rank(E_d)``, or when ``(T A_d, C)`` is not
-        detectable (no stabilising Riccati solution).
+        For the continuous loop.
+    DecouplingError
+        When ``rank(C E_d) < rank(E_d)``.
     """
     impl = implementation_of(system, implementation)
     if impl.controller != "sampled":
@@ -278,7 +315,7 @@ def design_sampled_uio(system: System, observer: LocalObserver, implementation: 
     n = system.n
     gidx = system.idx(nodes)
     rows = gidx + [n + i for i in gidx]
-    Phi, Gam = sampled_matrices_exact(system, NORMAL_MODE, impl)
+    Phi, _ = sampled_matrices_exact(system, NORMAL_MODE, impl)
     # the cluster's block of Phi_1: its rows and columns (the principal block keeps the degrees)
     A = _cols(_rows(Phi, rows), rows)
     model = system.cluster_model(observer.cluster, NORMAL_MODE)
@@ -295,12 +332,31 @@ def design_sampled_uio(system: System, observer: LocalObserver, implementation: 
     if E.ncols():
         CE = C * E
         if CE.rank() < E.rank():
-            raise NotApplicableError(f"{name}: rank(C E_d) = {CE.rank()} < rank(E_d) = {E.rank()} (a boundary agent's velocity is not measured)")
+            raise DecouplingError(f"{name}: rank(C E_d) = {CE.rank()} < rank(E_d) = {E.rank()} (a boundary agent's velocity is not measured)")
         H = E * (CE.transpose() * CE).inv() * CE.transpose()
     else:
         H = flint.fmpq_mat(2 * k, p)
     T = _eye(2 * k) - H * C
-    Abar = T * A
+    return SampledClusterModel(name, tuple(rows), A, E, C, H, T, T * A, Cg, ch)
+
+
+def design_sampled_uio(system: System, observer: LocalObserver, implementation: ImplementationSpec | None = None) -> SampledObserver:
+    """The local UIO of the sampled implementation (module docstring), normal mode.
+
+    Raises
+    ------
+    NotApplicableError
+        For the continuous loop (the neighbours' states vary inside a period: no sampled UIO
+        decouples them), when ``rank(C E_d) < rank(E_d)`` (:class:`DecouplingError`), or when
+        ``(T A_d, C)`` is not detectable (no stabilising Riccati solution).
+    """
+    impl = implementation_of(system, implementation)
+    m = sampled_cluster_model(system, observer, impl)
+    name, rows, A, C, H, T, Abar, Cg, ch = m.name, list(m.rows), m.A, m.C, m.H, m.T, m.Abar, m.C_global, m.channels
+    k = len(rows) // 2
+    n = system.n
+    p = C.nrows()
+    _, Gam = sampled_matrices_exact(system, NORMAL_MODE, impl)
     try:
         K1 = to_exact(_kalman(to_float(Abar), to_float(C)))
     except (np.linalg.LinAlgError, ValueError) as exc:
