@@ -171,6 +171,8 @@ class ObserverThreshold:
         (the rounding allowance plus the certified error of the computation).
     certificate : mapping
         ``window``, ``theta_M`` (certified ``||F^m0||_inf``), ``kappa`` and the largest row error.
+    rows : RowSequence
+        The rows ``C_e F^m`` the bound was computed from (for worst-case runs).
     """
 
     observer: str
@@ -186,6 +188,7 @@ class ObserverThreshold:
     false_alarm: float | None
     slack: float
     certificate: Mapping[str, Any]
+    rows: RowSequence | None = field(default=None, repr=False, compare=False)
 
     @property
     def constant(self) -> np.ndarray:
@@ -354,7 +357,7 @@ def _threshold_of(obs: SampledObserver, model: UncertaintyModel, h: float, K: in
         rel = np.where(theta > 0, (theta - bound_est) / theta, 0.0)
     cert = {"window": rows.window, "theta_M": rows.theta, "kappa": rows.kappa, "max_row_error": rows.max_error}
     return ObserverThreshold(
-        obs.name, obs.kind, obs.channels, h, theta, tail_theta, bound_est, {"initial": init, "noise": noise, "disturbance": dist}, sigma, z, fa, float(np.max(rel)) if rel.size else 0.0, cert
+        obs.name, obs.kind, obs.channels, h, theta, tail_theta, bound_est, {"initial": init, "noise": noise, "disturbance": dist}, sigma, z, fa, float(np.max(rel)) if rel.size else 0.0, cert, rows
     )
 
 

@@ -37,10 +37,11 @@ from glocal_verify.errors import ModelError
 from glocal_verify.model import System
 from glocal_verify.numerics.certified_rows import exact_to_float
 from glocal_verify.simulation.certified_thresholds import CertifiedThresholds
+from glocal_verify.simulation.escape import EscapeRun
 from glocal_verify.simulation.sampled_attack import SampledAttack
 from glocal_verify.simulation.switch_thresholds import SwitchThresholds
 
-__all__ = ["Target", "AdversarialPlan", "adversarial_plan", "RunBatch", "simulate_sampled"]
+__all__ = ["Target", "AdversarialPlan", "adversarial_plan", "plan_of_escape", "RunBatch", "simulate_sampled"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -59,18 +60,20 @@ class AdversarialPlan:
 
     Attributes
     ----------
+    target : Target or None
+        None for a run given explicitly (:func:`plan_of_escape`).
     x0 : ndarray
         (2N,) initial state (``initial_state``) or initial estimation error of the target
         observer (``initial_error``).
-    noise : ndarray
-        (k* + 1, p) the target observer's noise up to ``k*``.
+    noise : mapping of str to ndarray
+        Per planned detector, (L, p) its noise for the first L samples (random after).
     w : ndarray
-        (k*, 2N) the held disturbance's sampled effect.
+        (L, 2N) the held disturbance's sampled effect for the first L samples.
     """
 
-    target: Target
+    target: Target | None
     x0: np.ndarray
-    noise: np.ndarray
+    noise: Mapping[str, np.ndarray]
     w: np.ndarray
 
 
@@ -89,12 +92,14 @@ def _bang_bang(a: np.ndarray, b: np.ndarray, h: float, dbar: float) -> tuple[np.
 
 def adversarial_plan(thresholds: CertifiedThresholds, target: Target, system: System) -> AdversarialPlan:
     """The initial state, noise and disturbance attaining the certified worst case at ``target`` (module docstring)."""
-    from glocal_verify.numerics.certified_rows import certified_rows
-
     th = thresholds
     det = {o.name: o for o in th.detectors}[target.observer]
     k, j, sg = target.sample, target.channel, target.sign
-    rows = certified_rows(det.F, det.Ce, k + 1)
+    rows = th.observers[target.observer].rows
+    if rows is None or rows.mid.shape[0] <= k:
+        from glocal_verify.numerics.certified_rows import certified_rows
+
+        rows = certified_rows(det.F, det.Ce, k + 1)
     ell = rows.mid[: k + 1, j, :]  # (k+1, n)
     model = th.model
     P = exact_to_float(det.Px if model.initial == "state" else det.Pe)[0]
@@ -102,19 +107,65 @@ def adversarial_plan(thresholds: CertifiedThresholds, target: Target, system: Sy
     Kn = exact_to_float(det.Kn)[0]
     Dn = exact_to_float(det.Dn)[0]
     nbar = model.noise(det.channels)
+    rev = ell[:k][::-1]  # row k-1-i at position i
     noise = np.zeros((k + 1, len(det.channels)))
-    for i in range(k):
-        noise[i] = -sg * nbar * np.sign(ell[k - 1 - i] @ Kn)
+    noise[:k] = -sg * nbar[None, :] * np.sign(rev @ Kn)
     noise[k] = sg * nbar * np.sign(Dn[j])
     n = system.n
     w = np.zeros((k, 2 * n))
-    if model.disturbance > 0:
-        Gw = exact_to_float(det.Gw)[0]
-        for i in range(k):
-            g = sg * (ell[k - 1 - i] @ Gw)
-            wp, wv = _bang_bang(g[:n], g[n:], th.period, model.disturbance)
-            w[i, :n], w[i, n:] = wp, wv
-    return AdversarialPlan(target, x0, noise, w)
+    if model.disturbance > 0 and k:
+        g = sg * (rev @ exact_to_float(det.Gw)[0])
+        wp, wv = _bang_bang(g[:, :n], g[:, n:], th.period, model.disturbance)
+        w[:, :n], w[:, n:] = wp, wv
+    return AdversarialPlan(target, x0, {target.observer: noise}, w)
+
+
+def plan_of_escape(run: EscapeRun, period: float) -> AdversarialPlan:
+    """An explicit run from :func:`~glocal_verify.simulation.escape.escape_run` (its held disturbance as ``w``)."""
+    h = period
+    w = np.hstack([h * h / 2 * run.d, h * run.d])
+    return AdversarialPlan(None, run.x0, dict(run.noise), w)
+
+
+class _Plans:
+    """The planned runs of one chunk as dense arrays (per detector and sample)."""
+
+    def __init__(self, plans: Sequence[AdversarialPlan], names: Sequence[str], n2: int) -> None:
+        B = len(plans)
+        self.noise: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        for name in names:
+            idx = np.array([i for i, p in enumerate(plans) if name in p.noise], dtype=int)
+            if not len(idx):
+                continue
+            L = max(len(plans[i].noise[name]) for i in idx)
+            p_ = plans[idx[0]].noise[name].shape[1]
+            arr = np.full((L, p_, len(idx)), np.nan)
+            for c, i in enumerate(idx):
+                arr[: len(plans[i].noise[name]), :, c] = plans[i].noise[name]
+            self.noise[name] = (idx, arr, np.array([len(plans[i].noise[name]) - 1 for i in idx]))
+        L = max((len(p.w) for p in plans), default=0)
+        self.w = np.zeros((L, n2, B))
+        self.w_ok = np.zeros((L, B), dtype=bool)
+        for i, p in enumerate(plans):
+            self.w[: len(p.w), :, i] = p.w
+            self.w_ok[: len(p.w), i] = True
+        self.obs = np.array([p.target.observer if p.target else "" for p in plans], dtype=object)
+        self.sample = np.array([p.target.sample if p.target else -1 for p in plans], dtype=int)
+        self.channel = np.array([p.target.channel if p.target else 0 for p in plans], dtype=int)
+
+    def apply_noise(self, noise: np.ndarray, name: str, k: int) -> None:
+        got = self.noise.get(name)
+        if got is None:
+            return
+        idx, arr, last = got
+        if k < len(arr):
+            live = k <= last
+            noise[:, idx[live]] = arr[k][:, live]
+
+    def apply_w(self, w: np.ndarray, k: int) -> None:
+        if k < len(self.w):
+            ok = self.w_ok[k]
+            w[:, ok] = self.w[k][:, ok]
 
 
 @dataclass(frozen=True, slots=True)
@@ -174,8 +225,9 @@ def simulate_sampled(
     mode: str | None = None,
     switch_thresholds: SwitchThresholds | None = None,
     targets: Sequence[Target] | None = None,
+    plans: Sequence[AdversarialPlan] | None = None,
     keep_traces: int = 0,
-    chunk: int = 2000,
+    chunk: int | None = None,
 ) -> RunBatch:
     """Simulate ``runs`` runs of Algorithm 1 on the sampled implementation (module docstring).
 
@@ -186,7 +238,8 @@ def simulate_sampled(
         The detectors and their thresholds (its horizon is the runs').
     runs : int
     kind : str
-        ``"random"``, ``"vertex"`` or ``"adversarial"`` (needs ``targets``, one per run).
+        ``"random"``, ``"vertex"``, ``"adversarial"`` (needs ``targets``, one per run) or
+        ``"given"`` (needs ``plans``, one per run).
     seed : int
     attack : SampledAttack, optional
         Attack-free without it.
@@ -199,14 +252,18 @@ def simulate_sampled(
         The central post-switch thresholds, for every switch sample a run may take.
     keep_traces : int
         Keep the residuals of this many runs.
-    chunk : int
-        Runs per batch of columns.
+    chunk : int, optional
+        Runs per batch of columns (default 2000, 250 for adversarial runs, whose plans are
+        held as dense arrays).
     """
-    if kind not in ("random", "vertex", "adversarial"):
-        raise ModelError(f"unknown kind of runs {kind!r} (expected random, vertex or adversarial)")
+    if kind not in ("random", "vertex", "adversarial", "given"):
+        raise ModelError(f"unknown kind of runs {kind!r} (expected random, vertex, adversarial or given)")
     if kind == "adversarial" and (targets is None or len(targets) != runs):
         raise ModelError("adversarial runs need one target per run")
+    if kind == "given" and (plans is None or len(plans) != runs):
+        raise ModelError("given runs need one plan per run")
     th = thresholds
+    chunk = chunk if chunk is not None else (250 if kind == "adversarial" else 2000)
     impl = implementation_of(system)
     h = th.period
     K = th.horizon
@@ -237,21 +294,27 @@ def simulate_sampled(
     for c0 in range(0, runs, chunk):
         B = min(chunk, runs - c0)
         cols = slice(c0, c0 + B)
-        plans = [adversarial_plan(th, t, system) for t in targets[c0 : c0 + B]] if kind == "adversarial" and targets is not None else []
+        if kind == "adversarial" and targets is not None:
+            chunk_plans = [adversarial_plan(th, t, system) for t in targets[c0 : c0 + B]]
+        elif kind == "given" and plans is not None:
+            chunk_plans = list(plans[c0 : c0 + B])
+        else:
+            chunk_plans = []
+        pl = _Plans(chunk_plans, [o.name for o in dets], 2 * n) if chunk_plans else None
         # initial states and observer states
-        if kind == "random":
+        if kind in ("random", "given"):
             X = rng.uniform(-model.box, model.box, (2 * n, B)) if model.initial == "state" else rng.uniform(-1, 1, (2 * n, B))
         else:
             X = model.box * rng.choice([-1.0, 1.0], (2 * n, B)) if model.initial == "state" else rng.choice([-1.0, 1.0], (2 * n, B))
         E0 = {o.name: None for o in dets}
-        if kind == "adversarial" and model.initial == "state":
-            X = np.stack([p.x0 for p in plans], axis=1)
+        if chunk_plans and model.initial == "state":
+            X = np.stack([p.x0 for p in chunk_plans], axis=1)
         if model.initial == "error":
             for o in dets:
                 E0[o.name] = model.box * (rng.uniform(-1, 1, (2 * n, B)) if kind == "random" else rng.choice([-1.0, 1.0], (2 * n, B)))
-            if kind == "adversarial":
-                for i, p in enumerate(plans):
-                    E0[p.target.observer][:, i] = p.x0
+            for i, p in enumerate(chunk_plans):
+                if p.target is not None:
+                    E0[p.target.observer][:, i] = p.x0  # type: ignore[index]
         if jump is not None and ka == 0:
             X = X + jump[:, None]
         Z: dict[str, np.ndarray] = {}
@@ -259,7 +322,8 @@ def simulate_sampled(
         for o in dets:
             f = mats[o.name]
             noise0[o.name] = _noise(rng, kind, nb[o.name], sig[o.name], B)
-            _apply_plans(noise0[o.name], plans, o.name, 0)
+            if pl is not None:
+                pl.apply_noise(noise0[o.name], o.name, 0)
             if model.initial == "state":
                 Z[o.name] = np.zeros((o.order, B))
             else:
@@ -278,8 +342,8 @@ def simulate_sampled(
             for o in dets:
                 f = mats[o.name]
                 nz = noise0[o.name] if k == 0 else _noise(rng, kind, nb[o.name], sig[o.name], B)
-                if k:
-                    _apply_plans(nz, plans, o.name, k)
+                if k and pl is not None:
+                    pl.apply_noise(nz, o.name, k)
                 y = f["C"] @ X + nz
                 r = f["Ry"] @ y - f["Rz"] @ Z[o.name]
                 Z[o.name] = f["Fo"] @ Z[o.name] + f["Go"] @ y
@@ -304,9 +368,11 @@ def simulate_sampled(
                 first[o.name][hit] = k
                 if np.any(live):
                     out_peak[o.name][k] = np.maximum(out_peak[o.name][k], ar[:, live].max(axis=1))
-                for i, p in enumerate(plans):
-                    if p.target.observer == o.name and p.target.sample == k:
-                        out_target[c0 + i] = ar[p.target.channel, i] / thk[p.target.channel, min(i, thk.shape[1] - 1)]  # type: ignore[index]
+                if pl is not None and out_target is not None:
+                    sel = np.flatnonzero((pl.obs == o.name) & (pl.sample == k))
+                    if len(sel):
+                        tb = np.broadcast_to(thk, ar.shape)
+                        out_target[c0 + sel] = ar[pl.channel[sel], sel] / tb[pl.channel[sel], sel]
                 if keep_traces and c0 < keep_traces:
                     m = min(B, keep_traces - c0)
                     traces[o.name][k, :, c0 : c0 + m] = r[:, :m]
@@ -323,7 +389,7 @@ def simulate_sampled(
                 Xn[:, switched] += dPhi @ X[:, switched]
             if U is not None and k >= ka:
                 Xn += (Gam[:, act] @ U[k])[:, None]
-            Xn += _disturbance(rng, kind, model.disturbance, h, n, B, plans, k)
+            Xn += _disturbance(rng, kind, model.disturbance, h, n, B, pl, k)
             X = Xn
         for o in dets:
             out_ratio[o.name][cols] = ratio[o.name]
@@ -335,7 +401,7 @@ def simulate_sampled(
 
 def _noise(rng: np.random.Generator, kind: str, nbar: np.ndarray, sigma: np.ndarray, B: int) -> np.ndarray:
     p = len(nbar)
-    if kind == "random":
+    if kind in ("random", "given"):
         out = rng.uniform(-1.0, 1.0, (p, B)) * nbar[:, None]
     else:
         out = rng.choice([-1.0, 1.0], (p, B)) * nbar[:, None]
@@ -344,18 +410,11 @@ def _noise(rng: np.random.Generator, kind: str, nbar: np.ndarray, sigma: np.ndar
     return out
 
 
-def _apply_plans(noise: np.ndarray, plans: Sequence[AdversarialPlan], name: str, k: int) -> None:
-    for i, p in enumerate(plans):
-        if p.target.observer == name and k < len(p.noise):
-            noise[:, i] = p.noise[k]
-
-
-def _disturbance(rng: np.random.Generator, kind: str, dbar: float, h: float, n: int, B: int, plans: Sequence[AdversarialPlan], k: int) -> np.ndarray:
+def _disturbance(rng: np.random.Generator, kind: str, dbar: float, h: float, n: int, B: int, plans: _Plans | None, k: int) -> np.ndarray:
     if dbar <= 0:
         return np.zeros((2 * n, 1))
-    d = rng.uniform(-dbar, dbar, (n, B)) if kind == "random" else dbar * rng.choice([-1.0, 1.0], (n, B))
+    d = rng.uniform(-dbar, dbar, (n, B)) if kind in ("random", "given") else dbar * rng.choice([-1.0, 1.0], (n, B))
     w = np.vstack([h * h / 2 * d, h * d])
-    for i, p in enumerate(plans):
-        if k < len(p.w):
-            w[:, i] = p.w[k]
+    if plans is not None:
+        plans.apply_w(w, k)
     return w
