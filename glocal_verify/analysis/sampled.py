@@ -158,9 +158,9 @@ def _cos_sinc(x: Any) -> tuple[Any, Any]:
             r = (-x).sqrt()
             return r.cosh(), r.sinh() / r
         # a ball around 0: the series sum_k (-x)^k / (2k)! (resp. (2k+1)!) with a remainder bound
-        r = float(abs(x).upper())
-        if r > 1.0:
-            b = math.cosh(math.sqrt(r)) * (1 + 8 * EPS)
+        rr = float(abs(x).upper())
+        if rr > 1.0:
+            b = math.cosh(math.sqrt(rr)) * (1 + 8 * EPS)
             return flint.arb(0, b), flint.arb(0, b)
         c, s, term = flint.arb(0), flint.arb(0), flint.arb(1)
         for k in range(30):
@@ -169,16 +169,14 @@ def _cos_sinc(x: Any) -> tuple[Any, Any]:
             term *= -x
         tail = flint.arb(0, 2.0 / math.factorial(60))  # |x|^30 / 60! (1 + |x| + ...) for |x| <= 1
         return c + tail, s + tail
-    x = np.asarray(x, dtype=float)
-    pos = np.sqrt(np.maximum(x, 0.0))
-    neg = np.sqrt(np.maximum(-x, 0.0))
+    xf = np.asarray(x, dtype=float)
+    pos = np.sqrt(np.maximum(xf, 0.0))
+    neg = np.sqrt(np.maximum(-xf, 0.0))
     with np.errstate(invalid="ignore", divide="ignore"):
-        c = np.where(x >= 0, np.cos(pos), np.cosh(neg))
-        s = np.where(x > 0, np.sin(pos) / np.where(pos > 0, pos, 1.0), np.where(x < 0, np.sinh(neg) / np.where(neg > 0, neg, 1.0), 1.0))
-    small = np.abs(x) < 1e-8
-    s = np.where(small, 1.0 - x / 6.0, s)
-    c = np.where(small, 1.0 - x / 2.0, c)
-    return c, s
+        cf = np.where(xf >= 0, np.cos(pos), np.cosh(neg))
+        sf = np.where(xf > 0, np.sin(pos) / np.where(pos > 0, pos, 1.0), np.where(xf < 0, np.sinh(neg) / np.where(neg > 0, neg, 1.0), 1.0))
+    small = np.abs(xf) < 1e-8
+    return np.where(small, 1.0 - xf / 2.0, cf), np.where(small, 1.0 - xf / 6.0, sf)
 
 
 def _exp(x: Any) -> Any:
@@ -357,12 +355,12 @@ def sampled_matrices_exact(system: System, mode: str = NORMAL_MODE, implementati
     a, g, h = system.alpha_q, system.gamma_q, impl.period
     if impl.controller == "sampled":
         c12, c22 = h - g * h * h / 2, 1 - g * h
-        rows = []
+        rows: list[list[Any]] = []
         for i in range(n):
             rows.append([(1 if i == j else 0) - a * h * h / 2 * L[i][j] for j in range(n)] + [c12 if i == j else 0 for j in range(n)])
         for i in range(n):
             rows.append([-a * h * L[i][j] for j in range(n)] + [c22 if i == j else 0 for j in range(n)])
-        grows = [[h * h / 2 if i == j else 0 for j in range(n)] for i in range(n)] + [[h if i == j else 0 for j in range(n)] for i in range(n)]
+        grows: list[list[Any]] = [[h * h / 2 if i == j else 0 for j in range(n)] for i in range(n)] + [[h if i == j else 0 for j in range(n)] for i in range(n)]
         return _fmpq(rows, 2 * n, 2 * n), _fmpq(grows, 2 * n, n)
     with arb_precision(prec):
         M = flint.arb_mat(3 * n, 3 * n)
@@ -479,7 +477,8 @@ def sampled_stability(system: System, mode: str = NORMAL_MODE, implementation: I
     a, g, h = system.alpha_q, system.gamma_q, impl.period
     if impl.controller == "sampled":
         mu_max = float(sm.mu[-1]) if len(sm.mu) else 0.0
-        limit = min(Fraction(2) / g, (2 * g / (a * mu_max)) if mu_max > 0 else math.inf)  # type: ignore[type-var]
+        cand: list[Fraction | float] = [Fraction(2) / g] + ([float(2 * g / a) / mu_max] if mu_max > 0 else [])
+        limit = min(cand)
     if exact or impl.controller == "continuous":
         if impl.controller == "continuous":
             status = Status.HOLDS

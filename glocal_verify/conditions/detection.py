@@ -116,7 +116,7 @@ def check_local_alarm(system: System, ctx: CheckContext) -> list[ConditionResult
     if not _applies(system) or system.spec.attack is None:
         return []
     nctx = _numeric(ctx)
-    modes = _modes(system) or [None]
+    modes: list[str | None] = list(_modes(system)) or [None]
     try:
         g = shared_guarantee(system, modes[0])
     except (NotApplicableError, GlocalVerifyError) as exc:

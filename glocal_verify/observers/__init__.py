@@ -4,7 +4,9 @@
 - :mod:`.uio_existence` -- existence of the UIO (Chen, Patton & Zhang) and its certificates;
 - :mod:`.uio` -- the verified UIO design of eqs. ``uio_conds_1``-``uio_conds_3``;
 - :mod:`.uio_modal` -- the same default design and its Hurwitz certificate from the cluster's
-  modal structure (one symmetric eigenproblem of the interior block; large clusters).
+  modal structure (one symmetric eigenproblem of the interior block; large clusters);
+- :mod:`.sampled` -- the detectors of a sampled implementation (period h), designed exactly on
+  its rational model, with their error equations.
 
 Layer: imports :mod:`glocal_verify.analysis` and below.
 """

@@ -4,6 +4,7 @@
 - :mod:`.render` -- Markdown, JSON and HTML reports and the report schema (``schemas/``);
 - :mod:`.html`, :mod:`.network_svg` -- the self-contained HTML report and the network drawing;
 - :mod:`.figures` -- figures drawn from given results (no simulation inside);
+- :mod:`.guarantee_figures` -- thresholds, residuals and detection times of the sampled guarantees;
 - :mod:`.case_study` -- the three cases of Section IV, simulated and checked;
 - :mod:`.simulation_report` -- writes simulation and case-study reports to a folder;
 - :mod:`.findings` -- re-verifies every finding spec and writes ``findings.md``.

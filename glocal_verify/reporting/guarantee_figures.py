@@ -43,15 +43,21 @@ def thresholds_figure(th: CertifiedThresholds, batches: Sequence[RunBatch], obse
     sample, dashed; the constant tail dotted) and the largest simulated ``|r|`` of each batch."""
     names = list(observers) if observers is not None else list(th.observers)
     fig = Figure(figsize=(10, 2.4 * len(names)))
-    t = np.arange(th.horizon) * th.period
+    step = max(1, th.horizon // 600)  # maxima over blocks of samples: the envelopes, at most 600 points
+    t = (np.arange(th.horizon) * th.period)[::step]
+
+    def env(x: np.ndarray) -> np.ndarray:
+        m = len(x) // step * step
+        head = x[:m].reshape(-1, step).max(axis=1) if m else np.zeros(0)
+        return np.concatenate([head, x[m:].max(keepdims=True)]) if m < len(x) else head
     colours = [BLUE, GREEN, ORANGE, PURPLE]
     for i, name in enumerate(names):
         ax = fig.add_subplot(len(names), 1, i + 1)
         o = th.observers[name]
-        ax.semilogy(t, o.theta.max(axis=1), "--", color=RED, lw=1.2, label="certified threshold (max over channels)")
+        ax.semilogy(t, env(o.theta.max(axis=1)), "--", color=RED, lw=1.2, label="certified threshold (max over channels)")
         ax.axhline(float(o.tail.max()), color=RED, ls=":", lw=1.0, label="constant tail")
         for c, b in enumerate(batches):
-            peak = b.peak[name].max(axis=1)
+            peak = env(b.peak[name].max(axis=1))
             ax.semilogy(t, np.maximum(peak, 1e-18), color=colours[c % len(colours)], lw=0.8, label=f"largest |r| over {b.runs} {b.kind} runs")
         ax.set_title(f"{name}: attack-free residuals never cross the certified threshold", fontsize=9)
         ax.set_ylabel("|r|")
@@ -90,9 +96,9 @@ def detection_figure(
     if s >= 0 and switch_theta is not None and s in switch_theta:
         thc[s:] = switch_theta[s]
         ax2.axvline(s * h, color=GREY, ls="-.", label=f"switch to {g.mode} at {s * h:.3g} s")
-        per = dict(g.per_switch)
-        if per.get(s) is not None:
-            ax2.axvline(per[s] * h, color=GREEN, ls=":", label=f"certified central alarm by {per[s] * h:.3g} s")
+        ks = dict(g.per_switch).get(s)
+        if ks is not None:
+            ax2.axvline(ks * h, color=GREEN, ls=":", label=f"certified central alarm by {ks * h:.3g} s")
     ax2.semilogy(t, np.maximum((rc / thc).max(axis=1), 1e-18), color=BLUE, lw=0.9, label="max_j |r_0,j| / theta_j (central)")
     ax2.axhline(1.0, color=RED, ls="--", lw=1.0)
     ca = int(batch.central_alarm[run])

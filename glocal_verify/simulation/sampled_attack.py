@@ -147,6 +147,7 @@ def sampled_attack_from_spec(system: System, implementation: ImplementationSpec 
     m = len(F)
     sig = a.signal or "step"
     ones = np.ones(m, dtype=complex) / math.sqrt(m)
+    u0: np.ndarray
     if sig == "step":
         z, u0 = 1.0 + 0j, ones
     elif sig == "sine":
@@ -278,10 +279,10 @@ def central_composite(
         layout = (("plant", n_p), ("error", n_e))
         grid = [[Mp, None], [D, F]]
         R = block([[None, central.Ce]], [p], [n_p, n_e])
-    sizes = [s_ for _, s_ in layout]
+    sizes: list[int] = [s_ for _, s_ in layout]
     Mfull = block(grid, sizes, sizes)
-    m = len(act)
-    Nu = block([[px * GF]] + ([[px * GF]] if copy else []) + [[pe * GF]], sizes, [m]) if m else flint.fmpq_mat(sum(sizes), 0)
+    n_act = len(act)
+    Nu = block([[px * GF]] + ([[px * GF]] if copy else []) + [[pe * GF]], sizes, [n_act]) if n_act else flint.fmpq_mat(sum(sizes), 0)
     Nw = block([[px]] + ([[None]] if copy else []) + [[pe]], sizes, [2 * n])
     Nn = block([[None]] + ([[None]] if copy else []) + [[central.Kn]], sizes, [p])
     X0 = block([[px]] + ([[None]] if copy else []) + [[pe]], sizes, [2 * n])

@@ -306,7 +306,7 @@ def simulate_sampled(
             X = rng.uniform(-model.box, model.box, (2 * n, B)) if model.initial == "state" else rng.uniform(-1, 1, (2 * n, B))
         else:
             X = model.box * rng.choice([-1.0, 1.0], (2 * n, B)) if model.initial == "state" else rng.choice([-1.0, 1.0], (2 * n, B))
-        E0 = {o.name: None for o in dets}
+        E0: dict[str, np.ndarray | None] = {o.name: None for o in dets}
         if chunk_plans and model.initial == "state":
             X = np.stack([p.x0 for p in chunk_plans], axis=1)
         if model.initial == "error":
@@ -351,12 +351,12 @@ def simulate_sampled(
                 ar = np.abs(r)
                 if o.kind == "central" and switch_thresholds is not None and np.any(switched):
                     thk = np.broadcast_to(thk, ar.shape).copy()
-                    for i in np.flatnonzero(switched):
-                        s = int(switch[i])
-                        if s in switch_thresholds.theta:
-                            thk[:, i] = switch_thresholds.theta[s][k - s]
+                    for col in np.flatnonzero(switched):
+                        s_ = int(switch[col])
+                        if s_ in switch_thresholds.theta:
+                            thk[:, col] = switch_thresholds.theta[s_][k - s_]
                         else:
-                            thk[:, i] = np.inf
+                            thk[:, col] = np.inf
                     over = np.any(ar > thk, axis=0)
                     new = switched & over & (calarm < 0)
                     calarm[new] = k

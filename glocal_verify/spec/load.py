@@ -45,6 +45,7 @@ import jsonschema
 import networkx as nx
 
 from glocal_verify.errors import SpecError
+from glocal_verify.spec.deployment import read_implementation, read_uncertainty
 from glocal_verify.spec.prepare import (
     MAX_FILE_BYTES,
     check_items,
@@ -59,11 +60,6 @@ from glocal_verify.spec.prepare import (
 from glocal_verify.spec.types import (
     AMPLITUDE_MAX,
     ATTACK_KINDS,
-    BOUND_MAX,
-    CONTROLLERS,
-    FALSE_ALARM_MIN,
-    HOLDS,
-    SWITCH_DELAY_MAX,
     GAIN_MAX,
     GAIN_MIN,
     GAIN_RATIO_MAX,
@@ -88,7 +84,6 @@ from glocal_verify.spec.types import (
     AttackSpec,
     ClusterSpec,
     EdgeSpec,
-    ImplementationSpec,
     Label,
     ModeSpec,
     MonitorSpec,
@@ -97,7 +92,6 @@ from glocal_verify.spec.types import (
     SwitchingSpec,
     SwitchStep,
     SystemSpec,
-    UncertaintySpec,
 )
 
 __all__ = [
@@ -405,8 +399,8 @@ class _Builder:
         mode_names = {m.name for m in modes}
         switching = self.switching(d.get("switching"), mode_names)
         simulation = self.simulation(d.get("simulation", {}))
-        uncertainty = self.uncertainty(d.get("uncertainty"))
-        implementation = self.implementation(d.get("implementation"), simulation)
+        uncertainty = read_uncertainty(self, d.get("uncertainty"))
+        implementation = read_implementation(self, d.get("implementation"), simulation)
         name = self.text(d["name"], "name", limit=MAX_LABEL, name=True) if "name" in d else (Path(self.source).stem[:MAX_LABEL] if self.source else "system")
         return SystemSpec(
             name=name,
@@ -681,77 +675,6 @@ class _Builder:
         if not 0 <= seed <= SEED_MAX:
             raise self.err("simulation.seed", f"must be in [0, 2**63 - 1], got {show(seed)}")
         return SimulationSpec(horizon, step, seed)
-
-    def bound(self, value: Any, path: str) -> Fraction:
-        """A bound or standard deviation of ``[uncertainty]``: an exact rational in ``[0, BOUND_MAX]``."""
-        return self.rational(value, path, positive=False, lo=Fraction(0), hi=BOUND_MAX)
-
-    def channels(self, value: Any, path: str) -> tuple[tuple[str, Fraction], ...]:
-        """A bound for every channel (a number) or a table from channel patterns to bounds."""
-        if not isinstance(value, Mapping):
-            return (("*", self.bound(value, path)),)
-        out = []
-        for key, v in value.items():
-            kp = f'{path}."{key}"' if not key.replace("_", "").isalnum() else f"{path}.{key}"
-            key = self.text(key, kp, limit=MAX_LABEL, name=True).strip()
-            if key != "*":
-                kind, sep, label = key.partition(":")
-                if not sep or kind not in ("x", "v") or not label:
-                    raise self.err(kp, f"a channel is \"*\", \"x:*\", \"v:*\", \"x:<label>\" or \"v:<label>\", got {show(key)}")
-                if label != "*":
-                    node = self.channel_node(label, kp)
-                    key = f"{kind}:{node}"
-            out.append((key, self.bound(v, kp)))
-        return tuple(out)
-
-    def channel_node(self, text: str, path: str) -> Label:
-        """The node a channel names (``"7"`` is the integer label 7 when the graph has it)."""
-        if text in self.node_set:
-            return text
-        try:
-            as_int = int(text)
-        except ValueError:
-            as_int = None
-        if as_int is not None and as_int in self.node_set:
-            return as_int
-        raise self.err(path, f"node {show(text)} is not in the graph")
-
-    def uncertainty(self, u: Mapping[str, Any] | None) -> UncertaintySpec | None:
-        if u is None:
-            return None
-        if "initial_state" in u and "initial_error" in u:
-            raise self.err("uncertainty.initial_error", "give initial_state or initial_error, not both")
-        init = self.bound(u["initial_state"], "uncertainty.initial_state") if "initial_state" in u else None
-        err = self.bound(u["initial_error"], "uncertainty.initial_error") if "initial_error" in u else None
-        noise = self.channels(u["noise"], "uncertainty.noise") if "noise" in u else ()
-        std = self.channels(u["noise_std"], "uncertainty.noise_std") if "noise_std" in u else ()
-        fa = None
-        if "false_alarm" in u:
-            fa = self.rational(u["false_alarm"], "uncertainty.false_alarm", lo=FALSE_ALARM_MIN)
-            if fa >= 1:
-                raise self.err("uncertainty.false_alarm", f"must be < 1, got {show(u['false_alarm'])}")
-            if not any(v > 0 for _, v in std):
-                raise self.err("uncertainty.false_alarm", "a false-alarm probability needs a Gaussian part (noise_std)")
-        dist = self.bound(u["disturbance"], "uncertainty.disturbance") if "disturbance" in u else Fraction(0)
-        return UncertaintySpec(init, err, noise, std, fa, dist)
-
-    def implementation(self, m: Mapping[str, Any] | None, simulation: SimulationSpec) -> ImplementationSpec | None:
-        if m is None:
-            return None
-        lo, hi = Fraction(TIME_MIN), Fraction(TIME_MAX)
-        h = self.rational(m["period"], "implementation.period", lo=lo, hi=hi)
-        if Fraction(simulation.horizon) / h > MAX_SAMPLES:
-            raise self.err("implementation.period", f"horizon / period = {float(Fraction(simulation.horizon) / h):.3g} samples (at most {MAX_SAMPLES:.0e}); enlarge the period")
-        hold = m.get("hold", "zoh")
-        if hold not in HOLDS:
-            raise self.err("implementation.hold", f"unknown hold {show(hold)} (expected one of: {', '.join(HOLDS)})")
-        ctrl = m.get("controller", "sampled")
-        if ctrl not in CONTROLLERS:
-            raise self.err("implementation.controller", f"unknown controller {show(ctrl)} (expected one of: {', '.join(CONTROLLERS)})")
-        delay = m.get("switch_delay", 1)
-        if type(delay) is not int or not 0 <= delay <= SWITCH_DELAY_MAX:
-            raise self.err("implementation.switch_delay", f"must be an integer in [0, {SWITCH_DELAY_MAX}], got {show(delay)}")
-        return ImplementationSpec(h, hold, ctrl, delay)
 
     def pole(self, value: Any, path: str) -> Fraction:
         """An observer pole: an exact rational in ``[POLE_MIN, POLE_MAX]`` (negative)."""
