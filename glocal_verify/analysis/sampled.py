@@ -55,6 +55,7 @@ from typing import Any, Iterator
 import flint
 import numpy as np
 import scipy.linalg
+import scipy.spatial
 
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
@@ -543,8 +544,9 @@ def _omega(mu: float, a: float, g: float) -> float:
 def sampled_aliasing(system: System, mode: str = NORMAL_MODE, implementation: ImplementationSpec | None = None, *, exact: bool = False) -> Aliasing:
     """Aliasing of the sampled modes (class docstring); ``exact`` decides by the module's exact facts.
 
-    Complexity: O(c^2) for c certified eigenvalue clusters (vectorised), plus one enclosure per
-    eigenvalue (:func:`sampled_modes`).
+    Complexity: O(c log c) for c certified eigenvalue clusters (a k-d tree finds the nearest
+    sampled eigenvalue of another cluster and every pair close enough to overlap), plus one
+    enclosure per eigenvalue (:func:`sampled_modes`).
     """
     impl = implementation_of(system, implementation)
     sm = sampled_modes(system, mode, impl)
@@ -560,22 +562,39 @@ def sampled_aliasing(system: System, mode: str = NORMAL_MODE, implementation: Im
     flat = zc.reshape(-1)
     rad = np.repeat(spread, 2)
     owner = np.repeat(np.arange(len(cl)), 2)
-    D = np.abs(flat[:, None] - flat[None, :])
-    same = owner[:, None] == owner[None, :]
-    D = np.where(same, np.inf, D)
-    R = (rad[:, None] + rad[None, :]) * (1 + 8 * EPS) + 4 * EPS * np.maximum(np.abs(flat)[:, None], np.abs(flat)[None, :])
-    certified = np.all(D > R) and np.all(off > 0)
+    # candidate pairs by a k-d tree (O(c log c)): the nearest points of other clusters, and every
+    # pair close enough to overlap; only those are compared
+    pts = np.column_stack([flat.real, flat.imag])
+    tree = scipy.spatial.cKDTree(pts)
+    kq = min(len(flat), 4)
+    dist, nb = tree.query(pts, k=kq)
+    dist, nb = np.atleast_2d(dist), np.atleast_2d(nb)
+    other = owner[nb] != owner[:, None]
+    dnear = np.where(other, dist, np.inf)
+    first = np.argmin(dnear, axis=1) if dnear.size else np.zeros(0, dtype=int)
+    near_d = dnear[np.arange(len(flat)), first] if dnear.size else np.zeros(0)
+    near_j = nb[np.arange(len(flat)), first] if dnear.size else np.zeros(0, dtype=int)
+    reach = 2.0 * (float(rad.max(initial=0.0)) * (1 + 8 * EPS) + 4 * EPS * float(np.abs(flat).max(initial=1.0)))
+    pairs = tree.query_pairs(reach, output_type="ndarray") if len(flat) > 1 else np.zeros((0, 2), dtype=int)
+    pairs = pairs[owner[pairs[:, 0]] != owner[pairs[:, 1]]] if len(pairs) else pairs
+
+    def bound(i: np.ndarray, j: np.ndarray) -> np.ndarray:
+        return (rad[i] + rad[j]) * (1 + 8 * EPS) + 4 * EPS * np.maximum(np.abs(flat[i]), np.abs(flat[j]))
+
+    bad = pairs[np.abs(flat[pairs[:, 0]] - flat[pairs[:, 1]]) <= bound(pairs[:, 0], pairs[:, 1])] if len(pairs) else pairs
+    certified = len(bad) == 0 and bool(np.all(off > 0))
     overlaps = []
     if not certified:
-        bad = np.argwhere((D <= R) & (owner[:, None] < owner[None, :]))
         overlaps = [(int(reps[owner[i]]), int(reps[owner[j]])) for i, j in bad[:20]]
         overlaps += [(int(reps[k]), int(reps[k])) for k in np.flatnonzero(off <= 0)[:20]]
-    margin = float(min(D.min() if D.size else math.inf, off_mid.min() if off_mid.size else math.inf))
-    i, j = np.unravel_index(int(np.argmin(D)), D.shape) if D.size and np.isfinite(D.min()) else (0, 0)
+    dmin = float(near_d.min()) if near_d.size else math.inf
+    margin = float(min(dmin, off_mid.min() if off_mid.size else math.inf))
+    i = int(np.argmin(near_d)) if near_d.size else 0
+    j = int(near_j[i]) if near_d.size else 0
     closest: dict[str, Any] = {}
-    if D.size and np.isfinite(D.min()):
+    if math.isfinite(dmin):
         la, lb = int(reps[owner[i]]), int(reps[owner[j]])
-        closest = {"mu": [float(sm.mu[la]), float(sm.mu[lb])], "z": [complex(flat[i]), complex(flat[j])], "distance": float(D[i, j])}
+        closest = {"mu": [float(sm.mu[la]), float(sm.mu[lb])], "z": [complex(flat[i]), complex(flat[j])], "distance": dmin}
         if impl.controller == "continuous":
             wa, wb = _omega(float(sm.mu[la]), a, g), _omega(float(sm.mu[lb]), a, g)
             best = None
@@ -587,7 +606,7 @@ def sampled_aliasing(system: System, mode: str = NORMAL_MODE, implementation: Im
                         best = (k, hs)
             if best is not None:
                 closest["winding"], closest["nearest_pathological_period"] = best
-    err = float(R[i, j]) if D.size and np.isfinite(D.min()) else 0.0
+    err = float(bound(np.array([i]), np.array([j]))[0]) if math.isfinite(dmin) else 0.0
     gh = system.gamma_q * impl.period
     if exact:
         status = Status.FAILS if (impl.controller == "sampled" and gh == 2) else Status.HOLDS

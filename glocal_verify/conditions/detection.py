@@ -63,7 +63,7 @@ def check_detection_thresholds(system: System, ctx: CheckContext) -> list[Condit
     (the supremum is the sum of the initial-state, noise and disturbance terms, each attained;
     :mod:`glocal_verify.simulation.certified_thresholds`). Holds when the detector's error
     dynamics are certified stable and the bound is finite; undecided when the certificate is
-    not found; no result without a sampled ``[implementation]``.
+    not found, or beyond 150 agents; no result without a sampled ``[implementation]``.
 
     Margin
         ``1 - theta_M``: the certified contraction of the error dynamics over the window.
@@ -72,9 +72,12 @@ def check_detection_thresholds(system: System, ctx: CheckContext) -> list[Condit
         certificate (window, ``||F^m0||``, ``kappa``, largest row error), the false-alarm bound
         with Gaussian noise.
     """
+    impl = system.spec.implementation
+    nctx = _numeric(ctx)
+    if impl is not None and impl.controller == "sampled" and system.n > GUARANTEE_MAX_AGENTS:
+        return [result("detection.thresholds", nctx, Status.UNDECIDED, note=f"not computed: {system.n} agents > {GUARANTEE_MAX_AGENTS} (dense detectors)")]
     if not _applies(system):
         return []
-    nctx = _numeric(ctx)
     try:
         th = shared_thresholds(system)
     except (NotApplicableError, GlocalVerifyError) as exc:
