@@ -17,7 +17,9 @@ the checkers of :mod:`glocal_verify.conditions` only wrap them.
 - :mod:`.covert` -- the channels a covert attacker must own;
 - :mod:`.avoidance` -- does a safe mode touch the stealthy kernel (Remark III.3.1)?
 - :mod:`.local_cases`, :mod:`.cluster_pencil` -- cluster subsystems and their reduced pencils;
-- :mod:`.cluster_modal` -- the interior eigen-decomposition of a cluster block shared by the UIO checks.
+- :mod:`.cluster_modal` -- the interior eigen-decomposition of a cluster block shared by the UIO checks;
+- :mod:`.sampled`, :mod:`.sampled_zda`, :mod:`.sampled_scan` -- the sampled implementation per
+  Laplacian mode: stability, aliasing, observability, the sampled pencil, pathological periods.
 
 Layer: imports :mod:`glocal_verify.numerics`, :mod:`glocal_verify.model` and the spec types.
 Derived results are kept on the system's explicit :class:`~glocal_verify.derived.Analysis`,

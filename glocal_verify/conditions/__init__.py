@@ -9,6 +9,8 @@
 - :mod:`.switching` -- Theorem III.3 (i)-(iii) and Lemma A.2;
 - :mod:`.safe_switch` -- Remark III.3.1 (does the switch touch the attack?);
 - :mod:`.detects` -- the theorem's conclusion by simulation (``switching.detects``);
+- :mod:`.sampled` -- the conditions re-decided for the sampled implementation (``sampled.*``);
+- :mod:`.detection` -- certified thresholds and detection guarantees (``detection.*``);
 - :mod:`.paper_findings` -- finding rules that are not tied to one checker;
 - :mod:`.cost` -- time and memory estimates from the spec's sizes, and the exact-cost model.
 

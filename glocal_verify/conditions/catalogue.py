@@ -71,6 +71,14 @@ _ENTRIES = (
         False,
     ),
     ("switching.detects", "Theorem III.3 (conclusion)", "After the switch the global residual leaves its attack-free band (simulation).", _H, False),
+    ("sampled.stability", "eq. cl_sys sampled at period h", "The sampled closed loop is stable apart from its consensus: every other eigenvalue of Phi_q has modulus < 1.", _H, True),
+    ("sampled.no-aliasing", "Theorem III.3 (ii), sampled", "Sampling aliases no two modes: distinct eigenvalues of L_q keep disjoint eigenvalues of Phi_q, and no block is a multiple of I.", _H, True),
+    ("sampled.observability", "Lemma II.3, sampled (Kalman-Ho-Narendra)", "Sampling hides nothing more: the unobservable subspace of (Phi_q, C) equals that of (A_q, C).", _H, True),
+    ("sampled.zda", "Proposition II.4 (ii), sampled", "A stealthy zero-dynamics attack exists for the sampled pencil (Phi_1, Gamma_F, C).", _F, False),
+    ("sampled.local-uio", "Proposition III.2, sampled", "A sampled-data unknown-input observer of the cluster exists (exact decoupling, certified stable error).", _H, True),
+    ("detection.thresholds", "Algorithm 1 (thresholds), Section III.E", "Certified thresholds: no attack-free run crosses them, for every admissible initial state, noise and disturbance.", _H, False),
+    ("detection.local-alarm", "Algorithm 1 (line 3), Proposition III.2", "Every admissible run of the spec's attack raises this local observer's alarm within the horizon.", _H, False),
+    ("detection.guarantee", "Algorithm 1, Theorem III.3 (conclusion)", "Every admissible run of the spec's attack raises the control centre's alarm within the horizon (local alarm, switch, global alarm).", _H, False),
 )
 
 

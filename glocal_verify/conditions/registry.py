@@ -55,7 +55,7 @@ __all__ = [
 ]
 
 #: modules of this package that register checkers and finding rules (imported on first use)
-CHECKER_MODULES = ("privacy", "switching", "observability", "stealthy", "safe_switch", "central", "local", "detects", "paper_findings")
+CHECKER_MODULES = ("privacy", "switching", "observability", "stealthy", "safe_switch", "central", "local", "detects", "sampled", "detection", "paper_findings")
 
 
 @dataclass(frozen=True, slots=True)
@@ -384,7 +384,7 @@ def exact_estimate(system: System, cid: str) -> float | None:
 
 
 #: checkers whose undecided result is not re-decided exactly (the simulation is the evidence)
-_NOT_ESCALATED = frozenset({"switching.detects"})
+_NOT_ESCALATED = frozenset({"switching.detects", "detection.thresholds", "detection.local-alarm", "detection.guarantee"})
 
 
 def _escalate_all(

@@ -13,8 +13,10 @@
 - :mod:`.pencil`, :mod:`.pencil_exact` -- the Rosenbrock system pencil, numeric and exact;
 - :mod:`.exact`, :mod:`.exact_subspace` -- python-flint helpers over Q;
 - :mod:`.zero_polynomial` -- the zero polynomial of a left-invertible selection system,
-  proved by minors modulo a prime and exact kernels (no V* iteration).
+  proved by minors modulo a prime and exact kernels (no V* iteration);
 - :mod:`.hurwitz` -- certified Hurwitz tests of a real matrix from its eigenvalue condition numbers;
+- :mod:`.certified_rows` -- impulse-response rows ``C M^k`` of a stable discrete system with
+  a-posteriori error bounds and a certified tail (the sampled detectors' thresholds).
 - :mod:`.threads`, :mod:`.collection` -- BLAS threads and deferred full garbage collections for
   a block of code (resources, no numbers).
 

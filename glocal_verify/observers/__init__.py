@@ -7,7 +7,9 @@
   modal structure (one symmetric eigenproblem of the interior block; large clusters);
 - :mod:`.uio_verdict`, :mod:`.uio_modal_verdict` -- the rule of ``local.uio`` (existence, design
   and certified verification per mode);
-- :mod:`.central_verdict` -- the rule of ``central.observer``.
+- :mod:`.central_verdict` -- the rule of ``central.observer``;
+- :mod:`.sampled` -- the detectors of a sampled implementation (period h), designed exactly on
+  its rational model, with their error equations.
 
 The two observer conditions have their rules here because each certifies an observer it
 designs first.

@@ -4,6 +4,7 @@
 - :mod:`.render` -- Markdown, JSON and HTML reports and the report schema (``schemas/``);
 - :mod:`.html`, :mod:`.network_svg` -- the self-contained HTML report and the network drawing (SVG);
 - :mod:`.figures` -- figures drawn from given results (no simulation inside);
+- :mod:`.guarantee_figures` -- thresholds, residuals and detection times of the sampled guarantees;
 - :mod:`.simulation_report` -- writes simulation and case-study reports to a folder;
 - :mod:`.findings` -- writes ``findings.md`` from the verified finding specs;
 - :mod:`.layout`, :mod:`.network_figure` -- where agents and links go in every network drawing

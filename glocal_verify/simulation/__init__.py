@@ -7,7 +7,13 @@
 - :mod:`.engine` -- the propagators (dense and modal) and :func:`simulate`;
 - :mod:`.thresholds` -- attack-free residual envelopes and crossings;
 - :mod:`.algorithm1` -- Algorithm 1 (``alg:detection_procedure``); the choice of safe mode is
-  passed in (the verdicts that rank modes live in :mod:`glocal_verify.conditions`).
+  passed in (the verdicts that rank modes live in :mod:`glocal_verify.conditions`);
+- :mod:`.certified_thresholds`, :mod:`.switch_thresholds` -- certified thresholds of the sampled
+  detectors over the whole uncertainty set (before and after a switch);
+- :mod:`.sampled_attack`, :mod:`.guarantees` -- held attacks, their exact composites and the
+  certified detection guarantee (who detects, by when, the smallest size);
+- :mod:`.sampled_runs`, :mod:`.escape` -- batched sampled runs of Algorithm 1 (random, vertex,
+  worst case) and the largest attack an admissible run hides.
 
 Layer: imports :mod:`glocal_verify.observers`, :mod:`glocal_verify.analysis` and below; never a
 checker.

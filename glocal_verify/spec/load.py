@@ -45,6 +45,7 @@ import jsonschema
 import networkx as nx
 
 from glocal_verify.errors import SpecError
+from glocal_verify.spec.deployment import read_implementation, read_uncertainty
 from glocal_verify.spec.prepare import (
     MAX_FILE_BYTES,
     check_items,
@@ -393,6 +394,8 @@ class _Builder:
         mode_names = {m.name for m in modes}
         switching = self.switching(d.get("switching"), mode_names)
         simulation = self.simulation(d.get("simulation", {}))
+        uncertainty = read_uncertainty(self, d.get("uncertainty"))
+        implementation = read_implementation(self, d.get("implementation"), simulation)
         name = self.text(d["name"], "name", limit=MAX_LABEL, name=True) if "name" in d else (Path(self.source).stem[:MAX_LABEL] if self.source else "system")
         return SystemSpec(
             name=name,
@@ -406,6 +409,8 @@ class _Builder:
             attack=attack,
             switching=switching,
             simulation=simulation,
+            uncertainty=uncertainty,
+            implementation=implementation,
             description=self.text(d.get("description", ""), "description"),
             source=self.source,
             finding=d.get("finding"),

@@ -31,6 +31,10 @@ times (horizon, switching time, dwell)    :math:`10^{-6} \\le t \\le 10^{6}`; ``
 ``simulation.step``                       :math:`10^{-6} \\le h \\le T` and :math:`T / h \\le 10^{8}` samples
 ``attack.amplitude``, ``frequency``       :math:`|a| \\le 10^{12}`; :math:`0 \\le f \\le 10^{6}`
 ``simulation.seed``                       :math:`0 \\le s < 2^{63}`
+``implementation.period``                 :math:`10^{-6} \\le h \\le 10^{6}` (exact rational), :math:`T / h \\le 10^{8}`
+``uncertainty`` bounds, standard devs     :math:`0 \\le b \\le 10^{12}` (exact rationals)
+``uncertainty.false_alarm``               :math:`10^{-300} \\le p < 1`
+``implementation.switch_delay``           an integer :math:`0 \\le d \\le 10^{6}` periods
 ========================================  ==============================================================
 
 Numbers written as strings (``"1/3"``, ``"2.5e-3"``) are at most :data:`MAX_NUMBER_TEXT`
@@ -61,9 +65,16 @@ __all__ = [
     "SwitchStep",
     "SwitchingSpec",
     "SimulationSpec",
+    "UncertaintySpec",
+    "ImplementationSpec",
     "SystemSpec",
     "NORMAL_MODE",
     "ATTACK_KINDS",
+    "CONTROLLERS",
+    "HOLDS",
+    "BOUND_MAX",
+    "FALSE_ALARM_MIN",
+    "SWITCH_DELAY_MAX",
     "WEIGHT_MIN",
     "WEIGHT_MAX",
     "WEIGHT_RATIO_MAX",
@@ -93,6 +104,10 @@ __all__ = [
 Label = int | str
 NORMAL_MODE = "normal"
 ATTACK_KINDS = ("zda", "covert")
+#: how the consensus controllers run in a sampled implementation (``implementation.controller``)
+CONTROLLERS = ("sampled", "continuous")
+#: how a held signal is reconstructed between samples (``implementation.hold``)
+HOLDS = ("zoh",)
 
 # -- domains (see the module docstring for the reasons) ----------------------------------------
 #: smallest and largest edge weight (exact rationals)
@@ -120,6 +135,12 @@ MAX_SAMPLES: Final = 10**8
 AMPLITUDE_MAX: Final = 1e12
 #: simulation.seed lies in [0, SEED_MAX]
 SEED_MAX: Final = 2**63 - 1
+#: every bound and standard deviation of ``[uncertainty]`` lies in [0, BOUND_MAX]
+BOUND_MAX: Final = Fraction(10**12)
+#: ``uncertainty.false_alarm`` lies in [FALSE_ALARM_MIN, 1)
+FALSE_ALARM_MIN: Final = Fraction(1, 10**300)
+#: ``implementation.switch_delay`` lies in [0, SWITCH_DELAY_MAX] periods
+SWITCH_DELAY_MAX: Final = 10**6
 
 # -- sizes ------------------------------------------------------------------------------------
 MAX_NODES: Final = 100_000
@@ -229,6 +250,98 @@ class SimulationSpec:
 
 
 @dataclass(frozen=True, slots=True)
+class UncertaintySpec:
+    """What the deployment does not know: initial state or observer errors, noise, disturbance.
+
+    Every value is an exact rational. ``noise`` and ``noise_std`` are tuples of
+    ``(channel pattern, value)`` in the order written: a pattern is ``"*"`` (every measured
+    channel), ``"x:*"`` / ``"v:*"`` (every position / velocity) or ``"x:<label>"`` /
+    ``"v:<label>"`` (one agent's position / velocity); a later, more specific pattern wins
+    (:meth:`noise_bound`).
+
+    Attributes
+    ----------
+    initial_state : Fraction or None
+        Half-width b of the box ``|x_i(0)|, |v_i(0)| <= b`` (observers start from 0); the
+        default when neither this nor ``initial_error`` is given is 1.
+    initial_error : Fraction or None
+        Half-width of the box of every observer's initial estimation error instead.
+    noise : tuple of (str, Fraction)
+        Amplitude bounds ``|n_j(t_k)| <= bound`` of the measurement noise per channel.
+    noise_std : tuple of (str, Fraction)
+        Standard deviations of an optional Gaussian measurement noise (independent over
+        channels and samples), on top of the bounded part.
+    false_alarm : Fraction or None
+        With Gaussian noise: the false-alarm probability over the horizon the thresholds are
+        set for (default 1e-6).
+    disturbance : Fraction
+        Bound ``|d_i(t)| <= d`` of an unknown acceleration disturbance on every agent.
+    """
+
+    initial_state: Fraction | None = None
+    initial_error: Fraction | None = None
+    noise: tuple[tuple[str, Fraction], ...] = ()
+    noise_std: tuple[tuple[str, Fraction], ...] = ()
+    false_alarm: Fraction | None = None
+    disturbance: Fraction = Fraction(0)
+
+    @property
+    def box(self) -> Fraction:
+        """The half-width of the initial box (state or error)."""
+        if self.initial_error is not None:
+            return self.initial_error
+        return Fraction(1) if self.initial_state is None else self.initial_state
+
+    @property
+    def gaussian(self) -> bool:
+        """Whether a Gaussian noise part is given (some nonzero standard deviation)."""
+        return any(v > 0 for _, v in self.noise_std)
+
+    @staticmethod
+    def _lookup(table: tuple[tuple[str, Fraction], ...], channel: str) -> Fraction:
+        kind = channel.split(":", 1)[0]
+        best, rank = Fraction(0), -1
+        for pattern, value in table:
+            r = 2 if pattern == channel else 1 if pattern == f"{kind}:*" else 0 if pattern == "*" else -1
+            if r >= rank and r >= 0:
+                best, rank = value, r
+        return best
+
+    def noise_bound(self, channel: str) -> Fraction:
+        """The amplitude bound of channel ``"x:<label>"`` / ``"v:<label>"`` (0 when none is given)."""
+        return self._lookup(self.noise, channel)
+
+    def noise_sigma(self, channel: str) -> Fraction:
+        """The Gaussian standard deviation of a channel (0 when none is given)."""
+        return self._lookup(self.noise_std, channel)
+
+
+@dataclass(frozen=True, slots=True)
+class ImplementationSpec:
+    """How the network is deployed: sampling period, hold, controllers and the switch delay.
+
+    Attributes
+    ----------
+    period : Fraction
+        Sampling period h (exact rational): the detectors sample every measurement at ``k h``.
+    hold : str
+        ``"zoh"``: every held signal (the controllers' commands, the attacker's injection) is
+        constant over a period.
+    controller : str
+        ``"sampled"``: every agent's consensus controller samples its neighbours at ``k h``
+        and holds its command (a sampled-data controller); ``"continuous"``: the consensus
+        loop runs in continuous time and only the detectors sample (and the attacker holds).
+    switch_delay : int
+        Periods from a local alarm to the topology switch (Algorithm 1, lines 3-5).
+    """
+
+    period: Fraction
+    hold: str = "zoh"
+    controller: str = "sampled"
+    switch_delay: int = 1
+
+
+@dataclass(frozen=True, slots=True)
 class SystemSpec:
     """A validated system specification (format 1)."""
 
@@ -243,6 +356,8 @@ class SystemSpec:
     attack: AttackSpec | None = None
     switching: SwitchingSpec | None = None
     simulation: SimulationSpec = field(default_factory=SimulationSpec)
+    uncertainty: UncertaintySpec | None = None
+    implementation: ImplementationSpec | None = None
     description: str = ""
     source: str | None = None
     finding: Mapping[str, Any] | None = None

@@ -27,10 +27,12 @@ from glocal_verify.spec.types import (
     AttackSpec,
     ClusterSpec,
     EdgeSpec,
+    ImplementationSpec,
     Label,
     ModeSpec,
     SwitchingSpec,
     SystemSpec,
+    UncertaintySpec,
 )
 
 __all__ = [
@@ -173,6 +175,40 @@ def _switching(s: SwitchingSpec) -> list[str]:
     return out
 
 
+def _channels(table: Sequence[tuple[str, Fraction]]) -> str:
+    if len(table) == 1 and table[0][0] == "*":
+        return _rational(table[0][1])
+    return "{" + ", ".join(f"{_string(k)} = {_rational(v)}" for k, v in table) + "}"
+
+
+def _uncertainty(u: UncertaintySpec) -> list[str]:
+    out = ["", "[uncertainty]"]
+    if u.initial_state is not None:
+        out.append(f"initial_state = {_rational(u.initial_state)}")
+    if u.initial_error is not None:
+        out.append(f"initial_error = {_rational(u.initial_error)}")
+    if u.noise:
+        out.append(f"noise = {_channels(u.noise)}")
+    if u.noise_std:
+        out.append(f"noise_std = {_channels(u.noise_std)}")
+    if u.false_alarm is not None:
+        out.append(f"false_alarm = {_rational(u.false_alarm)}")
+    if u.disturbance:
+        out.append(f"disturbance = {_rational(u.disturbance)}")
+    return out
+
+
+def _implementation(m: ImplementationSpec) -> list[str]:
+    return [
+        "",
+        "[implementation]",
+        f"period = {_rational(m.period)}",
+        f"hold = {_string(m.hold)}",
+        f"controller = {_string(m.controller)}",
+        f"switch_delay = {int(m.switch_delay)}",
+    ]
+
+
 def _table(name: str, data: Mapping[str, Any]) -> list[str]:
     return ["", f"[{name}]"] + [f"{_key(str(k))} = {_value(v)}" for k, v in data.items()]
 
@@ -227,6 +263,10 @@ def dump_spec(spec: SystemSpec) -> str:
         lines += _switching(spec.switching)
     sim = spec.simulation
     lines += ["", "[simulation]", f"horizon = {_float(sim.horizon)}", f"step = {_float(sim.step)}", f"seed = {int(sim.seed)}"]
+    if spec.uncertainty is not None:
+        lines += _uncertainty(spec.uncertainty)
+    if spec.implementation is not None:
+        lines += _implementation(spec.implementation)
     if spec.finding is not None:
         lines += _table("finding", spec.finding)
     return "\n".join(lines) + "\n"

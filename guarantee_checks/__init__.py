@@ -1,0 +1,1 @@
+"""Confirmation by simulation of the certified detection guarantees (``python -m guarantee_checks``)."""
