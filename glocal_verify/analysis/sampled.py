@@ -57,11 +57,15 @@ import numpy as np
 import scipy.linalg
 import scipy.spatial
 
+from glocal_verify.derived import Kind
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.numerics.spectrum import EPS
 from glocal_verify.results import Status
 from glocal_verify.spec.types import NORMAL_MODE, ImplementationSpec
+
+#: derived results this module keeps on the system (glocal_verify.derived)
+_SAMPLED_MODES_KIND: Kind["SampledModes"] = Kind("sampled-modes", __name__, "SampledModes")
 
 __all__ = [
     "ARB_PREC",
@@ -289,7 +293,7 @@ def sampled_modes(system: System, mode: str = NORMAL_MODE, implementation: Imple
     """
     impl = implementation_of(system, implementation)
     mode = system.check_mode(mode)
-    key = ("sampled-modes", mode, impl.period, impl.controller)
+    key = (mode, impl.period, impl.controller)
 
     def build() -> SampledModes:
         sp = system.spectrum(mode)
@@ -318,7 +322,7 @@ def sampled_modes(system: System, mode: str = NORMAL_MODE, implementation: Imple
                 f21[l] = (float(q21.mid()), float(q21.rad()) + 2 * EPS * abs(float(q21.mid())))
         return SampledModes(mode, h, impl.controller, mu, rho, sp.clusters, blocks, inputs, z, zr, f12, f21, consensus)
 
-    return system.analysis.get(key, build)  # type: ignore[no-any-return]
+    return _SAMPLED_MODES_KIND.get(system, key, build)
 
 
 def sampled_matrices(system: System, mode: str = NORMAL_MODE, implementation: ImplementationSpec | None = None) -> tuple[np.ndarray, np.ndarray]:

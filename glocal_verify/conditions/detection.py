@@ -23,12 +23,18 @@ from typing import Any
 
 from glocal_verify.conditions.registry import CheckContext, checker, result
 from glocal_verify.errors import GlocalVerifyError, NotApplicableError
+from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.results import ConditionResult, Status
 from glocal_verify.simulation.certified_thresholds import CertifiedThresholds, certified_thresholds
 from glocal_verify.simulation.guarantees import GUARANTEE_MAX_AGENTS, DetectionGuarantee, detection_guarantee
 
 __all__ = ["check_detection_thresholds", "check_local_alarm", "check_detection_guarantee", "shared_thresholds", "shared_guarantee"]
+
+
+#: derived results this module keeps on the system (glocal_verify.derived)
+_THRESHOLDS_KIND: Kind[CertifiedThresholds] = Kind("detection-thresholds", __name__, "CertifiedThresholds")
+_GUARANTEE_KIND: Kind[DetectionGuarantee] = Kind("detection-guarantee", __name__, "DetectionGuarantee")
 
 
 def _applies(system: System) -> bool:
@@ -43,12 +49,12 @@ def _numeric(ctx: CheckContext) -> CheckContext:
 
 def shared_thresholds(system: System) -> CertifiedThresholds:
     """The spec's certified thresholds, computed once per system (kept on ``system.analysis``)."""
-    return system.analysis.get(("detection-thresholds",), lambda: certified_thresholds(system))  # type: ignore[no-any-return]
+    return _THRESHOLDS_KIND.get(system, (), lambda: certified_thresholds(system))
 
 
 def shared_guarantee(system: System, mode: str | None) -> DetectionGuarantee:
     """The spec's attack's guarantee for a switch to ``mode``, computed once per system and mode."""
-    return system.analysis.get(("detection-guarantee", mode), lambda: detection_guarantee(system, mode=mode, thresholds=shared_thresholds(system)))  # type: ignore[no-any-return]
+    return _GUARANTEE_KIND.get(system, (mode,), lambda: detection_guarantee(system, mode=mode, thresholds=shared_thresholds(system)))
 
 
 @checker("detection.thresholds")
