@@ -31,7 +31,11 @@ def _run(args: list[str], cwd: Path, env: dict[str, str]) -> subprocess.Complete
 
 @pytest.fixture(scope="module")
 def venv(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, str]]:
-    """A fresh venv (dependencies from the running interpreter's site-packages) holding the wheel."""
+    """A fresh venv (dependencies from the running interpreter's site-packages) holding the wheel.
+
+    ``--ignore-installed``: the running interpreter may itself hold a (non-editable) install of
+    the project, which the venv sees through its system site-packages; pip would call the wheel
+    already satisfied and the test would run that copy instead."""
     base = tmp_path_factory.mktemp("wheel")
     src = base / "src"
     src.mkdir()
@@ -47,7 +51,7 @@ def venv(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, str]
     env_dir = base / "venv"
     _run([sys.executable, "-m", "venv", "--system-site-packages", "--without-pip", str(env_dir)], base, env)
     python = env_dir / "bin" / "python"
-    _run([sys.executable, "-m", "pip", "--python", str(python), "install", "--no-deps", "--no-index", "--quiet", str(wheel)], base, env)
+    _run([sys.executable, "-m", "pip", "--python", str(python), "install", "--no-deps", "--no-index", "--ignore-installed", "--quiet", str(wheel)], base, env)
     return env_dir, env
 
 
