@@ -12,6 +12,7 @@ __all__ = [
     "ModelError",
     "UnknownConditionError",
     "NotApplicableError",
+    "ArgumentError",
 ]
 
 class GlocalVerifyError(Exception):
@@ -52,3 +53,13 @@ class UnknownConditionError(KeyError, GlocalVerifyError):
 
 class NotApplicableError(ValueError, GlocalVerifyError):
     """A check cannot be run on this system (e.g. a switching check without safe modes)."""
+
+
+class ArgumentError(ValueError, TypeError, GlocalVerifyError):
+    """An argument of a library call is outside its documented domain: a wrong type, a value
+    out of range (NaN, a negative tolerance, an astronomical budget) or an unknown choice.
+
+    A :class:`ValueError` and a :class:`TypeError`, so that callers catching either keep
+    working; the message names the argument, e.g. ``max_attackers: expected an integer >= 1,
+    got None``.
+    """

@@ -65,7 +65,7 @@ from glocal_verify.conditions.registry import verify
 from glocal_verify.design.audit_local import local_part
 from glocal_verify.design.audit_records import AUDIT_SCHEMA_ID, AuditResult, AuditRow, exposure_fragility, undecided_reason
 from glocal_verify.design.audit_screens import _witness_lambda, _without_sensors, _Zda, batch_witnesses, certified_touch, disjoint_paths, global_tables, inherited_zda, single_zda_key
-from glocal_verify.errors import ModelError, NotApplicableError
+from glocal_verify.errors import ArgumentError, ModelError, NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.numerics.collection import deferred_full_collections
 from glocal_verify.numerics.minors import (
@@ -74,6 +74,7 @@ from glocal_verify.numerics.minors import (
 )
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
 from glocal_verify.results import Status
+from glocal_verify.spec.arguments import choice_arg, integer_arg
 from glocal_verify.spec.types import Label
 
 __all__ = [
@@ -741,7 +742,19 @@ def audit(
     Returns
     -------
     AuditResult
+
+    Raises
+    ------
+    ArgumentError
+        ``max_attackers`` or ``chunk_size`` not an integer >= 1, an unknown ``growth``, a
+        ``system`` that is not a :class:`~glocal_verify.model.System`.
     """
+    if not isinstance(system, System):
+        raise ArgumentError(f"audit: expected a System, got {type(system).__name__}")
+    max_attackers = integer_arg("max_attackers", max_attackers, 1)
+    chunk_size = integer_arg("chunk_size", chunk_size, 1)
+    if growth is not None:
+        choice_arg("growth", growth, ("full", "verdict"))
     with deferred_full_collections():  # the rows and memo stay alive: full collections only rescan them
         return _audit(system, max_attackers, candidates, sensors, progress, tol, exact, exact_fallback, screen, growth, chunk_size, executor)
 
