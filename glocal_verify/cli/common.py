@@ -26,6 +26,7 @@ __all__ = [
     "wrote",
     "write_output",
     "add_allow_large",
+    "add_dask_options",
     "check_cost",
 ]
 
@@ -121,6 +122,23 @@ def add_allow_large(parser: argparse.ArgumentParser) -> None:
     parser : argparse.ArgumentParser
     """
     parser.add_argument("--allow-large", action="store_true", help=ALLOW_LARGE_HELP)
+
+
+#: the dashboard address of ``--dashboard`` given without one
+DASHBOARD_DEFAULT = "127.0.0.1:8787"
+
+
+def add_dask_options(parser: argparse.ArgumentParser) -> None:
+    """Add ``--dashboard [ADDRESS]`` (the embedded Dask cluster's dashboard; none by default).
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+    """
+    parser.add_argument(
+        "--dashboard", nargs="?", const=DASHBOARD_DEFAULT, metavar="ADDRESS",
+        help=f"serve the embedded Dask cluster's dashboard (default address {DASHBOARD_DEFAULT}; another port when it is taken)",
+    )
 
 
 def check_cost(est: CostEstimate, args: argparse.Namespace, *, how: Iterable[str] = ()) -> None:

@@ -10,7 +10,9 @@
 - :mod:`.network` -- the whole design (monitors, local observers, safe modes) of a spec;
 - :mod:`.placement` -- local observer placement (Remark III.2.1);
 - :mod:`.generators` -- random clustered networks for tests, benchmarks and sweeps;
-- :mod:`.sweep`, :mod:`.distributed` -- ensembles of networks and audits on Dask.
+- :mod:`.sweep`, :mod:`.sweep_cost`, :mod:`.distributed` -- ensembles of networks and audits on
+  Dask (or in this process when workers would not pay off), estimated before they start.
 
-Layer: imports :mod:`glocal_verify.conditions` and below.
+Layer: imports :mod:`glocal_verify.conditions` and below (:mod:`glocal_verify.runtime` for the
+files a sweep writes and the processes it starts).
 """

@@ -1,26 +1,89 @@
 """Dask as the executor of work that outgrows one process: sweeps and audits.
 
 :func:`dask_client` opens an embedded ``LocalCluster`` on this machine (worker processes with
-one thread each, on 127.0.0.1, no dashboard) or connects to an existing cluster by its
-scheduler address, unchanged. :func:`run_on_dask` submits independent picklable callables
-(an audit's :class:`~glocal_verify.design.audit.AuditChunk`, a sweep's member chunk) and
-yields their results as they complete, so that the caller writes or merges them at once.
+one thread each, on 127.0.0.1) or connects to an existing cluster by its scheduler address,
+unchanged. :func:`run_on_dask` submits independent picklable callables (an audit's
+:class:`~glocal_verify.design.audit.AuditChunk`, a sweep's member chunk) and yields their
+results as they complete, so that the caller writes or merges them at once.
+
+Defaults that suit a laptop:
+
+* no dashboard unless asked for (``dashboard="127.0.0.1:8787"``); the scheduler's own HTTP
+  server takes a free port, so no "Port 8787 is already in use" warning appears, and when an
+  asked-for port is taken the caller gets one line with the port used instead;
+* :func:`workers_pay_off`: a run whose estimated work is below what starting the workers costs
+  (:data:`DASK_OVERHEAD_SECONDS`; ``audit --workers 2`` of the 19-agent example took 6.0 s
+  against 2.3 s in one process) is better run in this process, and the commands do so;
+* the embedded workers die with this process (:func:`dask_setup` asks the kernel for it, see
+  :mod:`glocal_verify.runtime.processes`), ignore the terminal's Ctrl-C (this process decides)
+  and log only errors; when a command is stopped its workers are killed at once, so a Ctrl-C
+  prints one line, not the tracebacks of workers shutting down.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import logging
+import os
+import signal
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any, TypeVar
 
-__all__ = ["dask_client", "dask_executor", "run_on_dask"]
+from glocal_verify.runtime.processes import die_with_parent
+
+__all__ = ["DASK_OVERHEAD_SECONDS", "DaskExecutor", "dask_client", "dask_executor", "dask_setup", "run_on_dask", "workers_pay_off"]
 
 T = TypeVar("T")
 
 
+#: seconds that starting an embedded cluster, importing the toolkit in its workers and sending
+#: them the shared data add to a run (measured: 1.6 s for an empty 2-worker cluster with the
+#: imports, 3.7 s more than the serial run for ``audit --example paper19 --workers 2``)
+DASK_OVERHEAD_SECONDS = 4.0
+
+
+def workers_pay_off(serial_seconds: float, workers: int) -> bool:
+    """Whether ``workers`` local processes finish sooner than this process alone.
+
+    With :math:`W = \\min(\\text{workers}, \\text{cores})` and :math:`t` the estimated work in one
+    process, the workers take about :math:`D + t / W` (:math:`D` =
+    :data:`DASK_OVERHEAD_SECONDS`): they pay off when :math:`t > D\\, W / (W - 1)`, never for
+    :math:`W = 1`.
+
+    Parameters
+    ----------
+    serial_seconds : float
+        Estimated seconds of the work in one process (start-up of the command excluded).
+    workers : int
+        Worker processes asked for.
+    """
+    w = min(int(workers), os.cpu_count() or 1)
+    return w > 1 and serial_seconds > DASK_OVERHEAD_SECONDS * w / (w - 1)
+
+
+def dask_setup(worker: Any) -> None:
+    """Set-up of every embedded worker process (a Dask preload: this module is named in
+    ``LocalCluster(preload=...)``): die with the process that started the cluster, and leave a
+    terminal's Ctrl-C to it.
+
+    Parameters
+    ----------
+    worker : distributed.Worker
+    """
+    die_with_parent()
+    if os.getppid() == 1:  # the starting process ended before the request
+        os._exit(1)
+    try:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    except ValueError:  # pragma: no cover - not the worker's main thread
+        pass
+
+
 @contextmanager
-def dask_client(scheduler: str | None = None, workers: int = 2) -> Iterator[Any]:
+def dask_client(scheduler: str | None = None, workers: int = 2, *, dashboard: str | None = None, notice: Callable[[str], None] | None = None) -> Iterator[Any]:
     """A ``distributed.Client``: to ``scheduler`` if given, else to an embedded LocalCluster.
 
     The embedded cluster's nannies write their workers' settings into this process's
@@ -28,6 +91,7 @@ def dask_client(scheduler: str | None = None, workers: int = 2) -> Iterator[Any]
     environment is restored when the cluster closes, so that processes started later are not
     run with them (a trim threshold of 64 KiB made a later ``glocal-verify verify`` of 2000
     agents 50 % slower: every large temporary went back to the system and faulted in anew).
+    Leaving the block by an exception (a stop signal included) kills the workers at once.
 
     Parameters
     ----------
@@ -35,9 +99,12 @@ def dask_client(scheduler: str | None = None, workers: int = 2) -> Iterator[Any]
         Address of an existing scheduler, e.g. ``tcp://127.0.0.1:8786``.
     workers : int
         Worker processes of the embedded cluster (one thread each).
+    dashboard : str, optional
+        Address of the embedded cluster's dashboard (``"127.0.0.1:8787"``, ``":8787"``);
+        default none.
+    notice : callable, optional
+        Gets one line when the dashboard had to take another port than the one asked for.
     """
-    import os
-
     from distributed import Client, LocalCluster
 
     if scheduler:
@@ -48,15 +115,39 @@ def dask_client(scheduler: str | None = None, workers: int = 2) -> Iterator[Any]
             client.close()
         return
     environ = dict(os.environ)
-    cluster = LocalCluster(n_workers=max(1, int(workers)), threads_per_worker=1, processes=True, dashboard_address=None, host="127.0.0.1")
+    options: dict[str, Any] = {"dashboard_address": dashboard} if dashboard else {"dashboard_address": None, "scheduler_kwargs": {"dashboard_address": "127.0.0.1:0"}}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        cluster = LocalCluster(
+            n_workers=max(1, int(workers)), threads_per_worker=1, processes=True, host="127.0.0.1",
+            silence_logs=logging.ERROR, preload=[__name__], **options,
+        )
+    moved = [str(w.message).splitlines()[0] for w in caught if "already in use" in str(w.message)]
+    if moved and notice is not None:
+        notice(f"{moved[0].rstrip('.')}: the Dask dashboard is at {cluster.dashboard_link}")
     client = Client(cluster)
+    ok = False
     try:
         yield client
+        ok = True
     finally:
-        client.close()
-        cluster.close()
+        if not ok:
+            _kill_workers(cluster)
+        with contextlib.suppress(Exception):
+            client.close()
+        with contextlib.suppress(Exception):
+            cluster.close(timeout=5 if ok else 2)
         os.environ.clear()
         os.environ.update(environ)
+
+
+def _kill_workers(cluster: Any) -> None:
+    """``SIGKILL`` every worker process of an embedded cluster (their own children die with them)."""
+    for nanny in list(getattr(cluster, "workers", {}).values()):
+        pid = getattr(getattr(nanny, "process", None), "pid", None)
+        if pid:
+            with contextlib.suppress(OSError):
+                os.kill(pid, signal.SIGKILL)
 
 
 def run_on_dask(client: Any, tasks: Sequence[Callable[[], T]]) -> Iterator[tuple[int, T]]:
@@ -101,8 +192,13 @@ def _call_shared(shared: Any, stub: Any) -> Any:
     return dataclasses.replace(stub, shared=shared)()
 
 
-def dask_executor(scheduler: str | None = None, workers: int = 2, progress: Callable[[int, int], None] | None = None) -> Callable[[Sequence[Callable[[], T]]], list[T]]:
+class DaskExecutor:
     """An executor for :func:`glocal_verify.design.audit.audit`: runs its chunks on Dask.
+
+    Called with a list of zero-argument callables, it returns their results in order. Used as
+    a context manager it keeps one cluster (or one connection) for every call inside the block
+    (an audit calls it twice: its single agents, then its sets); otherwise each call opens
+    and closes its own.
 
     Parameters
     ----------
@@ -112,15 +208,54 @@ def dask_executor(scheduler: str | None = None, workers: int = 2, progress: Call
         Worker processes of the embedded cluster.
     progress : callable, optional
         ``progress(done, total)`` after each finished chunk.
+    dashboard, notice :
+        As for :func:`dask_client`.
     """
 
-    def execute(tasks: Sequence[Callable[[], T]]) -> list[T]:
+    def __init__(
+        self, scheduler: str | None = None, workers: int = 2, progress: Callable[[int, int], None] | None = None,
+        *, dashboard: str | None = None, notice: Callable[[str], None] | None = None,
+    ) -> None:
+        self.scheduler = scheduler
+        self.workers = workers
+        self.progress = progress
+        self.dashboard = dashboard
+        self.notice = notice
+        self._stack: contextlib.ExitStack | None = None
+        self._client: Any = None
+
+    def __enter__(self) -> DaskExecutor:
+        self._stack = contextlib.ExitStack()
+        self._client = self._stack.enter_context(dask_client(self.scheduler, self.workers, dashboard=self.dashboard, notice=self.notice))
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        stack, self._stack, self._client = self._stack, None, None
+        if stack is not None:
+            stack.__exit__(*exc)
+
+    def _run(self, client: Any, tasks: Sequence[Callable[[], T]]) -> list[T]:
         out: list[Any] = [None] * len(tasks)
-        with dask_client(scheduler, workers) as client:
-            for done, (i, res) in enumerate(run_on_dask(client, tasks), start=1):
-                out[i] = res
-                if progress is not None:
-                    progress(done, len(tasks))
+        for done, (i, res) in enumerate(run_on_dask(client, tasks), start=1):
+            out[i] = res
+            if self.progress is not None:
+                self.progress(done, len(tasks))
         return out
 
-    return execute
+    def __call__(self, tasks: Sequence[Callable[[], T]]) -> list[T]:
+        if self._client is not None:
+            return self._run(self._client, tasks)
+        with dask_client(self.scheduler, self.workers, dashboard=self.dashboard, notice=self.notice) as client:
+            return self._run(client, tasks)
+
+
+def dask_executor(scheduler: str | None = None, workers: int = 2, progress: Callable[[int, int], None] | None = None) -> DaskExecutor:
+    """A :class:`DaskExecutor` (kept for callers of the earlier function).
+
+    Parameters
+    ----------
+    scheduler : str, optional
+    workers : int
+    progress : callable, optional
+    """
+    return DaskExecutor(scheduler, workers, progress)
