@@ -71,17 +71,19 @@ def spec_inputs(args: argparse.Namespace) -> list[str]:
     return [str(x) for x in (getattr(args, "spec", None), getattr(args, "graph", None)) if x]
 
 
-def check_out_file(args: argparse.Namespace) -> None:
-    """Check ``args.out`` (a file) before computing: not a symbolic link, not an input, in a
-    writable folder (:func:`~glocal_verify.reporting.output.check_output_file`)."""
+def check_out_file(args: argparse.Namespace, *, inputs: Iterable[str] = ()) -> None:
+    """Check ``args.out`` (a file) before computing: not a symbolic link, not an input (the
+    SPEC, ``--graph`` and ``inputs``), in a writable folder
+    (:func:`~glocal_verify.reporting.output.check_output_file`)."""
     out = getattr(args, "out", None)
     if out:
-        check_output_file(out, inputs=spec_inputs(args))
+        check_output_file(out, inputs=[*spec_inputs(args), *inputs])
 
 
-def check_out_dir(path: str | Path) -> Path:
-    """Check an output folder before computing (:func:`~glocal_verify.reporting.output.check_output_dir`)."""
-    return check_output_dir(path)
+def check_out_dir(path: str | Path, *, inputs: Iterable[str] = ()) -> Path:
+    """Check an output folder before computing (:func:`~glocal_verify.reporting.output.check_output_dir`):
+    not a symbolic link, not an input, writable."""
+    return check_output_dir(path, inputs=inputs)
 
 
 def wrote(path: str | Path) -> None:

@@ -6,7 +6,7 @@ import argparse
 import sys
 from typing import Any
 
-from glocal_verify.cli.common import UsageError, add_allow_large, check_cost, load_system, write_output
+from glocal_verify.cli.common import UsageError, add_allow_large, check_cost, check_out_file, load_system, spec_inputs, write_output
 
 __all__ = ["register"]
 
@@ -36,6 +36,7 @@ def _assessment_lines(system: Any, label: str, exact: bool) -> list[str]:
 def cmd_design(args: argparse.Namespace) -> int:
     from glocal_verify.design.network import design_comments, design_network
 
+    check_out_file(args)  # a bad --out (the input spec, a symbolic link) fails before the design
     system = load_system(args)
     if args.budget < 1:
         raise UsageError(f"--budget: must be at least 1 safe mode, not {args.budget}")
@@ -48,16 +49,17 @@ def cmd_design(args: argparse.Namespace) -> int:
     exact = not args.numeric and system.n <= 60
     est = estimate_design(SpecSizes.from_spec(system.spec), max_attackers=args.max_attackers, place=not args.no_observers, exact_assessment=exact)
     check_cost(est, args, how=("a smaller --max-attackers",))
-    if not args.quiet:
-        print("auditing, placing observers, designing safe modes ...", file=sys.stderr)
-    d = design_network(system, budget=args.budget, max_attackers=args.max_attackers, place=not args.no_observers, max_links=args.max_links)
+    say = None if args.quiet else (lambda line: print(f"design: {line} ...", file=sys.stderr, flush=True))
+    d = design_network(system, budget=args.budget, max_attackers=args.max_attackers, place=not args.no_observers, max_links=args.max_links, progress=say)
     if d.unmet:
         raise UsageError(f"no design within the budget of {args.budget} safe mode(s) meets: {d.unmet[0]}" + (f" (and {len(d.unmet) - 1} more)" if len(d.unmet) > 1 else ""))
     from glocal_verify.model import System
     from glocal_verify.spec.writer import dump_spec
 
     text = design_comments(d) + dump_spec(d.spec)
-    write_output(text, args.out)
+    if say is not None:
+        say("assessing the spec before and after")
+    write_output(text, args.out, inputs=spec_inputs(args))
     b, a = d.before.summary()["counts"], d.after.summary()["counts"]
     lines = [f"audit before: {b['undetected']} undetected, {b['undecided']} undecided of {d.before.summary()['sets']} sets"]
     lines += [f"audit after:  {a['undetected']} undetected, {a['undecided']} undecided of {d.after.summary()['sets']} sets"]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from typing import TYPE_CHECKING, Any, Callable
 
@@ -100,7 +101,9 @@ def cmd_verify(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UsageError(f"--rtol/--band: {exc}") from None
     if not (args.exact_budget >= 0.0):
-        raise UsageError(f"--exact-budget: {args.exact_budget} must be >= 0 seconds (0: no limit)")
+        raise UsageError(f"--exact-budget: {args.exact_budget} must be >= 0 seconds (0 or inf: no limit)")
+    if math.isinf(args.exact_budget):
+        args.exact_budget = 0.0  # no limit
     if not (args.fragile_below >= 0.0):
         raise UsageError(f"--fragile-below: {args.fragile_below} must be >= 0")
     if (args.velocities or args.positions) and not args.graph:
@@ -168,8 +171,11 @@ def cmd_conditions(args: argparse.Namespace) -> int:
 def cmd_findings(args: argparse.Namespace) -> int:
     from glocal_verify.reporting.findings import build_findings_report
 
-    check_out_file(args)
-    write_output(build_findings_report(args.dir), args.out)
+    from pathlib import Path
+
+    inputs = [str(p) for p in Path(args.dir).glob("*.toml")] if Path(args.dir).is_dir() else []
+    check_out_file(args, inputs=inputs)
+    write_output(build_findings_report(args.dir), args.out, inputs=inputs)
     return 0
 
 
@@ -196,7 +202,7 @@ def register(sub: Any) -> None:
         help="run switching.detects (Theorem III.3's conclusion, one simulated switch per safe mode; auto: up to 150 agents)",
     )
     v.add_argument("--escalate", choices=("auto", "never"), default="auto", help="auto (default): re-decide a numeric undecided exactly within --exact-budget")
-    v.add_argument("--exact-budget", type=float, default=30.0, metavar="SECONDS", help="time for each exact escalation (default 30; 0: no limit)")
+    v.add_argument("--exact-budget", type=float, default=30.0, metavar="SECONDS", help="seconds for all exact re-decisions of the run together (default 30; 0 or inf: no limit)")
     v.add_argument("--fragile-below", type=float, default=1e-9, metavar="X", help="mark a verdict fragile when its margin is below X (default 1e-9)")
     v.add_argument("--quiet", action="store_true", help="no progress on stderr")
     add_allow_large(v)

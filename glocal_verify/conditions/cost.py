@@ -172,6 +172,15 @@ C_AUDIT_SET = 2e-4
 C_AUDIT_SET_SQ = 4e-10
 C_AUDIT_SET_INTRA = 4e-4
 C_AUDIT_SET_LOCAL = 4e-9
+#: the safe modes' part of a row: each set is tested against every safe mode that meets
+#: Theorem III.3 (its touch test, the exposing modes of the row), seconds per set and per safe
+#: mode. Measured on random_clustered_spec(60, 3, seed=1) with 15 monitors, k = 2 (1830 sets):
+#: 10 s with 2 safe modes, 114 s with 50, 271 s with 100, i.e. 1.2-1.5 ms per set and mode.
+#: The constants above were fit on specs with AUDIT_CALIBRATION_MODES safe modes, so only the
+#: modes beyond those count. Safe modes that fail Theorem III.3 cost almost nothing (N = 120
+#: with 20 such modes took no longer than with 2), so this term is an upper estimate there
+C_AUDIT_SET_MODE = 1.5e-3
+AUDIT_CALIBRATION_MODES = 2
 #: audit memory: N x N arrays (eigenvectors, minor tables: 136 MB at N = 1000) and bytes per row
 #: held until the report is written: 3.5 kB per row with the shared memo (traced), and the JSON
 #: text and its dict built at the end (9.2 GB peak for 500,500 rows at N = 1000)
@@ -575,7 +584,8 @@ def estimate_audit(sizes: SpecSizes, k: int, candidates: int | None = None, *, e
 
         t = C_{start} + C_{setup} N^3 + \\frac{1}{W}\\Big[M \\big(C_a + C_{a,N} N + C_{a,loc} E_a (2 n_c)^3
             + C_{s,0} + C_s N^3\\big)
-            + \\sum_{j \\ge 2} \\binom{M}{j} \\big(C_{set} + C_{set,2} N^2 + \\pi_j (C_{in} + C_{loc} E_p (2 n_c)^3)\\big)\\Big]
+            + \\sum_{j \\ge 2} \\binom{M}{j} \\big(C_{set} + C_{set,2} N^2 + \\pi_j (C_{in} + C_{loc} E_p (2 n_c)^3)\\big)
+            + C_{mode} R \\max(0, S - 2)\\Big]
 
         m = B_{base} + 8 N^2 A_{audit} + B_{row} R
 
@@ -583,7 +593,8 @@ def estimate_audit(sizes: SpecSizes, k: int, candidates: int | None = None, *, e
     3e-3, :data:`C_AUDIT_AGENT_N` = 1.3e-5, :data:`C_AUDIT_AGENT_LOCAL` = 4.5e-8,
     :data:`C_AUDIT_SINGLE_0` = 5e-3, :data:`C_AUDIT_SINGLE` = 1.2e-9, :data:`C_AUDIT_SET` = 2e-4,
     :data:`C_AUDIT_SET_SQ` = 4e-10, :data:`C_AUDIT_SET_INTRA` = 4e-4, :data:`C_AUDIT_SET_LOCAL`
-    = 4e-9, :data:`C_AUDIT_ROW_OUT` = 2e-4 s (writing each row), :data:`A_AUDIT` = 20,
+    = 4e-9, :data:`C_AUDIT_SET_MODE` (``C_mode``, S safe modes) = 1.5e-3,
+    :data:`C_AUDIT_ROW_OUT` = 2e-4 s (writing each row), :data:`A_AUDIT` = 20,
     :data:`B_AUDIT_ROW` = 18 kB); ``exact`` multiplies the per-set seconds by
     :data:`F_AUDIT_EXACT`. Measured: the whole N = 1000 audit on 50 clusters with JSON output
     took 29 min and 9.2 GB (estimate 27 min, 9.4 GB); N = 200 on 10 clusters 8 s in the
@@ -618,6 +629,7 @@ def estimate_audit(sizes: SpecSizes, k: int, candidates: int | None = None, *, e
         "local verdicts of each candidate": f * per_agent * singles / w,
         "single actuators": f * per_single * singles / w,
         f"{larger} sets of 2..{k} actuators": f * per_larger * larger / w,
+        f"safe-mode tests of {singles + larger} sets x {sizes.modes} modes": f * C_AUDIT_SET_MODE * (singles + larger) * max(0, sizes.modes - AUDIT_CALIBRATION_MODES) / w,
         "writing the rows": C_AUDIT_ROW_OUT * (singles + larger),
     }
     nbytes = B_BASE + A_AUDIT * _dense(n) + B_AUDIT_ROW * (singles + larger)
@@ -755,7 +767,7 @@ def check_limits(est: CostEstimate, limits: Limits | None = None, *, allow: bool
 
 
 def format_seconds(seconds: float) -> str:
-    """``"45 s"``, ``"12 min"``, ``"3.6 h"``, ``"4.2 days"``.
+    """``"45 s"``, ``"12 min"``, ``"3.6 h"``, ``"4.2 days"``, ``"3.2e+08 years"``.
 
     Parameters
     ----------
@@ -769,7 +781,9 @@ def format_seconds(seconds: float) -> str:
         return f"{seconds / 60:.0f} min"
     if seconds < 48 * 3600:
         return f"{_short(seconds / 3600)} h"
-    return f"{_short(seconds / 86400)} days"
+    if seconds < 1000 * 86400:
+        return f"{_short(seconds / 86400)} days"
+    return f"{seconds / (365.25 * 86400):.2g} years"
 
 
 def format_bytes(nbytes: float) -> str:

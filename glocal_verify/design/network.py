@@ -32,7 +32,7 @@ What no design within the budget achieves is listed in :attr:`NetworkDesign.unme
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -141,6 +141,7 @@ def design_network(
     exact_limit: int = 2000,
     max_links: int = 2,
     monitor_budget: int = 3,
+    progress: Callable[[str], None] | None = None,
 ) -> NetworkDesign:
     """Design monitors, local observers and safe modes for ``system`` (module docstring).
 
@@ -163,23 +164,31 @@ def design_network(
         Exhaustive-search limit of the observer placement.
     monitor_budget : int
         Largest number of velocity monitors step 5 adds.
+    progress : callable, optional
+        Called with one line as each step starts (the three audits, the placement, the safe
+        modes, the monitors).
 
     Returns
     -------
     NetworkDesign
     """
+    say = progress if progress is not None else (lambda line: None)
+    say("auditing the spec as given")
     before = audit(system, max_attackers, candidates)
     spec = _velocity_only(system.spec)
     props: list[ObserverProposal] = []
     notes: list[str] = []
     if place and spec.clusters:
+        say("placing local observers")
         spec, props, notes = _observers(System(spec), exact_limit)
     mid_sys = System(spec)
+    say("auditing with the observers")
     mid = audit(mid_sys, max_attackers, candidates)
     targets = tuple(r.actuators for r in mid.rows if r.verdict == "undetected")
     lambdas = {r.actuators: r.lambda0 for r in mid.rows if r.lambda0 is not None}
     unmet: list[str] = []
     if targets:
+        say(f"designing safe modes for {len(targets)} undetected attack sets")
         safe = design_safe_modes(mid_sys, targets, None, budget, weights=weights, lambdas=lambdas, max_links=max_links)
     else:
         safe = SafeModeDesign((), (), {}, 0, 0.0, 0)
@@ -189,12 +198,14 @@ def design_network(
         pending = [F for F in targets if ",".join(map(str, F)) in safe.unexposed]
         spec, added, safe = _monitor_unexposed(spec, pending, monitor_budget, safe, budget, weights, max_links)
     final = System(spec)
+    say("choosing the global monitors")
     mon = design_monitors(final, required=spec.monitor.velocities)
     if mon.velocities != spec.monitor.velocities:
         spec = dataclasses.replace(spec, monitor=MonitorSpec((), mon.velocities))
         final = System(spec)
     bad = [cid for cid, st in mon.verification.items() if st != "holds" and cid.startswith("privacy.")]
     unmet += [f"{cid}: {mon.verification[cid]} on the designed spec" for cid in bad]
+    say("auditing the design")
     after = audit(final, max_attackers, candidates)
     for F in targets:
         row = next(r for r in after.rows if r.actuators == F)

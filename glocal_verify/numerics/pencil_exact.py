@@ -410,7 +410,11 @@ def classify_real_parts(f: Any) -> list[tuple[complex, int]]:
     old = flint.ctx.prec
     try:
         prec = 64
-        while prec <= 8192:
+        # enough bits for the smallest nonzero real part a root of this degree and height can
+        # have (a root separation bound: about d (log2 H + log2 d) bits), at least 8192
+        height = max(max(abs(int(c.p)).bit_length(), int(c.q).bit_length()) for c in f.coeffs())
+        cap = max(8192, 4 * f.degree() * (height + f.degree().bit_length()) + 256)
+        while True:
             flint.ctx.prec = prec
             roots = [r for r, _ in f.complex_roots()]
             out: list[tuple[complex, int]] = []
@@ -426,7 +430,9 @@ def classify_real_parts(f: Any) -> list[tuple[complex, int]]:
                     out.append((complex(0.0, val.imag), 0))
             if ambiguous == n_imag:
                 return out
-            prec *= 4
+            if prec >= cap:
+                break
+            prec = min(prec * 4, cap)
     finally:
         flint.ctx.prec = old
     raise AssertionError(f"cannot separate the real parts of the roots of {f} from 0")  # pragma: no cover

@@ -68,6 +68,7 @@ def write_run(
     *,
     verdicts: Any = None,
     figures: bool = True,
+    inputs: Sequence[str] = (),
 ) -> list[Path]:
     """Write ``<stem>.json`` (the summary of :meth:`Algorithm1Result.to_json`) and the figure
     ``<stem>.{png,svg}``, all or nothing.
@@ -83,8 +84,10 @@ def write_run(
         Extra JSON-ready data stored under ``"verdicts"`` (e.g. ``switching.detects`` results).
     figures : bool
         Also draw the figure (False: matplotlib is not imported).
+    inputs : sequence of str
+        Files the command read: none of them may be replaced.
     """
-    with OutputFolder(out_dir) as folder:
+    with OutputFolder(out_dir, inputs=inputs) as folder:
         _put_run(folder, system, res, safe_component(stem), verdicts, figures)
     return folder.written
 
@@ -157,6 +160,7 @@ def write_cases(
     findings: Sequence[str] = (),
     sections: Sequence[tuple[str, str]] = (),
     figures: bool = True,
+    inputs: Sequence[str] = (),
 ) -> list[Path]:
     """Write ``cases.md`` (outcome table and verdicts), ``cases.json``, ``figure2.{png,svg}`` and
     one ``<case>.{json,png,svg}`` per case (``<case>`` is the
@@ -174,8 +178,10 @@ def write_cases(
         Extra sections placed before the findings.
     figures : bool
         Also draw the figures (False: matplotlib is not imported).
+    inputs : sequence of str
+        Files the command read: none of them may be replaced.
     """
-    with OutputFolder(out_dir) as folder:
+    with OutputFolder(out_dir, inputs=inputs) as folder:
         _put_cases(folder, outcomes, preamble, findings, sections, figures)
     return folder.written
 
@@ -261,6 +267,7 @@ def write_simulation(
     detects: bool = True,
     figures: bool = True,
     phase: PhaseHook = None,
+    inputs: Sequence[str] = (),
 ) -> tuple[Algorithm1Result, list[Path]]:
     """Run :func:`~glocal_verify.conditions.detects.algorithm1` and write its summary and figure
     (what ``glocal-verify simulate SPEC`` does).
@@ -286,6 +293,8 @@ def write_simulation(
         Draw the figure (False: matplotlib is not imported).
     phase : callable, optional
         Told the name of each phase as it starts.
+    inputs : sequence of str
+        Files the command read: none of them may be replaced.
 
     Notes
     -----
@@ -293,7 +302,7 @@ def write_simulation(
     before anything is computed; the files are ``simulation-<mode>.{json,png,svg}`` with
     ``<mode>`` the :func:`~glocal_verify.reporting.output.safe_component` of the chosen mode.
     """
-    check_output_dir(out_dir)
+    check_output_dir(out_dir, inputs=inputs)
     _say(phase, f"simulating {system.name}: thresholds, attacked run and Algorithm 1")
     res = algorithm1(system, mode=mode, no_switch=no_switch, trigger=trigger, rule=rule, method=method, progress=progress)
     verdicts = None
@@ -305,7 +314,7 @@ def write_simulation(
         verdicts = [r.to_json() for r in rep.conditions]
     stem = "simulation-" + safe_component(res.chosen_mode or "normal")
     _say(phase, "writing the summary" + (" and the figure" if figures else ""))
-    return res, write_run(system, res, out_dir, stem, verdicts=verdicts, figures=figures)
+    return res, write_run(system, res, out_dir, stem, verdicts=verdicts, figures=figures, inputs=inputs)
 
 
 def write_case_study(
@@ -319,6 +328,7 @@ def write_case_study(
     command: str = "",
     figures: bool = True,
     phase: PhaseHook = None,
+    inputs: Sequence[str] = (),
 ) -> tuple[list[CaseOutcome], list[Path]]:
     """One case per safe mode (:func:`~glocal_verify.reporting.case_study.cases_for`), simulated with the
     scheduled switch, written by :func:`write_cases` with the findings of
@@ -340,8 +350,10 @@ def write_case_study(
         Draw the figures (False: matplotlib is not imported).
     phase : callable, optional
         Told the name of each phase as it starts.
+    inputs : sequence of str
+        Files the command read: none of them may be replaced.
     """
-    check_output_dir(out_dir)
+    check_output_dir(out_dir, inputs=inputs)
     comp = companions
     if comp is None:
         try:
@@ -379,5 +391,5 @@ def write_case_study(
                 f"the local centre must also pick a switch that touches the agents its residual shows moving (dL_q xi != 0)."
             )
     _say(phase, "writing the outcome table" + (" and the figures" if figures else ""))
-    paths = write_cases(outcomes, out_dir, preamble=pre, findings=findings, sections=sections, figures=figures)
+    paths = write_cases(outcomes, out_dir, preamble=pre, findings=findings, sections=sections, figures=figures, inputs=inputs)
     return outcomes, paths
