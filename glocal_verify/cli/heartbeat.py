@@ -24,8 +24,9 @@ from typing import Any, TextIO
 
 __all__ = ["SILENCE_SECONDS", "Heartbeat"]
 
-#: seconds without a line on stderr after which the heartbeat prints one
-SILENCE_SECONDS = 10.0
+#: seconds without a line on stderr after which the heartbeat prints one (checked twice a
+#: second, so a line comes within 10 s)
+SILENCE_SECONDS = 9.0
 
 
 class _WatchedStream:
@@ -87,7 +88,7 @@ class Heartbeat:
             self.last_line = done[-1][:120]
 
     def _run(self) -> None:
-        while not self._stop.wait(min(1.0, self.silence)):
+        while not self._stop.wait(min(0.5, self.silence)):
             with self.lock:
                 now = time.monotonic()
                 if now - self.last_time < self.silence or self._stream is None:

@@ -24,14 +24,18 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import gc
 import logging
 import os
 import signal
+import sys
+import threading
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any, TypeVar
 
+from glocal_verify.errors import ArgumentError
 from glocal_verify.runtime.processes import die_with_parent
 
 __all__ = ["DASK_OVERHEAD_SECONDS", "DaskExecutor", "dask_client", "dask_executor", "dask_setup", "run_on_dask", "workers_pay_off"]
@@ -108,11 +112,12 @@ def dask_client(scheduler: str | None = None, workers: int = 2, *, dashboard: st
     from distributed import Client, LocalCluster
 
     if scheduler:
-        client = Client(scheduler, timeout="60s")
+        client = _connect(scheduler)
         try:
             yield client
         finally:
-            client.close()
+            with contextlib.suppress(Exception):
+                client.close()
         return
     environ = dict(os.environ)
     options: dict[str, Any] = {"dashboard_address": dashboard} if dashboard else {"dashboard_address": None, "scheduler_kwargs": {"dashboard_address": "127.0.0.1:0"}}
@@ -139,6 +144,53 @@ def dask_client(scheduler: str | None = None, workers: int = 2, *, dashboard: st
             cluster.close(timeout=5 if ok else 2)
         os.environ.clear()
         os.environ.update(environ)
+
+
+#: seconds to reach a ``--scheduler`` before giving up (one line, exit 2)
+SCHEDULER_TIMEOUT = 10.0
+
+
+def _connect(scheduler: str) -> Any:
+    """A client of the scheduler at ``scheduler``, or one :class:`ArgumentError` line.
+
+    A TCP address is tried with a plain socket first, so that an address nobody listens on
+    fails at once, without a half-made client whose clean-up prints tracebacks at exit.
+    """
+    import socket
+
+    from distributed import Client
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:
+        proto, loc = parse_address(scheduler)
+        if proto in ("tcp", "tls"):
+            host, port = parse_host_port(loc)
+            socket.create_connection((host, int(port)), timeout=SCHEDULER_TIMEOUT).close()
+    except (ValueError, TypeError, OSError) as exc:
+        raise ArgumentError(f"--scheduler {scheduler!r}: cannot reach a Dask scheduler there ({str(exc).splitlines()[0][:120] if str(exc) else type(exc).__name__})") from None
+    box: dict[str, Any] = {}
+
+    def make() -> None:  # in a thread: Dask's handshake has no time limit of its own
+        try:
+            box["client"] = Client(scheduler, timeout=f"{SCHEDULER_TIMEOUT:g}s")
+        except BaseException as exc:  # noqa: BLE001 - reported below, in one line
+            box["error"] = exc
+
+    maker = threading.Thread(target=make, name="glocal-verify scheduler connection", daemon=True)
+    maker.start()
+    maker.join(2 * SCHEDULER_TIMEOUT)
+    if "client" in box:
+        return box["client"]
+    exc = box.pop("error", None)
+    failure = (str(exc).splitlines()[0][:120] if str(exc) else type(exc).__name__) if exc is not None else f"no answer within {2 * SCHEDULER_TIMEOUT:g} s"
+    del exc
+    hook = sys.unraisablehook
+    sys.unraisablehook = lambda unraisable: None  # the half-made client's clean-up: nothing to tell
+    try:
+        gc.collect()
+    finally:
+        sys.unraisablehook = hook
+    raise ArgumentError(f"--scheduler {scheduler!r}: no Dask scheduler answered ({failure})")
 
 
 def _kill_workers(cluster: Any) -> None:
