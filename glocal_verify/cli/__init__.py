@@ -33,6 +33,8 @@ __all__ = ["main", "build_parser", "COMMAND_MODULES"]
 
 #: exit code of an internal error (a bug, never the user's input): EX_SOFTWARE of sysexits.h
 INTERNAL_ERROR = 70
+#: most BLAS threads ``--threads`` accepts (threadpoolctl passes the count to C as an int)
+MAX_THREADS = 4096
 #: exit code when standard output is closed by its reader (128 + SIGPIPE, as a shell reports it)
 BROKEN_PIPE = 141
 
@@ -83,8 +85,8 @@ def _run(argv: Sequence[str] | None) -> int:
         parser = build_parser()
         args = parser.parse_args(argv)
         if args.threads is not None:
-            if args.threads < 1:
-                raise UsageError(f"--threads: must be at least 1, not {args.threads}")
+            if not 1 <= args.threads <= MAX_THREADS:
+                raise UsageError(f"--threads: must be between 1 and {MAX_THREADS}, not {str(args.threads)[:40]}")
             from glocal_verify.numerics.threads import set_default_threads
 
             set_default_threads(args.threads)

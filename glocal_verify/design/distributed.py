@@ -36,7 +36,7 @@ from contextlib import contextmanager
 from typing import Any, TypeVar
 
 from glocal_verify.errors import ArgumentError
-from glocal_verify.runtime.processes import die_with_parent
+from glocal_verify.runtime.processes import defer_stop_signals, die_with_parent
 
 __all__ = ["DASK_OVERHEAD_SECONDS", "DaskExecutor", "dask_client", "dask_executor", "dask_setup", "run_on_dask", "workers_pay_off"]
 
@@ -121,27 +121,33 @@ def dask_client(scheduler: str | None = None, workers: int = 2, *, dashboard: st
         return
     environ = dict(os.environ)
     options: dict[str, Any] = {"dashboard_address": dashboard} if dashboard else {"dashboard_address": None, "scheduler_kwargs": {"dashboard_address": "127.0.0.1:0"}}
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        cluster = LocalCluster(
-            n_workers=max(1, int(workers)), threads_per_worker=1, processes=True, host="127.0.0.1",
-            silence_logs=logging.ERROR, preload=[__name__], **options,
-        )
-    moved = [str(w.message).splitlines()[0] for w in caught if "already in use" in str(w.message)]
-    if moved and notice is not None:
-        notice(f"{moved[0].rstrip('.')}: the Dask dashboard is at {cluster.dashboard_link}")
-    client = Client(cluster)
+    cluster: Any = None
+    client: Any = None
     ok = False
     try:
+        # a stop signal while the workers start would leave a half-made cluster whose clean-up at
+        # exit asserts: it is held until the cluster exists, then stops the run here
+        with warnings.catch_warnings(record=True) as caught, defer_stop_signals():
+            warnings.simplefilter("always")
+            cluster = LocalCluster(
+                n_workers=max(1, int(workers)), threads_per_worker=1, processes=True, host="127.0.0.1",
+                silence_logs=logging.ERROR, preload=[__name__], **options,
+            )
+        moved = [str(w.message).splitlines()[0] for w in caught if "already in use" in str(w.message)]
+        if moved and notice is not None:
+            notice(f"{moved[0].rstrip('.')}: the Dask dashboard is at {cluster.dashboard_link}")
+        client = Client(cluster)
         yield client
         ok = True
     finally:
-        if not ok:
+        if cluster is not None and not ok:
             _kill_workers(cluster)
-        with contextlib.suppress(Exception):
-            client.close()
-        with contextlib.suppress(Exception):
-            cluster.close(timeout=5 if ok else 2)
+        if client is not None:
+            with contextlib.suppress(Exception):
+                client.close()
+        if cluster is not None:
+            with contextlib.suppress(Exception):
+                cluster.close(timeout=5 if ok else 2)
         os.environ.clear()
         os.environ.update(environ)
 
