@@ -1634,6 +1634,10 @@ def _run_signalled(case: Case, work: Path, timeout_s: float) -> RunResult:
         outcome = "multi-line"
     elif p.returncode in (0, 1):
         outcome = "ok"
+    elif p.returncode == -sig and (not lines or lines[-1].startswith("wrote ")):
+        # the signal came before the command started or after it had finished (its output
+        # written): the signal's default action ended the interpreter, nothing was cut short
+        outcome = "ok"
     elif p.returncode == 128 + sig:
         outcome = "clean-error" if lines and lines[-1] == STOP_LINES[sig] else "multi-line"
     elif p.returncode == 2:

@@ -124,10 +124,14 @@ def dask_client(scheduler: str | None = None, workers: int = 2, *, dashboard: st
     cluster: Any = None
     client: Any = None
     ok = False
+    loggers = [logging.getLogger(name) for name in ("distributed", "asyncio", "tornado")]
+    levels = [lg.level for lg in loggers]
+    loggers[0].setLevel(logging.ERROR)  # the scheduler runs here: its notes on closed comms are no news
     try:
         # a stop signal while the workers start would leave a half-made cluster whose clean-up at
-        # exit asserts: it is held until the cluster exists, then stops the run here
-        with warnings.catch_warnings(record=True) as caught, defer_stop_signals():
+        # exit asserts: it is held until the cluster exists, then stops the run here; the workers
+        # start with SIGINT ignored (_sigint_ignored)
+        with warnings.catch_warnings(record=True) as caught, defer_stop_signals(), _sigint_ignored():
             warnings.simplefilter("always")
             cluster = LocalCluster(
                 n_workers=max(1, int(workers)), threads_per_worker=1, processes=True, host="127.0.0.1",
@@ -141,6 +145,8 @@ def dask_client(scheduler: str | None = None, workers: int = 2, *, dashboard: st
         ok = True
     finally:
         if cluster is not None and not ok:
+            for lg in loggers:  # a stop: what the scheduler says of the workers it loses is no news either
+                lg.setLevel(logging.CRITICAL + 1)
             _kill_workers(cluster)
         if client is not None:
             with contextlib.suppress(Exception):
@@ -148,8 +154,47 @@ def dask_client(scheduler: str | None = None, workers: int = 2, *, dashboard: st
         if cluster is not None:
             with contextlib.suppress(Exception):
                 cluster.close(timeout=5 if ok else 2)
+        for lg, lv in zip(loggers, levels):
+            lg.setLevel(lv)
         os.environ.clear()
         os.environ.update(environ)
+
+
+@contextmanager
+def _sigint_ignored() -> Iterator[None]:
+    """``SIGINT`` ignored inside the block, without losing a terminal's Ctrl-C.
+
+    The worker processes started in the block inherit the ignoring across exec (a blocked mask
+    does not survive multiprocessing's spawn), so the Ctrl-C a terminal sends to the whole
+    process group cannot kill one half-started (its traceback, then "Nanny failed to start").
+    A forked sentinel keeps the default action meanwhile: if it died of ``SIGINT``, the signal
+    is sent again to this process when the block ends.
+    """
+    if threading.current_thread() is not threading.main_thread() or not hasattr(os, "fork"):
+        yield
+        return
+    parent = os.getpid()
+    pid = os.fork()
+    if pid == 0:  # the sentinel: only async-signal-safe work, then wait for a signal
+        try:
+            signal.signal(signal.SIGINT, signal.SIG_DFL)
+            die_with_parent(parent)
+            while True:
+                signal.pause()
+        finally:
+            os._exit(0)
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if not done:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+        elif os.WIFSIGNALED(status) and os.WTERMSIG(status) == signal.SIGINT:
+            os.kill(os.getpid(), signal.SIGINT)
 
 
 #: seconds to reach a ``--scheduler`` before giving up (one line, exit 2)

@@ -32,7 +32,6 @@ accompanies it.
 
 from __future__ import annotations
 
-import contextlib
 import csv
 import io
 import itertools
@@ -45,7 +44,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
 from glocal_verify.errors import GlocalVerifyError, SpecError
-from glocal_verify.runtime.files import OutputFolder, check_output_dir, check_output_file, write_bytes_atomic
+from glocal_verify.runtime.files import OutputFolder, check_output_dir, check_output_file, make_folders, remove_empty_folders, write_bytes_atomic
 from glocal_verify.spec.prepare import prepare, read_toml
 
 __all__ = [
@@ -284,9 +283,9 @@ def plan_from_dict(data: Mapping[str, Any], source: str | None = None, base: Pat
     for combo in itertools.product(*(grid[a] for a in axes)):
         params = dict(fixed)
         params.update(dict(zip(axes, combo)))
-        for s in seeds:
-            tag = "-".join(f"{a}{_slug(str(v))}" for a, v in zip(axes, combo))
-            generated.append(Member(key=f"{gen}-{tag}-seed{s}" if tag else f"{gen}-seed{s}", params=params, seed=s, generator=gen))
+        tag = "-".join(f"{a}{_slug(str(v))}" for a, v in zip(axes, combo))
+        stem = f"{gen}-{tag}-seed" if tag else f"{gen}-seed"
+        generated.extend(Member(key=f"{stem}{s}", params=params, seed=s, generator=gen) for s in seeds)
     return SweepPlan(tuple(generated), tuple(conditions) if conditions else None, exact, escalate, grid, source)
 
 
@@ -676,8 +675,7 @@ def run_sweep(
         (:func:`~glocal_verify.design.distributed.dask_client`).
     """
     outp, parts, names = sweep_outputs(plan, out, summary=summary, figures=figures)
-    made_parts = not parts.exists()
-    parts.mkdir(parents=True, exist_ok=True)
+    made = make_folders(parts)
     done = {p.stem for p in parts.glob("*.json")}
     todo = [m for m in plan.members if m.key not in done]
     resumed = len(plan.members) - len(todo)
@@ -710,9 +708,8 @@ def run_sweep(
             for c in chunks:
                 keep(_run_chunk(c, plan.conditions, plan.exact, plan.escalate))
     finally:
-        if made_parts and finished == 0 and resumed == 0:
-            with contextlib.suppress(OSError):
-                parts.rmdir()
+        if finished == 0:
+            remove_empty_folders(made)  # nothing to resume from: no folder left behind
     rows: list[dict[str, Any]] = []
     for m in plan.members:
         rows.extend(json.loads((parts / f"{m.key}.json").read_text(encoding="utf-8")))

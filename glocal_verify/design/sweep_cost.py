@@ -136,7 +136,7 @@ def estimate_sweep(plan: SweepPlan, *, workers: int = 2, scheduler: str | None =
         from glocal_verify.conditions.registry import resolve_ids
 
         conditions = resolve_ids(list(plan.conditions))
-    by_params: dict[str, tuple[float, float, int]] = {}
+    by_params: dict[Any, tuple[float, float, int]] = {}
     total = peak = 0.0
     largest = 0
     specs = [m for m in todo if m.spec_path is not None]
@@ -154,8 +154,8 @@ def estimate_sweep(plan: SweepPlan, *, workers: int = 2, scheduler: str | None =
             except GlocalVerifyError:
                 continue
             weight, key = scale, m.key
-        else:
-            key, weight = repr(sorted(m.params.items())), 1.0
+        else:  # the members of one grid point share their parameters' mapping
+            key, weight = id(m.params), 1.0
             sizes = None
         if key not in by_params:
             sizes = sizes if sizes is not None else _generated_sizes(m.params, m.generator or "")

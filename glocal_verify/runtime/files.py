@@ -48,6 +48,8 @@ __all__ = [
     "check_output_file",
     "check_output_dir",
     "same_file",
+    "make_folders",
+    "remove_empty_folders",
     "OutputFolder",
 ]
 
@@ -234,8 +236,14 @@ def check_output_dir(path: str | Path, *, inputs: Iterable[str | Path] = (), wha
     return p
 
 
-def _make_folders(folder: Path) -> list[Path]:
-    """Create ``folder`` and its missing parents; return those created, deepest first."""
+def make_folders(folder: Path) -> list[Path]:
+    """Create ``folder`` and its missing parents; return those created, deepest first (for
+    :func:`remove_empty_folders` when the work they were made for fails).
+
+    Parameters
+    ----------
+    folder : Path
+    """
     missing: list[Path] = []
     p = folder
     while not os.path.lexists(p) and p.parent != p:
@@ -245,8 +253,13 @@ def _make_folders(folder: Path) -> list[Path]:
     return missing
 
 
-def _remove_empty(folders: Iterable[Path]) -> None:
-    """Remove each folder (deepest first) if it is empty; stop at the first that is not."""
+def remove_empty_folders(folders: Iterable[Path]) -> None:
+    """Remove each folder (deepest first) if it is empty; stop at the first that is not.
+
+    Parameters
+    ----------
+    folders : iterable of Path
+    """
     for f in folders:
         try:
             f.rmdir()
@@ -316,13 +329,13 @@ def write_bytes_atomic(path: str | Path, data: bytes) -> Path:
     folder = p.parent if str(p.parent) else Path(".")
     created: list[Path] = []
     try:
-        created = _make_folders(folder)
+        created = make_folders(folder)
         fd, tmp_name = tempfile.mkstemp(prefix=_TMP_PREFIX + p.name[:32] + ".", suffix=".tmp", dir=folder)
     except OSError as exc:
-        _remove_empty(created)
+        remove_empty_folders(created)
         raise _os_error(p, exc) from None
     except BaseException:
-        _remove_empty(created)
+        remove_empty_folders(created)
         raise
     tmp = Path(tmp_name)
     try:
@@ -332,11 +345,11 @@ def write_bytes_atomic(path: str | Path, data: bytes) -> Path:
         os.replace(tmp, p)
     except OSError as exc:
         tmp.unlink(missing_ok=True)
-        _remove_empty(created)
+        remove_empty_folders(created)
         raise _os_error(p, exc) from None
     except BaseException:
         tmp.unlink(missing_ok=True)
-        _remove_empty(created)
+        remove_empty_folders(created)
         raise
     _fsync_dir(folder)
     return p
@@ -402,13 +415,13 @@ class OutputFolder:
     def __enter__(self) -> "OutputFolder":
         check_output_dir(self.dest, inputs=self.inputs, what=str(self.dest))
         try:
-            self._created = _make_folders(self.dest)
+            self._created = make_folders(self.dest)
             self._stage = Path(tempfile.mkdtemp(prefix=_TMP_PREFIX, dir=self.dest))
         except OSError as exc:
-            _remove_empty(self._created)
+            remove_empty_folders(self._created)
             raise _os_error(self.dest, exc) from None
         except BaseException:
-            _remove_empty(self._created)
+            remove_empty_folders(self._created)
             raise
         return self
 
@@ -478,7 +491,7 @@ class OutputFolder:
             shutil.rmtree(self._stage, ignore_errors=True)
             self._stage = None
         if created_too:
-            _remove_empty(self._created)
+            remove_empty_folders(self._created)
 
     def __exit__(self, et: type[BaseException] | None, ev: BaseException | None, tb: TracebackType | None) -> None:
         if et is not None or self._stage is None:

@@ -144,8 +144,8 @@ def defer_stop_signals() -> Iterator[None]:
     """Hold the stop signals inside the block; act on the first one held when it ends.
 
     For the few system calls that move finished files into place: a signal arriving between
-    two renames must not leave half of the files moved. On leaving the block normally, a held
-    signal is delivered to the handler that was installed before (which raises
+    two renames must not leave half of the files moved. On leaving the block (normally, or by an
+    exception, which then becomes the stop's context), a held signal is delivered to the handler that was installed before (which raises
     :class:`Stopped` under :func:`stop_on_signals`, ``KeyboardInterrupt`` for Python's default
     ``SIGINT`` handler, or ends the process for a default ``SIGTERM``). Main thread only;
     elsewhere the block runs unchanged.
@@ -165,23 +165,24 @@ def defer_stop_signals() -> Iterator[None]:
                 old[sig] = signal.signal(sig, hold)
     except (ValueError, OSError):  # pragma: no cover
         pass
-    ok = False
     try:
         yield
-        ok = True
     finally:
         for sig, h in old.items():
             with contextlib.suppress(ValueError, OSError, TypeError):
                 signal.signal(sig, h if h is not None else signal.SIG_DFL)
-    if ok and held:
-        sig = held[0]
-        h = old.get(sig)
-        if callable(h):
-            h(sig, None)
-        elif sig == getattr(signal, "SIGINT", None):
-            raise KeyboardInterrupt
-        else:
-            os.kill(os.getpid(), sig)  # the default action, now that it is restored
+        if held:  # the stop comes first, also when the block failed (the failure is its context)
+            _deliver(held[0], old.get(held[0]))
+
+
+def _deliver(sig: int, h: Any) -> None:
+    """Act on a held signal as the handler ``h`` installed before would have."""
+    if callable(h):
+        h(sig, None)
+    elif sig == getattr(signal, "SIGINT", None):
+        raise KeyboardInterrupt
+    else:
+        os.kill(os.getpid(), sig)  # the default action, now that it is restored
 
 
 def die_with_parent(parent_pid: int | None = None) -> bool:
