@@ -36,6 +36,12 @@ clean-error are kept in ``--keep-dir`` (default ``<out>.specs/``) for replay:
     python tests/fuzz_campaign.py --replay /tmp/fuzz.jsonl.specs/000123.toml --commands simulate
     python tests/fuzz_campaign.py --replay /tmp/fuzz.jsonl.specs/000456.json
 
+``--clustered K`` instead runs ``verify --exact`` and ``design`` (``--allow-large``) on K random
+clustered networks (N = 30-120, 2-5 clusters, random seeds; ``random_clustered_spec``), the
+valid specs the exact path must decide without an internal error:
+
+    nice -n 10 python tests/fuzz_campaign.py --clustered 20 --timeout 3600 --out /tmp/clustered.jsonl
+
 ``--one-command`` runs each mutated spec through one command only (the commands in turn), so
 ``--count`` specs make ``--count`` runs; ``--commands simulate-figures`` adds ``simulate`` with its
 figures. ``--summary`` prints counts per outcome and per distinct failure of an existing JSONL file.
@@ -364,6 +370,46 @@ def replay(args: argparse.Namespace) -> int:
     return 0
 
 
+def clustered(args: argparse.Namespace) -> int:
+    """``verify --exact`` and ``design`` on ``args.clustered`` generated clustered networks."""
+    import random
+
+    from glocal_verify.design.generators import random_clustered_spec
+
+    rng = random.Random(args.seed)
+    nets = []
+    for _ in range(args.clustered):
+        n, c, seed = rng.randint(30, 120), rng.randint(2, 5), rng.randrange(10**6)
+        nets.append((n, c, seed, random_clustered_spec(n, c, seed=seed).to_toml()))
+    runs = [(net, cmd) for net in nets for cmd in ("verify-exact", "design")]
+    mem = int(args.memory_gib * (1 << 30))
+    out = Path(args.out)
+    lock = threading.Lock()
+    counts: Counter[str] = Counter()
+
+    def one(job: tuple[tuple[int, int, int, str], str]) -> dict[str, Any]:
+        (n, c, seed, text), cmd = job
+        with tempfile.TemporaryDirectory(prefix="glocal-clustered-") as tmp:
+            Path(tmp, "spec.toml").write_text(text, encoding="utf-8")
+            argv = ["verify", "spec.toml", "--exact", "--quiet", "--allow-large", "--out", "r.md"] if cmd == "verify-exact" else ["design", "spec.toml", "--quiet", "--allow-large", "--out", "d.toml"]
+            d = run_exec(argv, args.timeout, mem, Path(tmp))
+        lines = [ln for ln in (d.get("stderr") or "").splitlines() if ln.strip()]
+        rec = {"n": n, "clusters": c, "seed": seed, "command": cmd, "outcome": d["outcome"], "rc": d.get("rc"), "elapsed": round(float(d.get("elapsed") or 0), 1),
+               "last_stderr_line": (lines[-1] if lines else "")[:300], "internal_error": any("internal error" in ln for ln in lines)}
+        with lock:
+            counts[f"{cmd} {rec['outcome']} rc={rec['rc']}"] += 1
+            if not args.quiet:
+                print(f"N={n} clusters={c} seed={seed} {cmd}: {rec['outcome']} rc={rec['rc']} {rec['elapsed']} s {rec['last_stderr_line'][:120]}", file=sys.stderr, flush=True)
+        return rec
+
+    with ThreadPoolExecutor(max_workers=args.workers) as ex:
+        recs = list(ex.map(one, runs))
+    out.write_text("".join(json.dumps(r) + "\n" for r in recs), encoding="utf-8")
+    errors = sum(r["internal_error"] for r in recs)
+    print(f"{len(nets)} networks, {len(recs)} runs: " + ", ".join(f"{k}: {v}" for k, v in sorted(counts.items())) + f"; internal errors: {errors}")
+    return 1 if errors else 0
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--count", type=int, default=100, help="draws (a spec draw runs through every --commands command when --inputs is spec)")
@@ -383,6 +429,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--max-wall", type=float, default=0.0, help="stop starting new runs after this many seconds (0: no limit)")
     p.add_argument("--quiet", action="store_true")
     p.add_argument("--summary", metavar="JSONL", help="only summarize an existing campaign file")
+    p.add_argument("--clustered", type=int, default=0, metavar="K", help="run verify --exact and design on K random clustered networks instead")
     p.add_argument("--replay", metavar="FILE", help="run --commands on one kept spec file (.toml), or run one kept case (.json), and show stderr")
     args = p.parse_args(argv)
     if args.summary:
@@ -390,6 +437,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if args.replay:
         return replay(args)
+    if args.clustered:
+        return clustered(args)
     return campaign(args)
 
 
