@@ -112,12 +112,12 @@ def dask_client(scheduler: str | None = None, workers: int = 2, *, dashboard: st
     from distributed import Client, LocalCluster
 
     if scheduler:
-        client = _connect(scheduler)
+        remote = _connect(scheduler)
         try:
-            yield client
+            yield remote
         finally:
             with contextlib.suppress(Exception):
-                client.close()
+                remote.close()
         return
     environ = dict(os.environ)
     options: dict[str, Any] = {"dashboard_address": dashboard} if dashboard else {"dashboard_address": None, "scheduler_kwargs": {"dashboard_address": "127.0.0.1:0"}}
@@ -232,9 +232,9 @@ def _connect(scheduler: str) -> Any:
     maker.join(2 * SCHEDULER_TIMEOUT)
     if "client" in box:
         return box["client"]
-    exc = box.pop("error", None)
-    failure = (str(exc).splitlines()[0][:120] if str(exc) else type(exc).__name__) if exc is not None else f"no answer within {2 * SCHEDULER_TIMEOUT:g} s"
-    del exc
+    error = box.pop("error", None)
+    failure = (str(error).splitlines()[0][:120] if str(error) else type(error).__name__) if error is not None else f"no answer within {2 * SCHEDULER_TIMEOUT:g} s"
+    del error
     hook = sys.unraisablehook
     sys.unraisablehook = lambda unraisable: None  # the half-made client's clean-up: nothing to tell
     try:

@@ -143,6 +143,7 @@ def estimate_sweep(plan: SweepPlan, *, workers: int = 2, scheduler: str | None =
     step = max(1, len(specs) // ESTIMATE_SAMPLE)
     sample = {m.key for m in specs[::step]}
     scale = len(specs) / max(1, len(sample))
+    key: Any
     for m in todo:
         if m.spec_path is not None:
             if m.key not in sample:

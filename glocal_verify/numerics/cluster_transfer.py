@@ -43,6 +43,7 @@ from typing import Any, Sequence
 import flint
 import numpy as np
 
+from glocal_verify.numerics.exact import coefficient_bits
 from glocal_verify.numerics.pencil_exact import RootEnclosures
 
 
@@ -335,18 +336,11 @@ def _eval_balls(polys: Sequence[Any], f: Any, root: complex, enclosures: RootEnc
         prec = min(prec * 4, cap)
 
 
-def _coefficient_bits(polys: Sequence[Any]) -> int:
-    bits = 1
-    for q in polys:
-        bits = max(bits, int(q.denom()).bit_length(), max((abs(int(c)).bit_length() for c in q.numer().coeffs()), default=1))
-    return bits
-
-
 def _precision_cap(polys: Sequence[Any], f: Any) -> int:
     """Bits enough to evaluate ``polys`` at a root of ``f`` without losing them all to
     cancellation: twice their coefficients' size plus the size of the powers of the root
     (bounded by f's coefficients), at least 16384."""
-    return max(16384, 2 * (_coefficient_bits(polys) + f.degree() * _coefficient_bits([f])) + 256)
+    return max(16384, 2 * (coefficient_bits(polys) + f.degree() * coefficient_bits([f])) + 256)
 
 
 def _primitive(polys: Sequence[Any]) -> list[Any]:

@@ -409,12 +409,8 @@ def classify_real_parts(f: Any) -> list[tuple[complex, int]]:
         n_imag = len([rt for rt in roots_g if rt[0].imag == 0])
     old = flint.ctx.prec
     try:
-        prec = 64
-        # enough bits for the smallest nonzero real part a root of this degree and height can
-        # have (a root separation bound: about d (log2 H + log2 d) bits), at least 8192
-        height = max(max(abs(int(c.p)).bit_length(), int(c.q).bit_length()) for c in f.coeffs())
-        cap = max(8192, 4 * f.degree() * (height + f.degree().bit_length()) + 256)
-        while True:
+        prec, cap = 64, max(8192, 4 * f.degree() * (ex.coefficient_bits([f]) + f.degree().bit_length()) + 256)  # root separation: ~ d log2(H d)
+        while prec <= cap:
             flint.ctx.prec = prec
             roots = [r for r, _ in f.complex_roots()]
             out: list[tuple[complex, int]] = []
@@ -430,9 +426,7 @@ def classify_real_parts(f: Any) -> list[tuple[complex, int]]:
                     out.append((complex(0.0, val.imag), 0))
             if ambiguous == n_imag:
                 return out
-            if prec >= cap:
-                break
-            prec = min(prec * 4, cap)
+            prec = min(prec * 4, cap) if prec < cap else cap + 1
     finally:
         flint.ctx.prec = old
     raise AssertionError(f"cannot separate the real parts of the roots of {f} from 0")  # pragma: no cover
