@@ -17,6 +17,8 @@ Layer: the top; imports the library, and nothing imports it.
 
 from __future__ import annotations
 
+from types import MappingProxyType
+
 import importlib
 import os
 import sys
@@ -39,7 +41,7 @@ MAX_THREADS = 4096
 BROKEN_PIPE = 141
 
 #: the one line printed for each stop signal
-_STOP_LINES = {"SIGINT": "interrupted", "SIGTERM": "terminated (SIGTERM)", "SIGHUP": "hung up (SIGHUP)"}
+_STOP_LINES = MappingProxyType({"SIGINT": "interrupted", "SIGTERM": "terminated (SIGTERM)", "SIGHUP": "hung up (SIGHUP)"})
 
 #: modules of this package that add subcommands, in the order ``--help`` lists them
 COMMAND_MODULES = ("verify", "placement", "simulate", "audit", "design", "sweep", "draw", "export")

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from types import MappingProxyType
+
 import argparse
 import contextlib
 import json
@@ -127,7 +129,7 @@ def _audit_outputs(args: argparse.Namespace) -> tuple[Path | None, list[str]]:
 
 
 #: the report's file name in an output folder, by format
-_REPORT_NAMES = {"json": "audit.json", "html": "audit.html", "markdown": "audit.md"}
+_REPORT_NAMES = MappingProxyType({"json": "audit.json", "html": "audit.html", "markdown": "audit.md"})
 
 
 def cmd_audit(args: argparse.Namespace) -> int:

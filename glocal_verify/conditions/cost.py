@@ -82,15 +82,6 @@ C_FACTOR = 8e-8
 C_GLOBAL_MODE = 0.5e-9
 C_GLOBAL_REST = 3.3e-11
 C_GLOBAL_REST_SQ = 5e-7
-#: the global checkers' work per safe mode beyond the calibration's two (switched-observability's
-#: recursion, the per-mode modal analyses): C_MODE_0 + C_MODE_SQ N^2 seconds each. Measured on
-#: random_clustered_spec(N, 3, seed=2) with one-link safe modes, verify --escalate never: 0.28 s
-#: per further mode at N = 300 (2 / 40 / 120 modes: 3.7 / 15 / 37 s), 0.29 s at 600, 0.70 s at
-#: 1100; 1000 safe modes at N = 1100 ran more than 20 minutes where the estimate said 2
-C_MODE_0 = 0.25
-C_MODE_SQ = 3.5e-7
-#: safe modes of the calibration runs (their cost is in the constants above)
-CALIBRATION_MODES = 2
 #: dense N x N float64 arrays the global checkers hold at their peak: A_GLOBAL with an explicit
 #: normal eigenbasis (the basis, the eigh workspace, its syrk, the modal pencil's two staircase
 #: buffers), plus A_GLOBAL_MODE per safe mode decomposed afresh (a factored one keeps O(N)); a
@@ -175,7 +166,7 @@ C_AUDIT_SET_LOCAL = 4e-9
 #: Theorem III.3 (its touch test, the exposing modes of the row), seconds per set and per safe
 #: mode. Measured on random_clustered_spec(60, 3, seed=1) with 15 monitors, k = 2 (1830 sets):
 #: 10 s with 2 safe modes, 114 s with 50, 271 s with 100, i.e. 1.2-1.5 ms per set and mode.
-#: The constants above were fit on specs with CALIBRATION_MODES safe modes, so only the
+#: The constants above were fit on specs with cost_calibration_modes safe modes, so only the
 #: modes beyond those count. Safe modes that fail Theorem III.3 cost almost nothing (N = 120
 #: with 20 such modes took no longer than with 2), so this term is an upper estimate there
 C_AUDIT_SET_MODE = 1.5e-3
@@ -426,7 +417,7 @@ def estimate_verify(
     design), else :data:`C_UIO` = 6.5e-9. Constants: :data:`C_START` = 3 s,
     :data:`C_EIGH` (``C_e``) = 2.1e-10, :data:`C_FACTOR` (``C_f``) = 8e-8,
     :data:`C_GLOBAL_MODE` = 0.5e-9, :data:`C_GLOBAL_REST` (``C_r``) = 3.3e-11,
-    :data:`C_GLOBAL_REST_SQ` = 5e-7, :data:`C_MODE_0` (``C_{m,0}``) = 0.25, :data:`C_MODE_SQ` (``C_{m,2}``) = 3.5e-7,
+    :data:`C_GLOBAL_REST_SQ` = 5e-7, ``cost_mode_seconds`` (``C_{m,0}``) = 0.25, ``cost_mode_seconds_sq`` (``C_{m,2}``) = 3.5e-7,
     :data:`C_PENCIL` = 0.6e-10 s, :data:`A_GLOBAL` = 5,
     :data:`A_GLOBAL_BLOCKS` = 2, :data:`A_GLOBAL_MODE` = 1,
     :data:`A_UIO` = 10 (:data:`A_UIO_MODAL` = 1 for a modal design), :data:`B_BASE` = 300 MiB;
@@ -466,7 +457,7 @@ def estimate_verify(
         else:
             normal = C_EIGH * n3
         phases["global spectra"] = normal + C_GLOBAL_MODE * fresh * n3 + C_FACTOR * sum(updated) * n2
-        phases["global checkers"] = C_GLOBAL_REST * n3 + C_GLOBAL_REST_SQ * n2 + (C_MODE_0 + C_MODE_SQ * n2) * max(0, S - CALIBRATION_MODES)
+        phases["global checkers"] = C_GLOBAL_REST * n3 + C_GLOBAL_REST_SQ * n2 + (config.get("cost_mode_seconds") + config.get("cost_mode_seconds_sq") * n2) * max(0, S - config.get("cost_calibration_modes"))
     modal_min = config.get("modal_min_agents")
     if uio:
         phases["local.uio"] = sum((C_UIO if exact or m < 2 * modal_min else C_UIO_MODAL) * d * float(m) ** 3 for m, d in _designs(sizes))
@@ -625,7 +616,7 @@ def estimate_audit(sizes: SpecSizes, k: int, candidates: int | None = None, *, e
         "local verdicts of each candidate": f * per_agent * singles / w,
         "single actuators": f * per_single * singles / w,
         f"{larger} sets of 2..{k} actuators": f * per_larger * larger / w,
-        f"safe-mode tests of {singles + larger} sets x {sizes.modes} modes": f * C_AUDIT_SET_MODE * (singles + larger) * max(0, sizes.modes - CALIBRATION_MODES) / w,
+        f"safe-mode tests of {singles + larger} sets x {sizes.modes} modes": f * C_AUDIT_SET_MODE * (singles + larger) * max(0, sizes.modes - config.get("cost_calibration_modes")) / w,
         "writing the rows": C_AUDIT_ROW_OUT * (singles + larger),
     }
     nbytes = B_BASE + A_AUDIT * _dense(n) + B_AUDIT_ROW * (singles + larger)

@@ -11,9 +11,11 @@ agents of the first cluster.
 
 from __future__ import annotations
 
+from types import MappingProxyType
+
 import inspect
 import math
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 
@@ -180,6 +182,6 @@ def random_clustered_spec(
 
 
 #: the default arguments of :func:`random_clustered_spec` (all but ``n``, ``attack``)
-GENERATOR_DEFAULTS: dict[str, Any] = {
+GENERATOR_DEFAULTS: Mapping[str, Any] = MappingProxyType({
     k: p.default for k, p in inspect.signature(random_clustered_spec).parameters.items() if p.default is not inspect.Parameter.empty and k != "attack"
-}
+})

@@ -319,3 +319,4 @@ def write_case_study(
         sections.append(("Algorithm 1 with the local trigger", _local_trigger_section(study.system, study.local_run)))
     _say(phase, "writing the outcome table" + (" and the figures" if figures else ""))
     check_output_dir(out_dir, inputs=inputs)
+    return write_cases(study.outcomes, out_dir, preamble=pre, findings=study.findings, sections=sections, figures=figures, inputs=inputs)
