@@ -41,6 +41,7 @@ if TYPE_CHECKING:  # the names below load on first use (PEP 562): `import glocal
     from glocal_verify.design.generators import random_clustered_spec
     from glocal_verify.design.placement import Placement, place_observers
     from glocal_verify.errors import (
+        ArgumentError,
         GlocalVerifyError,
         ModelError,
         NotApplicableError,
@@ -104,6 +105,7 @@ _LAZY: Mapping[str, str] = MappingProxyType({
     "random_clustered_spec": "glocal_verify.design.generators",
     "Placement": "glocal_verify.design.placement",
     "place_observers": "glocal_verify.design.placement",
+    "ArgumentError": "glocal_verify.errors",
     "GlocalVerifyError": "glocal_verify.errors",
     "ModelError": "glocal_verify.errors",
     "NotApplicableError": "glocal_verify.errors",
@@ -163,6 +165,7 @@ __all__ = [
     "ModelError",
     "NotApplicableError",
     "UnknownConditionError",
+    "ArgumentError",
     "Tolerance",
     "DEFAULT_TOLERANCE",
     "System",

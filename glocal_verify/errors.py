@@ -13,6 +13,7 @@ __all__ = [
     "UnknownConditionError",
     "NotApplicableError",
     "ConfigError",
+    "ArgumentError",
 ]
 
 class GlocalVerifyError(Exception):
@@ -57,3 +58,13 @@ class NotApplicableError(ValueError, GlocalVerifyError):
 
 class ConfigError(ValueError, GlocalVerifyError):
     """An unknown tunable, or a value outside its domain (:mod:`glocal_verify.config`)."""
+
+
+class ArgumentError(ValueError, TypeError, GlocalVerifyError):
+    """An argument of a library call is outside its documented domain: a wrong type, a value
+    out of range (NaN, a negative tolerance, an astronomical budget) or an unknown choice.
+
+    A :class:`ValueError` and a :class:`TypeError`, so that callers catching either keep
+    working; the message names the argument, e.g. ``max_attackers: expected an integer >= 1,
+    got None``.
+    """

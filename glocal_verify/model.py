@@ -169,7 +169,7 @@ class System:
     Parameters
     ----------
     spec : SystemSpec
-        The validated specification.
+        The validated specification (a mapping shaped like the file is validated first).
 
     Examples
     --------
@@ -180,7 +180,7 @@ class System:
     """
 
     def __init__(self, spec: SystemSpec) -> None:
-        self.spec = spec
+        self.spec = spec = SystemSpec.of(spec, "System")
         self.labels: tuple[Label, ...] = spec.nodes
         self.n = len(self.labels)
         self.index: dict[Label, int] = {lab: i for i, lab in enumerate(self.labels)}

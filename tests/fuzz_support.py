@@ -950,7 +950,7 @@ def _warm_imports() -> None:
             importlib.import_module(name)
 
 
-def _run_forked(argv: Sequence[str], timeout_s: float, memory_bytes: int | None) -> RunResult:
+def _run_forked(argv: Sequence[str], timeout_s: float, memory_bytes: int | None, cwd: str | None = None, fsize: int | None = None) -> RunResult:
     import select
 
     _warm_imports()
@@ -973,6 +973,11 @@ def _run_forked(argv: Sequence[str], timeout_s: float, memory_bytes: int | None)
             faulthandler.dump_traceback_later(timeout_s + 10.0, file=dump)
             if memory_bytes:
                 resource.setrlimit(resource.RLIMIT_AS, (memory_bytes, memory_bytes))
+            if cwd:
+                os.chdir(cwd)
+            if fsize is not None:  # a full disk: writes past fsize bytes fail with EFBIG
+                signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+                resource.setrlimit(resource.RLIMIT_FSIZE, (fsize, fsize))
             res = _run_here(argv, timeout_s)
             payload = json.dumps(res.to_json()).encode()
         except BaseException as e:  # noqa: BLE001
@@ -1020,16 +1025,19 @@ def _run_forked(argv: Sequence[str], timeout_s: float, memory_bytes: int | None)
     )
 
 
-def run_cli(argv: Sequence[str], timeout_s: float = 60.0, *, fork: bool = False, memory_bytes: int | None = None) -> RunResult:
+def run_cli(
+    argv: Sequence[str], timeout_s: float = 60.0, *, fork: bool = False, memory_bytes: int | None = None, cwd: str | None = None, fsize: int | None = None
+) -> RunResult:
     """Run ``glocal_verify.cli.main(argv)`` and classify the outcome.
 
     In-process by default (stdout/stderr captured with ``contextlib.redirect_*``, SystemExit
-    caught, a SIGALRM time budget of ``timeout_s``). With ``fork=True`` or ``memory_bytes``
-    the run happens in a forked child whose address space is bounded with
-    ``RLIMIT_AS = memory_bytes``; the parent kills it if it overruns the budget inside C code.
+    caught, a SIGALRM time budget of ``timeout_s``). With ``fork=True``, ``memory_bytes``,
+    ``cwd`` or ``fsize`` the run happens in a forked child whose address space is bounded with
+    ``RLIMIT_AS = memory_bytes``, working in ``cwd``, whose files may not grow past ``fsize``
+    bytes (a full disk); the parent kills it if it overruns the budget inside C code.
     """
-    if fork or memory_bytes:
-        return _run_forked(argv, timeout_s, memory_bytes)
+    if fork or memory_bytes or cwd or fsize is not None:
+        return _run_forked(argv, timeout_s, memory_bytes, cwd, fsize)
     return _run_here(argv, timeout_s)
 
 
@@ -1063,3 +1071,607 @@ def run_mutant(mutant: Mutant, command: str, timeout_s: float = 60.0, *, fork: b
         spec = Path(tmp) / "spec.toml"
         spec.write_text(mutant.text, encoding="utf-8")
         return run_cli(command_argv(command, spec, tmp), timeout_s, fork=fork, memory_bytes=memory_bytes)
+
+
+# =============================================================================================
+# every surface: graph files, sweep files, command-line options, output paths, signals
+#
+# A Case is one run of the command line in a fresh work folder: the files it starts from, the
+# links and folders set up around them, the argv (relative to the work folder), what must not
+# change (the inputs, the targets of symbolic links, folders reached through a link), and
+# optionally a signal sent at a moment of the run. run_case runs it and checks, besides the
+# outcome classes of `classify`, the output policy: no input overwritten, nothing written
+# through a link, no ".glocal-partial-*" left, no empty folder left by a failed run, and, for
+# signalled runs, no process of the run's session alive after it ended.
+
+#: the input kinds of the campaign
+INPUTS = ("spec", "graph", "sweep", "options", "output", "signal")
+#: outcomes the surface checks add (each a violation)
+SURFACE_OUTCOMES = ("overwrote-input", "symlink-write", "partial-left", "empty-folder", "survivor")
+ALL_OUTCOMES = OUTCOMES + SURFACE_OUTCOMES
+_PARTIAL = ".glocal-partial-"
+
+
+@dataclass
+class Case:
+    """One command-line run over hostile input (see the section comment)."""
+
+    kind: str
+    command: str
+    argv: list[str]
+    files: dict[str, bytes] = field(default_factory=dict)
+    setup: list[tuple[str, ...]] = field(default_factory=list)
+    protected: list[str] = field(default_factory=list)
+    forbidden: list[str] = field(default_factory=list)
+    signal: tuple[int, float] | None = None
+    fsize: int | None = None
+    description: str = ""
+
+    def to_json(self) -> dict[str, Any]:
+        import base64
+
+        d = {k: getattr(self, k) for k in ("kind", "command", "argv", "setup", "protected", "forbidden", "signal", "fsize", "description")}
+        d["files"] = {k: base64.b64encode(v).decode() for k, v in self.files.items()}
+        return d
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> Case:
+        import base64
+
+        files = {k: base64.b64decode(v) for k, v in d.get("files", {}).items()}
+        sig = tuple(d["signal"]) if d.get("signal") else None
+        return cls(d["kind"], d["command"], list(d["argv"]), files, [tuple(x) for x in d.get("setup", [])], list(d.get("protected", [])),
+                   list(d.get("forbidden", [])), sig, d.get("fsize"), d.get("description", ""))  # type: ignore[arg-type]
+
+
+def _spec_text(name: str = "cycle8") -> bytes:
+    return toml_dumps(copy.deepcopy(dict(base_specs())[name])).encode()
+
+
+# ---------------------------------------------------------------------------------------------
+# graph files
+
+
+def _graph_texts() -> dict[str, str]:
+    """The cycle8 graph (weights 1, 2 and 3) in every format load_graph reads."""
+    import networkx as nx
+
+    g = nx.cycle_graph(range(1, 9))
+    nx.set_edge_attributes(g, 1, "weight")
+    g.add_edge(2, 4, weight=2)
+    g.add_edge(6, 8, weight=3)
+    edges = [(u, v, d["weight"]) for u, v, d in g.edges(data=True)]
+    return {
+        ".txt": "".join(f"{u} {v} {w}\n" for u, v, w in edges),
+        ".csv": "source,target,weight\n" + "".join(f"{u},{v},{w}\n" for u, v, w in edges),
+        ".gml": "\n".join(nx.generate_gml(g)) + "\n",
+        ".graphml": "\n".join(nx.generate_graphml(g)) + "\n",
+    }
+
+
+_LAUGHS = (
+    '<?xml version="1.0"?>\n<!DOCTYPE lolz [<!ENTITY lol "lol">'
+    + "".join(f'<!ENTITY lol{i} "{("&lol" + (str(i - 1) if i > 1 else "") + ";") * 10}">' for i in range(1, 10))
+    + ']>\n<graphml xmlns="http://graphml.graphdrawing.org/xmlns"><graph edgedefault="undirected"><node id="&lol9;"/><node id="b"/>'
+    '<edge source="b" target="&lol9;"/></graph></graphml>\n'
+)
+_XXE = (
+    '<?xml version="1.0"?>\n<!DOCTYPE g [<!ENTITY x SYSTEM "file:///etc/passwd">]>\n<graphml xmlns="http://graphml.graphdrawing.org/xmlns">'
+    '<graph edgedefault="undirected"><node id="&x;"/><node id="b"/><edge source="b" target="&x;"/></graph></graphml>\n'
+)
+GRAPH_WEIGHTS = ["nan", "inf", "-1", "0", "1e9999999", "1/0", "abc", "9" * 5000, "1e-300", "2.5", "1/3", "-0", "True", "1e308"]
+GRAPH_LABELS = ["ノード", "a b", "x" * 100_000, "\u202e", "1.5", "-0", "007", "", "#", "{'a': 1}"]
+
+
+def _g_mutation(ext: str, text: str, c: Chooser) -> tuple[str, str | bytes, str]:
+    """(file suffix, content, description) of one mutation of a graph file."""
+    lines = text.splitlines()
+    what = c.choice(["deep", "garbage", "truncate", "weight", "label", "selfloop", "duplicate", "directed", "bytes", "empty", "many", "suffix", "xml"])
+    if what == "deep":
+        depth = c.choice([50, 900, 20_000])
+        if ext == ".gml":
+            return ext, "graph [\n" + "a [ " * depth + "]" * depth + "\n node [ id 1 ]\n]\n", f"GML lists nested {depth} deep"
+        if ext == ".graphml":
+            body = "<data key='d0'>" * depth + "1" + "</data>" * depth
+            return ext, text.replace("</graph>", body + "</graph>"), f"XML nested {depth} deep"
+        return ext, f"1 2 {{'weight': {'[' * depth}1{']' * depth}}}\n", f"edge data nested {depth} deep"
+    if what == "xml":
+        kind = c.choice(["port", "laughs", "xxe", "hyperedge", "directed-default"])
+        if kind == "port":
+            return ".graphml", text.replace('<node id="1">', '<node id="1"><port name="p"/>').replace('<node id="1" />', '<node id="1"><port name="p"/></node>'), "GraphML <port>"
+        if kind == "laughs":
+            return ".graphml", _LAUGHS, "GraphML entity expansion (billion laughs)"
+        if kind == "xxe":
+            return ".graphml", _XXE, "GraphML external entity"
+        if kind == "hyperedge":
+            return ".graphml", text.replace("</graph>", '<hyperedge><endpoint node="1"/><endpoint node="2"/></hyperedge></graph>'), "GraphML hyperedge"
+        return ".graphml", text.replace('edgedefault="undirected"', 'edgedefault="directed"'), "GraphML directed"
+    if what == "garbage":
+        k = c.integer(0, max(0, len(text) - 1))
+        junk = c.choice(["[", "]", '"', "<", ">", "&", "\x00", ",", "{", "}", "\u00ff"])
+        return ext, text[:k] + junk * c.integer(1, 5) + text[k:], f"{junk!r} inserted at {k}"
+    if what == "truncate":
+        k = c.integer(0, max(0, len(text) - 1))
+        return ext, text[:k], f"cut at {k} of {len(text)}"
+    if what == "weight":
+        w = c.choice(GRAPH_WEIGHTS)
+        if ext in (".txt", ".csv"):
+            sep = "," if ext == ".csv" else " "
+            return ext, text + f"1{sep}5{sep}{w}\n", f"weight {w[:20]!r}"
+        return ext, text.replace(">1<", f">{w}<", 1).replace("weight 1", f"weight {w}", 1), f"weight {w[:20]!r}"
+    if what == "label":
+        lab = c.choice(GRAPH_LABELS)
+        if ext == ".csv":
+            return ext, text + f"{lab},1,1\n", f"label {lab[:20]!r}"
+        if ext == ".txt":
+            return ext, text + f"{lab} 1 1\n", f"label {lab[:20]!r}"
+        return ext, text.replace('"1"', json.dumps(lab), 1), f"label {lab[:20]!r}"
+    if what == "selfloop":
+        return ".txt", "1 1 1\n2 3 1\n", "self loop"
+    if what == "duplicate":
+        return ext, text + (lines[1 if ext == ".csv" else 0] + "\n" if ext in (".txt", ".csv") and lines else ""), "duplicate edge"
+    if what == "directed":
+        if ext == ".gml":
+            return ext, text.replace("graph [", "graph [\n  directed 1\n  multigraph 1", 1), "GML directed multigraph"
+        return ".graphml", text.replace('edgedefault="undirected"', 'edgedefault="directed"'), "directed"
+    if what == "bytes":
+        return ext, bytes(c.integer(0, 255) for _ in range(c.integer(1, 300))), "random bytes"
+    if what == "empty":
+        return ext, "", "empty file"
+    if what == "many":
+        n = c.choice([100_001, 200_000])
+        return ".txt", "".join(f"{i} {i + 1}\n" for i in range(1, n)), f"a path of {n} nodes"
+    return c.choice([".xml", ".json", ".toml", ""]), text, "unknown suffix"
+
+
+def graph_case(c: Chooser) -> Case:
+    """``verify --graph`` on a mutated graph file (any of the formats)."""
+    texts = _graph_texts()
+    ext = c.choice(list(texts))
+    suffix, content, desc = _g_mutation(ext, texts[ext], c)
+    name = "g" + suffix
+    data = content.encode("utf-8", "surrogatepass") if isinstance(content, str) else content
+    argv = ["verify", "--graph", name, "--quiet", "--simulate", "never"]
+    if c.choice([False, True]):
+        argv += [c.choice(["--velocities", "--positions"]), c.choice(["1,5", "99", "", "1,1", "ノード", "a b"])]
+    if c.choice([False, False, True]):
+        argv += ["--out", "report.md"]
+    if c.integer(0, 9) == 0:
+        return Case("graph", "verify --graph", ["verify", "--graph", c.choice(["missing.txt", "folder.graphml"]), "--quiet"],
+                    setup=[("mkdir", "folder.graphml")], description="a missing file or a folder")
+    return Case("graph", "verify --graph", argv, {name: data}, protected=[name], description=f"{ext} -> {suffix}: {desc}")
+
+
+# ---------------------------------------------------------------------------------------------
+# sweep files
+
+SWEEP_BASE: dict[str, Any] = {
+    "ensemble": {"generator": "random-clustered", "agents": [10], "clusters": 2, "seeds": {"start": 0, "count": 1}},
+    "compute": {"conditions": ["privacy.kernel"]},
+}
+#: values a sweep key may take: inside the domain but small, or far outside it (never a valid
+#: sweep that runs for minutes)
+SWEEP_VALUES: dict[tuple[str, ...], list[Any]] = {
+    ("ensemble", "agents"): [[100_000], [10**9], [0], [-5], ["x"], [10.5], [2**64], 1e308, [10, 12], 10, [[10]], [], [1e-300], [True]],
+    ("ensemble", "clusters"): [0, 10**6, 5, -1, "2", 2.0, [2, 3], True],
+    ("ensemble", "seeds"): [{"start": 2**64, "count": 1}, {"start": -1, "count": 1}, {"start": 0, "count": 10**6}, {"start": 0, "count": 10**7},
+                            {"start": 0, "count": 0}, [2**63], [], [1, 1], [0, 1], {"start": 2**63 - 1, "count": 2}, {"count": 1}, {"start": 0},
+                            {"start": 0, "count": 1, "x": 1}, "0..3", 5],
+    ("ensemble", "generator"): [["random-clustered"], "x", 5, {}, "", "random-clustered ", None],
+    ("ensemble", "chords"): [float("nan"), float("inf"), -1, 1e300, "a"],
+    ("ensemble", "horizon"): [1e300, -1, 0, "1"],
+    ("ensemble", "modes"): [10**6, -1, 0, [0, 1]],
+    ("ensemble", "monitors"): [10**6, -1, 0],
+    ("ensemble", "specs"): ["/", "../../", "nonexistent", "specs", "specs", "", 5, "a\u0000b", "x" * 5000],
+    ("ensemble", "attack"): ["yes", 1, [True, False]],
+    ("ensemble", "bogus"): [1],
+    ("compute", "conditions"): [["nope"], [], "privacy.*", [1], ["privacy.*", "switching.*"], ["privacy.kernel"] * 3, [""]],
+    ("compute", "exact"): ["yes", 1, True],
+    ("compute", "escalate"): ["", "always", None],
+    ("bogus",): [{"a": 1}],
+}
+
+
+def sweep_case(c: Chooser) -> Case:
+    """``sweep`` on a mutated sweep file (curated values, generic mutations, raw nesting)."""
+    d = copy.deepcopy(SWEEP_BASE)
+    descs: list[str] = []
+    files: dict[str, bytes] = {}
+    for _ in range(c.choice([1, 1, 2])):
+        how = c.choice(["value", "value", "value", "generic", "deep"])
+        if how == "value":
+            key = c.choice(list(SWEEP_VALUES))
+            v = copy.deepcopy(c.choice(SWEEP_VALUES[key]))
+            if v is None:
+                with contextlib.suppress(KeyError):
+                    del_at(d, key)
+                descs.append(f"drop {'.'.join(key)}")
+                continue
+            tgt = d
+            for k in key[:-1]:
+                tgt = tgt.setdefault(k, {}) if isinstance(tgt, dict) else {}
+            if isinstance(tgt, dict):
+                tgt[key[-1]] = v
+            if key[-1] == "specs" and isinstance(d.get("ensemble"), dict):
+                for k in list(d["ensemble"]):
+                    if k == "generator" or (k != "specs" and c.choice([True, True, False])):
+                        del d["ensemble"][k]
+                if v == "specs":
+                    for i in range(c.integer(1, 2)):
+                        files[f"specs/m{i}.toml"] = random_mutant(c, max_mutations=1, bases=("cycle8", "random-10-2-s0")).text.encode()
+            descs.append(f"set {'.'.join(key)} = {_short(v)}")
+        elif how == "generic":
+            descs.append(c.choice([_m_drop_key, _m_type_change, _m_duplicate_item])(d, c))
+        else:
+            depth = c.choice([50, 900, 10_000])
+            d.setdefault("ensemble", {})["agents"] = RawToml("[" * depth + "10" + "]" * depth) if isinstance(d.get("ensemble"), dict) else 1
+            descs.append(f"agents nested {depth} deep")
+    try:
+        text = toml_dumps(d)
+    except (TypeError, ValueError, RecursionError):
+        text = toml_dumps(copy.deepcopy(SWEEP_BASE))
+    name = c.choice(["sw.toml", "sw.toml", "sw.csv"])
+    files[name] = text.encode()
+    out = c.choice(["res.csv", "res.csv", "res.parquet", "sub/res.csv"])
+    argv = ["sweep", name, "--out", out]
+    if c.choice([True, False]):
+        argv.append("--quiet")
+    if c.choice([True, False]):
+        argv.append("--no-figures")
+    if c.choice([True, False]):
+        argv += ["--workers", c.choice(["1", "2", "4"])]
+    if c.integer(0, 6) == 0:  # one bad option (the sweep file is then never read)
+        bad = c.choice([["--workers", c.choice(["0", "-3", "x"])], ["--chunk", c.choice(["0", "-1", "10000000000"])], ["--out", c.choice(["res.txt", name, ""])]])
+        argv += bad
+        descs.append(" ".join(bad))
+    return Case("sweep", "sweep", argv, files, protected=[name] + [k for k in files if k.startswith("specs/")], description="; ".join(descs))
+
+
+# ---------------------------------------------------------------------------------------------
+# command-line options
+
+NUMBERS = ["0", "-1", "1", "2", "1e-300", "1e308", "inf", "-inf", "nan", "abc", "", "1e16", "9" * 400, "0x10", "1_000", "1e-9", "0.5"]
+INTEGERS = ["0", "-1", "1", "2", "3", "1000000000", "9" * 400, "abc", "", "1.5", "-0"]
+IDS = ["privacy.*", "nope", "", ",,,", "privacy.kernel,nope", "switching.*", "local.uio", "*", "privacy.", "stealthy.zda,stealthy.zda"]
+AGENTS = ["1,2", "99", "", ",", "ノード", "1,1", "1", "a b", "-1"]
+OPTIONS: dict[str, list[tuple[str, list[str] | None]]] = {
+    "verify": [("--format", ["json", "markdown", "html", "pdf", ""]), ("--only", IDS), ("--require", IDS), ("--rtol", NUMBERS), ("--band", NUMBERS),
+               ("--simulate", ["auto", "never", "always", "x"]), ("--escalate", ["auto", "never", ""]), ("--exact-budget", NUMBERS),
+               ("--fragile-below", NUMBERS), ("--exact", None), ("--quiet", None), ("--velocities", AGENTS), ("--allow-large", None)],
+    "audit": [("--max-attackers", INTEGERS), ("--agents", AGENTS), ("--sensors", AGENTS), ("--format", ["json", "markdown", "html", "x"]),
+              ("--growth", ["full", "verdict", "x"]), ("--chunk", INTEGERS), ("--workers", ["1", "2", "0", "-1", "64", "x"]),
+              ("--scheduler", ["xyz", "tcp://127.0.0.1:1", "tcp://[::1", "", "tls://127.0.0.1:1"]), ("--exact", None), ("--quiet", None),
+              ("--dashboard", ["127.0.0.1:0", ":x", "999999"])],
+    "design": [("--budget", INTEGERS), ("--max-links", INTEGERS), ("--max-attackers", INTEGERS), ("--no-observers", None), ("--numeric", None),
+               ("--quiet", None)],
+    "place-observers": [("--cluster", ["A", "nope", "", "B"]), ("--suspected", ["attack", "interior", "all", "1,2", "99", "", "x"]),
+                        ("--exact-limit", INTEGERS), ("--format", ["toml", "json", "x"]), ("--quiet", None)],
+    "simulate": [("--mode", ["s1", "nope", "..", "", "normal"]), ("--no-switch", None), ("--trigger", ["auto", "schedule", "local", "x"]),
+                 ("--method", ["auto", "dense", "modal", "x"]), ("--threshold", ["envelope", "calibrated", "x"]), ("--cases", None), ("--quiet", None)],
+    "draw": [("--mode", ["s1", "nope", "..", "", "normal"])],
+    "findings": [("--dir", ["specs", "nonexistent", ".", ""])],
+    "example": [],
+    "conditions": [],
+}
+
+
+def options_case(c: Chooser) -> Case:
+    """A command with 1-3 options set to values at and beyond their domains."""
+    command = c.choice(list(OPTIONS))
+    files = {"spec.toml": _spec_text("cycle8")}
+    argv: list[str] = []
+    if c.choice([False, False, False, True]):
+        argv += ["--threads", c.choice(INTEGERS)]
+    argv.append(command)
+    if command in ("verify", "audit", "design", "place-observers", "simulate", "draw"):
+        argv.append("spec.toml")
+    if command == "simulate":
+        argv += ["--no-figures", "--out", "sim"]
+    if command == "findings":
+        files["specs/m0.toml"] = random_mutant(c, max_mutations=1, bases=("cycle8",)).text.encode()
+    if command == "example":
+        argv.append(c.choice(["paper19", "nope", "", "../x", "--list"]))
+    pool = OPTIONS[command]
+    for _ in range(c.integer(1, 3) if pool else 0):
+        opt, values = c.choice(pool)
+        argv.append(opt)
+        if values is not None:
+            argv.append(c.choice(values))
+    return Case("options", command, argv, files, protected=list(files), description=" ".join(argv)[:300])
+
+
+# ---------------------------------------------------------------------------------------------
+# output paths
+
+#: (label, argv before the target, option, input files, whether the output is a folder)
+WRITERS: list[tuple[str, list[str], str, bool]] = [
+    ("verify", ["verify", "spec.toml", "--quiet"], "--out", False),
+    ("verify --graph", ["verify", "--graph", "g.txt", "--quiet"], "--out", False),
+    ("audit", ["audit", "spec.toml", "--quiet"], "--out", False),
+    ("audit folder", ["audit", "spec.toml", "--quiet"], "--out", True),
+    ("audit --figure", ["audit", "spec.toml", "--quiet"], "--figure", False),
+    ("design", ["design", "spec.toml", "--quiet"], "--out", False),
+    ("place-observers", ["place-observers", "spec.toml", "--quiet"], "--out", False),
+    ("draw", ["draw", "spec.toml"], "--out", False),
+    ("simulate", ["simulate", "spec.toml", "--no-figures", "--quiet"], "--out", True),
+    ("findings", ["findings", "--dir", "specs"], "--out", False),
+    ("sweep", ["sweep", "sw.csv", "--quiet", "--no-figures"], "--out", False),
+]
+TARGETS = ["input", "./input", "abs-input", "sub/../input", "missing/../input", "hardlink", "symlink-file", "symlink-to-input",
+           "symlinked-folder", "inside-symlinked-folder", "folder-as-file", "file-as-folder", "deep-new", "full-disk", "plain"]
+
+
+def output_case(c: Chooser) -> Case:
+    """A writing command whose output location attacks its inputs or goes through a link."""
+    label, argv, opt, folder = c.choice(WRITERS)
+    files = {"spec.toml": _spec_text("cycle8"), "g.txt": _graph_texts()[".txt"].encode(), "specs/f.toml": _spec_text("cycle8"),
+             "sw.csv": toml_dumps(SWEEP_BASE).encode(), "target.md": b"the link's target\n", "realdir/keep.txt": b"keep\n", "f.txt": b"a file\n"}
+    inp = {"sweep": "sw.csv", "findings": "specs/f.toml", "verify --graph": "g.txt"}.get(label, "spec.toml")
+    target = c.choice(TARGETS)
+    setup: list[tuple[str, ...]] = [("mkdir", "d")]
+    forbidden: list[str] = []
+    fsize = None
+    suffix = ".csv" if label == "sweep" else (".svg" if label == "audit --figure" else ".md")
+    if target == "input":
+        out = inp
+    elif target == "./input":
+        out = "./" + inp
+    elif target == "abs-input":
+        out = "{work}/" + inp
+    elif target == "sub/../input":
+        setup.append(("mkdir", "sub"))
+        out = "sub/../" + inp
+    elif target == "missing/../input":
+        out = "missing/../" + inp
+    elif target == "hardlink":
+        setup.append(("hardlink", "hl" + suffix, inp))
+        out = "hl" + suffix
+    elif target == "symlink-file":
+        setup.append(("symlink", "link" + suffix, "target.md"))
+        out = "link" + suffix
+    elif target == "symlink-to-input":
+        setup.append(("symlink", "lnk" + suffix, inp))
+        out = "lnk" + suffix
+    elif target in ("symlinked-folder", "inside-symlinked-folder"):
+        setup.append(("symlink", "ldir", "realdir"))
+        forbidden.append("realdir")
+        out = "ldir" if (folder or target == "symlinked-folder") else "ldir/out" + suffix
+        if folder and target == "inside-symlinked-folder":
+            out = "ldir/sub"
+        if label == "audit folder" and out == "ldir":
+            out = "ldir/"
+    elif target == "folder-as-file":
+        out = "d"
+    elif target == "file-as-folder":
+        out = "f.txt" + ("/" if label == "audit folder" else "") if folder else "f.txt/out" + suffix
+    elif target == "deep-new":
+        out = "a/b/c/" + ("" if folder else "out" + suffix)
+    elif target == "full-disk":
+        fsize = c.choice([0, 100, 3000])
+        out = "full/" + ("" if folder else "out" + suffix)
+    else:
+        out = "out/" if folder else "out" + suffix
+    if label == "audit folder" and not out.endswith("/") and target in ("deep-new", "plain", "full-disk"):
+        out += "/"
+    protected = ["spec.toml", "g.txt", "specs/f.toml", "sw.csv", "target.md", "f.txt"]
+    return Case("output", label, argv + [opt, out], files, setup, protected, forbidden, fsize=fsize, description=f"{label}: {opt} {out} ({target})")
+
+
+# ---------------------------------------------------------------------------------------------
+# signals at random moments
+
+_MID_SWEEP = {"ensemble": {"generator": "random-clustered", "agents": [80], "clusters": 3, "seeds": {"start": 0, "count": 6}}}
+
+
+def _escalating_spec() -> bytes:
+    from glocal_verify.design.generators import random_clustered_spec
+    from glocal_verify.spec.writer import dump_spec
+
+    return dump_spec(random_clustered_spec(80, 3, seed=100)).encode()  # its stealthy.zda escalates (a forked exact run)
+
+
+#: (label, argv, files maker, longest useful moment of the signal in seconds)
+SIGNALLED: list[tuple[str, list[str], Callable[[], dict[str, bytes]], float]] = [
+    ("verify", ["verify", "--example", "paper19", "--out", "r.md"], dict, 3.0),
+    ("verify escalating", ["verify", "esc.toml", "--simulate", "never", "--out", "r.md"], lambda: {"esc.toml": _escalating_spec()}, 14.0),
+    ("verify --exact", ["verify", "spec.toml", "--exact", "--out", "r.json", "--format", "json"], lambda: {"spec.toml": _spec_text("random-14-3-s2")}, 2.5),
+    ("simulate --cases", ["simulate", "--example", "paper19", "--cases", "--out", "cases"], dict, 15.0),
+    ("audit", ["audit", "--example", "paper19", "--workers", "2", "--out", "a/"], dict, 3.0),
+    ("design", ["design", "spec.toml", "--out", "d.toml"], lambda: {"spec.toml": _spec_text("cycle8")}, 3.5),
+    ("sweep on Dask", ["sweep", "sw.toml", "--out", "r.csv"], lambda: {"sw.toml": toml_dumps(_MID_SWEEP).encode()}, 16.0),
+    ("sweep in process", ["sweep", "sw.toml", "--out", "r.csv"], lambda: {"sw.toml": toml_dumps(SWEEP_BASE).encode()}, 2.8),
+    ("place-observers", ["place-observers", "--example", "paper19", "--out", "p.toml"], dict, 2.5),
+]
+STOP_LINES = {signal.SIGINT: "glocal-verify: interrupted", signal.SIGTERM: "glocal-verify: terminated (SIGTERM)", signal.SIGHUP: "glocal-verify: hung up (SIGHUP)"}
+
+
+def signal_case(c: Chooser) -> Case:
+    """A command stopped by SIGINT (to its process group, as a terminal does), SIGTERM or SIGHUP."""
+    label, argv, make, longest = c.choice(SIGNALLED)
+    sig = c.choice([signal.SIGINT, signal.SIGTERM, signal.SIGHUP])
+    at = round(0.2 + (longest - 0.2) * c.integer(0, 1000) / 1000.0, 2)
+    files = make()
+    return Case("signal", label, list(argv), files, protected=list(files), signal=(int(sig), at), description=f"{label}: {signal.Signals(sig).name} after {at} s")
+
+
+CASE_MAKERS: dict[str, Callable[[Chooser], Case]] = {"graph": graph_case, "sweep": sweep_case, "options": options_case, "output": output_case, "signal": signal_case}
+
+
+def spec_case(c: Chooser, command: str | None = None, bases: Sequence[str] | None = None) -> Case:
+    """A mutated spec through one of :data:`COMMANDS` (the first campaign, as a Case)."""
+    m = random_mutant(c, bases=bases)
+    cmd = command or c.choice(list(COMMANDS))
+    return Case("spec", cmd, command_argv(cmd, "spec.toml", "."), {"spec.toml": m.text.encode()}, protected=["spec.toml"], description=m.description[:2000])
+
+
+def random_case(c: Chooser, kind: str, *, bases: Sequence[str] | None = None) -> Case:
+    return spec_case(c, bases=bases) if kind == "spec" else CASE_MAKERS[kind](c)
+
+
+# ---------------------------------------------------------------------------------------------
+# running a case and checking the output policy
+
+
+def _prepare(case: Case, work: Path) -> None:
+    for name, data in case.files.items():
+        p = work / name
+        p.parent.mkdir(parents=True, exist_ok=True)
+        p.write_bytes(data)
+    for op in case.setup:
+        if op[0] == "mkdir":
+            (work / op[1]).mkdir(parents=True, exist_ok=True)
+        elif op[0] == "symlink":
+            (work / op[2]).parent.mkdir(parents=True, exist_ok=True)
+            os.symlink(op[2], work / op[1])
+        elif op[0] == "hardlink":
+            os.link(work / op[2], work / op[1])
+
+
+def _snapshot(case: Case, work: Path) -> dict[str, Any]:
+    snap: dict[str, Any] = {"files": {}, "links": {}, "forbidden": {}, "dirs": set()}
+    for name in case.protected:
+        p = work / name
+        if p.exists() and not p.is_symlink():
+            snap["files"][name] = hashlib_sha(p.read_bytes())
+    for op in case.setup:
+        if op[0] == "symlink":
+            snap["links"][op[1]] = op[2]
+    for name in case.forbidden:
+        snap["forbidden"][name] = sorted(str(q.relative_to(work / name)) for q in (work / name).rglob("*"))
+    snap["dirs"] = {str(q.relative_to(work)) for q in work.rglob("*") if q.is_dir() and not q.is_symlink()}
+    return snap
+
+
+def hashlib_sha(data: bytes) -> str:
+    import hashlib
+
+    return hashlib.sha256(data).hexdigest()
+
+
+def check_policy(case: Case, work: Path, snap: dict[str, Any], rc: int | None) -> str | None:
+    """The first output-policy violation of a finished run, or None."""
+    for name, digest in snap["files"].items():
+        p = work / name
+        if p.is_symlink() or not p.is_file() or hashlib_sha(p.read_bytes()) != digest:
+            return "overwrote-input"
+    for link, target in snap["links"].items():
+        p = work / link
+        if not p.is_symlink() or os.readlink(p) != target:
+            return "symlink-write"
+    for name, listing in snap["forbidden"].items():
+        if sorted(str(q.relative_to(work / name)) for q in (work / name).rglob("*")) != listing:
+            return "symlink-write"
+    for q in work.rglob("*"):
+        if _PARTIAL in q.name:
+            return "partial-left"
+    if rc not in (0, 1):
+        new_dirs = {str(q.relative_to(work)) for q in work.rglob("*") if q.is_dir() and not q.is_symlink()} - snap["dirs"]
+        if any(not any((work / d).iterdir()) for d in new_dirs):
+            return "empty-folder"
+    return None
+
+
+def _session_survivors(sid: int) -> list[str]:
+    out = []
+    for d in os.listdir("/proc"):
+        if not d.isdigit():
+            continue
+        try:
+            if os.getsid(int(d)) != sid:
+                continue
+            with open(f"/proc/{d}/stat") as fh:
+                state = fh.read().rsplit(")", 1)[1].split()[0]
+            if state != "Z":
+                with open(f"/proc/{d}/cmdline", "rb") as fh:
+                    cmd = fh.read().replace(b"\0", b" ").decode(errors="replace")[:120]
+                out.append(f"{d}: {cmd}")
+        except (OSError, IndexError):
+            continue
+    return out
+
+
+def _run_signalled(case: Case, work: Path, timeout_s: float) -> RunResult:
+    """Run the case as a real process in its own session and send it its signal."""
+    import subprocess
+
+    assert case.signal is not None
+    sig, at = case.signal
+    env = dict(os.environ)
+    env["PYTHONPATH"] = str(ROOT) + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+    argv = [a.replace("{work}", str(work)) for a in case.argv]
+    t0 = time.monotonic()
+    p = subprocess.Popen([sys.executable, "-m", "glocal_verify.cli", *argv], cwd=work, env=env, stdin=subprocess.DEVNULL,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # noqa: PLW1509 - one thread here
+    try:
+        out, err = p.communicate(timeout=at)
+    except subprocess.TimeoutExpired:
+        try:
+            os.killpg(p.pid, sig) if sig == signal.SIGINT else os.kill(p.pid, sig)
+        except ProcessLookupError:
+            pass
+        try:
+            out, err = p.communicate(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(p.pid, signal.SIGKILL)
+            out, err = p.communicate()
+            return RunResult("hang", None, out.decode(errors="replace"), err.decode(errors="replace"), "FuzzTimeout", f"still running {timeout_s:g} s after the signal", elapsed=time.monotonic() - t0)
+    elapsed = time.monotonic() - t0
+    text = err.decode(errors="replace")
+    time.sleep(1.5)  # children that die with their parent need a moment to be gone
+    alive = _session_survivors(p.pid)
+    for line in alive:
+        with contextlib.suppress(ProcessLookupError, ValueError):
+            os.kill(int(line.split(":", 1)[0]), signal.SIGKILL)
+    if alive:
+        return RunResult("survivor", p.returncode, out.decode(errors="replace"), text + "\n" + "\n".join(alive), "survivor", alive[0], elapsed=elapsed)
+    lines = [ln for ln in text.splitlines() if ln.strip()]
+    noisy = [ln for ln in lines if any(w in ln for w in ("Traceback", "Warning", "Exception", "warnings.warn"))]
+    if "Traceback" in text:
+        outcome = "traceback"
+    elif noisy:
+        outcome = "multi-line"
+    elif p.returncode in (0, 1):
+        outcome = "ok"
+    elif p.returncode == -sig and (not lines or lines[-1].startswith("wrote ")):
+        # the signal came before the command started or after it had finished (its output
+        # written): the signal's default action ended the interpreter, nothing was cut short
+        outcome = "ok"
+    elif p.returncode == 128 + sig:
+        outcome = "clean-error" if lines and lines[-1] == STOP_LINES[sig] else "multi-line"
+    elif p.returncode == 2:
+        outcome = "clean-error" if len(lines) <= MAX_ERROR_LINES or lines[-1].startswith("glocal-verify: error") else "multi-line"
+    else:
+        outcome = "bad-exit"
+    return RunResult(outcome, p.returncode, out.decode(errors="replace")[:2000], text[-20000:], elapsed=elapsed)
+
+
+def run_case(case: Case, timeout_s: float = 60.0, *, memory_bytes: int | None = 4 << 30,
+             runner: Callable[[list[str], float, Path, int | None], RunResult] | None = None) -> RunResult:
+    """Run ``case`` in a fresh work folder and check the output policy after it.
+
+    ``runner(argv, timeout, work, fsize)`` runs a case without a signal (default: a forked
+    child of this process, :func:`run_cli`); a case with a signal always runs as a real
+    process in its own session (:func:`_run_signalled`).
+    """
+    with tempfile.TemporaryDirectory(prefix="glocal-fuzz-") as tmp:
+        work = Path(tmp)
+        _prepare(case, work)
+        snap = _snapshot(case, work)
+        if case.signal is not None:
+            res = _run_signalled(case, work, timeout_s)
+        else:
+            argv = [a.replace("{work}", str(work)) for a in case.argv]
+            if runner is not None:
+                res = runner(argv, timeout_s, work, case.fsize)
+            else:
+                res = run_cli(argv, timeout_s, fork=True, memory_bytes=memory_bytes, cwd=str(work), fsize=case.fsize)
+        violation = check_policy(case, work, snap, res.rc) if res.outcome not in ("hang", "crash") else None
+        with contextlib.suppress(OSError):  # a run may leave read-only folders
+            for q in work.rglob("*"):
+                if q.is_dir() and not q.is_symlink():
+                    os.chmod(q, 0o755)
+    if violation is not None:
+        res.outcome = violation
+    return res

@@ -2,8 +2,12 @@
 
 Exit codes: 0 report written; 1 a condition named in ``--require`` fails or is undecided;
 2 bad input or usage (one line on stderr, no traceback); 130 interrupted (Ctrl-C: one line
-``glocal-verify: interrupted``; outputs are written atomically, so nothing partial is left).
-Every ``--out`` prints ``wrote <path>`` on stderr.
+``glocal-verify: interrupted``), 143 terminated (``SIGTERM``) and 129 hung up (``SIGHUP``),
+each with one line; outputs are written atomically, so nothing partial is left, and every
+child process ends with the command (:mod:`glocal_verify.runtime.processes`); 141 when the
+reader of standard output went away (``| head``); 70 an internal error (a bug: please report).
+Every ``--out`` prints ``wrote <path>`` on stderr; unless ``--quiet``, a command silent for
+10 s says it is still working (:mod:`.heartbeat`).
 
 One module per group of subcommands, each with a ``register(subparsers)`` function, listed in
 :data:`COMMAND_MODULES`; :mod:`.common` holds what they share.
@@ -13,6 +17,8 @@ Layer: the top; imports the library, and nothing imports it.
 
 from __future__ import annotations
 
+from types import MappingProxyType
+
 import importlib
 import os
 import sys
@@ -21,12 +27,21 @@ from typing import Sequence
 
 from glocal_verify import __version__
 from glocal_verify.cli.common import PROG, Parser, UsageError
+from glocal_verify.cli.heartbeat import Heartbeat
 from glocal_verify.errors import GlocalVerifyError
+from glocal_verify.runtime.processes import Stopped, signal_name, stop_on_signals
 
 __all__ = ["main", "build_parser", "COMMAND_MODULES"]
 
 #: exit code of an internal error (a bug, never the user's input): EX_SOFTWARE of sysexits.h
 INTERNAL_ERROR = 70
+#: most BLAS threads ``--threads`` accepts (threadpoolctl passes the count to C as an int)
+MAX_THREADS = 4096
+#: exit code when standard output is closed by its reader (128 + SIGPIPE, as a shell reports it)
+BROKEN_PIPE = 141
+
+#: the one line printed for each stop signal
+_STOP_LINES = MappingProxyType({"SIGINT": "interrupted", "SIGTERM": "terminated (SIGTERM)", "SIGHUP": "hung up (SIGHUP)"})
 
 #: modules of this package that add subcommands, in the order ``--help`` lists them
 COMMAND_MODULES = ("verify", "placement", "simulate", "audit", "design", "sweep", "draw", "export")
@@ -43,30 +58,59 @@ def build_parser() -> Parser:
     return p
 
 
+def _say(line: str) -> None:
+    """One line on stderr, if stderr is still there (after a hang-up it may not be)."""
+    try:
+        print(f"{PROG}: {line}", file=sys.stderr, flush=True)
+    except (OSError, ValueError):
+        pass
+
+
+def _stop_line(signum: int) -> str:
+    name = signal_name(signum)
+    return _STOP_LINES.get(name, f"stopped ({name})")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); return the exit code."""
     warnings.simplefilter("ignore", RuntimeWarning)  # overflow notes of numpy: a verdict says what they mean
     try:
+        with stop_on_signals(on_force=lambda signum: _say(f"{_stop_line(signum)} again: stopped at once")):
+            return _run(argv)
+    except Stopped as exc:  # a signal between the handlers' installation and _run's own handling
+        _say(_stop_line(exc.signum))
+        return exc.exit_code
+
+
+def _run(argv: Sequence[str] | None) -> int:
+    try:
         parser = build_parser()
         args = parser.parse_args(argv)
         if args.threads is not None:
-            if args.threads < 1:
-                raise UsageError(f"--threads: must be at least 1, not {args.threads}")
+            if not 1 <= args.threads <= MAX_THREADS:
+                raise UsageError(f"--threads: must be between 1 and {MAX_THREADS}, not {str(args.threads)[:40]}")
             from glocal_verify.numerics.threads import set_default_threads
 
             set_default_threads(args.threads)
         if not getattr(args, "func", None):
             parser.print_help(sys.stderr)
             return 2
-        return int(args.func(args))
+        with Heartbeat(PROG, args.command, enabled=not getattr(args, "quiet", False)):
+            return int(args.func(args))
     except GlocalVerifyError as exc:
         print(f"{PROG}: error: {exc}", file=sys.stderr)
         return 2
     except SystemExit as exc:  # --help, --version
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
+    except Stopped as exc:
+        _say(_stop_line(exc.signum))
+        return exc.exit_code
     except KeyboardInterrupt:
-        print(f"{PROG}: interrupted", file=sys.stderr)
+        _say("interrupted")
         return 130
+    except BrokenPipeError:  # the reader of stdout went away (| head): nothing more to say
+        _silence_stdout()
+        return BROKEN_PIPE
     except MemoryError:
         print(f"{PROG}: error: out of memory: the problem is too large for this machine (the size limits are explained in docs/performance.md of the glocal-verify source, \"Size limits and estimates\")", file=sys.stderr)
         return 2
@@ -76,6 +120,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         first = str(exc).splitlines()[0][:200] if str(exc) else ""
         print(f"{PROG}: internal error ({type(exc).__name__}: {first}); please report it (GLOCAL_DEBUG=1 shows the traceback)", file=sys.stderr)
         return INTERNAL_ERROR
+
+
+def _silence_stdout() -> None:
+    """Point stdout at the null device, so that the interpreter's last flush stays quiet."""
+    try:
+        fd = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(fd, sys.stdout.fileno())
+        os.close(fd)
+    except (OSError, ValueError, AttributeError):  # captured or replaced stdout: no descriptor
+        pass
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -2,13 +2,30 @@
 
 from __future__ import annotations
 
+from types import MappingProxyType
+
 import argparse
+import contextlib
 import json
+import os
 import sys
 from pathlib import Path
 from typing import Any, Callable
 
-from glocal_verify.cli.common import UsageError, add_allow_large, check_cost, load_system, write_output
+from glocal_verify.cli.common import (
+    PROG,
+    UsageError,
+    add_allow_large,
+    add_dask_options,
+    check_cost,
+    check_out_dir,
+    check_out_file,
+    load_system,
+    spec_inputs,
+    write_output,
+    wrote,
+)
+from glocal_verify.reporting.output import check_output_file
 
 __all__ = ["register"]
 
@@ -94,10 +111,36 @@ def _progress(quiet: bool, unit: str = "attack sets") -> Callable[[int, int], No
     return tick
 
 
+def _audit_outputs(args: argparse.Namespace) -> tuple[Path | None, list[str]]:
+    """Check ``--out`` and ``--figure`` before the audit: (the output folder or None, inputs)."""
+    inputs = spec_inputs(args)
+    out_dir = Path(args.out) if args.out and (Path(args.out).is_dir() or args.out.endswith(("/", os.sep))) else None
+    if out_dir is not None:
+        check_out_dir(out_dir, inputs=inputs)
+        for name in (_REPORT_NAMES.get(args.format, "audit.md"), "audit.svg", "audit.png"):
+            check_output_file(out_dir / name, inputs=inputs)
+    elif args.out:
+        check_out_file(args)
+    if args.figure:
+        if Path(args.figure).suffix.lower() not in (".svg", ".png"):
+            raise UsageError(f"--figure: {args.figure} must end in .svg or .png")
+        check_output_file(args.figure, inputs=inputs, what="--figure")
+    return out_dir, inputs
+
+
+#: the report's file name in an output folder, by format
+_REPORT_NAMES = MappingProxyType({"json": "audit.json", "html": "audit.html", "markdown": "audit.md"})
+
+
 def cmd_audit(args: argparse.Namespace) -> int:
     from glocal_verify.design.audit import audit
-    from glocal_verify.design.audit_figure import audit_figure
+    from glocal_verify.design.audit_figure import audit_figure_bytes
 
+    if args.workers is not None and args.workers < 1:
+        raise UsageError("--workers must be at least 1")
+    if args.chunk < 1:
+        raise UsageError(f"--chunk: must be at least 1, not {args.chunk}")
+    out_dir, inputs = _audit_outputs(args)  # a bad --out fails before the audit
     system = load_system(args)
     if args.max_attackers < 1:
         raise UsageError(f"--max-attackers: must be at least 1, not {args.max_attackers}")
@@ -106,22 +149,26 @@ def cmd_audit(args: argparse.Namespace) -> int:
     n_cand = len(cands) if cands is not None else system.n
     if args.max_attackers > n_cand:
         raise UsageError(f"--max-attackers: {args.max_attackers} is larger than the number of candidate agents ({n_cand})")
-    from glocal_verify.conditions.cost import SpecSizes, estimate_audit
+    from glocal_verify.conditions.cost import C_START, SpecSizes, estimate_audit, format_seconds
+    from glocal_verify.design.distributed import DaskExecutor, workers_pay_off
 
+    sizes = SpecSizes.from_spec(system.spec)
+    serial = estimate_audit(sizes, args.max_attackers, n_cand, exact=args.exact)
+    local = not args.scheduler and (args.workers is None or not workers_pay_off(serial.seconds - C_START, args.workers))
     # a remote --scheduler's size is unknown here: the estimate counts one worker
-    est = estimate_audit(SpecSizes.from_spec(system.spec), args.max_attackers, n_cand, exact=args.exact, workers=max(1, args.workers or 1))
+    est = serial if local else estimate_audit(sizes, args.max_attackers, n_cand, exact=args.exact, workers=args.workers or 1)
     check_cost(est, args, how=("fewer --agents, a smaller --max-attackers or more --workers",))
-    executor = None
-    if args.scheduler or args.workers:
-        from glocal_verify.design.distributed import dask_executor
-
-        if args.workers is not None and args.workers < 1:
-            raise UsageError("--workers must be at least 1")
-        executor = dask_executor(args.scheduler, args.workers or 2, progress=_progress(args.quiet, "tasks"))
+    if args.workers and local and not args.quiet:
+        print(f"audit: estimated {format_seconds(serial.seconds)} in this process: {args.workers} workers would not pay off; running here", file=sys.stderr, flush=True)
+    executor: Any = None
+    if not local:
+        notice = lambda line: print(f"{PROG}: {line}", file=sys.stderr, flush=True)  # noqa: E731
+        executor = DaskExecutor(args.scheduler, args.workers or 2, _progress(args.quiet, "tasks"), dashboard=args.dashboard, notice=notice)
     progress = _progress(args.quiet)
-    result = audit(
-        system, args.max_attackers, cands, sensors, progress, exact=args.exact, growth=args.growth, chunk_size=args.chunk, executor=executor
-    )
+    with executor if executor is not None else contextlib.nullcontext():
+        result = audit(
+            system, args.max_attackers, cands, sensors, progress, exact=args.exact, growth=args.growth, chunk_size=args.chunk, executor=executor
+        )
     if args.format == "json":
         text = json.dumps(result.to_json(), indent=2) + "\n"
     elif args.format == "html":
@@ -130,16 +177,21 @@ def cmd_audit(args: argparse.Namespace) -> int:
         text = audit_to_html(result)
     else:
         text = result.to_markdown()
-    out_dir = Path(args.out) if args.out and (Path(args.out).is_dir() or args.out.endswith("/")) else None
     if out_dir is not None:
-        name = {"json": "audit.json", "html": "audit.html"}.get(args.format, "audit.md")
-        write_output(text, str(out_dir / name))
-        audit_figure(result, out_dir / "audit.svg")
-        audit_figure(result, out_dir / "audit.png")
+        from glocal_verify.reporting.output import OutputFolder
+
+        with OutputFolder(out_dir, inputs=inputs) as folder:
+            folder.write_text(_REPORT_NAMES.get(args.format, "audit.md"), text)
+            folder.write_bytes("audit.svg", audit_figure_bytes(result, "svg"))
+            folder.write_bytes("audit.png", audit_figure_bytes(result, "png"))
+        for path in folder.written:
+            wrote(path)
     else:
-        write_output(text, args.out)
+        write_output(text, args.out, inputs=inputs)
     if args.figure:
-        audit_figure(result, args.figure)
+        from glocal_verify.reporting.output import write_bytes_atomic
+
+        wrote(write_bytes_atomic(args.figure, audit_figure_bytes(result, Path(args.figure).suffix.lstrip(".").lower())))
     return 0
 
 
@@ -156,7 +208,7 @@ def register(sub: Any) -> None:
     p.add_argument("--out", metavar="F", help="file, or a folder (then audit.json|md|html, audit.svg and audit.png are written)")
     p.add_argument("--figure", metavar="FILE", help="also write the figure (.svg or .png)")
     p.add_argument("--scheduler", metavar="ADDRESS", help="run the chunks on this Dask scheduler (e.g. tcp://127.0.0.1:8786)")
-    p.add_argument("--workers", type=int, metavar="N", help="run the chunks on an embedded Dask LocalCluster of N workers")
+    p.add_argument("--workers", type=int, metavar="N", help="run the chunks on an embedded Dask LocalCluster of N workers (when the estimate says they pay off; else in this process)")
     p.add_argument(
         "--growth",
         choices=("full", "verdict"),
@@ -166,4 +218,5 @@ def register(sub: Any) -> None:
     p.add_argument("--chunk", type=int, default=200, metavar="M", help="attack sets per task (default 200)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     add_allow_large(p)
+    add_dask_options(p)
     p.set_defaults(func=cmd_audit)

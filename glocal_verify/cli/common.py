@@ -26,6 +26,7 @@ __all__ = [
     "wrote",
     "write_output",
     "add_allow_large",
+    "add_dask_options",
     "check_cost",
 ]
 
@@ -70,17 +71,19 @@ def spec_inputs(args: argparse.Namespace) -> list[str]:
     return [str(x) for x in (getattr(args, "spec", None), getattr(args, "graph", None)) if x]
 
 
-def check_out_file(args: argparse.Namespace) -> None:
-    """Check ``args.out`` (a file) before computing: not a symbolic link, not an input, in a
-    writable folder (:func:`~glocal_verify.reporting.output.check_output_file`)."""
+def check_out_file(args: argparse.Namespace, *, inputs: Iterable[str] = ()) -> None:
+    """Check ``args.out`` (a file) before computing: not a symbolic link, not an input (the
+    SPEC, ``--graph`` and ``inputs``), in a writable folder
+    (:func:`~glocal_verify.reporting.output.check_output_file`)."""
     out = getattr(args, "out", None)
     if out:
-        check_output_file(out, inputs=spec_inputs(args))
+        check_output_file(out, inputs=[*spec_inputs(args), *inputs])
 
 
-def check_out_dir(path: str | Path) -> Path:
-    """Check an output folder before computing (:func:`~glocal_verify.reporting.output.check_output_dir`)."""
-    return check_output_dir(path)
+def check_out_dir(path: str | Path, *, inputs: Iterable[str] = ()) -> Path:
+    """Check an output folder before computing (:func:`~glocal_verify.reporting.output.check_output_dir`):
+    not a symbolic link, not an input, writable."""
+    return check_output_dir(path, inputs=inputs)
 
 
 def wrote(path: str | Path) -> None:
@@ -121,6 +124,23 @@ def add_allow_large(parser: argparse.ArgumentParser) -> None:
     parser : argparse.ArgumentParser
     """
     parser.add_argument("--allow-large", action="store_true", help=ALLOW_LARGE_HELP)
+
+
+#: the dashboard address of ``--dashboard`` given without one
+DASHBOARD_DEFAULT = "127.0.0.1:8787"
+
+
+def add_dask_options(parser: argparse.ArgumentParser) -> None:
+    """Add ``--dashboard [ADDRESS]`` (the embedded Dask cluster's dashboard; none by default).
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+    """
+    parser.add_argument(
+        "--dashboard", nargs="?", const=DASHBOARD_DEFAULT, metavar="ADDRESS",
+        help=f"serve the embedded Dask cluster's dashboard (default address {DASHBOARD_DEFAULT}; another port when it is taken)",
+    )
 
 
 def check_cost(est: CostEstimate, args: argparse.Namespace, *, how: Iterable[str] = ()) -> None:

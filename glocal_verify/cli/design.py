@@ -6,7 +6,7 @@ import argparse
 import sys
 from typing import Any
 
-from glocal_verify.cli.common import PROG, UsageError, add_allow_large, check_cost, load_system, write_output
+from glocal_verify.cli.common import PROG, UsageError, add_allow_large, check_cost, check_out_file, load_system, spec_inputs, write_output
 
 __all__ = ["register"]
 
@@ -27,6 +27,7 @@ def _assessment_lines(system: Any, label: str, exact: bool) -> list[str]:
 def cmd_design(args: argparse.Namespace) -> int:
     from glocal_verify.design.network import design_comments, design_network
 
+    check_out_file(args)  # a bad --out (the input spec, a symbolic link) fails before the design
     system = load_system(args)
     if args.budget < 1:
         raise UsageError(f"--budget: must be at least 1 safe mode, not {args.budget}")
@@ -39,14 +40,15 @@ def cmd_design(args: argparse.Namespace) -> int:
     exact = not args.numeric and system.n <= 60
     est = estimate_design(SpecSizes.from_spec(system.spec), max_attackers=args.max_attackers, place=not args.keep_observers, exact_assessment=exact)
     check_cost(est, args, how=("a smaller --max-attackers",))
-    if not args.quiet:
-        print("auditing, placing observers, designing safe modes ...", file=sys.stderr)
-    d = design_network(system, budget=args.budget, max_attackers=args.max_attackers, place=not args.keep_observers, max_links=args.max_links)
+    say = None if args.quiet else (lambda line: print(f"design: {line} ...", file=sys.stderr, flush=True))
+    d = design_network(system, budget=args.budget, max_attackers=args.max_attackers, place=not args.keep_observers, max_links=args.max_links, progress=say)
     from glocal_verify.model import System
     from glocal_verify.spec.writer import dump_spec
 
     text = design_comments(d) + dump_spec(d.spec)
-    write_output(text, args.out)
+    if say is not None:
+        say("assessing the spec before and after")
+    write_output(text, args.out, inputs=spec_inputs(args))
     lines = d.summary() + [f"note: {n}" for n in d.notes]
     lines += _assessment_lines(system, "before", exact)
     lines += _assessment_lines(System(d.spec), "after ", exact)

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 from typing import Any, Callable
 
-from glocal_verify.cli.common import PROG, UsageError, check_out_dir, load_system, wrote
+from glocal_verify.cli.common import PROG, UsageError, check_out_dir, load_system, spec_inputs, wrote
 from glocal_verify.spec.examples import example_names
 
 __all__ = ["register"]
@@ -30,15 +30,16 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
     if args.cases and (args.mode or args.no_switch):
         raise UsageError("--cases simulates every safe mode: drop --mode/--no-switch")
+    inputs = spec_inputs(args)
     if args.out:
-        check_out_dir(args.out)
+        check_out_dir(args.out, inputs=inputs)
     system = load_system(args)
     from glocal_verify.design.placement import connectivity_warnings
 
     for line in connectivity_warnings(system):
         print(f"{PROG}: {line}", file=sys.stderr)
     out = Path(args.out) if args.out else Path(DEFAULT_OUT) / safe_component(system.name)
-    check_out_dir(out)
+    check_out_dir(out, inputs=inputs)
     sim = system.spec.simulation
     # refuse absurd horizons before anything is allocated (the engine checks every run too)
     check_size(estimate_size(system.n, float(sim.horizon), float(sim.step)), allow=args.allow_large)
@@ -51,17 +52,15 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     with allow_large() if args.allow_large else contextlib.nullcontext():
         if args.cases:
             command = " ".join(["glocal-verify simulate"] + ([f"--example {args.example}"] if args.example else [str(args.spec)]) + ["--cases"] + (["--out", str(args.out)] if args.out else []))
-            check_output_dir(out)
             study = run_case_study(system, rule=rule, method=args.method, progress=progress, phase=phase)
-            write_case_study(study, out, command=command, figures=figures, phase=phase)
+            write_case_study(study, out, command=command, figures=figures, phase=phase, inputs=inputs)
             for oc in study.outcomes:
                 det = "detected" if oc.detected else "not detected"
                 agree = "" if oc.agrees is None else ("  (agrees with the paper)" if oc.agrees else "  (DISAGREES with the paper)")
                 print(f"{oc.case.name:10s} {oc.case.system.name:16s} global residual after switch: {oc.observed:10s} {det}{agree}")
         else:
-            check_output_dir(out)
             run = simulate_system(system, mode=args.mode, no_switch=args.no_switch, trigger=args.trigger, rule=rule, method=args.method, progress=progress, phase=phase)
-            write_simulation(system, run, out, figures=figures, phase=phase)
+            write_simulation(system, run, out, figures=figures, phase=phase, inputs=inputs)
             res = run.result
             for e in res.events:
                 print(f"t = {e.time:8.3f}  {e.kind:30s} {e.detail}")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from typing import TYPE_CHECKING, Any, Callable
 
@@ -100,7 +101,9 @@ def cmd_verify(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UsageError(f"--rtol/--band: {exc}") from None
     if not (args.exact_budget >= 0.0):
-        raise UsageError(f"--exact-budget: {args.exact_budget} must be >= 0 seconds (0: no limit)")
+        raise UsageError(f"--exact-budget: {args.exact_budget} must be >= 0 seconds (0 or inf: no limit)")
+    if math.isinf(args.exact_budget):
+        args.exact_budget = 0.0  # no limit
     if not (args.fragile_below >= 0.0):
         raise UsageError(f"--fragile-below: {args.fragile_below} must be >= 0")
     if (args.velocities or args.positions) and not args.graph:
@@ -163,10 +166,13 @@ def cmd_findings(args: argparse.Namespace) -> int:
     from glocal_verify.design.findings import PROOFS_INSTALL, proofs_available, verify_findings
     from glocal_verify.reporting.findings import findings_markdown
 
-    check_out_file(args)
+    from pathlib import Path
+
+    inputs = [str(p) for p in Path(args.dir).glob("*.toml")] if args.dir and Path(args.dir).is_dir() else []
+    check_out_file(args, inputs=inputs)
     if not proofs_available():
         print(f"{PROG}: warning: the proof checks' paper errors are left out of the report: they need sympy ({PROOFS_INSTALL})", file=sys.stderr)
-    write_output(findings_markdown(verify_findings(args.dir)), args.out)
+    write_output(findings_markdown(verify_findings(args.dir)), args.out, inputs=inputs)
     return 0
 
 
@@ -194,7 +200,7 @@ def register(sub: Any) -> None:
         help="run switching.detects (Theorem III.3's conclusion, one simulated switch per safe mode; auto: up to 150 agents)",
     )
     v.add_argument("--escalate", choices=("auto", "never"), default="auto", help="auto (default): re-decide a numeric undecided exactly within --exact-budget")
-    v.add_argument("--exact-budget", type=float, default=30.0, metavar="SECONDS", help="one time budget for all the exact escalations of the run, shared among them (default 30; 0: no limit)")
+    v.add_argument("--exact-budget", type=float, default=30.0, metavar="SECONDS", help="seconds for all exact re-decisions of the run together (default 30; 0 or inf: no limit)")
     v.add_argument("--fragile-below", type=float, default=1e-9, metavar="X", help="mark a verdict fragile when its margin is below X (default 1e-9)")
     v.add_argument("--quiet", action="store_true", help="no progress on stderr")
     add_allow_large(v)

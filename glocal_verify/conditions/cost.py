@@ -162,6 +162,14 @@ C_AUDIT_SET = 2e-4
 C_AUDIT_SET_SQ = 4e-10
 C_AUDIT_SET_INTRA = 4e-4
 C_AUDIT_SET_LOCAL = 4e-9
+#: the safe modes' part of a row: each set is tested against every safe mode that meets
+#: Theorem III.3 (its touch test, the exposing modes of the row), seconds per set and per safe
+#: mode. Measured on random_clustered_spec(60, 3, seed=1) with 15 monitors, k = 2 (1830 sets):
+#: 10 s with 2 safe modes, 114 s with 50, 271 s with 100, i.e. 1.2-1.5 ms per set and mode.
+#: The constants above were fit on specs with cost_calibration_modes safe modes, so only the
+#: modes beyond those count. Safe modes that fail Theorem III.3 cost almost nothing (N = 120
+#: with 20 such modes took no longer than with 2), so this term is an upper estimate there
+C_AUDIT_SET_MODE = 1.5e-3
 #: audit memory: N x N arrays (eigenvectors, minor tables: 136 MB at N = 1000) and bytes per row
 #: held until the report is written: 3.5 kB per row with the shared memo (traced), and the JSON
 #: text and its dict built at the end (9.2 GB peak for 500,500 rows at N = 1000)
@@ -388,7 +396,7 @@ def estimate_verify(
     .. math::
 
         t = C_{start} + [\\text{global}]\\, \\big(T_1 + C_{g,m} S_e N^3 + C_f \\textstyle\\sum_u c_u N^2
-            + C_r N^3 + C_{r,2} N^2\\big)
+            + C_r N^3 + C_{r,2} N^2 + (C_{m,0} + C_{m,2} N^2) \\max(0, S - 2)\\big)
             + [\\texttt{local.uio}] \\sum_i C_{uio} d_i (2 n_i)^3
             + [\\texttt{local.pencil}] \\sum_i C_{pencil} c_i (2 n_i)^3
 
@@ -409,7 +417,8 @@ def estimate_verify(
     design), else :data:`C_UIO` = 6.5e-9. Constants: :data:`C_START` = 3 s,
     :data:`C_EIGH` (``C_e``) = 2.1e-10, :data:`C_FACTOR` (``C_f``) = 8e-8,
     :data:`C_GLOBAL_MODE` = 0.5e-9, :data:`C_GLOBAL_REST` (``C_r``) = 3.3e-11,
-    :data:`C_GLOBAL_REST_SQ` = 5e-7, :data:`C_PENCIL` = 0.6e-10 s, :data:`A_GLOBAL` = 5,
+    :data:`C_GLOBAL_REST_SQ` = 5e-7, ``cost_mode_seconds`` (``C_{m,0}``) = 0.25, ``cost_mode_seconds_sq`` (``C_{m,2}``) = 3.5e-7,
+    :data:`C_PENCIL` = 0.6e-10 s, :data:`A_GLOBAL` = 5,
     :data:`A_GLOBAL_BLOCKS` = 2, :data:`A_GLOBAL_MODE` = 1,
     :data:`A_UIO` = 10 (:data:`A_UIO_MODAL` = 1 for a modal design), :data:`B_BASE` = 300 MiB;
     measured as the module docstring says.
@@ -448,7 +457,7 @@ def estimate_verify(
         else:
             normal = C_EIGH * n3
         phases["global spectra"] = normal + C_GLOBAL_MODE * fresh * n3 + C_FACTOR * sum(updated) * n2
-        phases["global checkers"] = C_GLOBAL_REST * n3 + C_GLOBAL_REST_SQ * n2
+        phases["global checkers"] = C_GLOBAL_REST * n3 + C_GLOBAL_REST_SQ * n2 + (config.get("cost_mode_seconds") + config.get("cost_mode_seconds_sq") * n2) * max(0, S - config.get("cost_calibration_modes"))
     modal_min = config.get("modal_min_agents")
     if uio:
         phases["local.uio"] = sum((C_UIO if exact or m < 2 * modal_min else C_UIO_MODAL) * d * float(m) ** 3 for m, d in _designs(sizes))
@@ -562,7 +571,8 @@ def estimate_audit(sizes: SpecSizes, k: int, candidates: int | None = None, *, e
 
         t = C_{start} + C_{setup} N^3 + \\frac{1}{W}\\Big[M \\big(C_a + C_{a,N} N + C_{a,loc} E_a (2 n_c)^3
             + C_{s,0} + C_s N^3\\big)
-            + \\sum_{j \\ge 2} \\binom{M}{j} \\big(C_{set} + C_{set,2} N^2 + \\pi_j (C_{in} + C_{loc} E_p (2 n_c)^3)\\big)\\Big]
+            + \\sum_{j \\ge 2} \\binom{M}{j} \\big(C_{set} + C_{set,2} N^2 + \\pi_j (C_{in} + C_{loc} E_p (2 n_c)^3)\\big)
+            + C_{mode} R \\max(0, S - 2)\\Big]
 
         m = B_{base} + 8 N^2 A_{audit} + B_{row} R
 
@@ -570,7 +580,8 @@ def estimate_audit(sizes: SpecSizes, k: int, candidates: int | None = None, *, e
     3e-3, :data:`C_AUDIT_AGENT_N` = 1.3e-5, :data:`C_AUDIT_AGENT_LOCAL` = 4.5e-8,
     :data:`C_AUDIT_SINGLE_0` = 5e-3, :data:`C_AUDIT_SINGLE` = 1.2e-9, :data:`C_AUDIT_SET` = 2e-4,
     :data:`C_AUDIT_SET_SQ` = 4e-10, :data:`C_AUDIT_SET_INTRA` = 4e-4, :data:`C_AUDIT_SET_LOCAL`
-    = 4e-9, :data:`C_AUDIT_ROW_OUT` = 2e-4 s (writing each row), :data:`A_AUDIT` = 20,
+    = 4e-9, :data:`C_AUDIT_SET_MODE` (``C_mode``, S safe modes) = 1.5e-3,
+    :data:`C_AUDIT_ROW_OUT` = 2e-4 s (writing each row), :data:`A_AUDIT` = 20,
     :data:`B_AUDIT_ROW` = 18 kB); ``exact`` multiplies the per-set seconds by
     :data:`F_AUDIT_EXACT`. Measured: the whole N = 1000 audit on 50 clusters with JSON output
     took 29 min and 9.2 GB (estimate 27 min, 9.4 GB); N = 200 on 10 clusters 8 s in the
@@ -605,6 +616,7 @@ def estimate_audit(sizes: SpecSizes, k: int, candidates: int | None = None, *, e
         "local verdicts of each candidate": f * per_agent * singles / w,
         "single actuators": f * per_single * singles / w,
         f"{larger} sets of 2..{k} actuators": f * per_larger * larger / w,
+        f"safe-mode tests of {singles + larger} sets x {sizes.modes} modes": f * C_AUDIT_SET_MODE * (singles + larger) * max(0, sizes.modes - config.get("cost_calibration_modes")) / w,
         "writing the rows": C_AUDIT_ROW_OUT * (singles + larger),
     }
     nbytes = B_BASE + A_AUDIT * _dense(n) + B_AUDIT_ROW * (singles + larger)
@@ -800,7 +812,7 @@ def check_limits(est: CostEstimate, limits: Limits | None = None, *, allow: bool
 
 
 def format_seconds(seconds: float) -> str:
-    """``"45 s"``, ``"12 min"``, ``"3.6 h"``, ``"4.2 days"``.
+    """``"45 s"``, ``"12 min"``, ``"3.6 h"``, ``"4.2 days"``, ``"3.2e+08 years"``.
 
     Parameters
     ----------
@@ -814,7 +826,9 @@ def format_seconds(seconds: float) -> str:
         return f"{seconds / 60:.0f} min"
     if seconds < 48 * 3600:
         return f"{_short(seconds / 3600)} h"
-    return f"{_short(seconds / 86400)} days"
+    if seconds < 1000 * 86400:
+        return f"{_short(seconds / 86400)} days"
+    return f"{seconds / (365.25 * 86400):.2g} years"
 
 
 def format_bytes(nbytes: float) -> str:

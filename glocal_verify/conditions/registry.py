@@ -23,10 +23,11 @@ import scipy.linalg
 from glocal_verify import config
 from glocal_verify.conditions.catalogue import CATALOGUE, ConditionInfo
 from glocal_verify.conditions.premises import vacuous_premise
-from glocal_verify.errors import GlocalVerifyError, ModelError, UnknownConditionError
+from glocal_verify.errors import ArgumentError, GlocalVerifyError, ModelError, UnknownConditionError
 from glocal_verify.model import System
 from glocal_verify.numerics.deadline import DeadlineExceeded, call_with_deadline
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
+from glocal_verify.spec.arguments import choice_arg, ids_arg, real_arg
 from glocal_verify.results import (
     ALIASES,
     AttackScenario,
@@ -446,6 +447,23 @@ def system_info(system: System) -> SystemInfo:
         safe = tuple(dict.fromkeys(m for m in visits if m != system.modes[0]))
         schedule = ScheduleInfo(safe, text)
     return SystemInfo(system.name, system.n, system.modes, tuple(c.name for c in system.clusters), attack, schedule, bool(system.monitored))
+def _verify_arguments(
+    system: Any, only: Any, exact: Any, tol: Any, escalate: Any, exact_budget: Any, fragile_below: Any
+) -> tuple[System, list[str] | None, float | None, float | None]:
+    """The arguments of :func:`verify` checked against their documented domains
+    (:class:`~glocal_verify.errors.ArgumentError` naming the first one outside)."""
+    if not isinstance(system, System):
+        raise ArgumentError(f"verify: expected a System, got {type(system).__name__}")
+    if not isinstance(exact, bool):
+        raise ArgumentError(f"exact: expected True or False, got {exact!r}"[:120])
+    if not isinstance(tol, Tolerance):
+        raise ArgumentError(f"tol: expected a Tolerance, got {type(tol).__name__}")
+    choice_arg("escalate", escalate, ("auto", "never"))
+    budget = None if exact_budget is None else real_arg("exact_budget", exact_budget, 0.0, allow_inf=True)
+    if budget is not None and (budget == 0.0 or math.isinf(budget)):
+        budget = None  # no limit
+    fb = None if fragile_below is None else real_arg("fragile_below", fragile_below, 0.0, allow_inf=True)
+    return system, ids_arg("only", only), budget, fb
 
 
 def verify(
@@ -481,23 +499,30 @@ def verify(
         spec's weights are rational), within ``exact_budget``; the result then says
         ``method: exact (escalated)``.
     exact_budget : float or None
-        Seconds of wall time for all escalated exact runs of this call together (None: no
-        limit). They run after every numeric checker, the cheap ones first; each gets a fair
+        Seconds of wall time for all escalated exact runs of this call together, a real
+        number >= 0 (None, 0 or ``inf``: no limit). They run after every numeric checker, the cheap ones first; each gets a fair
         share of what is left (what it does not use passes on) and is stopped, not merely
         warned, at the end of its share. One whose estimated cost (:func:`exact_estimate`)
         times ``escalation_estimate_fraction`` (:mod:`glocal_verify.config`) exceeds the whole
         budget is not started and takes no share; its note gives the estimate.
     fragile_below : float, optional
-        Robustness tolerance: a verdict whose relative margin is below it is ``fragile`` (a
-        warning; the status never changes). Default: the tunable ``fragile_below``
-        (:mod:`glocal_verify.config`, 1e-9).
+        Robustness tolerance, a real number >= 0: a verdict whose relative margin is below it
+        is ``fragile`` (a warning; the status never changes). Default: the tunable
+        ``fragile_below`` (:mod:`glocal_verify.config`, 1e-9).
 
     Returns
     -------
     Report
+
+    Raises
+    ------
+    ArgumentError
+        An argument outside its domain (a non-``System``, an unknown ``escalate``, a NaN or
+        negative ``exact_budget`` ...), naming it.
+    UnknownConditionError
+        An id of ``only`` that is not in the catalogue.
     """
-    if escalate not in ("auto", "never"):
-        raise ValueError(f"escalate must be 'auto' or 'never', not {escalate!r}")
+    system, only, exact_budget, fragile_below = _verify_arguments(system, only, exact, tol, escalate, exact_budget, fragile_below)
     _load()
     ids = resolve_ids(only) if only is not None else implemented_ids()
     if fragile_below is None:

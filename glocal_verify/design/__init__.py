@@ -11,8 +11,10 @@
 - :mod:`.placement` -- local observer placement (Remark III.2.1);
 - :mod:`.generators` -- random clustered networks for tests, benchmarks and sweeps;
 - :mod:`.case_study` -- the cases of Section IV (and one Algorithm 1 run), simulated and checked;
-- :mod:`.findings` -- the counterexample specs of ``reports/findings/``, verified;
-- :mod:`.sweep`, :mod:`.distributed` -- ensembles of networks and audits on Dask.
+- :mod:`.findings` -- the counterexample specs bundled with the package, verified;
+- :mod:`.sweep`, :mod:`.sweep_cost`, :mod:`.distributed` -- ensembles of networks and audits on
+  Dask (or in this process when workers would not pay off), estimated before they start.
 
-Layer: imports :mod:`glocal_verify.conditions` and below.
+Layer: imports :mod:`glocal_verify.conditions` and below (:mod:`glocal_verify.runtime` for the
+files a sweep writes and the processes it starts).
 """

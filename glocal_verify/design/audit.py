@@ -57,12 +57,13 @@ from glocal_verify.answer.attack import THEOREM_IDS, AttackAnswer, AttackEvidenc
 from glocal_verify.conditions.registry import system_info, verify
 from glocal_verify.design.audit_local import local_part
 from glocal_verify.design.audit_records import AUDIT_SCHEMA_ID, AuditResult, AuditRow
-from glocal_verify.errors import ModelError, NotApplicableError
+from glocal_verify.errors import ArgumentError, ModelError, NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.numerics.collection import deferred_full_collections
 from glocal_verify.numerics.minors import GroundedTables
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
 from glocal_verify.results import Status
+from glocal_verify.spec.arguments import choice_arg, integer_arg
 from glocal_verify.spec.types import Label
 
 __all__ = [
@@ -591,7 +592,19 @@ def audit(
     Returns
     -------
     AuditResult
+
+    Raises
+    ------
+    ArgumentError
+        ``max_attackers`` or ``chunk_size`` not an integer >= 1, an unknown ``growth``, a
+        ``system`` that is not a :class:`~glocal_verify.model.System`.
     """
+    if not isinstance(system, System):
+        raise ArgumentError(f"audit: expected a System, got {type(system).__name__}")
+    max_attackers = integer_arg("max_attackers", max_attackers, 1)
+    chunk_size = integer_arg("chunk_size", chunk_size, 1)
+    if growth is not None:
+        choice_arg("growth", growth, ("full", "verdict"))
     with deferred_full_collections():  # the rows and memo stay alive: full collections only rescan them
         return _audit(system, max_attackers, candidates, sensors, progress, tol, exact, exact_fallback, screen, growth, chunk_size, executor)
 

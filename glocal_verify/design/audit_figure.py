@@ -7,14 +7,16 @@ coloured by its verdict. Drawn with matplotlib's Agg backend (no display needed)
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 from types import MappingProxyType
 
 import numpy as np
 
 from glocal_verify.design.audit import AuditResult
+from glocal_verify.runtime.files import write_bytes_atomic
 
-__all__ = ["audit_figure", "verdict_matrix"]
+__all__ = ["audit_figure", "audit_figure_bytes", "verdict_matrix"]
 
 _CODE = MappingProxyType({"detected": 0.0, "undecided": 1.0, "undetected": 2.0})
 
@@ -39,7 +41,8 @@ def verdict_matrix(result: AuditResult) -> np.ndarray:
 
 
 def audit_figure(result: AuditResult, path: str | Path) -> Path:
-    """Write the audit figure to ``path`` (format from the suffix: ``.svg`` or ``.png``).
+    """Write the audit figure to ``path`` (format from the suffix: ``.svg`` or ``.png``),
+    atomically (:func:`~glocal_verify.runtime.files.write_bytes_atomic`).
 
     Parameters
     ----------
@@ -50,6 +53,18 @@ def audit_figure(result: AuditResult, path: str | Path) -> Path:
     -------
     Path
         The file written.
+    """
+    out = Path(path)
+    return write_bytes_atomic(out, audit_figure_bytes(result, out.suffix.lstrip(".").lower() or "png"))
+
+
+def audit_figure_bytes(result: AuditResult, fmt: str = "svg") -> bytes:
+    """The audit figure as ``fmt`` (``"svg"`` or ``"png"``) bytes.
+
+    Parameters
+    ----------
+    result : AuditResult
+    fmt : str
     """
     import matplotlib
 
@@ -80,8 +95,9 @@ def audit_figure(result: AuditResult, path: str | Path) -> Path:
     c = result.summary()["counts"]
     ax.set_title(f"{result.system}: green detected ({c['detected']}), amber undecided ({c['undecided']}), red undetected ({c['undetected']})", fontsize=9)
     fig.tight_layout()
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out)
-    plt.close(fig)
-    return out
+    buf = io.BytesIO()
+    try:
+        fig.savefig(buf, format=fmt)
+    finally:
+        plt.close(fig)
+    return buf.getvalue()

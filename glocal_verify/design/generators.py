@@ -11,8 +11,11 @@ agents of the first cluster.
 
 from __future__ import annotations
 
+from types import MappingProxyType
+
+import inspect
 import math
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 
@@ -21,6 +24,8 @@ from glocal_verify.spec import spec_from_dict
 from glocal_verify.spec.types import MAX_EDGES, MAX_MODES, MAX_NODES, TIME_MAX, TIME_MIN, WEIGHT_MAX, SystemSpec
 
 __all__ = [
+    "GENERATOR_DEFAULTS",
+    "check_generator_arguments",
     "random_clustered_spec",
 ]
 
@@ -31,11 +36,19 @@ def _count(value: Any, name: str, lo: int, hi: int | None = None) -> None:
         raise SpecError(name, f"must be in [{lo}, {hi if hi is not None else 'inf'}], got {int(value)}")
 
 
-def _check_arguments(
+def check_generator_arguments(
     n: Any, clusters: Any, seed: Any, chords: Any, cut_edges: Any, monitors: Any, modes: Any,
     max_weight: Any, observers_per_cluster: Any, horizon: Any, step: Any,
 ) -> None:
-    """Refuse arguments of :func:`random_clustered_spec` outside their domain (a :class:`SpecError`)."""
+    """Refuse arguments of :func:`random_clustered_spec` outside their domain: a
+    :class:`SpecError` whose path is the argument's name (a sweep checks its whole grid with
+    it before any member runs).
+
+    Parameters
+    ----------
+    n, clusters, seed, chords, cut_edges, monitors, modes, max_weight, observers_per_cluster, horizon, step
+        As for :func:`random_clustered_spec`.
+    """
     _count(clusters, "clusters", 1, MAX_NODES // 2)
     _count(n, "n", 2 * int(clusters), MAX_NODES)
     _count(seed, "seed", 0, 2**63 - 1)
@@ -102,7 +115,7 @@ def random_clustered_spec(
         ``>= 0``, counts ``>= 0``, ``1 <= max_weight <= WEIGHT_MAX``, and ``horizon``/``step`` in
         the spec's time domain (:mod:`glocal_verify.spec.types`).
     """
-    _check_arguments(n, clusters, seed, chords, cut_edges, monitors, modes, max_weight, observers_per_cluster, horizon, step)
+    check_generator_arguments(n, clusters, seed, chords, cut_edges, monitors, modes, max_weight, observers_per_cluster, horizon, step)
     rng = np.random.default_rng(seed)
     bounds = np.linspace(0, n, clusters + 1).round().astype(int)
     members = [list(range(bounds[k] + 1, bounds[k + 1] + 1)) for k in range(clusters)]
@@ -166,3 +179,9 @@ def random_clustered_spec(
         if mode_list:
             data["switching"] = {"mode": mode_list[0]["name"], "time": horizon / 3}
     return spec_from_dict(data)
+
+
+#: the default arguments of :func:`random_clustered_spec` (all but ``n``, ``attack``)
+GENERATOR_DEFAULTS: Mapping[str, Any] = MappingProxyType({
+    k: p.default for k, p in inspect.signature(random_clustered_spec).parameters.items() if p.default is not inspect.Parameter.empty and k != "attack"
+})

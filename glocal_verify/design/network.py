@@ -40,7 +40,7 @@ obstacle, one line each, with the sets it concerns.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -219,6 +219,7 @@ def design_network(
     max_links: int = 2,
     monitor_budget: int = 3,
     schedule_dwell: float = SCHEDULE_DWELL,
+    progress: Callable[[str], None] | None = None,
 ) -> NetworkDesign:
     """Design monitors, local observers, safe modes and, where needed, a switching schedule (module docstring).
 
@@ -243,6 +244,9 @@ def design_network(
         Largest number of velocity monitors the design adds in all (steps 5 and 6).
     schedule_dwell : float
         Dwell time of each mode of a designed ``[switching]`` schedule (step 7).
+    progress : callable, optional
+        Called with one line as each step starts (the audits, the placement, the safe modes,
+        the monitors, the schedule).
 
     Returns
     -------
@@ -250,17 +254,22 @@ def design_network(
         Also when some requirement is not met: the best design within the budgets, with
         :attr:`NetworkDesign.unmet` naming each obstacle.
     """
+    say = progress if progress is not None else (lambda line: None)
+    say("auditing the spec as given")
     before = before_table(system, max_attackers, candidates)
     spec = _velocity_only(system.spec)
     props: list[ObserverProposal] = []
     notes: list[str] = []
     if place and spec.clusters:
+        say("placing local observers")
         spec, props, notes = _observers(System(spec), exact_limit)
     mid_sys = System(spec)
+    say("auditing with the observers")
     mid = audit(mid_sys, max_attackers, candidates)
     targets = tuple(r.actuators for r in mid.rows if r.verdict != "detected" and r.stealthy is True and not r.exposed_by_modes)
     lambdas = {r.actuators: r.lambda0 for r in mid.rows if r.lambda0 is not None}
     if targets:
+        say(f"designing safe modes for {len(targets)} undetected attack sets")
         safe = design_safe_modes(mid_sys, targets, None, budget, weights=weights, lambdas=lambdas, max_links=max_links)
     else:
         safe = SafeModeDesign((), (), {}, 0, 0.0, 0)
@@ -270,6 +279,7 @@ def design_network(
         pending = [F for F in targets if ",".join(map(str, F)) in safe.unexposed]
         spec, added, safe = _monitor_unexposed(spec, pending, monitor_budget, safe, budget, weights, max_links)
     final = System(spec)
+    say("choosing the global monitors")
     mon = design_monitors(final, required=spec.monitor.velocities)
     extra = [a for a in mon.velocities if a not in spec.monitor.velocities]
     room = monitor_budget - len(added)
@@ -282,6 +292,7 @@ def design_network(
             f"({', '.join(map(str, extra))}); the monitor budget leaves {max(room, 0)}, so none was added"
         )
         extra = []
+    say("auditing the design")
     after = audit(final, max_attackers, candidates)
     spec, after, schedule = _schedule_if_needed(spec, after, system, max_attackers, candidates, schedule_dwell)
     final = System(spec)

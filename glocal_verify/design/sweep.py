@@ -37,11 +37,8 @@ import io
 import itertools
 import json
 import math
-import os
 import sys
-import tempfile
 import time
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
@@ -49,6 +46,8 @@ from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping, Sequence
 
 from glocal_verify import config
 from glocal_verify.errors import GlocalVerifyError, SpecError
+from glocal_verify.runtime.files import OutputFolder, check_output_dir, check_output_file, make_folders, remove_empty_folders, write_bytes_atomic
+from glocal_verify.spec.prepare import prepare, read_toml
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -62,6 +61,7 @@ __all__ = [
     "run_member",
     "rates_figure",
     "run_sweep",
+    "sweep_outputs",
     "summarize",
     "wilson_interval",
     "GENERATORS",
@@ -102,6 +102,9 @@ COLUMNS = (
     "seconds",
 )
 
+#: largest seed of a generated member (numpy's generators take any non-negative integer; the
+#: results file stores it as a 64-bit integer)
+SEED_MAX = 2**63 - 1
 
 @dataclass(frozen=True, slots=True)
 class Member:
@@ -149,6 +152,8 @@ class SweepPlan:
     escalate : str
     grid : mapping
         The grid axes (sweep key -> values), for the summary.
+    source : str or None
+        The sweep file (an input: no output may replace it).
     """
 
     members: tuple[Member, ...]
@@ -156,6 +161,12 @@ class SweepPlan:
     exact: bool = False
     escalate: str = "auto"
     grid: Mapping[str, tuple[Any, ...]] = field(default_factory=dict)
+    source: str | None = None
+
+    @property
+    def inputs(self) -> tuple[str, ...]:
+        """The files the sweep reads: the sweep file and every member's spec file."""
+        return tuple(x for x in (self.source, *(m.spec_path for m in self.members)) if x)
 
 
 def _fail(path: str, message: str, source: str | None) -> SpecError:
@@ -177,10 +188,14 @@ def plan_from_dict(data: Mapping[str, Any], source: str | None = None, base: Pat
     Raises
     ------
     SpecError
-        Naming the key path of the problem.
+        Naming the key path of the problem: the spec loader's nesting limit, an unknown key or
+        generator, seeds outside ``[0, 2**63 - 1]``, a generator parameter outside its domain
+        (checked for every grid point, before any member runs), more than
+        ``config.get("sweep_max_members")`` members.
     """
     if not isinstance(data, Mapping):
         raise _fail("", "a sweep file is a TOML table", source)
+    data = prepare(data, source)  # plain data, nesting bounded, without recursion
     unknown = set(data) - {"ensemble", "compute"}
     if unknown:
         raise _fail(sorted(unknown)[0], "unknown section (expected [ensemble] and [compute])", source)
@@ -214,21 +229,29 @@ def plan_from_dict(data: Mapping[str, Any], source: str | None = None, base: Pat
         if "generator" in ens:
             raise _fail("ensemble", "give either generator or specs, not both", source)
         folder = ens["specs"]
-        if not isinstance(folder, str):
+        if not isinstance(folder, str) or not folder or "\x00" in folder or len(folder) > 4096:
             raise _fail("ensemble.specs", "must be a folder path", source)
+        extra_keys = set(ens) - {"specs"}
+        if extra_keys:
+            raise _fail(f"ensemble.{sorted(extra_keys)[0]}", "unknown key beside specs (a spec folder takes no generator parameters)", source)
         root = Path(folder) if base is None or Path(folder).is_absolute() else base / folder
-        if not root.is_dir():
+        try:
+            files = sorted(root.glob("*.toml")) if root.is_dir() else None
+        except OSError as exc:
+            raise _fail("ensemble.specs", f"cannot read the folder {folder!r} ({exc.strerror})", source) from None
+        if files is None:
             raise _fail("ensemble.specs", f"{folder!r} is not a folder", source)
-        files = sorted(root.glob("*.toml"))
         if not files:
             raise _fail("ensemble.specs", f"no *.toml spec in {folder!r}", source)
+        if len(files) > (limit := config.get("sweep_max_members")):
+            raise _fail("ensemble.specs", f"{len(files)} specs exceed the limit of {limit} members", source)
         members = tuple(Member(key=f"spec-{i:06d}-{_slug(p.stem)}", params={}, seed=None, spec_path=str(p)) for i, p in enumerate(files))
-        return SweepPlan(members, tuple(conditions) if conditions else None, exact, escalate, {})
+        return SweepPlan(members, tuple(conditions) if conditions else None, exact, escalate, {}, source)
 
     gen = ens.get("generator")
-    if gen not in GENERATORS:
-        raise _fail("ensemble.generator", f"unknown generator {gen!r} (known: {', '.join(GENERATORS)})", source)
-    keys = GENERATORS[str(gen)]
+    if not isinstance(gen, str) or gen not in GENERATORS:
+        raise _fail("ensemble.generator", f"unknown generator {_show(gen)} (known: {', '.join(GENERATORS)}; one name, not a list)", source)
+    keys = GENERATORS[gen]
     seeds_spec = ens.get("seeds", {"start": 0, "count": 1})
     seeds = _seeds(seeds_spec, source)
     grid: dict[str, tuple[Any, ...]] = {}
@@ -241,32 +264,81 @@ def plan_from_dict(data: Mapping[str, Any], source: str | None = None, base: Pat
         if isinstance(v, list):
             if not v:
                 raise _fail(f"ensemble.{k}", "an empty grid axis", source)
+            for i, x in enumerate(v):
+                if isinstance(x, (list, dict)):
+                    raise _fail(f"ensemble.{k}[{i}]", f"expected a number, got {_show(x)} (a grid axis is one flat list)", source)
+            if len(set(map(repr, v))) != len(v):
+                raise _fail(f"ensemble.{k}", "a grid axis lists a value twice", source)
             grid[k] = tuple(v)
+        elif isinstance(v, dict):
+            raise _fail(f"ensemble.{k}", f"expected a number or a list of numbers, got {_show(v)}", source)
         else:
             fixed[k] = v
     count = len(seeds) * math.prod(len(v) for v in grid.values())
-    if count > config.get("sweep_max_members"):
-        raise _fail("ensemble", f"{count} members exceed the limit of {config.get('sweep_max_members')}", source)
-    generated: list[Member] = []
+    if count > (limit := config.get("sweep_max_members")):
+        raise _fail("ensemble", f"{count} members exceed the limit of {limit}", source)
     axes = list(grid)
+    if "agents" not in ens:
+        raise _fail("ensemble.agents", "required: the number of agents of each member (a number or a list of numbers)", source)
+    _check_grid(gen, fixed, grid, axes, source)
+    generated: list[Member] = []
     for combo in itertools.product(*(grid[a] for a in axes)):
         params = dict(fixed)
         params.update(dict(zip(axes, combo)))
-        for s in seeds:
-            tag = "-".join(f"{a}{_slug(str(v))}" for a, v in zip(axes, combo))
-            generated.append(Member(key=f"{gen}-{tag}-seed{s}" if tag else f"{gen}-seed{s}", params=params, seed=s, generator=gen))
-    return SweepPlan(tuple(generated), tuple(conditions) if conditions else None, exact, escalate, grid)
+        tag = "-".join(f"{a}{_slug(str(v))}" for a, v in zip(axes, combo))
+        stem = f"{gen}-{tag}-seed" if tag else f"{gen}-seed"
+        generated.extend(Member(key=f"{stem}{s}", params=params, seed=s, generator=gen) for s in seeds)
+    return SweepPlan(tuple(generated), tuple(conditions) if conditions else None, exact, escalate, grid, source)
+
+
+def _show(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:50] + "..."
+
+
+def _check_grid(gen: str, fixed: Mapping[str, Any], grid: Mapping[str, Sequence[Any]], axes: Sequence[str], source: str | None) -> None:
+    """Check every grid point against the generator's domain before any member runs: a value
+    outside it is the sweep file's error (one line naming the sweep keys), not a failed row."""
+    from glocal_verify.design.generators import GENERATOR_DEFAULTS, check_generator_arguments
+
+    keys = GENERATORS[gen]
+    back = {v: k for k, v in keys.items()}
+    for combo in itertools.product(*(grid[a] for a in axes)):
+        params = {keys[k]: v for k, v in fixed.items()}
+        params.update({keys[a]: v for a, v in zip(axes, combo)})
+        if "attack" in params and not isinstance(params["attack"], bool):
+            raise _fail(f"ensemble.{back['attack']}", f"expected true or false, got {_show(params['attack'])}", source)
+        try:
+            check_generator_arguments(**{**GENERATOR_DEFAULTS, **{k: v for k, v in params.items() if k != "attack"}})
+        except (SpecError, TypeError, ValueError, OverflowError) as exc:
+            if not isinstance(exc, SpecError):
+                exc = SpecError("", f"cannot be used ({exc})")
+            key = back.get(exc.path, exc.path)
+            point = ", ".join(f"{a} = {v!r}" for a, v in zip(axes, combo) if a != key)
+            raise _fail(f"ensemble.{key}", exc.problem + (f" (at the grid point {point})" if point else ""), source) from None
 
 
 def _seeds(spec: Any, source: str | None) -> list[int]:
     if isinstance(spec, list):
-        if not spec or not all(isinstance(s, int) and not isinstance(s, bool) for s in spec):
-            raise _fail("ensemble.seeds", "must be a list of integers or {start, count}", source)
+        if not spec or not all(isinstance(s, int) and not isinstance(s, bool) and 0 <= s <= SEED_MAX for s in spec):
+            raise _fail("ensemble.seeds", f"must be a list of integers in [0, {SEED_MAX}] or {{start, count}}", source)
+        if len(spec) > (limit := config.get("sweep_max_members")):
+            raise _fail("ensemble.seeds", f"{len(spec)} seeds exceed the limit of {limit} members", source)
+        if len(set(spec)) != len(spec):
+            raise _fail("ensemble.seeds", "a seed is listed twice", source)
         return list(spec)
     if isinstance(spec, Mapping):
+        extra = set(spec) - {"start", "count"}
+        if extra:
+            raise _fail(f"ensemble.seeds.{sorted(extra)[0]}", "unknown key (expected start and count)", source)
         start, count = spec.get("start", 0), spec.get("count")
-        if not isinstance(start, int) or not isinstance(count, int) or isinstance(count, bool) or count < 1 or count > config.get("sweep_max_members"):
-            raise _fail("ensemble.seeds", "needs integers start and count (1 <= count)", source)
+        if not isinstance(start, int) or isinstance(start, bool) or not 0 <= start <= SEED_MAX:
+            raise _fail("ensemble.seeds.start", f"must be an integer in [0, {SEED_MAX}], got {_show(start)}", source)
+        limit = config.get("sweep_max_members")
+        if not isinstance(count, int) or isinstance(count, bool) or not 1 <= count <= limit:
+            raise _fail("ensemble.seeds.count", f"must be an integer in [1, {limit}], got {_show(count)}", source)
+        if start + count - 1 > SEED_MAX:
+            raise _fail("ensemble.seeds", f"the last seed {start + count - 1} exceeds {SEED_MAX}", source)
         return list(range(start, start + count))
     raise _fail("ensemble.seeds", "must be a list of integers or {start, count}", source)
 
@@ -277,21 +349,16 @@ def _slug(text: str) -> str:
 
 
 def load_sweep(path: str | Path) -> SweepPlan:
-    """Read and validate a sweep file.
+    """Read and validate a sweep file, with the spec loader's guarantees (size, nesting, one
+    :class:`~glocal_verify.errors.SpecError` naming the key path).
 
     Parameters
     ----------
     path : str or Path
         The TOML sweep file.
     """
-    p = Path(path)
-    try:
-        data = tomllib.loads(p.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise SpecError("", f"cannot read the sweep file ({exc.strerror})", str(p)) from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise SpecError("", f"not valid TOML ({exc})", str(p)) from None
-    return plan_from_dict(data, str(p), p.parent)
+    data, source = read_toml(path)
+    return plan_from_dict(data, source, Path(source).parent)
 
 
 def _member_system(member: Member) -> Any:
@@ -398,19 +465,10 @@ class SweepResult:
         return f"<div><p><b>{escape(counts)}</b> &mdash; sweep results in <code>{escape(str(self.out))}</code></p></div>"
 
 
-def _atomic_write(path: Path, data: bytes) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+#: how the sweep's files are written: ``put(path, data)`` (default
+#: :func:`~glocal_verify.runtime.files.write_bytes_atomic`; a run stages its outputs in an
+#: :class:`~glocal_verify.runtime.files.OutputFolder`)
+Put = Callable[[Path, bytes], Any]
 
 
 def _columns(rows: Iterable[Mapping[str, Any]]) -> list[str]:
@@ -418,7 +476,7 @@ def _columns(rows: Iterable[Mapping[str, Any]]) -> list[str]:
     return [COLUMNS[0]] + params + list(COLUMNS[1:])
 
 
-def _write_table(rows: Sequence[Mapping[str, Any]], out: Path) -> None:
+def _write_table(rows: Sequence[Mapping[str, Any]], out: Path, put: Put = write_bytes_atomic) -> None:
     cols = _columns(rows)
     if out.suffix.lower() == ".csv":
         buf = io.StringIO()
@@ -426,7 +484,7 @@ def _write_table(rows: Sequence[Mapping[str, Any]], out: Path) -> None:
         w.writeheader()
         for r in rows:
             w.writerow({c: ("" if r.get(c) is None else r.get(c)) for c in cols})
-        _atomic_write(out, buf.getvalue().encode("utf-8"))
+        put(out, buf.getvalue().encode("utf-8"))
         return
     import pyarrow as pa
     import pyarrow.parquet as pq
@@ -434,7 +492,7 @@ def _write_table(rows: Sequence[Mapping[str, Any]], out: Path) -> None:
     table = pa.Table.from_pylist([{c: r.get(c) for c in cols} for r in rows])
     sink = pa.BufferOutputStream()
     pq.write_table(table, sink)
-    _atomic_write(out, sink.getvalue().to_pybytes())
+    put(out, sink.getvalue().to_pybytes())
 
 
 def wilson_interval(successes: int, trials: int, z: float = 1.959963984540054) -> tuple[float, float]:
@@ -455,7 +513,7 @@ def wilson_interval(successes: int, trials: int, z: float = 1.959963984540054) -
     return (max(0.0, c - h), min(1.0, c + h))
 
 
-def summarize(rows: Sequence[Mapping[str, Any]], grid: Mapping[str, Sequence[Any]], out_md: Path, *, figures: bool = True) -> Path:
+def summarize(rows: Sequence[Mapping[str, Any]], grid: Mapping[str, Sequence[Any]], out_md: Path, *, figures: bool = True, put: Put = write_bytes_atomic) -> Path:
     """Write the Markdown summary: the rate of ``holds`` per condition (all scopes of a member
     must hold) against each grid parameter, with Wilson 95% intervals, and a plot per parameter.
 
@@ -469,6 +527,8 @@ def summarize(rows: Sequence[Mapping[str, Any]], grid: Mapping[str, Sequence[Any
         Markdown file to write (plots beside it, ``<stem>-<param>.svg``).
     figures : bool
         Draw the plots (matplotlib, Agg).
+    put : callable
+        Writes a file: ``put(path, data)`` (default atomically, each on its own).
     """
     members = sorted({r["member"] for r in rows})
     errors = [r for r in rows if r.get("status") == "error"]
@@ -508,8 +568,8 @@ def summarize(rows: Sequence[Mapping[str, Any]], grid: Mapping[str, Sequence[Any
             lines.append(f"| `{c}` | " + " | ".join(cells) + " |")
         lines.append("")
         if figures and axis != "(all)" and conds:
-            svg = out_md.with_name(f"{out_md.stem}-{_slug(axis)}.svg")
-            _plot_rates(axis, values, series, svg)
+            svg = out_md.with_name(_plot_name(out_md, axis))
+            _plot_rates(axis, values, series, svg, put)
             plots.append(svg)
             lines += [f"![rates against {axis}]({svg.name})", ""]
     if errors:
@@ -517,7 +577,7 @@ def summarize(rows: Sequence[Mapping[str, Any]], grid: Mapping[str, Sequence[Any
         for r in errors[:50]:
             lines.append(f"| {r['member']} | {r['error_class']}: {str(r['error'])[:120]} |")
         lines.append("")
-    _atomic_write(out_md, "\n".join(lines).encode("utf-8"))
+    put(out_md, "\n".join(lines).encode("utf-8"))
     return out_md
 
 
@@ -566,11 +626,56 @@ def rates_figure(axis: str, values: Sequence[Any], series: Mapping[str, Sequence
     return fig
 
 
-def _plot_rates(axis: str, values: Sequence[Any], series: Mapping[str, Sequence[tuple[float, float, float]]], path: Path) -> None:
+def _plot_name(out_md: Path, axis: str) -> str:
+    return f"{out_md.stem}-{_slug(axis)}.svg"
+
+
+def _plot_rates(axis: str, values: Sequence[Any], series: Mapping[str, Sequence[tuple[float, float, float]]], path: Path, put: Put = write_bytes_atomic) -> None:
     fig = rates_figure(axis, values, series)
     buf = io.StringIO()
     fig.savefig(buf, format="svg")
-    _atomic_write(path, buf.getvalue().encode("utf-8"))
+    put(path, buf.getvalue().encode("utf-8"))
+
+
+def sweep_outputs(plan: SweepPlan, out: str | Path, *, summary: bool = True, figures: bool = True) -> tuple[Path, Path, list[str]]:
+    """Check where a sweep writes, before it starts: (results file, parts folder, the names of
+    the files written beside the results file).
+
+    The output policy of :mod:`glocal_verify.runtime.files`: no output may be an input of the
+    sweep (its file or a member's spec, by any path resolving to it), none may be a symbolic
+    link or lie in a folder given through one, and the folder must be writable.
+
+    Parameters
+    ----------
+    plan : SweepPlan
+    out : str or Path
+        The results file (``.parquet`` or ``.csv``).
+    summary, figures : bool
+        As for :func:`run_sweep`.
+
+    Raises
+    ------
+    SpecError
+        ``out`` does not end in ``.parquet`` or ``.csv``.
+    OutputError
+        An output location the policy refuses.
+    """
+    outp = Path(out)
+    if outp.suffix.lower() not in (".parquet", ".csv"):
+        raise SpecError("--out", "must end in .parquet or .csv", None)
+    inputs = plan.inputs
+    check_output_file(outp, inputs=inputs)
+    names = [outp.name]
+    if summary:
+        md = outp.with_suffix(".md")
+        names.append(md.name)
+        if figures:
+            names += [_plot_name(md, axis) for axis in plan.grid]
+    for name in names[1:]:
+        check_output_file(outp.with_name(name), inputs=inputs, what="--out (the summary beside it)")
+    parts = outp.with_name(outp.name + ".parts")
+    check_output_dir(parts, inputs=inputs, what="--out (its parts folder)")
+    return outp, parts, names
 
 
 def run_sweep(
@@ -583,8 +688,16 @@ def run_sweep(
     summary: bool = True,
     figures: bool = True,
     progress: Callable[[str], None] | None = None,
+    dashboard: str | None = None,
+    notice: Callable[[str], None] | None = None,
 ) -> SweepResult:
-    """Run ``plan`` on Dask and write the results file, the parts and the summary.
+    """Run ``plan`` (on Dask, or in this process) and write the results file, the parts and the summary.
+
+    The outputs are checked before any member runs (:func:`sweep_outputs`). Each finished
+    member is written at once to the parts folder (the resume state, kept on purpose when a
+    run stops); the results file, the summary and its plots are staged and moved into place
+    together at the end (:class:`~glocal_verify.runtime.files.OutputFolder`), so a failure or a
+    stop leaves none of them half written, and no parts folder when no member finished.
 
     Parameters
     ----------
@@ -595,45 +708,66 @@ def run_sweep(
         Address of an existing Dask scheduler (``tcp://host:8786``); default an embedded
         ``LocalCluster`` of ``workers`` processes on this machine.
     workers : int
-        Worker processes of the embedded cluster.
+        Worker processes of the embedded cluster; 0 runs the members in this process, in
+        order (no Dask: what a small sweep should do, :func:`estimate_sweep`).
     chunk_size : int
         Members per task (amortises task overhead; members of a chunk run in sequence).
     summary, figures : bool
         Write the Markdown summary (``<out stem>.md``) and its plots.
     progress : callable, optional
         Called with one line per finished chunk.
+    dashboard, notice :
+        The embedded cluster's dashboard address and where its one-line notices go
+        (:func:`~glocal_verify.design.distributed.dask_client`).
     """
-    outp = Path(out)
-    if outp.suffix.lower() not in (".parquet", ".csv"):
-        raise SpecError("--out", "must end in .parquet or .csv", None)
-    parts = outp.with_name(outp.name + ".parts")
-    parts.mkdir(parents=True, exist_ok=True)
+    outp, parts, names = sweep_outputs(plan, out, summary=summary, figures=figures)
+    made = make_folders(parts)
     done = {p.stem for p in parts.glob("*.json")}
     todo = [m for m in plan.members if m.key not in done]
     resumed = len(plan.members) - len(todo)
-    if todo:
-        from functools import partial
+    size = max(1, int(chunk_size))
+    chunks = [todo[i : i + size] for i in range(0, len(todo), size)]
+    finished = 0
+    t0 = time.perf_counter()
 
-        from glocal_verify.design.distributed import dask_client, run_on_dask
+    def keep(chunk_rows: Sequence[tuple[str, list[dict[str, Any]]]]) -> None:
+        nonlocal finished
+        for key, member_rows in chunk_rows:
+            write_bytes_atomic(parts / f"{key}.json", json.dumps(member_rows, allow_nan=True).encode("utf-8"))
+            finished += 1
+        if progress:
+            rate = finished / max(time.perf_counter() - t0, 1e-9)
+            eta = (len(todo) - finished) / rate if rate > 0 else float("inf")
+            progress(f"{finished}/{len(todo)} members ({resumed} resumed), ETA {eta:.0f} s")
 
-        with dask_client(scheduler, workers) as client:
-            chunks = [todo[i : i + max(1, chunk_size)] for i in range(0, len(todo), max(1, chunk_size))]
-            tasks = [partial(_run_chunk, c, plan.conditions, plan.exact, plan.escalate) for c in chunks]
-            finished = 0
-            t0 = time.perf_counter()
-            for _, chunk_rows in run_on_dask(client, tasks):
-                for key, member_rows in chunk_rows:
-                    _atomic_write(parts / f"{key}.json", json.dumps(member_rows, allow_nan=True).encode("utf-8"))
-                    finished += 1
-                if progress:
-                    rate = finished / max(time.perf_counter() - t0, 1e-9)
-                    eta = (len(todo) - finished) / rate if rate > 0 else float("inf")
-                    progress(f"{finished}/{len(todo)} members ({resumed} resumed), ETA {eta:.0f} s")
+    try:
+        if chunks and (scheduler or workers > 0):
+            from functools import partial
+
+            from glocal_verify.design.distributed import dask_client, run_on_dask
+
+            with dask_client(scheduler, workers, dashboard=dashboard, notice=notice) as client:
+                tasks = [partial(_run_chunk, c, plan.conditions, plan.exact, plan.escalate) for c in chunks]
+                for _, chunk_rows in run_on_dask(client, tasks):
+                    keep(chunk_rows)
+        else:
+            for c in chunks:
+                keep(_run_chunk(c, plan.conditions, plan.exact, plan.escalate))
+    finally:
+        if finished == 0:
+            remove_empty_folders(made)  # nothing to resume from: no folder left behind
     rows: list[dict[str, Any]] = []
     for m in plan.members:
         rows.extend(json.loads((parts / f"{m.key}.json").read_text(encoding="utf-8")))
-    _write_table(rows, outp)
-    md = summarize(rows, plan.grid, outp.with_suffix(".md"), figures=figures) if summary else None
+    md: Path | None = None
+    with OutputFolder(outp.parent if str(outp.parent) else Path("."), inputs=plan.inputs, names=names) as folder:
+
+        def put(path: Path, data: bytes) -> None:
+            folder.write_bytes(path.name, data)
+
+        _write_table(rows, outp, put)
+        if summary:
+            md = summarize(rows, plan.grid, outp.with_suffix(".md"), figures=figures, put=put)
     return SweepResult(tuple(rows), outp, md, len(todo), resumed)
 
 

@@ -20,6 +20,8 @@
 - :mod:`.threads`, :mod:`.collection` -- BLAS threads and deferred full garbage collections for
   a block of code (resources, no numbers).
 
-Layer: imports only :mod:`glocal_verify.errors`, :mod:`glocal_verify.config` (and
-:mod:`glocal_verify.results` for the status enum); everything here takes matrices, never a ``System``.
+Layer: imports only :mod:`glocal_verify.errors`, :mod:`glocal_verify.config`,
+:mod:`glocal_verify.runtime` (the forked exact runs of :mod:`.deadline`), :mod:`glocal_verify.results`
+(the status enum) and :mod:`glocal_verify.spec.arguments` (argument domains); everything here takes
+matrices, never a ``System``.
 """

@@ -43,6 +43,7 @@ from typing import Any, Sequence
 import flint
 import numpy as np
 
+from glocal_verify.numerics.exact import coefficient_bits
 from glocal_verify.numerics.pencil_exact import RootEnclosures
 
 
@@ -270,13 +271,19 @@ def fraction_free_kernel(M: Sequence[Sequence[Any]], f: Any, ncols: int) -> tupl
     return len(free), tuple(v)
 
 
-def eval_normalized(polys: Sequence[Any], f: Any, root: complex, enclosures: RootEnclosures) -> np.ndarray:
+def eval_normalized(polys: Sequence[Any], f: Any, root: complex, enclosures: RootEnclosures) -> np.ndarray | None:
     """Values of residues mod ``f`` at the root of f nearest ``root``, divided by the largest.
 
     Like :func:`~glocal_verify.numerics.pencil_exact.eval_at_root`, but the division by the
     entry of largest magnitude is done in ball arithmetic before rounding to double, so that
-    a kernel vector with huge entries (a fraction-free one) does not overflow. Precision
-    from 256 bits up until every ball is below 1e-17.
+    a kernel vector with huge entries (a fraction-free one) does not overflow. The vector is
+    first divided by the content of its coefficients (exactly; fraction-free eliminations leave
+    large common factors). Precision from 256 bits up until every ball is below 1e-17, up to
+    :func:`_precision_cap` bits (enough for the coefficients' size); if the largest entry's ball
+    still holds 0 there, the vector is scaled exactly so that one nonzero entry is 1 (its
+    inverse in Q[s]/(f)) and evaluated again. A nonzero residue of an irreducible f is nonzero
+    at every root, so this ends; should it not (a pathological size), None is returned and the
+    caller reports the zero without its direction, never an error.
 
     Parameters
     ----------
@@ -288,7 +295,23 @@ def eval_normalized(polys: Sequence[Any], f: Any, root: complex, enclosures: Roo
         Approximation of the wanted root.
     enclosures : RootEnclosures
         The root balls of ``f``.
+
+    Returns
+    -------
+    ndarray or None
     """
+    vec = _primitive(polys)
+    for attempt in range(2):
+        out = _eval_balls(vec, f, root, enclosures, _precision_cap(vec, f))
+        if out is not None:
+            return out
+        if attempt == 0:
+            vec = _unit_entry(vec, f)
+    return None
+
+
+def _eval_balls(polys: Sequence[Any], f: Any, root: complex, enclosures: RootEnclosures, cap: int) -> np.ndarray | None:
+    """The normalized values at increasing precision up to ``cap`` bits (None: not separated from 0)."""
     prec = 256
     while True:
         old = flint.ctx.prec
@@ -306,8 +329,39 @@ def eval_normalized(polys: Sequence[Any], f: Any, root: complex, enclosures: Roo
                 rad = max(float(v.real.rad()) + float(v.imag.rad()) for v in q)
         finally:
             flint.ctx.prec = old
-        if out is not None and (rad <= 1e-17 or prec >= 16384):
+        if out is not None and (rad <= 1e-17 or prec >= cap):
             return out
-        if prec >= 16384:  # pragma: no cover - a nonzero vector has a nonzero value at every root
-            raise AssertionError("cannot separate the kernel vector from 0 at the root; please report")
-        prec *= 4
+        if prec >= cap:
+            return None
+        prec = min(prec * 4, cap)
+
+
+def _precision_cap(polys: Sequence[Any], f: Any) -> int:
+    """Bits enough to evaluate ``polys`` at a root of ``f`` without losing them all to
+    cancellation: twice their coefficients' size plus the size of the powers of the root
+    (bounded by f's coefficients), at least 16384."""
+    return max(16384, 2 * (coefficient_bits(polys) + f.degree() * coefficient_bits([f])) + 256)
+
+
+def _primitive(polys: Sequence[Any]) -> list[Any]:
+    """``polys`` divided by the positive rational content of all their coefficients (exact)."""
+    import math
+
+    den = 1
+    for q in polys:
+        den = math.lcm(den, int(q.denom()))
+    nums = [q.numer() * (den // int(q.denom())) for q in polys]
+    g = 0
+    for p in nums:
+        g = math.gcd(g, int(p.content()))
+    if g in (0, 1):
+        return [flint.fmpq_poly(p) for p in nums]
+    return [flint.fmpq_poly(p) / g for p in nums]
+
+
+def _unit_entry(polys: Sequence[Any], f: Any) -> list[Any]:
+    """``polys`` times the inverse in Q[s]/(f) of their first nonzero entry (that entry becomes 1)."""
+    k = next(i for i, q in enumerate(polys) if not (q % f).is_zero())
+    g, inv, _ = (polys[k] % f).xgcd(f)
+    inv = inv / g
+    return [(q * inv) % f for q in polys]

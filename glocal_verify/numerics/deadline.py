@@ -7,10 +7,16 @@ network. :func:`call_with_deadline` therefore runs the computation in a forked c
 kills the child at the deadline; the parent keeps its state, and the child's memory is
 returned to the system with it. Where ``os.fork`` is missing (not POSIX) the interval timer
 is the fallback, and it is documented as soft there.
+
+The child never outlives its parent: it asks for ``SIGKILL`` when the parent ends, ignores
+the terminal's ``SIGINT`` and dies at once on ``SIGTERM``
+(:func:`glocal_verify.runtime.processes.after_fork_in_child`); the parent kills it on any
+exception, a stop signal included.
 """
 
 from __future__ import annotations
 
+import math
 import os
 import pickle
 import select
@@ -20,7 +26,13 @@ import time
 from collections.abc import Callable
 from typing import Any, TypeVar
 
+from glocal_verify.runtime.processes import after_fork_in_child
+
 T = TypeVar("T")
+
+#: longest single wait on the child's pipe (seconds); a longer deadline waits in several
+#: steps (``select`` refuses timeouts beyond about 2^31 ms on some platforms)
+_WAIT_STEP = 3600.0
 
 __all__ = ["DeadlineExceeded", "call_with_deadline", "hard_deadlines_available"]
 
@@ -43,7 +55,8 @@ def call_with_deadline(func: Callable[[], T], seconds: float | None) -> T:
         Takes no argument; its result (or the exception it raises) must be picklable when the
         hard limit is used.
     seconds : float or None
-        Wall-time limit; ``None`` or a value <= 0 runs ``func`` with no limit, in this process.
+        Wall-time limit; ``None``, a value <= 0, ``inf`` or NaN runs ``func`` with no limit, in
+        this process.
 
     Returns
     -------
@@ -63,7 +76,7 @@ def call_with_deadline(func: Callable[[], T], seconds: float | None) -> T:
     ``func`` on objects of the parent (caches) are lost. A ``KeyboardInterrupt`` while
     waiting kills the child and propagates.
     """
-    if seconds is None or seconds <= 0:
+    if seconds is None or not 0 < seconds < math.inf:
         return func()
     if not hard_deadlines_available():
         return _soft_deadline(func, seconds)
@@ -72,11 +85,13 @@ def call_with_deadline(func: Callable[[], T], seconds: float | None) -> T:
 
 def _forked(func: Callable[[], T], seconds: float) -> T:
     read_fd, write_fd = os.pipe()
+    parent = os.getpid()
     pid = os.fork()
     if pid == 0:  # the child: compute, send, leave without running the parent's exit handlers
-        os.close(read_fd)
         code = 0
         try:
+            after_fork_in_child(parent)
+            os.close(read_fd)
             try:
                 payload = pickle.dumps(("ok", func()), protocol=pickle.HIGHEST_PROTOCOL)
             except BaseException as exc:  # noqa: BLE001 - every outcome goes back to the parent
@@ -99,7 +114,7 @@ def _forked(func: Callable[[], T], seconds: float) -> T:
             left = end - time.monotonic()
             if left <= 0:
                 raise DeadlineExceeded(f"stopped after {seconds:g} s")
-            ready, _, _ = select.select([read_fd], [], [], left)
+            ready, _, _ = select.select([read_fd], [], [], min(left, _WAIT_STEP))
             if not ready:
                 continue
             chunk = os.read(read_fd, 1 << 20)

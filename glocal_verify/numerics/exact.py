@@ -27,6 +27,7 @@ __all__ = [
     "poly_str",
     "matvec",
     "at_rational_root",
+    "coefficient_bits",
 ]
 
 Rows = Sequence[Sequence[Fraction | int]]
@@ -142,3 +143,17 @@ def at_rational_root(M: Sequence[Sequence[flint.fmpq_poly]], f: flint.fmpq_poly,
     c = f.coeffs()
     r = -c[0] / c[1]
     return flint.fmpq_mat(len(M), ncols, [e(r) for row in M for e in row])
+
+
+def coefficient_bits(polys: Sequence[flint.fmpq_poly]) -> int:
+    """Bits of the largest numerator or denominator among the coefficients of ``polys`` (at
+    least 1): the precision a ball evaluation needs grows with it.
+
+    Parameters
+    ----------
+    polys : sequence of fmpq_poly
+    """
+    bits = 1
+    for q in polys:
+        bits = max(bits, int(q.denom()).bit_length(), max((abs(int(c)).bit_length() for c in q.numer().coeffs()), default=1))
+    return bits

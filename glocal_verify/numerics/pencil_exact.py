@@ -410,8 +410,8 @@ def classify_real_parts(f: Any) -> list[tuple[complex, int]]:
         n_imag = len([rt for rt in roots_g if rt[0].imag == 0])
     old = flint.ctx.prec
     try:
-        prec = 64
-        while prec <= 8192:
+        prec, cap = 64, max(8192, 4 * f.degree() * (ex.coefficient_bits([f]) + f.degree().bit_length()) + 256)  # root separation: ~ d log2(H d)
+        while prec <= cap:
             flint.ctx.prec = prec
             roots = [r for r, _ in f.complex_roots()]
             out: list[tuple[complex, int]] = []
@@ -427,7 +427,7 @@ def classify_real_parts(f: Any) -> list[tuple[complex, int]]:
                     out.append((complex(0.0, val.imag), 0))
             if ambiguous == n_imag:
                 return out
-            prec *= 4
+            prec = min(prec * 4, cap) if prec < cap else cap + 1
     finally:
         flint.ctx.prec = old
     raise AssertionError(f"cannot separate the real parts of the roots of {f} from 0")  # pragma: no cover

@@ -32,6 +32,9 @@ from enum import Enum
 
 import numpy as np
 
+from glocal_verify.errors import ArgumentError
+from glocal_verify.spec.arguments import real_arg
+
 __all__ = [
     "Tolerance",
     "DEFAULT_TOLERANCE",
@@ -58,17 +61,25 @@ class Tolerance:
     Attributes
     ----------
     rtol : float
-        Scaled values at or below ``rtol`` are zero.
+        Scaled values at or below ``rtol`` are zero; a real number with ``0 < rtol < 1``.
     band : float
-        Scaled values above ``rtol * band`` are nonzero; those in between are undecided.
+        Scaled values above ``rtol * band`` are nonzero; those in between are undecided; a
+        finite real number with ``band >= 1`` and ``rtol * band < 1``.
+
+    Raises
+    ------
+    ArgumentError
+        A value outside these domains (NaN, infinite, a boolean or a non-number included).
     """
 
     rtol: float = 1e-9
     band: float = 1e3
 
     def __post_init__(self) -> None:
+        for name in ("rtol", "band"):
+            object.__setattr__(self, name, real_arg(f"Tolerance {name}", getattr(self, name)))
         if not (0.0 < self.rtol < 1.0) or not (self.band >= 1.0) or self.rtol * self.band >= 1.0:
-            raise ValueError(f"invalid tolerance rtol={self.rtol}, band={self.band}")
+            raise ArgumentError(f"invalid tolerance rtol={self.rtol:g}, band={self.band:g} (need 0 < rtol < 1, band >= 1, rtol * band < 1)")
 
     @property
     def upper(self) -> float:

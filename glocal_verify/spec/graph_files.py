@@ -16,6 +16,12 @@ Weights, as exact rationals (the convention of :mod:`glocal_verify.spec.load`):
 * a missing weight is 1; zero, negative, NaN, infinite, boolean and non-numeric weights are
   errors.
 
+Limits: the spec loader's (:mod:`glocal_verify.spec.types`): at most 64 MiB of text, at most
+:data:`~glocal_verify.spec.types.MAX_NODES` nodes and :data:`~glocal_verify.spec.types.MAX_EDGES`
+edges, GML lists nested at most :data:`~glocal_verify.spec.types.MAX_DEPTH` levels; the readers'
+warnings (a GraphML ``<port>``, which has no meaning for a communication graph) are not
+printed; every message is one line with its echoed values cut short.
+
 Labels: text that spells a canonical integer (``"7"``, ``"-2"``, not ``"07"``) becomes that
 ``int``, other text stays ``str``; GML nodes are named by their ``label`` when every node has
 one, else by their ``id``. Other label types (floats, tuples, lists) are errors.
@@ -26,6 +32,7 @@ from __future__ import annotations
 import ast
 import math
 import re
+import warnings
 from fractions import Fraction
 from pathlib import Path
 from typing import Any
@@ -33,7 +40,8 @@ from typing import Any
 import networkx as nx
 
 from glocal_verify.errors import SpecError
-from glocal_verify.spec.types import Label
+from glocal_verify.spec.prepare import MAX_FILE_BYTES, clip, show
+from glocal_verify.spec.types import MAX_DEPTH, MAX_EDGES, MAX_NODES, Label
 
 __all__ = [
     "GRAPH_SUFFIXES",
@@ -92,6 +100,8 @@ def _weight(raw: Any, where: str, source: str) -> Fraction:
 
 def _build(nodes: list[tuple[Any, str]], edges: list[tuple[Any, Any, Any, str]], source: str) -> nx.Graph:
     """The validated graph from raw nodes ``(label, where)`` and edges ``(u, v, weight, where)``."""
+    if len(edges) > MAX_EDGES:
+        raise SpecError("", f"too many edges ({len(edges)}; at most {MAX_EDGES})", source)
     G = nx.Graph()
     for raw, where in nodes:
         G.add_node(_label(raw, where, source))
@@ -105,6 +115,8 @@ def _build(nodes: list[tuple[Any, str]], edges: list[tuple[Any, Any, Any, str]],
             raise SpecError(where, f"edge {u!r}-{v!r} is listed twice (also {seen[key]}): parallel edges are not allowed", source)
         seen[key] = where
         G.add_edge(u, v, weight=_weight(rw, where, source))
+    if G.number_of_nodes() > MAX_NODES:
+        raise SpecError("", f"too many nodes ({G.number_of_nodes()}; at most {MAX_NODES})", source)
     if G.number_of_nodes() == 0:
         raise SpecError("", "the graph has no nodes", source)
     return G
@@ -150,17 +162,17 @@ def _edge_list(text: str, source: str, *, csv: bool) -> nx.Graph:
             if csv and tuple(f.lower() for f in fields[:2]) in _CSV_HEADERS:
                 continue
         if len(fields) < 2:
-            raise SpecError(where, f"expected 'u v [weight]', got {body!r}", source)
+            raise SpecError(where, f"expected 'u v [weight]', got {show(body)}", source)
         u, v = fields[0], fields[1]
         rest = ",".join(fields[2:]).strip() if csv else (fields[2].strip() if len(fields) > 2 else "")
         weight: Any = None
         if rest.startswith("{"):
             try:
                 data = ast.literal_eval(rest)
-            except (ValueError, SyntaxError):
-                raise SpecError(where, f"cannot read the edge data {rest!r}", source) from None
+            except (ValueError, SyntaxError, TypeError, RecursionError, MemoryError):
+                raise SpecError(where, f"cannot read the edge data {show(rest)}", source) from None
             if not isinstance(data, dict):
-                raise SpecError(where, f"cannot read the edge data {rest!r}", source)
+                raise SpecError(where, f"cannot read the edge data {show(rest)}", source)
             weight = data.get("weight")
             if isinstance(weight, float):
                 # the text of the literal, exactly
@@ -168,7 +180,7 @@ def _edge_list(text: str, source: str, *, csv: bool) -> nx.Graph:
                 weight = m.group(1).strip() if m else weight
         elif rest:
             if len(rest.split()) > 1 or (csv and len(fields) > 3):
-                raise SpecError(where, f"expected 'u v [weight]', got {body!r}", source)
+                raise SpecError(where, f"expected 'u v [weight]', got {show(body)}", source)
             weight = rest
         edges.append((u, v, weight, where))
     nodes = [(x, w) for u, v, _, w in edges for x in (u, v)]
@@ -215,21 +227,47 @@ def load_graph(path: str | Path) -> nx.Graph:
     if suffix not in GRAPH_SUFFIXES:
         raise SpecError("", f"unknown graph file type {p.suffix!r} (expected one of {', '.join(GRAPH_SUFFIXES)})", source)
     try:
+        if p.stat().st_size > MAX_FILE_BYTES:
+            raise SpecError("", f"file too large ({p.stat().st_size} bytes; at most {MAX_FILE_BYTES})", source)
         text = p.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise SpecError("", "file not found", source) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SpecError("", f"cannot read file ({exc})", source) from None
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise SpecError("", f"cannot read file ({clip(str(exc))})", source) from None
     if suffix in (".edgelist", ".txt", ".csv"):
         return _edge_list(text, source, csv=suffix == ".csv")
+    what = "GraphML" if suffix == ".graphml" else "GML"
+    if suffix == ".gml":
+        _check_gml_nesting(text, source)
     try:
-        if suffix == ".graphml":
-            H = nx.parse_graphml(text, node_type=str)
-        else:
-            H = nx.parse_gml(text, label="id")
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # e.g. "GraphML port tag not supported": ports mean nothing here
+            H = nx.parse_graphml(text, node_type=str) if suffix == ".graphml" else nx.parse_gml(text, label="id")
     except SpecError:
         raise
-    except (nx.NetworkXError, ValueError, TypeError, KeyError, SyntaxError) as exc:  # ElementTree.ParseError is a SyntaxError
-        what = "GraphML" if suffix == ".graphml" else "GML"
-        raise SpecError("", f"not a valid {what} graph ({exc})", source) from None
+    except (nx.NetworkXError, ValueError, TypeError, KeyError, SyntaxError, IndexError, AttributeError) as exc:  # ElementTree.ParseError is a SyntaxError
+        raise SpecError("", f"not a valid {what} graph ({clip(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)})", source) from None
+    except RecursionError:
+        raise SpecError("", f"not a valid {what} graph (nested deeper than {MAX_DEPTH} levels)", source) from None
     return _from_networkx(H, source, gml=suffix == ".gml")
+
+
+_GML_TOKEN = re.compile(r'"[^"]*"|\[|\]|\n')
+
+
+def _check_gml_nesting(text: str, source: str) -> None:
+    """Refuse GML whose lists nest deeper than :data:`MAX_DEPTH` levels (networkx's reader
+    recurses once per level), naming the line, before the reader sees it."""
+    depth, line = 0, 1
+    for m in _GML_TOKEN.finditer(text):
+        tok = m.group()
+        if tok == "\n":
+            line += 1
+        elif tok == "[":
+            depth += 1
+            if depth > MAX_DEPTH:
+                raise SpecError(f"line {line}", f"lists nested deeper than {MAX_DEPTH} levels", source)
+        elif tok == "]":
+            depth = max(0, depth - 1)
+        else:
+            line += tok.count("\n")

@@ -34,7 +34,6 @@ from __future__ import annotations
 import json
 import math
 import re
-import tomllib
 from decimal import Decimal
 from fractions import Fraction
 from importlib import resources
@@ -52,9 +51,11 @@ from glocal_verify.spec.prepare import (
     clip,
     elide,
     nesting_site,
+    parse_toml,
     path_text,
     plain_scalar,
     prepare,
+    read_toml,
     show,
 )
 from glocal_verify.spec.types import (
@@ -164,18 +165,8 @@ def load_spec(path: str | Path) -> SystemSpec:
         If the file cannot be read, is not TOML, or fails validation. The message names
         the file and the key path.
     """
-    if not isinstance(path, (str, Path)):
-        raise SpecError("", f"expected a file name, got {show(path)}")
-    p = Path(path)
-    try:
-        if p.stat().st_size > MAX_FILE_BYTES:
-            raise SpecError("", f"file too large ({p.stat().st_size} bytes; at most {MAX_FILE_BYTES})", str(p))
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise SpecError("", "file not found", str(p)) from None
-    except (OSError, UnicodeDecodeError, ValueError) as exc:
-        raise SpecError("", f"cannot read file ({clip(str(exc))})", str(p)) from None
-    return loads_spec(text, source=str(p))
+    data, source = read_toml(path)
+    return spec_from_dict(data, source=source)
 
 
 def loads_spec(text: str | bytes, source: str | None = None) -> SystemSpec:
@@ -195,25 +186,7 @@ def loads_spec(text: str | bytes, source: str | None = None) -> SystemSpec:
         a ``str``, arrays nested deeper than :data:`~glocal_verify.spec.types.MAX_DEPTH` levels
         and integers too long to read.
     """
-    if isinstance(text, (bytes, bytearray)):
-        try:
-            text = bytes(text).decode("utf-8")
-        except UnicodeDecodeError as exc:
-            raise SpecError("", f"not UTF-8 text ({exc})", source) from None
-    if not isinstance(text, str):
-        raise SpecError("", f"expected TOML text (str), got {type(text).__name__}", source)
-    if len(text) > MAX_FILE_BYTES:
-        raise SpecError("", f"text too large ({len(text)} characters; at most {MAX_FILE_BYTES})", source)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise SpecError("", f"not valid TOML ({clip(str(exc))})", source) from None
-    except RecursionError:
-        where, line = nesting_site(text)
-        raise SpecError(where, f"arrays or inline tables nested deeper than {MAX_DEPTH} levels (line {line})", source) from None
-    except ValueError as exc:  # an integer literal of more than 4300 digits
-        raise SpecError("", f"not valid TOML ({clip(str(exc).split(';')[0])})", source) from None
-    return spec_from_dict(data, source=source)
+    return spec_from_dict(parse_toml(text, source), source=source)
 
 
 def spec_from_dict(data: Mapping[str, Any], source: str | None = None) -> SystemSpec:

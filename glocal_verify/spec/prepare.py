@@ -14,8 +14,10 @@ from __future__ import annotations
 
 import copy
 import re
+import tomllib
 from decimal import Decimal
 from fractions import Fraction
+from pathlib import Path
 from typing import Any, Iterable, Mapping
 
 from glocal_verify.errors import SpecError
@@ -27,9 +29,11 @@ __all__ = [
     "clip",
     "elide",
     "nesting_site",
+    "parse_toml",
     "path_text",
     "plain_scalar",
     "prepare",
+    "read_toml",
     "show",
 ]
 
@@ -309,3 +313,64 @@ def nesting_site(text: str) -> tuple[str, int]:
         elif depth > 0:
             depth -= 1
     return "", line
+
+
+def read_toml(path: str | Path) -> tuple[dict[str, Any], str]:
+    """The mapping of a TOML file, read with the guarantees of the spec loader.
+
+    Every TOML file the toolkit reads (specs, sweep files) goes through here: at most
+    :data:`MAX_FILE_BYTES` bytes of UTF-8, arrays and inline tables nested at most
+    :data:`~glocal_verify.spec.types.MAX_DEPTH` levels, integers of at most 4300 digits; a
+    problem is one :class:`SpecError` naming the file (and the key, for the nesting).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+
+    Returns
+    -------
+    (dict, str)
+        The parsed mapping and the file name for messages.
+    """
+    if not isinstance(path, (str, Path)):
+        raise SpecError("", f"expected a file name, got {show(path)}")
+    p = Path(path)
+    try:
+        if p.stat().st_size > MAX_FILE_BYTES:
+            raise SpecError("", f"file too large ({p.stat().st_size} bytes; at most {MAX_FILE_BYTES})", str(p))
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise SpecError("", "file not found", str(p)) from None
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise SpecError("", f"cannot read file ({clip(str(exc))})", str(p)) from None
+    return parse_toml(text, source=str(p)), str(p)
+
+
+def parse_toml(text: str | bytes, source: str | None = None) -> dict[str, Any]:
+    """TOML ``text`` as a mapping, with the guards of :func:`read_toml` (one :class:`SpecError`).
+
+    Parameters
+    ----------
+    text : str or bytes
+        Bytes are decoded as UTF-8.
+    source : str, optional
+        A file name for messages.
+    """
+    if isinstance(text, (bytes, bytearray)):
+        try:
+            text = bytes(text).decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise SpecError("", f"not UTF-8 text ({exc})", source) from None
+    if not isinstance(text, str):
+        raise SpecError("", f"expected TOML text (str), got {type(text).__name__}", source)
+    if len(text) > MAX_FILE_BYTES:
+        raise SpecError("", f"text too large ({len(text)} characters; at most {MAX_FILE_BYTES})", source)
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SpecError("", f"not valid TOML ({clip(str(exc))})", source) from None
+    except RecursionError:
+        where, line = nesting_site(text)
+        raise SpecError(where, f"arrays or inline tables nested deeper than {MAX_DEPTH} levels (line {line})", source) from None
+    except ValueError as exc:  # an integer literal of more than 4300 digits
+        raise SpecError("", f"not valid TOML ({clip(str(exc).split(';')[0])})", source) from None

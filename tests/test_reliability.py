@@ -1,0 +1,464 @@
+"""The newer surfaces hold the spec loader's contract: graph files, sweep files, options and library
+arguments give one line and exit 2 (the project's exceptions in the library); every command
+writes under one output policy; SIGTERM and SIGHUP stop like Ctrl-C and no child outlives its
+command; sweeps and designs are estimated before they start; the exact path never asserts.
+
+One regression case per class found by the campaign of ``tests/fuzz_campaign.py``; its
+derandomized subset runs in ``tests/test_fuzz_surfaces.py``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+import pytest
+
+import fuzz_support as fs
+from glocal_verify import ArgumentError, GlocalVerifyError, SpecError, System, load_example, verify
+from glocal_verify.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _one_line(err: str) -> str:
+    """The one line of ``err`` (the heartbeat's still-working lines of a slow machine aside)."""
+    lines = [ln for ln in err.strip().splitlines() if ln.strip() and ": still working, " not in ln]
+    assert len(lines) == 1, lines
+    assert "Traceback" not in err and "Warning" not in err
+    return lines[0]
+
+
+def _spec(tmp_path: Path, name: str = "spec.toml") -> Path:
+    p = tmp_path / name
+    p.write_bytes(fs._spec_text("cycle8"))
+    return p
+
+
+# --------------------------------------------------------------------------------------------
+# graph files
+
+
+def test_a_gml_file_nested_20000_deep_is_one_line_naming_the_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    g = tmp_path / "deep.gml"
+    g.write_text("graph [\n" + "a [ " * 20_000 + "]" * 20_000 + "\n node [ id 1 ]\n]\n")
+    assert main(["verify", "--graph", str(g), "--quiet"]) == 2
+    assert "line 2: lists nested deeper than 64 levels" in _one_line(capsys.readouterr().err)
+
+
+def test_a_graphml_port_tag_prints_no_warning(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    g = tmp_path / "port.graphml"
+    g.write_text(fs._graph_texts()[".graphml"].replace('<node id="1" />', '<node id="1"><port name="p"/></node>'))
+    assert "<port" in g.read_text()
+    assert main(["verify", "--graph", str(g), "--quiet", "--simulate", "never"]) == 0
+    assert capsys.readouterr().err == ""
+
+
+def test_a_graph_of_more_than_100000_nodes_is_refused_in_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    g = tmp_path / "path.txt"
+    g.write_text("".join(f"{i} {i + 1}\n" for i in range(1, 100_001)))
+    assert main(["verify", "--graph", str(g), "--quiet"]) == 2
+    assert "too many nodes (100001; at most 100000)" in _one_line(capsys.readouterr().err)
+
+
+def test_an_edge_list_line_of_200000_characters_is_echoed_cut_short(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    g = tmp_path / "deep.txt"
+    g.write_text("1 2 {'weight': " + "[" * 100_000 + "1" + "]" * 100_000 + "}\n")
+    assert main(["verify", "--graph", str(g), "--quiet"]) == 2
+    assert len(_one_line(capsys.readouterr().err)) < 300
+
+
+# --------------------------------------------------------------------------------------------
+# sweep files: validated before any cluster starts
+
+
+@pytest.fixture
+def no_cluster(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Fail the test if a Dask cluster is started."""
+    import glocal_verify.design.distributed as dist
+
+    def refuse(*a: Any, **k: Any) -> Any:
+        raise AssertionError("a Dask cluster was started")
+
+    monkeypatch.setattr(dist, "dask_client", refuse)
+
+
+@pytest.mark.parametrize(
+    "text,where",
+    [
+        ('[ensemble]\ngenerator = "random-clustered"\nagents = ' + "[" * 5000 + "30" + "]" * 5000 + "\n", "ensemble.agents: arrays or inline tables nested deeper than 64 levels"),
+        ('[ensemble]\ngenerator = ["random-clustered"]\nagents = 30\n', "ensemble.generator: unknown generator ['random-clustered']"),
+        ('[ensemble]\ngenerator = "random-clustered"\nagents = 12\nseeds = {start = 18446744073709551616, count = 1}\n', "ensemble.seeds.start: must be an integer in [0, 9223372036854775807]"),
+        ('[ensemble]\ngenerator = "random-clustered"\nagents = [4, 30]\nclusters = 3\n', "ensemble.agents: must be in [6, 100000], got 4"),
+        ('[ensemble]\ngenerator = "random-clustered"\nagents = 12\nchords = nan\n', "ensemble.chords: expected a finite number"),
+    ],
+    ids=["nested-5000-deep", "generator-list", "seed-2-to-the-64", "agents-below-clusters", "chords-nan"],
+)
+def test_a_bad_sweep_file_is_one_line_before_any_cluster_starts(text: str, where: str, tmp_path: Path, capsys: pytest.CaptureFixture[str], no_cluster: None) -> None:
+    sw = tmp_path / "sw.toml"
+    sw.write_text(text)
+    assert main(["sweep", str(sw), "--out", str(tmp_path / "r.csv"), "--quiet"]) == 2
+    assert where in _one_line(capsys.readouterr().err)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["sw.toml"]
+
+
+@pytest.mark.parametrize(
+    "ensemble,why",
+    [('agents = 12\nclusters = 2\nseeds = {start = 0, count = 1000000}', "1000000 members"), ("agents = [100000]", "time and memory limits")],
+    ids=["a-million-members", "100000-agents"],
+)
+def test_a_sweep_above_the_limits_is_refused_with_its_estimate(ensemble: str, why: str, tmp_path: Path, capsys: pytest.CaptureFixture[str], no_cluster: None) -> None:
+    sw = tmp_path / "sw.toml"
+    sw.write_text(f'[ensemble]\ngenerator = "random-clustered"\n{ensemble}\n')
+    assert main(["sweep", str(sw), "--out", str(tmp_path / "r.csv")]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert line.startswith("glocal-verify: error: sweep: estimated") and why in line and "--allow-large" in line
+
+
+def test_a_sweep_too_small_for_workers_runs_in_this_process_and_says_so(tmp_path: Path, capsys: pytest.CaptureFixture[str], no_cluster: None) -> None:
+    sw = tmp_path / "sw.toml"
+    sw.write_bytes(fs.toml_dumps(fs.SWEEP_BASE).encode())
+    assert main(["sweep", str(sw), "--out", str(tmp_path / "r.csv"), "--workers", "2", "--no-figures"]) == 0
+    err = capsys.readouterr().err
+    assert "in this process (workers would not pay off)" in err.splitlines()[0]
+    assert (tmp_path / "r.csv").exists()
+
+
+def test_quiet_means_quiet_for_a_sweep(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    sw = tmp_path / "sw.toml"
+    sw.write_bytes(fs.toml_dumps(fs.SWEEP_BASE).encode())
+    assert main(["sweep", str(sw), "--out", str(tmp_path / "r.csv"), "--quiet", "--no-figures"]) == 0
+    assert all(ln.startswith("wrote ") for ln in capsys.readouterr().err.splitlines())
+
+
+# --------------------------------------------------------------------------------------------
+# options and library arguments
+
+
+def test_an_exact_budget_of_1e16_or_inf_runs_instead_of_overflowing(capsys: pytest.CaptureFixture[str]) -> None:
+    from glocal_verify.numerics.deadline import call_with_deadline
+
+    assert call_with_deadline(lambda: 7, 1e16) == 7
+    assert call_with_deadline(lambda: 7, math.inf) == 7
+    assert main(["verify", "--example", "paper19", "--exact-budget", "inf", "--quiet", "--only", "privacy.*"]) == 0
+    assert main(["verify", "--example", "paper19", "--exact-budget", "1e16", "--allow-large", "--quiet", "--only", "privacy.*"]) == 0
+
+
+def test_a_refusal_never_prints_a_number_of_300_digits(capsys: pytest.CaptureFixture[str]) -> None:
+    from glocal_verify.conditions.cost import format_seconds
+
+    assert format_seconds(1e300) == "3.2e+292 years"
+    assert main(["verify", "--example", "paper19", "--exact-budget", "1e300", "--quiet"]) == 2
+    assert len(_one_line(capsys.readouterr().err)) < 400
+
+
+def test_a_thread_count_beyond_4096_is_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["--threads", "9" * 80, "conditions"]) == 2
+    assert "--threads: must be between 1 and 4096" in _one_line(capsys.readouterr().err)
+
+
+def test_an_unreachable_scheduler_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    for address in ("tcp://127.0.0.1:1", "xyz"):
+        assert main(["audit", str(_spec(tmp_path)), "--scheduler", address, "--quiet"]) == 2
+        assert "cannot reach a Dask scheduler there" in _one_line(capsys.readouterr().err)
+
+
+def _paper19() -> System:
+    return System(load_example("paper19"))
+
+
+LIBRARY_CALLS: list[tuple[str, Callable[[], Any]]] = [
+    ("Tolerance(-1)", lambda: __import__("glocal_verify").Tolerance(-1.0)),
+    ("Tolerance('x')", lambda: __import__("glocal_verify").Tolerance("x")),
+    ("Tolerance(1e-9, inf)", lambda: __import__("glocal_verify").Tolerance(1e-9, math.inf)),
+    ("Tolerance(nan)", lambda: __import__("glocal_verify").Tolerance(math.nan)),
+    ("verify escalate ''", lambda: verify(_paper19(), ["privacy.kernel"], escalate="")),
+    ("verify exact_budget nan", lambda: verify(_paper19(), ["privacy.kernel"], exact_budget=math.nan)),
+    ("verify exact_budget 'x'", lambda: verify(_paper19(), ["privacy.kernel"], exact_budget="x")),
+    ("verify fragile_below -1", lambda: verify(_paper19(), ["privacy.kernel"], fragile_below=-1)),
+    ("verify tol 'x'", lambda: verify(_paper19(), ["privacy.kernel"], tol="x")),
+    ("verify only 5", lambda: verify(_paper19(), 5)),
+    ("verify None", lambda: verify(None)),
+    ("audit max_attackers None", lambda: __import__("glocal_verify.design.audit", fromlist=["audit"]).audit(_paper19(), None)),
+    ("audit max_attackers ''", lambda: __import__("glocal_verify.design.audit", fromlist=["audit"]).audit(_paper19(), "")),
+    ("audit max_attackers -inf", lambda: __import__("glocal_verify.design.audit", fromlist=["audit"]).audit(_paper19(), -math.inf)),
+    ("System(None)", lambda: System(None)),  # type: ignore[arg-type]
+    ("System('spec.toml')", lambda: System("spec.toml")),  # type: ignore[arg-type]
+]
+
+
+@pytest.mark.parametrize("call", [c for _, c in LIBRARY_CALLS], ids=[n for n, _ in LIBRARY_CALLS])
+def test_library_calls_outside_their_domain_raise_the_projects_argument_error(call: Callable[[], Any]) -> None:
+    with pytest.raises(ArgumentError) as info:
+        call()
+    assert "\n" not in str(info.value) and isinstance(info.value, (ValueError, TypeError))
+
+
+def test_a_system_of_an_empty_mapping_is_a_spec_error_naming_the_key() -> None:
+    with pytest.raises(SpecError, match="missing required key 'format'"):
+        System({})  # type: ignore[arg-type]
+
+
+def test_verify_takes_one_condition_id_as_a_string() -> None:
+    [r] = verify(_paper19(), "privacy.kernel").conditions
+    assert r.id == "privacy.kernel"
+
+
+# --------------------------------------------------------------------------------------------
+# one output policy
+
+
+WRITERS: list[tuple[str, Callable[[Path], list[str]]]] = [
+    ("design", lambda spec: ["design", str(spec), "--quiet"]),
+    ("audit", lambda spec: ["audit", str(spec), "--quiet"]),
+    ("verify", lambda spec: ["verify", str(spec), "--quiet"]),
+    ("draw", lambda spec: ["draw", str(spec)]),
+    ("place-observers", lambda spec: ["place-observers", str(spec), "--quiet"]),
+]
+
+
+@pytest.mark.parametrize("attack", ["same", "hard-link", "sub-dot-dot"])
+@pytest.mark.parametrize("writer", [w for _, w in WRITERS], ids=[n for n, _ in WRITERS])
+def test_no_writing_command_overwrites_its_input_by_any_path(attack: str, writer: Callable[[Path], list[str]], tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    spec = _spec(tmp_path)
+    before = spec.read_bytes()
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "sub").mkdir()
+    if attack == "hard-link":
+        os.link(spec, tmp_path / "hl.toml")
+    out = {"same": "spec.toml", "hard-link": "hl.toml", "sub-dot-dot": "sub/../spec.toml"}[attack]
+    assert main(writer(Path("spec.toml")) + ["--out", out]) == 2
+    assert "is an input of this command" in _one_line(capsys.readouterr().err)
+    assert spec.read_bytes() == before
+
+
+def test_a_sweep_never_overwrites_its_sweep_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    sw = tmp_path / "sw.csv"
+    sw.write_bytes(fs.toml_dumps(fs.SWEEP_BASE).encode())
+    before = sw.read_bytes()
+    assert main(["sweep", str(sw), "--out", str(sw), "--quiet"]) == 2
+    assert "is an input of this command" in _one_line(capsys.readouterr().err)
+    assert sw.read_bytes() == before
+
+
+def test_no_command_writes_through_a_symbolic_link_or_a_linked_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    spec = _spec(tmp_path)
+    sw = tmp_path / "sw.toml"
+    sw.write_bytes(fs.toml_dumps(fs.SWEEP_BASE).encode())
+    target = tmp_path / "target.csv"
+    target.write_text("keep\n")
+    (tmp_path / "link.csv").symlink_to(target)
+    real = tmp_path / "real"
+    real.mkdir()
+    (tmp_path / "linkdir").symlink_to(real)
+    runs = [
+        ["sweep", str(sw), "--out", str(tmp_path / "link.csv"), "--quiet"],
+        ["audit", str(spec), "--out", str(tmp_path / "linkdir") + "/", "--quiet"],
+        ["audit", str(spec), "--figure", str(tmp_path / "linkdir" / "a.svg"), "--quiet"],
+        ["design", str(spec), "--out", str(tmp_path / "linkdir" / "d.toml"), "--quiet"],
+        ["simulate", str(spec), "--out", str(tmp_path / "linkdir"), "--no-figures", "--quiet"],
+    ]
+    for argv in runs:
+        assert main(argv) == 2, argv
+        assert "symbolic link" in _one_line(capsys.readouterr().err)
+    assert target.read_text() == "keep\n" and list(real.iterdir()) == []
+
+
+def test_an_audit_folder_is_written_all_or_nothing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    import glocal_verify.design.audit_figure as af
+
+    spec = _spec(tmp_path)
+
+    def broken(result: Any, fmt: str = "svg") -> bytes:
+        if fmt == "png":
+            raise OSError(28, "No space left on device")
+        return b"<svg/>"
+
+    monkeypatch.setattr(af, "audit_figure_bytes", broken)
+    out = tmp_path / "new" / "audit"
+    assert main(["audit", str(spec), "--out", str(out) + "/", "--quiet"]) != 0
+    capsys.readouterr()
+    assert not (tmp_path / "new").exists()  # no staging folder, no empty folder
+
+
+def test_a_sweep_into_a_full_disk_is_one_line_and_leaves_nothing_half_written(tmp_path: Path) -> None:
+    case = fs.Case("output", "sweep", ["sweep", "sw.toml", "--out", "full/r.csv", "--quiet", "--no-figures"],
+                   {"sw.toml": fs.toml_dumps(fs.SWEEP_BASE).encode()}, protected=["sw.toml"], fsize=100)
+    res = fs.run_case(case, 60)
+    assert res.outcome == "clean-error", res.summary()
+    assert "cannot write" in res.last_stderr_line and len(res.stderr_lines) == 1
+
+
+# --------------------------------------------------------------------------------------------
+# signals and child processes
+
+
+@pytest.mark.parametrize("sig,code,line", [(signal.SIGTERM, 143, "terminated (SIGTERM)"), (signal.SIGHUP, 129, "hung up (SIGHUP)"), (signal.SIGINT, 130, "interrupted")])
+def test_sigterm_and_sighup_stop_a_command_like_ctrl_c(sig: int, code: int, line: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    import glocal_verify.cli.verify as cv
+
+    def stopped(*a: Any, **k: Any) -> Any:
+        os.kill(os.getpid(), sig)
+        time.sleep(5)  # the handler raises before this ends
+        raise AssertionError("the signal did not stop the command")
+
+    monkeypatch.setattr(cv, "verify", stopped)
+    out = tmp_path / "r.md"
+    assert main(["verify", str(_spec(tmp_path)), "--out", str(out), "--quiet"]) == code
+    assert _one_line(capsys.readouterr().err) == f"glocal-verify: {line}"
+    assert not out.exists()
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # the handlers are restored
+
+
+_ORPHAN = r"""
+import os, sys, time
+sys.path.insert(0, {root!r})
+from glocal_verify.numerics.deadline import call_with_deadline
+
+def compute():
+    with open({pidfile!r}, "w") as fh:
+        fh.write(str(os.getpid()))
+    time.sleep(600)
+
+call_with_deadline(compute, 600.0)
+"""
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            return fh.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the parent-death signal is Linux's prctl")
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM])
+def test_a_forked_exact_computation_dies_with_its_parent(sig: int, tmp_path: Path) -> None:
+    pidfile = tmp_path / "child.pid"
+    p = subprocess.Popen([sys.executable, "-c", _ORPHAN.format(root=str(ROOT), pidfile=str(pidfile))], start_new_session=True)
+    for _ in range(200):
+        if pidfile.exists() and pidfile.read_text():
+            break
+        time.sleep(0.05)
+    child = int(pidfile.read_text())
+    os.kill(p.pid, sig)
+    p.wait(30)
+    for _ in range(40):
+        if not _alive(child):
+            break
+        time.sleep(0.05)
+    assert not _alive(child), "the forked computation outlived its parent"
+
+
+def test_dask_workers_are_killed_when_the_command_stops() -> None:
+    from glocal_verify.design.distributed import dask_client
+    from glocal_verify.runtime.processes import Stopped
+
+    pids: list[int] = []
+    with pytest.raises(Stopped):
+        with dask_client(None, 1) as client:
+            pids += [int(p) for p in client.run(os.getpid).values()]
+            raise Stopped(signal.SIGTERM)
+    time.sleep(0.5)
+    assert pids and not any(_alive(p) for p in pids)
+
+
+def test_a_dashboard_port_in_use_gives_one_line() -> None:
+    from glocal_verify.design.distributed import dask_client
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        s.listen()
+        port = s.getsockname()[1]
+        lines: list[str] = []
+        with dask_client(None, 1, dashboard=f"127.0.0.1:{port}", notice=lines.append):
+            pass
+    assert len(lines) == 1 and f"Port {port} is already in use" in lines[0] and "dashboard is at" in lines[0]
+
+
+def test_a_reader_that_goes_away_ends_the_command_with_141_and_no_traceback() -> None:
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    p = subprocess.Popen([sys.executable, "-m", "glocal_verify.cli", "verify", "--example", "paper19", "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
+    assert p.stdout is not None and p.stderr is not None
+    p.stdout.read(10)
+    p.stdout.close()
+    err = p.stderr.read().decode()
+    assert p.wait(120) in (0, 141) and "Traceback" not in err
+
+
+# --------------------------------------------------------------------------------------------
+# progress and estimates
+
+
+def test_a_silent_phase_gets_a_still_working_line() -> None:
+    import io
+
+    from glocal_verify.cli.heartbeat import Heartbeat
+
+    saved = sys.stderr
+    buf = io.StringIO()
+    sys.stderr = buf
+    try:
+        with Heartbeat("glocal-verify", "verify", silence=0.3):
+            print("checking switched-observability ...", file=sys.stderr)
+            time.sleep(1.5)
+    finally:
+        sys.stderr = saved
+    lines = buf.getvalue().splitlines()
+    assert lines[0] == "checking switched-observability ..."
+    assert any(ln.startswith('glocal-verify: still working, ') and '"checking switched-observability ..."' in ln for ln in lines[1:])
+
+
+def test_a_design_over_500_safe_modes_is_refused_with_its_estimate() -> None:
+    from glocal_verify.conditions.cost import SpecSizes, default_limits, estimate_design, refusal
+    from glocal_verify.design.generators import random_clustered_spec
+
+    est = estimate_design(SpecSizes.from_spec(random_clustered_spec(150, 3, seed=1, modes=500, monitors=40)))
+    assert refusal(est, default_limits()) is not None
+    assert "500 modes" in est.describe()
+
+
+def test_design_says_which_step_it_is_in(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["design", str(_spec(tmp_path)), "--out", str(tmp_path / "d.toml")]) == 0
+    err = capsys.readouterr().err
+    for step in ("auditing the spec as given", "placing local observers", "auditing the design"):
+        assert f"design: {step} ..." in err
+
+
+# --------------------------------------------------------------------------------------------
+# the exact path
+
+
+def test_the_exact_witness_of_a_zero_with_huge_coefficients_is_evaluated_not_asserted() -> None:
+    import flint
+    import numpy as np
+
+    from glocal_verify.numerics.cluster_transfer import eval_normalized
+    from glocal_verify.numerics.pencil_exact import RootEnclosures
+
+    f = flint.fmpq_poly([2, 0, 1])  # s^2 + 2, roots +-i sqrt(2)
+    big = flint.fmpz(10) ** 20_000  # a common factor a fraction-free elimination leaves
+    v = [flint.fmpq_poly([3 * big, big]), flint.fmpq_poly([7 * big])]
+    x = eval_normalized(v, f, 1.414j, RootEnclosures(f))
+    assert x is not None
+    root = 1j * math.sqrt(2)
+    assert np.allclose(x, np.array([3 + root, 7]) / 7)
+
+
+def test_verify_exact_and_design_finish_on_a_generated_clustered_network(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from glocal_verify.design.generators import random_clustered_spec
+
+    spec = tmp_path / "r30.toml"
+    spec.write_text(random_clustered_spec(30, 3, seed=60).to_toml())
+    assert main(["verify", str(spec), "--exact", "--quiet", "--out", str(tmp_path / "r.md")]) in (0, 1)
+    assert main(["design", str(spec), "--quiet", "--out", str(tmp_path / "d.toml")]) in (0, 2)
+    err = capsys.readouterr().err
+    assert "internal error" not in err and "Traceback" not in err
