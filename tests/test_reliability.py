@@ -459,6 +459,7 @@ def test_verify_exact_and_design_finish_on_a_generated_clustered_network(tmp_pat
     spec = tmp_path / "r30.toml"
     spec.write_text(random_clustered_spec(30, 3, seed=60).to_toml())
     assert main(["verify", str(spec), "--exact", "--quiet", "--out", str(tmp_path / "r.md")]) in (0, 1)
-    assert main(["design", str(spec), "--quiet", "--out", str(tmp_path / "d.toml")]) in (0, 2)
+    # 1: a partial design (written, with what it could not meet), as docs/audit.md says
+    assert main(["design", str(spec), "--quiet", "--out", str(tmp_path / "d.toml")]) in (0, 1, 2)
     err = capsys.readouterr().err
     assert "internal error" not in err and "Traceback" not in err

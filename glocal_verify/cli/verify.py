@@ -200,7 +200,7 @@ def register(sub: Any) -> None:
         help="run switching.detects (Theorem III.3's conclusion, one simulated switch per safe mode; auto: up to 150 agents)",
     )
     v.add_argument("--escalate", choices=("auto", "never"), default="auto", help="auto (default): re-decide a numeric undecided exactly within --exact-budget")
-    v.add_argument("--exact-budget", type=float, default=30.0, metavar="SECONDS", help="seconds for all exact re-decisions of the run together (default 30; 0 or inf: no limit)")
+    v.add_argument("--exact-budget", type=float, default=30.0, metavar="SECONDS", help="one time budget for all the exact escalations of the run, in seconds (default 30; 0 or inf: no limit)")
     v.add_argument("--fragile-below", type=float, default=1e-9, metavar="X", help="mark a verdict fragile when its margin is below X (default 1e-9)")
     v.add_argument("--quiet", action="store_true", help="no progress on stderr")
     add_allow_large(v)
