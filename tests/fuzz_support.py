@@ -1304,7 +1304,11 @@ def sweep_case(c: Chooser) -> Case:
             descs.append(c.choice([_m_drop_key, _m_type_change, _m_duplicate_item])(d, c))
         else:
             depth = c.choice([50, 900, 10_000])
-            d.setdefault("ensemble", {})["agents"] = RawToml("[" * depth + "10" + "]" * depth) if isinstance(d.get("ensemble"), dict) else 1
+            nested = RawToml("[" * depth + "10" + "]" * depth)
+            if isinstance(d.get("ensemble"), dict):
+                d["ensemble"]["agents"] = nested
+            else:  # an earlier mutation changed the table's type: a fresh table holds the nesting
+                d["ensemble"] = {"agents": nested}
             descs.append(f"agents nested {depth} deep")
     try:
         text = toml_dumps(d)

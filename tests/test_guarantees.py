@@ -153,3 +153,22 @@ def test_the_detection_checkers_report_through_verify() -> None:
     w = rep.results("detection.guarantee")[0].witness
     assert w["detected_by"] == "P1@5" and w["global_within"] > 0
     assert np.all(np.isfinite(to_float(next(iter(sy.analysis[("detection-thresholds",)].detectors)).F)))
+
+
+def test_the_assessment_reads_the_deployment_guarantee_into_the_answer() -> None:
+    import json
+
+    from glocal_verify.reporting.render import to_json_text, to_markdown, validate_report_json
+
+    rep = verify(_system(), ["stealthy.*", "local.*", "switching.*", "detection.*"], escalate="never", simulate="never")
+    a = rep.assessment
+    assert a is not None and a.attack.deployment is not None
+    g = rep.results("detection.guarantee")[0]
+    assert a.attack.deployment.guaranteed is (g.status is Status.HOLDS) is True
+    assert a.attack.deployment.detection_time == g.witness["global_detection"] and a.attack.deployment.mode == g.scope["mode"]
+    assert "sampled deployment: guaranteed" in a.headline()
+    assert "in the sampled deployment (detection.*): **guaranteed**" in to_markdown(rep)
+    data = json.loads(to_json_text(rep))
+    validate_report_json(data)
+    assert data["assessment"]["attack"]["deployment"]["guaranteed"] is True
+    assert {"detection.thresholds", "detection.guarantee"} <= set(a.based_on)

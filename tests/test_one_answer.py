@@ -250,3 +250,40 @@ def test_each_condition_the_answer_reads_is_decided_by_one_function_that_verify_
     # local.pencil: the audit's screens (a suspected boundary agent, a failing subset, twins,
     # the exact minors) decide most sets before the rule is needed; some still reach it
     assert by_audit == set(read), set(read) - by_audit
+
+
+def _deployed_evidence(thresholds: Status | None, *guarantees: Status) -> Any:
+    from glocal_verify.answer.attack import AttackEvidence, DeploymentEvidence, DeploymentMode, LocalEvidence, ModeEvidence
+
+    theorem = {"switching.image-kernel": Status.HOLDS, "switching.distinct-eigenvalues": Status.HOLDS, "switching.eigenvector-differences": Status.HOLDS}
+    modes = tuple(DeploymentMode(f"case-{i + 1}", g, "P1@5", 1.0, 8.0 + i, 1.0, 0.0025, "the zero run escapes" if g is Status.FAILS else "") for i, g in enumerate(guarantees))
+    return AttackEvidence(
+        "zda", (3, 4), (("P1", (3, 4), (5,)),), Status.HOLDS, 0.0, "spec",
+        (LocalEvidence("P1", 5, (3, 4), Status.HOLDS, Status.HOLDS),), (ModeEvidence("case-1", theorem, Status.FAILS),),
+        deployment=DeploymentEvidence(thresholds, modes),
+    )
+
+
+@pytest.mark.parametrize(
+    ("thresholds", "guarantees", "guaranteed"),
+    [
+        (Status.HOLDS, (Status.FAILS, Status.HOLDS), True),
+        (Status.HOLDS, (Status.FAILS, Status.FAILS), False),
+        (Status.HOLDS, (Status.FAILS, Status.UNDECIDED), None),
+        (Status.UNDECIDED, (Status.HOLDS,), None),
+        (Status.HOLDS, (), None),
+    ],
+)
+def test_the_deployment_answer_needs_certified_thresholds_and_one_proven_mode(thresholds: Status, guarantees: tuple[Status, ...], guaranteed: bool | None) -> None:
+    from glocal_verify.answer.attack import answer_attack
+
+    plain = answer_attack(dataclasses.replace(_deployed_evidence(thresholds, *guarantees), deployment=None))
+    a = answer_attack(_deployed_evidence(thresholds, *guarantees))
+    assert a.deployment is not None and a.deployment.guaranteed is guaranteed
+    # a second answer beside the verdict: the paper's model decides the verdict alone
+    assert plain.deployment is None and (a.verdict, a.chain) == (plain.verdict, plain.chain) == ("detected", plain.chain)
+    if guaranteed:
+        assert a.deployment.mode == "case-2" and a.deployment.detection_time == 9.0
+        assert "P1@5" in a.deployment.chain[1] and "case-2" in a.deployment.chain[2]
+    elif guaranteed is False:
+        assert "zero run escapes" in a.deployment.reason and a.deployment.min_size == 0.0025

@@ -26,7 +26,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from glocal_verify.answer.attack import ANSWER_IDS, AttackAnswer, answer_attack, format_labels, format_lambda, not_assessed
+from glocal_verify.answer.attack import ANSWER_IDS, DEPLOYMENT_IDS, AttackAnswer, answer_attack, format_labels, format_lambda, not_assessed
 from glocal_verify.answer.evidence import combine, evidence_from_report
 from glocal_verify.conditions.catalogue import CATALOGUE
 from glocal_verify.results import ConditionResult, Polarity, Report, Status
@@ -114,6 +114,8 @@ class Assessment:
         """One line: the privacy answers and the attack's verdict."""
         p, a = self.privacy, self.attack
         att = "no attack in the spec" if not a.present else f"attack on {format_labels(a.actuators)}: {a.verdict}"
+        if a.deployment is not None:
+            att += f" (sampled deployment: {a.deployment.word})"
         return f"x(t0) {p.initial_state}, x* {p.consensus_value}; {att}"
 
     def to_json(self) -> dict[str, Any]:
@@ -219,6 +221,8 @@ def _attack(report: Report, warnings: list[str], not_evaluated: dict[str, str]) 
     if a.unsettled_modes and a.verdict == "undecided":
         warnings.append(f"whether {', '.join(a.unsettled_modes)} expose{'s' if len(a.unsettled_modes) == 1 else ''} the attack is not settled by the algebra: see each mode's reason")
     warnings += list(a.warnings)
+    if a.deployment is not None and a.verdict == "detected" and a.deployment.guaranteed is False:
+        warnings.append(f"detected in the paper's model, but not guaranteed in the sampled deployment: {a.deployment.reason}")
     if a.fragile:
         warnings.append(a.fragile)
     return a
@@ -267,7 +271,7 @@ def assess(report: Report) -> Assessment:
     if fragile:
         ids = sorted({r.id for r in fragile})
         warnings.append(f"{_plural(len(fragile), 'fragile result')} ({', '.join(ids)}): proven, but a small change of the weights could flip them")
-    based = ["privacy.initial-state", "privacy.consensus-value", "privacy.connected", *ANSWER_IDS]
+    based = ["privacy.initial-state", "privacy.consensus-value", "privacy.connected", *ANSWER_IDS, *DEPLOYMENT_IDS]
     present = {r.id for r in report.conditions}
     return Assessment(privacy, attack, tuple(warnings), notes, not_evaluated, tuple(c for c in based if c in present))
 

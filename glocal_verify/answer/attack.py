@@ -33,6 +33,15 @@ Detected
     ``detected`` when one route proves detection, ``undetected`` when the attack is stealthy
     and every route is decided against detection (the chain names the failed link: no
     guarantee exists for this attacker), else ``undecided``.
+In the sampled deployment
+    Only with a sampled ``[implementation]`` (the ``detection.*`` conditions): ``guaranteed``
+    when every detector's threshold is certified (``detection.thresholds`` holds) and, for
+    some safe mode, ``detection.guarantee`` holds (every admissible initial state, noise and
+    disturbance raises the control centre's alarm within the horizon); ``not guaranteed``
+    when the thresholds hold and that guarantee fails for every mode evaluated; else
+    ``undecided``. It is a second answer, about the sampled system with noise, shown beside
+    the verdict and never folded into it: sampling moves zeros, so the two systems may
+    differ, and the verdict stays the statement about the paper's model.
 """
 
 from __future__ import annotations
@@ -48,6 +57,10 @@ from glocal_verify.results import FRAGILE_BELOW, Status, jsonable
 __all__ = [
     "ANSWER_IDS",
     "ATTACK_VERDICTS",
+    "DEPLOYMENT_IDS",
+    "DeploymentAnswer",
+    "DeploymentEvidence",
+    "DeploymentMode",
     "THEOREM_IDS",
     "AttackAnswer",
     "AttackEvidence",
@@ -68,6 +81,8 @@ ATTACK_VERDICTS = ("detected", "undetected", "undecided", "not assessed")
 THEOREM_IDS = ("switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences")
 #: every condition the answer reads (``switching.detects`` only to show it beside the algebra)
 ANSWER_IDS = ("stealthy.zda", "stealthy.covert", "local.pencil", "local.uio", *THEOREM_IDS, "switching.avoids-attack", "switching.detects")
+#: the conditions the deployment answer reads (only with a sampled ``[implementation]``)
+DEPLOYMENT_IDS = ("detection.thresholds", "detection.guarantee")
 _LABEL = MappingProxyType({"switching.image-kernel": "(i)", "switching.distinct-eigenvalues": "(ii)", "switching.eigenvector-differences": "(iii)"})
 
 
@@ -161,6 +176,51 @@ class ModeEvidence:
 
 
 @dataclass(frozen=True, slots=True)
+class DeploymentMode:
+    """``detection.guarantee`` for one safe mode of a sampled deployment.
+
+    Attributes
+    ----------
+    mode : str
+    guarantee : Status
+    detected_by : str or None
+        The local observer whose alarm is guaranteed first (``"P1@5"``).
+    local_within : float or None
+        Seconds after the attack starts by which that local alarm is guaranteed.
+    detection_time : float or None
+        Seconds after the attack starts by which the control centre's alarm is guaranteed.
+    size, min_size : float or None
+        The attack's amplitude and the smallest amplitude guaranteed to be detected.
+    note : str
+        Why the guarantee fails or is undecided.
+    """
+
+    mode: str
+    guarantee: Status
+    detected_by: str | None = None
+    local_within: float | None = None
+    detection_time: float | None = None
+    size: float | None = None
+    min_size: float | None = None
+    note: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class DeploymentEvidence:
+    """What the ``detection.*`` conditions say about the spec's attack in its sampled deployment.
+
+    Attributes
+    ----------
+    thresholds : Status or None
+        ``detection.thresholds`` over every detector (None: not evaluated).
+    modes : tuple of DeploymentMode
+    """
+
+    thresholds: Status | None
+    modes: tuple[DeploymentMode, ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
 class AttackEvidence:
     """Everything :func:`answer_attack` reads about one attacker (condition statuses only).
 
@@ -185,6 +245,8 @@ class AttackEvidence:
     schedule_text : str
     monitored : bool
         The control centre measures something.
+    deployment : DeploymentEvidence or None
+        The ``detection.*`` results (None: no sampled ``[implementation]`` or not evaluated).
     """
 
     kind: str
@@ -198,6 +260,7 @@ class AttackEvidence:
     schedule: tuple[str, ...] | None = None
     schedule_text: str = ""
     monitored: bool = True
+    deployment: DeploymentEvidence | None = None
 
 
 # ------------------------------------------------------------------------------------------
@@ -275,6 +338,43 @@ class Route:
 
 
 @dataclass(frozen=True, slots=True)
+class DeploymentAnswer:
+    """The answer in the sampled deployment (module docstring, "In the sampled deployment").
+
+    Attributes
+    ----------
+    guaranteed : bool or None
+        Detection is certified for every admissible initial state, noise and disturbance
+        (False: certified not to be; None: undecided).
+    mode : str or None
+        The safe mode of the guarantee.
+    chain : tuple of str
+        The steps of the guarantee, or the failed link.
+    reason : str
+        One sentence.
+    detection_time : float or None
+        Seconds after the attack starts by which the control centre's alarm is guaranteed.
+    min_size : float or None
+        The smallest attack amplitude the guarantee covers.
+    """
+
+    guaranteed: bool | None
+    mode: str | None
+    chain: tuple[str, ...]
+    reason: str
+    detection_time: float | None = None
+    min_size: float | None = None
+
+    @property
+    def word(self) -> str:
+        """``guaranteed``, ``not guaranteed`` or ``undecided``."""
+        return {True: "guaranteed", False: "not guaranteed", None: "undecided"}[self.guaranteed]
+
+    def to_json(self) -> dict[str, Any]:
+        return {"guaranteed": self.guaranteed, "mode": self.mode, "chain": list(self.chain), "reason": self.reason, "detection_time": self.detection_time, "min_size": self.min_size}
+
+
+@dataclass(frozen=True, slots=True)
 class AttackAnswer:
     """The answer for one attacker (module docstring).
 
@@ -303,6 +403,8 @@ class AttackAnswer:
         Set when detection rests only on exposures of a tiny relative size.
     warnings : tuple of str
         Disagreements between the algebra and the simulation.
+    deployment : DeploymentAnswer or None
+        The answer in the sampled deployment (None: no sampled ``[implementation]``).
     """
 
     kind: str | None
@@ -323,6 +425,7 @@ class AttackAnswer:
     reason: str
     fragile: str = ""
     warnings: tuple[str, ...] = ()
+    deployment: DeploymentAnswer | None = None
 
     @property
     def present(self) -> bool:
@@ -355,6 +458,7 @@ class AttackAnswer:
             "reason": self.reason,
             "fragile": self.fragile,
             "warnings": list(self.warnings),
+            "deployment": None if self.deployment is None else self.deployment.to_json(),
         }
 
 
@@ -490,6 +594,36 @@ def _schedule(ev: AttackEvidence, stealthy: bool | None, modes: Sequence[ModeExp
     return Route("schedule", "undecided", (head, sched, *gaps))
 
 
+def _seconds(t: float | None) -> str:
+    return "?" if t is None else f"{t:.3g} s"
+
+
+def _deployment(dep: DeploymentEvidence | None) -> DeploymentAnswer | None:
+    """The rule of "In the sampled deployment" (module docstring)."""
+    if dep is None:
+        return None
+    every = "for every admissible initial state, noise and disturbance"
+    if dep.thresholds is not Status.HOLDS:
+        why = "not evaluated" if dep.thresholds is None else "not certified for every detector (detection.thresholds undecided)"
+        return DeploymentAnswer(None, None, (f"thresholds {why}",), f"The detection thresholds are {why}: no guarantee can be stated.")
+    head = "certified thresholds (no attack-free run raises an alarm)"
+    proven = [m for m in dep.modes if m.guarantee is Status.HOLDS]
+    if proven:
+        m = min(proven, key=lambda x: math.inf if x.detection_time is None else x.detection_time)
+        local = f"local alarm by {m.detected_by} within {_seconds(m.local_within)}" if m.detected_by else "the control centre's alarm before any switch"
+        chain = (head, local, f"switch to {m.mode}", f"the control centre's alarm within {_seconds(m.detection_time)} of the attack's start")
+        size = "" if m.min_size is None else f"; the smallest amplitude guaranteed is {m.min_size:.3g}" + ("" if m.size is None else f" (this attack: {m.size:.3g})")
+        return DeploymentAnswer(True, m.mode, chain, f"Guaranteed {every}: {' -> '.join(chain)}{size}.", m.detection_time, m.min_size)
+    if dep.modes and all(m.guarantee is Status.FAILS for m in dep.modes):
+        why = "; ".join(f"{m.mode}: {m.note or 'detection.guarantee fails'}" for m in dep.modes)
+        sizes = [m.min_size for m in dep.modes if m.min_size is not None and math.isfinite(m.min_size)]
+        hint = f" (an amplitude of at least {min(sizes):.3g} would be)" if sizes else ""
+        return DeploymentAnswer(False, None, (head, f"no mode's guarantee holds ({why})"), f"Not guaranteed {every}{hint}: {why}.", None, min(sizes) if sizes else None)
+    open_ = [m.mode for m in dep.modes if m.guarantee is Status.UNDECIDED]
+    why = f"detection.guarantee undecided for {format_labels(open_)}" if open_ else "detection.guarantee was not evaluated"
+    return DeploymentAnswer(None, None, (head, why), f"Whether detection is guaranteed {every} is undecided: {why}.")
+
+
 def answer_attack(ev: AttackEvidence) -> AttackAnswer:
     """The answer for one attacker (the rules of the module docstring).
 
@@ -521,7 +655,8 @@ def answer_attack(ev: AttackEvidence) -> AttackAnswer:
     if stealthy is False:
         direct = Route("direct", "detected", (f"not stealthy ({'stealthy.zda' if ev.kind == 'zda' else 'stealthy.covert'} fails): every attack through {_agents(ev.actuators)} shows in the global residual",))
         return AttackAnswer(ev.kind, ev.actuators, ev.lambda0, ev.lambda0_source, False, caught, caught_by, clusters, exposed, not_exposed, unsettled, modes,
-                            (direct,), "detected", direct.chain, f"{what} is not stealthy: the control centre sees it before any switch.", warnings=warnings)
+                            (direct,), "detected", direct.chain, f"{what} is not stealthy: the control centre sees it before any switch.", warnings=warnings,
+                            deployment=_deployment(ev.deployment))
     routes = [_algorithm1(ev, stealthy, caught, clusters, modes)]
     if (sr := _schedule(ev, stealthy, modes)) is not None:
         routes.append(sr)
@@ -542,4 +677,4 @@ def answer_attack(ev: AttackEvidence) -> AttackAnswer:
         if used and all(m.fragile for m in used):
             fragile = "detected only by exposure, and every exposing switch is fragile: " + "; ".join(m.fragile for m in used)
     return AttackAnswer(ev.kind, ev.actuators, ev.lambda0, ev.lambda0_source, stealthy, caught, caught_by, clusters, exposed, not_exposed, unsettled, modes,
-                        tuple(routes), verdict, decider.chain, reason, fragile, warnings)
+                        tuple(routes), verdict, decider.chain, reason, fragile, warnings, _deployment(ev.deployment))

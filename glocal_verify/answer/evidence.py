@@ -3,7 +3,8 @@
 A report holds one result per condition and scope; for the spec's attack the answer reads
 ``stealthy.zda`` / ``stealthy.covert`` (global), ``local.pencil`` and ``local.uio`` with the
 suspected set ``attack`` (per cluster and observer), Theorem III.3 (i)-(iii) and
-``switching.avoids-attack`` (per safe mode), and ``switching.detects`` when it was simulated.
+``switching.avoids-attack`` (per safe mode), ``switching.detects`` when it was simulated, and
+``detection.thresholds`` / ``detection.guarantee`` in a sampled deployment.
 The attack, its split by cluster and the schedule come from :attr:`Report.system`.
 """
 
@@ -12,10 +13,10 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from glocal_verify.answer.attack import THEOREM_IDS, AttackEvidence, LocalEvidence, ModeEvidence, format_lambda
+from glocal_verify.answer.attack import THEOREM_IDS, AttackEvidence, DeploymentEvidence, DeploymentMode, LocalEvidence, ModeEvidence, format_lambda
 from glocal_verify.results import ConditionResult, Report, Status
 
-__all__ = ["combine", "evidence_from_report", "lambda0_of"]
+__all__ = ["combine", "deployment_of", "evidence_from_report", "lambda0_of"]
 
 
 def combine(statuses: Sequence[Status]) -> Status | None:
@@ -62,6 +63,27 @@ def lambda0_of(report: Report) -> tuple[complex | None, str]:
 
 def _by_mode(rs: Sequence[ConditionResult], mode: str) -> ConditionResult | None:
     return next((r for r in rs if r.scope.get("mode") == mode), None)
+
+
+def _number(x: Any) -> float | None:
+    return float(x) if isinstance(x, (int, float)) and not isinstance(x, bool) else None
+
+
+def deployment_of(report: Report) -> DeploymentEvidence | None:
+    """The ``detection.*`` evidence for the spec's attack (None when the report has none)."""
+    thresholds, guarantees = report.results("detection.thresholds"), report.results("detection.guarantee")
+    if not thresholds and not guarantees:
+        return None
+    modes = []
+    for r in guarantees:
+        w = r.witness
+        modes.append(
+            DeploymentMode(
+                str(r.scope.get("mode")), r.status, None if w.get("detected_by") is None else str(w.get("detected_by")),
+                _number(w.get("within")), _number(w.get("global_detection")), _number(w.get("size")), _number(w.get("min_size")), r.note,
+            )
+        )
+    return DeploymentEvidence(combine([r.status for r in thresholds]), tuple(modes))
 
 
 def evidence_from_report(report: Report) -> AttackEvidence | None:
@@ -111,5 +133,5 @@ def evidence_from_report(report: Report) -> AttackEvidence | None:
     sched = report.system.schedule
     return AttackEvidence(
         atk.kind, tuple(atk.actuators), tuple(atk.by_cluster), stealthy, lam, source, tuple(local), tuple(modes),
-        None if sched is None else tuple(sched.modes), "" if sched is None else sched.text, report.system.monitored,
+        None if sched is None else tuple(sched.modes), "" if sched is None else sched.text, report.system.monitored, deployment_of(report),
     )

@@ -152,6 +152,9 @@ def _assessment_block(a: Assessment) -> str:
             )
             for r in at.routes:
                 items.append(f"<li>{_e(r.name)}: {_badge(r.verdict, {'detected': True, 'undetected': False}.get(r.verdict))} {_e(r.text())}</li>")
+        if at.deployment is not None:
+            d = at.deployment
+            items.append(f"<li>in the sampled deployment (detection.*): {_badge(d.word, d.guaranteed)} {_e(d.reason)}</li>")
         out.append("<ul>" + "".join(items) + "</ul>")
         if at.modes:
             rows = "".join(

@@ -147,6 +147,8 @@ def attack_lines(a: Assessment) -> list[str]:
         for r in at.routes:
             title = {"algorithm 1": "Algorithm 1 (a local alarm triggers the switch)", "schedule": "the [switching] schedule (switches whatever the observers see)"}.get(r.name, r.name)
             lines.append(f"- {title}: **{r.verdict}**: {r.text()}")
+    if at.deployment is not None:
+        lines.append(f"- in the sampled deployment (detection.*): **{at.deployment.word}**: {at.deployment.reason}")
     return lines
 
 
