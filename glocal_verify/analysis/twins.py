@@ -6,9 +6,10 @@ Pendant agents hanging on the same neighbour with equal weights are the common c
 generated networks. They settle, in exact arithmetic and at the cost of a hash per agent,
 questions whose floating-point answers sit on a rounding-level difference:
 Theorem III.3 (iii) fails for a safe mode whose L_q has twins off a switching pair
-(:func:`eigenvector_differences_modular`, which otherwise proves (iii) by two gcds modulo a
-prime), and Theorem III.3 (ii) fails when two independent twin modes share an eigenvalue
-(:func:`distinct_eigenvalues_modular`, which otherwise proves (ii) by one gcd modulo a prime). The local and global pencil certificates use the same modes
+(:func:`eigenvector_differences_modular`, which otherwise proves (iii) by Krylov degrees modulo a
+prime, or by two gcds of characteristic polynomials), and Theorem III.3 (ii) fails when two
+independent twin modes share an eigenvalue (:func:`distinct_eigenvalues_modular`, which
+otherwise proves (ii) by a Krylov degree, or by one gcd modulo a prime). The local and global pencil certificates use the same modes
 (:mod:`glocal_verify.analysis.local_cases`, :mod:`glocal_verify.design.audit`).
 """
 
@@ -21,6 +22,7 @@ import numpy as np
 
 from glocal_verify.derived import Kind
 from glocal_verify.model import System
+from glocal_verify.numerics.krylov import krylov_degree_mod
 from glocal_verify.numerics.minors import charpoly_mod, prime_for, twin_modes
 from glocal_verify.results import Status, Verdict
 
@@ -62,7 +64,14 @@ def eigenvector_differences_modular(system: System, mode: str) -> Verdict | None
     * fails: an exact twin mode e_a - e_r of L_q (:func:`glocal_verify.numerics.minors.twin_modes`)
       with {a, r} disjoint from a pair {i, j} of a switching component is an eigenvector with
       u(i) = u(j) = 0 (for a repeated eigenvalue (iii) fails anyway);
-    * holds: p = charpoly(L_q) squarefree and gcd(p / mu, q_ij) = 1 for every pair
+    * holds, by Krylov degrees (:func:`glocal_verify.numerics.krylov.krylov_degree_mod`, about
+      2N sparse products per pair): dim span{L_q^k (e_i - e_j)} >= N - 1 for every pair, proven
+      modulo a prime. L_q is symmetric and e_i - e_j is orthogonal to its kernel span{1} (one
+      component), so e_i - e_j has a nonzero component in N - 1 distinct eigenspaces of nonzero
+      eigenvalues, whose dimensions add up to N - 1: every eigenvalue is simple and every
+      eigenvector u but 1 has u(i) - u(j) = u^T (e_i - e_j) != 0;
+    * holds, when the Krylov degree falls short (an unlucky prime or vector, or (iii) fails):
+      p = charpoly(L_q) squarefree and gcd(p / mu, q_ij) = 1 for every pair
       (q_ij(mu) = det(mu I - (L - b b^T)) - det(mu I - L), b = e_i - e_j, so that
       q_ij(mu_l) = p'(mu_l) (u_l(i) - u_l(j))^2 at a simple eigenvalue), both proved modulo a prime: p and p / mu are
       monic, so their reductions keep their degrees and a gcd of degree 0 modulo p proves
@@ -101,6 +110,13 @@ def eigenvector_differences_modular(system: System, mode: str) -> Verdict | None
                         "reason": f"{la} and {lr} are twins in L_q: e_{la} - e_{lr} is an exact eigenvector (eigenvalue {mu}) "
                         f"whose entries on the pair are both 0",
                     }, exact=True)
+    krylov = _krylov_certificate(n, ent, [{i: 1, j: -1} for i, j in idx], n - 1)
+    if krylov is not None:
+        return Verdict(Status.HOLDS, witness={
+            "pairs_checked": len(pairs),
+            "certificate": f"dim span{{L_q^k (e_i - e_j)}} >= N - 1 = {n - 1} for every pair, modulo the prime {krylov} (Krylov degree, "
+            "Berlekamp-Massey): N distinct eigenvalues, and every eigenvector but 1 separates every pair (exact)",
+        }, exact=True)
     p, P = _charpoly_mod(system, mode, ent)
     if P.gcd(P.derivative()).degree() != 0 or int(P.coeffs()[0]) != 0:
         return None
@@ -115,6 +131,21 @@ def eigenvector_differences_modular(system: System, mode: str) -> Verdict | None
         "pairs_checked": len(pairs),
         "certificate": f"charpoly(L_q) squarefree and gcd(p(mu)/mu, q_ij) = 1 for every pair, modulo the prime {p} (exact)",
     }, exact=True)
+
+
+def _krylov_certificate(n: int, ent: Mapping[tuple[int, int], Fraction], starts: list[dict[int, int] | None], need: int) -> int | None:
+    """The prime that proves dim K(L_q, b) >= ``need`` for every start ``b`` (None: a random
+    one), or None when two draws fall short for some ``b`` (nothing is proven then)."""
+    prime = None
+    for b in starts:
+        for seed in (0, 1):
+            kd = krylov_degree_mod(n, ent, b, need, seed=seed)
+            if kd.degree >= need:
+                prime = kd.prime
+                break
+        else:
+            return None
+    return prime
 
 
 def _charpoly_mod(system: System, mode: str, ent: Mapping[tuple[int, int], Fraction]) -> tuple[int, Any]:
@@ -134,7 +165,10 @@ def distinct_eigenvalues_modular(system: System, mode: str) -> Verdict | None:
       (:func:`glocal_verify.numerics.minors.twin_modes`): mu is repeated; the witness gives
       them orthogonalised in exact arithmetic (their number is a lower bound on the
       multiplicity);
-    * holds: gcd(p, p') has degree 0 modulo a prime, p = charpoly(D L_q) for the common
+    * holds: dim span{L_q^k b} = N for a random b, proven modulo a prime
+      (:func:`glocal_verify.numerics.krylov.krylov_degree_mod`): the minimal polynomial of the
+      symmetric L_q has degree N, so its N eigenvalues are distinct (about 2N sparse products);
+    * holds, when that falls short: gcd(p, p') has degree 0 modulo a prime, p = charpoly(D L_q) for the common
       denominator D (monic with integer coefficients): a repeated factor over Q would divide
       p and p' modulo every prime (Gauss's lemma), so p is squarefree and the N eigenvalues
       are distinct.
@@ -174,6 +208,12 @@ def distinct_eigenvalues_modular(system: System, mode: str) -> Verdict | None:
             "rational_eigenvectors": [system.vector_by_label(v) for v in (v1, v2)],
             "eigenvectors": [system.vector_by_label(u / np.linalg.norm(u)) for u in unit],
         })
+    krylov = _krylov_certificate(n, ent, [None], n)
+    if krylov is not None:
+        return Verdict(Status.HOLDS, witness={
+            "certificate": f"dim span{{L_q^k b}} = N = {n} for a random b, modulo the prime {krylov} (Krylov degree, Berlekamp-Massey): "
+            "the minimal polynomial of L_q has degree N, so its eigenvalues are distinct (exact)",
+        }, exact=True)
     p, P = _charpoly_mod(system, mode, ent)
     if P.gcd(P.derivative()).degree() != 0:
         return None
