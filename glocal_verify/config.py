@@ -264,6 +264,10 @@ _ALL = (
     _t("cost_mode_seconds_sq", 3.5e-7, "seconds / N^2", "glocal_verify.conditions.cost",
        "the global checkers' work per safe mode beyond the calibration's (N^2 part)",
        "fit with cost_mode_seconds; 1000 modes at N = 1100 ran over 20 minutes where the old estimate said 2"),
+    _t("charpoly_mod_max_agents", 500, "agents", "glocal_verify.analysis.twins",
+       "above this size Theorem III.3 (ii) and (iii) are not retried by modular characteristic polynomials when the Krylov certificate falls short",
+       "both certify the same exact fact (each fails only on an unlucky prime, with probability about N / p); the characteristic polynomial costs O(N^3): "
+       "two of them took 239 s at N = 4000 where the Krylov degrees take a second"),
     _t("cost_calibration_modes", 2, "modes", "glocal_verify.conditions.cost",
        "safe modes of the calibration runs (their cost is in the other cost constants)",
        "the benchmark specs have two"),

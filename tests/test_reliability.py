@@ -75,6 +75,16 @@ def test_an_edge_list_line_of_200000_characters_is_echoed_cut_short(tmp_path: Pa
     assert len(_one_line(capsys.readouterr().err)) < 300
 
 
+@pytest.mark.parametrize(("name", "text"), [("g.csv", "source,target,weight\n1,2,1\n2,3,1e9999999\n"), ("g.txt", "1 2\n2 3 1e9999999\n"), ("g.gml", "graph [ node [ id 1 ] node [ id 2 ] edge [ source 1 target 2 weight " + "9" * 2000 + " ] ]\n")], ids=["csv", "edge-list", "gml"])
+def test_a_graph_weight_of_a_huge_exponent_is_refused_like_the_specs(name: str, text: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # the campaign of 2026-12-05 (#4643, #5178): the graph reader expanded "1e9999999" and the
+    # spec writer then failed to print it (exit 70)
+    g = tmp_path / name
+    g.write_text(text)
+    assert main(["verify", "--graph", str(g), "--quiet", "--simulate", "never"]) == 2
+    assert "far outside the allowed range" in _one_line(capsys.readouterr().err)
+
+
 # --------------------------------------------------------------------------------------------
 # sweep files: validated before any cluster starts
 
@@ -463,3 +473,25 @@ def test_verify_exact_and_design_finish_on_a_generated_clustered_network(tmp_pat
     assert main(["design", str(spec), "--quiet", "--out", str(tmp_path / "d.toml")]) in (0, 1, 2)
     err = capsys.readouterr().err
     assert "internal error" not in err and "Traceback" not in err
+
+
+def test_a_stop_signal_that_lands_in_a_finalizer_still_stops_the_command(capsys: pytest.CaptureFixture[str]) -> None:
+    # the campaign of 2026-12-05 (#5007): SIGTERM during `simulate --cases` printed a traceback
+    # ("Exception ignored in ...") and the command went on to exit 0
+    import gc
+
+    from glocal_verify.runtime.processes import Stopped, stop_on_signals
+
+    class Finalized:
+        def __del__(self) -> None:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(0.05)  # the handler runs here, inside the finalizer
+
+    went_on = []
+    with pytest.raises(Stopped) as stop:
+        with stop_on_signals():
+            Finalized()
+            gc.collect()
+            went_on.append(True)
+    assert went_on and stop.value.exit_code == 128 + signal.SIGTERM
+    assert "Exception ignored" not in capsys.readouterr().err

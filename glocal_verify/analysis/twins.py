@@ -20,6 +20,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from glocal_verify import config
 from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.numerics.krylov import krylov_degree_mod
@@ -70,8 +71,8 @@ def eigenvector_differences_modular(system: System, mode: str) -> Verdict | None
       component), so e_i - e_j has a nonzero component in N - 1 distinct eigenspaces of nonzero
       eigenvalues, whose dimensions add up to N - 1: every eigenvalue is simple and every
       eigenvector u but 1 has u(i) - u(j) = u^T (e_i - e_j) != 0;
-    * holds, when the Krylov degree falls short (an unlucky prime or vector, or (iii) fails):
-      p = charpoly(L_q) squarefree and gcd(p / mu, q_ij) = 1 for every pair
+    * holds, when the Krylov degree falls short twice (two primes and vectors) on at most
+      ``config.get("charpoly_mod_max_agents")`` agents: p = charpoly(L_q) squarefree and gcd(p / mu, q_ij) = 1 for every pair
       (q_ij(mu) = det(mu I - (L - b b^T)) - det(mu I - L), b = e_i - e_j, so that
       q_ij(mu_l) = p'(mu_l) (u_l(i) - u_l(j))^2 at a simple eigenvalue), both proved modulo a prime: p and p / mu are
       monic, so their reductions keep their degrees and a gcd of degree 0 modulo p proves
@@ -117,6 +118,8 @@ def eigenvector_differences_modular(system: System, mode: str) -> Verdict | None
             "certificate": f"dim span{{L_q^k (e_i - e_j)}} >= N - 1 = {n - 1} for every pair, modulo the prime {krylov} (Krylov degree, "
             "Berlekamp-Massey): N distinct eigenvalues, and every eigenvector but 1 separates every pair (exact)",
         }, exact=True)
+    if n > config.get("charpoly_mod_max_agents"):
+        return None
     p, P = _charpoly_mod(system, mode, ent)
     if P.gcd(P.derivative()).degree() != 0 or int(P.coeffs()[0]) != 0:
         return None
@@ -138,8 +141,8 @@ def _krylov_certificate(n: int, ent: Mapping[tuple[int, int], Fraction], starts:
     one), or None when two draws fall short for some ``b`` (nothing is proven then)."""
     prime = None
     for b in starts:
-        for seed in (0, 1):
-            kd = krylov_degree_mod(n, ent, b, need, seed=seed)
+        for seed, below in ((0, None), (1, 2**29)):
+            kd = krylov_degree_mod(n, ent, b, need, seed=seed, prime_below=below)
             if kd.degree >= need:
                 prime = kd.prime
                 break
@@ -168,7 +171,8 @@ def distinct_eigenvalues_modular(system: System, mode: str) -> Verdict | None:
     * holds: dim span{L_q^k b} = N for a random b, proven modulo a prime
       (:func:`glocal_verify.numerics.krylov.krylov_degree_mod`): the minimal polynomial of the
       symmetric L_q has degree N, so its N eigenvalues are distinct (about 2N sparse products);
-    * holds, when that falls short: gcd(p, p') has degree 0 modulo a prime, p = charpoly(D L_q) for the common
+    * holds, when that falls short twice, on at most ``config.get("charpoly_mod_max_agents")``
+      agents: gcd(p, p') has degree 0 modulo a prime, p = charpoly(D L_q) for the common
       denominator D (monic with integer coefficients): a repeated factor over Q would divide
       p and p' modulo every prime (Gauss's lemma), so p is squarefree and the N eigenvalues
       are distinct.
@@ -214,6 +218,8 @@ def distinct_eigenvalues_modular(system: System, mode: str) -> Verdict | None:
             "certificate": f"dim span{{L_q^k b}} = N = {n} for a random b, modulo the prime {krylov} (Krylov degree, Berlekamp-Massey): "
             "the minimal polynomial of L_q has degree N, so its eigenvalues are distinct (exact)",
         }, exact=True)
+    if n > config.get("charpoly_mod_max_agents"):
+        return None
     p, P = _charpoly_mod(system, mode, ent)
     if P.gcd(P.derivative()).degree() != 0:
         return None

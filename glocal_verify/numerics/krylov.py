@@ -64,6 +64,7 @@ def krylov_degree_mod(
     bound: int,
     *,
     seed: int = 0,
+    prime_below: int | None = None,
 ) -> KrylovDegree:
     """A lower bound on ``dim K(A, b)`` over Q, proven modulo a prime (module docstring).
 
@@ -80,6 +81,9 @@ def krylov_degree_mod(
         Berlekamp-Massey to find a recurrence of degree ``m`` when there is one.
     seed : int
         Seeds ``w`` (and ``b`` when ``start`` is None); the bound holds for every seed.
+    prime_below : int, optional
+        Take the prime below this (and below the overflow limit): a second attempt with
+        another prime makes an unlucky prime unlikely twice.
 
     Returns
     -------
@@ -90,7 +94,7 @@ def krylov_degree_mod(
         rows[i] += 1
     widest = max(int(rows.max(initial=0)), 1)
     # every row sum of products (each < p^2) and every dot product term stays below 2^63
-    limit = min(2**31, math.isqrt((2**62) // widest))
+    limit = min(2**31, math.isqrt((2**62) // widest), prime_below or 2**31)
     p = prime_for(list(entries.values()), limit=limit)
     keys = list(entries)
     data = np.array([_mod(Fraction(entries[k]), p) for k in keys], dtype=np.int64)

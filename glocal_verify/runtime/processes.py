@@ -104,6 +104,11 @@ def stop_on_signals(on_force: Callable[[int], None] | None = None) -> Iterator[N
     ``os._exit(128 + signum)``. The previous handlers are restored on leaving the block.
     Outside the main thread (or where handlers cannot be installed) the block runs unchanged.
 
+    A stop is never lost: where Python cannot propagate the exception (the signal arrives
+    inside a finalizer or a weak-reference callback, which Python reports as "Exception
+    ignored in ..." and goes on), the report is withheld (``sys.unraisablehook``) and the
+    block raises :class:`Stopped` when it ends.
+
     Parameters
     ----------
     on_force : callable, optional
@@ -123,6 +128,15 @@ def stop_on_signals(on_force: Callable[[int], None] | None = None) -> Iterator[N
         hit.append(signum)
         raise Stopped(signum)
 
+    previous_hook = sys.unraisablehook
+    swallowed: list[int] = []
+
+    def unraisable(info: Any) -> None:
+        if isinstance(info.exc_value, Stopped):
+            swallowed.append(info.exc_value.signum)  # raised again when the block ends
+            return
+        previous_hook(info)
+
     old: dict[int, Any] = {}
     try:
         for sig in STOP_SIGNALS:
@@ -131,12 +145,16 @@ def stop_on_signals(on_force: Callable[[int], None] | None = None) -> Iterator[N
             old[sig] = signal.signal(sig, handler)
     except (ValueError, OSError):  # pragma: no cover - an embedded interpreter without signals
         pass
+    sys.unraisablehook = unraisable
     try:
         yield
     finally:
+        sys.unraisablehook = previous_hook
         for sig, h in old.items():
             with contextlib.suppress(ValueError, OSError, TypeError):
                 signal.signal(sig, h if h is not None else signal.SIG_DFL)
+    if swallowed:  # the Stopped raised for it was lost where Python cannot propagate it
+        raise Stopped(swallowed[0])
 
 
 @contextlib.contextmanager

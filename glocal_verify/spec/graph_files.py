@@ -40,8 +40,8 @@ from typing import Any
 import networkx as nx
 
 from glocal_verify.errors import SpecError
-from glocal_verify.spec.prepare import MAX_FILE_BYTES, clip, show
-from glocal_verify.spec.types import MAX_DEPTH, MAX_EDGES, MAX_NODES, Label
+from glocal_verify.spec.prepare import MAX_FILE_BYTES, bounded_rational, clip, show
+from glocal_verify.spec.types import MAX_DEPTH, MAX_EDGES, MAX_EXPONENT, MAX_NODES, Label
 
 __all__ = [
     "GRAPH_SUFFIXES",
@@ -78,6 +78,8 @@ def _weight(raw: Any, where: str, source: str) -> Fraction:
     if isinstance(raw, bool):
         raise SpecError(where, f"weight {raw!r} is not a number", source)
     if isinstance(raw, int):
+        if raw.bit_length() > 4 * MAX_EXPONENT:
+            raise SpecError(where, f"weight {clip(show(raw), 40)} is far outside the allowed range", source)
         q = Fraction(raw)
     elif isinstance(raw, float):
         if not math.isfinite(raw):
@@ -86,11 +88,12 @@ def _weight(raw: Any, where: str, source: str) -> Fraction:
     elif isinstance(raw, str):
         text = raw.strip()
         if text.lower() in ("nan", "+nan", "-nan", "inf", "+inf", "-inf", "infinity", "-infinity"):
-            raise SpecError(where, f"weight {raw!r} is not a finite number", source)
+            raise SpecError(where, f"weight {clip(raw, 40)!r} is not a finite number", source)
         try:
-            q = Fraction(text)
-        except (ValueError, ZeroDivisionError):
-            raise SpecError(where, f"weight {raw!r} is not a number", source) from None
+            q = bounded_rational(text)
+        except ValueError as exc:
+            why = "is not a number" if str(exc).startswith("not") else f"is not accepted: {exc}" if str(exc).startswith("number") else "is far outside the allowed range"
+            raise SpecError(where, f"weight {clip(raw, 40)!r} {why}", source) from None
     else:
         raise SpecError(where, f"weight {raw!r} is not a number", source)
     if q <= 0:

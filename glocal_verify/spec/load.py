@@ -47,6 +47,7 @@ from glocal_verify.errors import SpecError
 from glocal_verify.spec.deployment import read_implementation, read_uncertainty
 from glocal_verify.spec.prepare import (
     MAX_FILE_BYTES,
+    bounded_rational,
     check_items,
     clip,
     elide,
@@ -69,7 +70,6 @@ from glocal_verify.spec.types import (
     MAX_EXPONENT,
     MAX_LABEL,
     MAX_NODES,
-    MAX_NUMBER_TEXT,
     MAX_SAMPLES,
     MAX_TEXT,
     NORMAL_MODE,
@@ -224,7 +224,6 @@ def spec_from_dict(data: Mapping[str, Any], source: str | None = None) -> System
     return _Builder(plain, source).build()
 
 
-_EXPONENT = re.compile(r"[eE]\s*([-+]?\d+)")
 _CONTROL = re.compile("\x00")
 
 
@@ -242,7 +241,8 @@ class _Builder:
     def rational(self, value: Any, path: str, *, lo: Fraction | None = None, hi: Fraction | None = None, positive: bool = True) -> Fraction:
         """``value`` as an exact rational in ``[lo, hi]`` (and > 0 when ``positive``).
 
-        A string is read only when it has at most :data:`MAX_NUMBER_TEXT` characters and a
+        A string is read by :func:`~glocal_verify.spec.prepare.bounded_rational`: at most
+        :data:`~glocal_verify.spec.types.MAX_NUMBER_TEXT` characters and a
         decimal exponent of at most :data:`MAX_EXPONENT`, so that ``"1e9999999"`` is refused at
         once instead of being expanded.
         """
@@ -276,16 +276,14 @@ class _Builder:
 
     def rational_text(self, value: str, path: str) -> Fraction:
         """The rational a string spells (``"1/3"``, ``"2.5e-3"``), bounded before conversion."""
-        text = value.strip()
-        if len(text) > MAX_NUMBER_TEXT:
-            raise self.err(path, f"number text too long ({len(text)} characters; at most {MAX_NUMBER_TEXT})")
-        for part in text.split("/"):
-            m = _EXPONENT.search(part)
-            if m is not None and abs(int(m.group(1))) > MAX_EXPONENT:
-                raise self.err(path, f"{show(value)} is far outside the allowed range")
         try:
-            return Fraction(text)
-        except (ValueError, ZeroDivisionError):
+            return bounded_rational(value)
+        except ValueError as exc:
+            why = str(exc)
+            if why.startswith("number text"):
+                raise self.err(path, why) from None
+            if why.startswith("far"):
+                raise self.err(path, f"{show(value)} is far outside the allowed range") from None
             raise self.err(path, f"cannot read {show(value)} as a rational number") from None
 
     def real(

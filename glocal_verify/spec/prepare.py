@@ -21,10 +21,11 @@ from pathlib import Path
 from typing import Any, Iterable, Mapping
 
 from glocal_verify.errors import SpecError
-from glocal_verify.spec.types import MAX_DEPTH, MAX_EDGES, MAX_MODES, MAX_NODES, MAX_SWITCH_STEPS
+from glocal_verify.spec.types import MAX_DEPTH, MAX_EDGES, MAX_EXPONENT, MAX_MODES, MAX_NODES, MAX_NUMBER_TEXT, MAX_SWITCH_STEPS
 
 __all__ = [
     "MAX_FILE_BYTES",
+    "bounded_rational",
     "check_items",
     "clip",
     "elide",
@@ -84,6 +85,36 @@ def plain_scalar(value: Any) -> Any:
             if kind == "U":
                 return str(value)
     return value
+
+
+_EXPONENT = re.compile(r"[eE]\s*([-+]?\d+)")
+
+
+def bounded_rational(text: str) -> Fraction:
+    """The rational a string spells (``"1/3"``, ``"2.5e-3"``), bounded before conversion.
+
+    At most :data:`~glocal_verify.spec.types.MAX_NUMBER_TEXT` characters and a decimal
+    exponent of at most :data:`~glocal_verify.spec.types.MAX_EXPONENT` in magnitude, so that
+    ``"1e9999999"`` is refused at once instead of being expanded. Every reader of numbers
+    written as text (the spec loader, the graph files) calls it.
+
+    Raises
+    ------
+    ValueError
+        With the reason (``"far outside the allowed range"``, ``"too long ..."``,
+        ``"not a rational number"``).
+    """
+    t = text.strip()
+    if len(t) > MAX_NUMBER_TEXT:
+        raise ValueError(f"number text too long ({len(t)} characters; at most {MAX_NUMBER_TEXT})")
+    for part in t.split("/"):
+        m = _EXPONENT.search(part)
+        if m is not None and (len(m.group(1).lstrip("+-")) > 6 or abs(int(m.group(1))) > MAX_EXPONENT):
+            raise ValueError("far outside the allowed range")
+    try:
+        return Fraction(t)
+    except (ValueError, ZeroDivisionError):
+        raise ValueError("not a rational number") from None
 
 
 def prepare(data: Any, source: str | None) -> Any:
