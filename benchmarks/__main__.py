@@ -54,7 +54,8 @@ def render(rows: list[Row], elapsed: float, quick: bool) -> str:
         f"- cores: {len(os.sched_getaffinity(0))}, OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}",
         f"- total time: {elapsed:.1f} s",
         "",
-        "Ratio = baseline time / candidate time, both measured in this run (> 1: the candidate is faster). "
+        "Ratio = baseline time / candidate time, both measured in this run (> 1: the candidate is faster); undecided = the candidate's undecided verdicts "
+        "of all it returned ('-' where the row decides nothing). "
         "Command rows run each command in its own process; their peak MiB is that process's maximum resident memory "
         "(its VmHWM, read while it runs), their baseline one `numpy.linalg.eigh` of the same Laplacian.",
         "",
@@ -64,10 +65,10 @@ def render(rows: list[Row], elapsed: float, quick: bool) -> str:
         if r.group not in groups:
             groups.append(r.group)
     for g in groups:
-        lines += [f"## {g}", "", "| case | baseline | baseline s | candidate | candidate s | ratio | peak MiB | note |", "|---|---|---|---|---|---|---|---|"]
+        lines += [f"## {g}", "", "| case | baseline | baseline s | candidate | candidate s | ratio | undecided | peak MiB | note |", "|---|---|---|---|---|---|---|---|---|"]
         for r in rows:
             if r.group == g:
-                lines.append(f"| {r.case} | {r.baseline} | {_fmt(r.baseline_s)} | {r.candidate} | {_fmt(r.candidate_s)} | {_fmt(r.ratio)} | {_fmt(r.peak_mib)} | {r.note} |")
+                lines.append(f"| {r.case} | {r.baseline} | {_fmt(r.baseline_s)} | {r.candidate} | {_fmt(r.candidate_s)} | {_fmt(r.ratio)} | {r.undecided or '-'} | {_fmt(r.peak_mib)} | {r.note} |")
         lines.append("")
     return "\n".join(lines)
 

@@ -2,7 +2,9 @@
 
 Baselines, measured in the same run:
 - the command line ``glocal-verify verify`` (and ``place-observers``) at N = 1000, 2000,
-  4000 (10,000 with ``python -m benchmarks --large`` or ``GLOCAL_BENCH_LARGE=1``), each in
+  4000, on the friendly family (3 clusters) and the realistic one (clusters of about 100
+  agents with one observer each, one safe mode), with the undecided verdicts and the
+  assessment's bottom line of every run (10,000 with ``python -m benchmarks --large`` or ``GLOCAL_BENCH_LARGE=1``), each in
   its own process (wall and CPU time, peak resident memory), against one
   ``numpy.linalg.eigh`` of the same Laplacian timed in this process: the goal is a few
   eigendecompositions per command (the 10,000-agent row runs without ``--allow-large``: its
@@ -41,14 +43,35 @@ EIGH_GOAL = 5.0
 COMMAND_BUDGET = float(os.environ.get("GLOCAL_BENCH_BUDGET", "420"))
 
 
-def command_row(group: str, case: str, command: str, argv: list[str], n: int, system: System, budget: float = COMMAND_BUDGET, goal: str = "") -> Row:
-    """One command-line row: ``argv`` in its own process against one eigh of L (N x N)."""
+def _verdicts(report_json: str) -> tuple[str, str]:
+    """(``"3 of 57"`` undecided, the assessment's bottom line) of a ``verify --format json`` report."""
+    import json
+
+    try:
+        with open(report_json, encoding="utf-8") as fh:
+            data = json.load(fh)
+    except (OSError, ValueError):
+        return "", ""
+    results = data.get("conditions", [])
+    und = sum(1 for r in results if r.get("status") == "undecided")
+    attack = (data.get("assessment") or {}).get("attack") or {}
+    return f"{und} of {len(results)}", f"bottom line: {attack.get('verdict', '?')}"
+
+
+def command_row(group: str, case: str, command: str, argv: list[str], n: int, system: System, budget: float = COMMAND_BUDGET, goal: str = "", report_json: str = "") -> Row:
+    """One command-line row: ``argv`` in its own process against one eigh of L (N x N).
+
+    With ``report_json`` (the JSON report the command writes) the row counts its undecided
+    verdicts and names the assessment's bottom line."""
     t_eigh = eigh_seconds(system.laplacian())
+    if report_json and os.path.exists(report_json):
+        os.unlink(report_json)
     m = run_command(argv, timeout=budget)
     x = m.seconds / t_eigh if t_eigh > 0 else float("nan")
     status = m.describe(budget)
-    note = f"{status}; {x:.1f} x eigh" + (f"; goal {goal}" if goal else "")
-    return Row(group, case, f"one eigh of L ({n} x {n})", t_eigh, command, m.seconds, note, m.peak_mib)
+    undecided, bottom = _verdicts(report_json) if report_json else ("", "")
+    note = f"{status}; {x:.1f} x eigh" + (f"; goal {goal}" if goal else "") + (f"; {bottom}" if bottom else "")
+    return Row(group, case, f"one eigh of L ({n} x {n})", t_eigh, command, m.seconds, note, m.peak_mib, undecided)
 
 
 def command_rows(quick: bool) -> list[Row]:
@@ -59,18 +82,28 @@ def command_rows(quick: bool) -> list[Row]:
         sizes.append(10_000)
     group = "user commands at scale (each in its own process; ratio = eigh / command)"
     with tempfile.TemporaryDirectory() as tmp:
+        out = os.path.join(tmp, "r.json")
         for n in sizes:
             spec = random_clustered_spec(n, 3, seed=7)
             path = write_spec(spec, Path(tmp), f"rc{n}")
             goal = "< 5 min, < 8 GiB" if n >= 10_000 else f"<= {EIGH_GOAL:g} x eigh"
             budget = 1800.0 if n >= 10_000 else COMMAND_BUDGET
-            argv = cli("verify", str(path), "--quiet", "--out", os.path.join(tmp, "r.md"))
-            rows.append(command_row(group, f"verify, N = {n}, 3 clusters", "glocal-verify verify", argv, n, System(spec), budget, goal))
+            argv = cli("verify", str(path), "--quiet", "--format", "json", "--out", out)
+            rows.append(command_row(group, f"verify, N = {n}, 3 clusters", "glocal-verify verify", argv, n, System(spec), budget, goal, out))
+        # the realistic family: clusters of about 100 agents, one observer each, links between
+        # consecutive clusters, weights 1-3, one safe mode
+        for n in sizes:
+            spec = random_clustered_spec(n, max(2, n // 100), seed=7, modes=1)
+            path = write_spec(spec, Path(tmp), f"real{n}")
+            goal = "< 5 min, < 8 GiB" if n >= 10_000 else f"<= {EIGH_GOAL:g} x eigh"
+            budget = 1800.0 if n >= 10_000 else COMMAND_BUDGET
+            argv = cli("verify", str(path), "--quiet", "--format", "json", "--out", out)
+            rows.append(command_row(group, f"verify, N = {n}, {max(2, n // 100)} clusters of ~100 (realistic)", "glocal-verify verify", argv, n, System(spec), budget, goal, out))
         if not quick:
             spec = random_clustered_spec(200, 3, seed=7)
             path = write_spec(spec, Path(tmp), "rc200")
-            argv = cli("verify", str(path), "--exact", "--quiet", "--out", os.path.join(tmp, "r.md"))
-            rows.append(command_row(group, "verify --exact, N = 200, 3 clusters", "glocal-verify verify --exact", argv, 200, System(spec), goal="< 60 s per condition"))
+            argv = cli("verify", str(path), "--exact", "--quiet", "--format", "json", "--out", out)
+            rows.append(command_row(group, "verify --exact, N = 200, 3 clusters", "glocal-verify verify --exact", argv, 200, System(spec), goal="< 60 s per condition", report_json=out))
         # a path graph of 20,000 agents: finish in < 10 min or refuse at once with the estimate
         path = write_spec(spec_from_graph(nx.path_graph(range(1, 20_001)), name="path20000", monitor_velocities=[1, 20_000]), Path(tmp), "path20000")
         m = run_command(cli("verify", str(path), "--quiet", "--out", os.path.join(tmp, "r.md")), timeout=600.0)

@@ -28,6 +28,8 @@ class Row:
     candidate_s: float
     note: str = ""
     peak_mib: float | None = None
+    #: undecided verdicts of the candidate's run ("3 of 57"; "" where it decides nothing)
+    undecided: str = ""
 
     @property
     def ratio(self) -> float | None:

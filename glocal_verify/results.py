@@ -459,9 +459,9 @@ class Report:
         s = self.system
         n = {st: sum(1 for r in self.conditions if r.status is st) for st in Status}
         return (
-            f"{s.name}: {s.agents} agents, {len(s.modes)} modes, {len(self.conditions)} results "
+            f"{s.name}: {s.agents} agents, {len(s.modes)} mode{'' if len(s.modes) == 1 else 's'}, {len(self.conditions)} results "
             f"({n[Status.HOLDS]} holds, {n[Status.FAILS]} fails, {n[Status.UNDECIDED]} undecided), "
-            f"{len(self.findings)} findings"
+            f"{len(self.findings)} finding{'' if len(self.findings) == 1 else 's'}"
         )
 
     def summary(self) -> str:
