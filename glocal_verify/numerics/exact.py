@@ -15,6 +15,7 @@ import flint
 
 __all__ = [
     "Rows",
+    "columns",
     "to_fmpq_mat",
     "to_fraction",
     "rank",
@@ -157,3 +158,12 @@ def coefficient_bits(polys: Sequence[flint.fmpq_poly]) -> int:
     for q in polys:
         bits = max(bits, int(q.denom()).bit_length(), max((abs(int(c)).bit_length() for c in q.numer().coeffs()), default=1))
     return bits
+
+
+def columns(M: flint.fmpq_mat, idx: Sequence[int]) -> flint.fmpq_mat:
+    """The columns ``idx`` of the exact matrix ``M``, in that order (a new ``fmpq_mat``)."""
+    out = flint.fmpq_mat(M.nrows(), len(idx))
+    for i in range(M.nrows()):
+        for c, j in enumerate(idx):
+            out[i, c] = M[i, j]
+    return out

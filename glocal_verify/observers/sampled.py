@@ -46,6 +46,7 @@ import scipy.linalg
 from glocal_verify.analysis.sampled import implementation_of, sampled_matrices_exact
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import LocalObserver, System
+from glocal_verify.numerics.exact import columns as exact_columns
 from glocal_verify.spec.types import NORMAL_MODE, ImplementationSpec, Label
 
 __all__ = [
@@ -83,13 +84,6 @@ def _eye(n: int) -> flint.fmpq_mat:
         M[i, i] = 1
     return M
 
-
-def _cols(M: flint.fmpq_mat, idx: Sequence[int]) -> flint.fmpq_mat:
-    out = flint.fmpq_mat(M.nrows(), len(idx))
-    for i in range(M.nrows()):
-        for c, j in enumerate(idx):
-            out[i, c] = M[i, j]
-    return out
 
 
 def _rows(M: flint.fmpq_mat, idx: Sequence[int]) -> flint.fmpq_mat:
@@ -317,7 +311,7 @@ def sampled_cluster_model(system: System, observer: LocalObserver, implementatio
     rows = gidx + [n + i for i in gidx]
     Phi, _ = sampled_matrices_exact(system, NORMAL_MODE, impl)
     # the cluster's block of Phi_1: its rows and columns (the principal block keeps the degrees)
-    A = _cols(_rows(Phi, rows), rows)
+    A = exact_columns(_rows(Phi, rows), rows)
     model = system.cluster_model(observer.cluster, NORMAL_MODE)
     bidx = [nodes.index(b) for b in model.boundary]
     h = impl.period
@@ -326,7 +320,7 @@ def sampled_cluster_model(system: System, observer: LocalObserver, implementatio
         E[i, c] = flint.fmpq(*(h * h / 2).as_integer_ratio())
         E[k + i, c] = flint.fmpq(*h.as_integer_ratio())
     Cg, ch = _global_C(system, observer.positions, observer.velocities)
-    C = _cols(Cg, rows)
+    C = exact_columns(Cg, rows)
     p = C.nrows()
     name = f"{observer.cluster}@{observer.center}"
     if E.ncols():

@@ -50,6 +50,7 @@ import numpy as np
 from glocal_verify.errors import GlocalVerifyError, NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.reporting.output import write_bytes_atomic
+from glocal_verify.simulation.observer_models import cluster_embedding
 from glocal_verify.spec.types import NORMAL_MODE, Label
 
 __all__ = [
@@ -92,16 +93,6 @@ def _text(label: Label) -> str:
 def _texts(labels: Any) -> list[str]:
     return [_text(a) for a in labels]
 
-
-def _selection(system: System, nodes: tuple[Label, ...]) -> np.ndarray:
-    """S with x_cluster = S x ([positions of nodes; velocities of nodes])."""
-    idx = system.idx(nodes)
-    n, k = system.n, len(idx)
-    S = np.zeros((2 * k, 2 * n))
-    for r, i in enumerate(idx):
-        S[r, i] = 1.0
-        S[k + r, n + i] = 1.0
-    return S
 
 
 def _central(system: System) -> tuple[dict[str, Any], np.ndarray | None]:
@@ -155,7 +146,7 @@ def _local(system: System, model: Any) -> dict[str, Any]:
         "positions": _texts(d.positions),
         "velocities": _texts(d.velocities),
         "channels": list(model.inputs),
-        "S": _selection(system, d.nodes),
+        "S": cluster_embedding(system, d.nodes),
         "C_loc": d.C,
         "E": d.E,
         "A": d.A,

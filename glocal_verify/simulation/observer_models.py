@@ -13,6 +13,7 @@ from glocal_verify.simulation.schedule import ANY_MODE
 from glocal_verify.spec.types import NORMAL_MODE, Label
 
 __all__ = [
+    "cluster_embedding",
     "ObserverModel",
     "ObserverBank",
     "central_observer_model",
@@ -191,7 +192,7 @@ def central_observer_model(system: System, H: np.ndarray | None = None) -> Obser
     )
 
 
-def _cluster_embedding(system: System, nodes: Sequence[Label]) -> np.ndarray:
+def cluster_embedding(system: System, nodes: Sequence[Label]) -> np.ndarray:
     """S with x_cluster = S x_plant ([positions of nodes; velocities of nodes])."""
     idx = system.idx(nodes)
     n, k = system.n, len(idx)
@@ -230,7 +231,7 @@ def local_observer_models(system: System, *, modes: Sequence[str] | None = None)
         except NotApplicableError as exc:
             notes.append(f"local observer {lo.cluster}@{lo.center}: {exc}")
             continue
-        S = _cluster_embedding(system, base.nodes)
+        S = cluster_embedding(system, base.nodes)
         Cg = base.C @ S
         Fs: dict[str, np.ndarray] = {ANY_MODE: base.F}
         Gs: dict[str, np.ndarray] = {ANY_MODE: base.K}

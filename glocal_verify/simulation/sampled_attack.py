@@ -47,6 +47,7 @@ from glocal_verify.analysis.sampled import implementation_of, sampled_matrices_e
 from glocal_verify.analysis.sampled_zda import sampled_zda_direction
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
+from glocal_verify.numerics.exact import columns as exact_columns
 from glocal_verify.observers.sampled import SampledObserver, consensus_quotient
 from glocal_verify.results import jsonable
 from glocal_verify.spec.types import NORMAL_MODE, ImplementationSpec, Label
@@ -212,13 +213,6 @@ class Composite:
     layout: tuple[tuple[str, int], ...]
 
 
-def _cols(M: flint.fmpq_mat, idx: Sequence[int]) -> flint.fmpq_mat:
-    out = flint.fmpq_mat(M.nrows(), len(idx))
-    for i in range(M.nrows()):
-        for c, j in enumerate(idx):
-            out[i, c] = M[i, j]
-    return out
-
 
 def _zeros(m: int, n: int) -> flint.fmpq_mat:
     return flint.fmpq_mat(m, n)
@@ -261,7 +255,7 @@ def central_composite(
     if copy and system.monitored_positions:
         raise NotApplicableError("a covert attacker's copy drifts along the consensus, which monitored positions see: no stable composite")
     act = system.idx(attack.actuators) if attack is not None else []
-    GF = _cols(Gam, act) if act else _zeros(2 * n, 0)
+    GF = exact_columns(Gam, act) if act else _zeros(2 * n, 0)
     # spoof selection S (rows of C the attacker overwrites)
     S = flint.fmpq_mat(C.nrows(), C.nrows())
     if copy:
@@ -293,5 +287,5 @@ def central_composite(
 def local_composite(system: System, observer: SampledObserver, attack: SampledAttack | None) -> Composite:
     """A local UIO's composite: its error ``e~`` with the attack entering through ``T Gamma^i_F``."""
     act = system.idx(attack.actuators) if attack is not None else []
-    Nu = _cols(observer.Gu, act) if act else flint.fmpq_mat(observer.F.nrows(), 0)
+    Nu = exact_columns(observer.Gu, act) if act else flint.fmpq_mat(observer.F.nrows(), 0)
     return Composite(observer.F, Nu, observer.Gw, observer.Kn, observer.Ce, observer.Dn, observer.Px, observer.Px, observer.channels, (("error", observer.F.nrows()),))
