@@ -287,3 +287,13 @@ def test_the_deployment_answer_needs_certified_thresholds_and_one_proven_mode(th
         assert "P1@5" in a.deployment.chain[1] and "case-2" in a.deployment.chain[2]
     elif guaranteed is False:
         assert "zero run escapes" in a.deployment.reason and a.deployment.min_size == 0.0025
+
+
+def test_a_deployment_guarantee_by_the_control_centre_alone_names_no_switch() -> None:
+    from glocal_verify.answer.attack import DeploymentEvidence, DeploymentMode, answer_attack
+
+    ev = _deployed_evidence(Status.HOLDS)
+    ev = dataclasses.replace(ev, deployment=DeploymentEvidence(Status.HOLDS, (DeploymentMode("case-1", Status.HOLDS, None, None, 0.4, 1.0, 0.01),)))
+    d = answer_attack(ev).deployment
+    assert d is not None and d.guaranteed is True
+    assert len(d.chain) == 2 and "before any switch" in d.chain[-1] and not any("switch to" in c for c in d.chain)

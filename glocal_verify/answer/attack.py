@@ -610,8 +610,11 @@ def _deployment(dep: DeploymentEvidence | None) -> DeploymentAnswer | None:
     proven = [m for m in dep.modes if m.guarantee is Status.HOLDS]
     if proven:
         m = min(proven, key=lambda x: math.inf if x.detection_time is None else x.detection_time)
-        local = f"local alarm by {m.detected_by} within {_seconds(m.local_within)}" if m.detected_by else "the control centre's alarm before any switch"
-        chain = (head, local, f"switch to {m.mode}", f"the control centre's alarm within {_seconds(m.detection_time)} of the attack's start")
+        alarm = f"the control centre's alarm within {_seconds(m.detection_time)} of the attack's start"
+        if m.detected_by:
+            chain: tuple[str, ...] = (head, f"local alarm by {m.detected_by} within {_seconds(m.local_within)}", f"switch to {m.mode}", alarm)
+        else:  # the control centre's own alarm comes before any switch
+            chain = (head, alarm + ", before any switch")
         size = "" if m.min_size is None else f"; the smallest amplitude guaranteed is {m.min_size:.3g}" + ("" if m.size is None else f" (this attack: {m.size:.3g})")
         return DeploymentAnswer(True, m.mode, chain, f"Guaranteed {every}: {' -> '.join(chain)}{size}.", m.detection_time, m.min_size)
     if dep.modes and all(m.guarantee is Status.FAILS for m in dep.modes):
