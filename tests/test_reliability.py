@@ -495,3 +495,24 @@ def test_a_stop_signal_that_lands_in_a_finalizer_still_stops_the_command(capsys:
             went_on.append(True)
     assert went_on and stop.value.exit_code == 128 + signal.SIGTERM
     assert "Exception ignored" not in capsys.readouterr().err
+
+
+def test_a_stop_signal_that_surfaces_as_an_import_error_is_reported_as_the_stop(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    # the campaign of 2026-12-05 (#480): SIGHUP 0.3 s into place-observers landed in numpy's
+    # import, which turned it into "ImportError: numpy._core.multiarray failed to import"
+    # (internal error, exit 70)
+    import glocal_verify.cli as cli
+    from glocal_verify.runtime.processes import Stopped
+
+    def importing() -> Any:
+        try:
+            os.kill(os.getpid(), signal.SIGHUP)
+            time.sleep(0.05)
+        except Stopped:
+            raise ImportError("numpy._core.multiarray failed to import") from None
+        raise AssertionError("the signal did not arrive")
+
+    monkeypatch.setattr(cli, "build_parser", importing)
+    assert main(["conditions"]) == 128 + signal.SIGHUP
+    err = capsys.readouterr().err
+    assert "hung up (SIGHUP)" in _one_line(err) and "internal error" not in err

@@ -29,7 +29,7 @@ from glocal_verify import __version__
 from glocal_verify.cli.common import PROG, Parser, UsageError
 from glocal_verify.cli.heartbeat import Heartbeat
 from glocal_verify.errors import GlocalVerifyError
-from glocal_verify.runtime.processes import Stopped, signal_name, stop_on_signals
+from glocal_verify.runtime.processes import StopRequest, Stopped, signal_name, stop_on_signals
 
 __all__ = ["main", "build_parser", "COMMAND_MODULES"]
 
@@ -75,14 +75,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); return the exit code."""
     warnings.simplefilter("ignore", RuntimeWarning)  # overflow notes of numpy: a verdict says what they mean
     try:
-        with stop_on_signals(on_force=lambda signum: _say(f"{_stop_line(signum)} again: stopped at once")):
-            return _run(argv)
+        with stop_on_signals(on_force=lambda signum: _say(f"{_stop_line(signum)} again: stopped at once")) as stop:
+            return _run(argv, stop)
     except Stopped as exc:  # a signal between the handlers' installation and _run's own handling
         _say(_stop_line(exc.signum))
         return exc.exit_code
 
 
-def _run(argv: Sequence[str] | None) -> int:
+def _run(argv: Sequence[str] | None, stop: StopRequest | None = None) -> int:
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
@@ -115,6 +115,10 @@ def _run(argv: Sequence[str] | None) -> int:
         print(f"{PROG}: error: out of memory: the problem is too large for this machine (the size limits are explained in docs/performance.md of the glocal-verify source, \"Size limits and estimates\")", file=sys.stderr)
         return 2
     except Exception as exc:  # a bug of the toolkit: one line for the user, the traceback on request
+        if stop is not None and stop.signum is not None:
+            # the stop in disguise (a signal during an extension's import becomes an ImportError)
+            _say(_stop_line(stop.signum))
+            return 128 + stop.signum
         if os.environ.get("GLOCAL_DEBUG"):
             raise
         first = str(exc).splitlines()[0][:200] if str(exc) else ""

@@ -43,6 +43,7 @@ from types import FrameType
 from typing import Any
 
 __all__ = [
+    "StopRequest",
     "STOP_SIGNALS",
     "Stopped",
     "signal_name",
@@ -95,8 +96,25 @@ def _main_thread() -> bool:
     return threading.current_thread() is threading.main_thread()
 
 
+class StopRequest:
+    """The stop signal a :func:`stop_on_signals` block received, if any (``signum``).
+
+    A caller whose own error handling may see the stop only in disguise (a signal during an
+    extension module's import surfaces as an ``ImportError``) asks it whether the failure is
+    really a stop.
+    """
+
+    __slots__ = ("signum",)
+
+    def __init__(self) -> None:
+        self.signum: int | None = None
+
+    def __repr__(self) -> str:
+        return f"StopRequest({'none' if self.signum is None else signal_name(self.signum)})"
+
+
 @contextlib.contextmanager
-def stop_on_signals(on_force: Callable[[int], None] | None = None) -> Iterator[None]:
+def stop_on_signals(on_force: Callable[[int], None] | None = None) -> Iterator[StopRequest]:
     """Turn the stop signals into :class:`Stopped` inside the block (main thread only).
 
     The first stop signal raises :class:`Stopped`; a further one while that is being handled
@@ -113,9 +131,15 @@ def stop_on_signals(on_force: Callable[[int], None] | None = None) -> Iterator[N
     ----------
     on_force : callable, optional
         Called with the signal number before a forced exit.
+
+    Yields
+    ------
+    StopRequest
+        Set to the first stop signal received in the block.
     """
+    request = StopRequest()
     if not _main_thread():
-        yield
+        yield request
         return
     hit: list[int] = []
 
@@ -126,6 +150,7 @@ def stop_on_signals(on_force: Callable[[int], None] | None = None) -> Iterator[N
                     on_force(signum)
             os._exit(128 + signum)
         hit.append(signum)
+        request.signum = signum
         raise Stopped(signum)
 
     previous_hook = sys.unraisablehook
@@ -147,7 +172,7 @@ def stop_on_signals(on_force: Callable[[int], None] | None = None) -> Iterator[N
         pass
     sys.unraisablehook = unraisable
     try:
-        yield
+        yield request
     finally:
         sys.unraisablehook = previous_hook
         for sig, h in old.items():
