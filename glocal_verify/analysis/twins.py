@@ -71,6 +71,8 @@ def eigenvector_differences_modular(system: System, mode: str) -> Verdict | None
       component), so e_i - e_j has a nonzero component in N - 1 distinct eigenspaces of nonzero
       eigenvalues, whose dimensions add up to N - 1: every eigenvalue is simple and every
       eigenvector u but 1 has u(i) - u(j) = u^T (e_i - e_j) != 0;
+    * fails, when the Krylov degree falls short: an exact eigenvector of small support found
+      from the floating-point ones (:func:`_localized_failure`) with equal entries on a pair;
     * holds, when the Krylov degree falls short twice (two primes and vectors) on at most
       ``config.get("charpoly_mod_max_agents")`` agents: p = charpoly(L_q) squarefree and gcd(p / mu, q_ij) = 1 for every pair
       (q_ij(mu) = det(mu I - (L - b b^T)) - det(mu I - L), b = e_i - e_j, so that
@@ -118,6 +120,8 @@ def eigenvector_differences_modular(system: System, mode: str) -> Verdict | None
             "certificate": f"dim span{{L_q^k (e_i - e_j)}} >= N - 1 = {n - 1} for every pair, modulo the prime {krylov} (Krylov degree, "
             "Berlekamp-Massey): N distinct eigenvalues, and every eigenvector but 1 separates every pair (exact)",
         }, exact=True)
+    if (local := _localized_failure(system, mode, ent, idx, pairs)) is not None:
+        return local
     if n > config.get("charpoly_mod_max_agents"):
         return None
     p, P = _charpoly_mod(system, mode, ent)
@@ -134,6 +138,60 @@ def eigenvector_differences_modular(system: System, mode: str) -> Verdict | None
         "pairs_checked": len(pairs),
         "certificate": f"charpoly(L_q) squarefree and gcd(p(mu)/mu, q_ij) = 1 for every pair, modulo the prime {p} (exact)",
     }, exact=True)
+
+
+#: the largest support of a floating-point eigenvector tried as an exact localized one
+_LOCAL_SUPPORT = 8
+
+
+def _localized_failure(
+    system: System, mode: str, ent: Mapping[tuple[int, int], Fraction], idx: list[tuple[int, ...]], pairs: list[tuple[Any, Any]]
+) -> Verdict | None:
+    """Theorem III.3 (iii) fails, proven by an exact eigenvector of small support (or None).
+
+    A floating-point eigenvector whose entries vanish (to rounding) off at most
+    ``_LOCAL_SUPPORT`` agents S is re-solved exactly: its eigenvalue rounded to a small
+    rational mu != 0, the rational kernel of (L_q - mu I) restricted to the columns S and to
+    the rows S ∪ N(S) (every other row of (L_q - mu I) v vanishes for v supported on S). A
+    nonzero kernel vector v is an exact eigenvector of L_q for mu (not the constant one);
+    a pair (i, j) with v(i) = v(j) then fails (iii), whatever the multiplicity of mu. The
+    rounding only proposes; the exact check decides. This generalises the twins (support 2).
+    """
+    from glocal_verify.numerics.exact import nullspace
+
+    n = system.n
+    sp = system.spectrum(mode)
+    neighbours: dict[int, set[int]] = {}
+    for i, j in ent:
+        neighbours.setdefault(j, set()).add(i)
+    values = np.asarray(sp.values)
+    for a in range(1, n, 256):
+        U = np.asarray(sp.columns(np.arange(a, min(n, a + 256))))
+        for c in range(U.shape[1]):
+            u = U[:, c]
+            S = np.nonzero(np.abs(u) > 1e-8 * float(np.abs(u).max()))[0]
+            if len(S) > _LOCAL_SUPPORT:
+                continue
+            mu = Fraction(float(values[a + c])).limit_denominator(1000)
+            if mu == 0:
+                continue
+            cols = [int(x) for x in S]
+            rows = sorted(set(cols).union(*(neighbours.get(x, set()) for x in cols)))
+            M = [[ent.get((r, s), Fraction(0)) - (mu if r == s else 0) for s in cols] for r in rows]
+            for v in nullspace(M, len(cols)):
+                vec = dict(zip(cols, v))
+                for (i, j), pr in zip(idx, pairs):
+                    if vec.get(i, Fraction(0)) == vec.get(j, Fraction(0)):
+                        exact = {system.labels[k]: x for k, x in vec.items() if x != 0}
+                        return Verdict(Status.FAILS, witness={
+                            "pair": list(pr), "eigenvalue": float(mu), "eigenvalue_exact": mu,
+                            "entries": [float(vec.get(i, 0)), float(vec.get(j, 0))],
+                            "eigenvector_exact": exact,
+                            "reason": f"L_q has the exact eigenvector ({', '.join(f'{k}: {x}' for k, x in exact.items())}; 0 elsewhere) "
+                            f"with eigenvalue {mu}, supported on {len(exact)} agents, "
+                            f"whose entries on the pair {pr[0]}, {pr[1]} are equal",
+                        }, exact=True)
+    return None
 
 
 def _krylov_certificate(n: int, ent: Mapping[tuple[int, int], Fraction], starts: list[dict[int, int] | None], need: int) -> int | None:

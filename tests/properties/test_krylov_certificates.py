@@ -88,3 +88,19 @@ def test_the_krylov_certificate_decides_a_generic_mode_without_a_characteristic_
     assert d is not None and d.status is Status.HOLDS and "Krylov" in d.witness["certificate"]
     assert not any(k[0] == "charpoly-mod" for k in s.analysis.keys()) if hasattr(s.analysis, "keys") else True
     assert laplacian_entries(s, "s")
+
+
+def test_an_exact_eigenvector_of_small_support_proves_a_failure_the_krylov_degree_only_hints_at() -> None:
+    # two pendant paths 1-2-3 and 1-4-5 with weights 3 and 2: (0, 1, x, -1, -x) on 2..5 is an
+    # exact eigenvector (eigenvalues 1 and 6: 9 + 16 = 25), zero on agents 1 and 7; 2 and 4 are
+    # not twins (their rows differ off {2, 4})
+    s = _system(7, [[1, 2, 3], [2, 3, 2], [1, 4, 3], [4, 5, 2], [1, 6, 1], [6, 7, 2]], (1, 7))
+    v = eigenvector_differences_modular(s, "s")
+    exact = eigenvector_differences_verdict(System(s.spec), "s", exact=True)
+    assert exact.status is Status.FAILS
+    assert v is not None and v.status is Status.FAILS and len(v.witness["eigenvector_exact"]) == 4
+    L = {(i, j): w for (i, j), w in laplacian_entries(s, "s").items()}
+    u = {s.index[k]: x for k, x in v.witness["eigenvector_exact"].items()}
+    mu = v.witness["eigenvalue_exact"]
+    for r in range(s.n):  # the witness against the definition: L_q u = mu u exactly
+        assert sum(L.get((r, c), Fraction(0)) * x for c, x in u.items()) == mu * u.get(r, Fraction(0))
