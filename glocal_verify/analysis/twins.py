@@ -71,7 +71,8 @@ def eigenvector_differences_modular(system: System, mode: str) -> Verdict | None
       component), so e_i - e_j has a nonzero component in N - 1 distinct eigenspaces of nonzero
       eigenvalues, whose dimensions add up to N - 1: every eigenvalue is simple and every
       eigenvector u but 1 has u(i) - u(j) = u^T (e_i - e_j) != 0;
-    * fails, when the Krylov degree falls short: an exact eigenvector of small support found
+    * fails, when the Krylov degree falls short on more than ``config.get("charpoly_mod_max_agents")``
+      agents: an exact eigenvector of small support found
       from the floating-point ones (:func:`_localized_failure`) with equal entries on a pair;
     * holds, when the Krylov degree falls short twice (two primes and vectors) on at most
       ``config.get("charpoly_mod_max_agents")`` agents: p = charpoly(L_q) squarefree and gcd(p / mu, q_ij) = 1 for every pair
@@ -120,10 +121,9 @@ def eigenvector_differences_modular(system: System, mode: str) -> Verdict | None
             "certificate": f"dim span{{L_q^k (e_i - e_j)}} >= N - 1 = {n - 1} for every pair, modulo the prime {krylov} (Krylov degree, "
             "Berlekamp-Massey): N distinct eigenvalues, and every eigenvector but 1 separates every pair (exact)",
         }, exact=True)
-    if (local := _localized_failure(system, mode, ent, idx, pairs)) is not None:
-        return local
     if n > config.get("charpoly_mod_max_agents"):
-        return None
+        # beyond the characteristic polynomials' reach: an exact eigenvector of small support
+        return _localized_failure(system, mode, ent, idx, pairs)
     p, P = _charpoly_mod(system, mode, ent)
     if P.gcd(P.derivative()).degree() != 0 or int(P.coeffs()[0]) != 0:
         return None
@@ -184,7 +184,7 @@ def _localized_failure(
                     if vec.get(i, Fraction(0)) == vec.get(j, Fraction(0)):
                         exact = {system.labels[k]: x for k, x in vec.items() if x != 0}
                         return Verdict(Status.FAILS, witness={
-                            "pair": list(pr), "eigenvalue": float(mu), "eigenvalue_exact": mu,
+                            "pair": list(pr), "l": a + c + 1, "eigenvalue": float(mu), "eigenvalue_exact": mu,
                             "entries": [float(vec.get(i, 0)), float(vec.get(j, 0))],
                             "eigenvector_exact": exact,
                             "reason": f"L_q has the exact eigenvector ({', '.join(f'{k}: {x}' for k, x in exact.items())}; 0 elsewhere) "
