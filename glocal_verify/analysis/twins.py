@@ -23,6 +23,7 @@ import numpy as np
 from glocal_verify import config
 from glocal_verify.derived import Kind
 from glocal_verify.model import System
+from glocal_verify.numerics.exact import nullspace
 from glocal_verify.numerics.krylov import krylov_degree_mod
 from glocal_verify.numerics.minors import charpoly_mod, prime_for, twin_modes
 from glocal_verify.results import Status, Verdict
@@ -157,8 +158,6 @@ def _localized_failure(
     a pair (i, j) with v(i) = v(j) then fails (iii), whatever the multiplicity of mu. The
     rounding only proposes; the exact check decides. This generalises the twins (support 2).
     """
-    from glocal_verify.numerics.exact import nullspace
-
     n = system.n
     sp = system.spectrum(mode)
     neighbours: dict[int, set[int]] = {}

@@ -14,6 +14,7 @@ from typing import Any
 
 from glocal_verify.answer.assessment import with_assessment
 from glocal_verify.conditions.detects import DETECTS_MAX_AGENTS
+from glocal_verify.conditions.registry import expect_system
 from glocal_verify.conditions.registry import verify as run_checkers
 from glocal_verify.errors import ArgumentError
 from glocal_verify.model import System
@@ -31,8 +32,7 @@ def simulates(system: System, simulate: str = "auto") -> bool:
 
     ``auto``: on networks of at most :data:`DETECTS_MAX_AGENTS` agents; ``always``; ``never``.
     """
-    if not isinstance(system, System):
-        raise ArgumentError(f"verify: expected a System, got {type(system).__name__}")
+    expect_system(system)
     if not isinstance(simulate, str) or simulate not in SIMULATE_CHOICES:
         raise ArgumentError(f"simulate: must be one of {', '.join(SIMULATE_CHOICES)}, not {simulate!r}"[:120])
     return simulate == "always" or (simulate == "auto" and system.n <= DETECTS_MAX_AGENTS)

@@ -46,6 +46,7 @@ __all__ = [
     "CATALOGUE",
     "CheckContext",
     "checker",
+    "expect_system",
     "finding_rule",
     "result",
     "verdict_result",
@@ -447,13 +448,20 @@ def system_info(system: System) -> SystemInfo:
         safe = tuple(dict.fromkeys(m for m in visits if m != system.modes[0]))
         schedule = ScheduleInfo(safe, text)
     return SystemInfo(system.name, system.n, system.modes, tuple(c.name for c in system.clusters), attack, schedule, bool(system.monitored))
+def expect_system(system: Any, who: str = "verify") -> System:
+    """``system`` when it is a :class:`~glocal_verify.model.System`, else
+    :class:`~glocal_verify.errors.ArgumentError` naming ``who``."""
+    if not isinstance(system, System):
+        raise ArgumentError(f"{who}: expected a System, got {type(system).__name__}")
+    return system
+
+
 def _verify_arguments(
     system: Any, only: Any, exact: Any, tol: Any, escalate: Any, exact_budget: Any, fragile_below: Any
 ) -> tuple[System, list[str] | None, float | None, float | None]:
     """The arguments of :func:`verify` checked against their documented domains
     (:class:`~glocal_verify.errors.ArgumentError` naming the first one outside)."""
-    if not isinstance(system, System):
-        raise ArgumentError(f"verify: expected a System, got {type(system).__name__}")
+    expect_system(system)
     if not isinstance(exact, bool):
         raise ArgumentError(f"exact: expected True or False, got {exact!r}"[:120])
     if not isinstance(tol, Tolerance):

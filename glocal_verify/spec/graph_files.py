@@ -40,7 +40,7 @@ from typing import Any
 import networkx as nx
 
 from glocal_verify.errors import SpecError
-from glocal_verify.spec.prepare import MAX_FILE_BYTES, bounded_rational, clip, show
+from glocal_verify.spec.prepare import MAX_FILE_BYTES, NumberTextError, bounded_rational, clip, show
 from glocal_verify.spec.types import MAX_DEPTH, MAX_EDGES, MAX_EXPONENT, MAX_NODES, Label
 
 __all__ = [
@@ -91,8 +91,8 @@ def _weight(raw: Any, where: str, source: str) -> Fraction:
             raise SpecError(where, f"weight {clip(raw, 40)!r} is not a finite number", source)
         try:
             q = bounded_rational(text)
-        except ValueError as exc:
-            why = "is not a number" if str(exc).startswith("not") else f"is not accepted: {exc}" if str(exc).startswith("number") else "is far outside the allowed range"
+        except NumberTextError as exc:
+            why = {"long": f"is not accepted: {exc}", "range": "is far outside the allowed range"}.get(exc.kind, "is not a number")
             raise SpecError(where, f"weight {clip(raw, 40)!r} {why}", source) from None
     else:
         raise SpecError(where, f"weight {raw!r} is not a number", source)

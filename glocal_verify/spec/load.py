@@ -47,6 +47,7 @@ from glocal_verify.errors import SpecError
 from glocal_verify.spec.deployment import read_implementation, read_uncertainty
 from glocal_verify.spec.prepare import (
     MAX_FILE_BYTES,
+    NumberTextError,
     bounded_rational,
     check_items,
     clip,
@@ -278,13 +279,9 @@ class _Builder:
         """The rational a string spells (``"1/3"``, ``"2.5e-3"``), bounded before conversion."""
         try:
             return bounded_rational(value)
-        except ValueError as exc:
-            why = str(exc)
-            if why.startswith("number text"):
-                raise self.err(path, why) from None
-            if why.startswith("far"):
-                raise self.err(path, f"{show(value)} is far outside the allowed range") from None
-            raise self.err(path, f"cannot read {show(value)} as a rational number") from None
+        except NumberTextError as exc:
+            why = {"long": str(exc), "range": f"{show(value)} is far outside the allowed range"}.get(exc.kind, f"cannot read {show(value)} as a rational number")
+            raise self.err(path, why) from None
 
     def real(
         self, value: Any, path: str, *, positive: bool = False, nonneg: bool = False, lo: float | None = None, hi: float | None = None

@@ -25,6 +25,7 @@ from glocal_verify.spec.types import MAX_DEPTH, MAX_EDGES, MAX_EXPONENT, MAX_MOD
 
 __all__ = [
     "MAX_FILE_BYTES",
+    "NumberTextError",
     "bounded_rational",
     "check_items",
     "clip",
@@ -90,6 +91,16 @@ def plain_scalar(value: Any) -> Any:
 _EXPONENT = re.compile(r"[eE]\s*([-+]?\d+)")
 
 
+class NumberTextError(ValueError):
+    """Why :func:`bounded_rational` refused a number text: ``kind`` is ``"long"`` (too many
+    characters; the message says how many), ``"range"`` (an exponent beyond the limit) or
+    ``"syntax"`` (not a rational number). Callers word the message for their input."""
+
+    def __init__(self, kind: str, message: str) -> None:
+        super().__init__(message)
+        self.kind = kind
+
+
 def bounded_rational(text: str) -> Fraction:
     """The rational a string spells (``"1/3"``, ``"2.5e-3"``), bounded before conversion.
 
@@ -100,21 +111,20 @@ def bounded_rational(text: str) -> Fraction:
 
     Raises
     ------
-    ValueError
-        With the reason (``"far outside the allowed range"``, ``"too long ..."``,
-        ``"not a rational number"``).
+    NumberTextError
+        With its ``kind``.
     """
     t = text.strip()
     if len(t) > MAX_NUMBER_TEXT:
-        raise ValueError(f"number text too long ({len(t)} characters; at most {MAX_NUMBER_TEXT})")
+        raise NumberTextError("long", f"number text too long ({len(t)} characters; at most {MAX_NUMBER_TEXT})")
     for part in t.split("/"):
         m = _EXPONENT.search(part)
         if m is not None and (len(m.group(1).lstrip("+-")) > 6 or abs(int(m.group(1))) > MAX_EXPONENT):
-            raise ValueError("far outside the allowed range")
+            raise NumberTextError("range", "far outside the allowed range")
     try:
         return Fraction(t)
     except (ValueError, ZeroDivisionError):
-        raise ValueError("not a rational number") from None
+        raise NumberTextError("syntax", "not a rational number") from None
 
 
 def prepare(data: Any, source: str | None) -> Any:
