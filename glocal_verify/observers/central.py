@@ -38,6 +38,29 @@ have exactly ``len(poles)`` states and ``scipy.signal.place_poles`` places them.
 Complexity: the cached ``eigh`` of L_1 (O(N^3)), O(N k^2) per eigen-group, O(N n_s p) for
 ``H`` and O(n_s^3) for the Riccati equation; no 2N x 2N matrix is formed. 2000 agents with 10
 monitors take a few seconds, dominated by ``eigh``.
+
+Injection design (large observable parts, provably stable)
+----------------------------------------------------------
+Above ``central_certify_max_states`` observable states (:mod:`glocal_verify.config`), where no
+dense certificate of a Riccati gain is affordable, the default design is the *stiffness
+injection* ``H = [0; k S_{M_x}^T]`` on the position rows of C (``k = alpha``) and 0 on the
+velocity rows, so that
+
+.. math:: A_1 - H C = \\begin{bmatrix} 0 & I \\\\ -K & -\\gamma I \\end{bmatrix},
+          \\qquad K = \\alpha L_1 + k S_{M_x}^\\top S_{M_x} \\succeq 0 .
+
+Its stability on the observable part is a theorem, not a floating-point claim: an eigenvalue
+lam with eigenvector ``[x; lam x]`` (``|x| = 1``) solves ``lam^2 + gamma lam + x^* K x = 0``, so
+``Re lam < 0`` unless ``K x = 0``, and then lam = 0 (or ``-gamma``); the eigenvectors of 0 are
+``[x; 0]`` with ``x in ker K = ker L_1 ∩ ker S_{M_x}``, which lie in ker C and are
+A_1-invariant (unobservable), and 0 has no Jordan chain (``(A_1 - H C)[y; w] = [x; 0]`` forces
+``gamma x = -K y``, hence ``gamma |x|^2 = -x^T K y = 0``). So every eigenvalue of the
+observable quotient has ``Re < 0``, for every symmetric ``L_1 >= 0`` and ``alpha, gamma, k > 0``
+(the float ``k`` is an exact binary rational > 0). Its eigenvalues are the roots of
+``lam^2 + gamma lam + kappa`` over the eigenvalues kappa of K (one N-sized ``eigh``, or none
+without position monitor: then ``H = 0`` and K = alpha L_1, whose spectrum is the cached
+one). The convergence is the network's own on its slowest modes: slower than a Riccati gain,
+but certain at any size.
 """
 
 from __future__ import annotations
@@ -225,6 +248,7 @@ def design_central_observer(
     *,
     mode: str = NORMAL_MODE,
     max_design: int | None = None,
+    method: str = "auto",
 ) -> CentralObserver:
     """Gain H of the centralised observer (eq. ``obs_cent``) for ``A_1``, stable on the observable part.
 
@@ -250,11 +274,18 @@ def design_central_observer(
     max_design : int, optional
         Largest designed block for the Riccati design (default: the tunable
         ``central_max_design`` of :mod:`glocal_verify.config`, 100).
+    method : str
+        ``"auto"`` (default): pole placement when ``poles`` are given, else the Riccati gain
+        while the observable part has at most ``central_certify_max_states`` states and the
+        stiffness injection above (module docstring, "Injection design");
+        ``"riccati"`` or ``"injection"`` to force one.
 
     Returns
     -------
     CentralObserver
     """
+    if method not in ("auto", "riccati", "injection"):
+        raise ValueError(f"method: expected 'auto', 'riccati' or 'injection', got {method!r}")
     if max_design is None:
         max_design = int(config.get("central_max_design"))
     C = system.C()
@@ -266,6 +297,8 @@ def design_central_observer(
     obs.sort(key=lambda b: (not b.zero, b.rate))
     fixed = np.concatenate([b.fixed for b in blocks]) if blocks else np.zeros(0, dtype=complex)
     n_obs = sum(b.A.shape[0] for b in obs)
+    if poles is None and (method == "injection" or (method == "auto" and n_obs > int(config.get("central_certify_max_states")))):
+        return _injection_design(system, mode, blocks, obs, fixed, n_obs, N)
     if poles is not None:
         want = len(poles)
         sizes = np.cumsum([b.A.shape[0] for b in obs]).tolist()
@@ -323,6 +356,53 @@ def design_central_observer(
         designed_states=int(sum(b.A.shape[0] for b in design)),
         observable_states=int(n_obs),
         method=method,
+        unobservable=N,
+        mode=mode,
+    )
+
+
+def _injection_design(
+    system: System, mode: str, blocks: Sequence[_Block], obs: Sequence[_Block], fixed: np.ndarray, n_obs: int, N: Subspace
+) -> CentralObserver:
+    """The stiffness injection ``H = [0; alpha S_{M_x}^T]`` (module docstring, "Injection design")."""
+    n = system.n
+    a, g = system.alpha, system.gamma
+    px = system.idx(system.monitored_positions)
+    H = np.zeros((2 * n, len(px) + len(system.monitored_velocities)))
+    for r, i in enumerate(px):
+        H[n + i, r] = a
+    if not px:
+        # H = 0: the observable eigenvalues are those of the modal blocks
+        obs_eigs = np.concatenate([np.linalg.eigvals(b.A).astype(complex) for b in obs]) if obs else np.zeros(0, dtype=complex)
+    else:
+        K = a * system.laplacian_sparse(mode).toarray()
+        K[px, px] += a
+        kappa = np.linalg.eigvalsh(K)
+        # an unobservable group keeps kappa = alpha mu on W (S_{M_x} W = 0): drop that many
+        # nearest values per group (both roots fixed); for mu = 0 the root 0 is fixed on W^x_0,
+        # the root -gamma only on W_0 (the others' velocity is measured: observable)
+        keep = np.ones(len(kappa), dtype=bool)
+        extra: list[complex] = []
+        for b in blocks:
+            r = b.group.dim_Wx if b.zero else b.group.dim_W
+            if r:
+                near = np.argsort(np.abs(kappa - a * b.group.value) + np.where(keep, 0.0, np.inf))[:r]
+                keep[near] = False
+            if b.zero:
+                extra += [complex(-g)] * (b.group.dim_Wx - b.group.dim_W)
+        roots = [_lam(float(k) / a, a, g) for k in kappa[keep]]
+        obs_eigs = np.array([z for pair in roots for z in pair] + extra, dtype=complex)
+    margin = -float(np.max(obs_eigs.real)) if len(obs_eigs) else math.inf
+    H.setflags(write=False)
+    return CentralObserver(
+        H=H,
+        eigenvalues=np.concatenate([obs_eigs, fixed]),
+        fixed_eigenvalues=fixed,
+        observable_eigenvalues=obs_eigs,
+        stability_margin=margin,
+        designed_states=0,
+        observable_states=int(n_obs),
+        method="injection",
         unobservable=N,
         mode=mode,
     )

@@ -35,10 +35,10 @@ from glocal_verify.observers.central import (
 )
 from glocal_verify.results import Status, Verdict
 
-__all__ = ["central_observer_verdict"]
+__all__ = ["INJECTION_THEOREM", "central_observer_verdict", "observable_hurwitz_exact"]
 
 
-def _exact_observable_hurwitz(system: System, obsv: CentralObserver) -> tuple[bool, str]:
+def observable_hurwitz_exact(system: System, obsv: CentralObserver) -> tuple[bool, str]:
     """Exactly: is the observable part of A_1 - H C Hurwitz, for H rounded to its binary rationals?"""
     n2 = 2 * system.n
     A = exact_A(system, obsv.mode)
@@ -61,6 +61,14 @@ def _exact_observable_hurwitz(system: System, obsv: CentralObserver) -> tuple[bo
     return ok, f"observable characteristic polynomial of degree {q.degree()} {'is' if ok else 'is not'} Hurwitz (Routh)"
 
 
+#: the proof of a stiffness-injection design, one line for the witness
+INJECTION_THEOREM = (
+    "H = [0; alpha S_Mx^T] gives A_1 - H C = [[0, I], [-K, -gamma I]] with K = alpha (L_1 + S_Mx^T S_Mx) >= 0: "
+    "lam^2 + gamma lam + x*Kx = 0 for an eigenvector [x; lam x], so Re lam < 0 except lam = 0 on [x; 0], x in ker K, "
+    "which is unobservable and has no Jordan chain (exact, every N)"
+)
+
+
 def _cplx(z: complex) -> list[float] | float:
     z = complex(z)
     return float(z.real) if z.imag == 0 else [float(z.real), float(z.imag)]
@@ -79,7 +87,9 @@ def central_observer_verdict(
     ``error_bound`` the radius. Exact: the characteristic polynomial of ``A_1 - H C`` over Q
     divided by that of A_1 on the rational unobservable subspace, by the Routh-Hurwitz test.
     A design that breaks down in floating point is undecided (numeric) or holds (exact: the
-    observable quotient is observable, so some gain stabilises it).
+    observable quotient is observable, so some gain stabilises it). Above
+    ``central_certify_max_states`` observable states the design is the stiffness injection,
+    whose stability is a theorem (:data:`INJECTION_THEOREM`): holds, numeric and exact alike.
 
     Parameters
     ----------
@@ -141,8 +151,16 @@ def central_observer_verdict(
     m = -obsv.stability_margin if math.isfinite(obsv.stability_margin) else -math.inf
     bound: float | None = None
     note = ""
-    if exact:
-        ok, why = _exact_observable_hurwitz(system, obsv)
+    if obsv.method == "injection":
+        # a theorem on damped second-order systems (design_central_observer, "Injection design"):
+        # exact for every symmetric L_1 >= 0 and alpha, gamma, k > 0, whatever the size
+        status = Status.HOLDS
+        witness["certificate"] = {"by": INJECTION_THEOREM}
+        bound, note = 0.0, ""
+        if exact:
+            witness["exact"] = INJECTION_THEOREM
+    elif exact:
+        ok, why = observable_hurwitz_exact(system, obsv)
         status = Status.HOLDS if ok else Status.FAILS
         witness["exact"] = why
     elif not math.isfinite(m) and certified_unobservable(system, obsv.mode).dim_upper == 2 * n:

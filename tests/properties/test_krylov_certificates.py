@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from glocal_verify import System, config, loads_spec
 from glocal_verify.analysis.eigenstructure import distinct_eigenvalues_verdict, eigenvector_differences_verdict
 from glocal_verify.analysis.twins import distinct_eigenvalues_modular, eigenvector_differences_modular, laplacian_entries
-from glocal_verify.numerics.krylov import krylov_degree_mod
+from glocal_verify.numerics.krylov import krylov_degree_mod, krylov_rank_mod
 from glocal_verify.results import Status
 from tests.strategies import graphs
 
@@ -105,3 +105,76 @@ def test_an_exact_eigenvector_of_small_support_proves_a_failure_the_krylov_degre
     mu = v.witness["eigenvalue_exact"]
     for r in range(s.n):  # the witness against the definition: L_q u = mu u exactly
         assert sum(L.get((r, c), Fraction(0)) * x for c, x in u.items()) == mu * u.get(r, Fraction(0))
+
+
+def _observability_rank_over_q(n: int, entries: dict[tuple[int, int], Fraction], outputs: list[dict[int, Fraction]]) -> int:
+    A = flint.fmpq_mat(n, n)
+    for (i, j), v in entries.items():
+        A[i, j] = flint.fmpq(v.numerator, v.denominator)
+    rows = []
+    for out in outputs:
+        r = flint.fmpq_mat(1, n, [flint.fmpq(out.get(j, Fraction(0)).numerator, out.get(j, Fraction(0)).denominator) for j in range(n)])
+        for _ in range(n):
+            rows.append([r[0, j] for j in range(n)])
+            r = r * A
+    if not rows:
+        return 0
+    return int(flint.fmpq_mat(len(rows), n, [x for row in rows for x in row]).rank())
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.integers(1, 8).flatmap(
+        lambda n: st.tuples(
+            st.just(n),
+            st.lists(st.tuples(st.integers(0, n - 1), st.integers(0, n - 1), st.integers(-3, 3)), max_size=3 * n),
+            st.lists(st.lists(st.tuples(st.integers(0, n - 1), st.integers(-2, 2)), max_size=3), max_size=3),
+        )
+    )
+)
+def test_a_block_krylov_rank_modulo_a_prime_never_exceeds_the_observability_rank_over_q(case: tuple[int, list[tuple[int, int, int]], list[list[tuple[int, int]]]]) -> None:
+    n, raw, outs = case
+    entries: dict[tuple[int, int], Fraction] = {}
+    for i, j, v in raw:
+        if v:
+            entries[(i, j)] = Fraction(v, 1 + (i + 2 * j) % 3)
+    outputs = [{j: Fraction(v, 2) for j, v in row if v} for row in outs]
+    kr = krylov_rank_mod(n, entries, outputs)
+    exact = _observability_rank_over_q(n, entries, outputs)
+    assert kr.rank <= exact
+    # a rank that proves observability is the exact answer
+    assert kr.observable <= (exact == n)
+
+
+def test_the_observability_certificate_decides_a_cluster_of_a_hundred_agents_that_zero_forcing_leaves_open() -> None:
+    from glocal_verify.analysis.local_cases import certify_pencil_verdict, local_cases, observability_certificate
+    from glocal_verify.analysis.local_pencil import pencil_verdict
+    from glocal_verify.design.generators import random_clustered_spec
+
+    # the realistic family at N = 1000: in cluster P4 zero forcing leaves 93 of 100 agents unforced
+    s = System(random_clustered_spec(1000, 10, seed=7, modes=1))
+    case = local_cases(s, cluster="P4")[0]
+    assert case.suspected == ()
+    assert observability_certificate(s, case) is not None
+    v = certify_pencil_verdict(s, case, pencil_verdict(s, case))
+    assert v.status is Status.HOLDS
+    assert "observability matrix" in v.witness["certificate"]["by"]
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 10_000), st.integers(18, 30), st.integers(2, 3), st.booleans())
+def test_what_the_observability_certificate_proves_exact_arithmetic_confirms(seed: int, n: int, clusters: int, attack: bool) -> None:
+    from glocal_verify.analysis.local_cases import local_cases, minor_certificate, observability_certificate
+    from glocal_verify.analysis.local_pencil import pencil_verdict_exact
+    from glocal_verify.design.generators import random_clustered_spec
+
+    s = System(random_clustered_spec(n, clusters, seed=seed, modes=1, attack=attack))
+    for case in local_cases(s):
+        if observability_certificate(s, case) is None:
+            continue
+        exact = pencil_verdict_exact(System(s.spec), case, margin=False, method="dense")
+        # full column rank at every lam != 0: every exact zero, if any, is lam = 0
+        for z in exact.witness.get("zeros", []):
+            assert complex(z.get("lambda", 0)) == 0, (case.scope, exact.witness)
+        if minor_certificate(s, case) is not None:
+            assert exact.status is Status.HOLDS, (case.scope, exact.witness)
