@@ -7,6 +7,7 @@ worst case of Remark III.2.1), with the pencil matrices numeric and exact.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from fractions import Fraction
@@ -15,6 +16,7 @@ from typing import Any, Mapping
 import numpy as np
 import scipy.sparse
 
+from glocal_verify import config
 from glocal_verify.derived import Kind
 from glocal_verify.model import ClusterModel, LocalObserver, System
 from glocal_verify.numerics.minors import RATIONAL_ZERO
@@ -367,6 +369,56 @@ def _krawczyk_zero(system: System, case: LocalCase, witness: dict[str, Any]) -> 
     return None
 
 
+def _rational_s_zero(system: System, case: LocalCase, witness: Mapping[str, Any]) -> str | None:
+    """An exact rank loss of the reduced pencil at a rational s near a reported zero, or None.
+
+    With s = lam^2 + gamma lam, P(lam) loses column rank at a lam != 0 iff
+    ``T(s) = [(s I + alpha L)[U \\ I, U]; alpha L[M \\ I, U]]`` does (U the unmeasured agents, I
+    the input agents, M the measured ones; :mod:`glocal_verify.numerics.minors`). A reported
+    zero whose s is real is rounded to the nearest rational of small denominator and the rank
+    of T at it is computed over Q (python-flint): a rank below |U| is a proof, however the
+    candidate was found, at both roots lam of ``lam^2 + gamma lam = s`` (neither is 0 unless
+    s = 0, whose other root -gamma is not). Clusters above ``exact_rank_max_columns`` columns
+    are skipped (rational elimination).
+    """
+    import flint
+
+    cm, obs = case.model, case.observer
+    nodes = cm.nodes
+    idx = {a: k for k, a in enumerate(nodes)}
+    measured = {idx[a] for a in obs.positions} | {idx[a] for a in obs.velocities}
+    inputs = {idx[a] for a in case.suspected} | {idx[a] for a in cm.boundary}
+    U = [i for i in range(len(nodes)) if i not in measured]
+    if not U or len(U) > config.get("exact_rank_max_columns"):
+        return None
+    rows = [i for i in U if i not in inputs] + sorted(measured - inputs)
+    L = system.cluster_laplacian_exact(cm.name, case.mode)
+    alpha = Fraction(system.alpha_q)
+    tried: set[Fraction] = set()
+    for w in list(witness.get("zeros", []))[:12]:
+        sv = complex(w.get("s", math.nan))
+        if not math.isfinite(sv.real) or abs(sv.imag) > 1e-9 * max(1.0, abs(sv.real)):
+            continue
+        sq = Fraction(sv.real).limit_denominator(10**6)
+        if sq in tried:
+            continue
+        tried.add(sq)
+        T = flint.fmpq_mat(len(rows), len(U))
+        for r, i in enumerate(rows):
+            Li = L[i]
+            for c, j in enumerate(U):
+                v = alpha * Li[j] + (sq if (i == j and i not in measured) else 0)
+                if v:
+                    T[r, c] = flint.fmpq(v.numerator, v.denominator)
+        rank = int(T.rank())
+        if rank < len(U):
+            return (
+                f"T(s) = [(s I + alpha L)[U \\ I, U]; alpha L[M \\ I, U]] has rank {rank} < {len(U)} over Q at s = {sq}: "
+                f"P(lam) loses column rank at both roots of lam^2 + gamma lam = {sq}"
+            )
+    return None
+
+
 def minor_certificate(system: System, case: LocalCase, cache: dict[Any, Any] | None = None) -> str | None:
     """Prove Proposition III.2 (iii) for every lam by exact maximal minors, or return None.
 
@@ -644,6 +696,9 @@ def certify_pencil_verdict(system: System, case: LocalCase, numeric: Verdict) ->
             rows, _ = _exact_pencil_at(system, case, lq)
             if rational_kernel_vector(rows, _witness_vector(case, d)) is not None:
                 return f"the direction at lam = {lq} rationalises to an exact kernel vector (checked over Q)"
+        rz = _rational_s_zero(system, case, witness)
+        if rz is not None:
+            return rz
         enc = _krawczyk_zero(system, case, witness)
         if enc is not None:
             cert["lambda_enclosure"] = str(enc.lam)
