@@ -126,3 +126,18 @@ def test_every_core_means_no_more_than_a_thread_limit_in_the_environment(monkeyp
         assert n == 1
     with ThreadSwitch().limit(None) as n:
         assert n == 1
+
+
+def test_a_nested_limit_to_the_count_in_force_keeps_it_and_the_outer_limit_survives() -> None:
+    from threadpoolctl import threadpool_info
+
+    before = [i["num_threads"] for i in threadpool_info()]
+    switch = ThreadSwitch()
+    with switch.limit(1):
+        with switch.limit(1) as n:  # the count in force: no threadpoolctl call
+            assert n == 1 and all(i["num_threads"] == 1 for i in threadpool_info())
+        assert all(i["num_threads"] == 1 for i in threadpool_info())
+        with blas_threads(1):
+            assert all(i["num_threads"] == 1 for i in threadpool_info())
+        assert all(i["num_threads"] == 1 for i in threadpool_info())
+    assert [i["num_threads"] for i in threadpool_info()] == before

@@ -41,6 +41,10 @@ __all__ = ["available_cores", "blas_threads", "set_default_threads", "default_th
 _DEFAULT: ContextVar[int | None] = ContextVar("glocal_verify_blas_threads", default=None)
 #: inside a :func:`single_threaded` call (nested calls then skip the 0.5 ms re-limit)
 _SINGLE: ContextVar[bool] = ContextVar("glocal_verify_single_thread", default=False)
+#: the thread count an enclosing :meth:`ThreadSwitch.limit` put in force (None: none did); a
+#: nested limit to the same count changes nothing and skips threadpoolctl (about 50 us a call,
+#: tens of thousands of calls in an audit's deflation loops)
+_IN_FORCE: ContextVar[int | None] = ContextVar("glocal_verify_threads_in_force", default=None)
 
 
 def available_cores() -> int:
@@ -172,10 +176,16 @@ class ThreadSwitch:
         int
             The thread count in force.
         """
-        cap = default_threads()
-        want = cap if n is None else max(1, min(int(n), cap))
+        want = 1 if (n is not None and int(n) <= 1) else (default_threads() if n is None else max(1, min(int(n), default_threads())))
         if self._controller is None:  # pragma: no cover
             yield want
             return
-        with self._controller.limit(limits=want):
+        if _IN_FORCE.get() == want:
             yield want
+            return
+        token = _IN_FORCE.set(want)
+        try:
+            with self._controller.limit(limits=want):
+                yield want
+        finally:
+            _IN_FORCE.reset(token)
