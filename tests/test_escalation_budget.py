@@ -173,3 +173,17 @@ def test_the_cheap_exact_certificates_agree_with_exact_arithmetic() -> None:
     # the proven dimension is the exact one
     cu = certified_unobservable(twins)
     assert cu.decided and cu.dim_lower == len(unobservable_subspace_exact(twins))
+
+
+def test_a_zda_re_decision_beyond_the_certificates_reach_is_estimated_from_below_and_not_started_within_the_default_budget() -> None:
+    from glocal_verify import config
+    from glocal_verify.conditions.cost import exact_seconds
+    from glocal_verify.conditions.registry import exact_estimate
+    from glocal_verify.design.generators import random_clustered_spec
+
+    # N = 2000: the minor certificate alone (about 46 s) exceeds zda_certificate_max_seconds,
+    # so the path is unknown; the estimate is at least the fast path's
+    s = System(random_clustered_spec(2000, 20, seed=7, modes=1))
+    est = exact_estimate(s, "switching.avoids-attack")
+    assert est is not None and est >= exact_seconds("switching.avoids-attack", 2000, zda_path="fast")
+    assert config.get("escalation_estimate_fraction") * est > 30.0

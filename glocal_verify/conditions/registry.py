@@ -360,7 +360,9 @@ def exact_estimate(system: System, cid: str) -> float | None:
     ``central.observer``, and ``stealthy.zda`` / ``switching.avoids-attack``, whose path is
     learnt from the minor certificate (:func:`~glocal_verify.analysis.zda_exact.has_fast_exact_path`)
     while that certificate costs at most ``zda_certificate_max_seconds``
-    (:mod:`glocal_verify.config`; N <~ 1700), beyond which its own cost is the estimate.
+    (:mod:`glocal_verify.config`; N <~ 1700); beyond, the path is unknown and the estimate is
+    the larger of the certificate's cost and the fast path's (a lower bound of either path:
+    an escalation it keeps from starting could not have finished).
 
     Parameters
     ----------
@@ -375,7 +377,8 @@ def exact_estimate(system: System, cid: str) -> float | None:
         return None
     certificate = zda_certificate_seconds(system.n)
     if certificate > config.get("zda_certificate_max_seconds"):
-        return certificate
+        # the path is unknown: the cheaper one (the fast path) bounds the cost from below
+        return max(certificate, exact_seconds(cid, system.n, zda_path="fast"))
     from glocal_verify.analysis.zda_exact import has_fast_exact_path
 
     try:
