@@ -164,3 +164,17 @@ def test_a_large_observable_part_gets_the_injection_design_and_a_decided_verdict
     assert r.witness["design"]["method"] == "injection"
     assert r.status is Status.HOLDS
     assert "no Jordan chain" in r.witness["certificate"]["by"]
+
+
+def test_the_injection_design_and_the_certified_riccati_design_agree_on_a_medium_network() -> None:
+    from glocal_verify import config
+    from glocal_verify.design.generators import random_clustered_spec
+
+    s = System(random_clustered_spec(150, 3, seed=3, modes=1))
+    riccati = verify(s, only=["central.observer"]).results("central.observer")[0]
+    with config.override(central_certify_max_states=0):
+        injection = verify(System(s.spec), only=["central.observer"]).results("central.observer")[0]
+    assert riccati.witness["design"]["method"] == "riccati" and injection.witness["design"]["method"] == "injection"
+    assert riccati.status is injection.status is Status.HOLDS
+    # the unobservable part does not depend on the gain
+    assert riccati.witness["fixed_count"] == injection.witness["fixed_count"]
