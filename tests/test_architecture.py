@@ -202,6 +202,7 @@ _STATE_ALLOWED = {
     ("conditions.registry", "_loaded"): "whether that registration has run (set once by _load)",
     ("numerics.threads", "_DEFAULT"): "a ContextVar: the BLAS thread count a `with` block sets, local to its context",
     ("numerics.threads", "_SINGLE"): "a ContextVar: inside a single_threaded call, local to its context",
+    ("numerics.threads", "_IN_FORCE"): "a ContextVar: the thread count an enclosing limit put in force, local to its context",
     ("simulation.limits", "_ALLOW_LARGE"): "a ContextVar: allow_large's switch, local to its context",
 }
 
