@@ -32,7 +32,10 @@ What proves a status (tried in this order; each is a proof about the exact syste
     5. The numeric zero set (:func:`~glocal_verify.analysis.zda.zda_analysis`) certified by
        :func:`~glocal_verify.analysis.zda_certificate.zda_certificate` (structural rank, Weyl
        bounds, zero forcing, rational kernel vectors, the Krawczyk test). A numeric verdict
-       the certificate does not prove is ``undecided``.
+       the certificate does not prove is ``undecided``. When the zero set chose lambda0 = 0 as
+       its fastest-growing zero, :func:`~glocal_verify.analysis.zda_completeness.zero_set_completeness`
+       decides whether that choice is proven (no zero lambda != 0 with Re lambda >= 0, by a
+       modular count of the zeros of the N-sized pencil in s); only then is lambda0 exact.
     6. ``fallback=True``: an undecided status is re-decided over Q (step 1).
 
 The witness direction is the spec's lambda0 when a stealthy ZDA exists there, else the
@@ -66,6 +69,7 @@ from glocal_verify.analysis.zda import (
 )
 from glocal_verify.analysis.zda_batch import batch_directions
 from glocal_verify.analysis.zda_certificate import ZdaCertificate, sparse_kernel_certificate, zda_certificate
+from glocal_verify.analysis.zda_completeness import ZeroSetCompleteness, zero_set_completeness
 from glocal_verify.analysis.zda_exact import ExactZdaAnalysis, ExactZdaZero, zda_analysis_exact
 from glocal_verify.analysis.zda_screens import disjoint_paths, zero_exponent_status
 from glocal_verify.errors import NotApplicableError
@@ -173,8 +177,13 @@ class ZdaVerdict:
         What :func:`~glocal_verify.analysis.zda_certificate.zda_certificate` proved of the
         numeric zero set (None when not asked).
     zeros_exact : bool
-        The set of exponents with a stealthy ZDA is known exactly (the minors proved that only
-        lambda0 = 0 can have one), so the witness exponent is the rule's exactly.
+        The witness exponent is the rule's exactly: the minors proved that only lambda0 = 0
+        can have a stealthy ZDA, or ``completeness`` proved that no zero lambda != 0 has
+        Re lambda >= 0 when the computed zero set chose lambda0 = 0.
+    completeness : ZeroSetCompleteness or None
+        When the numeric zero set chose lambda0 = 0 as its fastest-growing zero: whether that
+        choice is proven (:func:`~glocal_verify.analysis.zda_completeness.zero_set_completeness`),
+        and what proves it or why not.
     """
 
     actuators: tuple[Label, ...]
@@ -194,6 +203,7 @@ class ZdaVerdict:
     exact_analysis: ExactZdaAnalysis | None = None
     certificate: ZdaCertificate | None = None
     zeros_exact: bool = False
+    completeness: ZeroSetCompleteness | None = None
 
     @property
     def stealthy(self) -> bool | None:
@@ -205,8 +215,8 @@ class ZdaVerdict:
         """The witness exponent is exactly the one the rule picks: the requested exponent, or an exact zero set.
 
         Only then may the touch test of ``switching.avoids-attack`` be decided at it; a
-        computed fastest zero is a floating-point choice (the zero set is not certified
-        complete).
+        computed fastest zero is a floating-point choice unless ``completeness`` proves it
+        (``zeros_exact``).
         """
         if self.direction is None:
             return False
@@ -253,9 +263,14 @@ def _numeric(system: System, F: tuple[Label, ...], opt: ZdaOptions) -> ZdaVerdic
         growth = GROWTH_UNBOUNDED
     else:
         growth = max((z.growth for z in za.zeros), key=growth_rank, default="undecided")
+    completeness = None
+    if status is Status.HOLDS and d0 is not None and complex(d0.value) == 0 and za.direction_source == "fastest-growing zero":
+        # the rule chose 0 from a computed zero set: proven only if no zero lambda != 0 has Re lambda >= 0
+        completeness = zero_set_completeness(system, F)
     return ZdaVerdict(
         F, status, growth, za.left_invertible if za.decided else None, za.direction, za.direction_source, "numeric",
         cert.by if status is not Status.UNDECIDED else "", error_bound=cert.error_bound, note=note, numeric_analysis=za, certificate=cert,
+        zeros_exact=completeness is not None and completeness.complete, completeness=completeness,
     )
 
 

@@ -240,6 +240,8 @@ def check_zda(system: System, ctx: CheckContext) -> list[ConditionResult]:
     cert = v.certificate
     assert cert is not None
     witness["certificate"] = {"status": None if cert.status is None else cert.status.value, "by": cert.by, "error_bound": cert.error_bound, "note": cert.note}
+    if v.completeness is not None:
+        witness["zero_set"] = {"complete": v.completeness.complete, "by" if v.completeness.complete else "note": v.completeness.text}
     return [result("stealthy.zda", ctx, v.status, margin=margin, witness=witness, error_bound=v.error_bound, note=v.note if v.status is Status.UNDECIDED else "")]
 
 
