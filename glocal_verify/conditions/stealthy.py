@@ -187,6 +187,11 @@ def check_zda(system: System, ctx: CheckContext) -> list[ConditionResult]:
         ``zeros`` (lambda, growth, u0, xi on its support, moved agents, residual), at most
         ``max_zeros`` (option, default 50) of them, ``zeros_total``, ``unobservable_modes``
         (zeros with u0 = 0, not attacks) and ``direction`` (lambda0, u0, xi, moved, source).
+        When the computed zero set chose lambda0 = 0 as its fastest-growing zero, ``zero_set``
+        says whether that choice is proven (``complete`` and ``by``: the modular count of the
+        zeros of the pencil in s, :func:`~glocal_verify.analysis.zda_completeness.zero_set_completeness`)
+        or why not (``note``); ``switching.avoids-attack`` is decided at a computed lambda0 = 0
+        only when it is.
     """
     if system.spec.attack is None:
         return []
