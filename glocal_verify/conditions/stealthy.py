@@ -216,6 +216,10 @@ def check_zda(system: System, ctx: CheckContext) -> list[ConditionResult]:
         assert za is not None
         left_inv, nrank, k0 = za.left_invertible, za.normal_rank, za.normal_kernel_dim
         zeros, unobs, notes = za.zeros, za.unobservable, za.notes
+        if v.screened and v.left_invertible is False and za.left_invertible:
+            # the separator screen proved what the deflation's rank decisions missed (decide_zda)
+            left_inv, nrank, k0 = False, None, None
+            notes = (*notes, f"{v.proof}; the deflation's full normal rank is a floating-point decision, wrong here")
     direction, source = v.direction, v.direction_source
     N, m = system.n, len(F)
     p = len(system.output_channels())
