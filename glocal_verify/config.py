@@ -232,6 +232,14 @@ _ALL = (
     _t("zero_count_exact_terms", 400, "terms", "glocal_verify.numerics.zero_count",
        "Markov parameters recomputed over Z to check that the prime keeps the leading coefficient of det(R_1 P(s))",
        "the leading term sits about twice the graph distance from F to M deep (15 in the realistic family); integer growth makes hundreds slow"),
+    _t("zero_count_cluster_max_agents", 250, "agents", "glocal_verify.analysis.zda_completeness",
+       "the largest union of clusters whose exact maximal minors locate the zeros the modular count finds",
+       "exact minors of a 100-agent cluster take well under a second; their cost grows like the cube of the size "
+       "(9.6 s for a failing chain at N = 4000 with 400, 4.7 s with 250)"),
+    _t("zero_count_cluster_steps", 4, "steps", "glocal_verify.analysis.zda_completeness",
+       "clusters peeled off, from the attacked agents outward, to locate the zeros the modular count finds",
+       "each step costs one modular count of the rest (about a second at N = 4000) and exact minors of a cluster; "
+       "random_clustered_spec(800, 8, seed=7, modes=1) closes after two"),
     _t("update_accept", 1.5, "ratio", "glocal_verify.numerics.updated_spectrum",
        "a rank-one update is kept when its certified radius is at most this times the larger of its base's and an eigh's",
        "an update barely less sharp than an eigh costs no verdict"),

@@ -48,7 +48,7 @@ def test_an_exact_twin_mode_meeting_f_is_counted_as_a_known_zero() -> None:
     c = zero_set_completeness(system, F)
     assert_completeness_sound(system, F)
     assert c.complete, c.text
-    assert "twin modes meeting F" in c.text
+    assert "twin modes meeting the inputs" in c.text
 
 
 def test_a_system_proved_not_left_invertible_is_never_complete() -> None:
@@ -113,3 +113,13 @@ def test_a_numeric_full_rank_the_separator_disproves_gives_the_witness_at_lambda
     assert v.direction is not None and complex(v.direction.value) == 1
     assert v.lambda0_exact
     assert "vertex-disjoint" in v.proof
+
+
+def test_the_cluster_step_locates_the_zeros_the_count_finds_on_the_realistic_family() -> None:
+    # random_clustered_spec(800, 8, seed=7, modes=1): the pencil in s has 180 zeros of unknown location;
+    # the clusters P1 and P2 (outputs at their boundary agents) hold them all, every one decaying,
+    # and the pencil beyond P2 has none
+    system = System(random_clustered_spec(800, 8, seed=7, modes=1))
+    c = zero_set_completeness(system, system.attacked)
+    assert c.complete, c.text
+    assert "located by the cluster of F" in c.text and "beyond P2" in c.text

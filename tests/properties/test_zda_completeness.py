@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
-from strategies import assert_completeness_sound, faster_zero_system, systems
+from strategies import assert_completeness_sound, clustered_systems, faster_zero_system, systems
 
 from glocal_verify import System
 
@@ -26,3 +26,11 @@ def test_the_certificate_never_claims_completeness_when_an_exact_analysis_finds_
     if not system.monitored:
         return
     assert_completeness_sound(system, F)
+
+
+@settings(deadline=None)
+@given(clustered_systems(max_n=14))
+def test_the_cluster_step_never_claims_completeness_that_exact_arithmetic_contradicts(system: System) -> None:
+    if len(system.attacked) > len(system.monitored):
+        return
+    assert_completeness_sound(system, system.attacked)
