@@ -235,7 +235,7 @@ _ALL = (
     _t("zero_count_cluster_max_agents", 250, "agents", "glocal_verify.analysis.zda_completeness",
        "the largest union of clusters whose exact maximal minors locate the zeros the modular count finds",
        "exact minors of a 100-agent cluster take well under a second; their cost grows like the cube of the size "
-       "(9.6 s for a failing chain at N = 4000 with 400, 4.7 s with 250)"),
+       "(a failing search at N = 4000: 9.6 s in all with 400, 5.9 s with 250)"),
     _t("zero_count_cluster_steps", 4, "steps", "glocal_verify.analysis.zda_completeness",
        "clusters peeled off, from the attacked agents outward, to locate the zeros the modular count finds",
        "each step costs one modular count of the rest (about a second at N = 4000) and exact minors of a cluster; "
