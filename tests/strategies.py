@@ -14,7 +14,18 @@ from hypothesis import strategies as st
 
 from glocal_verify import System, spec_from_dict
 
-__all__ = ["weights", "graphs", "systems", "special_graphs", "clustered_systems", "assert_numeric_matches_exact", "dense_laplacian", "extended_product"]
+__all__ = [
+    "weights",
+    "graphs",
+    "systems",
+    "special_graphs",
+    "clustered_systems",
+    "assert_numeric_matches_exact",
+    "assert_completeness_sound",
+    "faster_zero_system",
+    "dense_laplacian",
+    "extended_product",
+]
 
 
 def dense_laplacian(n: int, links: list[tuple[int, int, float]]) -> np.ndarray:
@@ -177,3 +188,32 @@ def assert_numeric_matches_exact(system: System, ids: list[str]) -> None:
         assert re_.status is not Status.UNDECIDED
         if rn.status is not Status.UNDECIDED:
             assert rn.status is re_.status, (k, rn.witness, re_.witness)
+
+
+def faster_zero_system() -> tuple[System, tuple[int, ...]]:
+    """Five agents whose pencil in s has the zero s = 7 (x^2 + x - 7 in lambda): lambda = (sqrt 29 - 1) / 2 > 0; F = (5, 1)."""
+    from glocal_verify import spec_from_graph
+
+    G = nx.Graph()
+    G.add_weighted_edges_from([(1, 2, 2), (1, 3, 1), (1, 4, 1), (2, 4, 3), (3, 5, 2), (4, 5, 3)])
+    return System(spec_from_graph(G, monitor_velocities=[4, 3])), (5, 1)
+
+
+def assert_completeness_sound(system: System, F: tuple[Any, ...]) -> None:
+    """A completeness claim of the ZDA zero set agrees with the exact analysis over Q.
+
+    ``complete`` says: left-invertible, and every zero lambda != 0 (attacks and unobservable
+    modes alike) has Re lambda < 0.
+    """
+    from glocal_verify.analysis.zda_completeness import zero_set_completeness
+    from glocal_verify.analysis.zda_exact import zda_analysis_exact
+
+    c = zero_set_completeness(system, F)
+    if not c.complete:
+        return
+    ea = zda_analysis_exact(system, F)
+    assert ea.left_invertible, f"completeness claimed, but the exact pencil is not left-invertible: {c.text}"
+    for z in (*ea.zeros, *ea.unobservable):
+        if z.rational is not None and z.rational == 0:
+            continue
+        assert z.real_sign < 0, f"completeness claimed ({c.text}), but the exact zero {z.value} ({z.factor}) has Re lambda >= 0"

@@ -529,6 +529,7 @@ def avoidance_certificate(
     status: Status,
     exact_lambda: bool,
     candidate: np.ndarray | None = None,
+    why_not_exact: str = "",
 ) -> tuple[bool, float | None, str]:
     """Certify a numeric verdict of ``switching.avoids-attack`` at lambda0 for the exact system.
 
@@ -559,6 +560,9 @@ def avoidance_certificate(
         lambda0 is the requested exact value (not a computed zero).
     candidate : ndarray, optional
         The avoiding direction [xi; u0] of a numeric ``holds``.
+    why_not_exact : str
+        Why a computed lambda0 = 0 is not proven to be the rule's choice (the note of
+        :func:`~glocal_verify.analysis.zda_completeness.zero_set_completeness`), quoted in the note.
     """
     from glocal_verify.analysis.zda_certificate import (
         exact_q_rows,
@@ -570,8 +574,9 @@ def avoidance_certificate(
         # a computed lambda0 is the fastest-growing zero found numerically: neither the zero nor
         # the choice (no faster zero was missed) has a floating-point proof
         if not exact_lambda and lam == 0:
+            why = f" ({why_not_exact})" if why_not_exact else ""
             return False, None, (
-                "lambda0 = 0 was chosen as the fastest-growing zero of a numeric zero set that is not certified complete "
+                f"lambda0 = 0 was chosen as the fastest-growing zero of a numeric zero set that is not certified complete{why} "
                 "(a faster zero may have been missed); give attack.lambda0 = 0 in the spec to certify the verdict at 0"
             )
         return False, None, (
@@ -650,12 +655,12 @@ class AvoidanceVerdict:
 NO_ZDA_PREMISE = "no stealthy ZDA exists for this attack (stealthy.zda fails): there is nothing for the switch to touch or avoid"
 
 
-def _certify_numeric(system: System, F: Sequence[Label], av: Avoidance, exact_lambda: bool) -> tuple[Avoidance, dict[str, Any]]:
+def _certify_numeric(system: System, F: Sequence[Label], av: Avoidance, exact_lambda: bool, why_not_exact: str = "") -> tuple[Avoidance, dict[str, Any]]:
     """The numeric ``av`` if :func:`avoidance_certificate` proves it for the exact system, else ``undecided``."""
     if av.status is Status.UNDECIDED:
         return av, {"certified": False, "error_bound": None, "note": "; ".join(av.notes) or "a rank decision fell in the tolerance band"}
     cand = None if av.direction is None else np.concatenate([av.direction.xi, av.direction.u0])
-    ok, bound, note = avoidance_certificate(system, av.mode, system.idx(F), av.lambda0, av.status, exact_lambda, cand)
+    ok, bound, note = avoidance_certificate(system, av.mode, system.idx(F), av.lambda0, av.status, exact_lambda, cand, why_not_exact)
     cert: dict[str, Any] = {"certified": ok, "error_bound": bound, "note": "" if ok else f"numeric {av.status.value} not certified: {note}"}
     if ok:
         cert["by"] = (
@@ -687,8 +692,9 @@ def decide_avoidance(
        the number field of lambda0 (:func:`exact_mode_avoidance`);
     2. the numeric touch test (:func:`numeric_mode_avoidance`), which counts only where
        :func:`avoidance_certificate` proves it at an exact lambda0 (``zda.lambda0_exact``:
-       the requested exponent, a certified zero set, or lambda0 = 1 of a system proved not
-       left-invertible);
+       the requested exponent, a certified zero set -- for a computed lambda0 = 0, the
+       completeness proof of :func:`~glocal_verify.analysis.zda_completeness.zero_set_completeness`
+       --, or lambda0 = 1 of a system proved not left-invertible);
     3. at an exact lambda0 = 0 (no monitored position, G_1 connected, |F| >= 2), the touch
        test over Q from the attack's potentials (:func:`~glocal_verify.analysis.zero_touch.touch_at_zero`);
        at a computed lambda0 = 0 its answer is only a note;
@@ -744,7 +750,8 @@ def decide_avoidance(
         md = ModalPencil(system, F, tol)
         store[key] = (md, stealthy_bases(md, d.value))  # Z does not depend on the mode
     md, bases = store[key]
-    av, cert = _certify_numeric(system, F, numeric_mode_avoidance(system, mode, md, d, zda.direction_source, bases), exact_lambda)
+    why = zda.completeness.text if zda.completeness is not None and not zda.completeness.complete else ""
+    av, cert = _certify_numeric(system, F, numeric_mode_avoidance(system, mode, md, d, zda.direction_source, bases), exact_lambda, why)
     if av.status is not Status.UNDECIDED:
         return AvoidanceVerdict(mode, av.status, av, certificate=cert)
     if not zero_first and (v0 := at_zero()) is not None:

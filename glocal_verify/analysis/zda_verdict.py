@@ -32,7 +32,13 @@ What proves a status (tried in this order; each is a proof about the exact syste
     5. The numeric zero set (:func:`~glocal_verify.analysis.zda.zda_analysis`) certified by
        :func:`~glocal_verify.analysis.zda_certificate.zda_certificate` (structural rank, Weyl
        bounds, zero forcing, rational kernel vectors, the Krawczyk test). A numeric verdict
-       the certificate does not prove is ``undecided``.
+       the certificate does not prove is ``undecided``. When the zero set chose lambda0 = 0 as
+       its fastest-growing zero, :func:`~glocal_verify.analysis.zda_completeness.zero_set_completeness`
+       decides whether that choice is proven (no zero lambda != 0 with Re lambda >= 0, by a
+       modular count of the zeros of the N-sized pencil in s); only then is lambda0 exact.
+       When the separator screen proves the system not left-invertible, the zero set does
+       not choose: the witness is lambda0 = 1 and the growth ``unbounded``, whatever
+       ``screen`` says (the deflation's rank decisions may have missed it).
     6. ``fallback=True``: an undecided status is re-decided over Q (step 1).
 
 The witness direction is the spec's lambda0 when a stealthy ZDA exists there, else the
@@ -66,6 +72,7 @@ from glocal_verify.analysis.zda import (
 )
 from glocal_verify.analysis.zda_batch import batch_directions
 from glocal_verify.analysis.zda_certificate import ZdaCertificate, sparse_kernel_certificate, zda_certificate
+from glocal_verify.analysis.zda_completeness import ZeroSetCompleteness, zero_set_completeness
 from glocal_verify.analysis.zda_exact import ExactZdaAnalysis, ExactZdaZero, zda_analysis_exact
 from glocal_verify.analysis.zda_screens import disjoint_paths, zero_exponent_status
 from glocal_verify.errors import NotApplicableError
@@ -173,8 +180,13 @@ class ZdaVerdict:
         What :func:`~glocal_verify.analysis.zda_certificate.zda_certificate` proved of the
         numeric zero set (None when not asked).
     zeros_exact : bool
-        The set of exponents with a stealthy ZDA is known exactly (the minors proved that only
-        lambda0 = 0 can have one), so the witness exponent is the rule's exactly.
+        The witness exponent is the rule's exactly: the minors proved that only lambda0 = 0
+        can have a stealthy ZDA, or ``completeness`` proved that no zero lambda != 0 has
+        Re lambda >= 0 when the computed zero set chose lambda0 = 0.
+    completeness : ZeroSetCompleteness or None
+        When the numeric zero set chose lambda0 = 0 as its fastest-growing zero: whether that
+        choice is proven (:func:`~glocal_verify.analysis.zda_completeness.zero_set_completeness`),
+        and what proves it or why not.
     """
 
     actuators: tuple[Label, ...]
@@ -194,6 +206,7 @@ class ZdaVerdict:
     exact_analysis: ExactZdaAnalysis | None = None
     certificate: ZdaCertificate | None = None
     zeros_exact: bool = False
+    completeness: ZeroSetCompleteness | None = None
 
     @property
     def stealthy(self) -> bool | None:
@@ -205,12 +218,13 @@ class ZdaVerdict:
         """The witness exponent is exactly the one the rule picks: the requested exponent, or an exact zero set.
 
         Only then may the touch test of ``switching.avoids-attack`` be decided at it; a
-        computed fastest zero is a floating-point choice (the zero set is not certified
-        complete).
+        computed fastest zero is a floating-point choice unless ``completeness`` proves it
+        (``zeros_exact``).
         """
         if self.direction is None:
             return False
-        return self.method == "exact" or self.direction_source == "requested lambda0" or self.zeros_exact
+        proven_not_li = self.screened and self.left_invertible is False and complex(self.direction.value) == 1
+        return self.method == "exact" or self.direction_source == "requested lambda0" or self.zeros_exact or proven_not_li
 
 
 def _undecided(F: tuple[Label, ...], note: str, **kw: Any) -> ZdaVerdict:
@@ -253,9 +267,38 @@ def _numeric(system: System, F: tuple[Label, ...], opt: ZdaOptions) -> ZdaVerdic
         growth = GROWTH_UNBOUNDED
     else:
         growth = max((z.growth for z in za.zeros), key=growth_rank, default="undecided")
+    if status is Status.HOLDS and za.direction_source != "requested lambda0" and (paths := disjoint_paths(system, F)) < len(F):
+        return _separated(system, F, opt, za, cert, paths)
+    completeness = None
+    if status is Status.HOLDS and d0 is not None and complex(d0.value) == 0 and za.direction_source == "fastest-growing zero":
+        # the rule chose 0 from a computed zero set: proven only if no zero lambda != 0 has Re lambda >= 0
+        completeness = zero_set_completeness(system, F)
     return ZdaVerdict(
         F, status, growth, za.left_invertible if za.decided else None, za.direction, za.direction_source, "numeric",
         cert.by if status is not Status.UNDECIDED else "", error_bound=cert.error_bound, note=note, numeric_analysis=za, certificate=cert,
+        zeros_exact=completeness is not None and completeness.complete, completeness=completeness,
+    )
+
+
+def _separated(system: System, F: tuple[Label, ...], opt: ZdaOptions, za: ZdaAnalysis, cert: ZdaCertificate, paths: int) -> ZdaVerdict:
+    """Step 5 when the separator proves the system not left-invertible: the rule's witness is lambda0 = 1.
+
+    Fewer vertex-disjoint paths from F to M than |F| make the pencil lose column rank for
+    every choice of the weights (:func:`~glocal_verify.analysis.zda_screens.disjoint_paths`):
+    a stealthy ZDA exists at every lambda0, so the growth class is ``unbounded`` and the
+    witness is the direction at lambda0 = 1, as the rule asks of a system that is not
+    left-invertible. Without a verified direction there, no witness is given.
+    """
+    proof = f"at most {paths} vertex-disjoint path(s) from F to M < |F| = {len(F)}: not left-invertible for every choice of the weights (a ZDA at every lambda0)"
+    found = ModalPencil(system, F, opt.tol).direction(1.0 + 0j)[0]
+    z = None
+    if found is not None and found[3] is Decision.ZERO and found[4] is Decision.NONZERO:
+        xi, u = normalize_direction(found[0], found[1])
+        z = ZdaZero(1.0 + 0j, 1.0 + system.gamma, xi, u, found[2], GROWTH_UNBOUNDED)
+    source = "lambda0 = 1 (not left-invertible: a ZDA exists at every lambda0)" if z is not None else "none (no verified direction at lambda0 = 1)"
+    return ZdaVerdict(
+        F, Status.HOLDS, GROWTH_UNBOUNDED, False, z, source, "numeric",
+        proof, screened=True, numeric_analysis=za, certificate=cert,
     )
 
 

@@ -187,6 +187,11 @@ def check_zda(system: System, ctx: CheckContext) -> list[ConditionResult]:
         ``zeros`` (lambda, growth, u0, xi on its support, moved agents, residual), at most
         ``max_zeros`` (option, default 50) of them, ``zeros_total``, ``unobservable_modes``
         (zeros with u0 = 0, not attacks) and ``direction`` (lambda0, u0, xi, moved, source).
+        When the computed zero set chose lambda0 = 0 as its fastest-growing zero, ``zero_set``
+        says whether that choice is proven (``complete`` and ``by``: the modular count of the
+        zeros of the pencil in s, :func:`~glocal_verify.analysis.zda_completeness.zero_set_completeness`)
+        or why not (``note``); ``switching.avoids-attack`` is decided at a computed lambda0 = 0
+        only when it is.
     """
     if system.spec.attack is None:
         return []
@@ -211,6 +216,10 @@ def check_zda(system: System, ctx: CheckContext) -> list[ConditionResult]:
         assert za is not None
         left_inv, nrank, k0 = za.left_invertible, za.normal_rank, za.normal_kernel_dim
         zeros, unobs, notes = za.zeros, za.unobservable, za.notes
+        if v.screened and v.left_invertible is False and za.left_invertible:
+            # the separator screen proved what the deflation's rank decisions missed (decide_zda)
+            left_inv, nrank, k0 = False, None, None
+            notes = (*notes, f"{v.proof}; the deflation's full normal rank is a floating-point decision, wrong here")
     direction, source = v.direction, v.direction_source
     N, m = system.n, len(F)
     p = len(system.output_channels())
@@ -240,6 +249,8 @@ def check_zda(system: System, ctx: CheckContext) -> list[ConditionResult]:
     cert = v.certificate
     assert cert is not None
     witness["certificate"] = {"status": None if cert.status is None else cert.status.value, "by": cert.by, "error_bound": cert.error_bound, "note": cert.note}
+    if v.completeness is not None:
+        witness["zero_set"] = {"complete": v.completeness.complete, "by" if v.completeness.complete else "note": v.completeness.text}
     return [result("stealthy.zda", ctx, v.status, margin=margin, witness=witness, error_bound=v.error_bound, note=v.note if v.status is Status.UNDECIDED else "")]
 
 
