@@ -326,7 +326,7 @@ def _cluster_chain(system: System, F: list[int], M: list[int]) -> tuple[bool, st
     return False, "; ".join(steps) + "; zero_count_cluster_steps reached"
 
 
-def zero_set_completeness(system: System, actuators: Iterable[Label]) -> ZeroSetCompleteness:
+def zero_set_completeness(system: System, actuators: Iterable[Label], *, cluster_search: bool = True) -> ZeroSetCompleteness:
     """Prove that every invariant zero lambda != 0 of (A_1, B_F, C) has Re lambda < 0, or say why not.
 
     .. math::
@@ -343,6 +343,9 @@ def zero_set_completeness(system: System, actuators: Iterable[Label]) -> ZeroSet
     system : System
     actuators : iterable of labels
         F.
+    cluster_search : bool
+        Try the cluster step when the count leaves zeros of unknown location (False: the
+        count alone, as an audit of many sets asks).
 
     Returns
     -------
@@ -366,7 +369,7 @@ def zero_set_completeness(system: System, actuators: Iterable[Label]) -> ZeroSet
         tail = ": Q(s) is left-invertible and loses rank only at real s <= 0, so every zero lambda != 0 has Re lambda < 0"
         if whole.proven:
             return ZeroSetCompleteness(True, whole.states, whole.merged, whole.count, f"zero set complete: {whole.text}{tail}")
-        sep = _cluster_chain(system, Fi, M) if whole.count is not None and whole.count.bound is not None else None
+        sep = _cluster_chain(system, Fi, M) if cluster_search and whole.count is not None and whole.count.bound is not None else None
         if sep is not None and sep[0]:
             return ZeroSetCompleteness(
                 True, whole.states, whole.merged, whole.count,
@@ -375,4 +378,4 @@ def zero_set_completeness(system: System, actuators: Iterable[Label]) -> ZeroSet
         why = f" (the cluster of F does not settle it: {sep[1]})" if sep is not None else ""
         return ZeroSetCompleteness(False, whole.states, whole.merged, whole.count, f"zero set not certified complete: {whole.text}{why} (a faster one, Re lambda >= 0, is not excluded)")
 
-    return _COMPLETENESS_KIND.get(system, (F,), build)
+    return _COMPLETENESS_KIND.get(system, (F, cluster_search), build)

@@ -125,6 +125,12 @@ class ZdaOptions:
         Re-decide an undecided numeric status over Q.
     method : {"structured", "dense"}
         Numeric method of the zero set.
+    completeness : {"full", "count"}
+        How hard the completeness of a computed zero set is proven when the rule picks
+        lambda0 = 0 from it (:func:`~glocal_verify.analysis.zda_completeness.zero_set_completeness`):
+        ``full`` the modular count and the cluster search, ``count`` the count alone (audits:
+        the search costs about a second per set at N = 300, the count a few milliseconds). A
+        set the count leaves open keeps its witness uncertified, whatever the choice.
     """
 
     lambda0: complex | None = None
@@ -135,10 +141,11 @@ class ZdaOptions:
     minors: GroundedTables | None = None
     fallback: bool = False
     method: str = "structured"
+    completeness: str = "full"
 
     def key(self) -> tuple[Any, ...]:
         """What a memoised verdict depends on."""
-        return (self.lambda0, self.tol, self.exact, self.growth, self.screen, self.minors is not None, self.fallback, self.method)
+        return (self.lambda0, self.tol, self.exact, self.growth, self.screen, self.minors is not None, self.fallback, self.method, self.completeness)
 
 
 @dataclass(frozen=True, slots=True)
@@ -272,7 +279,7 @@ def _numeric(system: System, F: tuple[Label, ...], opt: ZdaOptions) -> ZdaVerdic
     completeness = None
     if status is Status.HOLDS and d0 is not None and complex(d0.value) == 0 and za.direction_source == "fastest-growing zero":
         # the rule chose 0 from a computed zero set: proven only if no zero lambda != 0 has Re lambda >= 0
-        completeness = zero_set_completeness(system, F)
+        completeness = zero_set_completeness(system, F, cluster_search=opt.completeness == "full")
     return ZdaVerdict(
         F, status, growth, za.left_invertible if za.decided else None, za.direction, za.direction_source, "numeric",
         cert.by if status is not Status.UNDECIDED else "", error_bound=cert.error_bound, note=note, numeric_analysis=za, certificate=cert,

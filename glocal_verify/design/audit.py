@@ -188,7 +188,9 @@ class _Shared:
 
     def zda_options(self, growth: str | None = None) -> ZdaOptions:
         """The options of :func:`~glocal_verify.analysis.zda_verdict.decide_zda` for this pass."""
-        return ZdaOptions(self.lambda0, self.tol, self.exact, growth or self.growth, self.screen and not self.exact, self.minors, _zda_fallback(self))
+        return ZdaOptions(
+            self.lambda0, self.tol, self.exact, growth or self.growth, self.screen and not self.exact, self.minors, _zda_fallback(self), completeness="count"
+        )
 
 
 def _shared(system: System, tol: Tolerance, exact: bool, exact_fallback: bool | str | None, screen: bool, growth: str | None = None) -> _Shared:
