@@ -327,6 +327,56 @@ def test_sigterm_and_sighup_stop_a_command_like_ctrl_c(sig: int, code: int, line
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # the handlers are restored
 
 
+
+def test_a_stop_signal_between_a_progress_line_and_its_newline_gets_a_line_of_its_own(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    # the campaign of 2026-12-05: SIGHUP while `audit` printed its estimate line fell between the
+    # text and its newline, and the stop line went on the same line as the estimate
+    import glocal_verify.cli.verify as cv
+
+    def cut_short(*a: Any, **k: Any) -> Any:
+        sys.stderr.write("glocal-verify: audit of 80 agents: estimated 3 min")  # the newline never came
+        os.kill(os.getpid(), signal.SIGHUP)
+        time.sleep(5)
+        raise AssertionError("the signal did not stop the command")
+
+    monkeypatch.setattr(cv, "verify", cut_short)
+    assert main(["verify", "--example", "paper19", "--quiet"]) == 129
+    lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+    assert lines == ["glocal-verify: audit of 80 agents: estimated 3 min", "glocal-verify: hung up (SIGHUP)"]
+
+
+def test_every_progress_line_is_written_with_its_newline_in_one_write(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import io
+
+    class Writes(io.StringIO):
+        calls: list[str] = []
+
+        def write(self, text: str) -> int:
+            self.calls.append(text)
+            return super().write(text)
+
+    stream = Writes()
+    monkeypatch.setattr(sys, "stderr", stream)
+    assert main(["design", str(_spec(tmp_path)), "--out", str(tmp_path / "d.toml")]) in (0, 1)
+    assert sys.stderr is stream  # the command's wrappers are gone
+    assert any(c.startswith("design: auditing the spec as given") for c in stream.calls)
+    assert all(c.endswith("\n") for c in stream.calls if c), [c for c in stream.calls if not c.endswith("\n")]
+
+
+def test_a_stop_line_after_a_finished_line_adds_no_blank_line() -> None:
+    import io
+
+    from glocal_verify.runtime.lines import LineStream, write_line
+
+    stream = LineStream(io.StringIO())
+    write_line("design: auditing the design ...", stream)  # type: ignore[arg-type]
+    write_line("glocal-verify: terminated (SIGTERM)", stream, fresh=True)  # type: ignore[arg-type]
+    stream.write("  40%|####      | 4/10")  # a progress bar left mid-line
+    write_line("glocal-verify: interrupted", stream, fresh=True)  # type: ignore[arg-type]
+    assert stream._inner.getvalue().splitlines() == [
+        "design: auditing the design ...", "glocal-verify: terminated (SIGTERM)", "  40%|####      | 4/10", "glocal-verify: interrupted",
+    ]
+
 _ORPHAN = r"""
 import os, sys, time
 sys.path.insert(0, {root!r})

@@ -26,6 +26,7 @@ from glocal_verify.cli.common import (
     wrote,
 )
 from glocal_verify.reporting.output import check_output_file
+from glocal_verify.runtime.lines import write_line
 
 __all__ = ["register"]
 
@@ -89,7 +90,7 @@ def _progress(quiet: bool, unit: str = "attack sets") -> Callable[[int, int], No
                 return
             last[0] = now
             tail = f"about {left:.0f} s left" if left == left else "estimating the time left"
-            print(f"audit: {done}/{total} {unit}, {now:.0f} s elapsed, {tail}", file=sys.stderr, flush=True)
+            write_line(f"audit: {done}/{total} {unit}, {now:.0f} s elapsed, {tail}")
 
         return line
     from tqdm import tqdm
@@ -159,10 +160,10 @@ def cmd_audit(args: argparse.Namespace) -> int:
     est = serial if local else estimate_audit(sizes, args.max_attackers, n_cand, exact=args.exact, workers=args.workers or 1)
     check_cost(est, args, how=("fewer --agents, a smaller --max-attackers or more --workers",))
     if args.workers and local and not args.quiet:
-        print(f"audit: estimated {format_seconds(serial.seconds)} in this process: {args.workers} workers would not pay off; running here", file=sys.stderr, flush=True)
+        write_line(f"audit: estimated {format_seconds(serial.seconds)} in this process: {args.workers} workers would not pay off; running here")
     executor: Any = None
     if not local:
-        notice = lambda line: print(f"{PROG}: {line}", file=sys.stderr, flush=True)  # noqa: E731
+        notice = lambda line: write_line(f"{PROG}: {line}")  # noqa: E731
         executor = DaskExecutor(args.scheduler, args.workers or 2, _progress(args.quiet, "tasks"), dashboard=args.dashboard, notice=notice)
     progress = _progress(args.quiet)
     with executor if executor is not None else contextlib.nullcontext():

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Iterable
 
 from glocal_verify.errors import GlocalVerifyError
 from glocal_verify.reporting.output import check_output_dir, check_output_file, write_text_atomic
+from glocal_verify.runtime.lines import write_line
 
 if TYPE_CHECKING:
     from glocal_verify.conditions.cost import CostEstimate
@@ -88,7 +89,7 @@ def check_out_dir(path: str | Path, *, inputs: Iterable[str] = ()) -> Path:
 
 def wrote(path: str | Path) -> None:
     """Tell the user where the output went: one line ``wrote <path>`` on stderr."""
-    print(f"wrote {path}", file=sys.stderr)
+    write_line(f"wrote {path}")
 
 
 def write_output(text: str, out: str | None, *, inputs: Iterable[str] = ()) -> None:
@@ -170,6 +171,6 @@ def check_cost(est: CostEstimate, args: argparse.Namespace, *, how: Iterable[str
         return
     over = cost.refusal(est, limits)
     if over is not None:
-        print(f"{PROG}: {est.command} of {est.n} agents: estimated {est.describe()}, above the {over} limit; running anyway (--allow-large)", file=sys.stderr, flush=True)
+        write_line(f"{PROG}: {est.command} of {est.n} agents: estimated {est.describe()}, above the {over} limit; running anyway (--allow-large)")
     elif est.seconds > limits.notice_seconds:
-        print(f"{PROG}: {est.command} of {est.n} agents: estimated {est.describe()}", file=sys.stderr, flush=True)
+        write_line(f"{PROG}: {est.command} of {est.n} agents: estimated {est.describe()}")

@@ -7,6 +7,7 @@ import sys
 from typing import Any
 
 from glocal_verify.cli.common import PROG, UsageError, add_allow_large, check_cost, check_out_file, load_system, spec_inputs, write_output
+from glocal_verify.runtime.lines import write_line
 
 __all__ = ["register"]
 
@@ -40,7 +41,7 @@ def cmd_design(args: argparse.Namespace) -> int:
     exact = not args.numeric and system.n <= 60
     est = estimate_design(SpecSizes.from_spec(system.spec), max_attackers=args.max_attackers, place=not args.keep_observers, exact_assessment=exact)
     check_cost(est, args, how=("a smaller --max-attackers",))
-    say = None if args.quiet else (lambda line: print(f"design: {line} ...", file=sys.stderr, flush=True))
+    say = None if args.quiet else (lambda line: write_line(f"design: {line} ..."))
     d = design_network(system, budget=args.budget, max_attackers=args.max_attackers, place=not args.keep_observers, max_links=args.max_links, progress=say)
     from glocal_verify.model import System
     from glocal_verify.spec.writer import dump_spec
@@ -52,9 +53,9 @@ def cmd_design(args: argparse.Namespace) -> int:
     lines = d.summary() + [f"note: {n}" for n in d.notes]
     lines += _assessment_lines(system, "before", exact)
     lines += _assessment_lines(System(d.spec), "after ", exact)
-    print("\n".join(lines), file=sys.stderr if not args.out else sys.stdout)
+    write_line("\n".join(lines), sys.stderr if not args.out else sys.stdout)
     if d.unmet:
-        print(f"{PROG}: the design above is partial: {len(d.unmet)} requirement(s) not met (see NOT MET)", file=sys.stderr)
+        write_line(f"{PROG}: the design above is partial: {len(d.unmet)} requirement(s) not met (see NOT MET)")
         return 1
     return 0
 
