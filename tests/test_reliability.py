@@ -493,6 +493,52 @@ def test_design_says_which_step_it_is_in(tmp_path: Path, capsys: pytest.CaptureF
         assert f"design: {step} ..." in err
 
 
+def test_design_refuses_a_safe_mode_phase_above_the_limits_with_its_estimate_before_it_starts(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from glocal_verify import config
+
+    with config.override(safe_mode_check_seconds=60.0):  # a minute per attack set: far above 10 min for 28 sets
+        assert main(["design", str(_spec(tmp_path)), "--out", str(tmp_path / "d.toml")]) == 2
+    err = capsys.readouterr().err
+    last = err.strip().splitlines()[-1]
+    assert last.startswith("glocal-verify: error: design of 8 agents: estimated ") and "--allow-large" in last, last
+    assert "checks of 28 undetected attack sets" in last
+    assert "designing safe modes" not in err and not (tmp_path / "d.toml").exists()
+
+
+def test_safe_modes_for_120_targets_are_confirmed_without_an_exact_run_per_set(monkeypatch: pytest.MonkeyPatch) -> None:
+    # the clustered check of 2026-12-05: a design of 80 agents with 2,393 targets confirmed
+    # each claimed set with a checker run whose computed lambda0 = 0 could not be certified,
+    # so every set went to a forked exact re-decision: more than 30 minutes
+    import dataclasses
+    import itertools
+
+    import glocal_verify.numerics.deadline as deadline
+    from glocal_verify.design import network
+    from glocal_verify.design.generators import random_clustered_spec
+    from glocal_verify.design.safe_modes import design_safe_modes, with_modes
+    from glocal_verify.spec.types import AttackSpec
+
+    spec = network._velocity_only(random_clustered_spec(80, 5, seed=960675))
+    spec, _, _ = network._observers(System(spec), 2000)
+    mid = System(spec)
+    pairs = list(itertools.combinations(range(1, 17), 2))  # cluster P1: 116 of its 120 pairs are stealthy at lambda0 = 0
+
+    def no_exact_run(*a: Any, **k: Any) -> Any:
+        raise AssertionError("a forked exact re-decision")
+
+    monkeypatch.setattr(deadline, "call_with_deadline", no_exact_run)
+    ticks: list[tuple[int, int]] = []
+    design = design_safe_modes(mid, pairs, None, 1, lambdas={F: 0j for F in pairs}, max_links=1, tick=lambda d, t: ticks.append((d, t)))
+    (mode,) = design.modes
+    assert len(mode.exposes) >= 100
+    assert ticks[-1][0] == ticks[-1][1] and all(a[0] < b[0] for a, b in zip(ticks, ticks[1:]) if a[1] == b[1])
+    monkeypatch.undo()
+    base = with_modes(spec, [mode.mode_spec()], keep=False)
+    for F in (mode.exposes[0], mode.exposes[len(mode.exposes) // 2], mode.exposes[-1]):  # the checker agrees
+        rep = verify(System(dataclasses.replace(base, attack=AttackSpec("zda", F, lambda0=0j))), ["switching.avoids-attack"])
+        assert [r.status.value for r in rep.conditions] == ["fails"], F
+
+
 # --------------------------------------------------------------------------------------------
 # the exact path
 
