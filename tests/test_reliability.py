@@ -538,6 +538,17 @@ def test_safe_modes_for_120_targets_are_confirmed_without_an_exact_run_per_set(m
         rep = verify(System(dataclasses.replace(base, attack=AttackSpec("zda", F, lambda0=0j))), ["switching.avoids-attack"])
         assert [r.status.value for r in rep.conditions] == ["fails"], F
 
+    # a mode that confirms none of its first CONFIRM_GIVE_UP claims is dropped unchecked beyond them
+    from glocal_verify.design.safe_modes import CONFIRM_GIVE_UP, _Confirmations
+    from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE
+
+    many = list(itertools.combinations(range(1, 33), 2))  # 496 sets, none stealthy at lambda0 = 7
+    ticks.clear()
+    confirm = _Confirmations(mid, False, {F: 7 + 0j for F in many}, DEFAULT_TOLERANCE, lambda d, t: ticks.append((d, t)))
+    got, statuses = confirm(mode.links, "designed-1", many)
+    assert got == [] and set(statuses.values()) == {"holds"}
+    assert ticks[-1] == (CONFIRM_GIVE_UP, len(many))
+
 
 # --------------------------------------------------------------------------------------------
 # the exact path

@@ -123,6 +123,9 @@ EXACT_MAX_AGENTS = config.get("safe_modes_exact_max_agents")
 THEOREM_IDS = ("switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences")
 #: attack sets between two progress reports of a mode's confirmation
 CONFIRM_CHUNK = 50
+#: a proposed mode none of whose first this many claimed sets is confirmed is dropped (the
+#: rest is not checked), so a misjudged candidate costs a bounded number of checks
+CONFIRM_GIVE_UP = 200
 
 
 @dataclass(frozen=True, slots=True)
@@ -495,7 +498,8 @@ class _Confirmations:
     a rational lambda0 lets the numeric touch test be certified, where a computed one (the
     fastest zero found) could not be and went to an exact re-decision of up to 30 s per set.
     One system with the mode serves every set (its spectra computed once, where a checker run
-    per set built a fresh one). An attack left undecided is not claimed.
+    per set built a fresh one). An attack left undecided is not claimed; a mode none of whose
+    first ``CONFIRM_GIVE_UP`` claims is confirmed is dropped unchecked beyond them.
     """
 
     def __init__(self, system: System, exact: bool, lambdas: Mapping[tuple[Label, ...], complex], tol: Tolerance, tick: Callable[[int, int], None] | None) -> None:
@@ -530,6 +534,8 @@ class _Confirmations:
                 self.undecided[F] = str(why or z.note or "switching.avoids-attack is undecided")
             if self.tick is not None and ((c + 1) % CONFIRM_CHUNK == 0 or c + 1 == len(attacks)):
                 self.tick(c + 1, len(attacks))
+            if not confirmed and c + 1 >= CONFIRM_GIVE_UP < len(attacks):
+                break  # the touch test misjudged this mode: drop it without checking thousands more
         return confirmed, statuses
 
 
