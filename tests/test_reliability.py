@@ -550,6 +550,27 @@ def test_safe_modes_for_120_targets_are_confirmed_without_an_exact_run_per_set(m
     assert ticks[-1] == (CONFIRM_GIVE_UP, len(many))
 
 
+def test_sets_whose_exposure_stays_undecided_share_one_reason_in_the_design() -> None:
+    # the clustered check of 2026-12-06: a design of 63 agents listed 150 requirements not met,
+    # one per computed lambda0 the reasons quoted (-0.5-1.6583123951777j, -0.5-1.658312395177694j ...)
+    from glocal_verify.design import network
+    from glocal_verify.design.audit import audit
+    from glocal_verify.design.generators import random_clustered_spec
+    from glocal_verify.design.safe_modes import design_safe_modes
+
+    spec = network._velocity_only(random_clustered_spec(80, 5, seed=960675))
+    spec, _, _ = network._observers(System(spec), 2000)
+    mid = System(spec)
+    rows = audit(mid, 2, list(range(17, 49))).rows
+    targets = [r.actuators for r in rows if r.verdict != "detected" and r.stealthy is True and not r.exposed_by_modes]
+    lambdas = {r.actuators: r.lambda0 for r in rows if r.lambda0 is not None}
+    assert sum(1 for F in targets if lambdas[F].imag != 0) >= 2  # computed complex zeros, not certifiable
+    design = design_safe_modes(mid, targets, None, 3, lambdas=lambdas, max_links=1)
+    undecided = [why for why in design.unexposed.values() if "undecided" in why]
+    assert len(undecided) >= 2 and len(set(undecided)) == 1
+    assert not any("-0.5" in why for why in design.unexposed.values())
+
+
 # --------------------------------------------------------------------------------------------
 # the exact path
 

@@ -793,7 +793,9 @@ def design_safe_modes(
                 why += f" (the stealthy kernel at lambda0 has dimension {tg[k].X.shape[1]})"
             unexposed[key] = why
         elif confirm is not None and tg[k].F in confirm.undecided:
-            unexposed[key] = f"the checkers left undecided whether the proposed modes expose it ({confirm.undecided[tg[k].F]})"
+            # one text for every such set (the notes name each set's lambda0), so that the design's
+            # summary groups them on one line
+            unexposed[key] = "whether a proposed mode exposes it stays undecided at its lambda0 (switching.avoids-attack), so no mode claims it"
         else:
             unexposed[key] = f"the budget of {budget} safe mode(s) is exhausted"
     return SafeModeDesign(tuple(modes), tuple(targets_F), unexposed, len(cands), rate, int(ok.sum()), scored, multi_rate, screened)
