@@ -222,13 +222,13 @@ def test_every_undecided_row_of_a_near_degenerate_audit_says_which_part_is_open(
 def test_the_audit_progress_line_extrapolates_the_recent_rate_not_the_setup(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
     import time
 
-    from glocal_verify.cli.audit import _progress
+    from glocal_verify.cli.common import count_progress
 
     # created at 0; first report at 100 s (after the set-up) with 200 sets done, the next at
     # 115 s with 400: 200 sets per 15 s, 600 left -> 45 s (not 100 s / 400 sets * 600)
     clock = iter([0.0, 100.0, 100.0, 115.0, 115.0])
     monkeypatch.setattr(time, "monotonic", lambda: next(clock))
-    line = _progress(False)
+    line = count_progress(False)
     assert line is not None
     line(200, 1000)
     line(400, 1000)

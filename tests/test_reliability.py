@@ -327,6 +327,56 @@ def test_sigterm_and_sighup_stop_a_command_like_ctrl_c(sig: int, code: int, line
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # the handlers are restored
 
 
+
+def test_a_stop_signal_between_a_progress_line_and_its_newline_gets_a_line_of_its_own(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    # the campaign of 2026-12-05: SIGHUP while `audit` printed its estimate line fell between the
+    # text and its newline, and the stop line went on the same line as the estimate
+    import glocal_verify.cli.verify as cv
+
+    def cut_short(*a: Any, **k: Any) -> Any:
+        sys.stderr.write("glocal-verify: audit of 80 agents: estimated 3 min")  # the newline never came
+        os.kill(os.getpid(), signal.SIGHUP)
+        time.sleep(5)
+        raise AssertionError("the signal did not stop the command")
+
+    monkeypatch.setattr(cv, "verify", cut_short)
+    assert main(["verify", "--example", "paper19", "--quiet"]) == 129
+    lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+    assert lines == ["glocal-verify: audit of 80 agents: estimated 3 min", "glocal-verify: hung up (SIGHUP)"]
+
+
+def test_every_progress_line_is_written_with_its_newline_in_one_write(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import io
+
+    class Writes(io.StringIO):
+        calls: list[str] = []
+
+        def write(self, text: str) -> int:
+            self.calls.append(text)
+            return super().write(text)
+
+    stream = Writes()
+    monkeypatch.setattr(sys, "stderr", stream)
+    assert main(["design", str(_spec(tmp_path)), "--out", str(tmp_path / "d.toml")]) in (0, 1)
+    assert sys.stderr is stream  # the command's wrappers are gone
+    assert any(c.startswith("design: auditing the spec as given") for c in stream.calls)
+    assert all(c.endswith("\n") for c in stream.calls if c), [c for c in stream.calls if not c.endswith("\n")]
+
+
+def test_a_stop_line_after_a_finished_line_adds_no_blank_line() -> None:
+    import io
+
+    from glocal_verify.runtime.lines import LineStream, write_line
+
+    stream = LineStream(io.StringIO())
+    write_line("design: auditing the design ...", stream)  # type: ignore[arg-type]
+    write_line("glocal-verify: terminated (SIGTERM)", stream, fresh=True)  # type: ignore[arg-type]
+    stream.write("  40%|####      | 4/10")  # a progress bar left mid-line
+    write_line("glocal-verify: interrupted", stream, fresh=True)  # type: ignore[arg-type]
+    assert stream._inner.getvalue().splitlines() == [
+        "design: auditing the design ...", "glocal-verify: terminated (SIGTERM)", "  40%|####      | 4/10", "glocal-verify: interrupted",
+    ]
+
 _ORPHAN = r"""
 import os, sys, time
 sys.path.insert(0, {root!r})
@@ -441,6 +491,84 @@ def test_design_says_which_step_it_is_in(tmp_path: Path, capsys: pytest.CaptureF
     err = capsys.readouterr().err
     for step in ("auditing the spec as given", "placing local observers", "auditing the design"):
         assert f"design: {step} ..." in err
+
+
+def test_design_refuses_a_safe_mode_phase_above_the_limits_with_its_estimate_before_it_starts(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from glocal_verify import config
+
+    with config.override(safe_mode_check_seconds=60.0):  # a minute per attack set: far above 10 min for 28 sets
+        assert main(["design", str(_spec(tmp_path)), "--out", str(tmp_path / "d.toml")]) == 2
+    err = capsys.readouterr().err
+    last = err.strip().splitlines()[-1]
+    assert last.startswith("glocal-verify: error: design of 8 agents: estimated ") and "--allow-large" in last, last
+    assert "checks of 28 undetected attack sets" in last
+    assert "designing safe modes" not in err and not (tmp_path / "d.toml").exists()
+
+
+def test_safe_modes_for_120_targets_are_confirmed_without_an_exact_run_per_set(monkeypatch: pytest.MonkeyPatch) -> None:
+    # the clustered check of 2026-12-05: a design of 80 agents with 2,393 targets confirmed
+    # each claimed set with a checker run whose computed lambda0 = 0 could not be certified,
+    # so every set went to a forked exact re-decision: more than 30 minutes
+    import dataclasses
+    import itertools
+
+    import glocal_verify.numerics.deadline as deadline
+    from glocal_verify.design import network
+    from glocal_verify.design.generators import random_clustered_spec
+    from glocal_verify.design.safe_modes import design_safe_modes, with_modes
+    from glocal_verify.spec.types import AttackSpec
+
+    spec = network._velocity_only(random_clustered_spec(80, 5, seed=960675))
+    spec, _, _ = network._observers(System(spec), 2000)
+    mid = System(spec)
+    pairs = list(itertools.combinations(range(1, 17), 2))  # cluster P1: 116 of its 120 pairs are stealthy at lambda0 = 0
+
+    def no_exact_run(*a: Any, **k: Any) -> Any:
+        raise AssertionError("a forked exact re-decision")
+
+    monkeypatch.setattr(deadline, "call_with_deadline", no_exact_run)
+    ticks: list[tuple[int, int]] = []
+    design = design_safe_modes(mid, pairs, None, 1, lambdas={F: 0j for F in pairs}, max_links=1, tick=lambda d, t: ticks.append((d, t)))
+    (mode,) = design.modes
+    assert len(mode.exposes) >= 100
+    assert ticks[-1][0] == ticks[-1][1] and all(a[0] < b[0] for a, b in zip(ticks, ticks[1:]) if a[1] == b[1])
+    monkeypatch.undo()
+    base = with_modes(spec, [mode.mode_spec()], keep=False)
+    for F in (mode.exposes[0], mode.exposes[len(mode.exposes) // 2], mode.exposes[-1]):  # the checker agrees
+        rep = verify(System(dataclasses.replace(base, attack=AttackSpec("zda", F, lambda0=0j))), ["switching.avoids-attack"])
+        assert [r.status.value for r in rep.conditions] == ["fails"], F
+
+    # a mode that confirms none of its first CONFIRM_GIVE_UP claims is dropped unchecked beyond them
+    from glocal_verify.design.safe_modes import CONFIRM_GIVE_UP, _Confirmations
+    from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE
+
+    many = list(itertools.combinations(range(1, 33), 2))  # 496 sets, none stealthy at lambda0 = 7
+    ticks.clear()
+    confirm = _Confirmations(mid, False, {F: 7 + 0j for F in many}, DEFAULT_TOLERANCE, lambda d, t: ticks.append((d, t)))
+    got, statuses = confirm(mode.links, "designed-1", many)
+    assert got == [] and set(statuses.values()) == {"holds"}
+    assert ticks[-1] == (CONFIRM_GIVE_UP, len(many))
+
+
+def test_sets_whose_exposure_stays_undecided_share_one_reason_in_the_design() -> None:
+    # the clustered check of 2026-12-06: a design of 63 agents listed 150 requirements not met,
+    # one per computed lambda0 the reasons quoted (-0.5-1.6583123951777j, -0.5-1.658312395177694j ...)
+    from glocal_verify.design import network
+    from glocal_verify.design.audit import audit
+    from glocal_verify.design.generators import random_clustered_spec
+    from glocal_verify.design.safe_modes import design_safe_modes
+
+    spec = network._velocity_only(random_clustered_spec(80, 5, seed=960675))
+    spec, _, _ = network._observers(System(spec), 2000)
+    mid = System(spec)
+    rows = audit(mid, 2, list(range(17, 49))).rows
+    targets = [r.actuators for r in rows if r.verdict != "detected" and r.stealthy is True and not r.exposed_by_modes]
+    lambdas = {r.actuators: r.lambda0 for r in rows if r.lambda0 is not None}
+    assert sum(1 for F in targets if lambdas[F].imag != 0) >= 2  # computed complex zeros, not certifiable
+    design = design_safe_modes(mid, targets, None, 3, lambdas=lambdas, max_links=1)
+    undecided = [why for why in design.unexposed.values() if "undecided" in why]
+    assert len(undecided) >= 2 and len(set(undecided)) == 1
+    assert not any("-0.5" in why for why in design.unexposed.values())
 
 
 # --------------------------------------------------------------------------------------------

@@ -29,6 +29,7 @@ from glocal_verify import __version__
 from glocal_verify.cli.common import PROG, Parser, UsageError
 from glocal_verify.cli.heartbeat import Heartbeat
 from glocal_verify.errors import GlocalVerifyError
+from glocal_verify.runtime.lines import tracked_stderr, write_line
 from glocal_verify.runtime.processes import StopRequest, Stopped, signal_name, stop_on_signals
 
 __all__ = ["main", "build_parser", "COMMAND_MODULES"]
@@ -59,9 +60,9 @@ def build_parser() -> Parser:
 
 
 def _say(line: str) -> None:
-    """One line on stderr, if stderr is still there (after a hang-up it may not be)."""
+    """One line on stderr, on a fresh line, if stderr is still there (after a hang-up it may not be)."""
     try:
-        print(f"{PROG}: {line}", file=sys.stderr, flush=True)
+        write_line(f"{PROG}: {line}", fresh=True)
     except (OSError, ValueError):
         pass
 
@@ -74,12 +75,13 @@ def _stop_line(signum: int) -> str:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); return the exit code."""
     warnings.simplefilter("ignore", RuntimeWarning)  # overflow notes of numpy: a verdict says what they mean
-    try:
-        with stop_on_signals(on_force=lambda signum: _say(f"{_stop_line(signum)} again: stopped at once")) as stop:
-            return _run(argv, stop)
-    except Stopped as exc:  # a signal between the handlers' installation and _run's own handling
-        _say(_stop_line(exc.signum))
-        return exc.exit_code
+    with tracked_stderr():  # so that a stop line never lands behind an unfinished line
+        try:
+            with stop_on_signals(on_force=lambda signum: _say(f"{_stop_line(signum)} again: stopped at once")) as stop:
+                return _run(argv, stop)
+        except Stopped as exc:  # a signal between the handlers' installation and _run's own handling
+            _say(_stop_line(exc.signum))
+            return exc.exit_code
 
 
 def _run(argv: Sequence[str] | None, stop: StopRequest | None = None) -> int:
@@ -98,7 +100,7 @@ def _run(argv: Sequence[str] | None, stop: StopRequest | None = None) -> int:
         with Heartbeat(PROG, args.command, enabled=not getattr(args, "quiet", False)):
             return int(args.func(args))
     except GlocalVerifyError as exc:
-        print(f"{PROG}: error: {exc}", file=sys.stderr)
+        write_line(f"{PROG}: error: {exc}", fresh=True)
         return 2
     except SystemExit as exc:  # --help, --version
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
@@ -112,7 +114,7 @@ def _run(argv: Sequence[str] | None, stop: StopRequest | None = None) -> int:
         _silence_stdout()
         return BROKEN_PIPE
     except MemoryError:
-        print(f"{PROG}: error: out of memory: the problem is too large for this machine (the size limits are explained in docs/performance.md of the glocal-verify source, \"Size limits and estimates\")", file=sys.stderr)
+        write_line(f"{PROG}: error: out of memory: the problem is too large for this machine (the size limits are explained in docs/performance.md of the glocal-verify source, \"Size limits and estimates\")", fresh=True)
         return 2
     except Exception as exc:  # a bug of the toolkit: one line for the user, the traceback on request
         if stop is not None and stop.signum is not None:
@@ -122,7 +124,7 @@ def _run(argv: Sequence[str] | None, stop: StopRequest | None = None) -> int:
         if os.environ.get("GLOCAL_DEBUG"):
             raise
         first = str(exc).splitlines()[0][:200] if str(exc) else ""
-        print(f"{PROG}: internal error ({type(exc).__name__}: {first}); please report it (GLOCAL_DEBUG=1 shows the traceback)", file=sys.stderr)
+        write_line(f"{PROG}: internal error ({type(exc).__name__}: {first}); please report it (GLOCAL_DEBUG=1 shows the traceback)", fresh=True)
         return INTERNAL_ERROR
 
 

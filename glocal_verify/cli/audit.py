@@ -20,12 +20,14 @@ from glocal_verify.cli.common import (
     check_cost,
     check_out_dir,
     check_out_file,
+    count_progress,
     load_system,
     spec_inputs,
     write_output,
     wrote,
 )
 from glocal_verify.reporting.output import check_output_file
+from glocal_verify.runtime.lines import write_line
 
 __all__ = ["register"]
 
@@ -47,68 +49,6 @@ def _labels(system: Any, text: str | None, what: str) -> list[Any] | None:
     if not out:
         raise UsageError(f"{what}: the candidate set is empty")
     return out
-
-
-#: the time left is extrapolated from the rate of the last this many seconds of progress
-ETA_WINDOW = 120.0
-
-
-def _progress(quiet: bool, unit: str = "attack sets") -> Callable[[int, int], None] | None:
-    """A bar with ETA on a terminal; otherwise one line per chunk (at most one per 10 s) on stderr.
-
-    The time left is the units left over the rate of the last :data:`ETA_WINDOW` seconds
-    (from the first report on, so the set-up before it does not count): sets differ widely in
-    cost (a set that needs its whole zero set costs a thousand times a screened one), and the
-    recent rate follows the mix the chunks actually hold.
-    """
-    if quiet:
-        return None
-    import collections
-    import time
-
-    start = time.monotonic()
-    seen: collections.deque[tuple[float, int]] = collections.deque()
-
-    def eta(done: int, total: int) -> float:
-        now = time.monotonic()
-        seen.append((now, done))
-        while len(seen) > 2 and now - seen[1][0] >= ETA_WINDOW:
-            seen.popleft()
-        (t0, d0) = seen[0]
-        if done <= d0 or now <= t0:
-            return float("nan")
-        return (total - done) * (now - t0) / (done - d0)
-
-    if not sys.stderr.isatty():
-        last = [0.0]
-
-        def line(done: int, total: int) -> None:
-            left = eta(done, total)
-            now = time.monotonic() - start
-            if done < total and now - last[0] < 10.0:
-                return
-            last[0] = now
-            tail = f"about {left:.0f} s left" if left == left else "estimating the time left"
-            print(f"audit: {done}/{total} {unit}, {now:.0f} s elapsed, {tail}", file=sys.stderr, flush=True)
-
-        return line
-    from tqdm import tqdm
-
-    bar: dict[str, Any] = {}
-
-    def tick(done: int, total: int) -> None:
-        if "bar" not in bar or bar["bar"].total != total or bar["bar"].n > done:
-            # tqdm's own remaining time averages over the whole run: show the windowed one
-            bar["bar"] = tqdm(total=total, desc=unit, leave=False, bar_format="{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} [{elapsed}{postfix}]")
-        b = bar["bar"]
-        b.update(done - b.n)
-        left = eta(done, total)
-        if left == left:  # not NaN
-            b.set_postfix_str(f"about {left:.0f} s left", refresh=True)
-        if done >= total:
-            b.close()
-
-    return tick
 
 
 def _audit_outputs(args: argparse.Namespace) -> tuple[Path | None, list[str]]:
@@ -159,12 +99,12 @@ def cmd_audit(args: argparse.Namespace) -> int:
     est = serial if local else estimate_audit(sizes, args.max_attackers, n_cand, exact=args.exact, workers=args.workers or 1)
     check_cost(est, args, how=("fewer --agents, a smaller --max-attackers or more --workers",))
     if args.workers and local and not args.quiet:
-        print(f"audit: estimated {format_seconds(serial.seconds)} in this process: {args.workers} workers would not pay off; running here", file=sys.stderr, flush=True)
+        write_line(f"audit: estimated {format_seconds(serial.seconds)} in this process: {args.workers} workers would not pay off; running here")
     executor: Any = None
     if not local:
-        notice = lambda line: print(f"{PROG}: {line}", file=sys.stderr, flush=True)  # noqa: E731
-        executor = DaskExecutor(args.scheduler, args.workers or 2, _progress(args.quiet, "tasks"), dashboard=args.dashboard, notice=notice)
-    progress = _progress(args.quiet)
+        notice = lambda line: write_line(f"{PROG}: {line}")  # noqa: E731
+        executor = DaskExecutor(args.scheduler, args.workers or 2, count_progress(args.quiet, "tasks"), dashboard=args.dashboard, notice=notice)
+    progress = count_progress(args.quiet)
     with executor if executor is not None else contextlib.nullcontext():
         result = audit(
             system, args.max_attackers, cands, sensors, progress, exact=args.exact, growth=args.growth, chunk_size=args.chunk, executor=executor

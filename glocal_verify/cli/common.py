@@ -5,10 +5,11 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Iterable
+from typing import TYPE_CHECKING, Any, Callable, Iterable
 
 from glocal_verify.errors import GlocalVerifyError
 from glocal_verify.reporting.output import check_output_dir, check_output_file, write_text_atomic
+from glocal_verify.runtime.lines import write_line
 
 if TYPE_CHECKING:
     from glocal_verify.conditions.cost import CostEstimate
@@ -28,6 +29,9 @@ __all__ = [
     "add_allow_large",
     "add_dask_options",
     "check_cost",
+    "ETA_WINDOW",
+    "LINE_SECONDS",
+    "count_progress",
 ]
 
 PROG = "glocal-verify"
@@ -88,7 +92,7 @@ def check_out_dir(path: str | Path, *, inputs: Iterable[str] = ()) -> Path:
 
 def wrote(path: str | Path) -> None:
     """Tell the user where the output went: one line ``wrote <path>`` on stderr."""
-    print(f"wrote {path}", file=sys.stderr)
+    write_line(f"wrote {path}")
 
 
 def write_output(text: str, out: str | None, *, inputs: Iterable[str] = ()) -> None:
@@ -170,6 +174,89 @@ def check_cost(est: CostEstimate, args: argparse.Namespace, *, how: Iterable[str
         return
     over = cost.refusal(est, limits)
     if over is not None:
-        print(f"{PROG}: {est.command} of {est.n} agents: estimated {est.describe()}, above the {over} limit; running anyway (--allow-large)", file=sys.stderr, flush=True)
+        write_line(f"{PROG}: {est.command} of {est.n} agents: estimated {est.describe()}, above the {over} limit; running anyway (--allow-large)")
     elif est.seconds > limits.notice_seconds:
-        print(f"{PROG}: {est.command} of {est.n} agents: estimated {est.describe()}", file=sys.stderr, flush=True)
+        write_line(f"{PROG}: {est.command} of {est.n} agents: estimated {est.describe()}")
+
+
+#: the time left is extrapolated from the rate of the last this many seconds of progress
+ETA_WINDOW = 120.0
+#: at most one progress line per this many seconds when stderr is not a terminal
+LINE_SECONDS = 10.0
+
+
+def count_progress(quiet: bool, unit: str = "attack sets", prefix: str = "audit") -> Callable[[int, int], None] | None:
+    """A progress callback ``(done, total)``: a bar with ETA on a terminal; otherwise lines on stderr.
+
+    Off a terminal, a line ``<prefix>: <done>/<total> <unit>, <s> s elapsed, about <s> s left``
+    comes at most once per :data:`LINE_SECONDS`, and when a phase that lasted that long ends.
+    A new ``total``, or a ``done`` that goes back, starts a new phase (the design calls it for
+    several audits and checks in turn): a new bar, a new rate.
+
+    The time left is the units left over the rate of the last :data:`ETA_WINDOW` seconds
+    (from the first report on, so the set-up before it does not count): sets differ widely in
+    cost (a set that needs its whole zero set costs a thousand times a screened one), and the
+    recent rate follows the mix the chunks actually hold.
+
+    Parameters
+    ----------
+    quiet : bool
+        ``--quiet``: no callback (None).
+    unit : str
+        What is counted (``"attack sets"``, ``"tasks"``).
+    prefix : str
+        The command named at the start of each line.
+    """
+    if quiet:
+        return None
+    import collections
+    import time
+
+    start = time.monotonic()
+    seen: collections.deque[tuple[float, int]] = collections.deque()
+    phase: dict[str, Any] = {"total": None, "start": 0.0, "lines": 0}
+
+    def eta(done: int, total: int) -> float:
+        now = time.monotonic()
+        if phase["total"] != total or (seen and done < seen[-1][1]):  # a new phase: a new rate
+            seen.clear()
+            phase.update(total=total, start=now - start, lines=0)
+        seen.append((now, done))
+        while len(seen) > 2 and now - seen[1][0] >= ETA_WINDOW:
+            seen.popleft()
+        (t0, d0) = seen[0]
+        if done <= d0 or now <= t0:
+            return float("nan")
+        return (total - done) * (now - t0) / (done - d0)
+
+    if not sys.stderr.isatty():
+        last = [0.0]
+
+        def line(done: int, total: int) -> None:
+            left = eta(done, total)
+            now = time.monotonic() - start
+            if now - last[0] < LINE_SECONDS and (done < total or (not phase["lines"] and now - phase["start"] < LINE_SECONDS)):
+                return
+            last[0] = now
+            phase["lines"] += 1
+            tail = f"about {left:.0f} s left" if left == left else "estimating the time left"
+            write_line(f"{prefix}: {done}/{total} {unit}, {now:.0f} s elapsed, {tail}")
+
+        return line
+    from tqdm import tqdm
+
+    bar: dict[str, Any] = {}
+
+    def tick(done: int, total: int) -> None:
+        if "bar" not in bar or bar["bar"].total != total or bar["bar"].n > done:
+            # tqdm's own remaining time averages over the whole run: show the windowed one
+            bar["bar"] = tqdm(total=total, desc=unit, leave=False, bar_format="{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} [{elapsed}{postfix}]")
+        b = bar["bar"]
+        b.update(done - b.n)
+        left = eta(done, total)
+        if left == left:  # not NaN
+            b.set_postfix_str(f"about {left:.0f} s left", refresh=True)
+        if done >= total:
+            b.close()
+
+    return tick

@@ -6,7 +6,8 @@ import argparse
 import sys
 from typing import Any
 
-from glocal_verify.cli.common import PROG, UsageError, add_allow_large, check_cost, check_out_file, load_system, spec_inputs, write_output
+from glocal_verify.cli.common import PROG, UsageError, add_allow_large, check_cost, check_out_file, count_progress, load_system, spec_inputs, write_output
+from glocal_verify.runtime.lines import write_line
 
 __all__ = ["register"]
 
@@ -40,21 +41,25 @@ def cmd_design(args: argparse.Namespace) -> int:
     exact = not args.numeric and system.n <= 60
     est = estimate_design(SpecSizes.from_spec(system.spec), max_attackers=args.max_attackers, place=not args.keep_observers, exact_assessment=exact)
     check_cost(est, args, how=("a smaller --max-attackers",))
-    say = None if args.quiet else (lambda line: print(f"design: {line} ...", file=sys.stderr, flush=True))
-    d = design_network(system, budget=args.budget, max_attackers=args.max_attackers, place=not args.keep_observers, max_links=args.max_links, progress=say)
+    say = None if args.quiet else (lambda line: write_line(f"design: {line} ..."))
+    tick = count_progress(args.quiet, prefix="design")
+    d = design_network(
+        system, budget=args.budget, max_attackers=args.max_attackers, place=not args.keep_observers, max_links=args.max_links, progress=say, tick=tick,
+        admit=lambda est: check_cost(est, args, how=("a smaller --max-attackers, or more monitors or observers in the spec",)),
+    )
     from glocal_verify.model import System
     from glocal_verify.spec.writer import dump_spec
 
     text = design_comments(d) + dump_spec(d.spec)
+    write_output(text, args.out, inputs=spec_inputs(args))
     if say is not None:
         say("assessing the spec before and after")
-    write_output(text, args.out, inputs=spec_inputs(args))
     lines = d.summary() + [f"note: {n}" for n in d.notes]
     lines += _assessment_lines(system, "before", exact)
     lines += _assessment_lines(System(d.spec), "after ", exact)
-    print("\n".join(lines), file=sys.stderr if not args.out else sys.stdout)
+    write_line("\n".join(lines), sys.stderr if not args.out else sys.stdout)
     if d.unmet:
-        print(f"{PROG}: the design above is partial: {len(d.unmet)} requirement(s) not met (see NOT MET)", file=sys.stderr)
+        write_line(f"{PROG}: the design above is partial: {len(d.unmet)} requirement(s) not met (see NOT MET)")
         return 1
     return 0
 

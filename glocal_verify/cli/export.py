@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 from typing import Any
 
 from glocal_verify.cli.common import PROG, UsageError, check_out_file, load_system, wrote
+from glocal_verify.runtime.lines import write_line
 from glocal_verify.spec.examples import example_names
 
 __all__ = ["register"]
@@ -25,7 +25,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     system = load_system(args)
     if not args.quiet:
         what = "observers and schedule" if args.no_thresholds else "observers, attack-free thresholds and schedule"
-        print(f"{PROG}: designing the {what} of {system.name} ({system.n} agents) ...", file=sys.stderr, flush=True)
+        write_line(f"{PROG}: designing the {what} of {system.name} ({system.n} agents) ...")
     wrote(export_observers(system, out, fmt, thresholds=not args.no_thresholds, progress=not args.quiet))
     return 0
 

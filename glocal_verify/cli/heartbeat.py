@@ -8,6 +8,8 @@ when::
 
     glocal-verify: still working, 20 s since "checking switched-observability ..."
 
+The line is written whole and on a fresh line (:func:`glocal_verify.runtime.lines.write_line`).
+
 It wraps ``sys.stderr`` for the duration of the command (every write, from any code, counts
 as a sign of life) and runs one daemon thread. A phase stuck inside a single long C call that
 holds Python's lock (an exact computation in python-flint) delays the line until the call
@@ -21,6 +23,8 @@ import threading
 import time
 from types import TracebackType
 from typing import Any, TextIO
+
+from glocal_verify.runtime.lines import write_line
 
 __all__ = ["SILENCE_SECONDS", "Heartbeat"]
 
@@ -95,12 +99,11 @@ class Heartbeat:
                     continue
                 since = now - self.line_time
                 if self.last_line:
-                    text = f'{self.prog}: still working, {since:.0f} s since "{self.last_line}"\n'
+                    text = f'{self.prog}: still working, {since:.0f} s since "{self.last_line}"'
                 else:
-                    text = f"{self.prog}: {self.what}: still working, {since:.0f} s so far\n"
+                    text = f"{self.prog}: {self.what}: still working, {since:.0f} s so far"
                 try:
-                    self._stream._inner.write(text)
-                    self._stream._inner.flush()
+                    write_line(text, self._stream._inner, fresh=True)
                 except (OSError, ValueError):  # stderr closed (a hang-up): nothing to tell
                     return
                 self.last_time = now  # the next line after another silence, not the same total

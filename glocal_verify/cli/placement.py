@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from typing import Any
 
 from glocal_verify.cli.common import PROG, add_allow_large, check_cost, check_out_file, load_system, spec_inputs, write_output
+from glocal_verify.runtime.lines import write_line
 
 __all__ = ["register"]
 
@@ -25,7 +25,7 @@ def cmd_place_observers(args: argparse.Namespace) -> int:
         check_cost(estimate_place_observers(SpecSizes.from_spec(system.spec), args.cluster), args, how=() if args.cluster else ("--cluster NAME to place one cluster's observers",))
     placement = place_observers(system, args.cluster, suspected, exact_limit=args.exact_limit, progress=not args.quiet)
     for line in placement.warnings:
-        print(f"{PROG}: {line}", file=sys.stderr)
+        write_line(f"{PROG}: {line}")
     text = placement.to_toml() if args.format == "toml" else json.dumps(placement.to_json(), indent=2) + "\n"
     write_output(text, args.out, inputs=spec_inputs(args))
     return 0

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from glocal_verify.cli.common import PROG, UsageError, check_out_dir, load_system, spec_inputs, wrote
+from glocal_verify.runtime.lines import write_line
 from glocal_verify.spec.examples import example_names
 
 __all__ = ["register"]
@@ -37,7 +38,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     from glocal_verify.design.placement import connectivity_warnings
 
     for line in connectivity_warnings(system):
-        print(f"{PROG}: {line}", file=sys.stderr)
+        write_line(f"{PROG}: {line}")
     out = Path(args.out) if args.out else Path(DEFAULT_OUT) / safe_component(system.name)
     check_out_dir(out, inputs=inputs)
     sim = system.spec.simulation
@@ -46,7 +47,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     progress = sys.stderr.isatty() and not args.quiet
     phase: Callable[[str], None] | None = None
     if not args.quiet:
-        phase = lambda text: print(f"{PROG}: {text}", file=sys.stderr, flush=True)  # noqa: E731
+        phase = lambda text: write_line(f"{PROG}: {text}")  # noqa: E731
     rule = ThresholdRule(kind=args.threshold)
     figures = not args.no_figures
     with allow_large() if args.allow_large else contextlib.nullcontext():

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from glocal_verify.cli.common import PROG, UsageError, add_allow_large, add_dask_options
+from glocal_verify.runtime.lines import write_line
 
 __all__ = ["register"]
 
@@ -43,7 +44,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     quiet = args.quiet
     if not quiet:
         where = f"scheduler {args.scheduler}" if args.scheduler else ("in this process (workers would not pay off)" if est.in_process else f"{args.workers} local workers")
-        print(f"sweep: {est.members} members to compute ({len(done)} resumed), estimated {est.totals()}, {where}", file=sys.stderr, flush=True)
+        write_line(f"sweep: {est.members} members to compute ({len(done)} resumed), estimated {est.totals()}, {where}")
     bar: Any = None
     if sys.stderr.isatty() and not quiet:
         from tqdm import tqdm
@@ -58,10 +59,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
         def progress(line: str) -> None:
             if not quiet:
-                print(f"sweep: {line}", file=sys.stderr, flush=True)
+                write_line(f"sweep: {line}")
 
     def notice(line: str) -> None:
-        print(f"{PROG}: {line}", file=sys.stderr, flush=True)
+        write_line(f"{PROG}: {line}")
 
     try:
         res = run_sweep(
@@ -72,9 +73,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         if bar is not None:
             bar.close()
     failed = len({r["member"] for r in res.rows if r.get("status") == "error"})
-    print(f"wrote {res.out} ({len(res.rows)} rows; {res.computed} members computed, {res.resumed} resumed, {failed} failed)", file=sys.stderr)
+    write_line(f"wrote {res.out} ({len(res.rows)} rows; {res.computed} members computed, {res.resumed} resumed, {failed} failed)")
     if res.summary is not None:
-        print(f"wrote {res.summary}", file=sys.stderr)
+        write_line(f"wrote {res.summary}")
     return 0
 
 

@@ -19,6 +19,7 @@ from glocal_verify.cli.common import (
     write_output,
 )
 from glocal_verify.conditions.catalogue import CATALOGUE
+from glocal_verify.runtime.lines import write_line
 from glocal_verify.spec.examples import example_names, example_text, finding_names
 
 if TYPE_CHECKING:
@@ -112,7 +113,7 @@ def cmd_verify(args: argparse.Namespace) -> int:
     system = _graph_system(args) if args.graph else load_system(args)
     progress: Callable[[str], None] | None = None
     if not args.quiet:  # one line per checker, on a terminal or in a log (--quiet: none)
-        progress = lambda cid: print(f"checking {cid} ...", file=sys.stderr, flush=True)  # noqa: E731
+        progress = lambda cid: write_line(f"checking {cid} ...")  # noqa: E731
     from glocal_verify.answer.run import simulates
 
     simulate = simulates(system, args.simulate)
@@ -142,7 +143,7 @@ def cmd_verify(args: argparse.Namespace) -> int:
     bad = list(gate(report, require).failures) + [f"{line} (--require-holds)" for line in gate_holds(report, require_holds).failures]
     if bad:
         for line in bad:
-            print(f"{PROG}: required condition not met: {line}", file=sys.stderr)
+            write_line(f"{PROG}: required condition not met: {line}")
         return 1
     return 0
 
@@ -171,7 +172,7 @@ def cmd_findings(args: argparse.Namespace) -> int:
     inputs = [str(p) for p in Path(args.dir).glob("*.toml")] if args.dir and Path(args.dir).is_dir() else []
     check_out_file(args, inputs=inputs)
     if not proofs_available():
-        print(f"{PROG}: warning: the proof checks' paper errors are left out of the report: they need sympy ({PROOFS_INSTALL})", file=sys.stderr)
+        write_line(f"{PROG}: warning: the proof checks' paper errors are left out of the report: they need sympy ({PROOFS_INSTALL})")
     write_output(findings_markdown(verify_findings(args.dir)), args.out, inputs=inputs)
     return 0
 

@@ -44,11 +44,13 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from glocal_verify.conditions.cost import CostEstimate, SpecSizes, estimate_safe_modes
 from glocal_verify.design.audit import AuditResult, audit
 from glocal_verify.design.monitors import MonitorDesign, design_monitors
 from glocal_verify.design.placement import ObserverProposal, place_cluster
 from glocal_verify.design.safe_modes import (
     DEFAULT_WEIGHTS,
+    EXACT_MAX_AGENTS as SAFE_MODES_EXACT_MAX_AGENTS,
     SafeModeDesign,
     design_safe_modes,
     with_modes,
@@ -202,9 +204,20 @@ def _observers(system: System, exact_limit: int) -> tuple[SystemSpec, list[Obser
     return dataclasses.replace(system.spec, clusters=tuple(clusters)), props, notes
 
 
-def before_table(system: System, max_attackers: int = 2, candidates: Sequence[Label] | None = None) -> AuditResult:
-    """Design's before-table: the audit of the spec as given (every row the answer ``verify`` gives for that attack)."""
-    return audit(system, max_attackers, candidates)
+def before_table(
+    system: System, max_attackers: int = 2, candidates: Sequence[Label] | None = None, progress: Callable[[int, int], None] | None = None
+) -> AuditResult:
+    """Design's before-table: the audit of the spec as given (every row the answer ``verify`` gives for that attack).
+
+    Parameters
+    ----------
+    system : System
+    max_attackers : int
+    candidates : sequence of labels, optional
+    progress : callable, optional
+        Called with (attack sets done, total) as the audit goes.
+    """
+    return audit(system, max_attackers, candidates, None, progress)
 
 
 def design_network(
@@ -220,6 +233,8 @@ def design_network(
     monitor_budget: int = 3,
     schedule_dwell: float = SCHEDULE_DWELL,
     progress: Callable[[str], None] | None = None,
+    tick: Callable[[int, int], None] | None = None,
+    admit: Callable[[CostEstimate], None] | None = None,
 ) -> NetworkDesign:
     """Design monitors, local observers, safe modes and, where needed, a switching schedule (module docstring).
 
@@ -246,7 +261,15 @@ def design_network(
         Dwell time of each mode of a designed ``[switching]`` schedule (step 7).
     progress : callable, optional
         Called with one line as each step starts (the audits, the placement, the safe modes,
-        the monitors, the schedule).
+        the monitors, the schedule) and as each proposed safe mode is checked.
+    tick : callable, optional
+        Called with (attack sets done, total) within the long steps: each audit, and each
+        check of a proposed safe mode against the attack sets it should expose.
+    admit : callable, optional
+        Called with the estimate of the safe-mode phase
+        (:func:`glocal_verify.conditions.cost.estimate_safe_modes`) once the audit with the
+        observers has counted the undetected sets, before the phase starts; it may raise
+        (:class:`~glocal_verify.conditions.cost.SizeLimitError`) to refuse the run.
 
     Returns
     -------
@@ -256,7 +279,7 @@ def design_network(
     """
     say = progress if progress is not None else (lambda line: None)
     say("auditing the spec as given")
-    before = before_table(system, max_attackers, candidates)
+    before = before_table(system, max_attackers, candidates, tick)
     spec = _velocity_only(system.spec)
     props: list[ObserverProposal] = []
     notes: list[str] = []
@@ -265,19 +288,21 @@ def design_network(
         spec, props, notes = _observers(System(spec), exact_limit)
     mid_sys = System(spec)
     say("auditing with the observers")
-    mid = audit(mid_sys, max_attackers, candidates)
+    mid = audit(mid_sys, max_attackers, candidates, None, tick)
     targets = tuple(r.actuators for r in mid.rows if r.verdict != "detected" and r.stealthy is True and not r.exposed_by_modes)
     lambdas = {r.actuators: r.lambda0 for r in mid.rows if r.lambda0 is not None}
     if targets:
+        if admit is not None:
+            admit(estimate_safe_modes(SpecSizes.from_spec(spec), len(targets), exact=mid_sys.n <= SAFE_MODES_EXACT_MAX_AGENTS))
         say(f"designing safe modes for {len(targets)} undetected attack sets")
-        safe = design_safe_modes(mid_sys, targets, None, budget, weights=weights, lambdas=lambdas, max_links=max_links)
+        safe = design_safe_modes(mid_sys, targets, None, budget, weights=weights, lambdas=lambdas, max_links=max_links, progress=say, tick=tick)
     else:
         safe = SafeModeDesign((), (), {}, 0, 0.0, 0)
     spec = with_modes(spec, [m.mode_spec() for m in safe.modes], keep=True)
     added: list[tuple[Label, tuple[Label, ...]]] = []
     if safe.unexposed and monitor_budget > 0:
         pending = [F for F in targets if ",".join(map(str, F)) in safe.unexposed]
-        spec, added, safe = _monitor_unexposed(spec, pending, monitor_budget, safe, budget, weights, max_links)
+        spec, added, safe = _monitor_unexposed(spec, pending, monitor_budget, safe, budget, weights, max_links, say, tick)
     final = System(spec)
     say("choosing the global monitors")
     mon = design_monitors(final, required=spec.monitor.velocities)
@@ -293,8 +318,8 @@ def design_network(
         )
         extra = []
     say("auditing the design")
-    after = audit(final, max_attackers, candidates)
-    spec, after, schedule = _schedule_if_needed(spec, after, system, max_attackers, candidates, schedule_dwell)
+    after = audit(final, max_attackers, candidates, None, tick)
+    spec, after, schedule = _schedule_if_needed(spec, after, system, max_attackers, candidates, schedule_dwell, tick)
     final = System(spec)
     unmet = [f"{cid}: {mon.verification[cid]} on the designed spec" for cid, st in mon.verification.items() if st != "holds" and cid.startswith("privacy.")]
     unmet += _obstacles(after, safe, added)
@@ -303,7 +328,13 @@ def design_network(
 
 
 def _schedule_if_needed(
-    spec: SystemSpec, after: AuditResult, original: System, max_attackers: int, candidates: Sequence[Label] | None, dwell: float
+    spec: SystemSpec,
+    after: AuditResult,
+    original: System,
+    max_attackers: int,
+    candidates: Sequence[Label] | None,
+    dwell: float,
+    tick: Callable[[int, int], None] | None = None,
 ) -> tuple[SystemSpec, AuditResult, tuple[str, ...]]:
     """Step 7: a ``[switching]`` schedule through the safe modes that expose sets no local alarm can trigger.
 
@@ -328,7 +359,7 @@ def _schedule_if_needed(
         steps = [SwitchStep(NORMAL_MODE, dwell)]
     steps += [SwitchStep(q, dwell) for q in wanted if q not in visited]
     new = dataclasses.replace(spec, switching=SwitchingSpec(sequence=tuple(steps)))
-    return new, audit(System(new), max_attackers, candidates), tuple(q for q in wanted if q not in visited)
+    return new, audit(System(new), max_attackers, candidates, None, tick), tuple(q for q in wanted if q not in visited)
 
 
 def _obstacles(after: AuditResult, safe: SafeModeDesign, added: Sequence[tuple[Label, tuple[Label, ...]]]) -> list[str]:
@@ -390,7 +421,15 @@ def _changes(
 
 
 def _monitor_unexposed(
-    spec: SystemSpec, targets: Sequence[tuple[Label, ...]], budget: int, safe: SafeModeDesign, mode_budget: int, weights: Sequence[Any], max_links: int
+    spec: SystemSpec,
+    targets: Sequence[tuple[Label, ...]],
+    budget: int,
+    safe: SafeModeDesign,
+    mode_budget: int,
+    weights: Sequence[Any],
+    max_links: int,
+    say: Callable[[str], None] | None = None,
+    tick: Callable[[int, int], None] | None = None,
 ) -> tuple[SystemSpec, list[tuple[Label, tuple[Label, ...]]], SafeModeDesign]:
     """Step 5 of :func:`design_network`: velocity monitors where the unexposed ZDAs live.
 
@@ -405,12 +444,20 @@ def _monitor_unexposed(
 
     from glocal_verify.design.audit import audit_chunks, merge_chunks
 
+    if say is None:
+        say = lambda line: None  # noqa: E731
     added: list[tuple[Label, tuple[Label, ...]]] = []
     left = list(targets)
     while left and len(added) < budget:
         system = System(spec)
-        chunks = audit_chunks(system, left, chunk_size=max(1, len(left)))
-        rows = merge_chunks(system, max(len(F) for F in left), system.labels, [c() for c in chunks], chunks[0].shared.modes).rows
+        say(f"auditing the {len(left)} attack sets no safe mode exposes, for a velocity monitor")
+        chunks = audit_chunks(system, left, chunk_size=200)
+        parts = []
+        for c in chunks:
+            parts.append(c())
+            if tick is not None:
+                tick(sum(map(len, parts)), len(left))
+        rows = merge_chunks(system, max(len(F) for F in left), system.labels, parts, chunks[0].shared.modes).rows
         left = [r.actuators for r in rows if r.verdict != "detected"]
         if not left:
             break
@@ -438,7 +485,8 @@ def _monitor_unexposed(
         added.append((agent, F))
         room = mode_budget - len(safe.modes)
         if room > 0:
-            more = design_safe_modes(System(spec), left, None, room, weights=weights, max_links=max_links)
+            say(f"designing safe modes for {len(left)} attack sets with the velocity monitor at {agent}")
+            more = design_safe_modes(System(spec), left, None, room, weights=weights, max_links=max_links, progress=say, tick=tick)
             first = len(safe.modes) + 1
             renamed = tuple(dataclasses.replace(m, name=f"designed-{first + i}") for i, m in enumerate(more.modes))
             spec = with_modes(spec, [m.mode_spec() for m in renamed], keep=True)

@@ -69,10 +69,13 @@ Search and verification
     Greedy set cover over the admissible candidates (each covers the attacks it exposes),
     at most ``budget`` modes, so the number of modes is within a factor H(n) = 1 + 1/2 + ... +
     1/n of the fewest one-link modes that expose the n attacks. Every proposed mode is then
-    re-verified by the checkers on the spec with that mode and each attack it claims
-    (``switching.image-kernel``, ``-distinct-eigenvalues``, ``-eigenvector-differences``,
-    ``switching.avoids-attack``), exactly over Q when ``exact`` (default for N <= 40); a
-    claim the checkers do not confirm is dropped and the search continues without it.
+    re-verified on the spec with that mode, exactly over Q when ``exact`` (default for
+    N <= 40): Theorem III.3 by its checkers (``switching.image-kernel``,
+    ``-distinct-eigenvalues``, ``-eigenvector-differences``; once per mode, no attack enters
+    them), and each claimed attack by the rule of ``switching.avoids-attack`` at the audit's
+    lambda0 for that set (one system with the mode for all the sets: O(targets) checks of
+    milliseconds each, no fresh system and no exact re-decision per set). A claim that is not
+    confirmed is dropped and the search continues without it.
 """
 
 from __future__ import annotations
@@ -82,13 +85,14 @@ import math
 import time
 from dataclasses import dataclass, field
 from fractions import Fraction
-from typing import Any, Iterable, Mapping, Sequence
+from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
 from glocal_verify import config
-from glocal_verify.analysis.avoidance import split_basis, stealthy_bases
+from glocal_verify.analysis.avoidance import decide_avoidance, split_basis, stealthy_bases
 from glocal_verify.analysis.zda import ModalPencil
+from glocal_verify.analysis.zda_verdict import ZdaOptions, decide_zda
 from glocal_verify.conditions.registry import verify
 from glocal_verify.design.multilink import (
     image_kernel_holds,
@@ -117,6 +121,11 @@ __all__ = [
 DEFAULT_WEIGHTS = (Fraction(1), Fraction(2), Fraction(3))
 EXACT_MAX_AGENTS = config.get("safe_modes_exact_max_agents")
 THEOREM_IDS = ("switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences")
+#: attack sets between two progress reports of a mode's confirmation
+CONFIRM_CHUNK = 50
+#: a proposed mode none of whose first this many claimed sets is confirmed is dropped (the
+#: rest is not checked), so a misjudged candidate costs a bounded number of checks
+CONFIRM_GIVE_UP = 200
 
 
 @dataclass(frozen=True, slots=True)
@@ -478,24 +487,56 @@ def _cover(system: System, cands: Sequence[LinkCandidate], ok: np.ndarray, tg: S
     return cover
 
 
-def _confirm(system: System, links: Sequence[LinkCandidate], name: str, attacks: Sequence[tuple[Label, ...]], exact: bool) -> tuple[list[tuple[Label, ...]], dict[str, str]]:
-    """Re-verify a proposed mode (its link changes) with the checkers; the attacks it is confirmed to expose."""
-    mode = ProposedMode(name, links[0], (), also=tuple(links[1:])).mode_spec()
-    base = with_modes(system.spec, [mode], keep=False)
-    confirmed: list[tuple[Label, ...]] = []
-    statuses: dict[str, str] = {}
-    for F in attacks:
-        sub = System(with_attack(base, F))
-        rep = verify(sub, list(THEOREM_IDS) + ["switching.avoids-attack"], exact=exact)
-        th = [r for r in rep.conditions if r.id in THEOREM_IDS]
-        av = [r for r in rep.conditions if r.id == "switching.avoids-attack"]
-        if not statuses:
-            statuses = {r.id: r.status.value for r in th}
-        if all(r.status is Status.HOLDS for r in th) and av and all(r.status is Status.FAILS for r in av):
-            confirmed.append(F)
-        elif not all(r.status is Status.HOLDS for r in th):
-            break
-    return confirmed, statuses
+class _Confirmations:
+    """Re-verification of proposed modes (module docstring, "Search and verification").
+
+    Theorem III.3 (i)-(iii) are properties of the mode alone (no attack enters them): the
+    checkers decide them once per mode. Whether the switch exposes each claimed attack is the
+    rule of ``switching.avoids-attack`` (:func:`~glocal_verify.analysis.zda_verdict.decide_zda`,
+    then :func:`~glocal_verify.analysis.avoidance.decide_avoidance`, as its checker calls
+    them) at the set's own lambda0 from the audit, the exponent the design targeted: given,
+    a rational lambda0 lets the numeric touch test be certified, where a computed one (the
+    fastest zero found) could not be and went to an exact re-decision of up to 30 s per set.
+    One system with the mode serves every set (its spectra computed once, where a checker run
+    per set built a fresh one). An attack left undecided is not claimed; a mode none of whose
+    first ``CONFIRM_GIVE_UP`` claims is confirmed is dropped unchecked beyond them.
+    """
+
+    def __init__(self, system: System, exact: bool, lambdas: Mapping[tuple[Label, ...], complex], tol: Tolerance, tick: Callable[[int, int], None] | None) -> None:
+        self.system = system
+        self.exact = exact
+        self.lambdas = lambdas
+        self.tol = tol
+        self.tick = tick
+        #: attack set -> why its exposure by a proposed mode was left undecided
+        self.undecided: dict[tuple[Label, ...], str] = {}
+
+    def __call__(self, links: Sequence[LinkCandidate], name: str, attacks: Sequence[tuple[Label, ...]]) -> tuple[list[tuple[Label, ...]], dict[str, str]]:
+        """The attacks the mode changing ``links`` is confirmed to expose, and its Theorem III.3 statuses."""
+        if not attacks:
+            return [], {}
+        mode = ProposedMode(name, links[0], (), also=tuple(links[1:])).mode_spec()
+        base = with_modes(self.system.spec, [mode], keep=False)
+        th = verify(System(with_attack(base, attacks[0])), list(THEOREM_IDS), exact=self.exact).conditions
+        statuses = {r.id: r.status.value for r in th}
+        if not all(r.status is Status.HOLDS for r in th):
+            return [], statuses
+        msys = System(base)
+        confirmed: list[tuple[Label, ...]] = []
+        for c, F in enumerate(attacks):
+            z = decide_zda(msys, F, ZdaOptions(lambda0=self.lambdas.get(F), tol=self.tol, exact=self.exact))
+            v = decide_avoidance(msys, name, z, tol=self.tol)
+            if v.status is Status.FAILS:
+                confirmed.append(F)
+                self.undecided.pop(F, None)
+            elif v.status is Status.UNDECIDED:
+                why = v.certificate.get("note") if v.certificate else None
+                self.undecided[F] = str(why or z.note or "switching.avoids-attack is undecided")
+            if self.tick is not None and ((c + 1) % CONFIRM_CHUNK == 0 or c + 1 == len(attacks)):
+                self.tick(c + 1, len(attacks))
+            if not confirmed and c + 1 >= CONFIRM_GIVE_UP < len(attacks):
+                break  # the touch test misjudged this mode: drop it without checking thousands more
+        return confirmed, statuses
 
 
 # ------------------------------------------------------------------------------------------
@@ -549,7 +590,7 @@ def _multi_search(
     max_links: int,
     thr: float,
     exact: bool,
-    verify_designs: bool,
+    confirm: _Confirmations | None,
     first: int,
 ) -> tuple[list[ProposedMode], set[int], int, float, int]:
     """Greedy cover of ``todo`` by changes of 2..``max_links`` links: modes, covered targets, scored, rate, screened."""
@@ -600,7 +641,7 @@ def _multi_search(
                     links = [cands[k] for k in combos[p]]
                     claim = [tg[left[c]].F for c in np.flatnonzero(C[p] & remaining)]
                     name = f"designed-{first + len(modes)}"
-                    got, statuses = _confirm(system, links, name, claim, exact) if verify_designs else (claim, {})
+                    got, statuses = confirm(links, name, claim) if confirm is not None else (claim, {})
                     if got:
                         chosen = ProposedMode(name, links[0], tuple(got), statuses, "exact" if exact else "numeric", tuple(links[1:]))
                         break
@@ -627,6 +668,8 @@ def design_safe_modes(
     exact: bool | None = None,
     verify_designs: bool = True,
     max_links: int = 2,
+    progress: Callable[[str], None] | None = None,
+    tick: Callable[[int, int], None] | None = None,
 ) -> SafeModeDesign:
     """Safe modes of as few link changes as the search finds that meet Theorem III.3 (i)-(iii) and expose the attacks.
 
@@ -655,6 +698,11 @@ def design_safe_modes(
         Re-verify every proposal with the checkers (turn off only for benchmarks).
     max_links : int
         Largest number of link changes in one mode (1: one-link modes only).
+    progress : callable, optional
+        Called with one line as each proposed mode is checked against the attacks it should
+        expose.
+    tick : callable, optional
+        Called with (attack sets checked, attack sets claimed) during each check.
 
     Returns
     -------
@@ -678,7 +726,13 @@ def design_safe_modes(
     for c in cands:
         system.idx([c.u, c.v])
     if attacks is None or lambdas is None:
-        res = audit(system, 2) if attacks is None else audit(system, max(len(tuple(F)) for F in attacks), sorted({a for F in attacks for a in F}, key=system.index.__getitem__))
+        if attacks is None:
+            res = audit(system, 2, None, None, tick)
+        else:
+            attacks = [tuple(F) for F in attacks]
+            if progress is not None:
+                progress(f"auditing for the exponents of {len(attacks)} attack sets")
+            res = audit(system, max(len(F) for F in attacks), sorted({a for F in attacks for a in F}, key=system.index.__getitem__), None, tick)
         rows = {r.actuators: r for r in res.rows}
         if attacks is None:
             attacks = [F for F, r in rows.items() if r.verdict == "undetected"]
@@ -693,6 +747,8 @@ def design_safe_modes(
     thr = math.sqrt(tol.rtol) * 1e-2
     cover = _cover(system, cands, ok, tg, thr)
     rate = len(cands) / max(time.perf_counter() - t0, 1e-9)
+    say = progress if progress is not None else (lambda line: None)
+    confirm = _Confirmations(system, exact, lambdas, tol, tick) if verify_designs else None
     uncovered = set(range(len(tg)))
     modes: list[ProposedMode] = []
     rejected: set[int] = set()
@@ -702,8 +758,9 @@ def design_safe_modes(
             break
         claim = [tg[k].F for k in sorted(cover[best] & uncovered)]
         name = f"designed-{len(modes) + 1}"
-        if verify_designs:
-            got, statuses = _confirm(system, [cands[best]], name, claim, exact)
+        if confirm is not None:
+            say(f"checking {name} ({cands[best].describe()}) against the {len(claim)} attack sets it should expose")
+            got, statuses = confirm([cands[best]], name, claim)
         else:
             got, statuses = claim, {}
         if not got:
@@ -715,7 +772,7 @@ def design_safe_modes(
     scored, multi_rate, screened = 0, 0.0, 0
     if uncovered and len(modes) < budget and max_links >= 2 and err is not None:
         more, done, scored, multi_rate, screened = _multi_search(
-            system, cands, tg, uncovered, budget - len(modes), max_links, thr, exact, verify_designs, len(modes) + 1
+            system, cands, tg, uncovered, budget - len(modes), max_links, thr, exact, confirm, len(modes) + 1
         )
         modes += more
         uncovered -= done
@@ -735,6 +792,10 @@ def design_safe_modes(
             if tg[k].X.shape[1] > 1:
                 why += f" (the stealthy kernel at lambda0 has dimension {tg[k].X.shape[1]})"
             unexposed[key] = why
+        elif confirm is not None and tg[k].F in confirm.undecided:
+            # one text for every such set (the notes name each set's lambda0), so that the design's
+            # summary groups them on one line
+            unexposed[key] = "whether a proposed mode exposes it stays undecided at its lambda0 (switching.avoids-attack), so no mode claims it"
         else:
             unexposed[key] = f"the budget of {budget} safe mode(s) is exhausted"
     return SafeModeDesign(tuple(modes), tuple(targets_F), unexposed, len(cands), rate, int(ok.sum()), scored, multi_rate, screened)

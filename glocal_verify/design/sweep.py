@@ -37,7 +37,6 @@ import io
 import itertools
 import json
 import math
-import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -47,6 +46,7 @@ from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping, Sequence
 from glocal_verify import config
 from glocal_verify.errors import GlocalVerifyError, SpecError
 from glocal_verify.runtime.files import OutputFolder, check_output_dir, check_output_file, make_folders, remove_empty_folders, write_bytes_atomic
+from glocal_verify.runtime.lines import write_line
 from glocal_verify.spec.prepare import prepare, read_toml
 
 if TYPE_CHECKING:
@@ -772,4 +772,4 @@ def run_sweep(
 
 
 def _stderr_progress(line: str) -> None:
-    print(line, file=sys.stderr, flush=True)
+    write_line(line)

@@ -41,6 +41,7 @@ import numpy as np
 from glocal_verify.errors import ModelError
 from glocal_verify.model import System
 from glocal_verify.results import jsonable
+from glocal_verify.runtime.lines import write_line
 from glocal_verify.simulation.engine import simulate
 from glocal_verify.simulation.envelope import Reporter, envelope_by_rows
 from glocal_verify.simulation.observer_models import ObserverBank
@@ -249,7 +250,7 @@ def _reporter(progress: bool) -> Reporter:
 
     def line(phase: str, n: int) -> None:
         if phase and not phase.startswith("total:"):
-            print(f"glocal-verify: thresholds: {phase} ({time.perf_counter() - t0:.1f} s)", file=sys.stderr, flush=True)
+            write_line(f"glocal-verify: thresholds: {phase} ({time.perf_counter() - t0:.1f} s)")
 
     return line
 
