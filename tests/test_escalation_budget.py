@@ -177,7 +177,7 @@ def test_the_cheap_exact_certificates_agree_with_exact_arithmetic() -> None:
 
 def test_a_zda_re_decision_beyond_the_certificates_reach_is_estimated_from_below_and_not_started_within_the_default_budget() -> None:
     from glocal_verify import config
-    from glocal_verify.conditions.cost import exact_seconds
+    from glocal_verify.conditions.exact_cost import exact_seconds
     from glocal_verify.conditions.registry import exact_estimate
     from glocal_verify.design.generators import random_clustered_spec
 

@@ -542,7 +542,9 @@ def test_safe_modes_for_120_targets_are_confirmed_without_an_exact_run_per_set(m
     from glocal_verify.design.safe_modes import CONFIRM_GIVE_UP, _Confirmations
     from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE
 
-    many = list(itertools.combinations(range(1, 33), 2))  # 496 sets, none stealthy at lambda0 = 7
+    # 496 sets of clusters P4, P5, far from the mode's link: none is confirmed (with the
+    # completeness proof the rule's lambda0 = 0 is certified, so sets near the link would be)
+    many = list(itertools.combinations(range(49, 81), 2))
     ticks.clear()
     confirm = _Confirmations(mid, False, {F: 7 + 0j for F in many}, DEFAULT_TOLERANCE, lambda d, t: ticks.append((d, t)))
     got, statuses = confirm(mode.links, "designed-1", many)

@@ -33,6 +33,7 @@ from typing import Iterable, Sequence
 
 from glocal_verify import config
 from glocal_verify.conditions.catalogue import CATALOGUE, DESIGN_ASSESSMENT_IDS
+from glocal_verify.conditions.exact_cost import exact_seconds
 from glocal_verify.errors import ModelError
 from glocal_verify.spec.types import SystemSpec
 
@@ -48,8 +49,6 @@ __all__ = [
     "audit_set_seconds",
     "estimate_design",
     "estimate_safe_modes",
-    "exact_seconds",
-    "zda_certificate_seconds",
     "refusal",
     "check_limits",
     "format_seconds",
@@ -699,63 +698,6 @@ def estimate_safe_modes(sizes: SpecSizes, targets: int, *, exact: bool = False) 
         per *= float(config.get("safe_mode_check_exact_factor"))
     phases = {f"checks of {targets} undetected attack sets against the proposed modes": per * max(0, int(targets))}
     return _estimate("design", n, phases, B_BASE + A_AUDIT * _dense(n), A_AUDIT)
-
-
-# --------------------------------------------------------------------------------------------
-# exact arithmetic: one model for the size estimate and verify's re-decisions
-
-#: the ZDA paths of :func:`exact_seconds`
-ZDA_PATHS = ("fast", "dense")
-
-
-def zda_certificate_seconds(n: int) -> float:
-    """Seconds of the minor certificate of the exact ZDA analysis (a characteristic polynomial
-    modulo a prime): ``zda_certificate_seconds_n3`` N^3.
-
-    Parameters
-    ----------
-    n : int
-        Agents.
-    """
-    return float(config.get("zda_certificate_seconds_n3")) * float(n) ** 3
-
-
-def exact_seconds(condition: str, n: int, *, zda_path: str | None = None) -> float:
-    """Estimated seconds of one condition's checker in exact arithmetic on N agents.
-
-    The one exact-cost model: ``verify --exact``'s size estimate (:func:`estimate_verify`) and
-    the scheduler of ``verify``'s exact re-decisions (which does not start one whose estimate
-    is far beyond the budget) both read it. With the tunables of :mod:`glocal_verify.config`:
-
-    * ``central.observer``: ``exact_central_seconds_n4`` N^4 (the rational characteristic
-      polynomial by the matrix determinant lemma and its Routh test);
-    * ``stealthy.zda``, ``switching.avoids-attack``: on the proved zero polynomial (``zda_path``
-      ``"fast"``, or None when unknown, as from the sizes alone) ``exact_zda_seconds_n3`` N^3;
-      when the pencil needs the dense V* iteration over Q (``"dense"``: not left-invertible, or
-      a zero multiplicity the bounds leave open) the minor certificate
-      (:func:`zda_certificate_seconds`) plus ``exact_zda_dense_seconds_n4`` N^4;
-    * every other global condition: ``exact_global_seconds_n3`` N^3; the local ones are
-      estimated per design and case by :func:`estimate_verify`.
-
-    Parameters
-    ----------
-    condition : str
-        Condition id.
-    n : int
-        Agents.
-    zda_path : {"fast", "dense"}, optional
-        The exact ZDA analysis' path, when known.
-    """
-    nf = float(n)
-    if condition == "central.observer":
-        return float(config.get("exact_central_seconds_n4")) * nf**4
-    if condition in ("stealthy.zda", "switching.avoids-attack"):
-        if zda_path not in (None, *ZDA_PATHS):
-            raise ValueError(f"zda_path must be one of {ZDA_PATHS} or None, not {zda_path!r}")
-        if zda_path == "dense":
-            return zda_certificate_seconds(n) + float(config.get("exact_zda_dense_seconds_n4")) * nf**4
-        return float(config.get("exact_zda_seconds_n3")) * nf**3
-    return float(config.get("exact_global_seconds_n3")) * nf**3
 
 
 # --------------------------------------------------------------------------------------------

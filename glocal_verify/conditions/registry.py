@@ -355,7 +355,7 @@ _ESTIMATE_FAILURES: tuple[type[BaseException], ...] = (GlocalVerifyError, *NUMER
 def exact_estimate(system: System, cid: str) -> float | None:
     """Estimated seconds of re-deciding checker ``cid`` exactly on ``system``, or None (no estimate).
 
-    From the one exact-cost model, :func:`glocal_verify.conditions.cost.exact_seconds`, for the
+    From the one exact-cost model, :func:`glocal_verify.conditions.exact_cost.exact_seconds`, for the
     checkers whose exact cost is one dense rational computation of known size:
     ``central.observer``, and ``stealthy.zda`` / ``switching.avoids-attack``, whose path is
     learnt from the minor certificate (:func:`~glocal_verify.analysis.zda_exact.has_fast_exact_path`)
@@ -369,7 +369,7 @@ def exact_estimate(system: System, cid: str) -> float | None:
     system : System
     cid : str
     """
-    from glocal_verify.conditions.cost import exact_seconds, zda_certificate_seconds
+    from glocal_verify.conditions.exact_cost import exact_seconds, zda_certificate_seconds
 
     if cid == "central.observer":
         return exact_seconds(cid, system.n)
