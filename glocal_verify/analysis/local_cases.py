@@ -369,6 +369,16 @@ def _krawczyk_zero(system: System, case: LocalCase, witness: dict[str, Any]) -> 
     return None
 
 
+def _measured_inputs_unknown(case: LocalCase) -> tuple[set[int], set[int], list[int]]:
+    """(M, I, U) in cluster indices: the agents the observer measures (positions or
+    velocities: lam != 0), the input agents (suspected and boundary) and the unmeasured ones."""
+    cm, obs = case.model, case.observer
+    idx = {a: k for k, a in enumerate(cm.nodes)}
+    measured = {idx[a] for a in obs.positions} | {idx[a] for a in obs.velocities}
+    inputs = {idx[a] for a in case.suspected} | {idx[a] for a in cm.boundary}
+    return measured, inputs, [i for i in range(len(cm.nodes)) if i not in measured]
+
+
 def _rational_s_zero(system: System, case: LocalCase, witness: Mapping[str, Any]) -> str | None:
     """An exact rank loss of the reduced pencil at a rational s near a reported zero, or None.
 
@@ -383,12 +393,8 @@ def _rational_s_zero(system: System, case: LocalCase, witness: Mapping[str, Any]
     """
     import flint
 
-    cm, obs = case.model, case.observer
-    nodes = cm.nodes
-    idx = {a: k for k, a in enumerate(nodes)}
-    measured = {idx[a] for a in obs.positions} | {idx[a] for a in obs.velocities}
-    inputs = {idx[a] for a in case.suspected} | {idx[a] for a in cm.boundary}
-    U = [i for i in range(len(nodes)) if i not in measured]
+    cm = case.model
+    measured, inputs, U = _measured_inputs_unknown(case)
     if not U or len(U) > config.get("exact_rank_max_columns"):
         return None
     rows = [i for i in U if i not in inputs] + sorted(measured - inputs)
@@ -512,14 +518,10 @@ def observability_certificate(system: System, case: LocalCase) -> str | None:
     """
     from glocal_verify.numerics.krylov import krylov_rank_mod
 
-    cm, obs = case.model, case.observer
-    nodes = cm.nodes
-    idx = {a: k for k, a in enumerate(nodes)}
-    measured = {idx[a] for a in obs.positions} | {idx[a] for a in obs.velocities}
-    inputs = {idx[a] for a in case.suspected} | {idx[a] for a in cm.boundary}
+    cm = case.model
+    measured, inputs, U = _measured_inputs_unknown(case)
     if not inputs <= measured:
         return None
-    U = [i for i in range(len(nodes)) if i not in measured]
     if not U:
         return "every agent of the cluster is measured: T(s) has no column"
     pos = {i: k for k, i in enumerate(U)}

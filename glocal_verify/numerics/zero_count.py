@@ -92,15 +92,19 @@ class ZeroCountBound:
     note: str = ""
 
 
+def _signed_permutations(m: int) -> list[tuple[tuple[int, ...], int]]:
+    """The permutations of range(m) with their signs (+1 / -1, by counting inversions)."""
+    out = []
+    for perm in itertools.permutations(range(m)):
+        inversions = sum(1 for i in range(m) for j in range(i + 1, m) if perm[i] > perm[j])
+        out.append((perm, -1 if inversions % 2 else 1))
+    return out
+
+
 def _leibniz_det(series: list[list[Any]], m: int, length: int) -> Any:
     """det of an m x m matrix of truncated power series (python-flint nmod_poly), modulo w^length."""
     total = None
-    for perm in itertools.permutations(range(m)):
-        sign = 1
-        for i in range(m):
-            for j in range(i + 1, m):
-                if perm[i] > perm[j]:
-                    sign = -sign
+    for perm, sign in _signed_permutations(m):
         term = series[0][perm[0]]
         for i in range(1, m):
             term = term.mul_low(series[i][perm[i]], length)
@@ -142,12 +146,7 @@ def _exact_leading_terms(
         vecs = nxt
     for k in range(m, upto):
         total = 0
-        for perm in itertools.permutations(range(m)):
-            sign = 1
-            for i in range(m):
-                for j in range(i + 1, m):
-                    if perm[i] > perm[j]:
-                        sign = -sign
+        for perm, sign in _signed_permutations(m):
             # exponents j_1 + ... + j_m = k - m, entry i from G_{j_i}[i][perm[i]]
             for js in _compositions(k - m, m):
                 prod = 1
