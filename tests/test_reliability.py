@@ -646,3 +646,29 @@ def test_a_stop_signal_that_surfaces_as_an_import_error_is_reported_as_the_stop(
     assert main(["conditions"]) == 128 + signal.SIGHUP
     err = capsys.readouterr().err
     assert "hung up (SIGHUP)" in _one_line(err) and "internal error" not in err
+
+
+def test_a_stop_signal_after_the_commands_last_write_leaves_its_exit_status() -> None:
+    # the campaign of 2026-12-06: a SIGTERM to design during the interpreter's shutdown (its
+    # work done, the handlers restored to the default) killed it with -15, no stop line
+    import subprocess
+    import sys
+
+    code = (
+        "import os, signal\n"
+        "from glocal_verify.runtime.processes import stop_on_signals\n"
+        "with stop_on_signals(final=True):\n"
+        "    pass\n"
+        "os.kill(os.getpid(), signal.SIGTERM)\n"
+        "print('ended by itself')\n"
+    )
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert p.returncode == 0 and p.stdout.strip() == "ended by itself", (p.returncode, p.stderr)
+    # the command-line entry point asks for it; an in-process main() restores the handlers
+    import signal
+
+    from glocal_verify.cli import main
+
+    before = signal.getsignal(signal.SIGTERM)
+    assert main(["conditions"]) == 0
+    assert signal.getsignal(signal.SIGTERM) == before

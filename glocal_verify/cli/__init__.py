@@ -32,7 +32,7 @@ from glocal_verify.errors import GlocalVerifyError
 from glocal_verify.runtime.lines import tracked_stderr, write_line
 from glocal_verify.runtime.processes import StopRequest, Stopped, signal_name, stop_on_signals
 
-__all__ = ["main", "build_parser", "COMMAND_MODULES"]
+__all__ = ["main", "entry_point", "build_parser", "COMMAND_MODULES"]
 
 #: exit code of an internal error (a bug, never the user's input): EX_SOFTWARE of sysexits.h
 INTERNAL_ERROR = 70
@@ -72,12 +72,25 @@ def _stop_line(signum: int) -> str:
     return _STOP_LINES.get(name, f"stopped ({name})")
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line ``argv`` (default ``sys.argv[1:]``); return the exit code."""
+def entry_point() -> int:
+    """The ``glocal-verify`` process: :func:`main` on ``sys.argv[1:]`` as the process's whole work.
+
+    On return the stop signals stay ignored (``stop_on_signals(final=True)``): a ``SIGTERM``
+    during the interpreter's shutdown, after the command's last write, no longer kills the
+    process by the default action (exit -15); it ends with the command's own status.
+    """
+    return main(final=True)
+
+
+def main(argv: Sequence[str] | None = None, *, final: bool = False) -> int:
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); return the exit code.
+
+    ``final``: this call is the process's whole work (:func:`entry_point`); in-process callers
+    keep the default, which restores the previous signal handlers."""
     warnings.simplefilter("ignore", RuntimeWarning)  # overflow notes of numpy: a verdict says what they mean
     with tracked_stderr():  # so that a stop line never lands behind an unfinished line
         try:
-            with stop_on_signals(on_force=lambda signum: _say(f"{_stop_line(signum)} again: stopped at once")) as stop:
+            with stop_on_signals(on_force=lambda signum: _say(f"{_stop_line(signum)} again: stopped at once"), final=final) as stop:
                 return _run(argv, stop)
         except Stopped as exc:  # a signal between the handlers' installation and _run's own handling
             _say(_stop_line(exc.signum))

@@ -2,6 +2,6 @@
 
 import sys
 
-from glocal_verify.cli import main
+from glocal_verify.cli import entry_point
 
-sys.exit(main())
+sys.exit(entry_point())

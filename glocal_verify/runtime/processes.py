@@ -114,7 +114,7 @@ class StopRequest:
 
 
 @contextlib.contextmanager
-def stop_on_signals(on_force: Callable[[int], None] | None = None) -> Iterator[StopRequest]:
+def stop_on_signals(on_force: Callable[[int], None] | None = None, *, final: bool = False) -> Iterator[StopRequest]:
     """Turn the stop signals into :class:`Stopped` inside the block (main thread only).
 
     The first stop signal raises :class:`Stopped`; a further one while that is being handled
@@ -131,6 +131,11 @@ def stop_on_signals(on_force: Callable[[int], None] | None = None) -> Iterator[S
     ----------
     on_force : callable, optional
         Called with the signal number before a forced exit.
+    final : bool
+        The block is a process's whole work (the command line's entry point): on leaving it
+        the stop signals are ignored instead of restored, so a stop that arrives during the
+        interpreter's shutdown, after the command's last write, leaves the process to end
+        with the command's own status instead of killing it by the default action.
 
     Yields
     ------
@@ -177,7 +182,7 @@ def stop_on_signals(on_force: Callable[[int], None] | None = None) -> Iterator[S
         sys.unraisablehook = previous_hook
         for sig, h in old.items():
             with contextlib.suppress(ValueError, OSError, TypeError):
-                signal.signal(sig, h if h is not None else signal.SIG_DFL)
+                signal.signal(sig, signal.SIG_IGN if final else (h if h is not None else signal.SIG_DFL))
     if swallowed:  # the Stopped raised for it was lost where Python cannot propagate it
         raise Stopped(swallowed[0])
 
