@@ -72,6 +72,7 @@ from glocal_verify.analysis.zda import (
 )
 from glocal_verify.analysis.zda_batch import batch_directions
 from glocal_verify.analysis.zda_certificate import ZdaCertificate, sparse_kernel_certificate, zda_certificate
+from glocal_verify.analysis.zda_local import prove_local_zero
 from glocal_verify.analysis.zda_completeness import ZeroSetCompleteness, zero_set_completeness
 from glocal_verify.analysis.zda_exact import ExactZdaAnalysis, ExactZdaZero, zda_analysis_exact
 from glocal_verify.analysis.zda_screens import disjoint_paths, zero_exponent_status
@@ -427,6 +428,23 @@ def _by_minors(
     return ZdaVerdict(F, Status.HOLDS, GROWTH_PERSISTENT, True, z, source, "numeric", proof, zeros_exact=True)
 
 
+def _by_local_zero(system: System, F: tuple[Label, ...]) -> ZdaVerdict | None:
+    """Step 4b: a stealthy ZDA inside the clusters of F, found and proved exactly there.
+
+    :func:`~glocal_verify.analysis.zda_local.prove_local_zero`. One proven ZDA, not the zero
+    set: the growth is a lower bound, as for the witness of step 2 (``unbounded`` is exact).
+    """
+    pr = prove_local_zero(system, F)
+    if pr is None:
+        return None
+    g, lam = pr.zero.growth, pr.zero.value
+    return ZdaVerdict(
+        F, Status.HOLDS, GROWTH_UNBOUNDED if g == GROWTH_UNBOUNDED else "undecided", None, pr.zero,
+        f"lambda0 = {lam.real:.6g}{lam.imag:+.6g}j (a proven ZDA inside the attacked clusters; the zero set was not computed)",
+        "numeric", pr.text(), complete=False, growth_at_least=g,
+    )
+
+
 def inherited_zda(system: System, F: tuple[Label, ...], opt: ZdaOptions, memo: MutableMapping[Any, Any]) -> ZdaVerdict | None:
     """Step 3: a proven stealthy ZDA of a single member is one of F (zero input on the others).
 
@@ -531,6 +549,8 @@ def _decide(system: System, F: tuple[Label, ...], opt: ZdaOptions, memo: Mutable
             return zi
     if opt.minors is not None and (zc := _by_minors(system, F, opt, memo)) is not None:
         return zc
+    if opt.growth == "verdict" and opt.minors is not None and (zl := _by_local_zero(system, F)) is not None:
+        return zl
     if (zs := _screened(system, F, opt)) is not None:
         return zs
     v = _numeric(system, F, opt)
