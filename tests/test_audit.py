@@ -113,6 +113,12 @@ def test_audit_json_validates_against_its_schema(result: AuditResult) -> None:
         jsonschema.validate(bad, _schema())
 
 
+def test_the_streamed_json_of_an_audit_is_the_json_document_text(result: AuditResult) -> None:
+    assert "".join(result.json_chunks()) == json.dumps(result.to_json(), indent=2)
+    empty = dataclasses.replace(result, rows=())
+    assert "".join(empty.json_chunks()) == json.dumps(empty.to_json(), indent=2)
+
+
 def test_undetected_sets_come_first_in_the_summary(result: AuditResult) -> None:
     s = result.summary()
     assert s["counts"]["undetected"] == len(s["undetected"])

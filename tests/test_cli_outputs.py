@@ -200,6 +200,20 @@ def test_write_text_atomic_replaces_the_file_and_leaves_no_temporary(tmp_path: P
     assert p.read_text() == "two" and [q.name for q in p.parent.iterdir()] == ["r.txt"]
 
 
+def test_a_streamed_text_is_written_whole_or_not_at_all(tmp_path: Path) -> None:
+    p = tmp_path / "r.txt"
+    write_text_atomic(p, iter(["a", "b", "c"]))
+    assert p.read_text() == "abc"
+
+    def broken() -> Any:
+        yield "half of a new report"
+        raise RuntimeError("the producer failed")
+
+    with pytest.raises(RuntimeError):
+        write_text_atomic(p, broken())
+    assert p.read_text() == "abc" and [q.name for q in tmp_path.iterdir()] == ["r.txt"]
+
+
 # --------------------------------------------------------------------------------------------
 # spec fields never steer where files go
 

@@ -6,11 +6,11 @@ from types import MappingProxyType
 
 import argparse
 import contextlib
-import json
+import itertools
 import os
 import sys
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Iterable
 
 from glocal_verify.cli.common import (
     PROG,
@@ -109,8 +109,9 @@ def cmd_audit(args: argparse.Namespace) -> int:
         result = audit(
             system, args.max_attackers, cands, sensors, progress, exact=args.exact, growth=args.growth, chunk_size=args.chunk, executor=executor
         )
+    text: str | Iterable[str]
     if args.format == "json":
-        text = json.dumps(result.to_json(), indent=2) + "\n"
+        text = itertools.chain(result.json_chunks(), ["\n"])  # streamed: 500,500 rows are ~1.4 GB of JSON
     elif args.format == "html":
         from glocal_verify.reporting.audit_html import audit_to_html
 

@@ -95,12 +95,13 @@ def wrote(path: str | Path) -> None:
     write_line(f"wrote {path}")
 
 
-def write_output(text: str, out: str | None, *, inputs: Iterable[str] = ()) -> None:
+def write_output(text: str | Iterable[str], out: str | None, *, inputs: Iterable[str] = ()) -> None:
     """Write ``text`` to the file ``out`` atomically (and say so on stderr), or to stdout.
 
     Parameters
     ----------
-    text : str
+    text : str or iterable of str
+        The text, or its chunks (streamed: a long report is never held whole)
     out : str, optional
         Output file; None or empty: standard output.
     inputs : iterable of str
@@ -110,8 +111,11 @@ def write_output(text: str, out: str | None, *, inputs: Iterable[str] = ()) -> N
         p = check_output_file(out, inputs=inputs)
         write_text_atomic(p, text)
         wrote(p)
-    else:
+    elif isinstance(text, str):
         sys.stdout.write(text)
+    else:
+        for chunk in text:
+            sys.stdout.write(chunk)
 
 
 

@@ -35,7 +35,7 @@ import tempfile
 import unicodedata
 from pathlib import Path
 from types import TracebackType
-from typing import Iterable
+from typing import Iterable, Iterator
 
 from glocal_verify.errors import GlocalVerifyError
 from glocal_verify.runtime.processes import defer_stop_signals
@@ -288,20 +288,28 @@ def _fsync_dir(folder: Path) -> None:
         os.close(fd)
 
 
-def _write_file(path: Path, data: bytes) -> None:
-    """Write ``data`` to a new file ``path`` (which must not exist) and fsync it."""
+def _write_file(path: Path, data: bytes | Iterable[bytes]) -> None:
+    """Write ``data`` (bytes, or chunks of bytes written as they come) to a new file ``path`` (which must not exist) and fsync it."""
     fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
     try:
-        view = memoryview(data)
-        while view:
-            n = os.write(fd, view)
-            view = view[n:]
+        for chunk in (data,) if isinstance(data, (bytes, bytearray, memoryview)) else data:
+            view = memoryview(chunk)
+            while view:
+                n = os.write(fd, view)
+                view = view[n:]
         os.fsync(fd)
     finally:
         os.close(fd)
 
 
-def write_bytes_atomic(path: str | Path, data: bytes) -> Path:
+def _encoded(text: str | Iterable[str]) -> bytes | Iterator[bytes]:
+    """UTF-8 of ``text``, or of each chunk of it as it comes (a long report is never held twice)."""
+    if isinstance(text, str):
+        return text.encode("utf-8")
+    return (chunk.encode("utf-8") for chunk in text)
+
+
+def write_bytes_atomic(path: str | Path, data: bytes | Iterable[bytes]) -> Path:
     """Write ``data`` to ``path`` atomically (temporary file in the same folder, fsync,
     ``os.replace``, fsync of the folder).
 
@@ -313,7 +321,9 @@ def write_bytes_atomic(path: str | Path, data: bytes) -> Path:
     Parameters
     ----------
     path : path
-    data : bytes
+    data : bytes or iterable of bytes
+        The content, or its chunks (written as the iterable yields them; an exception or stop
+        signal while it runs leaves the previous file untouched).
 
     Returns
     -------
@@ -355,19 +365,20 @@ def write_bytes_atomic(path: str | Path, data: bytes) -> Path:
     return p
 
 
-def write_text_atomic(path: str | Path, text: str) -> Path:
+def write_text_atomic(path: str | Path, text: str | Iterable[str]) -> Path:
     """Write ``text`` (UTF-8) to ``path`` atomically (:func:`write_bytes_atomic`).
 
     Parameters
     ----------
     path : path
-    text : str
+    text : str or iterable of str
+        The text, or its chunks (streamed: a long report is never held whole).
 
     Returns
     -------
     Path
     """
-    return write_bytes_atomic(path, text.encode("utf-8"))
+    return write_bytes_atomic(path, _encoded(text))
 
 
 # --------------------------------------------------------------------------------------------
@@ -455,13 +466,14 @@ class OutputFolder:
         _refuse_input(self.dest / name, self.inputs, str(self.dest / name))
         return self.dest / name
 
-    def write_bytes(self, name: str, data: bytes) -> Path:
+    def write_bytes(self, name: str, data: bytes | Iterable[bytes]) -> Path:
         """Stage ``data`` as file ``name``; return its final path.
 
         Parameters
         ----------
         name : str
-        data : bytes
+        data : bytes or iterable of bytes
+            The content, or its chunks (streamed).
         """
         final = self.path(name)
         if self._stage is None:
@@ -476,15 +488,16 @@ class OutputFolder:
             self._names.append(name)
         return final
 
-    def write_text(self, name: str, text: str) -> Path:
+    def write_text(self, name: str, text: str | Iterable[str]) -> Path:
         """Stage ``text`` (UTF-8) as file ``name``; return its final path.
 
         Parameters
         ----------
         name : str
-        text : str
+        text : str or iterable of str
+            The text, or its chunks (streamed).
         """
-        return self.write_bytes(name, text.encode("utf-8"))
+        return self.write_bytes(name, _encoded(text))
 
     def _discard(self, *, created_too: bool) -> None:
         if self._stage is not None:
