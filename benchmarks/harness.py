@@ -70,12 +70,15 @@ class Measured:
         return f"{self.cpu_seconds:.1f} CPU-s{code}"
 
 
-def run_command(argv: Sequence[str], *, timeout: float, cwd: str | None = None) -> Measured:
+def run_command(argv: Sequence[str], *, timeout: float, cwd: str | None = None, tree: bool = False) -> Measured:
     """Run ``argv`` in a child process (stdout and stderr discarded) and measure it.
 
     Peak memory is the child's own high-water mark (VmHWM of /proc, read every 0.1 s while it
-    runs; a last-moment peak may be missed), else ``ru_maxrss`` from ``os.wait4``. A child still running
-    after ``timeout`` seconds is killed (by its pid) and reported as timed out.
+    runs; a last-moment peak may be missed), else ``ru_maxrss`` from ``os.wait4``; with
+    ``tree`` (a command that starts worker processes, e.g. ``--workers``) the largest sum of
+    the resident sets of the child and all its descendants seen at those reads (psutil, a
+    dependency of Dask), when that is larger. A child still running after ``timeout`` seconds
+    is killed (by its pid) and reported as timed out.
     """
     t0 = time.perf_counter()
     proc = subprocess.Popen(list(argv), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=cwd)
@@ -85,7 +88,7 @@ def run_command(argv: Sequence[str], *, timeout: float, cwd: str | None = None) 
         pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
         if pid == proc.pid:
             break
-        hwm = max(hwm, _vm_hwm_mib(proc.pid))
+        hwm = max(hwm, _vm_hwm_mib(proc.pid), _tree_rss_mib(proc.pid) if tree else 0.0)
         if time.perf_counter() - t0 > timeout:
             timed_out = True
             proc.kill()
@@ -99,6 +102,24 @@ def run_command(argv: Sequence[str], *, timeout: float, cwd: str | None = None) 
     # while it runs) is used where /proc has it
     peak = hwm if hwm > 0 else usage.ru_maxrss / 1024.0
     return Measured(dt, usage.ru_utime + usage.ru_stime, peak, None if timed_out else proc.returncode, timed_out)
+
+
+def _tree_rss_mib(pid: int) -> float:
+    """The resident memory of a process and all its descendants now, in MiB (0 if it is gone)."""
+    import psutil
+
+    try:
+        root = psutil.Process(pid)
+        procs = [root, *root.children(recursive=True)]
+    except psutil.Error:
+        return 0.0
+    total = 0
+    for p in procs:
+        try:
+            total += p.memory_info().rss
+        except psutil.Error:
+            continue
+    return total / 2**20
 
 
 def _vm_hwm_mib(pid: int) -> float:
