@@ -505,6 +505,21 @@ def test_design_refuses_a_safe_mode_phase_above_the_limits_with_its_estimate_bef
     assert "designing safe modes" not in err and not (tmp_path / "d.toml").exists()
 
 
+def test_designs_monitor_step_is_estimated_per_round_and_per_unexposed_set() -> None:
+    # the clustered check of 2026-12-06: a design of 42 agents spent 33 s per monitor round on
+    # 107 unexposed sets, after an up-front estimate of 6 s that did not count the step
+    from glocal_verify.conditions.cost import SpecSizes, estimate_monitor_step, estimate_safe_modes
+    from glocal_verify.design.generators import random_clustered_spec
+
+    sizes = SpecSizes.from_spec(random_clustered_spec(42, 4, seed=953938))
+    one = estimate_monitor_step(sizes, 107, 1, exact=True)
+    three = estimate_monitor_step(sizes, 107, 3, exact=True)
+    start = three.seconds - sum(v for _, v in three.phases)  # the start-up constant, once
+    assert abs((three.seconds - start) - 3 * (one.seconds - start)) <= 1e-9 * three.seconds
+    assert 10.0 <= one.seconds <= 120.0 and "107 unexposed attack sets" in one.describe()
+    assert one.seconds > estimate_safe_modes(sizes, 107, exact=True).seconds
+
+
 def test_safe_modes_for_120_targets_are_confirmed_without_an_exact_run_per_set(monkeypatch: pytest.MonkeyPatch) -> None:
     # the clustered check of 2026-12-05: a design of 80 agents with 2,393 targets confirmed
     # each claimed set with a checker run whose computed lambda0 = 0 could not be certified,

@@ -48,6 +48,7 @@ __all__ = [
     "estimate_audit",
     "audit_set_seconds",
     "estimate_design",
+    "estimate_monitor_step",
     "estimate_safe_modes",
     "refusal",
     "check_limits",
@@ -697,6 +698,50 @@ def estimate_safe_modes(sizes: SpecSizes, targets: int, *, exact: bool = False) 
     if exact:
         per *= float(config.get("safe_mode_check_exact_factor"))
     phases = {f"checks of {targets} undetected attack sets against the proposed modes": per * max(0, int(targets))}
+    return _estimate("design", n, phases, B_BASE + A_AUDIT * _dense(n), A_AUDIT)
+
+
+def estimate_monitor_step(sizes: SpecSizes, targets: int, monitors: int, *, exact: bool = False) -> CostEstimate:
+    """Seconds and peak memory of ``design``'s monitor step: up to ``monitors`` rounds for ``targets`` unexposed sets.
+
+    Each round audits the sets left (their witness directions place the monitor), then designs
+    safe modes for them again, which audits them once more for their exponents and checks
+    each against the proposed modes:
+
+    .. math::
+
+        t = R\,T\,\big(2\,(C_{hard,0} + C_{hard}\,g(N)) + t_{check}\big),\qquad m = B_{base} + 8 N^2 A_{audit}
+
+    with R rounds, T targets, :math:`t_{check}` the check of :func:`estimate_safe_modes`,
+    :math:`g(N) = N^3` up to ``growth_full_max_agents`` (every such set gets its whole zero
+    set there) and :math:`N^2` above, and the tunables ``monitor_step_set_seconds``
+    (:math:`C_{hard,0}`) and ``monitor_step_set_seconds_g`` (:math:`C_{hard}`). These sets
+    are the hard ones (stealthy, undetected, not exposed): measured 73-80 ms each per audit at
+    N = 42 on a shared machine, against 14 ms for the average set of the same audit. An
+    upper bound: a round that detects every set ends the step.
+
+    Parameters
+    ----------
+    sizes : SpecSizes
+    targets : int
+        Attack sets no safe mode exposes.
+    monitors : int
+        The monitor budget (rounds at most).
+    exact : bool
+        The safe-mode checks run over Q.
+
+    Returns
+    -------
+    CostEstimate
+    """
+    n = sizes.n
+    g = float(n) ** 3 if n <= config.get("growth_full_max_agents") else float(n) ** 2
+    per_audit = float(config.get("monitor_step_set_seconds")) + float(config.get("monitor_step_set_seconds_g")) * g
+    check = float(config.get("safe_mode_check_seconds")) + float(config.get("safe_mode_check_seconds_n2")) * float(n) ** 2
+    if exact:
+        check *= float(config.get("safe_mode_check_exact_factor"))
+    t = max(0, int(targets))
+    phases = {f"up to {monitors} monitor round(s) for {t} unexposed attack sets": max(0, int(monitors)) * t * (2.0 * per_audit + check)}
     return _estimate("design", n, phases, B_BASE + A_AUDIT * _dense(n), A_AUDIT)
 
 

@@ -44,7 +44,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from glocal_verify.conditions.cost import CostEstimate, SpecSizes, estimate_safe_modes
+from glocal_verify.conditions.cost import CostEstimate, SpecSizes, estimate_monitor_step, estimate_safe_modes
 from glocal_verify.design.audit import AuditResult, audit
 from glocal_verify.design.monitors import MonitorDesign, design_monitors
 from glocal_verify.design.placement import ObserverProposal, place_cluster
@@ -268,7 +268,9 @@ def design_network(
     admit : callable, optional
         Called with the estimate of the safe-mode phase
         (:func:`glocal_verify.conditions.cost.estimate_safe_modes`) once the audit with the
-        observers has counted the undetected sets, before the phase starts; it may raise
+        observers has counted the undetected sets, before the phase starts, and with that of
+        the monitor step (:func:`glocal_verify.conditions.cost.estimate_monitor_step`) once the
+        safe modes leave sets unexposed; it may raise
         (:class:`~glocal_verify.conditions.cost.SizeLimitError`) to refuse the run.
 
     Returns
@@ -302,6 +304,8 @@ def design_network(
     added: list[tuple[Label, tuple[Label, ...]]] = []
     if safe.unexposed and monitor_budget > 0:
         pending = [F for F in targets if ",".join(map(str, F)) in safe.unexposed]
+        if admit is not None:
+            admit(estimate_monitor_step(SpecSizes.from_spec(spec), len(pending), monitor_budget, exact=mid_sys.n <= SAFE_MODES_EXACT_MAX_AGENTS))
         spec, added, safe = _monitor_unexposed(spec, pending, monitor_budget, safe, budget, weights, max_links, say, tick)
     final = System(spec)
     say("choosing the global monitors")
