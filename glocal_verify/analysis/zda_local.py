@@ -35,6 +35,7 @@ about zeros whose directions leave it.
 
 from __future__ import annotations
 
+import cmath
 import random
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -46,10 +47,12 @@ import numpy as np
 
 from glocal_verify import config
 from glocal_verify.analysis.twins import laplacian_entries
-from glocal_verify.analysis.zda import GROWTH_DECAYING, GROWTH_PERSISTENT, GROWTH_UNBOUNDED, ZdaZero, normalize_direction
+from glocal_verify.analysis.zda import GROWTH_DECAYING, GROWTH_PERSISTENT, GROWTH_UNBOUNDED, ModalPencil, ZdaZero, normalize_direction
 from glocal_verify.errors import ModelError
 from glocal_verify.model import System
+from glocal_verify.numerics.minors import twin_modes
 from glocal_verify.numerics.pencil_exact import classify_real_parts, eval_at_root, kernel_over_field
+from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
 from glocal_verify.spec.types import NORMAL_MODE, Label
 
 __all__ = ["LocalZeroProof", "prove_local_zero"]
@@ -73,17 +76,20 @@ class LocalZeroProof:
         g(x), irreducible over Q.
     support : tuple of labels
         S, the agents where xi may be nonzero.
+    where : str
+        What S is, for the witness.
     """
 
     zero: ZdaZero
     minimal_polynomial: str
     support: tuple[Label, ...]
+    where: str = "the attacked clusters"
 
     def text(self) -> str:
         """One line for a witness."""
         lam = self.zero.value
         return (
-            f"an exact kernel vector with u0 != 0 of the pencil restricted to the {len(self.support)} agents of the attacked clusters, "
+            f"an exact kernel vector with u0 != 0 of the pencil restricted to the {len(self.support)} agents of {self.where}, "
             f"over Q[x]/({self.minimal_polynomial}): a stealthy ZDA at each of its roots (lambda0 = {lam.real:.6g}{lam.imag:+.6g}j, "
             f"{self.zero.growth}; exact)"
         )
@@ -157,29 +163,43 @@ def _det_poly(B: Any, C: Any) -> Any:
     return None
 
 
-def prove_local_zero(system: System, F: tuple[Label, ...]) -> LocalZeroProof | None:
-    """The fastest-growing stealthy ZDA whose direction stays in the clusters of F, proved exactly, or None.
+def prove_local_zero(system: System, F: tuple[Label, ...], tol: Tolerance = DEFAULT_TOLERANCE) -> LocalZeroProof | None:
+    """The fastest-growing stealthy ZDA found inside the clusters of F, or at a known rational s0, proved exactly; or None.
+
+    First the clusters of F, then those of F and its neighbours (:func:`_supports`); then, at
+    each rational s0 where a mode of L_1 vanishes off a few agents (:func:`_rational_candidates`:
+    twin eigenvalues, leaves of a monitored agent), the support of the computed direction
+    with its neighbours: such a zero's direction may spread over hundreds of agents (175 at
+    N = 1000 on the benchmark network).
 
     Parameters
     ----------
     system : System
     F : tuple of labels
         The attacked actuators.
+    tol : Tolerance
+        Only to compute and cut the candidate direction of the last step (nothing numeric
+        enters the proof).
 
     Returns
     -------
     LocalZeroProof or None
-        None proves nothing (no such zero, clusters too large, or an agent of F in no cluster).
+        None proves nothing.
     """
+    Fi = system.idx(F)
     for S in _supports(system, F):
-        found = _fastest_local_zero(system, system.idx(F), S)
+        found = _fastest_local_zero(system, Fi, S)
+        if found is not None:
+            return found
+    for s0 in _rational_candidates(system):
+        found = _zero_at(system, F, s0, tol)
         if found is not None:
             return found
     return None
 
 
 def _fastest_local_zero(system: System, Fi: Sequence[int], S: Sequence[int]) -> LocalZeroProof | None:
-    """:func:`prove_local_zero` on one candidate set S."""
+    """:func:`prove_local_zero` on one candidate set S: every zero of Q_S, the fastest proved one."""
     Bq, Cq = _local_pencil(system, Fi, S)
     r, ncols = len(Bq), len(S) + len(Fi)
     if r < ncols:
@@ -197,28 +217,87 @@ def _fastest_local_zero(system: System, Fi: Sequence[int], S: Sequence[int]) -> 
     assert g is not None
     if g.degree() <= 0:
         return None
+    best: LocalZeroProof | None = None
+    for phi, _ in g.factor()[1]:
+        pr = _proof_at(system, Fi, S, Bq, Cq, phi, "the attacked clusters")
+        if pr is not None and (best is None or _speed(pr) > _speed(best)):
+            best = pr
+    return best
+
+
+def _speed(pr: LocalZeroProof) -> tuple[int, float]:
+    return {GROWTH_UNBOUNDED: 1, GROWTH_PERSISTENT: 0}.get(pr.zero.growth, -1), pr.zero.value.real
+
+
+def _proof_at(system: System, Fi: Sequence[int], S: Sequence[int], Bq: Any, Cq: Any, phi: Any, where: str) -> LocalZeroProof | None:
+    """A kernel vector of Q_S with u != 0 over Q[s]/(phi) (phi irreducible), as a proof at the fastest root lambda0; or None.
+
+    Every root lambda of a factor psi(x) of phi(x^2 + gamma x) other than x has s(lambda) a
+    root of phi, so the kernel vector over Q[s]/(phi) is one at lambda (lambda != 0).
+    """
+    ncols = len(S) + len(Fi)
+    rows = [[flint.fmpq_poly([_fq(c), _fq(b)]) % phi for b, c in zip(brow, crow)] for brow, crow in zip(Bq, Cq)]
+    basis = kernel_over_field(rows, phi, ncols).basis
+    vec = next((v for v in basis if any(not e.is_zero() for e in v[len(S):])), None)
+    if vec is None:
+        return None
     x = flint.fmpq_poly([0, 1])
     s_of_x = x * x + _fq(system.gamma_q) * x
-    rows = [[flint.fmpq_poly(_fq(c)) + (s_of_x if b else 0) for b, c in zip(brow, crow)] for brow, crow in zip(Bq, Cq)]
-    best: tuple[int, float, Any, Any, complex] | None = None
-    for phi, _ in g.factor()[1]:
-        for psi, _ in phi(s_of_x).factor()[1]:
-            if psi == x:
-                continue  # lambda0 = 0: other outputs, decided elsewhere
-            basis = kernel_over_field([[e % psi for e in row] for row in rows], psi, ncols).basis
-            vec = next((v for v in basis if any(not e.is_zero() for e in v[len(S):])), None)
-            if vec is None:
-                continue
-            root, sign = max(classify_real_parts(psi), key=lambda rs: (rs[1], rs[0].real))
-            if best is None or (sign, root.real) > best[:2]:
-                best = (sign, root.real, psi, vec, root)
+    best: tuple[int, float, Any, complex] | None = None
+    for psi, _ in phi(s_of_x).factor()[1]:
+        if psi == x:
+            continue  # lambda0 = 0: other outputs, decided elsewhere
+        root, sign = max(classify_real_parts(psi), key=lambda rs: (rs[1], rs[0].real))
+        if best is None or (sign, root.real) > best[:2]:
+            best = (sign, root.real, psi, root)
     if best is None:
         return None
-    sign, _, psi, vec, root = best
-    v = eval_at_root(list(vec), psi, root)
+    sign, _, psi, root = best
+    lam = complex(root)
+    s_val = lam * lam + system.gamma * lam
+    v = eval_at_root(list(vec), phi, s_val)
     xi = np.zeros(system.n, dtype=complex)
-    xi[S] = v[: len(S)]
+    xi[list(S)] = v[: len(S)]
     xi_n, u_n = normalize_direction(xi, np.asarray(v[len(S):]))
+    z = ZdaZero(lam, s_val, xi_n, u_n, 0.0, _GROWTH_BY_SIGN[sign])
+    return LocalZeroProof(z, str(psi), tuple(system.labels[k] for k in S), where)
+
+
+def _rational_candidates(system: System) -> list[Fraction]:
+    """Rational s0 = -alpha mu where L_1 has a mode on a few agents: twin eigenvalues, leaves of a monitored agent.
+
+    At such an s0 the grounded matrix s I + alpha L_1[U, U] is singular with a kernel off most
+    agents, and zeros of the pencil with u != 0 are common there (a leaf on a hub, two leaves
+    of one hub); the minors' common factor on the benchmark network of 1000 agents was s + 1
+    for about a fifth of its agents.
+    """
+    out: list[Fraction] = []
+    a = system.alpha_q
+    for mu, _pairs in twin_modes(system.n, laplacian_entries(system, NORMAL_MODE), system.idx(system.monitored)):
+        out.append(-a * Fraction(mu))
+    monitored = set(system.monitored)
+    for m in monitored:
+        for b in system.neighbours(m):
+            if b not in monitored and all(c in monitored for c in system.neighbours(b)):
+                w = sum((system.edges().get(frozenset((b, c)), Fraction(0)) for c in system.neighbours(b)), Fraction(0))
+                out.append(-a * w)
+    return [s0 for s0 in dict.fromkeys(out) if s0 != 0]
+
+
+def _zero_at(system: System, F: tuple[Label, ...], s0: Fraction, tol: Tolerance) -> LocalZeroProof | None:
+    """A stealthy ZDA at the rational s0, on the support of the computed direction and its neighbours."""
     gamma = system.gamma
-    z = ZdaZero(complex(root), complex(root) ** 2 + gamma * complex(root), xi_n, u_n, 0.0, _GROWTH_BY_SIGN[sign])
-    return LocalZeroProof(z, str(psi), tuple(system.labels[k] for k in S))
+    lam = (-gamma + cmath.sqrt(gamma * gamma + 4 * float(s0))) / 2
+    found = ModalPencil(system, F, tol).direction(lam)[0]
+    if found is None or found[3] is not Decision.ZERO or found[4] is not Decision.NONZERO:
+        return None
+    xi = np.abs(np.asarray(found[0]))
+    big = float(np.max(xi, initial=0.0))
+    core = [int(k) for k in np.flatnonzero(xi > tol.rtol * big)] if big > 0 else []
+    ring = {int(j) for k in core for j in system.idx(system.neighbours(system.labels[k]))}
+    S = sorted(set(core) | ring)
+    if not core or len(S) > config.get("local_zero_support_max_agents"):
+        return None
+    Fi = system.idx(F)
+    Bq, Cq = _local_pencil(system, Fi, S)
+    return _proof_at(system, Fi, S, Bq, Cq, flint.fmpq_poly([_fq(-s0), 1]), "the support of the computed direction")

@@ -506,7 +506,10 @@ def full_rank_certificate(
 
             def with_extra() -> Any:
                 for j in extra:  # one per component of G[U] first (each breaks that component's det K_c)
-                    yield from ((Ip + [j], rows) for rows in itertools.islice(itertools.combinations(Mp, k + 1), 1))
+                    # the output rows nearest to j: a row that reaches j's component makes the
+                    # minor nonzero (the first rows in order may not, e.g. for a leaf of one monitor)
+                    near = sorted(Mp, key=lambda q: (int(tables.distance[q, j]), q))[: k + 1]
+                    yield (Ip + [j], sorted(near))
                 for j in extra[:config.get("minor_max_row_choices")]:
                     yield from ((Ip + [j], rows) for rows in itertools.islice(itertools.combinations(Mp, k + 1), 1, 3))
 

@@ -117,3 +117,13 @@ def test_the_audit_decides_singles_whose_zeros_sit_in_a_neighbouring_cluster() -
     assert row.stealthy is True
     assert "restricted to the" in row.witness["zda_proof"]
     assert _agrees_with_exact(s, (59,))
+
+
+def test_a_zero_whose_direction_leaves_the_attacked_clusters_is_proved_at_its_rational_frequency() -> None:
+    # 100 agents, 5 clusters: agent 44's zero sits at s0 = -3 (the weight of a twin pair) with a
+    # direction on 26 agents, beyond the clusters of 44 and of its neighbours
+    s = System(random_clustered_spec(100, 5, seed=8))
+    pr = prove_local_zero(s, (44,))
+    assert pr is not None and pr.where == "the support of the computed direction"
+    assert abs(pr.zero.s - (-3)) < 1e-9
+    assert _agrees_with_exact(s, (44,))
