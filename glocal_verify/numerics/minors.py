@@ -447,8 +447,10 @@ def full_rank_certificate(
         cache[pkey0] = _PolyTable(tables, cache)
     polys = cache[pkey0]
 
-    def minor(replaced: Sequence[int], rows: Sequence[int]) -> Any:
+    def minor(replaced: Sequence[int], rows: Sequence[Any]) -> Any:
         """The maximal minor with the rows ``replaced`` of K taken from alpha L[rows, U]."""
+        if rows and rows[0] == "combination":
+            return _random_combination(tables, cache, list(replaced), Mp, int(rows[1])) / (cache[("K^", tables, k)] if ("K^", tables, k) in cache else cache.setdefault(("K^", tables, k), detK**k))
         r = len(replaced)
         if r == 0:
             return detK
@@ -471,9 +473,11 @@ def full_rank_certificate(
         except DomainError:
             raise ArithmeticError("a maximal minor is not divisible by det K^(k-1): the numerator tables are inconsistent") from None
 
-    def bound(replaced: Sequence[int], rows: Sequence[int]) -> int | None:
+    def bound(replaced: Sequence[int], rows: Sequence[Any]) -> int | None:
         """An upper bound of the degree of that minor (from the distances in G[U]); needed only
         until one minor of known exact degree is found."""
+        if rows and rows[0] == "combination":
+            return None
         r = len(replaced)
         if r == 0:
             return n
@@ -513,6 +517,10 @@ def full_rank_certificate(
                 for j in extra[:config.get("minor_max_row_choices")]:
                     yield from ((Ip + [j], rows) for rows in itertools.islice(itertools.combinations(Mp, k + 1), 1, 3))
 
+            if extra_rows is None:
+                # random combinations of these minors and of every other choice of rows: with
+                # high probability they keep only the common factors of all the maximal minors
+                yield from ((Ip, ("combination", trial)) for trial in range(config.get("minor_random_combinations")))
             yield from (with_extra() if extra_rows is None else itertools.islice(with_extra(), extra_rows))
 
     twin = _twin_factor(tables, cache) if modulo_twins and tables.twins else None
@@ -548,9 +556,52 @@ def full_rank_certificate(
     if first is None or g is None or g.degree() != twin_deg:
         return None
     texts = tuple(
-        "det K" if not rep else f"rows {tuple(tables.grounded[f] for f in rep)} -> {tuple(tables.measured[q] for q in rows)}" for rep, rows in used
+        "det K" if not rep else (f"rows {tuple(tables.grounded[f] for f in rep)} and a random combination of the others -> random combinations of the outputs"
+                                 if rows and rows[0] == "combination" else f"rows {tuple(tables.grounded[f] for f in rep)} -> {tuple(tables.measured[q] for q in rows)}")
+        for rep, rows in used
     )
     return MinorCertificate(tables.prime, texts, int(first[1]), twin.degree() if twin is not None else 0)  # type: ignore[arg-type]
+
+
+def _random_combination(tables: GroundedTables, cache: MutableMapping[Any, Any], Ip: list[int], Mp: Sequence[int], trial: int) -> Any:
+    """det of the (k + 1) x (k + 1) matrix of numerators for the rows I' and one random combination e of the other rows of K,
+    against k + 1 random combinations c_r of the output rows M' (modulo p, times det K^k).
+
+    The maximal minor with replaced rows I' ∪ {j} and output rows (q_0, .., q_k) is
+    det[N_{q_r, x}] / det K^k, x in I' ∪ {j}. It is linear in the row taken for j and, row by
+    row, in the output rows, so sum_j e_j sum_q c_{0 q_0} .. c_{k q_k} (minor) is the
+    determinant with N_{q_r, x} replaced by A_r[x] = sum_q c_{r q} N_{q, x} and the column j by
+    sum_j e_j A_r[j]: a combination of maximal minors with coefficients in F_p. Every common
+    factor of the minors, reduced modulo p, divides it, so it may enter the gcd of
+    :func:`full_rank_certificate`; and with random coefficients it has, with high probability,
+    no common root with them except theirs (it broke every leftover factor of the singles of
+    the 1000-agent benchmark network, whose chosen minors kept a factor s + 1 or s + 3).
+    The coefficients come from a generator seeded by the trial, the prime and the output rows.
+    """
+    from flint import nmod_poly
+
+    p, k = tables.prime, len(Ip)
+    key = ("combined-rows", tables, tuple(Mp), trial, k)
+    if key not in cache:
+        rng = np.random.default_rng((trial, p, len(Mp), k))
+        mats = []
+        for _ in range(k + 1):
+            c = rng.integers(1, p, len(Mp))
+            acc = np.zeros(tables.numerators.shape[1:], dtype=np.int64)
+            for cq, q in zip(c.tolist(), Mp):
+                acc = (acc + cq * tables.numerators[q]) % p  # entries < p^2 < 2^52
+            mats.append(acc)
+        cache[key] = (mats, rng.integers(1, p, len(tables.grounded)))
+    mats, e_all = cache[key]
+    e = e_all.copy()
+    e[Ip] = 0
+    entries = []
+    for A in mats:
+        comb = np.zeros(A.shape[1], dtype=np.int64)
+        for lo in range(0, len(e), 4096):  # partial sums stay below 2^63 (4096 products < 2^52 each)
+            comb = (comb + e[lo : lo + 4096] @ A[lo : lo + 4096]) % p
+        entries.append([nmod_poly(A[x].tolist(), p) for x in Ip] + [nmod_poly(comb.tolist(), p)])
+    return _det(entries)
 
 
 def _twin_factor(tables: GroundedTables, cache: MutableMapping[Any, Any]) -> Any:
