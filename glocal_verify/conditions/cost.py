@@ -152,15 +152,18 @@ A_PLACE_CLUSTER = 18.0
 #: A set whose minor certificate fails gets the whole O(N^3) zero-set analysis when a safe mode
 #: may expose it; how many do is not known from the sizes (none on the 50-cluster network, a
 #: fifth of the pairs on the 3-cluster N = 300 one, whose audit the estimate puts 3x low). The
-#: whole N = 1000 audit (50 clusters, k = 2, JSON): 29 min and 9.2 GB peak (estimate 27 min).
+#: whole N = 1000 audit (50 clusters, k = 2, JSON, 2 workers): 641 s and 11.9 GiB summed over the
+#: processes on 2026-12-06 (estimate 7.3 min); a single costs about 0.15 s there since the minors'
+#: random combinations and the local zero search decide it (it was 1.2 s, the whole zero set), a
+#: pair about 1 ms (one core, nothing else running).
 C_AUDIT_SETUP = 1.2e-8
 C_AUDIT_AGENT = 3e-3
 C_AUDIT_AGENT_N = 1.3e-5
 C_AUDIT_AGENT_LOCAL = 4.5e-8
 C_AUDIT_SINGLE_0 = 5e-3
-C_AUDIT_SINGLE = 1.2e-9
+C_AUDIT_SINGLE = 1.2e-10
 C_AUDIT_SET = 2e-4
-C_AUDIT_SET_SQ = 4e-10
+C_AUDIT_SET_SQ = 8e-10
 C_AUDIT_SET_INTRA = 4e-4
 C_AUDIT_SET_LOCAL = 4e-9
 #: the safe modes' part of a row: each set is tested against every safe mode that meets
@@ -172,8 +175,11 @@ C_AUDIT_SET_LOCAL = 4e-9
 #: with 20 such modes took no longer than with 2), so this term is an upper estimate there
 C_AUDIT_SET_MODE = 1.5e-3
 #: audit memory: N x N arrays (eigenvectors, minor tables: 136 MB at N = 1000) and bytes per row
-#: held until the report is written: 3.5 kB per row with the shared memo (traced), and the JSON
-#: text and its dict built at the end (9.2 GB peak for 500,500 rows at N = 1000)
+#: held until the report is written: 3.5 kB per row with the shared memo (traced), about 6 kB
+#: once received from a worker; the JSON is streamed row by row, yet the N = 1000 audit of
+#: 500,500 rows peaked at 11.9 GiB over its three processes (the estimate, 8.8 GiB, errs low
+#: there: what holds the rest is not yet known; a larger B_AUDIT_ROW would refuse audits of
+#: 250 agents under 1 GiB that need far less)
 A_AUDIT = 20.0
 B_AUDIT_ROW = 18_000.0
 #: writing a row (JSON or Markdown text): seconds (a 960 MB JSON of 500,500 rows took about 100 s)
@@ -579,13 +585,14 @@ def estimate_audit(sizes: SpecSizes, k: int, candidates: int | None = None, *, e
 
     with the constants of this module (:data:`C_AUDIT_SETUP` = 1.2e-8, :data:`C_AUDIT_AGENT` =
     3e-3, :data:`C_AUDIT_AGENT_N` = 1.3e-5, :data:`C_AUDIT_AGENT_LOCAL` = 4.5e-8,
-    :data:`C_AUDIT_SINGLE_0` = 5e-3, :data:`C_AUDIT_SINGLE` = 1.2e-9, :data:`C_AUDIT_SET` = 2e-4,
-    :data:`C_AUDIT_SET_SQ` = 4e-10, :data:`C_AUDIT_SET_INTRA` = 4e-4, :data:`C_AUDIT_SET_LOCAL`
+    :data:`C_AUDIT_SINGLE_0` = 5e-3, :data:`C_AUDIT_SINGLE` = 1.2e-10, :data:`C_AUDIT_SET` = 2e-4,
+    :data:`C_AUDIT_SET_SQ` = 8e-10, :data:`C_AUDIT_SET_INTRA` = 4e-4, :data:`C_AUDIT_SET_LOCAL`
     = 4e-9, :data:`C_AUDIT_SET_MODE` (``C_mode``, S safe modes) = 1.5e-3,
     :data:`C_AUDIT_ROW_OUT` = 2e-4 s (writing each row), :data:`A_AUDIT` = 20,
     :data:`B_AUDIT_ROW` = 18 kB); ``exact`` multiplies the per-set seconds by
     :data:`F_AUDIT_EXACT`. Measured: the whole N = 1000 audit on 50 clusters with JSON output
-    took 29 min and 9.2 GB (estimate 27 min, 9.4 GB); N = 200 on 10 clusters 8 s in the
+    on 2 workers took 641 s and 11.9 GiB over its processes (estimate 7.3 min, 8.8 GiB; before
+    the singles were decided by minors and local zeros: 29 min and 9.2 GB); N = 200 on 10 clusters 8 s in the
     library, about 20 s with JSON from the command line (estimate 17 s); 27 min at N = 300 on
     3 clusters, where a fifth of the pairs need the whole zero set (estimate 10 min).
 

@@ -276,7 +276,11 @@ def run_on_dask(client: Any, tasks: Sequence[Callable[[], T]]) -> Iterator[tuple
     else:
         futures = {client.submit(_call, t, pure=False): i for i, t in enumerate(tasks)}
     for fut in as_completed(list(futures)):
-        yield futures[fut], fut.result()
+        i = futures.pop(fut)
+        result = fut.result()
+        fut.release()  # a finished task's result leaves the worker at once (an audit's rows are ~1 GB)
+        del fut
+        yield i, result
 
 
 def _common_shared(tasks: Sequence[Any]) -> Any:
