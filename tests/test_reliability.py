@@ -508,7 +508,8 @@ def test_design_refuses_a_safe_mode_phase_above_the_limits_with_its_estimate_bef
 def test_designs_monitor_step_is_estimated_per_round_and_per_unexposed_set() -> None:
     # the clustered check of 2026-12-06: a design of 42 agents spent 33 s per monitor round on
     # 107 unexposed sets, after an up-front estimate of 6 s that did not count the step
-    from glocal_verify.conditions.cost import SpecSizes, estimate_monitor_step, estimate_safe_modes
+    from glocal_verify.conditions.cost import SpecSizes
+    from glocal_verify.conditions.design_cost import estimate_monitor_step, estimate_safe_modes
     from glocal_verify.design.generators import random_clustered_spec
 
     sizes = SpecSizes.from_spec(random_clustered_spec(42, 4, seed=953938))

@@ -40,6 +40,7 @@ import random
 from collections.abc import Sequence
 from dataclasses import dataclass
 from fractions import Fraction
+from types import MappingProxyType
 from typing import Any
 
 import flint
@@ -57,7 +58,7 @@ from glocal_verify.spec.types import NORMAL_MODE, Label
 
 __all__ = ["LocalZeroProof", "prove_local_zero"]
 
-_GROWTH_BY_SIGN = {1: GROWTH_UNBOUNDED, 0: GROWTH_PERSISTENT, -1: GROWTH_DECAYING}
+_GROWTH_BY_SIGN = MappingProxyType({1: GROWTH_UNBOUNDED, 0: GROWTH_PERSISTENT, -1: GROWTH_DECAYING})
 #: seed of the random combinations W (fixed: the same network gets the same proof)
 _SEED = 20261206
 

@@ -38,6 +38,8 @@ from glocal_verify.errors import ModelError
 from glocal_verify.spec.types import SystemSpec
 
 __all__ = [
+    "dense_bytes",
+    "phase_estimate",
     "SizeLimitError",
     "SpecSizes",
     "CostEstimate",
@@ -48,8 +50,6 @@ __all__ = [
     "estimate_audit",
     "audit_set_seconds",
     "estimate_design",
-    "estimate_monitor_step",
-    "estimate_safe_modes",
     "refusal",
     "check_limits",
     "format_seconds",
@@ -366,12 +366,14 @@ class CostEstimate:
         return f"{format_seconds(self.seconds)}{extra} and {format_bytes(self.bytes)}{inner}"
 
 
-def _estimate(command: str, n: int, phases: dict[str, float], nbytes: float, arrays: float, extra: float = 0.0) -> CostEstimate:
+def phase_estimate(command: str, n: int, phases: dict[str, float], nbytes: float, arrays: float, extra: float = 0.0) -> CostEstimate:
+    """A :class:`CostEstimate` from named phases (seconds), with the start-up constant :data:`C_START` once."""
     ordered = tuple(sorted(((k, float(v)) for k, v in phases.items() if v > 0), key=lambda kv: -kv[1]))
     return CostEstimate(command, n, C_START + sum(v for _, v in ordered), float(nbytes), float(arrays), ordered, float(extra))
 
 
-def _dense(n: int) -> float:
+def dense_bytes(n: int) -> float:
+    """Bytes of one dense N x N float64 array."""
     return 8.0 * float(n) ** 2
 
 
@@ -473,9 +475,9 @@ def estimate_verify(
     if simulate and "switching.detects" in ids and n > 150:
         phases["switching.detects simulations"] = C_SIMULATE * n3 * max(1, S)
     arrays = ((A_GLOBAL_BLOCKS if sizes.block_built else A_GLOBAL) + A_GLOBAL_MODE * fresh) if glob else A_LOCAL_ONLY
-    nbytes = B_BASE + arrays * _dense(n)
+    nbytes = B_BASE + arrays * dense_bytes(n)
     if uio:
-        nbytes += sum((A_UIO if exact or m < 2 * modal_min else A_UIO_MODAL) * d * _dense(m) for m, d in _designs(sizes))
+        nbytes += sum((A_UIO if exact or m < 2 * modal_min else A_UIO_MODAL) * d * dense_bytes(m) for m, d in _designs(sizes))
     if exact:
         if "central.observer" in ids:
             phases["exact central.observer"] = exact_seconds("central.observer", n)
@@ -490,7 +492,7 @@ def estimate_verify(
             phases["exact local.pencil"] = sum(C_EXACT_PENCIL * c * float(m) ** 3 for m, c in _cases(sizes))
         nbytes += B_EXACT * float(n) ** 2
     extra = float(exact_budget) if (not exact and exact_budget) else 0.0
-    return _estimate("verify", n, phases, nbytes, arrays, extra)
+    return phase_estimate("verify", n, phases, nbytes, arrays, extra)
 
 
 def estimate_place_observers(sizes: SpecSizes, cluster: str | None = None) -> CostEstimate:
@@ -518,8 +520,8 @@ def estimate_place_observers(sizes: SpecSizes, cluster: str | None = None) -> Co
     s = sizes.only_cluster(cluster)
     secs = sum(C_PLACE * (2.0 * ni) ** 3 + C_PLACE_SQ * (2.0 * ni) ** 2 for ni in s.cluster_sizes)
     arrays = A_PLACE if s.cluster_sizes else 0.0  # no cluster: refused before any matrix
-    nbytes = B_BASE + arrays * _dense(s.n) + sum(A_PLACE_CLUSTER * _dense(2 * ni) for ni in s.cluster_sizes)
-    return _estimate("place-observers", s.n, {"cluster observer searches": secs}, nbytes, arrays)
+    nbytes = B_BASE + arrays * dense_bytes(s.n) + sum(A_PLACE_CLUSTER * dense_bytes(2 * ni) for ni in s.cluster_sizes)
+    return phase_estimate("place-observers", s.n, {"cluster observer searches": secs}, nbytes, arrays)
 
 
 def _sets(candidates: int, k: int) -> tuple[int, int]:
@@ -627,8 +629,8 @@ def estimate_audit(sizes: SpecSizes, k: int, candidates: int | None = None, *, e
         f"safe-mode tests of {singles + larger} sets x {sizes.modes} modes": f * C_AUDIT_SET_MODE * (singles + larger) * max(0, sizes.modes - config.get("cost_calibration_modes")) / w,
         "writing the rows": C_AUDIT_ROW_OUT * (singles + larger),
     }
-    nbytes = B_BASE + A_AUDIT * _dense(n) + B_AUDIT_ROW * (singles + larger)
-    return _estimate("audit", n, phases, nbytes, A_AUDIT)
+    nbytes = B_BASE + A_AUDIT * dense_bytes(n) + B_AUDIT_ROW * (singles + larger)
+    return phase_estimate("audit", n, phases, nbytes, A_AUDIT)
 
 
 def estimate_design(sizes: SpecSizes, *, max_attackers: int = 2, place: bool = True, exact_assessment: bool | None = None) -> CostEstimate:
@@ -640,7 +642,7 @@ def estimate_design(sizes: SpecSizes, *, max_attackers: int = 2, place: bool = T
         m = \\max(m_{audit}, m_{place}, m_{verify})
 
     (each term without its own :data:`C_START`, which is counted once). The safe-mode phase depends on
-    the number of attack sets the second audit leaves undetected; :func:`estimate_safe_modes`
+    the number of attack sets the second audit leaves undetected; :func:`~glocal_verify.conditions.design_cost.estimate_safe_modes`
     estimates it once that number is known, before the phase starts.
 
     Parameters
@@ -667,89 +669,7 @@ def estimate_design(sizes: SpecSizes, *, max_attackers: int = 2, place: bool = T
             key = f"{est.command}: {name}"
             phases[key] = phases.get(key, 0.0) + times * secs
     peak = max(parts, key=lambda p: p[1].bytes)[1]
-    return _estimate("design", sizes.n, phases, peak.bytes, peak.dense_arrays)
-
-
-def estimate_safe_modes(sizes: SpecSizes, targets: int, *, exact: bool = False) -> CostEstimate:
-    """Seconds and peak memory of ``design``'s safe-mode phase for ``targets`` undetected attack sets.
-
-    The candidate links are scored against every target at once (microseconds each); what
-    grows is the check of each claimed set against the proposed mode (its ZDA at the audit's
-    lambda0 and the certified touch test, :mod:`glocal_verify.design.safe_modes`). The greedy
-    cover claims a set about once, so
-
-    .. math::
-
-        t = T\\,(C_{check,0} + C_{check} N^2)\\,f_{exact},\\qquad m = B_{base} + 8 N^2 A_{audit}
-
-    with T targets and the tunables ``safe_mode_check_seconds`` (:math:`C_{check,0}`, 1e-2 s),
-    ``safe_mode_check_seconds_n2`` (:math:`C_{check}`, 1e-6 s) and ``safe_mode_check_exact_factor``
-    (:math:`f_{exact}`, 5, over Q). Measured (numeric, one core): 8 ms per set at N = 40
-    (42 ms exact), 20-30 ms at N = 80-120, 40 ms at N = 200; the design of 80 agents with
-    2,393 targets checked 2,258 sets in 55 s on a shared machine.
-
-    Parameters
-    ----------
-    sizes : SpecSizes
-    targets : int
-        Attack sets the safe modes must expose.
-    exact : bool
-        The checks run over Q (``design`` does up to ``safe_modes_exact_max_agents``).
-
-    Returns
-    -------
-    CostEstimate
-    """
-    n = sizes.n
-    per = float(config.get("safe_mode_check_seconds")) + float(config.get("safe_mode_check_seconds_n2")) * float(n) ** 2
-    if exact:
-        per *= float(config.get("safe_mode_check_exact_factor"))
-    phases = {f"checks of {targets} undetected attack sets against the proposed modes": per * max(0, int(targets))}
-    return _estimate("design", n, phases, B_BASE + A_AUDIT * _dense(n), A_AUDIT)
-
-
-def estimate_monitor_step(sizes: SpecSizes, targets: int, monitors: int, *, exact: bool = False) -> CostEstimate:
-    """Seconds and peak memory of ``design``'s monitor step: up to ``monitors`` rounds for ``targets`` unexposed sets.
-
-    Each round audits the sets left (their witness directions place the monitor), then designs
-    safe modes for them again, which audits them once more for their exponents and checks
-    each against the proposed modes:
-
-    .. math::
-
-        t = R\,T\,\big(2\,(C_{hard,0} + C_{hard}\,g(N)) + t_{check}\big),\qquad m = B_{base} + 8 N^2 A_{audit}
-
-    with R rounds, T targets, :math:`t_{check}` the check of :func:`estimate_safe_modes`,
-    :math:`g(N) = N^3` up to ``growth_full_max_agents`` (every such set gets its whole zero
-    set there) and :math:`N^2` above, and the tunables ``monitor_step_set_seconds``
-    (:math:`C_{hard,0}`) and ``monitor_step_set_seconds_g`` (:math:`C_{hard}`). These sets
-    are the hard ones (stealthy, undetected, not exposed): measured 73-80 ms each per audit at
-    N = 42 on a shared machine, against 14 ms for the average set of the same audit. An
-    upper bound: a round that detects every set ends the step.
-
-    Parameters
-    ----------
-    sizes : SpecSizes
-    targets : int
-        Attack sets no safe mode exposes.
-    monitors : int
-        The monitor budget (rounds at most).
-    exact : bool
-        The safe-mode checks run over Q.
-
-    Returns
-    -------
-    CostEstimate
-    """
-    n = sizes.n
-    g = float(n) ** 3 if n <= config.get("growth_full_max_agents") else float(n) ** 2
-    per_audit = float(config.get("monitor_step_set_seconds")) + float(config.get("monitor_step_set_seconds_g")) * g
-    check = float(config.get("safe_mode_check_seconds")) + float(config.get("safe_mode_check_seconds_n2")) * float(n) ** 2
-    if exact:
-        check *= float(config.get("safe_mode_check_exact_factor"))
-    t = max(0, int(targets))
-    phases = {f"up to {monitors} monitor round(s) for {t} unexposed attack sets": max(0, int(monitors)) * t * (2.0 * per_audit + check)}
-    return _estimate("design", n, phases, B_BASE + A_AUDIT * _dense(n), A_AUDIT)
+    return phase_estimate("design", sizes.n, phases, peak.bytes, peak.dense_arrays)
 
 
 # --------------------------------------------------------------------------------------------

@@ -44,7 +44,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from glocal_verify.conditions.cost import CostEstimate, SpecSizes, estimate_monitor_step, estimate_safe_modes
+from glocal_verify.conditions.cost import CostEstimate, SpecSizes
+from glocal_verify.conditions.design_cost import estimate_monitor_step, estimate_safe_modes
 from glocal_verify.design.audit import AuditResult, audit
 from glocal_verify.design.monitors import MonitorDesign, design_monitors
 from glocal_verify.design.placement import ObserverProposal, place_cluster
@@ -267,9 +268,9 @@ def design_network(
         check of a proposed safe mode against the attack sets it should expose.
     admit : callable, optional
         Called with the estimate of the safe-mode phase
-        (:func:`glocal_verify.conditions.cost.estimate_safe_modes`) once the audit with the
+        (:func:`glocal_verify.conditions.design_cost.estimate_safe_modes`) once the audit with the
         observers has counted the undetected sets, before the phase starts, and with that of
-        the monitor step (:func:`glocal_verify.conditions.cost.estimate_monitor_step`) once the
+        the monitor step (:func:`glocal_verify.conditions.design_cost.estimate_monitor_step`) once the
         safe modes leave sets unexposed; it may raise
         (:class:`~glocal_verify.conditions.cost.SizeLimitError`) to refuse the run.
 
