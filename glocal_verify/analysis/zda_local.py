@@ -274,14 +274,15 @@ def _rational_candidates(system: System) -> list[Fraction]:
     """
     out: list[Fraction] = []
     a = system.alpha_q
-    for mu, _pairs in twin_modes(system.n, laplacian_entries(system, NORMAL_MODE), system.idx(system.monitored)):
+    ent = laplacian_entries(system, NORMAL_MODE)
+    for mu, _pairs in twin_modes(system.n, ent, system.idx(system.monitored)):
         out.append(-a * Fraction(mu))
     monitored = set(system.monitored)
-    for m in monitored:
+    for m in system.monitored:  # in the spec's order: the same candidates, and proof, every run
         for b in system.neighbours(m):
             if b not in monitored and all(c in monitored for c in system.neighbours(b)):
-                w = sum((system.edges().get(frozenset((b, c)), Fraction(0)) for c in system.neighbours(b)), Fraction(0))
-                out.append(-a * w)
+                i = system.index[b]
+                out.append(-a * ent[(i, i)])  # its only mode in U: s0 = -alpha (weighted degree)
     return [s0 for s0 in dict.fromkeys(out) if s0 != 0]
 
 

@@ -449,22 +449,23 @@ def full_rank_certificate(
 
     def minor(replaced: Sequence[int], rows: Sequence[Any]) -> Any:
         """The maximal minor with the rows ``replaced`` of K taken from alpha L[rows, U]."""
-        if rows and rows[0] == "combination":
-            return _random_combination(tables, cache, list(replaced), Mp, int(rows[1])) / (cache[("K^", tables, k)] if ("K^", tables, k) in cache else cache.setdefault(("K^", tables, k), detK**k))
-        r = len(replaced)
-        if r == 0:
-            return detK
-        if r == 1:
-            f = replaced[0]
-            return polys[rows[0]][f] or polys.fill(rows[0], f)
-        if r == 2:
-            f0, f1 = replaced
-            q0, q1 = polys[rows[0]], polys[rows[1]]
-            P = (q0[f0] or polys.fill(rows[0], f0)) * (q1[f1] or polys.fill(rows[1], f1)) - (q0[f1] or polys.fill(rows[0], f1)) * (
-                q1[f0] or polys.fill(rows[1], f0)
-            )
+        if rows and rows[0] == "combination":  # one more replaced row, as a random combination
+            P, r = _random_combination(tables, cache, list(replaced), Mp, int(rows[1])), len(replaced) + 1
         else:
-            P = _det([[polys[q][f] or polys.fill(q, f) for f in replaced] for q in rows])
+            r = len(replaced)
+            if r == 0:
+                return detK
+            if r == 1:
+                f = replaced[0]
+                return polys[rows[0]][f] or polys.fill(rows[0], f)
+            if r == 2:
+                f0, f1 = replaced
+                q0, q1 = polys[rows[0]], polys[rows[1]]
+                P = (q0[f0] or polys.fill(rows[0], f0)) * (q1[f1] or polys.fill(rows[1], f1)) - (q0[f1] or polys.fill(rows[0], f1)) * (
+                    q1[f0] or polys.fill(rows[1], f0)
+                )
+            else:
+                P = _det([[polys[q][f] or polys.fill(q, f) for f in replaced] for q in rows])
         pkey = ("K^", tables, r - 1)
         if pkey not in cache:
             cache[pkey] = detK ** (r - 1)
