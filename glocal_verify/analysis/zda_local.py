@@ -49,14 +49,18 @@ import numpy as np
 from glocal_verify import config
 from glocal_verify.analysis.twins import laplacian_entries
 from glocal_verify.analysis.zda import GROWTH_DECAYING, GROWTH_PERSISTENT, GROWTH_UNBOUNDED, ModalPencil, ZdaZero, normalize_direction
+from glocal_verify.derived import Kind
 from glocal_verify.errors import ModelError
 from glocal_verify.model import System
 from glocal_verify.numerics.minors import twin_modes
-from glocal_verify.numerics.pencil_exact import classify_real_parts, eval_at_root, kernel_over_field
+from glocal_verify.numerics.pencil_exact import classify_real_parts, eval_at_root, kernel_over_field, rational_kernel
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
 from glocal_verify.spec.types import NORMAL_MODE, Label
 
 __all__ = ["LocalZeroProof", "prove_local_zero"]
+
+#: the rational s0 of :func:`_rational_candidates` (one list per system: every set tries them)
+_LOCAL_ZERO_CANDIDATES_KIND: Kind[tuple[Fraction, ...]] = Kind("local-zero-candidates", __name__, "tuple[Fraction, ...]")
 
 _GROWTH_BY_SIGN = MappingProxyType({1: GROWTH_UNBOUNDED, 0: GROWTH_PERSISTENT, -1: GROWTH_DECAYING})
 #: seed of the random combinations W (fixed: the same network gets the same proof)
@@ -116,8 +120,53 @@ def _supports(system: System, F: Sequence[Label]) -> list[list[int]]:
     return out
 
 
-def _local_pencil(system: System, F: Sequence[int], S: Sequence[int]) -> tuple[list[list[Fraction]], list[list[Fraction]]]:
-    """Q_S(s) = s B + C of the module docstring, as rational rows (B, C)."""
+@dataclass(frozen=True)
+class _LocalPencil:
+    """Q_S(s) = s B + C of the module docstring: sparse rational rows (column -> entry, nonzero only)."""
+
+    ncols: int
+    b: tuple[dict[int, Fraction], ...]
+    c: tuple[dict[int, Fraction], ...]
+
+    @property
+    def nrows(self) -> int:
+        return len(self.b)
+
+    def matrices(self) -> tuple[Any, Any]:
+        """(B, C) as fmpq_mat."""
+        return self._mat(self.b), self._mat(self.c)
+
+    def at(self, s0: Fraction) -> Any:
+        """Q_S(s0) = s0 B + C as an fmpq_mat."""
+        M = flint.fmpq_mat(self.nrows, self.ncols)
+        for i, (brow, crow) in enumerate(zip(self.b, self.c)):
+            for j in brow.keys() | crow.keys():
+                v = s0 * brow.get(j, 0) + crow.get(j, 0)
+                if v:
+                    M[i, j] = _fq(v)
+        return M
+
+    def residues(self, phi: Any) -> list[list[Any]]:
+        """Q_S(x) modulo ``phi``, entry by entry (fmpq_poly)."""
+        zero = flint.fmpq_poly(0)
+        out = []
+        for brow, crow in zip(self.b, self.c):
+            row = [zero] * self.ncols
+            for j in brow.keys() | crow.keys():
+                row[j] = flint.fmpq_poly([_fq(Fraction(crow.get(j, 0))), _fq(Fraction(brow.get(j, 0)))]) % phi
+            out.append(row)
+        return out
+
+    def _mat(self, rows: Sequence[dict[int, Fraction]]) -> Any:
+        M = flint.fmpq_mat(self.nrows, self.ncols)
+        for i, row in enumerate(rows):
+            for j, v in row.items():
+                M[i, j] = _fq(v)
+        return M
+
+
+def _local_pencil(system: System, F: Sequence[int], S: Sequence[int]) -> _LocalPencil:
+    """Q_S(s) = s B + C of the module docstring (rows R = N[S] ∪ F, then the monitors in S)."""
     ent = laplacian_entries(system, NORMAL_MODE)
     col = {k: c for c, k in enumerate(S)}
     m, ncols = len(F), len(S) + len(F)
@@ -126,24 +175,25 @@ def _local_pencil(system: System, F: Sequence[int], S: Sequence[int]) -> tuple[l
         if j in col:
             touching.setdefault(i, []).append((j, w))
     a = system.alpha_q
-    B: list[list[Fraction]] = []
-    C: list[list[Fraction]] = []
+    B: list[dict[int, Fraction]] = []
+    C: list[dict[int, Fraction]] = []
     for i in sorted(set(touching) | set(F)):
-        b, c = [Fraction(0)] * ncols, [Fraction(0)] * ncols
+        b: dict[int, Fraction] = {}
+        c: dict[int, Fraction] = {}
         for j, w in touching.get(i, ()):
-            c[col[j]] += a * w
+            c[col[j]] = c.get(col[j], Fraction(0)) + a * w
         if i in col:
             b[col[i]] = Fraction(1)
         for k in range(m):
             if F[k] == i:
                 c[len(S) + k] = Fraction(-1)
         B.append(b)
-        C.append(c)
+        C.append({j: v for j, v in c.items() if v})
     for mon in system.idx(system.monitored):
         if mon in col:
-            B.append([Fraction(0)] * ncols)
-            C.append([Fraction(int(c == col[mon])) for c in range(ncols)])
-    return B, C
+            B.append({})
+            C.append({col[mon]: Fraction(1)})
+    return _LocalPencil(ncols, tuple(B), tuple(C))
 
 
 def _det_poly(B: Any, C: Any) -> Any:
@@ -201,13 +251,12 @@ def prove_local_zero(system: System, F: tuple[Label, ...], tol: Tolerance = DEFA
 
 def _fastest_local_zero(system: System, Fi: Sequence[int], S: Sequence[int]) -> LocalZeroProof | None:
     """:func:`prove_local_zero` on one candidate set S: every zero of Q_S, the fastest proved one."""
-    Bq, Cq = _local_pencil(system, Fi, S)
-    r, ncols = len(Bq), len(S) + len(Fi)
+    Q = _local_pencil(system, Fi, S)
+    r, ncols = Q.nrows, Q.ncols
     if r < ncols:
         return None
     rng = random.Random(_SEED)
-    Bm = flint.fmpq_mat(r, ncols, [_fq(x) for row in Bq for x in row])
-    Cm = flint.fmpq_mat(r, ncols, [_fq(x) for row in Cq for x in row])
+    Bm, Cm = Q.matrices()
     g = None
     for _ in range(2):
         W = flint.fmpq_mat(ncols, r, [rng.randint(-3, 3) for _ in range(ncols * r)])
@@ -220,7 +269,7 @@ def _fastest_local_zero(system: System, Fi: Sequence[int], S: Sequence[int]) -> 
         return None
     best: LocalZeroProof | None = None
     for phi, _ in g.factor()[1]:
-        pr = _proof_at(system, Fi, S, Bq, Cq, phi, "the attacked clusters")
+        pr = _proof_at(system, Fi, S, Q, phi, "the attacked clusters")
         if pr is not None and (best is None or _speed(pr) > _speed(best)):
             best = pr
     return best
@@ -230,15 +279,19 @@ def _speed(pr: LocalZeroProof) -> tuple[int, float]:
     return {GROWTH_UNBOUNDED: 1, GROWTH_PERSISTENT: 0}.get(pr.zero.growth, -1), pr.zero.value.real
 
 
-def _proof_at(system: System, Fi: Sequence[int], S: Sequence[int], Bq: Any, Cq: Any, phi: Any, where: str) -> LocalZeroProof | None:
+def _proof_at(system: System, Fi: Sequence[int], S: Sequence[int], Q: _LocalPencil, phi: Any, where: str) -> LocalZeroProof | None:
     """A kernel vector of Q_S with u != 0 over Q[s]/(phi) (phi irreducible), as a proof at the fastest root lambda0; or None.
 
     Every root lambda of a factor psi(x) of phi(x^2 + gamma x) other than x has s(lambda) a
     root of phi, so the kernel vector over Q[s]/(phi) is one at lambda (lambda != 0).
     """
-    ncols = len(S) + len(Fi)
-    rows = [[flint.fmpq_poly([_fq(c), _fq(b)]) % phi for b, c in zip(brow, crow)] for brow, crow in zip(Bq, Cq)]
-    basis = kernel_over_field(rows, phi, ncols).basis
+    if phi.degree() == 1:  # Q[s]/(phi) = Q: one rational elimination (the same basis, the RREF being unique)
+        c = phi.coeffs()
+        r = -c[0] / c[1]
+        K = rational_kernel(Q.at(Fraction(int(r.p), int(r.q))))
+        basis = tuple(tuple(flint.fmpq_poly([K[i, col]]) for i in range(Q.ncols)) for col in range(K.ncols()))
+    else:
+        basis = kernel_over_field(Q.residues(phi), phi, Q.ncols).basis
     vec = next((v for v in basis if any(not e.is_zero() for e in v[len(S):])), None)
     if vec is None:
         return None
@@ -264,7 +317,12 @@ def _proof_at(system: System, Fi: Sequence[int], S: Sequence[int], Bq: Any, Cq: 
     return LocalZeroProof(z, str(psi), tuple(system.labels[k] for k in S), where)
 
 
-def _rational_candidates(system: System) -> list[Fraction]:
+def _rational_candidates(system: System) -> tuple[Fraction, ...]:
+    """:func:`_candidates_of`, kept on the system."""
+    return _LOCAL_ZERO_CANDIDATES_KIND.get(system, (), lambda: _candidates_of(system))
+
+
+def _candidates_of(system: System) -> tuple[Fraction, ...]:
     """Rational s0 = -alpha mu where L_1 has a mode on a few agents: twin eigenvalues, leaves of a monitored agent.
 
     At such an s0 the grounded matrix s I + alpha L_1[U, U] is singular with a kernel off most
@@ -283,7 +341,7 @@ def _rational_candidates(system: System) -> list[Fraction]:
             if b not in monitored and all(c in monitored for c in system.neighbours(b)):
                 i = system.index[b]
                 out.append(-a * ent[(i, i)])  # its only mode in U: s0 = -alpha (weighted degree)
-    return [s0 for s0 in dict.fromkeys(out) if s0 != 0]
+    return tuple(s0 for s0 in dict.fromkeys(out) if s0 != 0)
 
 
 def _zero_at(system: System, F: tuple[Label, ...], s0: Fraction, tol: Tolerance) -> LocalZeroProof | None:
@@ -301,5 +359,4 @@ def _zero_at(system: System, F: tuple[Label, ...], s0: Fraction, tol: Tolerance)
     if not core or len(S) > config.get("local_zero_support_max_agents"):
         return None
     Fi = system.idx(F)
-    Bq, Cq = _local_pencil(system, Fi, S)
-    return _proof_at(system, Fi, S, Bq, Cq, flint.fmpq_poly([_fq(-s0), 1]), "the support of the computed direction")
+    return _proof_at(system, Fi, S, _local_pencil(system, Fi, S), flint.fmpq_poly([_fq(-s0), 1]), "the support of the computed direction")

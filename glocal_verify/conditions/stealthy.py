@@ -244,6 +244,8 @@ def check_zda(system: System, ctx: CheckContext) -> list[ConditionResult]:
     if notes:
         witness["notes"] = list(notes)
     margin = _margin(left_inv, zeros)
+    if v.status is Status.HOLDS and not v.complete and direction is not None:
+        margin = max(margin, complex(direction.value).real)  # a proven ZDA the computed zero set missed
     if ctx.exact:
         return [result("stealthy.zda", ctx, v.status, margin=margin, witness=witness)]
     cert = v.certificate

@@ -412,8 +412,9 @@ class LocalSinglesChunk:
     Every set's local part is assembled from the verdicts of its members per cluster; the
     singles are shared by all sets (a pair across two clusters needs nothing else), so they
     are computed once, then seed the memo of every :class:`AuditChunk`. With
-    ``growth="verdict"`` the phase also records whether the minor certificate proves each
-    single (a set with an unproven member does not try it).
+    ``growth="verdict"`` the phase also records whether the witness certificate's small
+    effort proves each single (a set with a member it does not prove does not try it:
+    :func:`~glocal_verify.analysis.zda_verdict.proven_single`).
     """
 
     shared: _Shared

@@ -524,6 +524,7 @@ def full_rank_certificate(
                 yield from ((Ip, ("combination", trial)) for trial in range(config.get("minor_random_combinations")))
             yield from (with_extra() if extra_rows is None else itertools.islice(with_extra(), extra_rows))
 
+    last_combination = config.get("minor_random_combinations") - 1
     twin = _twin_factor(tables, cache) if modulo_twins and tables.twins else None
     twin_deg = twin.degree() if twin is not None else 0
     g = None
@@ -548,6 +549,11 @@ def full_rank_certificate(
         if first is not None and g.degree() == twin_deg:
             break
         if patience is not None and stale >= patience:
+            break
+        if rows and rows[0] == "combination" and rows[1] == last_combination and g.degree() > twin_deg:
+            # the combinations span every minor with one extra replaced row (those tried
+            # below): a factor that survives them all is, with high probability, common to
+            # those minors too, so trying them one by one is wasted work
             break
     if twin is not None and g is not None:
         try:
