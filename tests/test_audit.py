@@ -240,3 +240,39 @@ def test_the_audit_progress_line_extrapolates_the_recent_rate_not_the_setup(monk
     line(400, 1000)
     err = capsys.readouterr().err
     assert "400/1000 attack sets, 115 s elapsed, about 45 s left" in err, err
+
+
+def test_rows_kept_with_shared_parts_equal_the_rows_a_chunk_returns_field_by_field(paper19: System, result: AuditResult) -> None:
+    sets = attack_sets(paper19, 2, [1, 3, 4, 8, 12])
+    (chunk,) = audit_chunks(paper19, sets, chunk_size=len(sets))
+    fresh = chunk()  # built in this process, without the table
+    kept = {r.actuators: r for r in result.rows}  # the audit kept its rows through the table
+    for r in fresh:
+        assert kept[r.actuators] == r
+        assert json.dumps(kept[r.actuators].to_json()) == json.dumps(r.to_json())
+
+
+def test_repeated_row_parts_are_one_object_in_the_process_that_keeps_the_rows(result: AuditResult) -> None:
+    rows = [r for r in result.rows if len(r.actuators) == 2]
+    by_value: dict[str, Any] = {}
+    shared = 0
+    for r in rows:
+        for part in r.witness["local"].values():
+            first = by_value.setdefault(json.dumps(part, sort_keys=True), part)
+            assert first == part
+            shared += first is part
+    assert shared == sum(len(r.witness["local"]) for r in rows)  # every equal part is the same object
+    chains = [r.answer.chain for r in rows if r.answer is not None]
+    assert len({id(c) for c in chains}) == len(set(chains)) < len(chains)  # one object per distinct chain
+
+
+def test_the_table_of_shared_parts_travels_empty() -> None:
+    import pickle
+
+    from glocal_verify.design.audit_records import SharedParts
+
+    table = SharedParts()
+    table.rows([])
+    table._one("a route step")  # noqa: SLF001 - fill it through its one entry point for any value
+    assert len(table) == 1
+    assert len(pickle.loads(pickle.dumps(table))) == 0

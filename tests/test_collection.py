@@ -45,3 +45,14 @@ def test_a_switched_off_collector_stays_off() -> None:
         assert gc.get_threshold()[0] == 0
     finally:
         gc.set_threshold(*before)
+
+
+def test_freed_memory_is_given_back_without_changing_any_object() -> None:
+    from glocal_verify.numerics.collection import release_freed_memory
+
+    kept = [bytes(1000) for _ in range(1000)]
+    freed = [bytes(1000) for _ in range(10_000)]
+    del freed
+    done = release_freed_memory()
+    assert isinstance(done, bool)
+    assert all(len(b) == 1000 and not any(b) for b in kept)

@@ -169,6 +169,8 @@ def test_an_audit_through_dask_gives_the_rows_of_the_in_process_audit() -> None:
     there = audit(system, 2, chunk_size=40, executor=dask_executor(workers=2))
     assert [r.to_json() for r in there.rows] == [r.to_json() for r in here.rows]
     assert len(here.rows) == 16 + 16 * 15 // 2
+    chains = [r.answer.chain for r in there.rows if r.answer is not None]
+    assert len({id(c) for c in chains}) == len(set(chains))  # rows from the workers were received: parts shared
 
 
 def test_tasks_sharing_one_object_send_it_once_not_once_per_task() -> None:

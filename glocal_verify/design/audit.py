@@ -56,10 +56,10 @@ from glocal_verify.analysis.zda_verdict import ZdaOptions, ZdaVerdict, decide_zd
 from glocal_verify.answer.attack import THEOREM_IDS, AttackAnswer, AttackEvidence, LocalEvidence, ModeEvidence, answer_attack
 from glocal_verify.conditions.registry import system_info, verify
 from glocal_verify.design.audit_local import local_part
-from glocal_verify.design.audit_records import AUDIT_SCHEMA_ID, AuditResult, AuditRow
+from glocal_verify.design.audit_records import AUDIT_SCHEMA_ID, AuditResult, AuditRow, SharedParts
 from glocal_verify.errors import ArgumentError, ModelError, NotApplicableError
 from glocal_verify.model import System
-from glocal_verify.numerics.collection import deferred_full_collections
+from glocal_verify.numerics.collection import deferred_full_collections, release_freed_memory
 from glocal_verify.numerics.minors import GroundedTables
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
 from glocal_verify.results import Status
@@ -180,6 +180,8 @@ class _Shared:
     growth: str = "full"
     schedule: tuple[str, ...] | None = None
     schedule_text: str = ""
+    #: the table of repeated row parts of the process that keeps the rows (:meth:`AuditChunk.receive`)
+    row_parts: SharedParts = field(default_factory=SharedParts, compare=False, repr=False)
 
     @property
     def modes(self) -> dict[str, bool | None]:
@@ -305,8 +307,14 @@ def _mode_evidence(sh: _Shared, F: tuple[Label, ...], z: ZdaVerdict, mode: str, 
     return ev, detail
 
 
-def _unevaluated(sh: _Shared, mode: str, why: str) -> tuple[ModeEvidence, dict[str, Any]]:
-    return ModeEvidence(mode, dict(sh.theorem.get(mode, {}))), {"theorem_iii3": sh.modes.get(mode), "switching.avoids-attack": "not evaluated", "touches_attack": None, "touched_agents": [], "note": why}
+def _unevaluated(sh: _Shared, mode: str, why: str, memo: dict[Any, Any]) -> tuple[ModeEvidence, dict[str, Any]]:
+    key = ("unevaluated-mode", mode, why)  # the same objects for every row (read-only)
+    if key not in memo:
+        memo[key] = (
+            ModeEvidence(mode, dict(sh.theorem.get(mode, {}))),
+            {"theorem_iii3": sh.modes.get(mode), "switching.avoids-attack": "not evaluated", "touches_attack": None, "touched_agents": [], "note": why},
+        )
+    return memo[key]  # type: ignore[no-any-return]
 
 
 def _answer(sh: _Shared, F: tuple[Label, ...], z: ZdaVerdict, local: Sequence[LocalEvidence], modes: Sequence[ModeEvidence], memo: dict[Any, Any]) -> AttackAnswer:
@@ -334,7 +342,7 @@ def _audit_set(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any]) -> Audit
     for q in system.safe_modes:
         if sh.growth == "verdict" and sh.modes.get(q) is False:
             # a mode that fails Theorem III.3 gives no guarantee whatever the touch test says
-            modes[q], mode_detail[q] = _unevaluated(sh, q, "Theorem III.3 fails for this mode: it gives no guarantee, so the touch test is not run")
+            modes[q], mode_detail[q] = _unevaluated(sh, q, "Theorem III.3 fails for this mode: it gives no guarantee, so the touch test is not run", memo)
         else:
             modes[q], mode_detail[q] = _mode_evidence(sh, F, z, q, memo)
     ans = _answer(sh, F, z, local, list(modes.values()), memo)
@@ -362,9 +370,7 @@ def _audit_set(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any]) -> Audit
             "residual": float(getattr(d, "residual", 0.0)),
         }
         if system.n > xi_max:
-            witness["direction"]["xi_note"] = (
-                f"xi (N entries) omitted above {xi_max} agents; verify on this attack with this lambda0 reports it"
-            )
+            witness["direction"]["xi_note"] = f"xi (N entries) omitted above {xi_max} agents; verify on this attack with this lambda0 reports it"
     if ans.fragile:
         witness["fragile"] = ans.fragile
     witness["reason"] = ans.reason
@@ -392,7 +398,19 @@ class AuditChunk:
 
     def __call__(self) -> list[AuditRow]:
         with deferred_full_collections():
-            return self.run(dict(self.shared.local_seed))
+            rows = self.run(dict(self.shared.local_seed))
+        release_freed_memory()  # the chunk's temporaries are gone: give their pages back (a worker runs thousands)
+        return rows
+
+    def receive(self, rows: Sequence[AuditRow]) -> list[AuditRow]:
+        """The rows as the process that keeps them stores them: repeated parts shared
+        (:class:`~glocal_verify.design.audit_records.SharedParts`, one table per audit).
+
+        An executor calls it in the calling process as each chunk's rows arrive
+        (:class:`~glocal_verify.design.distributed.DaskExecutor`); the rows are equal to
+        those returned, field by field.
+        """
+        return self.shared.row_parts.rows(rows)
 
     def run(self, memo: dict[Any, Any]) -> list[AuditRow]:
         """The rows, with ``memo`` (seeded by phase one) shared with other chunks of this process.
@@ -639,7 +657,8 @@ def _audit(
         done = 0
         memo: dict[Any, Any] = dict(chunks[0].shared.local_seed) if chunks else {}
         for ch in chunks:
-            out.append(ch.run(memo))
+            out.append(ch.receive(ch.run(memo)))
+            release_freed_memory()
             done += len(ch.sets)
             if progress is not None:
                 progress(done, len(sets))

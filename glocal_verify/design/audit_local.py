@@ -5,7 +5,9 @@ A set's local part is assembled per cluster from the verdicts of ``local.pencil`
 with the screens that decide most of them without a pencil analysis: a suspected agent on
 the boundary fails at once, a failing member fails every set containing it (monotone
 screen), an exact twin mode proves a failure, and exact maximal minors prove a success.
-Verdicts are memoised per (cluster, observer, suspected set); :func:`local_part` is called by
+Verdicts are memoised per (cluster, observer, suspected set), and so are the evidence and
+witness objects built from them (rows share them: the witness detail is read-only);
+:func:`local_part` is called by
 :mod:`glocal_verify.design.audit` for each row and, for the singles, in its first phase.
 """
 
@@ -85,6 +87,13 @@ def local_part(sh: Any, F: tuple[Label, ...], memo: dict[Any, Any]) -> tuple[lis
                         us = uio_verdict(system, case, sh.tol, True).status
                 memo[key] = (ps, us)
             ps, us = memo[key]
-            detail[f"{c.name}@{obs.center}"] = {"suspected": list(sus), "local.pencil": ps.value, "local.uio": "not evaluated" if us is None else us.value}
-            evidence.append(LocalEvidence(c.name, obs.center, sus, ps, us))
+            dkey = ("local-detail", key)  # one evidence and detail object per observer and suspected set:
+            if dkey not in memo:  # the rows that share them share them (and pickle them once per chunk)
+                memo[dkey] = (
+                    LocalEvidence(c.name, obs.center, sus, ps, us),
+                    {"suspected": list(sus), "local.pencil": ps.value, "local.uio": "not evaluated" if us is None else us.value},
+                )
+            ev, d = memo[dkey]
+            detail[f"{c.name}@{obs.center}"] = d
+            evidence.append(ev)
     return evidence, detail

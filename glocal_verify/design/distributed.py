@@ -302,7 +302,9 @@ def _call_shared(shared: Any, stub: Any) -> Any:
 class DaskExecutor:
     """An executor for :func:`glocal_verify.design.audit.audit`: runs its chunks on Dask.
 
-    Called with a list of zero-argument callables, it returns their results in order. Used as
+    Called with a list of zero-argument callables, it returns their results in order; a task
+    with a ``receive`` method gets each of its results passed through it in this process as
+    it arrives (:meth:`glocal_verify.design.audit.AuditChunk.receive`). Used as
     a context manager it keeps one cluster (or one connection) for every call inside the block
     (an audit calls it twice: its single agents, then its sets); otherwise each call opens
     and closes its own.
@@ -344,7 +346,8 @@ class DaskExecutor:
     def _run(self, client: Any, tasks: Sequence[Callable[[], T]]) -> list[T]:
         out: list[Any] = [None] * len(tasks)
         for done, (i, res) in enumerate(run_on_dask(client, tasks), start=1):
-            out[i] = res
+            receive = getattr(tasks[i], "receive", None)
+            out[i] = receive(res) if receive is not None else res  # e.g. an audit chunk's rows, stored compactly
             if self.progress is not None:
                 self.progress(done, len(tasks))
         return out
