@@ -127,3 +127,27 @@ def test_a_zero_whose_direction_leaves_the_attacked_clusters_is_proved_at_its_ra
     assert pr is not None and pr.where == "the support of the computed direction"
     assert abs(pr.zero.s - (-3)) < 1e-9
     assert _agrees_with_exact(s, (44,))
+
+
+def test_verify_proves_a_zda_its_numeric_pass_leaves_undecided_by_the_local_zero_and_reports_its_direction() -> None:
+    import dataclasses
+
+    from glocal_verify.conditions.registry import verify
+    from glocal_verify.spec.types import AttackSpec
+
+    # the deflation's rank decision for agent 59 falls in the undecided band; the local zero
+    # inside the attacked clusters proves the attack stealthy without the exact escalation
+    s = System(dataclasses.replace(random_clustered_spec(120, 6, seed=3), attack=AttackSpec("zda", (59,))))
+    (r,) = verify(s, ["stealthy.zda"]).results("stealthy.zda")
+    assert r.status.value == "holds"
+    assert "an exact kernel vector" in r.witness["certificate"]["by"]
+    d = r.witness["direction"]
+    lam = complex(*d["lambda0"])
+    xi = np.zeros(s.n, dtype=complex)
+    for k, v in d["xi"].items():
+        xi[s.index[int(k)]] = complex(*v) if isinstance(v, list) else v
+    (u,) = [complex(*v) if isinstance(v, list) else complex(v) for v in d["u0"].values()]
+    assert _satisfies_the_definition(s, (59,), lam, xi, np.array([u]))
+    assert r.margin is not None and r.margin >= lam.real - 1e-12  # at least as unstable as the proven zero
+    ea = zda_analysis_exact(System(s.spec), (59,))
+    assert ea.exists and any(w.attack and abs(complex(w.value) - lam) < 1e-8 for w in ea.zeros)
