@@ -211,3 +211,50 @@ def test_an_invariant_subspace_is_accepted_only_when_exactly_invariant_and_zero_
         assert Lw == [sum((b[t] * W[t][i] for t in range(len(W))), Fraction(0)) for i in range(4)]
     assert verified_invariant_subspace(4, L, [1], good) is None  # not zero on the output 1
     assert verified_invariant_subspace(4, L, [0], [[Fraction(0), Fraction(1), Fraction(0), Fraction(0)]]) is None  # e1 is not invariant
+
+
+def _laplace_det(rows: list[list[object]]) -> object:
+    if len(rows) == 1:
+        return rows[0][0]
+    total = None
+    for c in range(len(rows)):
+        term = rows[0][c] * _laplace_det([r[:c] + r[c + 1 :] for r in rows[1:]])  # type: ignore[operator]
+        total = term if total is None else (total + term if c % 2 == 0 else total - term)
+    return total
+
+
+def test_the_random_combination_of_minors_is_the_determinant_of_the_fully_combined_rows() -> None:
+    # reference: A_r = sum_q c_rq N_q over the integers, its rows I' and e A_r (e zero on I'),
+    # reduced modulo p only at the end: the certificate's shortcut (e_all N_q per output row,
+    # minus the rows of I') must give the same polynomial
+    import numpy as np
+
+    from glocal_verify.numerics.minors import _random_combination
+
+    rng = random.Random(11)
+    checked = 0
+    for _ in range(12):
+        n, L, alpha, M = _random_case(rng)
+        t = grounded_tables(n, L, alpha, M)
+        assert t is not None
+        p, G = t.prime, len(t.grounded)
+        Mp = list(range(len(t.measured)))
+        for Ip in ([0], [G - 1], [0, G - 1]):
+            if len(set(Ip)) < len(Ip) or len(Ip) >= G:
+                continue
+            for trial in (0, 1):
+                k = len(Ip)
+                g = np.random.default_rng((trial, p, len(Mp), k))
+                cs = [g.integers(1, p, len(Mp)).tolist() for _ in range(k + 1)]
+                e = g.integers(1, p, G).tolist()
+                for x in Ip:
+                    e[x] = 0
+                entries = []
+                for c in cs:
+                    A = [[sum(cq * int(t.numerators[q][x][d]) for cq, q in zip(c, Mp)) for d in range(t.numerators.shape[2])] for x in range(G)]
+                    comb = [sum(e[j] * A[j][d] for j in range(G)) % p for d in range(len(A[0]))]
+                    entries.append([flint.nmod_poly([v % p for v in A[x]], p) for x in Ip] + [flint.nmod_poly(comb, p)])
+                ref = _laplace_det(entries)
+                assert _random_combination(t, {}, Ip, Mp, trial) == ref
+                checked += 1
+    assert checked > 30

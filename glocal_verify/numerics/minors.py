@@ -591,24 +591,32 @@ def _random_combination(tables: GroundedTables, cache: MutableMapping[Any, Any],
     key = ("combined-rows", tables, tuple(Mp), trial, k)
     if key not in cache:
         rng = np.random.default_rng((trial, p, len(Mp), k))
-        mats = []
-        for _ in range(k + 1):
-            c = rng.integers(1, p, len(Mp))
-            acc = np.zeros(tables.numerators.shape[1:], dtype=np.int64)
-            for cq, q in zip(c.tolist(), Mp):
-                acc = (acc + cq * tables.numerators[q]) % p  # entries < p^2 < 2^52
-            mats.append(acc)
-        cache[key] = (mats, rng.integers(1, p, len(tables.grounded)))
-    mats, e_all = cache[key]
-    e = e_all.copy()
-    e[Ip] = 0
+        c = np.array([rng.integers(1, p, len(Mp)) for _ in range(k + 1)], dtype=np.int64)
+        e_all = rng.integers(1, p, len(tables.grounded))
+        # e_all N_q for every output row q (not the combined rows A_r themselves): A_r is
+        # needed only on the k rows I' and through e A_r = sum_q c_rq (e_all N_q - sum_{x in I'} e_all[x] N_q[x])
+        W = np.stack([_row_combination(e_all, tables.numerators[q], p) for q in Mp])
+        cache[key] = (c, e_all, W)
+    c, e_all, W = cache[key]
     entries = []
-    for A in mats:
-        comb = np.zeros(A.shape[1], dtype=np.int64)
-        for lo in range(0, len(e), 4096):  # partial sums stay below 2^63 (4096 products < 2^52 each)
-            comb = (comb + e[lo : lo + 4096] @ A[lo : lo + 4096]) % p
-        entries.append([nmod_poly(A[x].tolist(), p) for x in Ip] + [nmod_poly(comb.tolist(), p)])
+    for r in range(k + 1):
+        rows = np.zeros((k, W.shape[1]), dtype=np.int64)  # A_r[x] = sum_q c_rq N_q[x], x in I'
+        comb = np.zeros(W.shape[1], dtype=np.int64)  # e_all A_r, then minus the rows of I' (e is zero there)
+        for cq, q, w in zip(c[r].tolist(), Mp, W):
+            rows = (rows + cq * tables.numerators[q][Ip]) % p  # entries < p^2 < 2^52
+            comb = (comb + cq * w) % p
+        for i, x in enumerate(Ip):
+            comb = (comb - int(e_all[x]) * rows[i]) % p
+        entries.append([nmod_poly(rows[i].tolist(), p) for i in range(k)] + [nmod_poly(comb.tolist(), p)])
     return _det(entries)
+
+
+def _row_combination(e: np.ndarray, rows: np.ndarray, p: int) -> np.ndarray:
+    """``e @ rows`` modulo p (entries in [0, p), p < 2^24), in blocks whose partial sums stay below 2^63."""
+    out = np.zeros(rows.shape[1], dtype=np.int64)
+    for lo in range(0, len(e), 4096):  # 4096 products < 2^48 each
+        out = (out + e[lo : lo + 4096] @ rows[lo : lo + 4096]) % p
+    return out
 
 
 def _twin_factor(tables: GroundedTables, cache: MutableMapping[Any, Any]) -> Any:
