@@ -8,15 +8,14 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import math
-import textwrap
 from collections.abc import Hashable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
 
 from glocal_verify.answer.attack import AttackAnswer
+from glocal_verify.design.audit_json import IndentedJson, audit_jsonable
+from glocal_verify.numerics.collection import deferred_full_collections
 from glocal_verify.results import Status
 from glocal_verify.spec.types import Label
 
@@ -77,19 +76,24 @@ class AuditRow:
 
     def to_json(self) -> dict[str, Any]:
         """The row in the ``glocal-verify/audit@1`` form."""
+        return audit_jsonable(self._json_form())  # type: ignore[no-any-return]
+
+    def _json_form(self) -> dict[str, Any]:
+        """The row's JSON fields before conversion: the witness's parts are the row's own
+        objects (:class:`~glocal_verify.design.audit_json.IndentedJson` writes a shared one once)."""
         routes = [] if self.answer is None else [{"name": r.name, "verdict": r.verdict} for r in self.answer.routes]
         return {
-            "actuators": list(self.actuators),
+            "actuators": self.actuators,
             "stealthy": self.stealthy,
             "growth": self.growth,
-            "lambda0": None if self.lambda0 is None else [self.lambda0.real, self.lambda0.imag],
+            "lambda0": self.lambda0,
             "caught_locally_by": [{"cluster": c, "observer": o} for c, o in self.caught_locally_by],
-            "exposed_by_modes": list(self.exposed_by_modes),
+            "exposed_by_modes": self.exposed_by_modes,
             "verdict": self.verdict,
             "caught_locally": None if self.answer is None else self.answer.caught_locally,
             "routes": routes,
-            "chain": [] if self.answer is None else list(self.answer.chain),
-            "witness": _jsonable(dict(self.witness)),
+            "chain": () if self.answer is None else self.answer.chain,
+            "witness": dict(self.witness),
         }
 
 
@@ -256,7 +260,7 @@ class AuditResult:
 
     def to_json(self) -> dict[str, Any]:
         """``{"schema": "glocal-verify/audit@1", "system", "max_attackers", "candidates", "rows", "summary"}``."""
-        return {**self._json_head(), "rows": [r.to_json() for r in self.rows], "summary": _jsonable(self.summary())}
+        return {**self._json_head(), "rows": [r.to_json() for r in self.rows], "summary": audit_jsonable(self.summary())}
 
     def _json_head(self) -> dict[str, Any]:
         return {"schema": AUDIT_SCHEMA_ID, "system": self.system, "n": self.n, "max_attackers": self.max_attackers, "candidates": list(self.candidates)}
@@ -270,9 +274,11 @@ class AuditResult:
         """
         head = json.dumps(self._json_head(), indent=2)
         yield head[: -len("\n}")] + ',\n  "rows": ['
-        for k, r in enumerate(self.rows):
-            yield ("\n" if k == 0 else ",\n") + textwrap.indent(json.dumps(r.to_json(), indent=2), "    ")
-        yield ("\n  ]" if self.rows else "]") + ',\n  "summary": ' + json.dumps(_jsonable(self.summary()), indent=2).replace("\n", "\n  ") + "\n}"
+        writer = IndentedJson()  # a shared part's text is written once
+        with deferred_full_collections():  # the rows are millions of live objects: no full collection rescans them meanwhile
+            for k, r in enumerate(self.rows):
+                yield ("\n    " if k == 0 else ",\n    ") + writer.text(r._json_form(), 2)  # noqa: SLF001 - the row's own form
+        yield ("\n  ]" if self.rows else "]") + ',\n  "summary": ' + json.dumps(audit_jsonable(self.summary()), indent=2).replace("\n", "\n  ") + "\n}"
 
     def to_markdown(self) -> str:
         """A table with one line per set, the undetected sets first."""
@@ -300,20 +306,3 @@ class AuditResult:
                 f"| {', '.join(map(str, r.actuators))} | {st} | {r.growth} | {lam} | {caught} | {', '.join(r.exposed_by_modes) or '-'} | {r.verdict} | {why} |"
             )
         return "\n".join(lines) + "\n"
-
-
-def _jsonable(x: Any) -> Any:
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, complex):
-        return [x.real, x.imag]
-    if isinstance(x, (np.floating, float)):
-        f = float(x)
-        return f if math.isfinite(f) else str(f)
-    if isinstance(x, np.integer):
-        return int(x)
-    if isinstance(x, Status):
-        return x.value
-    return x
