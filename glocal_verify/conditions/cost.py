@@ -145,17 +145,18 @@ A_PLACE_CLUSTER = 18.0
 #:   (2 n_c)^3 with n_c its cluster's size (5.3 ms at n_c = 20, 20 ms at 50, 0.34 s at 100);
 #: - per single actuator, its ZDA: C_AUDIT_SINGLE_0 + C_AUDIT_SINGLE N^3 (7.4 ms at N = 200,
 #:   about 1.3 s at N = 1000, where many singles need their whole zero set);
-#: - per larger set C_AUDIT_SET + C_AUDIT_SET_SQ N^2 (0.23 ms at N = 200, 0.6 ms at N = 1000),
+#: - per larger set C_AUDIT_SET + C_AUDIT_SET_SQ N^2 (0.23 ms at N = 200, 0.4 ms at N = 1000 since
+#:   a worker keeps its memo across chunks: 181 CPU-s for the 499,500 pairs, profiled),
 #:   plus C_AUDIT_SET_INTRA + C_AUDIT_SET_LOCAL (2 n_c)^3 when two of its agents share a cluster
 #:   (0.8 ms at n_c = 20, 3.2 ms at 50, 43 ms at 100);
 #: - per row, writing it out: C_AUDIT_ROW_OUT.
 #: A set whose minor certificate fails gets the whole O(N^3) zero-set analysis when a safe mode
 #: may expose it; how many do is not known from the sizes (none on the 50-cluster network, a
 #: fifth of the pairs on the 3-cluster N = 300 one, whose audit the estimate puts 3x low). The
-#: whole N = 1000 audit (50 clusters, k = 2, JSON, 2 workers): 641 s and 11.9 GiB summed over the
-#: processes on 2026-12-06 (estimate 7.3 min); a single costs about 0.15 s there since the minors'
+#: whole N = 1000 audit (50 clusters, k = 2, JSON, 2 workers): 226 s and 3540 MiB summed over the
+#: processes on 2026-12-06 (estimate 4.8 min); a single costs about 0.15 s there since the minors'
 #: random combinations and the local zero search decide it (it was 1.2 s, the whole zero set), a
-#: pair about 1 ms (one core, nothing else running).
+#: pair about 0.36 ms (one core, nothing else running).
 C_AUDIT_SETUP = 1.2e-8
 C_AUDIT_AGENT = 3e-3
 C_AUDIT_AGENT_N = 1.3e-5
@@ -163,7 +164,7 @@ C_AUDIT_AGENT_LOCAL = 4.5e-8
 C_AUDIT_SINGLE_0 = 5e-3
 C_AUDIT_SINGLE = 1.2e-10
 C_AUDIT_SET = 2e-4
-C_AUDIT_SET_SQ = 8e-10
+C_AUDIT_SET_SQ = 2e-10
 C_AUDIT_SET_INTRA = 4e-4
 C_AUDIT_SET_LOCAL = 4e-9
 #: the safe modes' part of a row: each set is tested against every safe mode that meets
@@ -175,14 +176,13 @@ C_AUDIT_SET_LOCAL = 4e-9
 #: with 20 such modes took no longer than with 2), so this term is an upper estimate there
 C_AUDIT_SET_MODE = 1.5e-3
 #: audit memory: N x N arrays (eigenvectors, minor tables: 136 MB at N = 1000) and bytes per row
-#: held until the report is written: 3.5 kB per row with the shared memo (traced), about 6 kB
-#: once received from a worker; the JSON is streamed row by row, yet the N = 1000 audit of
-#: 500,500 rows peaked at 11.9 GiB over its three processes (the estimate, 8.8 GiB, errs low
-#: there: what holds the rest is not yet known; a larger B_AUDIT_ROW would refuse audits of
-#: 250 agents under 1 GiB that need far less)
+#: held until the report is written: 3.5 kB per row with the shared memo (traced); rows received
+#: from a worker share their repeated parts (SharedParts). The N = 1000 audit of 500,500 rows on
+#: 2 workers peaked at 3540 MiB summed over its three processes on 2026-12-06 (main 2.0 GB,
+#: workers about 0.7 GB each; estimate 3.5 GiB): 6.5 kB per row with the workers' share
 A_AUDIT = 20.0
-B_AUDIT_ROW = 18_000.0
-#: writing a row (JSON or Markdown text): seconds (a 960 MB JSON of 500,500 rows took about 100 s)
+B_AUDIT_ROW = 6_500.0
+#: writing a row (JSON or Markdown text): seconds (the 1.4 GB JSON of 500,500 rows took about 60-80 s)
 C_AUDIT_ROW_OUT = 2e-4
 #: exact audit rows (``--exact``): a factor on the per-set seconds
 F_AUDIT_EXACT = 10.0
@@ -588,10 +588,10 @@ def estimate_audit(sizes: SpecSizes, k: int, candidates: int | None = None, *, e
     with the constants of this module (:data:`C_AUDIT_SETUP` = 1.2e-8, :data:`C_AUDIT_AGENT` =
     3e-3, :data:`C_AUDIT_AGENT_N` = 1.3e-5, :data:`C_AUDIT_AGENT_LOCAL` = 4.5e-8,
     :data:`C_AUDIT_SINGLE_0` = 5e-3, :data:`C_AUDIT_SINGLE` = 1.2e-10, :data:`C_AUDIT_SET` = 2e-4,
-    :data:`C_AUDIT_SET_SQ` = 8e-10, :data:`C_AUDIT_SET_INTRA` = 4e-4, :data:`C_AUDIT_SET_LOCAL`
+    :data:`C_AUDIT_SET_SQ` = 2e-10, :data:`C_AUDIT_SET_INTRA` = 4e-4, :data:`C_AUDIT_SET_LOCAL`
     = 4e-9, :data:`C_AUDIT_SET_MODE` (``C_mode``, S safe modes) = 1.5e-3,
     :data:`C_AUDIT_ROW_OUT` = 2e-4 s (writing each row), :data:`A_AUDIT` = 20,
-    :data:`B_AUDIT_ROW` = 18 kB); ``exact`` multiplies the per-set seconds by
+    :data:`B_AUDIT_ROW` = 6.5 kB); ``exact`` multiplies the per-set seconds by
     :data:`F_AUDIT_EXACT`. Measured: the whole N = 1000 audit on 50 clusters with JSON output
     on 2 workers took 641 s and 11.9 GiB over its processes (estimate 7.3 min, 8.8 GiB; before
     the singles were decided by minors and local zeros: 29 min and 9.2 GB); N = 200 on 10 clusters 8 s in the
