@@ -276,3 +276,20 @@ def test_the_table_of_shared_parts_travels_empty() -> None:
     table._one("a route step")  # noqa: SLF001 - fill it through its one entry point for any value
     assert len(table) == 1
     assert len(pickle.loads(pickle.dumps(table))) == 0
+
+
+def test_the_chunks_one_process_runs_share_one_memo_that_travels_empty(paper19: System) -> None:
+    import pickle
+
+    sets = attack_sets(paper19, 2, [1, 3, 4, 8])
+    chunks = audit_chunks(paper19, sets, chunk_size=4)
+    first, second = chunks[0], chunks[1]
+    assert first.shared is second.shared
+    first()
+    kept = first.shared.process_memo.memo({})
+    size = len(kept)
+    assert size > 0
+    second()
+    assert second.shared.process_memo.memo({}) is kept and len(kept) >= size
+    travelled = pickle.loads(pickle.dumps(first.shared))
+    assert travelled.process_memo.memo({"seed": 1}) == {"seed": 1}  # a new process starts from the seed
