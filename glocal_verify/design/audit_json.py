@@ -1,12 +1,11 @@
-"""The JSON text of audit rows, written fast: the text of ``json.dumps(value, indent=2)``, parts shared by rows rendered once.
+"""The JSON text of audit rows, written fast: the text of ``json.dumps(value, indent=2)``.
 
 An audit of 500,500 sets writes about 1.4 GB of JSON. The standard library's encoder runs in
 Python whenever it indents (its C encoder only writes compact text), and the rows were
-indented again line by line: 85 us a row, about 65 s of the N = 1000, k = 2 audit after its
-last task. Most of a row's text is parts that many rows hold as one object
-(:class:`~glocal_verify.design.audit_records.SharedParts`: an observer's verdict on one
-suspected agent, a mode that is not evaluated): :class:`IndentedJson` keeps the text of each
-container it has written, by identity and depth, while the rows that hold it are alive.
+indented again line by line: 84 us a row, about 65 s of the N = 1000, k = 2 audit after its
+last task. :class:`IndentedJson` writes the same text directly, the common leaves inline:
+36 us a row. (Keeping the text of containers that many rows share, by identity, was tried:
+too few are shared whole, and the table made it 48 us.)
 
 The text is exactly that of ``json.dumps(audit_jsonable(value), indent=2)`` indented by the
 depth (checked by the tests on odd values: numpy scalars, complex numbers, non-finite floats,
@@ -25,9 +24,6 @@ import numpy as np
 from glocal_verify.results import Status
 
 __all__ = ["IndentedJson", "audit_jsonable"]
-
-#: containers whose text is kept before the table starts again (bounds its memory when rows share nothing)
-_MEMO_LIMIT = 200_000
 
 _quote = json.encoder.encode_basestring_ascii  # the C function json.dumps uses (ensure_ascii)
 
@@ -65,14 +61,8 @@ def audit_jsonable(x: Any) -> Any:
 class IndentedJson:
     """Writer of ``json.dumps(audit_jsonable(value), indent=2)`` at a given depth.
 
-    The text of a dict, list or tuple is kept by ``(id, depth)`` together with the object
-    itself (so its identity cannot be reused while the entry lives); a writer belongs to one
-    pass over rows that are not changed meanwhile (audit rows are read-only). Values that are
-    not JSON-like raise ``TypeError``, as ``json.dumps`` does.
+    Values that are not JSON-like raise ``TypeError``, as ``json.dumps`` does.
     """
-
-    def __init__(self) -> None:
-        self._memo: dict[tuple[int, int], tuple[Any, str]] = {}
 
     def text(self, value: Any, depth: int = 0) -> str:
         """The text of ``value`` whose first line is indented by the caller and whose
@@ -97,15 +87,7 @@ class IndentedJson:
             inner = "\n" + "  " * (depth + 1)
             return "[" + inner + _float(x.real) + "," + inner + _float(x.imag) + "\n" + "  " * depth + "]"
         if isinstance(x, (dict, list, tuple)):
-            key = (id(x), depth)
-            hit = self._memo.get(key)
-            if hit is not None and hit[0] is x:
-                return hit[1]
-            t = self._container(x, depth)
-            if len(self._memo) >= _MEMO_LIMIT:
-                self._memo.clear()
-            self._memo[key] = (x, t)
-            return t
+            return self._container(x, depth)
         raise TypeError(f"Object of type {type(x).__name__} is not JSON serializable")
 
     def _container(self, x: dict[Any, Any] | list[Any] | tuple[Any, ...], depth: int) -> str:

@@ -12,7 +12,6 @@ from collections.abc import Hashable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-
 from glocal_verify.answer.attack import AttackAnswer
 from glocal_verify.design.audit_json import IndentedJson, audit_jsonable
 from glocal_verify.numerics.collection import deferred_full_collections
@@ -79,14 +78,14 @@ class AuditRow:
         return audit_jsonable(self._json_form())  # type: ignore[no-any-return]
 
     def _json_form(self) -> dict[str, Any]:
-        """The row's JSON fields before conversion: the witness's parts are the row's own
-        objects (:class:`~glocal_verify.design.audit_json.IndentedJson` writes a shared one once)."""
+        """The row's JSON fields before :func:`~glocal_verify.design.audit_json.audit_jsonable`
+        (what :class:`~glocal_verify.design.audit_json.IndentedJson` writes without building it)."""
         routes = [] if self.answer is None else [{"name": r.name, "verdict": r.verdict} for r in self.answer.routes]
         return {
             "actuators": self.actuators,
             "stealthy": self.stealthy,
             "growth": self.growth,
-            "lambda0": self.lambda0,
+            "lambda0": None if self.lambda0 is None else complex(self.lambda0),  # always [re, im]
             "caught_locally_by": [{"cluster": c, "observer": o} for c, o in self.caught_locally_by],
             "exposed_by_modes": self.exposed_by_modes,
             "verdict": self.verdict,
@@ -274,7 +273,7 @@ class AuditResult:
         """
         head = json.dumps(self._json_head(), indent=2)
         yield head[: -len("\n}")] + ',\n  "rows": ['
-        writer = IndentedJson()  # a shared part's text is written once
+        writer = IndentedJson()
         with deferred_full_collections():  # the rows are millions of live objects: no full collection rescans them meanwhile
             for k, r in enumerate(self.rows):
                 yield ("\n    " if k == 0 else ",\n    ") + writer.text(r._json_form(), 2)  # noqa: SLF001 - the row's own form
