@@ -14,7 +14,35 @@ __all__ = [
     "NotApplicableError",
     "ConfigError",
     "ArgumentError",
+    "shorten",
 ]
+
+#: longest key path a message quotes whole (a longer one keeps its start and its end)
+PATH_CHARS = 120
+#: longest line an error message is cut to, whatever the user typed
+LINE_CHARS = 400
+
+
+def shorten(text: str, limit: int = LINE_CHARS) -> str:
+    """``text`` on one line of at most ``limit`` characters: its first line, and when that is
+    longer, its start and its end around ``...`` (a key path's last part often says the most).
+
+    Parameters
+    ----------
+    text : str
+    limit : int
+        At least 20.
+
+    Examples
+    --------
+    >>> shorten("a" * 30 + "b" * 30, 20)
+    'aaaaaaaa...bbbbbbbbb'
+    """
+    first = text.splitlines()[0] if text else ""
+    if len(first) <= limit:
+        return first
+    head = (limit - 3) // 2
+    return f"{first[:head]}...{first[len(first) - (limit - 3 - head):]}"
 
 class GlocalVerifyError(Exception):
     """Root of every exception raised by glocal-verify."""
@@ -37,8 +65,9 @@ class SpecError(ValueError, GlocalVerifyError):
         self.path = path
         self.problem = problem
         self.source = source
-        where = f"{source}: " if source else ""
-        super().__init__(f"{where}{path}: {problem}" if path else f"{where}{problem}")
+        where = f"{shorten(source, PATH_CHARS)}: " if source else ""
+        shown = shorten(path, PATH_CHARS)
+        super().__init__(shorten(f"{where}{shown}: {problem}" if path else f"{where}{problem}"))
 
 
 class ModelError(ValueError, GlocalVerifyError):

@@ -23,7 +23,10 @@ import numpy as np
 from glocal_verify import System, load_example, verify
 from glocal_verify.analysis.sampled_scan import scan_periods
 from glocal_verify.reporting.guarantee_figures import detection_figure, detection_times_figure, period_scan_figure, render, thresholds_figure
-from glocal_verify.reporting.output import write_bytes_atomic, write_text_atomic
+from glocal_verify.errors import ArgumentError, GlocalVerifyError
+from glocal_verify.reporting.output import check_output_dir, write_bytes_atomic, write_text_atomic
+from glocal_verify.runtime.lines import write_line
+from glocal_verify.runtime.processes import Stopped, signal_name, stop_on_signals
 from glocal_verify.results import jsonable
 from glocal_verify.simulation.certified_thresholds import certified_thresholds
 from glocal_verify.simulation.guarantees import detection_guarantee
@@ -82,15 +85,58 @@ def _conservatism(th: Any, batch: Any, start: int) -> dict[str, dict[str, float]
     return out
 
 
+#: the command's name in its messages
+PROG = "python -m guarantee_checks"
+#: fewest attack-free runs (each of the three kinds gets at least one) and attacked runs (both kinds)
+MIN_RUNS, MIN_ATTACK_RUNS = 10, 2
+
+
+class _Parser(argparse.ArgumentParser):
+    """Usage errors as one line (exit 2), as the ``glocal-verify`` command gives them."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        raise ArgumentError(message)
+
+
+def _count(lo: int) -> Any:
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer >= {lo}, got {text[:40]!r}") from None
+        if value < lo:
+            raise argparse.ArgumentTypeError(f"expected an integer >= {lo}, got {value}")
+        return value
+
+    return parse
+
+
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m guarantee_checks", description=__doc__.splitlines()[0])
-    ap.add_argument("--runs", type=int, default=10_000, help="attack-free runs (split 40 %% random, 30 %% vertex, 30 %% worst case)")
-    ap.add_argument("--attack-runs", type=int, default=1_000, help="attacked runs of the ZDA of case 2")
-    ap.add_argument("--out", default="reports/paper19/guarantees", help="output folder")
-    ap.add_argument("--seed", type=int, default=2024)
+    """Run the checks (module docstring); bad arguments and a bad ``--out`` are one line, exit 2,
+    before any work; a stop signal is one line, exit 130/143/129."""
+    try:
+        with stop_on_signals():
+            return _main(argv)
+    except GlocalVerifyError as exc:
+        write_line(f"{PROG}: error: {exc}", fresh=True)
+        return 2
+    except Stopped as exc:
+        write_line(f"{PROG}: stopped ({signal_name(exc.signum)})", fresh=True)
+        return exc.exit_code
+    except KeyboardInterrupt:
+        write_line(f"{PROG}: interrupted", fresh=True)
+        return 130
+
+
+def _main(argv: list[str] | None) -> int:
+    ap = _Parser(prog=PROG, description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=_count(MIN_RUNS), default=10_000, help=f"attack-free runs (split 40 %% random, 30 %% vertex, 30 %% worst case; at least {MIN_RUNS})")
+    ap.add_argument("--attack-runs", type=_count(MIN_ATTACK_RUNS), default=1_000, help=f"attacked runs of the ZDA of case 2 (at least {MIN_ATTACK_RUNS})")
+    ap.add_argument("--out", default="reports/paper19/guarantees", help="output folder (created when missing)")
+    ap.add_argument("--seed", type=_count(0), default=2024, help="seed of the random runs (an integer >= 0)")
     args = ap.parse_args(argv)
+    out = check_output_dir(args.out)  # before minutes of work
     t0 = time.perf_counter()
-    out = Path(args.out)
     rng = np.random.default_rng(args.seed)
     rep: dict[str, Any] = {"command": "python -m guarantee_checks" + ("" if argv is None else " " + " ".join(argv))}
     system = paper19_sampled()
@@ -218,9 +264,9 @@ def main(argv: list[str] | None = None) -> int:
     }
     for name, fig in figs.items():
         for ext, data in render(fig).items():
-            write_bytes_atomic(out / f"{name}.{ext}", data)
-    write_text_atomic(out / "guarantees.json", json.dumps(jsonable(rep), indent=1) + "\n")
-    write_text_atomic(out / "guarantees.md", _markdown(rep))
+            write_bytes_atomic(out / f"{name}.{ext}", data, create_parents=True)
+    write_text_atomic(out / "guarantees.json", json.dumps(jsonable(rep), indent=1) + "\n", create_parents=True)
+    write_text_atomic(out / "guarantees.md", _markdown(rep), create_parents=True)
     _log(f"wrote {out}", t0)
     return 0
 

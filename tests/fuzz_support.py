@@ -1452,6 +1452,7 @@ def output_case(c: Chooser) -> Case:
         out = "a/b/c/" + ("" if folder else "out" + suffix)
     elif target == "full-disk":
         fsize = c.choice([0, 100, 3000])
+        setup.append(("mkdir", "full"))
         out = "full/" + ("" if folder else "out" + suffix)
     else:
         out = "out/" if folder else "out" + suffix

@@ -76,6 +76,7 @@ def test_help_exits_0(capsys: pytest.CaptureFixture[str]) -> None:
 def test_every_out_says_which_path_it_wrote(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     spec = _spec(tmp_path)
     out = tmp_path / "r" / "report.md"
+    out.parent.mkdir()
     assert main(["verify", str(spec), "--only", "privacy.connected", "--out", str(out), "--quiet"]) == 0
     assert _one_line(capsys.readouterr().err) == f"wrote {out}"
     assert out.read_text().startswith("# glocal-verify report: tiny4")
@@ -195,6 +196,7 @@ def test_a_symbolic_link_inside_the_output_folder_is_replaced_never_written_thro
 
 def test_write_text_atomic_replaces_the_file_and_leaves_no_temporary(tmp_path: Path) -> None:
     p = tmp_path / "x" / "r.txt"
+    p.parent.mkdir()
     write_text_atomic(p, "one")
     write_text_atomic(p, "two")
     assert p.read_text() == "two" and [q.name for q in p.parent.iterdir()] == ["r.txt"]

@@ -300,7 +300,7 @@ def test_an_audit_folder_is_written_all_or_nothing(tmp_path: Path, monkeypatch: 
 
 def test_a_sweep_into_a_full_disk_is_one_line_and_leaves_nothing_half_written(tmp_path: Path) -> None:
     case = fs.Case("output", "sweep", ["sweep", "sw.toml", "--out", "full/r.csv", "--quiet", "--no-figures"],
-                   {"sw.toml": fs.toml_dumps(fs.SWEEP_BASE).encode()}, protected=["sw.toml"], fsize=100)
+                   {"sw.toml": fs.toml_dumps(fs.SWEEP_BASE).encode()}, [("mkdir", "full")], protected=["sw.toml"], fsize=100)
     res = fs.run_case(case, 60)
     assert res.outcome == "clean-error", res.summary()
     assert "cannot write" in res.last_stderr_line and len(res.stderr_lines) == 1

@@ -38,7 +38,7 @@ def test_the_schema_rejects_a_report_with_a_bad_status(paper19: System) -> None:
 
 
 def test_cli_writes_json_to_a_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    out = tmp_path / "r" / "report.json"
+    out = tmp_path / "report.json"
     assert main(["verify", "--example", "paper19", "--format", "json", "--out", str(out), "--quiet"]) == 0
     data = json.loads(out.read_text())
     validate_report_json(data)

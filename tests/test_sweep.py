@@ -7,7 +7,6 @@ import csv
 import dataclasses
 import json
 import os
-import shutil
 import subprocess
 import sys
 import time
@@ -70,12 +69,10 @@ def test_a_sweep_on_a_two_worker_local_cluster_matches_the_members_computed_in_p
 
 
 def test_a_sweep_through_an_external_scheduler_gives_identical_rows(tmp_path: Path) -> None:
-    dask = shutil.which("dask")
-    if dask is None:  # the console script comes with dask[distributed]
-        dask_cmd = [sys.executable, "-m", "distributed.cli.dask_scheduler"]
-        worker_cmd = [sys.executable, "-m", "distributed.cli.dask_worker"]
-    else:
-        dask_cmd, worker_cmd = [dask, "scheduler"], [dask, "worker"]
+    # this interpreter's modules, not a `dask` script found on PATH: the worker must import the
+    # glocal_verify under test (a `dask` of another environment cannot unpickle its tasks)
+    dask_cmd = [sys.executable, "-m", "distributed.cli.dask_scheduler"]
+    worker_cmd = [sys.executable, "-m", "distributed.cli.dask_worker"]
     sched_file = tmp_path / "scheduler.json"
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}
     sched = subprocess.Popen([*dask_cmd, "--host", "127.0.0.1", "--port", "0", "--no-dashboard", "--scheduler-file", str(sched_file)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)

@@ -28,7 +28,7 @@ from typing import Sequence
 from glocal_verify import __version__
 from glocal_verify.cli.common import PROG, Parser, UsageError
 from glocal_verify.cli.heartbeat import Heartbeat
-from glocal_verify.errors import GlocalVerifyError
+from glocal_verify.errors import GlocalVerifyError, shorten
 from glocal_verify.runtime.lines import tracked_stderr, write_line
 from glocal_verify.runtime.processes import StopRequest, Stopped, signal_name, stop_on_signals
 
@@ -113,7 +113,7 @@ def _run(argv: Sequence[str] | None, stop: StopRequest | None = None) -> int:
         with Heartbeat(PROG, args.command, enabled=not getattr(args, "quiet", False)):
             return int(args.func(args))
     except GlocalVerifyError as exc:
-        write_line(f"{PROG}: error: {exc}", fresh=True)
+        write_line(f"{PROG}: error: {shorten(str(exc))}", fresh=True)
         return 2
     except SystemExit as exc:  # --help, --version
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)

@@ -59,7 +59,7 @@ def _audit_outputs(args: argparse.Namespace) -> tuple[Path | None, list[str]]:
         check_out_dir(out_dir, inputs=inputs)
         for name in (_REPORT_NAMES.get(args.format, "audit.md"), "audit.svg", "audit.png"):
             check_output_file(out_dir / name, inputs=inputs)
-    elif args.out:
+    elif args.out is not None:
         check_out_file(args)
     if args.figure:
         if Path(args.figure).suffix.lower() not in (".svg", ".png"):

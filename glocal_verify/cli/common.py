@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any, Callable, Iterable
 
 from glocal_verify.errors import GlocalVerifyError
 from glocal_verify.reporting.output import check_output_dir, check_output_file, write_text_atomic
+from glocal_verify.runtime.files import STDOUT
 from glocal_verify.runtime.lines import write_line
 
 if TYPE_CHECKING:
@@ -48,11 +49,25 @@ class Parser(argparse.ArgumentParser):
         raise UsageError(message)
 
 
-def ids_arg(text: str | None) -> list[str] | None:
-    """Split a comma-separated option value (None stays None; blanks are dropped)."""
+def ids_arg(text: str | None, option: str, *, allow_empty: bool = False) -> list[str] | None:
+    """Split the comma-separated value of ``option`` (None stays None; blanks between commas are dropped).
+
+    A value that names nothing (``''``, ``','``, spaces) is a usage error: a gate such as
+    ``--require`` given an empty list would otherwise pass every report, and ``--only ''``
+    would silently run every checker. ``allow_empty``: an empty list is a meaningful value
+    (``--velocities ''``: no agent).
+
+    Raises
+    ------
+    UsageError
+        The value names nothing.
+    """
     if text is None:
         return None
-    return [t for t in (x.strip() for x in text.split(",")) if t]
+    items = [t for t in (x.strip() for x in text.split(",")) if t]
+    if not items and not allow_empty:
+        raise UsageError(f"{option}: the list is empty ({text[:20]!r}); name at least one (comma-separated)")
+    return items
 
 
 def load_system(args: argparse.Namespace) -> System:
@@ -80,7 +95,7 @@ def check_out_file(args: argparse.Namespace, *, inputs: Iterable[str] = ()) -> N
     SPEC, ``--graph`` and ``inputs``), in a writable folder
     (:func:`~glocal_verify.reporting.output.check_output_file`)."""
     out = getattr(args, "out", None)
-    if out:
+    if out is not None:
         check_output_file(out, inputs=[*spec_inputs(args), *inputs])
 
 
@@ -91,8 +106,10 @@ def check_out_dir(path: str | Path, *, inputs: Iterable[str] = ()) -> Path:
 
 
 def wrote(path: str | Path) -> None:
-    """Tell the user where the output went: one line ``wrote <path>`` on stderr."""
-    write_line(f"wrote {path}")
+    """Tell the user where the output went: one line ``wrote <path>`` on stderr (nothing for
+    ``-``, standard output)."""
+    if str(path) != STDOUT:
+        write_line(f"wrote {path}")
 
 
 def write_output(text: str | Iterable[str], out: str | None, *, inputs: Iterable[str] = ()) -> None:
@@ -103,11 +120,12 @@ def write_output(text: str | Iterable[str], out: str | None, *, inputs: Iterable
     text : str or iterable of str
         The text, or its chunks (streamed: a long report is never held whole)
     out : str, optional
-        Output file; None or empty: standard output.
+        Output file (a regular file atomically, a character device or FIFO in place:
+        :func:`~glocal_verify.runtime.files.write_bytes_atomic`); None or ``-``: standard output.
     inputs : iterable of str
         Files the command read; ``out`` must not be one of them.
     """
-    if out:
+    if out is not None and out != STDOUT:
         p = check_output_file(out, inputs=inputs)
         write_text_atomic(p, text)
         wrote(p)

@@ -6,6 +6,7 @@ import argparse
 import sys
 from typing import Any
 
+from glocal_verify.runtime.files import STDOUT
 from glocal_verify.cli.common import PROG, UsageError, add_allow_large, check_cost, check_out_file, count_progress, load_system, spec_inputs, write_output
 from glocal_verify.runtime.lines import write_line
 
@@ -57,7 +58,7 @@ def cmd_design(args: argparse.Namespace) -> int:
     lines = d.summary() + [f"note: {n}" for n in d.notes]
     lines += _assessment_lines(system, "before", exact)
     lines += _assessment_lines(System(d.spec), "after ", exact)
-    write_line("\n".join(lines), sys.stderr if not args.out else sys.stdout)
+    write_line("\n".join(lines), sys.stderr if args.out in (None, STDOUT) else sys.stdout)
     if d.unmet:
         write_line(f"{PROG}: the design above is partial: {len(d.unmet)} requirement(s) not met (see NOT MET)")
         return 1

@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from glocal_verify.cli.common import PROG, UsageError, check_out_file, load_system, wrote
+from glocal_verify.runtime.files import STDOUT
 from glocal_verify.runtime.lines import write_line
 from glocal_verify.spec.examples import example_names
 
@@ -17,11 +18,13 @@ def cmd_export(args: argparse.Namespace) -> int:
     """Write :func:`glocal_verify.reporting.export.export_observers` of SPEC to ``--out``."""
     from glocal_verify.reporting.export import EXPORT_FORMATS, export_observers
 
+    check_out_file(args)  # before any work: '' or a missing folder fails at once
     out = Path(args.out)
     fmt = args.format or out.suffix.lower().lstrip(".")
     if fmt not in EXPORT_FORMATS:
+        if args.out == STDOUT:
+            raise UsageError(f"--out -: give --format ({', '.join(EXPORT_FORMATS)}): standard output has no suffix to name one")
         raise UsageError(f"--format: give one of {', '.join(EXPORT_FORMATS)} (the suffix of {out.name!r} names none)")
-    check_out_file(args)
     system = load_system(args)
     if not args.quiet:
         what = "observers and schedule" if args.no_thresholds else "observers, attack-free thresholds and schedule"
@@ -39,7 +42,7 @@ def register(sub: Any) -> None:
     e.add_argument("spec", nargs="?", help="system specification (TOML, format 1)")
     e.add_argument("--example", metavar="NAME", help=f"use a bundled example ({', '.join(example_names())})")
     e.add_argument("--format", choices=("mat", "json", "npz"), help="file format (default: the suffix of --out)")
-    e.add_argument("--out", metavar="FILE", required=True, help="the file to write (atomically)")
+    e.add_argument("--out", metavar="FILE", required=True, help="the file to write (atomically; a device or FIFO in place; - for standard output, with --format)")
     e.add_argument("--no-thresholds", action="store_true", help="leave out the attack-free thresholds (they take a simulation of the spec's horizon)")
     e.add_argument("--quiet", action="store_true", help="no progress on stderr")
     e.set_defaults(func=cmd_export)

@@ -32,14 +32,14 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if args.cases and (args.mode or args.no_switch):
         raise UsageError("--cases simulates every safe mode: drop --mode/--no-switch")
     inputs = spec_inputs(args)
-    if args.out:
+    if args.out is not None:
         check_out_dir(args.out, inputs=inputs)
     system = load_system(args)
     from glocal_verify.design.placement import connectivity_warnings
 
     for line in connectivity_warnings(system):
         write_line(f"{PROG}: {line}")
-    out = Path(args.out) if args.out else Path(DEFAULT_OUT) / safe_component(system.name)
+    out = Path(args.out) if args.out is not None else Path(DEFAULT_OUT) / safe_component(system.name)
     check_out_dir(out, inputs=inputs)
     sim = system.spec.simulation
     # refuse absurd horizons before anything is allocated (the engine checks every run too)

@@ -57,7 +57,7 @@ def _graph_labels(text: str | None, nodes: Any, flag: str) -> list[Any]:
     """Labels of ``--velocities`` / ``--positions``: each token as the graph spells it (int or str)."""
     out: list[Any] = []
     by_text = {str(v): v for v in nodes}
-    for tok in ids_arg(text) or []:
+    for tok in ids_arg(text, flag, allow_empty=True) or []:
         if tok not in by_text:
             raise UsageError(f"{flag}: agent {tok} is not a node of the --graph file")
         out.append(by_text[tok])
@@ -88,9 +88,9 @@ def cmd_verify(args: argparse.Namespace) -> int:
     from glocal_verify.conditions.registry import implemented_ids, resolve_ids
     from glocal_verify.numerics.tolerance import Tolerance
 
-    only = ids_arg(args.only)
-    require = resolve_ids(ids_arg(args.require) or [])
-    require_holds = resolve_ids(ids_arg(args.require_holds) or [])
+    only = ids_arg(args.only, "--only")
+    require = resolve_ids(ids_arg(args.require, "--require") or [])
+    require_holds = resolve_ids(ids_arg(args.require_holds, "--require-holds") or [])
     if only is not None:
         named = [t for t in only if not t.endswith(("*", "."))]
         only = resolve_ids(only)

@@ -6,13 +6,20 @@ Every file the toolkit writes goes through this module:
   computation starts, so a bad ``--out`` fails at once with one line: the output must not be
   one of the command's inputs (by any path that resolves to it: a hard link, ``sub/../spec.toml``,
   a relative or absolute spelling), must not be a symbolic link nor lie in a folder given
-  through a symbolic link (a link is never written through), and the nearest existing folder
-  must be writable.
-* :func:`write_text_atomic` / :func:`write_bytes_atomic` write a temporary file in the target's
-  folder, ``fsync`` it, then ``os.replace`` it over the target (atomic on POSIX and Windows
-  within one file system) and ``fsync`` the folder. A failure at any point (full disk,
-  permissions, Ctrl-C, ``SIGTERM``) removes the temporary file and the folders it created,
-  and leaves an existing target untouched.
+  through a symbolic link (a link is never written through), no name in it may be longer than
+  the file system allows, its folder must exist (a command that creates folders says so and
+  asks for it: ``create_parents=True``) and be writable, and its kind must be one a report can
+  be written to (:class:`TargetKind`).
+* :func:`write_text_atomic` / :func:`write_bytes_atomic` write a regular file through a
+  temporary file in the target's folder, ``fsync`` it, then ``os.replace`` it over the target
+  (atomic on POSIX and Windows within one file system) and ``fsync`` the folder. A failure at
+  any point (full disk, permissions, Ctrl-C, ``SIGTERM``) removes the temporary file and the
+  folders it created, and leaves an existing target untouched.
+* A target that exists and is not a regular file is never renamed over: a character device
+  (``/dev/null``, a terminal) or a FIFO -- directly or through a symbolic link such as
+  ``/dev/stdout`` -- is opened and written in place (a FIFO waits for its reader, saying so on
+  stderr, and a stop signal ends the wait); a block device, a socket or a folder is refused.
+  ``-`` (:data:`STDOUT`) writes to standard output.
 * :class:`OutputFolder` stages several files in a hidden sub-folder of the destination and
   moves them into place only when every file was written (all files or none); the moves are
   renames within one file system and are shielded from stop signals. On any failure the
@@ -27,12 +34,17 @@ Layer: runtime; imports :mod:`glocal_verify.errors` and :mod:`.processes`.
 
 from __future__ import annotations
 
+import errno
+import fcntl
 import hashlib
 import os
 import re
 import shutil
+import stat
+import sys
 import tempfile
 import unicodedata
+from enum import Enum
 from pathlib import Path
 from types import TracebackType
 from typing import Iterable, Iterator
@@ -41,6 +53,9 @@ from glocal_verify.errors import GlocalVerifyError
 from glocal_verify.runtime.processes import defer_stop_signals
 
 __all__ = [
+    "STDOUT",
+    "TargetKind",
+    "target_kind",
     "OutputError",
     "safe_component",
     "write_text_atomic",
@@ -58,6 +73,78 @@ _RESERVED = frozenset({"con", "prn", "aux", "nul"} | {f"com{i}" for i in range(1
 
 #: prefix of staging folders and temporary files (hidden, recognisable)
 _TMP_PREFIX = ".glocal-partial-"
+
+#: the output name that means standard output (the Unix convention)
+STDOUT = "-"
+
+#: longest path the checks accept (bytes), when the system does not say (Linux's PATH_MAX)
+_PATH_MAX = 4096
+#: longest file name the checks accept (bytes), when the file system does not say
+_NAME_MAX = 255
+
+
+class TargetKind(Enum):
+    """What an output location is now (:func:`target_kind`), which decides how it is written."""
+
+    MISSING = "missing"
+    FILE = "regular file"
+    FOLDER = "folder"
+    CHARACTER_DEVICE = "character device"
+    BLOCK_DEVICE = "block device"
+    FIFO = "FIFO"
+    SOCKET = "socket"
+    LINK = "symbolic link"
+    STDOUT = "standard output"
+
+    @property
+    def in_place(self) -> bool:
+        """Written in place (opened, never renamed over nor created): a character device or a FIFO."""
+        return self in (TargetKind.CHARACTER_DEVICE, TargetKind.FIFO)
+
+
+def _kind_of_mode(mode: int) -> TargetKind:
+    if stat.S_ISREG(mode):
+        return TargetKind.FILE
+    if stat.S_ISDIR(mode):
+        return TargetKind.FOLDER
+    if stat.S_ISCHR(mode):
+        return TargetKind.CHARACTER_DEVICE
+    if stat.S_ISBLK(mode):
+        return TargetKind.BLOCK_DEVICE
+    if stat.S_ISFIFO(mode):
+        return TargetKind.FIFO
+    if stat.S_ISSOCK(mode):
+        return TargetKind.SOCKET
+    return TargetKind.LINK if stat.S_ISLNK(mode) else TargetKind.FILE
+
+
+def target_kind(path: str | Path) -> TargetKind:
+    """The kind of the output location ``path``.
+
+    A symbolic link counts as its target's kind when that target is a character device or a
+    FIFO (``/dev/stdout``, ``/dev/fd/1``: written in place, nothing is created or replaced),
+    and as :attr:`TargetKind.LINK` otherwise (refused: a link is never written through).
+    ``-`` is :attr:`TargetKind.STDOUT`.
+
+    Parameters
+    ----------
+    path : path
+    """
+    if str(path) == STDOUT:
+        return TargetKind.STDOUT
+    try:
+        mode = os.lstat(path).st_mode
+    except FileNotFoundError:
+        return TargetKind.MISSING
+    except (OSError, ValueError):  # a too-long name, a file in place of a folder: no such target
+        return TargetKind.MISSING
+    if stat.S_ISLNK(mode):
+        try:
+            final = _kind_of_mode(os.stat(path).st_mode)
+        except (OSError, ValueError):
+            return TargetKind.LINK
+        return final if final.in_place else TargetKind.LINK
+    return _kind_of_mode(mode)
 
 
 class OutputError(GlocalVerifyError):
@@ -135,7 +222,10 @@ def _check_folder_writable(folder: Path, what: str) -> None:
 
 
 def _refuse_symlink(path: Path, what: str) -> None:
-    """Refuse a symbolic link at ``path`` or at the folder it is written into."""
+    """Refuse a symbolic link at ``path`` or at the folder it is written into (a link to a
+    character device or a FIFO, written in place, is not refused: :func:`target_kind`)."""
+    if target_kind(path).in_place:
+        return
     if path.is_symlink():
         raise OutputError(f"{what}: {path} is a symbolic link (to {os.readlink(path)}); give the real path")
     parent = path.parent
@@ -169,10 +259,53 @@ def _refuse_input(path: Path, inputs: Iterable[str | Path], what: str) -> None:
             raise OutputError(f"{what}: {path} is an input of this command ({src}); refusing to overwrite it")
 
 
-def check_output_file(path: str | Path, *, inputs: Iterable[str | Path] = (), what: str = "--out") -> Path:
-    """Validate a file to be written, before any computation: refuse a symbolic link (or a
-    file in a folder given through one), a folder, one of ``inputs`` (e.g. the spec being
-    verified, by any path that resolves to it) and an unwritable folder.
+def _shown(path: str | Path, limit: int = 80) -> str:
+    """``path`` for a message: whole when short, else its start and end (one readable line)."""
+    text = str(path)
+    return text if len(text) <= limit else f"{text[: limit // 2 - 2]}...{text[-(limit // 2 - 2):]}"
+
+
+def _name_max(folder: Path) -> int:
+    try:
+        return int(os.pathconf(_nearest_existing(folder), "PC_NAME_MAX"))
+    except (OSError, ValueError):
+        return _NAME_MAX
+
+
+def _check_lengths(path: Path, what: str) -> None:
+    """Refuse a path the operating system would reject for its length (ENAMETOOLONG), before any work."""
+    whole = len(os.fsencode(os.path.abspath(path)))
+    if whole >= _PATH_MAX:
+        raise OutputError(f"{what}: the path {_shown(path)} is {whole} bytes long; the system allows at most {_PATH_MAX - 1}")
+    limit = _name_max(path.parent if str(path.parent) else Path("."))
+    for part in path.parts:
+        n = len(os.fsencode(part))
+        if n > limit:
+            raise OutputError(f"{what}: the name {_shown(part, 40)} is {n} bytes long; a file name may have at most {limit}")
+
+
+def _refuse_kind(p: Path, kind: TargetKind, what: str, expected: str = "file") -> None:
+    if kind is TargetKind.FOLDER and expected == "file":
+        raise OutputError(f"{what}: {_shown(p)} is a folder, expected a file name")
+    if kind is TargetKind.BLOCK_DEVICE:
+        raise OutputError(f"{what}: {_shown(p)} is a block device (a disk); refusing to write a report over it")
+    if kind is TargetKind.SOCKET:
+        raise OutputError(f"{what}: {_shown(p)} is a socket; a report can be written to a file, a character device, a FIFO or - (standard output)")
+
+
+def check_output_file(
+    path: str | Path, *, inputs: Iterable[str | Path] = (), what: str = "--out", create_parents: bool = False
+) -> Path:
+    """Validate a file to be written, before any computation.
+
+    Accepted: ``-`` (standard output); a new or existing regular file in an existing,
+    writable folder; an existing character device or FIFO that can be opened for writing
+    (written in place, :func:`write_bytes_atomic`). Refused, in one line: an empty name; a
+    name or path longer than the file system allows; a symbolic link (or a file in a folder
+    given through one) unless it leads to a character device or a FIFO; a folder, a block
+    device or a socket; one of ``inputs`` (e.g. the spec being verified, by any path that
+    resolves to it); a read-only file; a missing folder (unless ``create_parents``: a command
+    that documents that it creates folders); an unwritable folder.
 
     Parameters
     ----------
@@ -182,6 +315,8 @@ def check_output_file(path: str | Path, *, inputs: Iterable[str | Path] = (), wh
         Files the command reads; the output must not be any of them.
     what : str
         How the location is named in messages (the option).
+    create_parents : bool
+        Missing folders will be created by the writer (default: refused).
 
     Returns
     -------
@@ -193,14 +328,29 @@ def check_output_file(path: str | Path, *, inputs: Iterable[str | Path] = (), wh
     OutputError
         One line naming the problem.
     """
+    if str(path) == STDOUT:
+        return Path(STDOUT)
     p = Path(path)
     if not str(path) or "\x00" in str(path):
-        raise OutputError(f"{what}: {str(path)!r} is not a file name")
+        raise OutputError(f"{what}: {_shown(repr(str(path)))} is not a file name")
+    _check_lengths(p, what)
+    kind = target_kind(p)
+    _refuse_kind(p, kind, what)
     _refuse_symlink(p, what)
-    if p.is_dir():
-        raise OutputError(f"{what}: {p} is a folder, expected a file name")
     _refuse_input(p, inputs, what)
-    _check_folder_writable(p.parent if str(p.parent) else Path("."), what)
+    if kind.in_place:
+        if not os.access(p, os.W_OK):
+            raise OutputError(f"{what}: {_shown(p)} ({kind.value}) is not writable")
+        return p
+    if kind is TargetKind.FILE and not os.access(p, os.W_OK):
+        raise OutputError(f"{what}: {_shown(p)} is read-only; refusing to replace it")
+    folder = p.parent if str(p.parent) else Path(".")
+    if not create_parents and not os.path.isdir(folder):
+        anc = _nearest_existing(folder)
+        if os.path.lexists(folder) or not anc.is_dir():
+            raise OutputError(f"{what}: {_shown(anc)} is not a folder")
+        raise OutputError(f"{what}: the folder {_shown(folder)} does not exist; create it first")
+    _check_folder_writable(folder, what)
     return p
 
 
@@ -226,12 +376,15 @@ def check_output_dir(path: str | Path, *, inputs: Iterable[str | Path] = (), wha
     OutputError
     """
     p = Path(path)
+    if str(path) == STDOUT:
+        raise OutputError(f"{what}: this output is a folder of several files; - (standard output) takes one file only")
     if not str(path) or "\x00" in str(path):
-        raise OutputError(f"{what}: {str(path)!r} is not a folder name")
+        raise OutputError(f"{what}: {_shown(repr(str(path)))} is not a folder name")
+    _check_lengths(p, what)
     _refuse_symlink(p, what)
     _refuse_input(p, inputs, what)
     if os.path.lexists(p) and not p.is_dir():
-        raise OutputError(f"{what}: {p} exists and is not a folder")
+        raise OutputError(f"{what}: {_shown(p)} exists and is not a folder")
     _check_folder_writable(p, what)
     return p
 
@@ -292,7 +445,7 @@ def _write_file(path: Path, data: bytes | Iterable[bytes]) -> None:
     """Write ``data`` (bytes, or chunks of bytes written as they come) to a new file ``path`` (which must not exist) and fsync it."""
     fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
     try:
-        for chunk in (data,) if isinstance(data, (bytes, bytearray, memoryview)) else data:
+        for chunk in _chunks(data):
             view = memoryview(chunk)
             while view:
                 n = os.write(fd, view)
@@ -309,14 +462,77 @@ def _encoded(text: str | Iterable[str]) -> bytes | Iterator[bytes]:
     return (chunk.encode("utf-8") for chunk in text)
 
 
-def write_bytes_atomic(path: str | Path, data: bytes | Iterable[bytes]) -> Path:
-    """Write ``data`` to ``path`` atomically (temporary file in the same folder, fsync,
-    ``os.replace``, fsync of the folder).
+def _chunks(data: bytes | Iterable[bytes]) -> Iterable[bytes | bytearray | memoryview]:
+    return (data,) if isinstance(data, (bytes, bytearray, memoryview)) else data
 
-    Either the complete new content is in place or the previous file (if any) is untouched; on
-    any failure or interrupt the temporary file, and the folders this call created for it, are
-    removed. A symbolic link at ``path`` (or as the folder it is written into) is refused,
-    never written through. Missing parent folders are created.
+
+def _write_stdout(data: bytes | Iterable[bytes]) -> None:
+    """Write ``data`` to standard output (its bytes when it has them: a figure or a .mat file)."""
+    stream = sys.stdout
+    buffer = getattr(stream, "buffer", None)
+    stream.flush()
+    for chunk in _chunks(data):
+        if buffer is not None:
+            buffer.write(bytes(chunk))
+        else:  # a captured text stream
+            stream.write(bytes(chunk).decode("utf-8", "replace"))
+    (buffer if buffer is not None else stream).flush()
+
+
+def _open_in_place(path: Path, kind: TargetKind) -> int:
+    """Open an existing character device or FIFO for writing, without creating or truncating.
+
+    A FIFO without a reader is waited for (one line on stderr says so); a stop signal ends the
+    wait as it ends any other work (the open is retried after a signal whose handler returns,
+    PEP 475, and interrupted by one whose handler raises)."""
+    flags = os.O_WRONLY | getattr(os, "O_NOCTTY", 0) | getattr(os, "O_CLOEXEC", 0)
+    if kind is TargetKind.FIFO:
+        try:
+            fd = os.open(path, flags | os.O_NONBLOCK)
+        except OSError as exc:
+            if exc.errno != errno.ENXIO:  # ENXIO: no reader yet
+                raise
+            from glocal_verify.runtime.lines import write_line
+
+            write_line(f"waiting for a reader of the FIFO {_shown(path)} (Ctrl-C stops)")
+            return os.open(path, flags)
+        fcntl.fcntl(fd, fcntl.F_SETFL, fcntl.fcntl(fd, fcntl.F_GETFL) & ~os.O_NONBLOCK)
+        return fd
+    return os.open(path, flags)
+
+
+def _write_in_place(path: Path, kind: TargetKind, data: bytes | Iterable[bytes]) -> Path:
+    """Write ``data`` into the existing character device or FIFO ``path`` (never replaced)."""
+    try:
+        fd = _open_in_place(path, kind)
+    except OSError as exc:
+        raise _os_error(path, exc) from None
+    try:
+        for chunk in _chunks(data):
+            view = memoryview(chunk)
+            while view:
+                n = os.write(fd, view)
+                view = view[n:]
+    except BrokenPipeError:
+        raise OutputError(f"{_shown(path)}: the reader of the FIFO went away before the report was written") from None
+    except OSError as exc:
+        raise _os_error(path, exc) from None
+    finally:
+        os.close(fd)
+    return path
+
+
+def write_bytes_atomic(path: str | Path, data: bytes | Iterable[bytes], *, create_parents: bool = False) -> Path:
+    """Write ``data`` to ``path``: a regular file atomically, a device or FIFO in place.
+
+    A regular file (new or existing) is written as a temporary file in the same folder,
+    fsynced, moved over the target with ``os.replace`` and the folder fsynced: either the
+    complete new content is in place or the previous file (if any) is untouched; on any
+    failure or interrupt the temporary file, and the folders this call created for it, are
+    removed. An existing character device or FIFO (:attr:`TargetKind.in_place`) is opened and
+    written in place, never replaced. ``-`` writes to standard output. A symbolic link at
+    ``path`` (or as the folder it is written into) that does not lead to a device or FIFO, a
+    folder, a block device and a socket are refused, never written through.
 
     Parameters
     ----------
@@ -324,6 +540,9 @@ def write_bytes_atomic(path: str | Path, data: bytes | Iterable[bytes]) -> Path:
     data : bytes or iterable of bytes
         The content, or its chunks (written as the iterable yields them; an exception or stop
         signal while it runs leaves the previous file untouched).
+    create_parents : bool
+        Create missing folders (for commands that document it); default: a missing folder is
+        refused.
 
     Returns
     -------
@@ -334,9 +553,18 @@ def write_bytes_atomic(path: str | Path, data: bytes | Iterable[bytes]) -> Path:
     OutputError
         The file cannot be written (message names the path and the system's reason).
     """
+    if str(path) == STDOUT:
+        _write_stdout(data)
+        return Path(STDOUT)
     p = Path(path)
+    kind = target_kind(p)
+    _refuse_kind(p, kind, str(p))
+    if kind.in_place:
+        return _write_in_place(p, kind, data)
     _refuse_symlink(p, str(p))
     folder = p.parent if str(p.parent) else Path(".")
+    if not create_parents and not os.path.isdir(folder):
+        raise OutputError(f"{_shown(p)}: the folder {_shown(folder)} does not exist")
     created: list[Path] = []
     try:
         created = make_folders(folder)
@@ -365,20 +593,23 @@ def write_bytes_atomic(path: str | Path, data: bytes | Iterable[bytes]) -> Path:
     return p
 
 
-def write_text_atomic(path: str | Path, text: str | Iterable[str]) -> Path:
-    """Write ``text`` (UTF-8) to ``path`` atomically (:func:`write_bytes_atomic`).
+def write_text_atomic(path: str | Path, text: str | Iterable[str], *, create_parents: bool = False) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` (:func:`write_bytes_atomic`: a regular file
+    atomically, a character device or FIFO in place, ``-`` to standard output).
 
     Parameters
     ----------
     path : path
     text : str or iterable of str
         The text, or its chunks (streamed: a long report is never held whole).
+    create_parents : bool
+        Create missing folders (default: refused).
 
     Returns
     -------
     Path
     """
-    return write_bytes_atomic(path, _encoded(text))
+    return write_bytes_atomic(path, _encoded(text), create_parents=create_parents)
 
 
 # --------------------------------------------------------------------------------------------
@@ -512,17 +743,22 @@ class OutputFolder:
             return
         stage = self._stage
         moved = False
+        kinds = {name: target_kind(self.dest / name) for name in self._names}
         try:
-            for name in self._names:
-                final = self.dest / name
-                if final.is_dir() and not final.is_symlink():
-                    raise OutputError(f"{final}: is a folder; cannot replace it with a file")
+            for name, kind in kinds.items():
+                _refuse_kind(self.dest / name, kind, str(self.dest / name))
             with defer_stop_signals():
                 for name in self._names:
-                    os.replace(stage / name, self.dest / name)
-                    self.written.append(self.dest / name)
+                    if not kinds[name].in_place:
+                        os.replace(stage / name, self.dest / name)
+                        self.written.append(self.dest / name)
                 moved = True
                 _fsync_dir(self.dest)
+            for name in self._names:  # outside the deferred block: a FIFO may wait for its reader
+                if kinds[name].in_place:
+                    with open(stage / name, "rb") as staged:
+                        _write_in_place(self.dest / name, kinds[name], iter(lambda: staged.read(1 << 20), b""))
+                    self.written.append(self.dest / name)
         except OSError as exc:
             raise _os_error(self.dest, exc) from None
         finally:
