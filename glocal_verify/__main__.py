@@ -28,7 +28,7 @@ _EARLY_LINES = MappingProxyType({
 
 def _stop_during_start_up(signum: int, frame: FrameType | None) -> None:
     try:
-        os.write(2, _EARLY_LINES.get(signum, b"glocal-verify: stopped\n"))
+        os.write(2, _EARLY_LINES.get(signal.Signals(signum), b"glocal-verify: stopped\n"))
     finally:
         os._exit(128 + signum)
 

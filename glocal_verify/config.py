@@ -29,13 +29,12 @@ Dask worker of ``sweep`` or ``audit --workers`` starts from the defaults.
 from __future__ import annotations
 
 import contextlib
-import difflib
 import math
 from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any, Iterator, Mapping
 
-from glocal_verify.errors import ConfigError
+from glocal_verify.errors import ConfigError, did_you_mean, shorten
 
 __all__ = [
     "ConfigError",
@@ -396,8 +395,7 @@ _REGISTRY = _Registry()
 def _tunable(name: str) -> Tunable:
     t = TUNABLES.get(name)
     if t is None:
-        close = difflib.get_close_matches(name, list(TUNABLES), n=3, cutoff=0.5)
-        raise ConfigError(f"unknown tunable {name!r}" + (f"; did you mean {', '.join(close)}?" if close else ""))
+        raise ConfigError(f"unknown tunable {shorten(repr(name), 80)}{did_you_mean(str(name), TUNABLES)}")
     return t
 
 

@@ -6,6 +6,8 @@ Subclasses also derive from the builtin they refine, so callers may catch either
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 __all__ = [
     "GlocalVerifyError",
     "SpecError",
@@ -15,6 +17,7 @@ __all__ = [
     "ConfigError",
     "ArgumentError",
     "shorten",
+    "did_you_mean",
 ]
 
 #: longest key path a message quotes whole (a longer one keeps its start and its end)
@@ -43,6 +46,24 @@ def shorten(text: str, limit: int = LINE_CHARS) -> str:
         return first
     head = (limit - 3) // 2
     return f"{first[:head]}...{first[len(first) - (limit - 3 - head):]}"
+
+def did_you_mean(word: str, choices: Iterable[str], *, otherwise: str = "") -> str:
+    """The hint of an unknown name: ``"; did you mean a, b?"`` naming the closest ``choices``
+    (at most three, :func:`difflib.get_close_matches`), else ``otherwise`` (e.g. the known names).
+
+    Parameters
+    ----------
+    word : str
+        The unknown name.
+    choices : iterable of str
+    otherwise : str
+        The text when no choice is close.
+    """
+    import difflib
+
+    close = difflib.get_close_matches(word, list(choices), n=3, cutoff=0.5)
+    return f"; did you mean {', '.join(close)}?" if close else otherwise
+
 
 class GlocalVerifyError(Exception):
     """Root of every exception raised by glocal-verify."""

@@ -20,6 +20,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from glocal_verify import config
+from glocal_verify.errors import ArgumentError, UnknownConditionError, did_you_mean, shorten
 __all__ = [
     "FRAGILE_BELOW",
     "Status",
@@ -406,10 +407,23 @@ class Report:
         return list(dict.fromkeys(r.id for r in self.conditions))
 
     def __getitem__(self, cid: str) -> tuple[ConditionResult, ...]:
-        """``report["privacy.kernel"]``: the results of one id (KeyError naming the ids present)."""
+        """``report["privacy.kernel"]``: the results of one id.
+
+        Raises
+        ------
+        UnknownConditionError
+            (a :class:`KeyError`) no result has this id: the message names the closest ids
+            of the report, or all of them.
+        ArgumentError
+            ``cid`` is not a string.
+        """
+        if not isinstance(cid, str):
+            raise ArgumentError(f"report[...]: a condition id is a string (e.g. report['privacy.kernel']), got {type(cid).__name__}")
         rs = self.results(cid)
         if not rs:
-            raise KeyError(f"{cid!r}: no result with this id (ids: {', '.join(self.ids())})")
+            ids = self.ids()
+            hint = did_you_mean(cid, ids, otherwise=f" (this report has {', '.join(ids) or 'no result'})")
+            raise UnknownConditionError(f"{shorten(repr(cid), 80)}: no result with this id in this report{hint}")
         return tuple(rs)
 
     def __iter__(self) -> Any:

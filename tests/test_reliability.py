@@ -328,6 +328,29 @@ def test_sigterm_and_sighup_stop_a_command_like_ctrl_c(sig: int, code: int, line
 
 
 
+_SIGNAL_DURING_IMPORTS = """
+import importlib.abc, os, signal, sys, time
+
+class SignalDuringImport(importlib.abc.MetaPathFinder):
+    def find_spec(self, name, path, target=None):
+        if name == "glocal_verify.cli":
+            os.kill(os.getpid(), {sig})
+            time.sleep(10)
+        return None
+
+sys.meta_path.insert(0, SignalDuringImport())
+sys.argv = ["glocal-verify", "verify", "--example", "paper19"]
+from glocal_verify.__main__ import entry_point
+sys.exit(entry_point())
+"""
+
+
+@pytest.mark.parametrize("sig,code,line", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated (SIGTERM)"), (signal.SIGHUP, 129, "hung up (SIGHUP)")])
+def test_a_stop_signal_during_the_command_lines_imports_is_one_line_without_a_traceback(sig: int, code: int, line: str) -> None:
+    res = subprocess.run([sys.executable, "-c", _SIGNAL_DURING_IMPORTS.format(sig=int(sig))], capture_output=True, text=True, timeout=60)
+    assert (res.returncode, res.stderr) == (code, f"glocal-verify: {line}\n")
+
+
 def test_a_stop_signal_between_a_progress_line_and_its_newline_gets_a_line_of_its_own(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
     # the campaign of 2026-12-05: SIGHUP while `audit` printed its estimate line fell between the
     # text and its newline, and the stop line went on the same line as the estimate

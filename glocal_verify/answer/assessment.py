@@ -30,6 +30,7 @@ from glocal_verify.answer.attack import ANSWER_IDS, DEPLOYMENT_IDS, AttackAnswer
 from glocal_verify.answer.evidence import combine, evidence_from_report
 from glocal_verify.conditions.catalogue import CATALOGUE
 from glocal_verify.results import ConditionResult, Polarity, Report, Status
+from glocal_verify.spec.arguments import instance_arg
 
 __all__ = [
     "NO_ATTACK",
@@ -242,6 +243,7 @@ def assess(report: Report) -> Assessment:
     -------
     Assessment
     """
+    instance_arg("assess", report, Report, "a Report (from verify)")
     warnings: list[str] = []
     not_evaluated: dict[str, str] = {}
     no_monitors = not report.system.monitored

@@ -15,7 +15,9 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass
 
+from glocal_verify.errors import ArgumentError
 from glocal_verify.results import ConditionResult, Polarity, Report, Status, id_polarity
+from glocal_verify.spec.arguments import ids_arg, instance_arg
 
 __all__ = ["GateOutcome", "require", "require_holds"]
 
@@ -45,6 +47,16 @@ def _scope(r: ConditionResult) -> str:
     return ", ".join(f"{k}={v}" for k, v in r.scope.items()) or "global"
 
 
+def _gate_arguments(who: str, report: object, ids: object) -> tuple[str, ...]:
+    """The ids of a gate, checked: a :class:`Report` and at least one condition id (a gate that
+    requires nothing would pass every report)."""
+    instance_arg(who, report, Report, "a Report (from verify)")
+    items = ids_arg("ids", ids)
+    if not items:
+        raise ArgumentError(f"{who}: no condition id given; a gate that requires nothing passes every report")
+    return tuple(items)
+
+
 def require(report: Report, ids: Iterable[str]) -> GateOutcome:
     """Pass when every id in ``ids`` is favourable for the defender (module docstring).
 
@@ -54,7 +66,7 @@ def require(report: Report, ids: Iterable[str]) -> GateOutcome:
     ids : iterable of str
         Resolved condition ids.
     """
-    ids = tuple(ids)
+    ids = _gate_arguments("require", report, ids)
     bad: list[str] = []
     for cid in ids:
         rs = report.results(cid)
@@ -72,7 +84,7 @@ def require(report: Report, ids: Iterable[str]) -> GateOutcome:
 
 def require_holds(report: Report, ids: Iterable[str]) -> GateOutcome:
     """Pass when every result of every id in ``ids`` holds (the raw status gate, ``--require-holds``)."""
-    ids = tuple(ids)
+    ids = _gate_arguments("require_holds", report, ids)
     bad: list[str] = []
     for cid in ids:
         rs = report.results(cid)

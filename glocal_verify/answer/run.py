@@ -20,6 +20,7 @@ from glocal_verify.errors import ArgumentError
 from glocal_verify.model import System
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
 from glocal_verify.results import Report
+from glocal_verify.spec.arguments import mapping_arg
 
 __all__ = ["SIMULATE_CHOICES", "simulates", "verify"]
 
@@ -82,7 +83,8 @@ def verify(
     Report
         With :attr:`Report.assessment` attached.
     """
-    opts = dict(options or {})
+    expect_system(system)
+    opts = mapping_arg("options", options)
     opts.setdefault("simulate", simulates(system, simulate))
     report = run_checkers(
         system, only, exact=exact, tol=tol, options=opts, progress=progress, escalate=escalate, exact_budget=exact_budget, fragile_below=fragile_below

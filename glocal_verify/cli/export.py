@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 from pathlib import Path
 from typing import Any
 
-from glocal_verify.cli.common import PROG, UsageError, check_out_file, load_system, wrote
+from glocal_verify.cli.common import PROG, UsageError, add_allow_large, check_cost, check_out_file, load_system, wrote
 from glocal_verify.runtime.files import STDOUT
 from glocal_verify.runtime.lines import write_line
 from glocal_verify.spec.examples import example_names
@@ -26,10 +27,17 @@ def cmd_export(args: argparse.Namespace) -> int:
             raise UsageError(f"--out -: give --format ({', '.join(EXPORT_FORMATS)}): standard output has no suffix to name one")
         raise UsageError(f"--format: give one of {', '.join(EXPORT_FORMATS)} (the suffix of {out.name!r} names none)")
     system = load_system(args)
+    from glocal_verify.conditions.cost import SpecSizes
+    from glocal_verify.conditions.export_cost import estimate_export
+    from glocal_verify.simulation.limits import allow_large
+
+    est = estimate_export(SpecSizes.from_spec(system.spec), fmt, thresholds=not args.no_thresholds)
+    check_cost(est, args, how=("--no-thresholds, or the compressed .mat/.npz formats",))
     if not args.quiet:
         what = "observers and schedule" if args.no_thresholds else "observers, attack-free thresholds and schedule"
         write_line(f"{PROG}: designing the {what} of {system.name} ({system.n} agents) ...")
-    wrote(export_observers(system, out, fmt, thresholds=not args.no_thresholds, progress=not args.quiet))
+    with allow_large() if args.allow_large else contextlib.nullcontext():
+        wrote(export_observers(system, out, fmt, thresholds=not args.no_thresholds, progress=not args.quiet))
     return 0
 
 
@@ -45,4 +53,5 @@ def register(sub: Any) -> None:
     e.add_argument("--out", metavar="FILE", required=True, help="the file to write (atomically; a device or FIFO in place; - for standard output, with --format)")
     e.add_argument("--no-thresholds", action="store_true", help="leave out the attack-free thresholds (they take a simulation of the spec's horizon)")
     e.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    add_allow_large(e)
     e.set_defaults(func=cmd_export)

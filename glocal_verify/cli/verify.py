@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import sys
 from typing import TYPE_CHECKING, Any, Callable
@@ -122,17 +123,20 @@ def cmd_verify(args: argparse.Namespace) -> int:
     budget = args.exact_budget if (args.escalate == "auto" and args.exact_budget > 0) else None
     est = estimate_verify(SpecSizes.from_spec(system.spec), only, exact=args.exact, simulate=simulate, exact_budget=budget)
     check_cost(est, args, how=("--only CONDITION to run fewer checkers",) if only is None else ())
-    report = verify(
-        system,
-        only,
-        exact=args.exact,
-        tol=tol,
-        simulate=args.simulate,
-        progress=progress,
-        escalate=args.escalate,
-        exact_budget=args.exact_budget if args.exact_budget > 0 else None,
-        fragile_below=args.fragile_below,
-    )
+    from glocal_verify.simulation.limits import allow_large
+
+    with allow_large() if args.allow_large else contextlib.nullcontext():
+        report = verify(
+            system,
+            only,
+            exact=args.exact,
+            tol=tol,
+            simulate=args.simulate,
+            progress=progress,
+            escalate=args.escalate,
+            exact_budget=args.exact_budget if args.exact_budget > 0 else None,
+            fragile_below=args.fragile_below,
+        )
     try:
         text = render(report, args.format, system)
     except ValueError as exc:
@@ -140,7 +144,9 @@ def cmd_verify(args: argparse.Namespace) -> int:
     write_output(text, args.out, inputs=spec_inputs(args))
     from glocal_verify.answer.gate import require as gate, require_holds as gate_holds
 
-    bad = list(gate(report, require).failures) + [f"{line} (--require-holds)" for line in gate_holds(report, require_holds).failures]
+    bad = list(gate(report, require).failures) if require else []
+    if require_holds:
+        bad += [f"{line} (--require-holds)" for line in gate_holds(report, require_holds).failures]
     if bad:
         for line in bad:
             write_line(f"{PROG}: required condition not met: {line}")

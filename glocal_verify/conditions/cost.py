@@ -35,6 +35,7 @@ from glocal_verify import config
 from glocal_verify.conditions.catalogue import CATALOGUE, DESIGN_ASSESSMENT_IDS
 from glocal_verify.conditions.exact_cost import exact_seconds
 from glocal_verify.errors import ModelError
+from glocal_verify.simulation.limits import THRESHOLD_ARRAYS, detector_work, samples_over
 from glocal_verify.spec.types import SystemSpec
 
 __all__ = [
@@ -117,6 +118,16 @@ C_PENCIL = 0.6e-10
 #: switching.detects with simulation (``--simulate always`` above 150 agents): seconds per N^3
 #: per safe mode (61 s for one N = 1000 run, reports/benchmarks.md)
 C_SIMULATE = 6.1e-8
+#: and per output sample of each simulated switch: a constant and a term per (2N)^2 (the modal
+#: propagation); 30 us a sample measured on a 4-agent spec with 200,001 samples (5.5 s)
+C_SIMULATE_SAMPLE = 3.0e-5
+C_SIMULATE_SAMPLE_N2 = 2.5e-8
+#: bytes a simulated switch keeps per sample and stored state (the trajectories, the residuals):
+#: about 1 kB a sample on the 4-agent spec (16 stored states)
+SIMULATION_BYTES_PER_SAMPLE_STATE = 40.0
+#: the certified thresholds and guarantees of detection.*: seconds per sample and unit of
+#: detector work sum q (d + 2) (0.18 ms a sample for paper19's sampled deployment, work 656)
+C_THRESHOLD = 3.0e-7
 
 #: exact arithmetic (``--exact``, and ``verify``'s re-decisions): :func:`exact_seconds`, with the
 #: tunables ``exact_central_seconds_n4``, ``exact_zda_seconds_n3``, ``exact_zda_dense_seconds_n4``,
@@ -242,6 +253,15 @@ class SpecSizes:
     partitioned : bool
         Whether the clusters (two or more) hold every agent once: the normal mode can then be
         built from their blocks (:meth:`System.spectrum <glocal_verify.model.System.spectrum>`).
+    samples : int
+        Output samples of one simulation of the spec, ``floor(horizon / step) + 1``.
+    threshold_samples : int
+        Samples K of the certified thresholds, ``floor(horizon / period) + 1`` with
+        ``[implementation]``; 0 without.
+    detector_work : int
+        :math:`\\sum_o q_o (d_o + 2)` over the sampled deployment's detectors (the central
+        observer: its channels times 2N; a local observer: twice its measured agents times
+        2 n_i), the (q, d) of :func:`~glocal_verify.simulation.limits.estimate_threshold_size`.
     """
 
     n: int
@@ -255,6 +275,9 @@ class SpecSizes:
     attack: bool = False
     cut_links: int = 0
     partitioned: bool = False
+    samples: int = 0
+    threshold_samples: int = 0
+    detector_work: int = 0
 
     @property
     def block_built(self) -> bool:
@@ -285,6 +308,12 @@ class SpecSizes:
             owner.update((x, k) for x in c.nodes)
         partitioned = len(spec.clusters) >= 2 and len(owner) == len(spec.nodes) == sum(len(c.nodes) for c in spec.clusters)
         cut = sum(1 for e in spec.edges if owner.get(e.u, -1) != owner.get(e.v, -2)) if partitioned else 0
+        horizon = float(spec.simulation.horizon)
+        samples = samples_over(horizon, float(spec.simulation.step))
+        k_thr, work = 0, 0
+        if spec.implementation is not None:
+            k_thr = samples_over(horizon, float(spec.implementation.period))
+            work = detector_work(spec)
         return cls(
             n=len(spec.nodes),
             cluster_sizes=tuple(len(c.nodes) for c in spec.clusters),
@@ -297,6 +326,9 @@ class SpecSizes:
             attack=spec.attack is not None,
             cut_links=cut,
             partitioned=partitioned,
+            samples=samples,
+            threshold_samples=k_thr,
+            detector_work=work,
         )
 
     def only_cluster(self, name: str | None) -> SpecSizes:
@@ -416,7 +448,11 @@ def estimate_verify(
     clusters' blocks (``K`` links between clusters, :attr:`SpecSizes.block_built`; then
     ``A`` = :data:`A_GLOBAL_BLOCKS`), else ``C_e N^3`` (``A`` = :data:`A_GLOBAL`); ``S_e``
     the safe modes decomposed afresh and ``c_u`` the changed links of each factored one (at most
-    ``rank_one_max_changes``, N >= ``rank_one_min_agents``); plus, with ``simulate``,
+    ``rank_one_max_changes``, N >= ``rank_one_min_agents``); plus, with ``simulate``, the
+    samples of one simulated switch per safe mode, :math:`\\max(1, S)\\, n_s (C_{s,0} + C_{s,2} (2N)^2)`
+    (``n_s = horizon / step + 1``), and with ``detection.*`` on a sampled deployment the certified
+    thresholds, :math:`C_{thr} K \\sum_o q_o (d_o + 2)` seconds and ``THRESHOLD_ARRAYS`` (K, q, d)
+    arrays (:attr:`SpecSizes.threshold_samples`, :attr:`SpecSizes.detector_work`); plus, with ``simulate``,
     :math:`C_{sim} N^3 \\max(1, S)` for ``switching.detects`` above
     150 agents, and with ``exact`` the rational terms of :func:`exact_seconds` (``central.observer``
     in N^4, ``stealthy.zda`` and ``switching.avoids-attack`` on their fast path in N^3 each, the
@@ -472,12 +508,21 @@ def estimate_verify(
         phases["local.uio"] = sum((C_UIO if exact or m < 2 * modal_min else C_UIO_MODAL) * d * float(m) ** 3 for m, d in _designs(sizes))
     if pencil:
         phases["local.pencil"] = sum(C_PENCIL * c * float(m) ** 3 for m, c in _cases(sizes))
-    if simulate and "switching.detects" in ids and n > 150:
-        phases["switching.detects simulations"] = C_SIMULATE * n3 * max(1, S)
+    if simulate and "switching.detects" in ids:
+        runs = max(1, S)
+        per_sample = C_SIMULATE_SAMPLE + C_SIMULATE_SAMPLE_N2 * float(2 * n) ** 2
+        phases["switching.detects simulations"] = (C_SIMULATE * n3 if n > 150 else 0.0) + runs * sizes.samples * per_sample
+    deployment = sizes.threshold_samples > 0 and any(c.startswith("detection.") for c in ids)
+    if deployment:
+        phases["certified thresholds and guarantees"] = C_THRESHOLD * sizes.threshold_samples * sizes.detector_work
     arrays = ((A_GLOBAL_BLOCKS if sizes.block_built else A_GLOBAL) + A_GLOBAL_MODE * fresh) if glob else A_LOCAL_ONLY
     nbytes = B_BASE + arrays * dense_bytes(n)
     if uio:
         nbytes += sum((A_UIO if exact or m < 2 * modal_min else A_UIO_MODAL) * d * dense_bytes(m) for m, d in _designs(sizes))
+    if simulate and "switching.detects" in ids:
+        nbytes = max(nbytes, B_BASE + SIMULATION_BYTES_PER_SAMPLE_STATE * sizes.samples * (4 * n + 3))
+    if deployment:
+        nbytes = max(nbytes, B_BASE + 8.0 * THRESHOLD_ARRAYS * sizes.threshold_samples * sizes.detector_work)
     if exact:
         if "central.observer" in ids:
             phases["exact central.observer"] = exact_seconds("central.observer", n)

@@ -9,7 +9,6 @@ collects a :class:`~glocal_verify.results.Report`.
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import importlib
 import math
 import time
@@ -23,11 +22,11 @@ import scipy.linalg
 from glocal_verify import config
 from glocal_verify.conditions.catalogue import CATALOGUE, ConditionInfo
 from glocal_verify.conditions.premises import vacuous_premise
-from glocal_verify.errors import ArgumentError, GlocalVerifyError, ModelError, UnknownConditionError
+from glocal_verify.errors import ArgumentError, GlocalVerifyError, ModelError, UnknownConditionError, did_you_mean, shorten
 from glocal_verify.model import System
 from glocal_verify.numerics.deadline import DeadlineExceeded, call_with_deadline
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
-from glocal_verify.spec.arguments import choice_arg, ids_arg, real_arg
+from glocal_verify.spec.arguments import callable_arg, choice_arg, ids_arg, mapping_arg, real_arg
 from glocal_verify.results import (
     ALIASES,
     AttackScenario,
@@ -247,9 +246,8 @@ def resolve_ids(ids: Iterable[str]) -> list[str]:
             continue
         cid = ALIASES.get(cid, cid)
         if cid not in CATALOGUE:
-            close = difflib.get_close_matches(cid, list(CATALOGUE) + list(ALIASES), n=3, cutoff=0.5)
-            hint = f"; did you mean {', '.join(close)}?" if close else f"; known ids: {', '.join(CATALOGUE)}"
-            raise UnknownConditionError(f"unknown condition id {cid!r}{hint}")
+            hint = did_you_mean(cid, [*CATALOGUE, *ALIASES], otherwise=f"; known ids: {', '.join(CATALOGUE)}")
+            raise UnknownConditionError(f"unknown condition id {shorten(repr(cid), 80)}{hint}")
         if cid not in out:
             out.append(cid)
     return out
@@ -460,11 +458,13 @@ def expect_system(system: Any, who: str = "verify") -> System:
 
 
 def _verify_arguments(
-    system: Any, only: Any, exact: Any, tol: Any, escalate: Any, exact_budget: Any, fragile_below: Any
+    system: Any, only: Any, exact: Any, tol: Any, escalate: Any, exact_budget: Any, fragile_below: Any, options: Any = None, progress: Any = None
 ) -> tuple[System, list[str] | None, float | None, float | None]:
     """The arguments of :func:`verify` checked against their documented domains
     (:class:`~glocal_verify.errors.ArgumentError` naming the first one outside)."""
     expect_system(system)
+    mapping_arg("options", options)
+    callable_arg("progress", progress)
     if not isinstance(exact, bool):
         raise ArgumentError(f"exact: expected True or False, got {exact!r}"[:120])
     if not isinstance(tol, Tolerance):
@@ -533,7 +533,7 @@ def verify(
     UnknownConditionError
         An id of ``only`` that is not in the catalogue.
     """
-    system, only, exact_budget, fragile_below = _verify_arguments(system, only, exact, tol, escalate, exact_budget, fragile_below)
+    system, only, exact_budget, fragile_below = _verify_arguments(system, only, exact, tol, escalate, exact_budget, fragile_below, options, progress)
     _load()
     ids = resolve_ids(only) if only is not None else implemented_ids()
     if fragile_below is None:

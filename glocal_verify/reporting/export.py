@@ -40,16 +40,18 @@ Formats
 from __future__ import annotations
 
 import io
+import itertools
 import json
 import math
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Iterable, Iterator, Mapping
 
 import numpy as np
 
-from glocal_verify.errors import GlocalVerifyError, NotApplicableError
+from glocal_verify.errors import GlocalVerifyError, NotApplicableError, shorten
 from glocal_verify.model import System
-from glocal_verify.reporting.output import write_bytes_atomic
+from glocal_verify.reporting.output import check_output_file, write_bytes_atomic
+from glocal_verify.spec.arguments import instance_arg
 from glocal_verify.simulation.observer_models import cluster_embedding
 from glocal_verify.spec.types import NORMAL_MODE, Label
 
@@ -269,6 +271,70 @@ def _json_value(x: Any) -> Any:
     return x
 
 
+def _json_scalar(x: Any) -> str:
+    """The JSON text of one leaf as ``json.dumps(_json_value(x))`` writes it."""
+    return json.dumps(_json_value(x), allow_nan=False)
+
+
+def _json_floats(values: list[Any]) -> list[str]:
+    """JSON texts of the floats of one array row: ``repr`` (what ``json.dumps`` writes) or ``null``."""
+    return [repr(v) if math.isfinite(v) else "null" for v in values]
+
+
+def _json_chunks(x: Any, level: int = 0) -> Iterator[str]:
+    """The text of ``json.dumps(_json_value(x), indent=1)``, in pieces, without the nested lists of
+    Python floats: an array is converted one row at a time (a 2N x 2N matrix of a large network
+    never exists as 4 N^2 float objects), and each row's text is joined at once (the pure-Python
+    encoder that ``indent`` selects writes a float at a time)."""
+    pad, inner = "\n" + " " * level, "\n" + " " * (level + 1)
+    if isinstance(x, np.ndarray) and x.dtype.kind in "fiu" and x.size:
+        if x.ndim == 1:
+            texts = _json_floats(x.astype(float).tolist()) if x.dtype.kind == "f" else [str(int(v)) for v in x.tolist()]
+            yield "[" + inner + ("," + inner).join(texts) + pad + "]"
+            return
+        yield "["
+        for k in range(x.shape[0]):
+            yield ("," if k else "") + inner
+            yield from _json_chunks(x[k], level + 1)
+        yield pad + "]"
+    elif isinstance(x, np.ndarray):
+        yield from _json_chunks(x.tolist(), level)
+    elif isinstance(x, Mapping):
+        if not x:
+            yield "{}"
+            return
+        yield "{"
+        for k, (key, v) in enumerate(x.items()):
+            yield ("," if k else "") + inner + json.dumps(str(key)) + ": "
+            yield from _json_chunks(v, level + 1)
+        yield pad + "}"
+    elif isinstance(x, (list, tuple)):
+        if not x:
+            yield "[]"
+            return
+        yield "["
+        for k, v in enumerate(x):
+            yield ("," if k else "") + inner
+            yield from _json_chunks(v, level + 1)
+        yield pad + "]"
+    else:
+        yield _json_scalar(x)
+
+
+def _batched(texts: Iterable[str], size: int = 1 << 20) -> Iterator[bytes]:
+    """UTF-8 of ``texts`` in blocks of about ``size`` characters (one write per block, not per piece)."""
+    block: list[str] = []
+    held = 0
+    for t in texts:
+        block.append(t)
+        held += len(t)
+        if held >= size:
+            yield "".join(block).encode("utf-8")
+            block, held = [], 0
+    if block:
+        yield "".join(block).encode("utf-8")
+
+
 def _mat_value(x: Any) -> Any:
     if isinstance(x, Mapping):
         return {k: _mat_value(v) for k, v in x.items()}
@@ -301,9 +367,11 @@ def _flatten(x: Any, prefix: str, out: dict[str, np.ndarray]) -> None:
         out[key] = np.asarray(x)
 
 
-def _encode(tree: Mapping[str, Any], fmt: str) -> bytes:
+def _encode(tree: Mapping[str, Any], fmt: str) -> bytes | Iterator[bytes]:
+    """The file's bytes: JSON streamed in blocks (the text of ``json.dumps(..., indent=1)``),
+    .mat and .npz whole (compressed, small)."""
     if fmt == "json":
-        return (json.dumps(_json_value(tree), indent=1, allow_nan=False) + "\n").encode("utf-8")
+        return _batched(itertools.chain(_json_chunks(tree), ["\n"]))
     buf = io.BytesIO()
     if fmt == "mat":
         import scipy.io
@@ -349,8 +417,11 @@ def export_observers(system: System, path: str | Path, fmt: str | None = None, *
     ExportError
         For an unknown format.
     """
+    instance_arg("export_observers", system, System, "a System")
+    instance_arg("path", path, (str, Path), "a file name (str or Path)")
     p = Path(path)
     chosen = _format_of(p, fmt)
+    check_output_file(p, what=str(p))  # before the observers are designed: a bad path fails at once
     return write_bytes_atomic(p, _encode(deployment_tree(system, thresholds=thresholds, progress=progress), chosen))
 
 
@@ -411,6 +482,27 @@ def _from_npz(flat: Mapping[str, np.ndarray]) -> dict[str, Any]:
     return dict(lists(tree))
 
 
+def _small_int(value: Any) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool) and math.isfinite(float(value)) and abs(float(value)) < 2**31
+
+
+def _parse_deployment(p: Path, fmt: str) -> dict[str, Any]:
+    """The schema's tree of the file ``p`` in format ``fmt``, unchecked (:func:`read_deployment` checks it)."""
+    if fmt == "json":
+        raw: Any = json.loads(p.read_text(encoding="utf-8"))
+    elif fmt == "mat":
+        import scipy.io
+
+        data = scipy.io.loadmat(p, squeeze_me=False, struct_as_record=False, chars_as_strings=True)
+        raw = {k: _from_mat(v) for k, v in data.items() if not k.startswith("__")}
+    else:
+        with np.load(p, allow_pickle=False) as z:
+            raw = _from_npz({k: z[k] for k in z.files})
+    if not isinstance(raw, dict):
+        raise ExportError(f"{shorten(str(p), 120)}: not a deployment file (its top level is a {type(raw).__name__}, not a table)")
+    return {k: _restore(k, v) for k, v in raw.items()}
+
+
 def read_deployment(path: str | Path) -> dict[str, Any]:
     """Read a file of :func:`export_observers` (any format, by its suffix) into the schema's tree.
 
@@ -427,21 +519,25 @@ def read_deployment(path: str | Path) -> dict[str, Any]:
     Raises
     ------
     ExportError
-        For an unknown suffix or a file of another schema or a newer version.
+        For an unknown suffix, a file that cannot be read or parsed (corrupt, truncated, of
+        another kind), or a file of another schema or a newer version.
     """
+    instance_arg("read_deployment", path, (str, Path), "a file name (str or Path)")
     p = Path(path)
     fmt = _format_of(p, None)
-    if fmt == "json":
-        raw: Any = json.loads(p.read_text(encoding="utf-8"))
-    elif fmt == "mat":
-        import scipy.io
-
-        data = scipy.io.loadmat(p, squeeze_me=False, struct_as_record=False, chars_as_strings=True)
-        raw = {k: _from_mat(v) for k, v in data.items() if not k.startswith("__")}
-    else:
-        with np.load(p, allow_pickle=False) as z:
-            raw = _from_npz({k: z[k] for k in z.files})
-    tree = {k: _restore(k, v) for k, v in raw.items()}
-    if tree.get("schema") != SCHEMA or int(tree.get("schema_version", 0)) > SCHEMA_VERSION:
-        raise ExportError(f"{p}: not a {SCHEMA} file of version <= {SCHEMA_VERSION} (schema {tree.get('schema')!r}, version {tree.get('schema_version')!r})")
+    try:
+        tree = _parse_deployment(p, fmt)
+    except ExportError:
+        raise
+    except OSError as exc:
+        raise ExportError(f"{shorten(str(p), 120)}: cannot read ({exc.strerror or exc})") from None
+    except MemoryError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - the parsers of an untrusted file
+        # a corrupt or foreign file trips the parsers in many ways (UnicodeDecodeError,
+        # JSONDecodeError, zlib.error, zipfile.BadZipFile, scipy's MatReadError, EOFError,
+        # RecursionError, KeyError, OverflowError ...): one line naming the file and the cause
+        raise ExportError(f"{shorten(str(p), 120)}: not a readable {fmt} deployment file ({type(exc).__name__}: {shorten(str(exc), 120)})") from None
+    if tree.get("schema") != SCHEMA or not _small_int(tree.get("schema_version")) or int(tree["schema_version"]) > SCHEMA_VERSION:
+        raise ExportError(f"{shorten(str(p), 120)}: not a {SCHEMA} file of version <= {SCHEMA_VERSION} (schema {shorten(repr(tree.get('schema')), 60)}, version {shorten(repr(tree.get('schema_version')), 30)})")
     return tree

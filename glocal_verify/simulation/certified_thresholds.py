@@ -64,6 +64,8 @@ from glocal_verify.numerics.spectrum import gamma_bound
 from glocal_verify.observers.sampled import SampledObserver, sampled_observers
 from glocal_verify.analysis.sampled import implementation_of
 from glocal_verify.results import jsonable
+from glocal_verify.simulation.limits import THRESHOLD_KNOBS, SizeEstimate, check_size, estimate_threshold_size, threshold_samples
+from glocal_verify.spec.arguments import real_arg
 from glocal_verify.spec.types import ImplementationSpec, UncertaintySpec
 
 __all__ = [
@@ -390,14 +392,17 @@ def certified_thresholds(
     impl = implementation_of(system, implementation)
     model = uncertainty_model(system, uncertainty)
     h = float(impl.period)
-    T = float(system.spec.simulation.horizon if horizon is None else horizon)
-    K = int(math.floor(T / h + 1e-9)) + 1
+    T = float(system.spec.simulation.horizon) if horizon is None else real_arg("horizon", horizon, 0.0)
+    K = threshold_samples(T, h)
+    check_size(SizeEstimate(float(K), 0.0), what="certified thresholds", knobs=THRESHOLD_KNOBS)  # before the detectors are built
     notes: list[str] = []
     if detectors is None:
         detectors, more = sampled_observers(system, impl)
         notes += list(more)
     if not detectors:
         raise NotApplicableError("; ".join(notes) or "no detector")
+    # before any (K, q, d) array: a horizon of 1e7 s would ask for hundreds of GiB
+    check_size(estimate_threshold_size(K, [(len(o.channels), o.F.nrows()) for o in detectors]), what="certified thresholds", knobs=THRESHOLD_KNOBS)
     z = None
     p_total = None
     if model.spec.gaussian:

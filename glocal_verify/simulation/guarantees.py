@@ -55,6 +55,7 @@ from glocal_verify.results import Status, jsonable
 from glocal_verify.simulation.certified_thresholds import CertifiedThresholds, certified_thresholds
 from glocal_verify.simulation.sampled_attack import Composite, SampledAttack, central_composite, local_composite, sampled_attack_from_spec
 from glocal_verify.simulation.switch_thresholds import SwitchThresholds, post_switch_thresholds
+from glocal_verify.spec.arguments import real_arg
 from glocal_verify.spec.types import NORMAL_MODE, ImplementationSpec, UncertaintySpec
 
 __all__ = [
@@ -404,6 +405,12 @@ def detection_guarantee(
         :data:`GUARANTEE_MAX_AGENTS` agents.
     """
     impl = implementation_of(system, implementation)
+    if size is not None:
+        real_arg("size", size, 0.0)
+    if horizon is not None:
+        real_arg("horizon", horizon, 0.0)
+    if size_horizon is not None:
+        real_arg("size_horizon", size_horizon, 0.0)
     if system.n > GUARANTEE_MAX_AGENTS:
         raise NotApplicableError(f"{system.n} agents > {GUARANTEE_MAX_AGENTS}: the dense composites are not built")
     th = thresholds if thresholds is not None else certified_thresholds(system, implementation=impl, uncertainty=uncertainty, horizon=horizon)

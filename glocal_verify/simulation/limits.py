@@ -17,10 +17,27 @@ from typing import Iterator
 import numpy as np
 
 from glocal_verify import config
-from glocal_verify.errors import ModelError
+from glocal_verify.errors import ArgumentError, ModelError
 from glocal_verify.model import System
+from glocal_verify.spec.arguments import real_arg
+from glocal_verify.spec.types import SystemSpec
 
-__all__ = ["RHO_MAX", "SizeEstimate", "estimate_size", "check_size", "check_stiffness", "allow_large", "horizon_and_step"]
+__all__ = [
+    "RHO_MAX",
+    "THRESHOLD_ARRAYS",
+    "SizeEstimate",
+    "estimate_size",
+    "estimate_threshold_size",
+    "threshold_samples",
+    "samples_over",
+    "detector_work",
+    "check_size",
+    "SIMULATION_KNOBS",
+    "THRESHOLD_KNOBS",
+    "check_stiffness",
+    "allow_large",
+    "horizon_and_step",
+]
 
 #: largest rho = h_int * nu of one internal step of the modal propagator (the Taylor terms of the
 #: observer input then stay below e^2 times the state norm: at most a few ulps of cancellation)
@@ -43,7 +60,9 @@ class SizeEstimate:
     bytes: float
 
     def describe(self) -> str:
-        """One line, e.g. ``1e+18 samples, about 3.2e+08 GiB``."""
+        """One line, e.g. ``1e+18 samples, about 3.2e+08 GiB`` (the samples alone when no bytes are counted)."""
+        if self.bytes <= 0:
+            return f"{self.samples:.3g} samples"
         return f"{self.samples:.3g} samples, about {self.bytes / 1024**3:.3g} GiB"
 
 
@@ -75,7 +94,87 @@ def estimate_size(n_agents: int, horizon: float, step: float, *, channels: int |
     return SizeEstimate(samples, 8.0 * (samples * per + 3.0 * d * batch))
 
 
-def check_size(est: SizeEstimate, *, allow: bool | None = None) -> None:
+#: float64 arrays of shape (K, q, d + 2) the certified thresholds of one detector with q channels
+#: and a d-dimensional error keep at once (its rows, their enclosures, the noise, disturbance
+#: and Gaussian sums); measured 4.7 on paper19's sampled deployment
+THRESHOLD_ARRAYS = 5
+
+
+def samples_over(horizon: float, step: float) -> int:
+    """Samples ``floor(T / h) + 1`` of T seconds every h seconds, capped at 2^62 (an absurd
+    ratio of a spec stays an int that every limit refuses).
+
+    Parameters
+    ----------
+    horizon, step : float
+    """
+    ratio = horizon / step if step > 0 else math.inf
+    return int(min(math.floor(ratio + 1e-9), 2**62)) + 1 if math.isfinite(ratio) else 2**62
+
+
+def threshold_samples(horizon: float, period: float) -> int:
+    """Samples K = floor(T / h) + 1 of a deployment's certified thresholds over T seconds.
+
+    Parameters
+    ----------
+    horizon, period : float
+        T > 0 and h > 0, finite (checked: :class:`~glocal_verify.errors.ArgumentError`).
+    """
+    T = real_arg("horizon", horizon, 0.0)
+    h = real_arg("period", period, 0.0)
+    if not (T > 0.0 and h > 0.0):
+        raise ArgumentError(f"horizon and period: expected positive seconds, got {T:g} and {h:g}")
+    return samples_over(T, h)
+
+
+def detector_work(spec: SystemSpec) -> int:
+    """:math:`\\sum_o q_o (d_o + 2)` of the sampled deployment's detectors, read from the spec
+    alone (the (q, d) of :func:`estimate_threshold_size` before any detector is built): the
+    central observer's channels times 2N + 2, and for a local observer twice its measured
+    agents (the spec's lists, else the centre and its neighbours inside the cluster) times
+    2 n_i + 2.
+
+    Parameters
+    ----------
+    spec : SystemSpec
+    """
+    neighbours: dict[object, set[object]] = {}
+    for e in spec.edges:
+        neighbours.setdefault(e.u, set()).add(e.v)
+        neighbours.setdefault(e.v, set()).add(e.u)
+    total = (len(spec.monitor.positions) + len(spec.monitor.velocities)) * (2 * len(spec.nodes) + 2)
+    for c in spec.clusters:
+        members = set(c.nodes)
+        for o in c.observers:
+            if o.positions is None and o.velocities is None:
+                q = 2 * (1 + len(neighbours.get(o.center, set()) & members))
+            else:
+                q = len(o.positions or ()) + len(o.velocities or ())
+            total += q * (2 * len(c.nodes) + 2)
+    return total
+
+
+def estimate_threshold_size(samples: int, shapes: list[tuple[int, int]]) -> SizeEstimate:
+    """What the certified thresholds of detectors of ``shapes`` (channels q, error dimension d)
+    store over ``samples`` samples: :data:`THRESHOLD_ARRAYS` x 8 K sum q (d + 2) bytes.
+
+    Parameters
+    ----------
+    samples : int
+        K.
+    shapes : list of (int, int)
+        (q, d) of every detector.
+    """
+    per = sum(q * (d + 2) for q, d in shapes)
+    return SizeEstimate(float(samples), 8.0 * THRESHOLD_ARRAYS * float(samples) * per)
+
+
+#: what a refused run may change, by what it is (:func:`check_size`)
+SIMULATION_KNOBS = "shorten simulation.horizon, enlarge simulation.step"
+THRESHOLD_KNOBS = "shorten simulation.horizon, lengthen implementation.period"
+
+
+def check_size(est: SizeEstimate, *, allow: bool | None = None, what: str = "simulation", knobs: str = SIMULATION_KNOBS) -> None:
     """Raise :class:`~glocal_verify.errors.ModelError` (one line with the estimate) above
     ``simulation_max_samples`` (:mod:`glocal_verify.config`) samples or ``simulation_max_bytes`` (:mod:`glocal_verify.config`) bytes, unless ``allow`` (default: inside
     :func:`allow_large`).
@@ -84,13 +183,17 @@ def check_size(est: SizeEstimate, *, allow: bool | None = None) -> None:
     ----------
     est : SizeEstimate
     allow : bool, optional
+    what : str
+        What is refused, for the message (``"simulation"``, ``"certified thresholds"``).
+    knobs : str
+        The spec fields that make it smaller, for the message.
     """
     if _ALLOW_LARGE.get() if allow is None else allow:
         return
     if est.samples > config.get("simulation_max_samples") or est.bytes > config.get("simulation_max_bytes"):
         raise ModelError(
-            f"simulation too large: {est.describe()} (limits {config.get('simulation_max_samples'):.0e} samples, {config.get('simulation_max_bytes') / 1024**3:g} GiB); "
-            "shorten simulation.horizon, enlarge simulation.step or allow large runs (--allow-large)"
+            f"{what} too large: {est.describe()} (limits {config.get('simulation_max_samples'):.0e} samples, {config.get('simulation_max_bytes') / 1024**3:g} GiB); "
+            f"{knobs} or allow large runs (--allow-large)"
         )
 
 

@@ -12,12 +12,12 @@ from __future__ import annotations
 
 import math
 import numbers
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from typing import Any
 
 from glocal_verify.errors import ArgumentError
 
-__all__ = ["integer_arg", "real_arg", "choice_arg", "ids_arg"]
+__all__ = ["integer_arg", "real_arg", "choice_arg", "ids_arg", "instance_arg", "mapping_arg", "callable_arg"]
 
 
 def _show(value: Any) -> str:
@@ -103,6 +103,54 @@ def ids_arg(name: str, value: Any) -> list[str] | None:
     if bad:
         raise ArgumentError(f"{name}: condition ids are strings, got {_show(bad[0])}")
     return items
+
+
+def instance_arg(name: str, value: Any, types: type | tuple[type, ...], expected: str) -> Any:
+    """``value`` when it is an instance of ``types``.
+
+    Parameters
+    ----------
+    name : str
+        The argument's name (or the function's, for its first argument), for the message.
+    value : object
+    types : type or tuple of types
+    expected : str
+        What the caller should pass, in words (``"a System"``).
+    """
+    if not isinstance(value, types):
+        raise ArgumentError(f"{name}: expected {expected}, got {_show(value) if value is None else type(value).__name__}")
+    return value
+
+
+def mapping_arg(name: str, value: Any) -> dict[str, Any]:
+    """``value`` (None or a mapping with string keys) as a new ``dict``.
+
+    Parameters
+    ----------
+    name : str
+    value : object
+    """
+    if value is None:
+        return {}
+    if not isinstance(value, Mapping):
+        raise ArgumentError(f"{name}: expected a mapping (e.g. a dict of option names to values), got {_show(value)}")
+    bad = [k for k in value if not isinstance(k, str)]
+    if bad:
+        raise ArgumentError(f"{name}: keys are names (strings), got {_show(bad[0])}")
+    return dict(value)
+
+
+def callable_arg(name: str, value: Any) -> Any:
+    """``value`` when it is None or callable (a progress callback, a hook).
+
+    Parameters
+    ----------
+    name : str
+    value : object
+    """
+    if value is not None and not callable(value):
+        raise ArgumentError(f"{name}: expected a function (or None), got {_show(value)}")
+    return value
 
 
 def _range(lo: float | None, hi: float | None) -> str:

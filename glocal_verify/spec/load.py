@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import json
 import math
+import numbers
 import re
 from decimal import Decimal
 from fractions import Fraction
@@ -43,7 +44,7 @@ from typing import Any, Iterable, Mapping, Sequence
 import jsonschema
 import networkx as nx
 
-from glocal_verify.errors import SpecError
+from glocal_verify.errors import ArgumentError, SpecError
 from glocal_verify.spec.deployment import read_implementation, read_uncertainty
 from glocal_verify.spec.prepare import (
     MAX_FILE_BYTES,
@@ -673,8 +674,8 @@ def _label(x: Any) -> Any:
         return int(x)
     if isinstance(x, str):
         return str(x)
-    if not isinstance(x, float) and hasattr(x, "__index__"):
-        return int(x.__index__())
+    if isinstance(x, numbers.Integral):  # numpy integers (not arrays: an array is left to be refused)
+        return int(x)
     return x
 
 
@@ -760,6 +761,8 @@ def spec_from_graph(
     """
     if not isinstance(graph, nx.Graph):
         raise SpecError("graph", f"expected a networkx.Graph, got {type(graph).__name__}")
+    if not isinstance(weight, str):
+        raise ArgumentError(f"weight: expected the name of an edge attribute (a string), got {show(weight)}")
     if graph.is_directed():
         raise SpecError("graph", "the graph must be undirected (got a directed graph)")
     if graph.is_multigraph():

@@ -23,6 +23,7 @@ from fractions import Fraction
 from types import MappingProxyType
 from typing import Any, Mapping, Sequence
 
+from glocal_verify.spec.arguments import instance_arg
 from glocal_verify.spec.types import (
     AttackSpec,
     ClusterSpec,
@@ -237,6 +238,7 @@ def dump_spec(spec: SystemSpec) -> str:
     >>> loads_spec(dump_spec(spec), source=spec.source) == spec
     True
     """
+    instance_arg("dump_spec", spec, SystemSpec, "a validated SystemSpec (load_spec, spec_from_graph, spec_from_dict ...)")
     lines = ["# glocal-verify system specification", "format = 1", f"name = {_string(spec.name)}"]
     if spec.description:
         lines.append(f"description = {_string(spec.description)}")
