@@ -41,8 +41,11 @@ import random
 import re
 import resource
 import signal
+import socket
+import stat
 import sys
 import tempfile
+import threading
 import time
 import tomllib
 import traceback
@@ -279,6 +282,22 @@ def _from_graph_specs() -> list[tuple[str, dict[str, Any]]]:
 
 _BASES: list[tuple[str, dict[str, Any]]] | None = None
 
+#: a sampled deployment for the bases that get one: per-channel noise, a held disturbance, a
+#: sampled controller (the [uncertainty] and [implementation] sections of docs/spec.md)
+_DEPLOYMENT = {
+    "uncertainty": {"initial_state": 1.0, "noise": 0.001, "disturbance": 0.001},
+    "implementation": {"period": 0.05, "controller": "sampled", "switch_delay": 1},
+}
+
+
+def _with_deployment(name: str, data: dict[str, Any]) -> dict[str, Any]:
+    d = copy.deepcopy(data)
+    d["name"] = f"{name}-sampled"
+    d.update(copy.deepcopy(_DEPLOYMENT))
+    if name.startswith("paper19"):  # per-channel noise keys of paper19's monitors
+        d["uncertainty"]["noise"] = {"v:1": 0.002, "x:*": 0.001, "*": 0.001}
+    return d
+
 
 def base_specs() -> list[tuple[str, dict[str, Any]]]:
     """(name, mapping) of every base spec; all are valid and fast to verify."""
@@ -291,6 +310,7 @@ def base_specs() -> list[tuple[str, dict[str, Any]]]:
             s = random_clustered_spec(n, c, seed=seed, monitors=3, horizon=3.0, step=0.05, observers_per_cluster=2 if seed % 2 else 1)
             bases.append((s.name, spec_to_dict(s)))
         bases += _from_graph_specs()
+        bases += [(f"{name}-sampled", _with_deployment(name, d)) for name, d in bases if name in ("paper19-short", "cycle8", "path5-str")]
         _BASES = bases
     return _BASES
 
@@ -1044,7 +1064,7 @@ def run_cli(
 # ---------------------------------------------------------------------------------------------
 # commands
 
-COMMANDS = ("verify", "verify-exact", "simulate", "place-observers")
+COMMANDS = ("verify", "verify-exact", "simulate", "place-observers", "export", "verify-deployment")
 #: further commands the campaign can run (``--commands``): simulate with its figures
 EXTRA_COMMANDS = ("simulate-figures",)
 
@@ -1062,6 +1082,10 @@ def command_argv(command: str, spec_path: str | Path, work_dir: str | Path) -> l
         return ["simulate", spec, "--out", str(Path(work_dir) / "sim")]
     if command == "place-observers":
         return ["place-observers", spec]
+    if command == "export":
+        return ["export", spec, "--quiet", "--out", str(Path(work_dir) / "deployment.json")]
+    if command == "verify-deployment":
+        return ["verify", spec, "--quiet", "--only", "detection.*,sampled.*"]
     raise ValueError(command)
 
 
@@ -1087,7 +1111,9 @@ def run_mutant(mutant: Mutant, command: str, timeout_s: float = 60.0, *, fork: b
 #: the input kinds of the campaign
 INPUTS = ("spec", "graph", "sweep", "options", "output", "signal")
 #: outcomes the surface checks add (each a violation)
-SURFACE_OUTCOMES = ("overwrote-input", "symlink-write", "partial-left", "empty-folder", "survivor")
+SURFACE_OUTCOMES = ("overwrote-input", "symlink-write", "partial-left", "empty-folder", "survivor", "replaced-special")
+#: setup operations that make a special file, whose kind a run must leave unchanged
+SPECIAL_FILES = ("chardev", "blockdev", "fifo", "socket")
 ALL_OUTCOMES = OUTCOMES + SURFACE_OUTCOMES
 _PARTIAL = ".glocal-partial-"
 
@@ -1400,18 +1426,32 @@ WRITERS: list[tuple[str, list[str], str, bool]] = [
     ("simulate", ["simulate", "spec.toml", "--no-figures", "--quiet"], "--out", True),
     ("findings", ["findings", "--dir", "specs"], "--out", False),
     ("sweep", ["sweep", "sw.csv", "--quiet", "--no-figures"], "--out", False),
+    ("export", ["export", "spec.toml", "--quiet", "--format", "json"], "--out", False),
+    ("export mat", ["export", "spec.toml", "--quiet", "--no-thresholds", "--format", "mat"], "--out", False),
 ]
 TARGETS = ["input", "./input", "abs-input", "sub/../input", "missing/../input", "hardlink", "symlink-file", "symlink-to-input",
-           "symlinked-folder", "inside-symlinked-folder", "folder-as-file", "file-as-folder", "deep-new", "full-disk", "plain"]
+           "symlinked-folder", "inside-symlinked-folder", "folder-as-file", "file-as-folder", "deep-new", "full-disk", "plain",
+           # targets of every kind (devices and FIFOs are made in the work folder, never the machine's own)
+           "null-device", "full-device", "link-to-device", "fifo", "socket", "block-device", "long-name", "long-path", "dash", "empty"]
+
+
+#: a bundled findings spec (with its [finding] table): the input of ``findings --dir specs``
+_FINDING = ROOT / "glocal_verify" / "spec" / "data" / "findings" / "prop-ii4-covert-needs-sensors.toml"
 
 
 def output_case(c: Chooser) -> Case:
-    """A writing command whose output location attacks its inputs or goes through a link."""
+    """A writing command whose output location attacks its inputs, goes through a link or is a
+    special file."""
     label, argv, opt, folder = c.choice(WRITERS)
-    files = {"spec.toml": _spec_text("cycle8"), "g.txt": _graph_texts()[".txt"].encode(), "specs/f.toml": _spec_text("cycle8"),
+    return target_case(label, c.choice(TARGETS), c)
+
+
+def target_case(label: str, target: str, c: Chooser) -> Case:
+    """The writer ``label`` of :data:`WRITERS` with its output at ``target`` (one of :data:`TARGETS`)."""
+    label, argv, opt, folder = next(w for w in WRITERS if w[0] == label)
+    files = {"spec.toml": _spec_text("cycle8"), "g.txt": _graph_texts()[".txt"].encode(), "specs/f.toml": _FINDING.read_bytes(),
              "sw.csv": toml_dumps(SWEEP_BASE).encode(), "target.md": b"the link's target\n", "realdir/keep.txt": b"keep\n", "f.txt": b"a file\n"}
     inp = {"sweep": "sw.csv", "findings": "specs/f.toml", "verify --graph": "g.txt"}.get(label, "spec.toml")
-    target = c.choice(TARGETS)
     setup: list[tuple[str, ...]] = [("mkdir", "d")]
     forbidden: list[str] = []
     fsize = None
@@ -1454,6 +1494,29 @@ def output_case(c: Chooser) -> Case:
         fsize = c.choice([0, 100, 3000])
         setup.append(("mkdir", "full"))
         out = "full/" + ("" if folder else "out" + suffix)
+    elif target in ("null-device", "full-device", "link-to-device"):
+        setup.append(("chardev", "dev" + suffix, "7" if target == "full-device" else "3"))
+        out = "dev" + suffix
+        if target == "link-to-device":
+            setup.append(("symlink", "devlink" + suffix, "dev" + suffix))
+            out = "devlink" + suffix
+    elif target == "fifo":
+        setup.append(("fifo", "pipe" + suffix))
+        out = "pipe" + suffix
+    elif target == "socket":
+        setup.append(("socket", "sock" + suffix))
+        out = "sock" + suffix
+    elif target == "block-device":
+        setup.append(("blockdev", "disk" + suffix))
+        out = "disk" + suffix
+    elif target == "long-name":
+        out = "n" * c.choice([256, 300, 1000]) + suffix
+    elif target == "long-path":
+        out = "/".join(["p" * 200] * c.choice([21, 30])) + "/out" + suffix
+    elif target == "dash":
+        out = "-"
+    elif target == "empty":
+        out = ""
     else:
         out = "out/" if folder else "out" + suffix
     if label == "audit folder" and not out.endswith("/") and target in ("deep-new", "plain", "full-disk"):
@@ -1530,10 +1593,20 @@ def _prepare(case: Case, work: Path) -> None:
             os.symlink(op[2], work / op[1])
         elif op[0] == "hardlink":
             os.link(work / op[2], work / op[1])
+        elif op[0] == "chardev":  # the null (1, 3) or full (1, 7) device's numbers, in the work folder
+            os.mknod(work / op[1], stat.S_IFCHR | 0o666, os.makedev(1, int(op[2])))
+        elif op[0] == "blockdev":  # numbers with no driver: even a wrong open could not reach a disk
+            os.mknod(work / op[1], stat.S_IFBLK | 0o600, os.makedev(0, 0))
+        elif op[0] == "fifo":
+            os.mkfifo(work / op[1])
+        elif op[0] == "socket":
+            sock = socket.socket(socket.AF_UNIX)
+            sock.bind(str(work / op[1]))
+            sock.close()
 
 
 def _snapshot(case: Case, work: Path) -> dict[str, Any]:
-    snap: dict[str, Any] = {"files": {}, "links": {}, "forbidden": {}, "dirs": set()}
+    snap: dict[str, Any] = {"files": {}, "links": {}, "forbidden": {}, "dirs": set(), "kinds": {}}
     for name in case.protected:
         p = work / name
         if p.exists() and not p.is_symlink():
@@ -1541,6 +1614,8 @@ def _snapshot(case: Case, work: Path) -> dict[str, Any]:
     for op in case.setup:
         if op[0] == "symlink":
             snap["links"][op[1]] = op[2]
+        if op[0] in SPECIAL_FILES:
+            snap["kinds"][op[1]] = stat.S_IFMT(os.lstat(work / op[1]).st_mode)
     for name in case.forbidden:
         snap["forbidden"][name] = sorted(str(q.relative_to(work / name)) for q in (work / name).rglob("*"))
     snap["dirs"] = {str(q.relative_to(work)) for q in work.rglob("*") if q.is_dir() and not q.is_symlink()}
@@ -1563,6 +1638,12 @@ def check_policy(case: Case, work: Path, snap: dict[str, Any], rc: int | None) -
         p = work / link
         if not p.is_symlink() or os.readlink(p) != target:
             return "symlink-write"
+    for name, kind in snap["kinds"].items():
+        try:
+            if stat.S_IFMT(os.lstat(work / name).st_mode) != kind:
+                return "replaced-special"
+        except FileNotFoundError:
+            return "replaced-special"
     for name, listing in snap["forbidden"].items():
         if sorted(str(q.relative_to(work / name)) for q in (work / name).rglob("*")) != listing:
             return "symlink-write"
@@ -1605,7 +1686,7 @@ def _run_signalled(case: Case, work: Path, timeout_s: float) -> RunResult:
     env["PYTHONPATH"] = str(ROOT) + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
     argv = [a.replace("{work}", str(work)) for a in case.argv]
     t0 = time.monotonic()
-    p = subprocess.Popen([sys.executable, "-m", "glocal_verify.cli", *argv], cwd=work, env=env, stdin=subprocess.DEVNULL,
+    p = subprocess.Popen([sys.executable, "-m", "glocal_verify", *argv], cwd=work, env=env, stdin=subprocess.DEVNULL,
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True,
                          preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # noqa: PLW1509 - one thread here
     try:
@@ -1652,6 +1733,27 @@ def _run_signalled(case: Case, work: Path, timeout_s: float) -> RunResult:
     return RunResult(outcome, p.returncode, out.decode(errors="replace")[:2000], text[-20000:], elapsed=elapsed)
 
 
+class _FifoDrain:
+    """A reader of a FIFO of the work folder, as a shell's ``cat pipe`` would be: it drains what
+    the command writes, and is released (by an empty writer) if the command never opens it."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.data = b""
+        self._thread = threading.Thread(target=self._read, daemon=True)
+        self._thread.start()
+
+    def _read(self) -> None:
+        with contextlib.suppress(OSError), open(self.path, "rb") as f:
+            self.data = f.read()
+
+    def release(self) -> None:
+        if self._thread.is_alive():
+            with contextlib.suppress(OSError):
+                os.close(os.open(self.path, os.O_WRONLY | os.O_NONBLOCK))
+        self._thread.join(timeout=10)
+
+
 def run_case(case: Case, timeout_s: float = 60.0, *, memory_bytes: int | None = 4 << 30,
              runner: Callable[[list[str], float, Path, int | None], RunResult] | None = None) -> RunResult:
     """Run ``case`` in a fresh work folder and check the output policy after it.
@@ -1664,6 +1766,7 @@ def run_case(case: Case, timeout_s: float = 60.0, *, memory_bytes: int | None = 
         work = Path(tmp)
         _prepare(case, work)
         snap = _snapshot(case, work)
+        readers = [_FifoDrain(work / op[1]) for op in case.setup if op[0] == "fifo"]
         if case.signal is not None:
             res = _run_signalled(case, work, timeout_s)
         else:
@@ -1672,6 +1775,8 @@ def run_case(case: Case, timeout_s: float = 60.0, *, memory_bytes: int | None = 
                 res = runner(argv, timeout_s, work, case.fsize)
             else:
                 res = run_cli(argv, timeout_s, fork=True, memory_bytes=memory_bytes, cwd=str(work), fsize=case.fsize)
+        for r in readers:
+            r.release()
         violation = check_policy(case, work, snap, res.rc) if res.outcome not in ("hang", "crash") else None
         with contextlib.suppress(OSError):  # a run may leave read-only folders
             for q in work.rglob("*"):

@@ -228,3 +228,23 @@ def test_shorten_keeps_the_start_and_the_end_of_a_long_line() -> None:
     out = shorten(text, 100)
     assert len(out) == 100 and out.startswith("start ") and out.endswith(" end") and "..." in out
     assert shorten("one\ntwo") == "one"
+
+
+# --------------------------------------------------------------------------------------------
+# guarantee_checks and long names on every path a command reads or writes
+
+
+@pytest.mark.parametrize("argv", [["--runs", "0"], ["--seed", "-1"], ["--attack-runs", "x"], ["--out", "/dev/null/x"], ["--bogus"]])
+def test_guarantee_checks_refuses_bad_arguments_in_one_line_before_any_work(argv: list[str], capsys: pytest.CaptureFixture[str]) -> None:
+    from guarantee_checks.__main__ import main as guarantee_main
+
+    assert guarantee_main(argv) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert line.startswith("python -m guarantee_checks: error:")
+
+
+@pytest.mark.parametrize("argv", [["findings", "--dir", "d" * 400], ["audit", "--example", "paper19", "--out", "n" * 400 + ".md"],
+                                  ["audit", "--example", "paper19", "--figure", "f" * 400 + ".svg"]])
+def test_a_name_too_long_to_exist_is_one_line_on_every_path(argv: list[str], capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(argv) == 2
+    assert len(_one_line(capsys.readouterr().err)) < 300

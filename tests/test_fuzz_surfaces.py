@@ -55,3 +55,23 @@ def test_runs_stopped_at_work_print_one_line_and_leave_no_process_behind() -> No
         results = list(ex.map(lambda c: fs.run_case(c, 60.0), cases))
     bad = [f"{c.description}: {r.summary()}" for c, r in zip(cases, results) if not r.good]
     assert not bad, "\n".join(bad)
+
+
+_SINGLE_FILE_WRITERS = [w[0] for w in fs.WRITERS if not w[3]]
+
+
+@pytest.mark.parametrize("target", ["null-device", "fifo"])
+@pytest.mark.parametrize("label", _SINGLE_FILE_WRITERS)
+def test_every_single_file_output_into_a_device_or_a_fifo_leaves_it_what_it_was(label: str, target: str) -> None:
+    if os.geteuid() != 0 and target == "null-device":
+        pytest.skip("making a device node needs root")
+    res = fs.run_case(fs.target_case(label, target, fs.RandomChooser(1)), 60.0)
+    assert res.outcome == "ok", res.summary()
+
+
+@pytest.mark.parametrize("target", ["socket", "block-device", "long-name", "long-path", "empty", "deep-new"])
+def test_an_output_that_cannot_be_written_is_one_line_before_any_work(target: str) -> None:
+    if os.geteuid() != 0 and target == "block-device":
+        pytest.skip("making a device node needs root")
+    res = fs.run_case(fs.target_case("verify", target, fs.RandomChooser(1)), 60.0)
+    assert res.outcome == "clean-error", res.summary()

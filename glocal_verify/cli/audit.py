@@ -27,6 +27,7 @@ from glocal_verify.cli.common import (
     wrote,
 )
 from glocal_verify.reporting.output import check_output_file
+from glocal_verify.runtime.files import TargetKind, target_kind
 from glocal_verify.runtime.lines import write_line
 
 __all__ = ["register"]
@@ -54,7 +55,7 @@ def _labels(system: Any, text: str | None, what: str) -> list[Any] | None:
 def _audit_outputs(args: argparse.Namespace) -> tuple[Path | None, list[str]]:
     """Check ``--out`` and ``--figure`` before the audit: (the output folder or None, inputs)."""
     inputs = spec_inputs(args)
-    out_dir = Path(args.out) if args.out and (Path(args.out).is_dir() or args.out.endswith(("/", os.sep))) else None
+    out_dir = Path(args.out) if args.out and (target_kind(args.out) is TargetKind.FOLDER or args.out.endswith(("/", os.sep))) else None
     if out_dir is not None:
         check_out_dir(out_dir, inputs=inputs)
         for name in (_REPORT_NAMES.get(args.format, "audit.md"), "audit.svg", "audit.png"):

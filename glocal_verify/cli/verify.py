@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import math
+import os
 import sys
 from typing import TYPE_CHECKING, Any, Callable
 
@@ -175,7 +176,7 @@ def cmd_findings(args: argparse.Namespace) -> int:
 
     from pathlib import Path
 
-    inputs = [str(p) for p in Path(args.dir).glob("*.toml")] if args.dir and Path(args.dir).is_dir() else []
+    inputs = [str(p) for p in Path(args.dir).glob("*.toml")] if args.dir and os.path.isdir(args.dir) else []
     check_out_file(args, inputs=inputs)
     if not proofs_available():
         write_line(f"{PROG}: warning: the proof checks' paper errors are left out of the report: they need sympy ({PROOFS_INSTALL})")

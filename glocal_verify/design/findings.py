@@ -25,12 +25,13 @@ findings (places where the paper is inconsistent without a system to show it,
 from __future__ import annotations
 
 import importlib.util
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from glocal_verify.conditions.registry import implemented_ids, verify
-from glocal_verify.errors import SpecError
+from glocal_verify.errors import SpecError, shorten
 from glocal_verify.model import System
 from glocal_verify.results import ALIASES, ConditionResult
 from glocal_verify.spec import load_spec, loads_spec
@@ -101,8 +102,8 @@ def load_cases(directory: str | Path | None = None) -> list[FindingCase]:
         specs = [(name, True, loads_spec(example_text(name), source=f"<example {name}>")) for name in finding_names()]
     else:
         folder = Path(directory)
-        if not folder.is_dir():
-            raise SpecError("", f"{folder} is not a folder of counterexample specs")
+        if not os.path.isdir(folder):  # False, not an OSError, for a name too long to exist
+            raise SpecError("", f"{shorten(str(folder), 120)} is not a folder of counterexample specs")
         specs = [(p.as_posix(), False, load_spec(p)) for p in sorted(folder.glob("*.toml"))]
     if not specs:
         where = "the package (its data folder glocal_verify/spec/data/findings/ is missing)" if directory is None else str(directory)
