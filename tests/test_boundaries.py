@@ -26,18 +26,11 @@ from glocal_verify.reporting.export import ExportError, _encode, _json_value, de
 from glocal_verify.spec import loads_spec
 from glocal_verify.spec.writer import dump_spec
 
+from guarantee_checks.__main__ import UNCERTAINTY, paper19_sampled
 from test_cli_outputs import _one_line, _tiny
 
 #: the deployment of guarantee_checks on paper19 (h = 0.01 s)
-DEPLOYMENT = """
-[uncertainty]
-initial_state = 1
-noise = 0.001
-disturbance = 0.001
-
-[implementation]
-period = 0.01
-"""
+DEPLOYMENT = UNCERTAINTY
 
 
 @pytest.fixture(scope="module")
@@ -47,7 +40,7 @@ def paper19() -> System:
 
 @pytest.fixture(scope="module")
 def sampled19() -> System:
-    return System(loads_spec(dump_spec(load_example("paper19")) + DEPLOYMENT, source="<paper19 sampled>"))
+    return paper19_sampled()
 
 
 @pytest.fixture(scope="module")
