@@ -134,9 +134,7 @@ def target_kind(path: str | Path) -> TargetKind:
         return TargetKind.STDOUT
     try:
         mode = os.lstat(path).st_mode
-    except FileNotFoundError:
-        return TargetKind.MISSING
-    except (OSError, ValueError):  # a too-long name, a file in place of a folder: no such target
+    except (OSError, ValueError):  # none, a too-long name, a file in place of a folder: no such target
         return TargetKind.MISSING
     if stat.S_ISLNK(mode):
         try:
