@@ -38,8 +38,8 @@ import numpy as np
 from glocal_verify.analysis.sampled import implementation_of, sampled_matrices, sampled_matrices_exact
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
-from glocal_verify.numerics.pencil import analyze_pencil, direction_at
-from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
+from glocal_verify.numerics.pencil import analyze_pencil, direction_at, input_directions
+from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
 from glocal_verify.results import Status
 from glocal_verify.spec.types import NORMAL_MODE, ImplementationSpec, Label
 
@@ -67,14 +67,16 @@ class SampledZero:
     modulus : float
     growth : str
         ``"unbounded"`` (|z| > 1), ``"persistent"`` (|z| = 1 within 1e-12) or ``"decaying"``.
-    attack : bool
-        The kernel holds a direction with ``u != 0`` (else an unobservable mode).
+    attack : bool or None
+        The kernel holds a direction with ``u != 0``: True; only ``u = 0`` (an unobservable mode
+        of (Phi_1, C), no attack): False; None when floating point could not tell
+        (:func:`~glocal_verify.numerics.pencil.input_directions`).
     """
 
     value: complex
     modulus: float
     growth: str
-    attack: bool
+    attack: bool | None
 
 
 @dataclass(frozen=True, slots=True)
@@ -171,14 +173,22 @@ def sampled_zda(
     pa = analyze_pencil(Ad, Bd, system.C(), None, tol)
     h = float(impl.period)
     zv = [1.0 + h * complex(z.value) for z in pa.zeros]
-    zs = tuple(SampledZero(v, abs(v), _growth(abs(v)), bool(np.linalg.norm(z.u) > 0)) for v, z in zip(zv, pa.zeros))
+    # an attack zero needs an input direction, decided by the kernels' dimensions (a computed
+    # direction's input part is never exactly zero: the consensus mode at z = 1 was reported as
+    # an attack with every velocity monitored)
+    inputs = input_directions(Ad, Bd, system.C(), None, [z.value for z in pa.zeros], tol)
+    kinds = {Decision.NONZERO: True, Decision.ZERO: False, Decision.UNDECIDED: None}
+    zs = tuple(SampledZero(v, abs(v), _growth(abs(v)), kinds[d]) for v, d in zip(zv, inputs))
+    notes = list(pa.notes) + [f"zero {z.value:.6g}: whether it carries an input direction is undecided" for z in zs if z.attack is None]
     if nyq:
         st = Status.HOLDS  # proven structurally, whatever the floating-point analysis says
     elif not pa.decided:
         st = Status.UNDECIDED
+    elif pa.left_invertible is False or any(z.attack for z in zs):
+        st = Status.HOLDS
     else:
-        st = Status.HOLDS if (not pa.left_invertible or any(z.attack for z in zs)) else Status.FAILS
-    return SampledZda(st, pa.left_invertible if pa.decided else None, zs, nyq, "numeric", "; ".join(pa.notes))
+        st = Status.FAILS if all(z.attack is False for z in zs) else Status.UNDECIDED
+    return SampledZda(st, pa.left_invertible if pa.decided else None, zs, nyq, "numeric", "; ".join(notes))
 
 
 def _delta_form(system: System, impl: ImplementationSpec, idx: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:

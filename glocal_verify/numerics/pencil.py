@@ -108,6 +108,7 @@ __all__ = [
     "PencilAnalysis",
     "analyze_pencil",
     "direction_at",
+    "input_directions",
     "pencil_matrix",
     "cluster_points",
 ]
@@ -593,6 +594,75 @@ def analyze_pencil(
             zeros.append(accept(pt, 1))
     zeros.sort(key=lambda z: (-z.value.real, -abs(z.value.imag)))
     return result(tuple(zeros))
+
+
+def _nullity_bounds(M: np.ndarray, scale: float, tol: Tolerance) -> tuple[int, int]:
+    """Bounds on the nullity of ``M`` at the tolerance: (certainly zero singular values, not
+    certainly nonzero ones), each decided as :func:`_decide_small` decides."""
+    ncols = M.shape[1]
+    if ncols == 0:
+        return 0, 0
+    s = np.zeros(ncols)
+    sv = np.linalg.svd(M, compute_uv=False) if M.size else np.zeros(0)
+    s[: len(sv)] = sv[:ncols]
+    err = _rounding(sum(M.shape), float(s[0]))
+    decisions = [_decide_small(float(v), err, scale, tol) for v in s]
+    return sum(d is Decision.ZERO for d in decisions), sum(d is not Decision.NONZERO for d in decisions)
+
+
+def input_directions(
+    A: Any, B: Any, C: Any, D: Any, points: Sequence[complex], tol: Tolerance = DEFAULT_TOLERANCE
+) -> tuple[Decision, ...]:
+    """Whether the kernel of the pencil at each point holds a direction with a nonzero input.
+
+    A zero lambda0 of the Rosenbrock pencil is a zero-dynamics *attack* only when its kernel has
+    a direction ``[x; u]`` with ``u != 0`` (Definition II.2 with ``u0 != 0``); a kernel with
+    ``u = 0`` only is an unobservable mode of (A, C). Since ``ker [lambda0 I - A; C] x {0}``
+    lies in ``ker P(lambda0)``,
+
+    .. math::
+
+        \exists\, [x; u] \in \ker P(\lambda_0),\ u \ne 0 \iff
+        \dim\ker P(\lambda_0) > \dim\ker \begin{bmatrix} \lambda_0 I - A \\ C \end{bmatrix}
+
+    (for ``D = 0``; with ``D`` the state columns are ``[lambda0 I - A; C]`` all the same). Both
+    nullities are bounded on the balanced pencil by its singular values against the SVD's
+    error bound and the tolerance (as :func:`direction_at` decides a rank drop): ``NONZERO``
+    (an input direction exists) when the pencil's certain nullity exceeds the state part's
+    possible one, ``ZERO`` (none: an unobservable mode) when the pencil's possible nullity is at
+    most the state part's certain one, ``UNDECIDED`` otherwise. The largest input part of a
+    computed kernel vector is no such test: rounding leaves it nonzero at every zero.
+
+    Parameters
+    ----------
+    A, B, C, D : array_like
+        System matrices (``D = None`` means zero).
+    points : sequence of complex
+        The zeros to classify.
+    tol : Tolerance
+
+    Returns
+    -------
+    tuple of Decision
+        One per point: NONZERO (an attack direction), ZERO (none), UNDECIDED.
+    """
+    A, B, C, D = _system(A, B, C, D)
+    n = A.shape[0]
+    bal = _balance(A, B, C, D)
+    scale = bal.norm()
+    scale = scale if scale > 0.0 else 1.0
+    out = []
+    for lam in points:
+        P = bal.pencil(complex(lam))
+        full_lo, full_hi = _nullity_bounds(P, scale, tol)
+        state_lo, state_hi = _nullity_bounds(P[:, :n], scale, tol)
+        if full_lo > state_hi:
+            out.append(Decision.NONZERO)
+        elif full_hi <= state_lo:
+            out.append(Decision.ZERO)
+        else:
+            out.append(Decision.UNDECIDED)
+    return tuple(out)
 
 
 def direction_at(
