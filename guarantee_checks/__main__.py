@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from glocal_verify import System, load_example, verify
-from glocal_verify.analysis.sampled_scan import scan_periods
+from glocal_verify.analysis.sampled.scan import scan_periods
 from glocal_verify.reporting.guarantee_figures import detection_figure, detection_times_figure, period_scan_figure, render, thresholds_figure
 from glocal_verify.reporting.output import write_bytes_atomic, write_text_atomic
 from glocal_verify.results import jsonable

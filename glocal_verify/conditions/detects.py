@@ -231,13 +231,13 @@ def _attacker_choice(system: System, mode: str, atk: AttackModel | None, ctx: Ch
     """The ZDA an informed attacker would run against the switch to ``mode``.
 
     When some stealthy direction at lambda0 is not touched by the switch (``switching.safe``
-    holds through :func:`glocal_verify.analysis.avoidance.avoidance`), the attacker uses it: a
+    holds through :func:`glocal_verify.analysis.switching.avoidance.avoidance`), the attacker uses it: a
     detection verdict must hold against every stealthy direction, not only the one
     ``stealthy.zda`` happens to report.
     """
     if atk is None or atk.kind != "zda":
         return atk, "spec"
-    from glocal_verify.analysis.avoidance import avoidance
+    from glocal_verify.analysis.switching.avoidance import avoidance
 
     av = avoidance(system, mode, ctx.tol)
     if av is None or av.status is not Status.HOLDS or av.direction is None or av.direction_source == "stealthy.zda":

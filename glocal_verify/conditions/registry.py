@@ -358,7 +358,7 @@ def exact_estimate(system: System, cid: str) -> float | None:
     From the one exact-cost model, :func:`glocal_verify.conditions.exact_cost.exact_seconds`, for the
     checkers whose exact cost is one dense rational computation of known size:
     ``central.observer``, and ``stealthy.zda`` / ``switching.avoids-attack``, whose path is
-    learnt from the minor certificate (:func:`~glocal_verify.analysis.zda_exact.has_fast_exact_path`)
+    learnt from the minor certificate (:func:`~glocal_verify.analysis.stealthy.zda_exact.has_fast_exact_path`)
     while that certificate costs at most ``zda_certificate_max_seconds``
     (:mod:`glocal_verify.config`; N <~ 1700); beyond, the path is unknown and the estimate is
     the larger of the certificate's cost and the fast path's (a lower bound of either path:
@@ -379,7 +379,7 @@ def exact_estimate(system: System, cid: str) -> float | None:
     if certificate > config.get("zda_certificate_max_seconds"):
         # the path is unknown: the cheaper one (the fast path) bounds the cost from below
         return max(certificate, exact_seconds(cid, system.n, zda_path="fast"))
-    from glocal_verify.analysis.zda_exact import has_fast_exact_path
+    from glocal_verify.analysis.stealthy.zda_exact import has_fast_exact_path
 
     try:
         fast = has_fast_exact_path(system)

@@ -67,14 +67,14 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from glocal_verify.analysis.covert import (
+from glocal_verify.analysis.stealthy.covert import (
     channel_label as _channel_label,
     covert_required_channels,
     reachable_agents,
 )
-from glocal_verify.analysis.zda import ZdaZero, requested_lambda0
-from glocal_verify.analysis.zda_exact import ExactZdaZero, exact_witness
-from glocal_verify.analysis.zda_verdict import ZdaOptions, decide_zda
+from glocal_verify.analysis.stealthy.zda import ZdaZero, requested_lambda0
+from glocal_verify.analysis.stealthy.zda_exact import ExactZdaZero, exact_witness
+from glocal_verify.analysis.stealthy.zda_verdict import ZdaOptions, decide_zda
 from glocal_verify.conditions.registry import (
     CheckContext,
     checker,
@@ -164,7 +164,7 @@ def check_zda(system: System, ctx: CheckContext) -> list[ConditionResult]:
 
     Certification (numeric)
         The tolerance of the deflation only *finds* candidates; a numeric ``holds``/``fails``
-        is reported only when :func:`~glocal_verify.analysis.zda_certificate.zda_certificate` proves it
+        is reported only when :func:`~glocal_verify.analysis.stealthy.zda_certificate.zda_certificate` proves it
         for the exact system: ``holds`` by the structural rank of the exact support (not
         left-invertible), by Weyl lower bounds (SVD backward error 8 max(m, n) eps ||M||_F
         plus the rounding of the rational data) against structural upper bounds at lambda0 =
@@ -176,7 +176,7 @@ def check_zda(system: System, ctx: CheckContext) -> list[ConditionResult]:
         ``certificate``; vectors are given at full double precision (only exact zeros
         left out), and in exact mode ``xi_exact``/``u0_exact`` (rationals) or
         ``field``/``xi_residues``/``u0_residues``/``lambda0_enclosure`` (algebraic lambda0;
-        :func:`~glocal_verify.analysis.zda_exact.exact_witness`).
+        :func:`~glocal_verify.analysis.stealthy.zda_exact.exact_witness`).
 
     Margin
         The largest growth rate Re lambda0 of an available stealthy ZDA: +inf when the system
@@ -189,7 +189,7 @@ def check_zda(system: System, ctx: CheckContext) -> list[ConditionResult]:
         (zeros with u0 = 0, not attacks) and ``direction`` (lambda0, u0, xi, moved, source).
         When the computed zero set chose lambda0 = 0 as its fastest-growing zero, ``zero_set``
         says whether that choice is proven (``complete`` and ``by``: the modular count of the
-        zeros of the pencil in s, :func:`~glocal_verify.analysis.zda_completeness.zero_set_completeness`)
+        zeros of the pencil in s, :func:`~glocal_verify.analysis.stealthy.zda_completeness.zero_set_completeness`)
         or why not (``note``); ``switching.avoids-attack`` is decided at a computed lambda0 = 0
         only when it is.
     """

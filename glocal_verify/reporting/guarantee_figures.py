@@ -3,7 +3,7 @@
 Drawn from results they are given (:class:`~glocal_verify.simulation.certified_thresholds.CertifiedThresholds`,
 :class:`~glocal_verify.simulation.sampled_runs.RunBatch`,
 :class:`~glocal_verify.simulation.guarantees.DetectionGuarantee`,
-:class:`~glocal_verify.analysis.sampled_scan.PeriodScan`); nothing here simulates. Each is a bare
+:class:`~glocal_verify.analysis.sampled.scan.PeriodScan`); nothing here simulates. Each is a bare
 :class:`matplotlib.figure.Figure` on the Agg canvas, rendered to PNG and SVG bytes by
 :func:`render`.
 """
@@ -17,7 +17,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from glocal_verify.analysis.sampled_scan import PeriodScan
+from glocal_verify.analysis.sampled.scan import PeriodScan
 from glocal_verify.simulation.certified_thresholds import CertifiedThresholds
 from glocal_verify.simulation.guarantees import DetectionGuarantee
 from glocal_verify.simulation.sampled_runs import RunBatch

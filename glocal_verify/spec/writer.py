@@ -21,19 +21,21 @@ import math
 import re
 from fractions import Fraction
 from types import MappingProxyType
-from typing import Any, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
-from glocal_verify.spec.types import (
-    AttackSpec,
-    ClusterSpec,
-    EdgeSpec,
-    ImplementationSpec,
-    Label,
-    ModeSpec,
-    SwitchingSpec,
-    SystemSpec,
-    UncertaintySpec,
-)
+if TYPE_CHECKING:  # annotations only: the spec types call this writer (SystemSpec.to_toml)
+    from glocal_verify.spec.types import (
+        AttackSpec,
+        ClusterSpec,
+        EdgeSpec,
+        ImplementationSpec,
+        Label,
+        ModeSpec,
+        SwitchingSpec,
+        SystemSpec,
+        UncertaintySpec,
+    )
+
 
 __all__ = [
     "dump_spec",

@@ -1,6 +1,6 @@
 """Stealthy ZDAs proved inside the attacked clusters, against exact arithmetic and the definition.
 
-A proof of :func:`~glocal_verify.analysis.zda_local.prove_local_zero` claims a stealthy ZDA at
+A proof of :func:`~glocal_verify.analysis.stealthy.zda_local.prove_local_zero` claims a stealthy ZDA at
 every root of an irreducible polynomial. The exact analysis of the whole pencil must find a
 zero there with the same growth class, and the reported direction must satisfy the definition:
 (s I + alpha L) xi = S_F^T u0, xi = 0 on every monitored agent, u0 != 0.
@@ -13,8 +13,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from glocal_verify import System
-from glocal_verify.analysis.zda_exact import zda_analysis_exact
-from glocal_verify.analysis.zda_local import prove_local_zero
+from glocal_verify.analysis.stealthy.zda_exact import zda_analysis_exact
+from glocal_verify.analysis.stealthy.zda_local import prove_local_zero
 from glocal_verify.design.audit import audit
 from glocal_verify.design.generators import random_clustered_spec
 from glocal_verify.spec.load import loads_spec

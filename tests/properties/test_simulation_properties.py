@@ -34,7 +34,7 @@ from hypothesis import strategies as st
 from strategies import clustered_systems, graphs
 
 from glocal_verify import System, load_example, spec_from_dict, verify
-from glocal_verify.analysis.avoidance import avoidance
+from glocal_verify.analysis.switching.avoidance import avoidance
 from glocal_verify.conditions.detects import THEOREM_III3_IDS, algorithm1, check_detects
 from glocal_verify.conditions.registry import CheckContext
 from glocal_verify.errors import GlocalVerifyError

@@ -14,8 +14,8 @@ from hypothesis import strategies as st
 from strategies import systems
 
 from glocal_verify import System, spec_from_graph, verify
-from glocal_verify.analysis.zda import ZdaAnalysis, zda_analysis
-from glocal_verify.analysis.zda_exact import zda_analysis_exact
+from glocal_verify.analysis.stealthy.zda import ZdaAnalysis, zda_analysis
+from glocal_verify.analysis.stealthy.zda_exact import zda_analysis_exact
 from glocal_verify.results import Status
 
 
