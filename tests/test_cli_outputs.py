@@ -497,7 +497,7 @@ def test_the_exact_budget_is_described_as_one_budget_per_run(capsys: pytest.Capt
 
 
 def test_counted_nouns_take_their_number() -> None:
-    from glocal_verify.reporting.words import counted
+    from glocal_verify.words import counted
 
     assert [counted(k, "mode") for k in (0, 1, 2)] == ["0 modes", "1 mode", "2 modes"]
     assert counted(1, "matrix", "matrices") == "1 matrix" and counted(3, "matrix", "matrices") == "3 matrices"

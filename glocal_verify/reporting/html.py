@@ -35,11 +35,11 @@ from glocal_verify.conditions.registry import CATALOGUE
 from glocal_verify.model import System
 from glocal_verify.reporting.network_svg import network_svg
 from glocal_verify.answer.assessment import Assessment, assess
-from glocal_verify.answer.attack import format_labels, format_lambda
 from glocal_verify.results import ConditionResult, Method, Polarity, Report, jsonable
 from glocal_verify.simulation.algorithm1 import Algorithm1Result
 from glocal_verify.simulation.schedule import SimulationResult
 from glocal_verify.spec.types import NORMAL_MODE
+from glocal_verify.words import format_labels, format_lambda
 
 __all__ = [
     "WITNESS_CHARS",

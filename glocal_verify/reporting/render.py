@@ -17,8 +17,8 @@ import jsonschema
 from glocal_verify.conditions.registry import CATALOGUE
 from glocal_verify.errors import GlocalVerifyError
 from glocal_verify.answer.assessment import Assessment, assess, with_assessment
-from glocal_verify.answer.attack import format_labels, format_lambda
 from glocal_verify.results import ConditionResult, Method, Polarity, Report, json_preview
+from glocal_verify.words import format_labels, format_lambda
 
 __all__ = [
     "LEGEND",
