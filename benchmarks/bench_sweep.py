@@ -12,7 +12,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from glocal_verify.design.distributed import dask_client
+from glocal_verify.extra.dask import dask_client
 from glocal_verify.design.sweep import SweepPlan, plan_from_dict, run_member, run_sweep
 
 from .harness import Row

@@ -29,6 +29,7 @@ import scipy.sparse
 from glocal_verify import config
 from glocal_verify.derived import Analysis, Kind
 from glocal_verify.errors import ModelError, SpecError
+from glocal_verify.extra.control import state_space
 from glocal_verify.numerics.block_spectrum import clustered_spectrum, laplacian_csr
 from glocal_verify.numerics.spectrum import Spectrum
 from glocal_verify.numerics.updated_spectrum import update_spectrum
@@ -700,18 +701,10 @@ class System:
         ModelError
             For an unknown mode.
         """
-        from glocal_verify.errors import NotApplicableError
-
         self.check_mode(mode)
-        try:
-            import control
-        except ImportError:
-            raise NotApplicableError(
-                "to_statespace needs python-control, which is not installed: pip install 'glocal-verify[control]'"
-            ) from None
         A, B, C = self.A(mode), self.B(), self.C()
         D = np.zeros((C.shape[0], B.shape[1]))
-        return control.ss(
+        return state_space(
             A,
             B,
             C,

@@ -92,7 +92,7 @@ def test_a_graph_weight_of_a_huge_exponent_is_refused_like_the_specs(name: str, 
 @pytest.fixture
 def no_cluster(monkeypatch: pytest.MonkeyPatch) -> None:
     """Fail the test if a Dask cluster is started."""
-    import glocal_verify.design.distributed as dist
+    import glocal_verify.extra.dask as dist
 
     def refuse(*a: Any, **k: Any) -> Any:
         raise AssertionError("a Dask cluster was started")
@@ -419,7 +419,7 @@ def test_a_forked_exact_computation_dies_with_its_parent(sig: int, tmp_path: Pat
 
 
 def test_dask_workers_are_killed_when_the_command_stops() -> None:
-    from glocal_verify.design.distributed import dask_client
+    from glocal_verify.extra.dask import dask_client
     from glocal_verify.runtime.processes import Stopped
 
     pids: list[int] = []
@@ -432,7 +432,7 @@ def test_dask_workers_are_killed_when_the_command_stops() -> None:
 
 
 def test_a_dashboard_port_in_use_gives_one_line() -> None:
-    from glocal_verify.design.distributed import dask_client
+    from glocal_verify.extra.dask import dask_client
 
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

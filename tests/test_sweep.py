@@ -161,7 +161,7 @@ def test_the_wilson_interval_contains_the_rate_and_narrows_with_more_trials() ->
 def test_an_audit_through_dask_gives_the_rows_of_the_in_process_audit() -> None:
     from glocal_verify import System
     from glocal_verify.design.audit import audit
-    from glocal_verify.design.distributed import dask_executor
+    from glocal_verify.extra.dask import dask_executor
     from glocal_verify.design.generators import random_clustered_spec
 
     system = System(random_clustered_spec(16, 2, seed=3, attack=False))
@@ -177,7 +177,7 @@ def test_tasks_sharing_one_object_send_it_once_not_once_per_task() -> None:
     import cloudpickle
     from distributed import Client, LocalCluster
 
-    from glocal_verify.design.distributed import run_on_dask
+    from glocal_verify.extra.dask import run_on_dask
 
     @dataclasses.dataclass(frozen=True)
     class SharedTask:  # local: pickled by value, so workers need not import the tests

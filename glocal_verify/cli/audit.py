@@ -90,7 +90,7 @@ def cmd_audit(args: argparse.Namespace) -> int:
     if args.max_attackers > n_cand:
         raise UsageError(f"--max-attackers: {args.max_attackers} is larger than the number of candidate agents ({n_cand})")
     from glocal_verify.conditions.cost import C_START, SpecSizes, estimate_audit, format_seconds
-    from glocal_verify.design.distributed import DaskExecutor, workers_pay_off
+    from glocal_verify.extra.dask import DaskExecutor, workers_pay_off
 
     sizes = SpecSizes.from_spec(system.spec)
     serial = estimate_audit(sizes, args.max_attackers, n_cand, exact=args.exact)

@@ -14,8 +14,10 @@ __all__ = ["register"]
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    """Write :func:`glocal_verify.reporting.export.export_observers` of SPEC to ``--out``."""
+    """Write the :func:`~glocal_verify.simulation.deployment.design_deployment` of SPEC to ``--out``
+    (:func:`glocal_verify.reporting.export.export_observers`)."""
     from glocal_verify.reporting.export import EXPORT_FORMATS, export_observers
+    from glocal_verify.simulation.deployment import design_deployment
 
     out = Path(args.out)
     fmt = args.format or out.suffix.lower().lstrip(".")
@@ -26,7 +28,8 @@ def cmd_export(args: argparse.Namespace) -> int:
     if not args.quiet:
         what = "observers and schedule" if args.no_thresholds else "observers, attack-free thresholds and schedule"
         write_line(f"{PROG}: designing the {what} of {system.name} ({system.n} agents) ...")
-    wrote(export_observers(system, out, fmt, thresholds=not args.no_thresholds, progress=not args.quiet))
+    deployment = design_deployment(system, thresholds=not args.no_thresholds, progress=not args.quiet)
+    wrote(export_observers(deployment, out, fmt))
     return 0
 
 

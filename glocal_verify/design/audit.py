@@ -437,7 +437,7 @@ class AuditChunk:
         (:class:`~glocal_verify.design.audit_records.SharedParts`, one table per audit).
 
         An executor calls it in the calling process as each chunk's rows arrive
-        (:class:`~glocal_verify.design.distributed.DaskExecutor`); the rows are equal to
+        (:class:`~glocal_verify.extra.dask.DaskExecutor`); the rows are equal to
         those returned, field by field.
         """
         return self.shared.row_parts.rows(rows)
@@ -637,7 +637,7 @@ def audit(
     executor : callable, optional
         Runs a list of zero-argument callables and returns their results in the same order:
         first the :class:`LocalSinglesChunk` tasks (the local verdicts of single agents, one per
-        cluster), then the :class:`AuditChunk` tasks (rows), e.g. :func:`glocal_verify.design.distributed.dask_executor` (Dask: an embedded
+        cluster), then the :class:`AuditChunk` tasks (rows), e.g. :func:`glocal_verify.extra.dask.dask_executor` (Dask: an embedded
         LocalCluster or an external scheduler); default: in this process, in order.
 
     Returns

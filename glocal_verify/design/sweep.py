@@ -718,7 +718,7 @@ def run_sweep(
         Called with one line per finished chunk.
     dashboard, notice :
         The embedded cluster's dashboard address and where its one-line notices go
-        (:func:`~glocal_verify.design.distributed.dask_client`).
+        (:func:`~glocal_verify.extra.dask.dask_client`).
     """
     outp, parts, names = sweep_outputs(plan, out, summary=summary, figures=figures)
     made = make_folders(parts)
@@ -744,7 +744,7 @@ def run_sweep(
         if chunks and (scheduler or workers > 0):
             from functools import partial
 
-            from glocal_verify.design.distributed import dask_client, run_on_dask
+            from glocal_verify.extra.dask import dask_client, run_on_dask
 
             with dask_client(scheduler, workers, dashboard=dashboard, notice=notice) as client:
                 tasks = [partial(_run_chunk, c, plan.conditions, plan.exact, plan.escalate) for c in chunks]

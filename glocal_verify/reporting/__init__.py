@@ -9,8 +9,8 @@
 - :mod:`.findings` -- writes ``findings.md`` from the verified finding specs;
 - :mod:`.layout`, :mod:`.network_figure` -- where agents and links go in every network drawing
   (no link passes through an agent it does not join), and the drawing on a matplotlib axes;
-- :mod:`.export` -- the designed observers, thresholds and schedule as a ``.mat``, JSON or
-  ``.npz`` deployment file (``docs/export.md``);
+- :mod:`.export` -- a :class:`~glocal_verify.simulation.deployment.Deployment` (observers,
+  thresholds, schedule) as a ``.mat``, JSON or ``.npz`` file (``docs/export.md``);
 - :mod:`.words` -- small helpers for the words of messages (``1 mode``, ``4 modes``).
 
 Reporting renders only: it never runs a checker, the simulator or Algorithm 1 (the runs are
