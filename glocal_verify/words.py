@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from typing import Any, Sequence
 
-__all__ = ["counted", "format_labels", "format_lambda"]
+__all__ = ["counted", "format_labels", "format_lambda", "slug"]
 
 
 def counted(count: int, noun: str, plural: str | None = None) -> str:
@@ -42,3 +42,9 @@ def format_lambda(lam: complex | None) -> str:
     if c.imag == 0.0:
         return f"{c.real:g}"
     return f"{c.real:g} {'+' if c.imag > 0 else '-'} {abs(c.imag):g}i"
+
+
+def slug(text: str) -> str:
+    """``text`` as a file-name component: letters, digits, ``.`` and ``_`` (others become ``_``), at most 40."""
+    out = "".join(ch if ch.isalnum() or ch in "._" else "_" for ch in text)[:40]
+    return out or "x"

@@ -22,7 +22,8 @@ import numpy as np
 
 from glocal_verify import System, load_example, verify
 from glocal_verify.analysis.sampled.scan import scan_periods
-from glocal_verify.reporting.guarantee_figures import detection_figure, detection_times_figure, period_scan_figure, render, thresholds_figure
+from glocal_verify.reporting.figures.canvas import figure_bytes
+from glocal_verify.reporting.figures.guarantees import detection_figure, detection_times_figure, period_scan_figure, thresholds_figure
 from glocal_verify.reporting.output import write_bytes_atomic, write_text_atomic
 from glocal_verify.results import jsonable
 from glocal_verify.simulation.certified_thresholds import certified_thresholds
@@ -217,7 +218,7 @@ def main(argv: list[str] | None = None) -> int:
         "periods": period_scan_figure(sc, th.period),
     }
     for name, fig in figs.items():
-        for ext, data in render(fig).items():
+        for ext, data in figure_bytes(fig).items():
             write_bytes_atomic(out / f"{name}.{ext}", data)
     write_text_atomic(out / "guarantees.json", json.dumps(jsonable(rep), indent=1) + "\n")
     write_text_atomic(out / "guarantees.md", _markdown(rep))

@@ -16,6 +16,7 @@ from glocal_verify.conditions.registry import verify
 from glocal_verify.design.audit import AuditResult, AuditRow, attack_sets, audit, audit_chunks, disjoint_paths, merge_chunks
 from glocal_verify.errors import GlocalVerifyError
 from glocal_verify.model import System
+from glocal_verify.reporting.audit_text import audit_json_chunks, audit_markdown
 from glocal_verify.results import Status
 from glocal_verify.spec import load_example
 from glocal_verify.spec.types import AttackSpec
@@ -114,16 +115,16 @@ def test_audit_json_validates_against_its_schema(result: AuditResult) -> None:
 
 
 def test_the_streamed_json_of_an_audit_is_the_json_document_text(result: AuditResult) -> None:
-    assert "".join(result.json_chunks()) == json.dumps(result.to_json(), indent=2)
+    assert "".join(audit_json_chunks(result)) == json.dumps(result.to_json(), indent=2)
     empty = dataclasses.replace(result, rows=())
-    assert "".join(empty.json_chunks()) == json.dumps(empty.to_json(), indent=2)
+    assert "".join(audit_json_chunks(empty)) == json.dumps(empty.to_json(), indent=2)
 
 
 def test_undetected_sets_come_first_in_the_summary(result: AuditResult) -> None:
     s = result.summary()
     assert s["counts"]["undetected"] == len(s["undetected"])
     assert sum(s["counts"].values()) == 190
-    first = result.to_markdown().splitlines()[8].split(" | ")
+    first = audit_markdown(result).splitlines()[8].split(" | ")
     assert first[6] == "undetected" or s["counts"]["undetected"] == 0
 
 

@@ -282,7 +282,7 @@ def test_no_command_writes_through_a_symbolic_link_or_a_linked_folder(tmp_path: 
 
 
 def test_an_audit_folder_is_written_all_or_nothing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
-    import glocal_verify.design.audit_figure as af
+    import glocal_verify.reporting.figures.audit as af
 
     spec = _spec(tmp_path)
 

@@ -17,7 +17,8 @@ from typing import Any
 import pytest
 
 from glocal_verify.cli import main
-from glocal_verify.design.sweep import load_sweep, plan_from_dict, run_member, run_sweep, wilson_interval
+from glocal_verify.design.sweep import SweepPlan, compute_sweep, load_sweep, plan_from_dict, run_member, sweep_rates, wilson_interval
+from glocal_verify.reporting.sweep_report import SweepResult, sweep_outputs, write_sweep
 
 SWEEP = """
 [ensemble]
@@ -108,6 +109,12 @@ def test_a_sweep_through_an_external_scheduler_gives_identical_rows(tmp_path: Pa
                     proc.kill()
 
 
+def _run_sweep(plan: SweepPlan, out: Path) -> SweepResult:
+    """The command's steps: check the outputs, compute the members (one worker), write the table and summary."""
+    run = compute_sweep(plan, sweep_outputs(plan, out)[1], workers=1)
+    return write_sweep(run, plan, out, rates=sweep_rates(run.rows, plan.grid), figures=False)
+
+
 def test_a_failing_member_is_a_row_and_an_interrupted_sweep_resumes_from_its_parts(tmp_path: Path) -> None:
     from glocal_verify.spec.examples import example_text
 
@@ -117,14 +124,14 @@ def test_a_failing_member_is_a_row_and_an_interrupted_sweep_resumes_from_its_par
     (specs / "b-bad.toml").write_text("[graph]\nnodes = 3\nedges = [[1, 9]]\n")
     plan = plan_from_dict({"ensemble": {"specs": str(specs)}, "compute": {"conditions": ["privacy.kernel"]}})
     out = tmp_path / "r.parquet"
-    first = run_sweep(plan, out, workers=1, figures=False)
+    first = _run_sweep(plan, out)
     assert first.computed == 2 and first.resumed == 0
     bad = [r for r in first.rows if r["status"] == "error"]
     assert len(bad) == 1 and bad[0]["error_class"] == "SpecError" and "b_bad" in bad[0]["member"]
     # an interruption after the first member: its part survives, the rest is recomputed
     parts = sorted((tmp_path / "r.parquet.parts").glob("*.json"))
     parts[1].unlink()
-    second = run_sweep(plan, out, workers=1, figures=False)
+    second = _run_sweep(plan, out)
     assert second.resumed == 1 and second.computed == 1
     assert _normal(list(second.rows)) == _normal(list(first.rows))
     import pyarrow.parquet as pq

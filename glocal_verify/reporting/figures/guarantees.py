@@ -10,11 +10,9 @@ Drawn from results they are given (:class:`~glocal_verify.simulation.certified_t
 
 from __future__ import annotations
 
-import io
 from typing import Mapping, Sequence
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from glocal_verify.analysis.sampled.scan import PeriodScan
@@ -22,20 +20,9 @@ from glocal_verify.simulation.certified_thresholds import CertifiedThresholds
 from glocal_verify.simulation.guarantees import DetectionGuarantee
 from glocal_verify.simulation.sampled_runs import RunBatch
 
-__all__ = ["render", "thresholds_figure", "detection_figure", "detection_times_figure", "period_scan_figure"]
+__all__ = ["thresholds_figure", "detection_figure", "detection_times_figure", "period_scan_figure"]
 
 BLUE, GREEN, RED, GREY, ORANGE, PURPLE = "#1f4e9c", "#2e8b57", "#d62728", "#9a9a9a", "#ff7f0e", "#7b3f9e"
-
-
-def render(fig: Figure) -> dict[str, bytes]:
-    """``{"png": ..., "svg": ...}`` of a figure (150 dpi PNG)."""
-    FigureCanvasAgg(fig)
-    out: dict[str, bytes] = {}
-    for ext in ("png", "svg"):
-        buf = io.BytesIO()
-        fig.savefig(buf, format=ext, dpi=150, bbox_inches="tight")
-        out[ext] = buf.getvalue()
-    return out
 
 
 def thresholds_figure(th: CertifiedThresholds, batches: Sequence[RunBatch], observers: Sequence[str] | None = None) -> Figure:

@@ -15,20 +15,19 @@ curve exceeds 1).
 
 from __future__ import annotations
 
-import io
 from pathlib import Path
 from typing import Sequence
 
 import numpy as np
 from matplotlib.artist import Artist
 from matplotlib.axes import Axes
-from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from glocal_verify.model import System
 from glocal_verify.design.case_study import CaseOutcome
-from glocal_verify.reporting.network_figure import draw_network
+from glocal_verify.reporting.figures.canvas import figure_bytes
+from glocal_verify.reporting.figures.network import draw_network
 from glocal_verify.reporting.output import write_bytes_atomic
 from glocal_verify.simulation.algorithm1 import Algorithm1Result
 from glocal_verify.spec.types import NORMAL_MODE
@@ -37,27 +36,9 @@ __all__ = [
     "plot_run",
     "plot_cases",
     "save_figure",
-    "figure_bytes",
 ]
 
 BLUE, GREEN, RED, GREY, ORANGE, PURPLE = "#1f4e9c", "#2e8b57", "#d62728", "#9a9a9a", "#ff7f0e", "#7b3f9e"
-FORMATS = ("png", "svg")
-
-
-def figure_bytes(fig: Figure) -> dict[str, bytes]:
-    """Render ``fig`` as PNG (150 dpi) and SVG in memory: ``{"png": ..., "svg": ...}``.
-
-    Parameters
-    ----------
-    fig : matplotlib.figure.Figure
-    """
-    FigureCanvasAgg(fig)
-    out: dict[str, bytes] = {}
-    for ext in FORMATS:
-        buf = io.BytesIO()
-        fig.savefig(buf, format=ext, dpi=150, bbox_inches="tight")
-        out[ext] = buf.getvalue()
-    return out
 
 
 def save_figure(fig: Figure, stem: Path) -> list[Path]:

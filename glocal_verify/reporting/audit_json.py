@@ -21,9 +21,9 @@ from typing import Any
 
 import numpy as np
 
-from glocal_verify.results import Status
+from glocal_verify.results import Status, audit_jsonable
 
-__all__ = ["IndentedJson", "audit_jsonable"]
+__all__ = ["IndentedJson"]
 
 _quote = json.encoder.encode_basestring_ascii  # the C function json.dumps uses (ensure_ascii)
 
@@ -37,25 +37,6 @@ def _float(f: float) -> str:
     if math.isfinite(f):
         return float.__repr__(float(f))
     return "NaN" if f != f else ("Infinity" if f > 0 else "-Infinity")
-
-
-def audit_jsonable(x: Any) -> Any:
-    """An audit value in JSON form: tuples as lists, complex numbers as ``[re, im]``,
-    non-finite floats as strings, numpy scalars as Python numbers, statuses as their value."""
-    if isinstance(x, dict):
-        return {str(k): audit_jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [audit_jsonable(v) for v in x]
-    if isinstance(x, complex):
-        return [x.real, x.imag]
-    if isinstance(x, (np.floating, float)):
-        f = float(x)
-        return f if math.isfinite(f) else str(f)
-    if isinstance(x, np.integer):
-        return int(x)
-    if isinstance(x, Status):
-        return x.value
-    return x
 
 
 class IndentedJson:
