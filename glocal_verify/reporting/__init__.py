@@ -1,5 +1,6 @@
 """Reporting: renderers of given results (reports, figures, the case study's folder, the findings report).
 
+- :mod:`.assessment` -- the assessment a report carries, as every renderer reads it;
 - :mod:`.render` -- Markdown, JSON and HTML reports and the report schema (``schemas/``), each
   led by the assessment the report carries (:func:`glocal_verify.answer.assessment.assess`);
 - :mod:`.html`, :mod:`.network_svg` -- the self-contained HTML report and the network drawing (SVG);
