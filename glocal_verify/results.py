@@ -46,8 +46,9 @@ FRAGILE_BELOW: float = config.default("fragile_below")
 
 REPORT_SCHEMA_ID = "glocal-verify/report@1"
 
-#: condition ids renamed, still accepted for one release: old id -> current id
-ALIASES: Mapping[str, str] = MappingProxyType({"switching.safe": "switching.avoids-attack"})
+#: condition ids renamed, still accepted for one release: old id -> current id (none at present;
+#: ``switching.safe``, renamed ``switching.avoids-attack``, has had its release: docs/conditions.md)
+ALIASES: Mapping[str, str] = MappingProxyType({})
 
 
 class Status(str, Enum):

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from glocal_verify.cli import main
-from glocal_verify.conditions.registry import verify
+from glocal_verify.conditions.registry import check_conditions
 from glocal_verify.design.audit import AuditResult, AuditRow, attack_sets, audit, audit_chunks, disjoint_paths, merge_chunks
 from glocal_verify.errors import GlocalVerifyError
 from glocal_verify.model import System
@@ -50,7 +50,7 @@ def _row(result: AuditResult, F: tuple[Any, ...]) -> AuditRow:
 def _confirm(system: System, row: AuditRow, exact: bool) -> None:
     """The checkers, given the row's attack, agree with every claim of the row."""
     sub = _with_attack(system, row.actuators)
-    rep = verify(sub, ["stealthy.zda", "local.pencil", "local.uio", "switching.avoids-attack"], exact=exact)
+    rep = check_conditions(sub, ["stealthy.zda", "local.pencil", "local.uio", "switching.avoids-attack"], exact=exact)
     (z,) = rep.results("stealthy.zda")
     assert row.stealthy is (z.status is Status.HOLDS)
     caught = set()

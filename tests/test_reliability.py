@@ -319,7 +319,7 @@ def test_sigterm_and_sighup_stop_a_command_like_ctrl_c(sig: int, code: int, line
         time.sleep(5)  # the handler raises before this ends
         raise AssertionError("the signal did not stop the command")
 
-    monkeypatch.setattr(cv, "verify", stopped)
+    monkeypatch.setattr(cv, "make_report", stopped)
     out = tmp_path / "r.md"
     assert main(["verify", str(_spec(tmp_path)), "--out", str(out), "--quiet"]) == code
     assert _one_line(capsys.readouterr().err) == f"glocal-verify: {line}"
@@ -339,7 +339,7 @@ def test_a_stop_signal_between_a_progress_line_and_its_newline_gets_a_line_of_it
         time.sleep(5)
         raise AssertionError("the signal did not stop the command")
 
-    monkeypatch.setattr(cv, "verify", cut_short)
+    monkeypatch.setattr(cv, "make_report", cut_short)
     assert main(["verify", "--example", "paper19", "--quiet"]) == 129
     lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
     assert lines == ["glocal-verify: audit of 80 agents: estimated 3 min", "glocal-verify: hung up (SIGHUP)"]

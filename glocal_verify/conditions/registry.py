@@ -2,7 +2,7 @@
 
 Each condition of ``docs/conditions.md`` has a public id, a paper reference and a one-line
 statement (:data:`CATALOGUE`). Checker functions register themselves with :func:`checker`;
-:func:`verify` runs the registered checkers on a :class:`~glocal_verify.model.System` and
+:func:`check_conditions` runs the registered checkers on a :class:`~glocal_verify.model.System` and
 collects a :class:`~glocal_verify.results.Report`.
 """
 
@@ -27,7 +27,7 @@ from glocal_verify.errors import ArgumentError, GlocalVerifyError, ModelError, U
 from glocal_verify.model import System
 from glocal_verify.numerics.deadline import DeadlineExceeded, call_with_deadline
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
-from glocal_verify.spec.arguments import choice_arg, ids_arg, real_arg
+from glocal_verify.spec.arguments import choice_arg, id_list_arg, real_arg
 from glocal_verify.results import (
     ALIASES,
     AttackScenario,
@@ -53,7 +53,7 @@ __all__ = [
     "implemented_ids",
     "resolve_ids",
     "system_info",
-    "verify",
+    "check_conditions",
 ]
 
 #: modules of this package that register checkers and finding rules (imported on first use)
@@ -462,7 +462,7 @@ def expect_system(system: Any, who: str = "verify") -> System:
 def _verify_arguments(
     system: Any, only: Any, exact: Any, tol: Any, escalate: Any, exact_budget: Any, fragile_below: Any
 ) -> tuple[System, list[str] | None, float | None, float | None]:
-    """The arguments of :func:`verify` checked against their documented domains
+    """The arguments of :func:`check_conditions` checked against their documented domains
     (:class:`~glocal_verify.errors.ArgumentError` naming the first one outside)."""
     expect_system(system)
     if not isinstance(exact, bool):
@@ -474,10 +474,10 @@ def _verify_arguments(
     if budget is not None and (budget == 0.0 or math.isinf(budget)):
         budget = None  # no limit
     fb = None if fragile_below is None else real_arg("fragile_below", fragile_below, 0.0, allow_inf=True)
-    return system, ids_arg("only", only), budget, fb
+    return system, id_list_arg("only", only), budget, fb
 
 
-def verify(
+def check_conditions(
     system: System,
     only: Iterable[str] | None = None,
     *,
@@ -489,7 +489,10 @@ def verify(
     exact_budget: float | None = 30.0,
     fragile_below: float | None = None,
 ) -> Report:
-    """Run the registered checkers on ``system``.
+    """Run the registered checkers on ``system``: the report without its assessment.
+
+    The public :func:`glocal_verify.verify` calls it, adds the simulation of
+    ``switching.detects`` by one option and attaches the assessment.
 
     Parameters
     ----------

@@ -57,7 +57,7 @@ holds, while Section IV says "only case 2 meets (unsafe_set) ... the global resi
 1 is bounded and vanishing ... while that of case 2 is unbounded" -- and case 2 is the switch
 that touches the attacked agents. Reading the remark, X_q ∩ Z = ∅ means "the switch does not
 touch the attack"; reading Section IV it means the opposite. The verdict of
-``switching.safe`` follows the remark: **holds := the switch does not touch the attack**
+``switching.avoids-attack`` follows the remark: **holds := the switch does not touch the attack**
 (an avoiding stealthy direction exists); both readings are spelled out in every witness, and
 a report-level finding states the contradiction.
 
@@ -393,7 +393,7 @@ def remark_contradiction(system: System, results: Sequence[ConditionResult]) -> 
         "that case 2 (the switch touching the attacked agents 3, 4) gives the unbounded residual while "
         "case 1 (not touching) gives the bounded, vanishing one. Under the remark's reading eq. unsafe_set "
         "means 'the switch does not touch the attack' and predicts a bounded residual; under Section IV's "
-        "it means the opposite. switching.safe follows the remark (holds = does not touch) and reports "
+        "it means the opposite. switching.avoids-attack follows the remark (holds = does not touch) and reports "
         "both readings; the algebra (dL_q x~ = 0 makes the discrepancy vanish) supports the remark's "
         "prediction and Section IV's simulation outcome, but not Section IV's wording."
     )

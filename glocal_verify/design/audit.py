@@ -55,7 +55,7 @@ from glocal_verify.analysis.switching.avoidance import decide_avoidance
 from glocal_verify.analysis.stealthy.zda_screens import disjoint_paths, global_tables
 from glocal_verify.analysis.stealthy.zda_verdict import ZdaOptions, ZdaVerdict, decide_zda, prepare_witnesses, proven_single
 from glocal_verify.answer.attack import THEOREM_IDS, AttackAnswer, AttackEvidence, LocalEvidence, ModeEvidence, answer_attack
-from glocal_verify.conditions.registry import system_info, verify
+from glocal_verify.conditions.registry import system_info, check_conditions
 from glocal_verify.design.audit_local import local_part
 from glocal_verify.design.audit_records import AUDIT_SCHEMA_ID, AuditResult, AuditRow, SharedParts
 from glocal_verify.errors import ArgumentError, ModelError, NotApplicableError
@@ -143,7 +143,7 @@ def mode_theorem(system: System, tol: Tolerance = DEFAULT_TOLERANCE, *, exact: b
     """
     if not system.safe_modes:
         return {}
-    rep = verify(system, list(THEOREM_III3), exact=exact, tol=tol)
+    rep = check_conditions(system, list(THEOREM_III3), exact=exact, tol=tol)
     return {mode: {r.id: r.status for r in rep.conditions if r.scope.get("mode") == mode} for mode in system.safe_modes}
 
 

@@ -93,7 +93,7 @@ from glocal_verify import config
 from glocal_verify.analysis.switching.avoidance import decide_avoidance, split_basis, stealthy_bases
 from glocal_verify.analysis.stealthy.zda import ModalPencil
 from glocal_verify.analysis.stealthy.zda_verdict import ZdaOptions, decide_zda
-from glocal_verify.conditions.registry import verify
+from glocal_verify.conditions.registry import check_conditions
 from glocal_verify.design.multilink import (
     image_kernel_holds,
     link_forest,
@@ -517,7 +517,7 @@ class _Confirmations:
             return [], {}
         mode = ProposedMode(name, links[0], (), also=tuple(links[1:])).mode_spec()
         base = with_modes(self.system.spec, [mode], keep=False)
-        th = verify(System(with_attack(base, attacks[0])), list(THEOREM_IDS), exact=self.exact).conditions
+        th = check_conditions(System(with_attack(base, attacks[0])), list(THEOREM_IDS), exact=self.exact).conditions
         statuses = {r.id: r.status.value for r in th}
         if not all(r.status is Status.HOLDS for r in th):
             return [], statuses

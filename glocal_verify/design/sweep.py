@@ -15,7 +15,7 @@ A sweep file (TOML) declares an *ensemble* and what to *compute* for each member
     escalate = "auto"                       # re-decide numeric undecided results exactly
 
 Every member (one point of the parameter grid and one seed, or one spec file) becomes one
-task; a task builds the member's system, runs :func:`~glocal_verify.conditions.registry.verify`
+task; a task builds the member's system, runs :func:`~glocal_verify.conditions.registry.check_conditions`
 and returns one row per condition result (member parameters, seed, condition id, scope,
 status, margin, method, favourable, fragile) -- or, when the member fails, one row with the
 error class and message: a failing member never aborts the sweep.
@@ -382,7 +382,7 @@ def run_member(member: Member, conditions: Sequence[str] | None, exact: bool = F
     list of dict
         One row per condition result, or one row carrying ``error_class`` and ``error``.
     """
-    from glocal_verify.conditions.registry import verify
+    from glocal_verify.conditions.registry import check_conditions
     from glocal_verify.results import jsonable
 
     t0 = time.perf_counter()
@@ -390,7 +390,7 @@ def run_member(member: Member, conditions: Sequence[str] | None, exact: bool = F
     base.update({f"param.{k}": v for k, v in member.params.items()})
     try:
         system = _member_system(member)
-        report = verify(system, list(conditions) if conditions else None, exact=exact, escalate=escalate)
+        report = check_conditions(system, list(conditions) if conditions else None, exact=exact, escalate=escalate)
     except Exception as exc:  # a member's failure is a result of the sweep, not its end
         return [{**base, "condition": None, "status": "error", "error_class": type(exc).__name__, "error": str(exc)[:500], "seconds": time.perf_counter() - t0}]
     dt = time.perf_counter() - t0

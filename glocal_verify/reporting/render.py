@@ -28,7 +28,7 @@ __all__ = [
     "report_schema",
     "to_json_text",
     "to_markdown",
-    "to_html",
+    "to_html_text",
     "validate_report_json",
     "render",
 ]
@@ -238,7 +238,7 @@ def to_markdown(report: Report) -> str:
     return "\n".join(lines)
 
 
-def to_html(report: Report) -> str:
+def to_html_text(report: Report) -> str:
     """The report as a self-contained HTML page (:mod:`glocal_verify.reporting.html`, optional).
 
     Raises
@@ -271,5 +271,5 @@ def render(report: Report, fmt: str) -> str:
     if fmt == "markdown":
         return to_markdown(report)
     if fmt == "html":
-        return to_html(report)
+        return to_html_text(report)
     raise ValueError(f"unknown format {fmt!r} (expected one of {', '.join(FORMATS)})")

@@ -108,7 +108,7 @@ def cases_table(outcomes: Sequence[CaseOutcome]) -> str:
         "switching.distinct-eigenvalues": "(ii)",
         "switching.eigenvector-differences": "(iii)",
         "switching.coverage": "Lemma A.2",
-        "switching.avoids-attack": "switch avoids the attack (switching.safe)",
+        "switching.avoids-attack": "switch avoids the attack (switching.avoids-attack)",
     }
     head = ["case", "spec", "attack (moved agents)"] + [short.get(c, c) for c in ids] + [
         "local detection (before switch)",

@@ -5,6 +5,61 @@ in ``s = lambda^2 + gamma lambda`` (:class:`ModalPencil`); :func:`zda_analysis` 
 with its direction (xi, u0), growth class and verification, and :func:`zda_direction` the
 witness direction at the spec's lambda0. The generic dense path on (A_1, B, C) is kept for
 small systems and tests. Results are kept on ``system.analysis``.
+
+The reduction (Definition II.2, eq. ``zda_cond``)
+    A stealthy ZDA of (A_1, B, C, 0) is a zeroing direction ([x~_0; u_0], u_0 != 0) of the
+    Rosenbrock pencil at some lambda_0; u_0 = 0 directions are unobservable modes, not
+    attacks. With s = lambda^2 + gamma lambda the 2N-sized pencil reduces exactly to an
+    N-sized one: x~_0 = [xi; lambda xi] with
+
+    .. math::
+
+        (sI + \\alpha L)\\,\\xi = S_F^\\top u_0,\\qquad S_{M_x}\\xi = 0,\\qquad
+        \\lambda \\ne 0 \\Rightarrow S_{M_v}\\xi = 0,
+
+    so ``dim ker P(lambda) = dim ker Q_lambda(s)`` with the pencil in s
+
+    .. math::
+
+        Q(s) = \\begin{bmatrix} sI + \\alpha L & -S_F^\\top \\\\ S_M & 0 \\end{bmatrix}
+
+    (for lambda = 0 only the position rows S_{M_x} remain). Hence nrank P = N + nrank Q, P is
+    left-invertible iff Q is, and the nonzero finite zeros of P are the roots lambda of
+    lambda^2 + gamma lambda = s over the zeros s of Q; lambda = 0 is a zero iff
+    dim ker Q_0 exceeds the normal kernel dimension N + m - nrank Q.
+
+Structured numeric path (default)
+    In the modal coordinates of L = U diag(mu) U^T, Q(s) is the Rosenbrock pencil of the
+    N-state system (-alpha diag(mu), U_F^T, U_M, 0); :func:`glocal_verify.numerics.pencil.analyze_pencil`
+    gives its normal rank and zeros in s. Every resulting lambda is then verified on the full
+    2N pencil without forming it: the kernel of Q(s) is computed by eliminating the modes
+    far from -s (eta_k = (U_F^T u)_k / (s + alpha mu_k)) and taking the small kernel of the
+    remaining (near-pole modes, u) system; the direction is mapped back to
+    x~_0 = [xi; lambda xi] and its residual
+
+    .. math:: \\rho = \\frac{\\lVert P(\\lambda)[\\tilde x_0; u_0] \\rVert}
+              {\\lVert P(\\lambda) \\rVert_{lb}\\, \\lVert [\\tilde x_0; u_0] \\rVert}
+
+    is decided with the tolerance, where ||P(lambda)||_lb = max(||lambda I - A||_2, 1) is a
+    lower bound of the pencil norm computed blockwise from the modal 2 x 2 blocks (a lower
+    bound makes "zero" harder to reach: conservative for "a ZDA exists"). The input part is
+    an attack when ||u_0|| / ||[x~_0; u_0]|| is nonzero at the tolerance.
+    Cost: one symmetric eigendecomposition, one N-sized deflation and QZ, O(N^2) per zero.
+
+Dense path (``method="dense"``)
+    :func:`glocal_verify.numerics.pencil.analyze_pencil` on the 2N-sized (A_1, B, C): for small systems
+    and for the tests that compare the two.
+
+Exact path (:func:`~glocal_verify.analysis.stealthy.zda_exact.zda_analysis_exact`)
+    The N-sized pencil in s over Q (:func:`glocal_verify.numerics.pencil_exact.analyze_pencil_exact`) gives
+    left-invertibility and the zero polynomial z(s); the lambda-zeros are the roots of
+    z(lambda^2 + gamma lambda) factored over Q, and for each irreducible factor g the kernel
+    of Q(lambda^2 + gamma lambda) is computed exactly in Q[lambda]/(g), which decides whether
+    an input direction exists and gives the direction. First, when the maximal minors of the
+    reduced pencil prove (modulo a prime, :mod:`glocal_verify.numerics.minors`) that no
+    kernel vector at any lambda != 0 has an input part, the same answer is assembled from the
+    exact twin modes and the one rational kernel at lambda = 0 (no V* iteration; the result
+    equals the general path's field by field).
 """
 
 from __future__ import annotations

@@ -74,7 +74,7 @@ class ExactZdaZero:
         max |xi_k| = 1.
     xi_field : tuple
         The same xi as ``fmpq_poly`` residues modulo ``field`` (exact; used by
-        ``switching.safe``).
+        ``switching.avoids-attack``).
     field : fmpq_poly
         The minimal polynomial (``factor``) as a flint object.
     multiplicity : int

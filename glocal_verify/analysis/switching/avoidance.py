@@ -250,7 +250,7 @@ def numeric_mode_avoidance(system: System, mode: str, md: ModalPencil, z: ZdaZer
 
 
 def avoidance(system: System, mode: str, tol: Tolerance = DEFAULT_TOLERANCE, *, lambda0: complex | float | Sequence[float] | None = None) -> Avoidance | None:
-    """Numeric decision of ``switching.safe`` for a ZDA at lambda0 and the switch to ``mode``.
+    """Numeric decision of ``switching.avoids-attack`` for a ZDA at lambda0 and the switch to ``mode``.
 
     .. math::
 
@@ -400,7 +400,7 @@ def exact_mode_avoidance(system: System, mode: str, d: ExactZdaZero, source: str
 
 
 def avoidance_exact(system: System, mode: str, *, lambda0: complex | float | Sequence[float] | None = None, tol: Tolerance = DEFAULT_TOLERANCE) -> Avoidance | None:
-    """Exact decision of ``switching.safe`` (rational weights and gains; never undecided).
+    """Exact decision of ``switching.avoids-attack`` (rational weights and gains; never undecided).
 
     Parameters
     ----------
