@@ -25,7 +25,7 @@ if TYPE_CHECKING:  # loaded on first use (PEP 562): importing one module of this
     from glocal_verify.analysis.stealthy.zda import ZdaZero, ZdaDirection, ZdaAnalysis, zda_analysis, zda_direction
     from glocal_verify.analysis.stealthy.zda_exact import ExactZdaAnalysis, zda_analysis_exact
     from glocal_verify.analysis.stealthy.zda_verdict import ZdaVerdict, decide_zda
-    from glocal_verify.analysis.stealthy.zda_certificate import ZdaCertificate, zda_certificate
+    from glocal_verify.analysis.stealthy.zda_certificate import ZdaCertificate
     from glocal_verify.analysis.stealthy.zda_completeness import ZeroSetCompleteness, zero_set_completeness
     from glocal_verify.analysis.stealthy.covert import covert_required_channels, reachable_agents
 
@@ -41,7 +41,6 @@ _LAZY: Mapping[str, str] = MappingProxyType({
     "ZdaVerdict": "glocal_verify.analysis.stealthy.zda_verdict",
     "decide_zda": "glocal_verify.analysis.stealthy.zda_verdict",
     "ZdaCertificate": "glocal_verify.analysis.stealthy.zda_certificate",
-    "zda_certificate": "glocal_verify.analysis.stealthy.zda_certificate",
     "ZeroSetCompleteness": "glocal_verify.analysis.stealthy.zda_completeness",
     "zero_set_completeness": "glocal_verify.analysis.stealthy.zda_completeness",
     "covert_required_channels": "glocal_verify.analysis.stealthy.covert",
@@ -62,7 +61,6 @@ __all__ = [
     "ZdaVerdict",
     "decide_zda",
     "ZdaCertificate",
-    "zda_certificate",
     "ZeroSetCompleteness",
     "zero_set_completeness",
     "covert_required_channels",
