@@ -29,14 +29,7 @@ def state_space(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, *, s
     what : str
         The caller, for the message when python-control is missing.
 
-    Returns
-    -------
-    control.StateSpace
-
-    Raises
-    ------
-    NotApplicableError
-        When python-control is not installed.
+    Returns a ``control.StateSpace``; raises :class:`NotApplicableError` without python-control.
     """
     try:
         import control

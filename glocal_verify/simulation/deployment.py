@@ -32,8 +32,7 @@ import numpy as np
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.observers.central import design_central_observer
-from glocal_verify.observers.uio import local_uio
-from glocal_verify.results import Status
+from glocal_verify.observers.uio import UnknownInputObserver, local_uio
 from glocal_verify.simulation.observer_models import ObserverBank, cluster_embedding, central_observer_model, local_observer_models
 from glocal_verify.simulation.schedule import ANY_MODE, Schedule
 from glocal_verify.simulation.thresholds import ThresholdRule, attack_free_thresholds
@@ -101,53 +100,32 @@ class LocalDesign:
     ----------
     name : str
         The observer's name in the simulator's bank.
-    cluster : str
-    center : label
-    nodes, positions, velocities : tuple of labels
-        The cluster's agents and the measured positions and velocities.
+    uio : UnknownInputObserver
+        Its normal-mode design (:func:`~glocal_verify.observers.uio.local_uio`): the cluster,
+        the measured agents, ``C_loc`` (``uio.C``), ``E``, ``A``, ``h``, ``T``, ``A1``, ``K1``
+        and the certified Hurwitz verdict on its ``F``.
     channels : tuple of str
         Its measured channels, the rows of ``C_loc``.
     S : ndarray
         The selection of the cluster's state from the whole state x.
-    C_loc, E, A, h, T, A1, K1 : ndarray
-        The normal-mode design of :func:`~glocal_verify.observers.uio.local_uio`.
     F, K : ndarray
         The dynamics it runs in any mode without a mode-matched design.
     Ry, Rz : ndarray
         The residual maps ``I - C_loc h`` and ``C_loc``.
     designs : tuple of ModeGains
         The mode-matched dynamics per mode.
-    eigenvalues : ndarray
-        The eigenvalues of the normal-mode ``F`` (complex).
-    hurwitz_margin : float
-    hurwitz : Status
-        The certified Hurwitz verdict on ``F``.
     notes : tuple of str
     """
 
     name: str
-    cluster: str
-    center: Label
-    nodes: tuple[Label, ...]
-    positions: tuple[Label, ...]
-    velocities: tuple[Label, ...]
+    uio: UnknownInputObserver
     channels: tuple[str, ...]
     S: np.ndarray
-    C_loc: np.ndarray
-    E: np.ndarray
-    A: np.ndarray
-    h: np.ndarray
-    T: np.ndarray
-    A1: np.ndarray
-    K1: np.ndarray
     F: np.ndarray
     K: np.ndarray
     Ry: np.ndarray
     Rz: np.ndarray
     designs: tuple[ModeGains, ...]
-    eigenvalues: np.ndarray
-    hurwitz_margin: float
-    hurwitz: Status
     notes: tuple[str, ...]
 
 
@@ -263,28 +241,14 @@ def _local(system: System, model: Any) -> LocalDesign:
     designs = tuple(ModeGains(m, np.asarray(model.F[m], dtype=float), np.asarray(model.G[m], dtype=float)) for m in model.F if m != ANY_MODE)
     return LocalDesign(
         name=model.name,
-        cluster=d.cluster,
-        center=d.center,
-        nodes=tuple(d.nodes),
-        positions=tuple(d.positions),
-        velocities=tuple(d.velocities),
+        uio=d,
         channels=tuple(model.inputs),
         S=cluster_embedding(system, d.nodes),
-        C_loc=d.C,
-        E=d.E,
-        A=d.A,
-        h=d.h,
-        T=d.T,
-        A1=d.A1,
-        K1=d.K1,
         F=np.asarray(model.F[ANY_MODE], dtype=float),
         K=np.asarray(model.G[ANY_MODE], dtype=float),
         Ry=np.eye(p) - d.C @ d.h,
         Rz=d.C.copy(),
         designs=designs,
-        eigenvalues=np.asarray(d.eigenvalues, dtype=complex),
-        hurwitz_margin=float(d.hurwitz_margin),
-        hurwitz=d.hurwitz,
         notes=tuple(model.notes),
     )
 
