@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from glocal_verify.analysis.zda import zda_analysis
+from glocal_verify.analysis.stealthy.zda import zda_analysis
 from glocal_verify.design.audit import AuditRow, attack_sets, audit, audit_chunks, local_singles_chunks, seed_chunks
 from glocal_verify.design.generators import random_clustered_spec
 from glocal_verify.design.safe_modes import default_candidates, design_safe_modes

@@ -1,7 +1,7 @@
 """Sweep throughput on Dask: the same ensemble with an embedded LocalCluster of 1 and of 2 workers.
 
 Baseline: the members run one after the other in this process (``run_member``, no Dask);
-candidates: ``run_sweep`` with 1 and 2 worker processes (one thread each), start-up of the
+candidates: ``compute_sweep`` and ``write_sweep`` with 1 and 2 worker processes (one thread each), start-up of the
 cluster included. Members per second are in the note; on this 2-core machine 2 workers can at
 best halve the time of the members themselves.
 """
@@ -12,8 +12,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from glocal_verify.design.distributed import dask_client
-from glocal_verify.design.sweep import SweepPlan, plan_from_dict, run_member, run_sweep
+from glocal_verify.extra.dask import dask_client
+from glocal_verify.design.sweep import SweepPlan, compute_sweep, plan_from_dict, run_member, sweep_rates
+from glocal_verify.reporting.sweep_report import sweep_outputs, write_sweep
 
 from .harness import Row
 
@@ -46,7 +47,9 @@ def run(quick: bool) -> list[Row]:
         startup = time.perf_counter() - t0
         with tempfile.TemporaryDirectory() as tmp:
             t0 = time.perf_counter()
-            run_sweep(plan, Path(tmp) / "r.parquet", workers=workers, chunk_size=2, figures=False)
+            out = Path(tmp) / "r.parquet"
+            run = compute_sweep(plan, sweep_outputs(plan, out)[1], workers=workers, chunk_size=2)
+            write_sweep(run, plan, out, rates=sweep_rates(run.rows, plan.grid), figures=False)
             dt = time.perf_counter() - t0
         rows.append(
             Row(group, f"{workers} worker(s)", "in-process loop (no Dask)", serial, f"Dask LocalCluster, {workers} worker process(es)", dt,

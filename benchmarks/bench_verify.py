@@ -29,8 +29,8 @@ import networkx as nx
 import numpy as np
 
 from glocal_verify import System, spec_from_graph, verify
-from glocal_verify.analysis.unobservable import unobservable_subspace
-from glocal_verify.analysis.zda import zda_analysis
+from glocal_verify.analysis.unobservable.subspace import unobservable_subspace
+from glocal_verify.analysis.stealthy.zda import zda_analysis
 from glocal_verify.design.generators import random_clustered_spec
 from glocal_verify.numerics.staircase import unobservable_subspace_dense
 

@@ -25,12 +25,13 @@ from types import MappingProxyType
 from typing import Mapping, TYPE_CHECKING
 
 from glocal_verify._lazy import lazy_getattr
+from glocal_verify.version import __version__
 
 if TYPE_CHECKING:  # the names below load on first use (PEP 562): `import glocal_verify` stays light
-    from glocal_verify.analysis.covert import covert_required_channels
-    from glocal_verify.analysis.switched import switched_unobservable_subspace
-    from glocal_verify.analysis.unobservable import unobservable_subspace
-    from glocal_verify.analysis.zda import ZdaDirection, zda_analysis, zda_direction
+    from glocal_verify.analysis.stealthy.covert import covert_required_channels
+    from glocal_verify.analysis.unobservable.switched import switched_unobservable_subspace
+    from glocal_verify.analysis.unobservable.subspace import unobservable_subspace
+    from glocal_verify.analysis.stealthy.zda import ZdaDirection, zda_analysis, zda_direction
     from glocal_verify.conditions.detects import algorithm1
     from glocal_verify.answer.run import verify
     from glocal_verify.conditions.registry import (
@@ -91,12 +92,12 @@ _LAZY: Mapping[str, str] = MappingProxyType({
     "answer_attack": "glocal_verify.answer.attack",
     "require": "glocal_verify.answer.gate",
     "Polarity": "glocal_verify.results",
-    "covert_required_channels": "glocal_verify.analysis.covert",
-    "switched_unobservable_subspace": "glocal_verify.analysis.switched",
-    "unobservable_subspace": "glocal_verify.analysis.unobservable",
-    "ZdaDirection": "glocal_verify.analysis.zda",
-    "zda_analysis": "glocal_verify.analysis.zda",
-    "zda_direction": "glocal_verify.analysis.zda",
+    "covert_required_channels": "glocal_verify.analysis.stealthy.covert",
+    "switched_unobservable_subspace": "glocal_verify.analysis.unobservable.switched",
+    "unobservable_subspace": "glocal_verify.analysis.unobservable.subspace",
+    "ZdaDirection": "glocal_verify.analysis.stealthy.zda",
+    "zda_analysis": "glocal_verify.analysis.stealthy.zda",
+    "zda_direction": "glocal_verify.analysis.stealthy.zda",
     "algorithm1": "glocal_verify.conditions.detects",
     "CATALOGUE": "glocal_verify.conditions.registry",
     "CheckContext": "glocal_verify.conditions.registry",
@@ -227,4 +228,3 @@ __all__ = [
     "attack_free_thresholds",
 ]
 
-__version__ = "0.1.0"

@@ -29,8 +29,11 @@ import scipy.sparse
 from glocal_verify import config
 from glocal_verify.derived import Analysis, Kind
 from glocal_verify.errors import ModelError, SpecError
+from glocal_verify.extra.control import state_space
 from glocal_verify.numerics.block_spectrum import clustered_spectrum, laplacian_csr
 from glocal_verify.numerics.spectrum import Spectrum
+from glocal_verify.numerics.updated_spectrum import update_spectrum
+from glocal_verify.spec.load import as_spec
 from glocal_verify.spec.types import (
     NORMAL_MODE,
     ClusterSpec,
@@ -180,7 +183,7 @@ class System:
     """
 
     def __init__(self, spec: SystemSpec) -> None:
-        self.spec = spec = SystemSpec.of(spec, "System")
+        self.spec = spec = as_spec(spec, "System")
         self.labels: tuple[Label, ...] = spec.nodes
         self.n = len(self.labels)
         self.index: dict[Label, int] = {lab: i for i, lab in enumerate(self.labels)}
@@ -396,10 +399,10 @@ class System:
                 sp = self._block_spectrum(L)
             if mode != NORMAL_MODE and self.n >= config.get("rank_one_min_agents"):
                 # a safe mode that changes a few links: rank-one updates of the normal mode's
-                # spectrum, certified like eigh's output (Spectrum.updated), else a fresh eigh
+                # spectrum, certified like eigh's output (update_spectrum), else a fresh eigh
                 changes = [(self.index[a], self.index[b], float(d)) for a, b, d in self.switching_links(mode)]
                 if 0 < len(changes) <= config.get("rank_one_max_changes"):
-                    sp = Spectrum.updated(L, self.spectrum(NORMAL_MODE), changes)
+                    sp = update_spectrum(L, self.spectrum(NORMAL_MODE), changes)
             self._spectra[mode] = sp if sp is not None else Spectrum(L)
             if not self._spectra[mode].explicit:  # the rows every check reads, in one pass over the factors
                 self._spectra[mode].rows(sorted(set(self.idx(self.monitored)) | set(self.idx(self.attacked)) | {self.index[x] for m in self.safe_modes for link in self.switching_links(m) for x in link[:2]}))
@@ -698,18 +701,10 @@ class System:
         ModelError
             For an unknown mode.
         """
-        from glocal_verify.errors import NotApplicableError
-
         self.check_mode(mode)
-        try:
-            import control
-        except ImportError:
-            raise NotApplicableError(
-                "to_statespace needs python-control, which is not installed: pip install 'glocal-verify[control]'"
-            ) from None
         A, B, C = self.A(mode), self.B(), self.C()
         D = np.zeros((C.shape[0], B.shape[1]))
-        return control.ss(
+        return state_space(
             A,
             B,
             C,

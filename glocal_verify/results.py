@@ -35,6 +35,7 @@ __all__ = [
     "SystemInfo",
     "AttackScenario",
     "ScheduleInfo",
+    "audit_jsonable",
     "jsonable",
     "json_preview",
     "REPORT_SCHEMA_ID",
@@ -46,8 +47,9 @@ FRAGILE_BELOW: float = config.default("fragile_below")
 
 REPORT_SCHEMA_ID = "glocal-verify/report@1"
 
-#: condition ids renamed, still accepted for one release: old id -> current id
-ALIASES: Mapping[str, str] = MappingProxyType({"switching.safe": "switching.avoids-attack"})
+#: condition ids renamed, still accepted for one release: old id -> current id (none at present;
+#: ``switching.safe``, renamed ``switching.avoids-attack``, has had its release: docs/conditions.md)
+ALIASES: Mapping[str, str] = MappingProxyType({})
 
 
 class Status(str, Enum):
@@ -613,3 +615,22 @@ def json_preview(x: Any, limit: int, separators: tuple[str, str] = (", ", ": "))
         text = "".join(parts)
         return text[: limit - 3] + "..."
     return "".join(parts)
+
+
+def audit_jsonable(x: Any) -> Any:
+    """An audit value in JSON form: tuples as lists, complex numbers as ``[re, im]``,
+    non-finite floats as strings, numpy scalars as Python numbers, statuses as their value."""
+    if isinstance(x, dict):
+        return {str(k): audit_jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [audit_jsonable(v) for v in x]
+    if isinstance(x, complex):
+        return [x.real, x.imag]
+    if isinstance(x, (np.floating, float)):
+        f = float(x)
+        return f if math.isfinite(f) else str(f)
+    if isinstance(x, np.integer):
+        return int(x)
+    if isinstance(x, Status):
+        return x.value
+    return x

@@ -21,9 +21,10 @@ from typing import Any
 import numpy as np
 
 from glocal_verify import System, load_example, verify
-from glocal_verify.analysis.sampled_scan import scan_periods
-from glocal_verify.reporting.guarantee_figures import detection_figure, detection_times_figure, period_scan_figure, render, thresholds_figure
+from glocal_verify.analysis.sampled.scan import scan_periods
 from glocal_verify.errors import ArgumentError, GlocalVerifyError
+from glocal_verify.reporting.figures.canvas import figure_bytes
+from glocal_verify.reporting.figures.guarantees import detection_figure, detection_times_figure, period_scan_figure, thresholds_figure
 from glocal_verify.reporting.output import check_output_dir, write_bytes_atomic, write_text_atomic
 from glocal_verify.runtime.lines import write_line
 from glocal_verify.runtime.processes import Stopped, signal_name, stop_on_signals
@@ -263,7 +264,7 @@ def _main(argv: list[str] | None) -> int:
         "periods": period_scan_figure(sc, th.period),
     }
     for name, fig in figs.items():
-        for ext, data in render(fig).items():
+        for ext, data in figure_bytes(fig).items():
             write_bytes_atomic(out / f"{name}.{ext}", data, create_parents=True)
     write_text_atomic(out / "guarantees.json", json.dumps(jsonable(rep), indent=1) + "\n", create_parents=True)
     write_text_atomic(out / "guarantees.md", _markdown(rep), create_parents=True)

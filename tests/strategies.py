@@ -205,8 +205,8 @@ def assert_completeness_sound(system: System, F: tuple[Any, ...]) -> None:
     ``complete`` says: left-invertible, and every zero lambda != 0 (attacks and unobservable
     modes alike) has Re lambda < 0.
     """
-    from glocal_verify.analysis.zda_completeness import zero_set_completeness
-    from glocal_verify.analysis.zda_exact import zda_analysis_exact
+    from glocal_verify.analysis.stealthy.zda_completeness import zero_set_completeness
+    from glocal_verify.analysis.stealthy.zda_exact import zda_analysis_exact
 
     c = zero_set_completeness(system, F)
     if not c.complete:

@@ -3,54 +3,182 @@
 from __future__ import annotations
 
 import ast
+from dataclasses import dataclass
 from pathlib import Path
 
 import glocal_verify
 
 PACKAGE = Path(glocal_verify.__file__).parent
 
-#: lowest first; a module may import only its own layer and the ones before it
-LAYERS = ["errors", "runtime", "config", "results", "derived", "spec", "numerics", "model", "analysis", "observers", "simulation", "conditions", "answer", "design", "reporting", "cli"]
+#: lowest first; a module may import only its own layer and the ones before it. The package
+#: root (``glocal_verify/__init__.py``) is the facade above them all: nothing imports it.
+LAYERS = ["_lazy", "version", "words", "errors", "runtime", "extra", "config", "results", "derived", "spec", "numerics", "model", "analysis", "observers", "simulation", "conditions", "answer", "design", "reporting", "cli", "__main__"]
+
+#: the topics of analysis/, lowest first: a topic imports only the ones before it
+ANALYSIS_TOPICS = ["laplacian", "unobservable", "local", "stealthy", "switching", "sampled"]
+
+ROOT = "glocal_verify"
 
 
 def _modules() -> list[tuple[str, Path]]:
+    """(name relative to the package, path) of every module; a package is named by its folder."""
     out = []
     for p in sorted(PACKAGE.rglob("*.py")):
         parts = p.relative_to(PACKAGE).with_suffix("").parts
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
         out.append((".".join(parts), p))
     return out
 
 
-def _layer(dotted: str) -> int | None:
-    head = dotted.split(".")[0]
-    return LAYERS.index(head) if head in LAYERS else None
+_MODULE_NAMES = frozenset(f"{ROOT}.{n}" if n else ROOT for n, _ in _modules())
 
 
-def _imports(path: Path) -> list[tuple[str, int]]:
-    out = []
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0 and node.module.startswith("glocal_verify."):
-            out.append((node.module[len("glocal_verify.") :], node.lineno))
-        elif isinstance(node, ast.Import):
-            out += [(a.name[len("glocal_verify.") :], node.lineno) for a in node.names if a.name.startswith("glocal_verify.")]
+@dataclass(frozen=True)
+class Import:
+    """One import of a module of the package, resolved to the module it loads.
+
+    ``target`` is the module (``glocal_verify.x.y``); ``name`` the name taken from it (None when
+    the module itself is imported); ``runs`` False inside ``if TYPE_CHECKING:``; ``nested``
+    True inside a function or class body.
+    """
+
+    target: str
+    name: str | None
+    line: int
+    runs: bool
+    nested: bool
+
+
+def _is_type_checking(test: ast.expr) -> bool:
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING")
+
+
+def read_imports(module: str, source: str, is_package: bool, modules: frozenset[str] = _MODULE_NAMES) -> list[Import]:
+    """Every import of the package in ``source`` (the module ``module``): ``import a.b``,
+    ``from a import b`` (b a module or a name), relative imports, ``from glocal_verify import x``,
+    imports inside functions and ``importlib.import_module("...")`` with a constant name."""
+    out: list[Import] = []
+    package = module.split(".") if is_package else module.split(".")[:-1]
+
+    def visit(node: ast.AST, runs: bool, nested: bool) -> None:
+        if isinstance(node, ast.If) and _is_type_checking(node.test):
+            for child in node.body:
+                visit(child, False, nested)
+            for child in node.orelse:
+                visit(child, runs, nested)
+            return
+        if isinstance(node, ast.Import):
+            out.extend(Import(a.name, None, node.lineno, runs, nested) for a in node.names if a.name.split(".")[0] == ROOT)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package[: len(package) - (node.level - 1)]
+                target = ".".join(base + ([node.module] if node.module else []))
+            else:
+                target = node.module or ""
+            if target.split(".")[0] == ROOT:
+                for a in node.names:
+                    sub = f"{target}.{a.name}"
+                    out.append(Import(sub, None, node.lineno, runs, nested) if sub in modules else Import(target, a.name, node.lineno, runs, nested))
+        elif isinstance(node, ast.Call):
+            f = node.func
+            called = f.attr if isinstance(f, ast.Attribute) else f.id if isinstance(f, ast.Name) else ""
+            if called in ("import_module", "__import__") and node.args and isinstance(node.args[0], ast.Constant) and str(node.args[0].value).split(".")[0] == ROOT:
+                out.append(Import(str(node.args[0].value), None, node.lineno, runs, nested))
+        inner = nested or isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef, ast.Lambda))
+        for child in ast.iter_child_nodes(node):
+            visit(child, runs, inner)
+
+    visit(ast.parse(source), True, False)
     return out
+
+
+def _all_imports() -> list[tuple[str, Import]]:
+    out = []
+    for name, path in _modules():
+        module = f"{ROOT}.{name}" if name else ROOT
+        out += [(module, i) for i in read_imports(module, path.read_text(encoding="utf-8"), path.name == "__init__.py")]
+    return out
+
+
+def _layer(module: str) -> int | None:
+    parts = module.split(".")
+    if len(parts) == 1:
+        return len(LAYERS)  # the facade
+    return LAYERS.index(parts[1]) if parts[1] in LAYERS else None
+
+
+def _topic(module: str) -> int | None:
+    parts = module.split(".")
+    return ANALYSIS_TOPICS.index(parts[2]) if len(parts) > 3 and parts[1] == "analysis" and parts[2] in ANALYSIS_TOPICS else None
+
+
+def test_the_import_reader_sees_every_form_of_import() -> None:
+    source = """
+import importlib
+from typing import TYPE_CHECKING
+import glocal_verify.analysis.stealthy.zda
+import glocal_verify.model as m
+from glocal_verify import config, __version__
+from glocal_verify.analysis.stealthy import zda
+from . import render
+from .render import render as r
+from ..numerics.spectrum import Spectrum
+if TYPE_CHECKING:
+    from glocal_verify.design.audit import AuditResult
+def f():
+    from glocal_verify.simulation.engine import simulate
+    importlib.import_module("glocal_verify.cli.verify")
+"""
+    got = {(i.target, i.name, i.runs, i.nested) for i in read_imports("glocal_verify.reporting.fake", source, False)}
+    assert got == {
+        ("glocal_verify.analysis.stealthy.zda", None, True, False),
+        ("glocal_verify.model", None, True, False),
+        ("glocal_verify.config", None, True, False),
+        ("glocal_verify", "__version__", True, False),
+        ("glocal_verify.reporting.render", None, True, False),
+        ("glocal_verify.reporting.render", "render", True, False),
+        ("glocal_verify.numerics.spectrum", "Spectrum", True, False),
+        ("glocal_verify.design.audit", "AuditResult", False, False),
+        ("glocal_verify.simulation.engine", "simulate", True, True),
+        ("glocal_verify.cli.verify", None, True, True),
+    }
+    # a package's relative import starts from the package itself
+    (pkg,) = read_imports("glocal_verify.analysis.stealthy", "from .zda import ZdaZero\n", True)
+    assert pkg.target == "glocal_verify.analysis.stealthy.zda"
+
+
+def test_every_module_belongs_to_a_layer() -> None:
+    unknown = [name for name, _ in _modules() if name and _layer(f"{ROOT}.{name}") is None]
+    assert not unknown, f"add them to LAYERS: {unknown}"
 
 
 def test_no_module_imports_a_higher_layer() -> None:
     upward = []
-    for name, path in _modules():
-        me = _layer(name)
-        if me is None:
-            continue
-        for target, line in _imports(path):
-            other = _layer(target)
-            if other is not None and other > me:
-                upward.append(f"{name}:{line} imports {target}")
+    for module, i in _all_imports():
+        if module == ROOT:
+            continue  # the facade re-exports every layer
+        me, other = _layer(module), _layer(i.target)
+        if other is not None and me is not None and other > me:
+            upward.append(f"{module}:{i.line} imports {i.target}{'.' + i.name if i.name else ''}")
+        elif me == other == LAYERS.index("analysis") and (a := _topic(module)) is not None and (b := _topic(i.target)) is not None and b > a:
+            upward.append(f"{module}:{i.line} imports the higher topic {i.target}")
     assert not upward, upward
 
 
+def test_there_is_no_import_circle_not_even_through_a_function_level_import() -> None:
+    import networkx as nx
+
+    graph = nx.DiGraph()
+    for module, i in _all_imports():
+        if i.runs and i.target != module:
+            graph.add_edge(module, i.target)
+    circles = [sorted(c) for c in nx.strongly_connected_components(graph) if len(c) > 1]
+    assert not circles, circles
+
+
 def test_every_subpackage_says_what_it_holds_and_may_import() -> None:
-    for init in PACKAGE.glob("*/__init__.py"):
+    for init in PACKAGE.rglob("*/__init__.py"):
         doc = ast.get_docstring(ast.parse(init.read_text(encoding="utf-8")))
         assert doc and "Layer" in doc, init
 
@@ -104,39 +232,72 @@ def test_the_package_imports_its_public_names_on_first_use() -> None:
     assert out == "False"
 
 
-#: (importing module, imported module, name): private names still imported across subpackages,
-#: being moved by the answer-layer work (the ZDA and avoidance rules); nothing else may join
-
-
 def test_no_module_imports_a_private_name_from_another_subpackage() -> None:
     leaks = []
-    for name, path in _modules():
-        home = name.split(".")[0]
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-            if not (isinstance(node, ast.ImportFrom) and node.module and node.level == 0 and node.module.startswith("glocal_verify.")):
-                continue
-            target = node.module[len("glocal_verify.") :]
-            if target.split(".")[0] == home:
-                continue
-            for alias in node.names:
-                if alias.name.startswith("_"):
-                    leaks.append(f"{name}:{node.lineno} imports {alias.name} from {target}")
+    for module, i in _all_imports():
+        home, there = module.split(".")[:2], i.target.split(".")[:2]
+        if i.name and i.name.startswith("_") and not i.name.startswith("__") and home != there:
+            leaks.append(f"{module}:{i.line} imports {i.name} from {i.target}")
     assert not leaks, leaks
 
 
-#: library calls that compute verdicts or simulations; reporting is handed their results
-_COMPUTATIONS = {"verify", "algorithm1", "simulate", "check_detects", "run_case", "run_case_study", "simulate_system", "verify_findings", "check_case", "audit"}
+#: the layers whose functions compute (verdicts, designs, simulations, assessments, audits):
+#: reporting may read their result types and constants, never call one of their functions
+_COMPUTING_LAYERS = ("analysis", "observers", "simulation", "conditions", "answer", "design")
 
 
 def test_reporting_renders_results_it_is_given_and_computes_none() -> None:
+    import importlib
+    import inspect
+
     calls = []
-    for name, path in _modules():
-        if name.split(".")[0] != "reporting":
+    for module, i in _all_imports():
+        if module.split(".")[1:2] != ["reporting"] or i.target.split(".")[1:2] not in ([layer] for layer in _COMPUTING_LAYERS):
             continue
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-            if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("glocal_verify."):
-                calls += [f"{name}:{node.lineno} imports {a.name}" for a in node.names if a.name in _COMPUTATIONS]
+        if i.name is None:
+            calls.append(f"{module}:{i.line} imports the module {i.target} (its functions would be at hand)")
+            continue
+        value = getattr(importlib.import_module(i.target), i.name)
+        if inspect.ismodule(value) or (callable(value) and not isinstance(value, type)):
+            calls.append(f"{module}:{i.line} imports the function {i.target}.{i.name}")
     assert not calls, calls
+
+
+#: third-party libraries reached only from one room: the integrations of extra/ and the figures
+_ROOMS = {
+    "distributed": ("extra",),
+    "dask": ("extra",),
+    "control": ("extra",),
+    "scipy.io": ("extra",),
+    "matplotlib": ("reporting.figures",),
+}
+
+
+def test_optional_libraries_and_matplotlib_are_reached_from_their_one_room() -> None:
+    strays = []
+    for name, path in _modules():
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names = [a.name for a in node.names] if isinstance(node, ast.Import) else [node.module or ""] if isinstance(node, ast.ImportFrom) and not node.level else []
+            for lib, rooms in _ROOMS.items():
+                if any(n == lib or n.startswith(lib + ".") for n in names) and not any(name == r or name.startswith(r + ".") for r in rooms):
+                    strays.append(f"{name}:{node.lineno} imports {lib}")
+    assert not strays, strays
+
+
+def test_every_curated_package_exports_what_its_lazy_table_names() -> None:
+    import importlib
+
+    for name, path in _modules():
+        if path.name != "__init__.py" or "_LAZY" not in path.read_text(encoding="utf-8"):
+            continue
+        package = importlib.import_module(f"{ROOT}.{name}" if name else ROOT)
+        lazy = package._LAZY
+        assert set(package.__all__) == set(lazy), name
+        # a public name that is also a submodule's would be the module once that is imported
+        assert not {f"{package.__name__}.{public}" for public in lazy} & _MODULE_NAMES, name
+        for public, home in lazy.items():
+            assert getattr(package, public) is getattr(importlib.import_module(home), public), (name, public)
+            assert home.startswith(package.__name__ + ".") or package.__name__ == ROOT, (name, home)
 
 
 def _declared_kinds() -> dict[str, list[tuple[str, str]]]:

@@ -12,10 +12,11 @@ import numpy as np
 import pytest
 
 from glocal_verify.cli import main
-from glocal_verify.conditions.registry import verify
+from glocal_verify.conditions.registry import check_conditions
 from glocal_verify.design.audit import AuditResult, AuditRow, attack_sets, audit, audit_chunks, disjoint_paths, merge_chunks
 from glocal_verify.errors import GlocalVerifyError
 from glocal_verify.model import System
+from glocal_verify.reporting.audit_text import audit_json_chunks, audit_markdown
 from glocal_verify.results import Status
 from glocal_verify.spec import load_example
 from glocal_verify.spec.types import AttackSpec
@@ -49,7 +50,7 @@ def _row(result: AuditResult, F: tuple[Any, ...]) -> AuditRow:
 def _confirm(system: System, row: AuditRow, exact: bool) -> None:
     """The checkers, given the row's attack, agree with every claim of the row."""
     sub = _with_attack(system, row.actuators)
-    rep = verify(sub, ["stealthy.zda", "local.pencil", "local.uio", "switching.avoids-attack"], exact=exact)
+    rep = check_conditions(sub, ["stealthy.zda", "local.pencil", "local.uio", "switching.avoids-attack"], exact=exact)
     (z,) = rep.results("stealthy.zda")
     assert row.stealthy is (z.status is Status.HOLDS)
     caught = set()
@@ -114,16 +115,16 @@ def test_audit_json_validates_against_its_schema(result: AuditResult) -> None:
 
 
 def test_the_streamed_json_of_an_audit_is_the_json_document_text(result: AuditResult) -> None:
-    assert "".join(result.json_chunks()) == json.dumps(result.to_json(), indent=2)
+    assert "".join(audit_json_chunks(result)) == json.dumps(result.to_json(), indent=2)
     empty = dataclasses.replace(result, rows=())
-    assert "".join(empty.json_chunks()) == json.dumps(empty.to_json(), indent=2)
+    assert "".join(audit_json_chunks(empty)) == json.dumps(empty.to_json(), indent=2)
 
 
 def test_undetected_sets_come_first_in_the_summary(result: AuditResult) -> None:
     s = result.summary()
     assert s["counts"]["undetected"] == len(s["undetected"])
     assert sum(s["counts"].values()) == 190
-    first = result.to_markdown().splitlines()[8].split(" | ")
+    first = audit_markdown(result).splitlines()[8].split(" | ")
     assert first[6] == "undetected" or s["counts"]["undetected"] == 0
 
 

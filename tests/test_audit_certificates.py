@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from glocal_verify import System, verify
-from glocal_verify.analysis.local_cases import LocalCase, twin_failure
+from glocal_verify.analysis.local.cases import LocalCase, twin_failure
 from glocal_verify.design.audit import audit
 from glocal_verify.results import Status
 from glocal_verify.spec import load_example

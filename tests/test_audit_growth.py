@@ -21,7 +21,7 @@ from strategies import clustered_systems
 from glocal_verify import config
 from glocal_verify import System
 from glocal_verify.design.audit import audit
-from glocal_verify.analysis.zda_screens import disjoint_paths
+from glocal_verify.analysis.stealthy.zda_screens import disjoint_paths
 from glocal_verify.design.generators import random_clustered_spec
 from glocal_verify.errors import GlocalVerifyError
 

@@ -10,7 +10,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from glocal_verify.design.audit_json import IndentedJson, audit_jsonable
+from glocal_verify.reporting.audit_json import IndentedJson
+from glocal_verify.results import audit_jsonable
 from glocal_verify.results import Status
 
 _leaves = st.one_of(

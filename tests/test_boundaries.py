@@ -23,6 +23,7 @@ from glocal_verify.conditions.cost import SpecSizes, estimate_verify
 from glocal_verify.conditions.export_cost import estimate_export
 from glocal_verify.errors import ModelError, shorten
 from glocal_verify.reporting.export import ExportError, _encode, _json_value, deployment_tree, export_observers, read_deployment
+from glocal_verify.simulation.deployment import design_deployment
 from glocal_verify.spec import loads_spec
 from glocal_verify.spec.writer import dump_spec
 
@@ -72,7 +73,8 @@ def test_a_reports_unknown_id_is_the_projects_unknown_condition_error_with_did_y
     lambda s, r: dump_spec(None),
     lambda s, r: dump_spec({"format": 1}),
     lambda s, r: export_observers(None, "x.json"),
-    lambda s, r: export_observers(s, None),
+    lambda s, r: export_observers(s, "x.json"),  # a System, not its Deployment
+    lambda s, r: export_observers(design_deployment(s, thresholds=False), None),
     lambda s, r: read_deployment(None),
     lambda s, r: verify(s, ["privacy.kernel"], options="x"),
     lambda s, r: verify(s, ["privacy.kernel"], options={1: 2}),
@@ -170,7 +172,7 @@ def test_the_export_estimate_grows_as_the_square_of_the_agents() -> None:
 
 
 def test_the_streamed_json_is_the_text_of_json_dumps_with_indent_1(paper19: System) -> None:
-    tree = deployment_tree(paper19, thresholds=True)
+    tree = deployment_tree(design_deployment(paper19))
     odd = {"a": np.array([[1.5, np.nan], [-np.inf, 0.0]]), "b": np.array([], dtype=float), "c": np.array([1, 2], dtype=np.int64),
            "d": [], "e": {}, "f": [np.float64(2.5), np.int32(3), True, None, "t\u00e9xt \"q\""], "g": np.zeros((2, 0))}
     for t in (tree, odd):
@@ -179,7 +181,8 @@ def test_the_streamed_json_is_the_text_of_json_dumps_with_indent_1(paper19: Syst
 
 def test_a_corrupt_deployment_file_is_an_export_error_whatever_the_damage(paper19: System, tmp_path: Path) -> None:
     rng = random.Random(20261207)
-    originals = {fmt: export_observers(paper19, tmp_path / f"p.{fmt}", thresholds=False).read_bytes() for fmt in ("json", "mat", "npz")}
+    deployment = design_deployment(paper19, thresholds=False)
+    originals = {fmt: export_observers(deployment, tmp_path / f"p.{fmt}").read_bytes() for fmt in ("json", "mat", "npz")}
     for k in range(150):
         fmt = rng.choice(sorted(originals))
         data = bytearray(originals[fmt])

@@ -9,7 +9,7 @@ import flint
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from glocal_verify.analysis.unobservable import exact_A, exact_C
+from glocal_verify.analysis.unobservable.subspace import exact_A, exact_C
 from glocal_verify.model import System
 from glocal_verify.observers.central import (
     _routh_hurwitz_rational,

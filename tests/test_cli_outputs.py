@@ -114,7 +114,7 @@ def _fail_if_computed(monkeypatch: pytest.MonkeyPatch) -> None:
     def boom(*a: Any, **k: Any) -> Any:
         raise AssertionError("computed before checking the output location")
 
-    monkeypatch.setattr("glocal_verify.cli.verify.verify", boom)
+    monkeypatch.setattr("glocal_verify.cli.verify.make_report", boom)
     monkeypatch.setattr("glocal_verify.design.case_study.algorithm1", boom)
 
 
@@ -374,13 +374,13 @@ def test_verify_passes_the_escalation_flags_to_the_registry(tmp_path: Path, monk
     import glocal_verify.cli.verify as cli_verify
 
     seen: dict[str, Any] = {}
-    real = cli_verify.verify
+    real = cli_verify.make_report
 
     def spy(*a: Any, **k: Any) -> Any:
         seen.update(k)
         return real(*a, **k)
 
-    monkeypatch.setattr(cli_verify, "verify", spy)
+    monkeypatch.setattr(cli_verify, "make_report", spy)
     spec = _spec(tmp_path)
     assert main(["verify", str(spec), "--only", "privacy.connected"]) == 0
     assert (seen["escalate"], seen["exact_budget"], seen["fragile_below"]) == ("auto", 30.0, 1e-9)
@@ -396,7 +396,7 @@ def test_format_html_goes_to_the_renderer(tmp_path: Path, monkeypatch: pytest.Mo
     import glocal_verify.cli.verify as cli_verify
 
     asked: list[str] = []
-    monkeypatch.setattr(cli_verify, "render", lambda report, fmt, system=None: asked.append(fmt) or "<html></html>\n")
+    monkeypatch.setattr(cli_verify, "render_report", lambda report, fmt, system=None: asked.append(fmt) or "<html></html>\n")
     out = tmp_path / "r.html"
     assert main(["verify", str(_spec(tmp_path)), "--only", "privacy.connected", "--format", "html", "--out", str(out)]) == 0
     assert asked == ["html"] and out.read_text() == "<html></html>\n"
@@ -499,7 +499,7 @@ def test_the_exact_budget_is_described_as_one_budget_per_run(capsys: pytest.Capt
 
 
 def test_counted_nouns_take_their_number() -> None:
-    from glocal_verify.reporting.words import counted
+    from glocal_verify.words import counted
 
     assert [counted(k, "mode") for k in (0, 1, 2)] == ["0 modes", "1 mode", "2 modes"]
     assert counted(1, "matrix", "matrices") == "1 matrix" and counted(3, "matrix", "matrices") == "3 matrices"

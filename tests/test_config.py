@@ -8,8 +8,8 @@ import math
 import pytest
 
 from glocal_verify import System, config, load_example, verify
-from glocal_verify.analysis.local_cases import local_cases
-from glocal_verify.analysis.local_pencil import pencil_verdict
+from glocal_verify.analysis.local.cases import local_cases
+from glocal_verify.analysis.local.pencil import pencil_verdict
 from glocal_verify.errors import ConfigError, GlocalVerifyError
 
 from test_architecture import PACKAGE

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from glocal_verify.cli import main
-from glocal_verify.conditions.registry import verify
+from glocal_verify.conditions.registry import check_conditions
 from glocal_verify.design.audit import audit
 from glocal_verify.design.monitors import _blocks, _f, design_monitors
 from glocal_verify.design.safe_modes import (
@@ -43,7 +43,7 @@ def _mode_system(system: System, c: LinkCandidate) -> System:
 
 
 def _theorem_statuses(system: System, exact: bool) -> set[Status]:
-    rep = verify(system, THEOREM, exact=exact)
+    rep = check_conditions(system, THEOREM, exact=exact)
     return {r.status for r in rep.conditions}
 
 
@@ -74,7 +74,7 @@ def test_designed_modes_expose_the_targets_and_the_checkers_confirm_it(paper19: 
     for m in d.modes:
         F = m.exposes[0]
         spec = with_attack(with_modes(paper19.spec, [m.mode_spec()], keep=False), F)
-        rep = verify(System(spec), THEOREM + ["switching.avoids-attack"], exact=True)
+        rep = check_conditions(System(spec), THEOREM + ["switching.avoids-attack"], exact=True)
         assert all(r.status is Status.HOLDS for r in rep.conditions if r.id in THEOREM)
         assert [r.status for r in rep.results("switching.avoids-attack")] == [Status.FAILS]
 
@@ -101,7 +101,7 @@ def test_designed_monitors_are_a_proven_minimum_for_cases_1_and_2(paper19: Syste
     assert d.velocities == (7,) and d.method == "exact" and d.ok
     sys12 = System(with_modes(paper19.spec, [paper19.spec.mode("case-1"), paper19.spec.mode("case-2")], keep=False))
     empty = System(dataclasses.replace(sys12.spec, monitor=MonitorSpec((), ())))
-    assert {r.status for r in verify(empty, ["switching.image-kernel"], exact=True).conditions} == {Status.FAILS}
+    assert {r.status for r in check_conditions(empty, ["switching.image-kernel"], exact=True).conditions} == {Status.FAILS}
 
 
 def test_exhaustive_monitors_are_no_larger_than_greedy_and_greedy_meets_its_bound(paper19: System) -> None:
@@ -123,7 +123,7 @@ def test_design_command_writes_a_spec_whose_audit_leaves_no_one_hidden(tmp_path:
     assert not system.spec.monitor.positions
     res = audit(system, 1)
     assert res.summary()["counts"]["undetected"] == 0
-    rep = verify(system, ["privacy.initial-state", "privacy.consensus-value"], exact=True)
+    rep = check_conditions(system, ["privacy.initial-state", "privacy.consensus-value"], exact=True)
     assert {r.status for r in rep.conditions} == {Status.HOLDS}
 
 
@@ -166,5 +166,5 @@ def test_a_set_no_mode_exposes_gets_a_velocity_monitor_where_its_direction_lives
     (row,) = [r for r in audit(System(sched), 2, [4, 8]).rows if r.actuators == (4, 8)]
     assert row.verdict == "detected" and row.answer is not None and row.answer.route("schedule").verdict == "detected"
     # the checkers confirm: privacy holds with velocity-only monitors
-    priv = verify(after, ["privacy.*"]).conditions
+    priv = check_conditions(after, ["privacy.*"]).conditions
     assert priv and all(r.status.value == "holds" for r in priv)

@@ -272,5 +272,5 @@ step = 0.05
 """
     system = System(loads_spec(text))
     (r,) = verify(system, ["switching.detects"], options={"simulate": True}).conditions
-    assert r.witness["attack_direction"] == "avoiding direction of switching.safe"
+    assert r.witness["attack_direction"] == "avoiding direction of switching.avoids-attack"
     assert r.status is Status.FAILS and r.witness["detected"] is False

@@ -19,8 +19,8 @@ from matplotlib.figure import Figure
 
 from glocal_verify import System, load_example
 from glocal_verify.design.generators import random_clustered_spec
-from glocal_verify.design.sweep import rates_figure
-from glocal_verify.reporting.network_figure import draw_network
+from glocal_verify.reporting.figures.sweep import rates_figure
+from glocal_verify.reporting.figures.network import draw_network
 from glocal_verify.reporting.network_svg import network_svg
 
 SVG = "{http://www.w3.org/2000/svg}"

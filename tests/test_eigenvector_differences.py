@@ -11,7 +11,7 @@ import pytest
 import sympy
 
 from glocal_verify import System, load_example, spec_from_graph, verify
-from glocal_verify.analysis.eigenstructure import eigenvector_difference_polynomial
+from glocal_verify.analysis.switching.eigenstructure import eigenvector_difference_polynomial
 from glocal_verify.results import ConditionResult, Status
 
 CID = "switching.eigenvector-differences"

@@ -12,7 +12,7 @@ import pytest
 import glocal_verify.conditions.registry as registry
 from glocal_verify import config
 from glocal_verify import System, spec_from_graph, verify
-from glocal_verify.analysis.unobservable import certified_unobservable
+from glocal_verify.analysis.unobservable.subspace import certified_unobservable
 from glocal_verify.numerics.deadline import DeadlineExceeded, call_with_deadline, hard_deadlines_available
 from glocal_verify.results import ConditionResult, Status
 
@@ -72,7 +72,7 @@ def test_two_twin_modes_with_one_eigenvalue_fail_distinct_eigenvalues_without_es
 
 
 def test_a_path_proves_distinct_eigenvalues_by_the_modular_certificate_too() -> None:
-    from glocal_verify.analysis.twins import distinct_eigenvalues_modular
+    from glocal_verify.analysis.laplacian.twins import distinct_eigenvalues_modular
 
     s = System(spec_from_graph(nx.path_graph(range(1, 9)), monitor_velocities=[8], modes={"longer": {"remove": [(7, 8)], "add": [(1, 8)]}}))
     decided = distinct_eigenvalues_modular(s, "longer")
@@ -160,7 +160,7 @@ def test_an_escalation_estimated_beyond_its_share_is_not_started(monkeypatch: py
 
 
 def test_the_cheap_exact_certificates_agree_with_exact_arithmetic() -> None:
-    from glocal_verify.analysis.unobservable import unobservable_subspace_exact
+    from glocal_verify.analysis.unobservable.subspace import unobservable_subspace_exact
 
     twins = System(spec_from_graph(_graph_with_twin_leaves(), monitor_velocities=[5], modes={"safe": {"add": [(5, 1)]}}))
     path = System(spec_from_graph(nx.path_graph(range(1, 9)), monitor_velocities=[8], modes={"longer": {"remove": [(7, 8)], "add": [(1, 8)]}}))

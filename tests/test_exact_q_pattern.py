@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from glocal_verify import System
-from glocal_verify.analysis.zda_certificate import exact_q_pattern, exact_q_rows
+from glocal_verify.analysis.stealthy.zda_certificate import exact_q_pattern, exact_q_rows
 from glocal_verify.spec import load_example
 from strategies import clustered_systems
 

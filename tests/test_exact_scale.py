@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from glocal_verify import System
-from glocal_verify.analysis.zda_exact import _q_matrix, transfer_kernel
+from glocal_verify.analysis.stealthy.zda_exact import _q_matrix, transfer_kernel
 from glocal_verify.numerics.exact_subspace import (
     _lift_closure,
     row_closure,
@@ -65,7 +65,7 @@ def test_unlucky_small_primes_never_give_a_wrong_closure(seed: int) -> None:
 
 
 def test_closure_of_the_paper_example_matches_the_dense_closure_in_every_mode() -> None:
-    from glocal_verify.analysis.unobservable import exact_A, exact_C
+    from glocal_verify.analysis.unobservable.subspace import exact_A, exact_C
 
     system = System(load_example("paper19"))
     C = exact_C(system)
@@ -91,7 +91,7 @@ def test_linear_field_kernel_is_the_same_basis_as_the_field_elimination() -> Non
 
 
 def test_transfer_kernel_equals_the_full_pencil_kernel_at_every_zero_of_the_paper_example() -> None:
-    from glocal_verify.analysis.zda_exact import zda_analysis_exact
+    from glocal_verify.analysis.stealthy.zda_exact import zda_analysis_exact
 
     system = System(load_example("paper19"))
     F = system.idx(system.attacked)

@@ -18,6 +18,7 @@ from glocal_verify.cli import main
 from glocal_verify.design.generators import random_clustered_spec
 from glocal_verify.reporting.export import EXPORT_FORMATS, SCHEMA, SCHEMA_VERSION, ExportError, export_observers, read_deployment
 from glocal_verify.simulation.attacks import attack_from_spec
+from glocal_verify.simulation.deployment import Deployment, design_deployment
 from glocal_verify.simulation.observer_models import ObserverBank, ObserverModel
 from glocal_verify.simulation.schedule import ANY_MODE, Schedule, random_initial_state
 from glocal_verify.simulation.thresholds import attack_free_thresholds
@@ -36,7 +37,8 @@ def _system(name: str) -> System:
 def exported(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> tuple[System, dict[str, Path]]:
     system = _system(request.param)
     folder = tmp_path_factory.mktemp(request.param)
-    return system, {fmt: export_observers(system, folder / f"observers.{fmt}") for fmt in EXPORT_FORMATS}
+    deployment = design_deployment(system)
+    return system, {fmt: export_observers(deployment, folder / f"observers.{fmt}") for fmt in EXPORT_FORMATS}
 
 
 def _rebuild(tree: dict[str, Any]) -> ObserverBank:
@@ -162,3 +164,18 @@ def test_the_export_command_writes_each_format_and_refuses_an_unknown_one(tmp_pa
     with pytest.raises(ExportError, match="schema"):
         (tmp_path / "other.json").write_text('{"schema": "something else", "schema_version": 1}', encoding="utf-8")
         read_deployment(tmp_path / "other.json")
+
+
+def test_the_deployment_is_a_frozen_value_and_the_exporter_only_writes_it(tmp_path: Path) -> None:
+    import dataclasses
+
+    from glocal_verify.errors import ArgumentError
+
+    system = System(load_example("paper19"))
+    deployment = design_deployment(system, thresholds=False)
+    assert isinstance(deployment, Deployment) and deployment.thresholds is None
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        deployment.name = "other"  # type: ignore[misc]
+    with pytest.raises(ArgumentError, match="design_deployment"):
+        export_observers(system, tmp_path / "x.json")  # type: ignore[arg-type]
+    assert not (tmp_path / "x.json").exists()

@@ -81,7 +81,7 @@ def test_no_attack_free_run_crosses_a_certified_threshold(deployed: tuple) -> No
 def test_the_zda_response_is_the_simulated_attack_part(deployed: tuple) -> None:
     sy, th, g = deployed
     atk = sampled_attack_from_spec(sy)
-    from glocal_verify.analysis.sampled import sampled_matrices
+    from glocal_verify.analysis.sampled.loop import sampled_matrices
 
     Phi, Gam = sampled_matrices(sy)
     det = next(o for o in th.detectors if o.name == "P1@5")

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from glocal_verify import System, load_example, spec_from_graph, verify
-from glocal_verify.analysis.local_cases import LocalCase, full_pencil, local_cases
+from glocal_verify.analysis.local.cases import LocalCase, full_pencil, local_cases
 from glocal_verify.cli import main
 from glocal_verify.results import ConditionResult, Status
 
@@ -335,7 +335,7 @@ def test_the_structured_margin_is_zero_on_failure_and_positive_on_success(paper1
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_structured_and_dense_agree_on_generated_networks_with_every_zero_verified(seed: int) -> None:
-    from glocal_verify.analysis.local_pencil import pencil_verdict
+    from glocal_verify.analysis.local.pencil import pencil_verdict
     from glocal_verify.design.generators import random_clustered_spec
 
     system = System(random_clustered_spec(120, 3, seed=seed))
@@ -367,7 +367,7 @@ def test_a_star_of_equal_leaves_gives_a_multiple_zero_found_by_the_symmetric_ana
     nodes = list(range(2, 13))
     s = System(spec_from_graph(G, clusters={"A": nodes, "B": [1, 13]}, observers={"A": [{"center": 3, "positions": [], "velocities": [2, 4]}], "B": [1]}))
     case = LocalCase(s.cluster_model("A"), s.observers("A")[0], "attack", ())
-    from glocal_verify.analysis.local_pencil import pencil_verdict
+    from glocal_verify.analysis.local.pencil import pencil_verdict
 
     d = pencil_verdict(s, case, method="dense")
     s_ = pencil_verdict(s, case, method="structured")
@@ -385,7 +385,7 @@ def test_a_star_of_equal_leaves_gives_a_multiple_zero_found_by_the_symmetric_ana
 
 @pytest.mark.parametrize("seed", [0, 1])
 def test_the_exact_pencil_pattern_read_from_the_support_equals_the_pattern_of_the_rational_rows(seed: int) -> None:
-    from glocal_verify.analysis.local_cases import _exact_pattern_at, _exact_pencil_at
+    from glocal_verify.analysis.local.cases import _exact_pattern_at, _exact_pencil_at
     from glocal_verify.design.generators import random_clustered_spec
 
     for system in (System(random_clustered_spec(24, 2, seed=seed)), System(load_example("paper19"))):
@@ -396,7 +396,7 @@ def test_the_exact_pencil_pattern_read_from_the_support_equals_the_pattern_of_th
 
 
 def test_the_krawczyk_test_encloses_a_known_zero_of_a_rational_pencil_and_refuses_a_point_that_is_not_one() -> None:
-    from glocal_verify.analysis.cluster_pencil import krawczyk_kernel
+    from glocal_verify.analysis.local.cluster_pencil import krawczyk_kernel
 
     # P(lam) = P0 + lam P1 = [[lam - 2, 1], [0, lam - 3]]: zeros 2 (kernel (1, 0)) and 3 (kernel (1, 1))
     q = Fraction
@@ -416,8 +416,8 @@ def test_the_krawczyk_test_encloses_a_known_zero_of_a_rational_pencil_and_refuse
 
 
 def test_the_sparse_full_pencil_is_the_dense_one_and_bounds_its_norm_alike() -> None:
-    from glocal_verify.analysis.cluster_pencil import backward_error, norm2_lower
-    from glocal_verify.analysis.local_cases import full_pencil_sparse
+    from glocal_verify.analysis.local.cluster_pencil import backward_error, norm2_lower
+    from glocal_verify.analysis.local.cases import full_pencil_sparse
     from glocal_verify.design.generators import random_clustered_spec
 
     system = System(random_clustered_spec(90, 3, seed=4))

@@ -13,9 +13,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from glocal_verify import System, load_example
-from glocal_verify.analysis.cluster_pencil import reduced_system_exact
-from glocal_verify.analysis.local_cases import LocalCase, full_pencil, local_cases
-from glocal_verify.analysis.local_pencil import _pencil_exact_structured, _poly_rows
+from glocal_verify.analysis.local.cluster_pencil import reduced_system_exact
+from glocal_verify.analysis.local.cases import LocalCase, full_pencil, local_cases
+from glocal_verify.analysis.local.pencil import _pencil_exact_structured, _poly_rows
 from glocal_verify.numerics.cluster_transfer import (
     cluster_transfer,
     eval_normalized,

@@ -18,13 +18,13 @@ import pytest
 import scipy.linalg
 
 from glocal_verify import System, load_example, spec_from_dict, spec_from_graph, verify
-from glocal_verify.analysis.modal import block_exponentials, modal_exponential
-from glocal_verify.analysis.switched import (
+from glocal_verify.analysis.unobservable.modal import block_exponentials, modal_exponential
+from glocal_verify.analysis.unobservable.switched import (
     mode_sequence,
     switched_unobservable_bounds_exact,
     switched_unobservable_subspace,
 )
-from glocal_verify.analysis.unobservable import (
+from glocal_verify.analysis.unobservable.subspace import (
     unobservable_subspace,
     unobservable_subspace_exact,
 )

@@ -10,6 +10,7 @@ import pytest
 
 from glocal_verify import System, load_example, loads_spec, verify
 from glocal_verify.answer.attack import AttackAnswer
+from glocal_verify.reporting.audit_text import audit_markdown
 from glocal_verify.cli import main
 from glocal_verify.design.audit import audit
 from glocal_verify.design.network import before_table, design_network
@@ -148,7 +149,7 @@ actuators = [1]
 
 
 def test_the_audit_table_says_why_for_every_row(paper19: System) -> None:
-    md = audit(paper19, 1, [3, 5, 7]).to_markdown()
+    md = audit_markdown(audit(paper19, 1, [3, 5, 7]))
     header = [line for line in md.splitlines() if line.startswith("| actuators")][0]
     assert header.rstrip().endswith("| why |")
     body = [line for line in md.splitlines() if line.startswith("| 3 |") or line.startswith("| 7 |")]

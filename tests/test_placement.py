@@ -9,9 +9,9 @@ import tomllib
 import pytest
 
 from glocal_verify import NotApplicableError, System, load_example, verify
-from glocal_verify.analysis.local_cases import LocalCase
+from glocal_verify.analysis.local.cases import LocalCase
 from glocal_verify.cli import main
-from glocal_verify.analysis.local_pencil import pencil_verdict
+from glocal_verify.analysis.local.pencil import pencil_verdict
 from glocal_verify.design.generators import random_clustered_spec
 from glocal_verify.design.placement import (
     Placement,
@@ -125,7 +125,7 @@ def test_random_200_agent_networks_get_a_verified_placement_for_every_cluster(se
 
 
 def test_placement_and_the_local_checker_share_one_zero_forcing_and_reduced_pencil() -> None:
-    import glocal_verify.analysis.cluster_pencil as cp
+    import glocal_verify.analysis.local.cluster_pencil as cp
     import glocal_verify.design.placement as pl
 
     assert pl.zero_forcing_closure is cp.zero_forcing_closure

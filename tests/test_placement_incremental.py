@@ -5,7 +5,7 @@ from __future__ import annotations
 import random
 
 from glocal_verify import System
-from glocal_verify.analysis.cluster_pencil import intra_neighbours, zero_forcing_closure
+from glocal_verify.analysis.local.cluster_pencil import intra_neighbours, zero_forcing_closure
 from glocal_verify.design import placement as pl
 from glocal_verify.design.generators import random_clustered_spec
 

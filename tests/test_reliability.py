@@ -92,7 +92,7 @@ def test_a_graph_weight_of_a_huge_exponent_is_refused_like_the_specs(name: str, 
 @pytest.fixture
 def no_cluster(monkeypatch: pytest.MonkeyPatch) -> None:
     """Fail the test if a Dask cluster is started."""
-    import glocal_verify.design.distributed as dist
+    import glocal_verify.extra.dask as dist
 
     def refuse(*a: Any, **k: Any) -> Any:
         raise AssertionError("a Dask cluster was started")
@@ -282,7 +282,7 @@ def test_no_command_writes_through_a_symbolic_link_or_a_linked_folder(tmp_path: 
 
 
 def test_an_audit_folder_is_written_all_or_nothing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
-    import glocal_verify.design.audit_figure as af
+    import glocal_verify.reporting.figures.audit as af
 
     spec = _spec(tmp_path)
 
@@ -319,7 +319,7 @@ def test_sigterm_and_sighup_stop_a_command_like_ctrl_c(sig: int, code: int, line
         time.sleep(5)  # the handler raises before this ends
         raise AssertionError("the signal did not stop the command")
 
-    monkeypatch.setattr(cv, "verify", stopped)
+    monkeypatch.setattr(cv, "make_report", stopped)
     out = tmp_path / "r.md"
     assert main(["verify", str(_spec(tmp_path)), "--out", str(out), "--quiet"]) == code
     assert _one_line(capsys.readouterr().err) == f"glocal-verify: {line}"
@@ -362,7 +362,7 @@ def test_a_stop_signal_between_a_progress_line_and_its_newline_gets_a_line_of_it
         time.sleep(5)
         raise AssertionError("the signal did not stop the command")
 
-    monkeypatch.setattr(cv, "verify", cut_short)
+    monkeypatch.setattr(cv, "make_report", cut_short)
     assert main(["verify", "--example", "paper19", "--quiet"]) == 129
     lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
     assert lines == ["glocal-verify: audit of 80 agents: estimated 3 min", "glocal-verify: hung up (SIGHUP)"]
@@ -442,7 +442,7 @@ def test_a_forked_exact_computation_dies_with_its_parent(sig: int, tmp_path: Pat
 
 
 def test_dask_workers_are_killed_when_the_command_stops() -> None:
-    from glocal_verify.design.distributed import dask_client
+    from glocal_verify.extra.dask import dask_client
     from glocal_verify.runtime.processes import Stopped
 
     pids: list[int] = []
@@ -455,7 +455,7 @@ def test_dask_workers_are_killed_when_the_command_stops() -> None:
 
 
 def test_a_dashboard_port_in_use_gives_one_line() -> None:
-    from glocal_verify.design.distributed import dask_client
+    from glocal_verify.extra.dask import dask_client
 
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

@@ -123,8 +123,8 @@ def test_a_numerical_failure_inside_a_checker_is_undecided_with_its_reason_then_
 
     monkeypatch.setitem(registry._CHECKERS, "central.observer", fails_numerically)
     system = System(load_example("paper19"))
-    (never,) = registry.verify(system, ["central.observer"], escalate="never").conditions
+    (never,) = registry.check_conditions(system, ["central.observer"], escalate="never").conditions
     assert never.status is Status.UNDECIDED and "LinAlgError: SVD did not converge" in never.note
-    auto = registry.verify(system, ["central.observer"]).conditions
+    auto = registry.check_conditions(system, ["central.observer"]).conditions
     assert auto and all(r.method is Method.ESCALATED and r.status is not Status.UNDECIDED for r in auto)
     assert [r.status for r in auto] == [r.status for r in real(system, registry.CheckContext(exact=True))]

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from glocal_verify import System, load_example, spec_from_graph, verify
-from glocal_verify.analysis.sampled import (
+from glocal_verify.analysis.sampled.loop import (
     exact_unobservable_dimension,
     sampled_aliasing,
     sampled_matrices,
@@ -21,9 +21,9 @@ from glocal_verify.analysis.sampled import (
     sampled_observability,
     sampled_stability,
 )
-from glocal_verify.analysis.sampled_scan import scan_periods
-from glocal_verify.analysis.sampled_zda import sampled_zda
-from glocal_verify.analysis.unobservable import unobservable_subspace_exact
+from glocal_verify.analysis.sampled.scan import scan_periods
+from glocal_verify.analysis.sampled.zda import sampled_zda
+from glocal_verify.analysis.unobservable.subspace import unobservable_subspace_exact
 from glocal_verify.conditions.sampled import schur_stable_exact
 from glocal_verify.observers.sampled import sampled_cluster_model, to_float
 from glocal_verify.results import Status

@@ -13,13 +13,13 @@ import networkx as nx
 import numpy as np
 
 from glocal_verify import System, spec_from_graph
-from glocal_verify.analysis.modal import modal_decomposition
-from glocal_verify.analysis.switched import (
+from glocal_verify.analysis.unobservable.modal import modal_decomposition
+from glocal_verify.analysis.unobservable.switched import (
     certified_switched,
     mode_sequence,
     switched_unobservable_subspace,
 )
-from glocal_verify.analysis.unobservable import (
+from glocal_verify.analysis.unobservable.subspace import (
     certified_unobservable,
     unobservable_subspace,
     unobservable_subspace_exact,

@@ -12,9 +12,9 @@ from hypothesis import given, settings
 from strategies import systems
 
 from glocal_verify import System, load_example, spec_from_graph, verify
-from glocal_verify.analysis.covert import covert_required_channels
-from glocal_verify.analysis.zda import zda_analysis, zda_direction
-from glocal_verify.analysis.zda_exact import zda_analysis_exact
+from glocal_verify.analysis.stealthy.covert import covert_required_channels
+from glocal_verify.analysis.stealthy.zda import zda_analysis, zda_direction
+from glocal_verify.analysis.stealthy.zda_exact import zda_analysis_exact
 from glocal_verify.errors import ModelError, NotApplicableError
 from glocal_verify.results import ConditionResult, Status
 
@@ -179,7 +179,7 @@ def test_the_modal_s_pencil_is_decided_against_the_norm_of_its_own_data_on_weakl
     """Rank decisions of the N-sized s-pencil are relative to its scale: a balancing that
     magnifies the rounding noise of localised eigenvectors inflates it (to ~1e8 here) and,
     at larger N, discarded whole output blocks (normal rank below N + m)."""
-    from glocal_verify.analysis.zda import ModalPencil
+    from glocal_verify.analysis.stealthy.zda import ModalPencil
     from glocal_verify.design.generators import random_clustered_spec
     from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE
 

@@ -16,7 +16,8 @@ from typing import Any
 import pytest
 
 from glocal_verify.cli import main
-from glocal_verify.design.sweep import load_sweep, plan_from_dict, run_member, run_sweep, wilson_interval
+from glocal_verify.design.sweep import SweepPlan, compute_sweep, load_sweep, plan_from_dict, run_member, sweep_rates, wilson_interval
+from glocal_verify.reporting.sweep_report import SweepResult, sweep_outputs, write_sweep
 
 SWEEP = """
 [ensemble]
@@ -105,6 +106,12 @@ def test_a_sweep_through_an_external_scheduler_gives_identical_rows(tmp_path: Pa
                     proc.kill()
 
 
+def _run_sweep(plan: SweepPlan, out: Path) -> SweepResult:
+    """The command's steps: check the outputs, compute the members (one worker), write the table and summary."""
+    run = compute_sweep(plan, sweep_outputs(plan, out)[1], workers=1)
+    return write_sweep(run, plan, out, rates=sweep_rates(run.rows, plan.grid), figures=False)
+
+
 def test_a_failing_member_is_a_row_and_an_interrupted_sweep_resumes_from_its_parts(tmp_path: Path) -> None:
     from glocal_verify.spec.examples import example_text
 
@@ -114,14 +121,14 @@ def test_a_failing_member_is_a_row_and_an_interrupted_sweep_resumes_from_its_par
     (specs / "b-bad.toml").write_text("[graph]\nnodes = 3\nedges = [[1, 9]]\n")
     plan = plan_from_dict({"ensemble": {"specs": str(specs)}, "compute": {"conditions": ["privacy.kernel"]}})
     out = tmp_path / "r.parquet"
-    first = run_sweep(plan, out, workers=1, figures=False)
+    first = _run_sweep(plan, out)
     assert first.computed == 2 and first.resumed == 0
     bad = [r for r in first.rows if r["status"] == "error"]
     assert len(bad) == 1 and bad[0]["error_class"] == "SpecError" and "b_bad" in bad[0]["member"]
     # an interruption after the first member: its part survives, the rest is recomputed
     parts = sorted((tmp_path / "r.parquet.parts").glob("*.json"))
     parts[1].unlink()
-    second = run_sweep(plan, out, workers=1, figures=False)
+    second = _run_sweep(plan, out)
     assert second.resumed == 1 and second.computed == 1
     assert _normal(list(second.rows)) == _normal(list(first.rows))
     import pyarrow.parquet as pq
@@ -158,7 +165,7 @@ def test_the_wilson_interval_contains_the_rate_and_narrows_with_more_trials() ->
 def test_an_audit_through_dask_gives_the_rows_of_the_in_process_audit() -> None:
     from glocal_verify import System
     from glocal_verify.design.audit import audit
-    from glocal_verify.design.distributed import dask_executor
+    from glocal_verify.extra.dask import dask_executor
     from glocal_verify.design.generators import random_clustered_spec
 
     system = System(random_clustered_spec(16, 2, seed=3, attack=False))
@@ -174,7 +181,7 @@ def test_tasks_sharing_one_object_send_it_once_not_once_per_task() -> None:
     import cloudpickle
     from distributed import Client, LocalCluster
 
-    from glocal_verify.design.distributed import run_on_dask
+    from glocal_verify.extra.dask import run_on_dask
 
     @dataclasses.dataclass(frozen=True)
     class SharedTask:  # local: pickled by value, so workers need not import the tests

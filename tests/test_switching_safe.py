@@ -1,4 +1,4 @@
-"""switching.safe (Remark III.3.1): touches are checked against dL_q xi computed here from
+"""switching.avoids-attack (Remark III.3.1): touches are checked against dL_q xi computed here from
 the ZDA direction, and both readings of eq. unsafe_set are reported. The attacker chooses the
 stealthy direction at lambda0: the switch is avoidable (holds) as soon as one stealthy direction
 with an input satisfies dL_q xi = 0, and such a direction is a zero direction of (A_q, B, C)."""
@@ -22,8 +22,9 @@ from glocal_verify import (
     spec_from_graph,
     verify,
 )
-from glocal_verify.analysis.avoidance import Avoidance, avoidance, avoidance_exact
-from glocal_verify.analysis.zda import zda_direction
+from glocal_verify.analysis.switching.avoidance import avoidance, avoidance_exact
+from glocal_verify.analysis.switching.touch import Avoidance
+from glocal_verify.analysis.stealthy.zda import zda_direction
 from glocal_verify.results import Status
 from glocal_verify.simulation.attacks import zda_attack_from_direction
 from glocal_verify.simulation.engine import simulate
@@ -42,7 +43,7 @@ def paper19() -> System:
 
 @pytest.mark.parametrize("exact", [False, True])
 def test_paper19_case_1_does_not_touch_the_zda_and_case_2_does(paper19: System, exact: bool) -> None:
-    rep = verify(paper19, ["switching.safe"], exact=exact)
+    rep = verify(paper19, ["switching.avoids-attack"], exact=exact)
     rs = {r.scope["mode"]: r for r in rep.conditions}
     d = zda_direction(paper19)
     assert d is not None
@@ -63,7 +64,7 @@ def test_paper19_case_1_does_not_touch_the_zda_and_case_2_does(paper19: System, 
 
 def test_the_finding_needs_an_attack_and_safe_modes() -> None:
     s = _system(nx.path_graph(range(1, 6)), monitor_velocities=[5], modes={"q": {"add": [(1, 3)]}})
-    rep = verify(s, ["switching.safe"])
+    rep = verify(s, ["switching.avoids-attack"])
     assert rep.conditions == () and not [f for f in rep.findings if f.id == "remark-iii31.unsafe-set"]
 
 
@@ -77,7 +78,7 @@ def test_a_covert_attack_is_touched_only_by_links_in_its_component(exact: bool) 
         attack={"kind": "covert", "actuators": [1], "sensors": [4]},
         modes={"near": {"add": [(2, 4)]}, "far": {"add": [(5, 7)]}},
     )
-    rs = {r.scope["mode"]: r for r in verify(s, ["switching.safe"], exact=exact).conditions}
+    rs = {r.scope["mode"]: r for r in verify(s, ["switching.avoids-attack"], exact=exact).conditions}
     assert rs["near"].status is Status.FAILS and rs["near"].witness["links_touching"] == [[2, 4, 1.0]]
     assert rs["far"].status is Status.HOLDS and rs["far"].witness["predicted_residual"] == "bounded-vanishing"
     # the coordinate subspace of the reachable agents: dL_far vanishes on it
@@ -95,7 +96,7 @@ def test_without_a_stealthy_zda_the_switch_holds_vacuously(exact: bool) -> None:
         attack={"kind": "zda", "actuators": [2]},
         modes={"q": {"remove": [(1, 2)]}},
     )
-    (r,) = verify(s, ["switching.safe"], exact=exact).conditions
+    (r,) = verify(s, ["switching.avoids-attack"], exact=exact).conditions
     assert r.status is Status.HOLDS and r.witness["touches_attack"] is False and "no stealthy ZDA" in r.witness["note"]
 
 
@@ -109,7 +110,7 @@ def test_a_decaying_zda_touched_by_the_switch_predicts_a_vanishing_residual(exac
         attack={"kind": "zda", "actuators": [2]},
         modes={"q": {"add": [(1, 3)]}},
     )
-    (r,) = verify(s, ["switching.safe"], exact=exact).conditions
+    (r,) = verify(s, ["switching.avoids-attack"], exact=exact).conditions
     assert r.witness["growth"] == "decaying"
     assert r.witness["touches_attack"] is True and r.status is Status.FAILS
     assert r.witness["predicted_residual"] == "bounded-vanishing"
@@ -195,7 +196,7 @@ def _check_witness(system: System, mode: str, w: dict[str, Any]) -> None:
 def test_a_switch_that_touches_the_chosen_direction_is_avoided_by_another_one(text: str, expected_xi: list[int], exact: bool) -> None:
     system = System(loads_spec(text))
     (mode,) = system.safe_modes
-    (r,) = verify(system, ["switching.safe"], exact=exact).conditions
+    (r,) = verify(system, ["switching.avoids-attack"], exact=exact).conditions
     w = r.witness
     assert r.status is Status.HOLDS, w
     assert w["touches_attack"] is False and w["avoidable"] is True and w["avoiding_dimension"] >= 1
@@ -230,7 +231,7 @@ def test_a_switch_that_touches_the_chosen_direction_is_avoided_by_another_one(te
 def test_a_complex_lambda0_is_decided_over_the_number_field(exact: bool) -> None:
     # SIGNED at lambda0 = 1/2 + i: the exact path works in Q[x]/((x - 1/2)^2 + 1)
     system = System(loads_spec(SIGNED.replace("lambda0 = 1.0", "lambda0 = [0.5, 1.0]")))
-    (r,) = verify(system, ["switching.safe"], exact=exact).conditions
+    (r,) = verify(system, ["switching.avoids-attack"], exact=exact).conditions
     assert r.status is Status.HOLDS, r.witness
     assert r.witness["chosen_direction"]["touched"] is True
     if exact:
@@ -253,7 +254,7 @@ TWIN_ZERO = {
 @pytest.mark.parametrize("exact", [False, True])
 def test_an_irrational_zero_with_two_directions_is_decided_over_its_field(exact: bool) -> None:
     system = System(spec_from_dict(TWIN_ZERO))
-    (r,) = verify(system, ["switching.safe"], exact=exact).conditions
+    (r,) = verify(system, ["switching.avoids-attack"], exact=exact).conditions
     assert r.status is Status.HOLDS, r.witness
     assert r.witness["chosen_direction"]["touched"] is True
     assert r.witness["avoiding_direction"]["moved"] == [5]
@@ -264,7 +265,7 @@ def test_an_irrational_zero_with_two_directions_is_decided_over_its_field(exact:
 
 @pytest.mark.parametrize("exact", [False, True])
 def test_paper19_witness_on_fails_and_holds(paper19: System, exact: bool) -> None:
-    rs = {r.scope["mode"]: r for r in verify(paper19, ["switching.safe"], exact=exact).conditions}
+    rs = {r.scope["mode"]: r for r in verify(paper19, ["switching.avoids-attack"], exact=exact).conditions}
     d = zda_direction(paper19)
     assert d is not None
     f = rs["case-2"]

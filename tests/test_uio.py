@@ -283,7 +283,7 @@ def test_the_observable_split_is_orthonormal_and_invariant_on_a_generated_cluste
 def test_local_uio_reuses_one_design_per_cluster_block_and_gets_the_same_results(monkeypatch: pytest.MonkeyPatch) -> None:
     import glocal_verify.observers.uio_verdict as local
     from glocal_verify import verify
-    from glocal_verify.analysis.local_cases import local_cases
+    from glocal_verify.analysis.local.cases import local_cases
     from glocal_verify.design.generators import random_clustered_spec
 
     s = System(random_clustered_spec(60, 3, seed=2))

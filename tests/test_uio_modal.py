@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 from strategies import clustered_systems
 
 from glocal_verify import NotApplicableError, System
-from glocal_verify.analysis.cluster_modal import interior_modes, interior_modes_of, state_rounding_bound
-from glocal_verify.analysis.local_cases import LocalCase, local_cases
+from glocal_verify.analysis.local.cluster_modal import interior_modes, interior_modes_of, state_rounding_bound
+from glocal_verify.analysis.local.cases import LocalCase, local_cases
 from glocal_verify.conditions import local
 from glocal_verify.observers import uio_verdict
 from glocal_verify.conditions.registry import CheckContext
@@ -141,7 +141,7 @@ def test_the_modal_basis_block_triangularises_the_decoupled_matrix() -> None:
 
 
 def test_one_interior_decomposition_serves_every_observer_and_every_unchanged_mode(monkeypatch: pytest.MonkeyPatch) -> None:
-    import glocal_verify.analysis.cluster_modal as cmod
+    import glocal_verify.analysis.local.cluster_modal as cmod
 
     s = System(random_clustered_spec(200, 3, seed=7))
     calls: list[int] = []

@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 import pytest
 
 from glocal_verify import System, load_example
-from glocal_verify.analysis.zda import ModalPencil
-from glocal_verify.analysis.zda_batch import batch_directions
+from glocal_verify.analysis.stealthy.zda import ModalPencil
+from glocal_verify.analysis.stealthy.zda_batch import batch_directions
 from glocal_verify.design.generators import random_clustered_spec
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision
 
@@ -69,8 +69,8 @@ def test_the_batch_answers_every_set_the_per_set_method_settles_on_its_first_can
 @settings(max_examples=200, deadline=None)
 @given(st.integers(1, 6), st.integers(1, 8), st.integers(1, 3), st.booleans(), st.booleans(), st.integers(0, 2**31 - 1))
 def test_the_batch_normalisation_of_each_row_equals_the_per_set_normalisation(rows: int, n: int, m: int, complex_: bool, near_real: bool, seed: int) -> None:
-    from glocal_verify.analysis.zda import normalize_direction
-    from glocal_verify.analysis.zda_batch import _normalized_rows
+    from glocal_verify.analysis.stealthy.zda import normalize_direction
+    from glocal_verify.analysis.stealthy.zda_batch import _normalized_rows
 
     rng = np.random.default_rng(seed)
     X = rng.integers(-2, 3, size=(rows, n)).astype(float)  # small integers: ties of the largest entry and zero rows occur

@@ -1,4 +1,4 @@
-"""Examples of the completeness proof of the ZDA zero set (analysis.zda_completeness, numerics.zero_count).
+"""Examples of the completeness proof of the ZDA zero set (analysis.stealthy.zda_completeness, numerics.zero_count).
 
 What the proof may claim is cross-checked against exact arithmetic in
 ``tests/properties/test_zda_completeness.py``; here: the cases it must refuse (a faster zero, a
@@ -16,10 +16,10 @@ import networkx as nx
 from strategies import assert_completeness_sound, faster_zero_system
 
 from glocal_verify import System, spec_from_graph
-from glocal_verify.analysis.twins import laplacian_entries
-from glocal_verify.analysis.zda_completeness import zero_set_completeness
-from glocal_verify.analysis.zda_exact import zda_analysis_exact
-from glocal_verify.analysis.zda_verdict import decide_zda
+from glocal_verify.analysis.laplacian.twins import laplacian_entries
+from glocal_verify.analysis.stealthy.zda_completeness import zero_set_completeness
+from glocal_verify.analysis.stealthy.zda_exact import zda_analysis_exact
+from glocal_verify.analysis.stealthy.zda_verdict import decide_zda
 from glocal_verify.design.generators import random_clustered_spec
 from glocal_verify.numerics.zero_count import zero_count_bound_mod_p
 from glocal_verify.results import Status

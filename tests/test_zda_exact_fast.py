@@ -11,7 +11,7 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from glocal_verify.analysis.zda_exact import (
+from glocal_verify.analysis.stealthy.zda_exact import (
     ExactZdaAnalysis,
     ExactZdaZero,
     _certified_analysis,

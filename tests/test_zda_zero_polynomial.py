@@ -11,7 +11,7 @@ import flint
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from glocal_verify.analysis.zda_exact import _proved_zero_polynomial, zda_analysis_exact
+from glocal_verify.analysis.stealthy.zda_exact import _proved_zero_polynomial, zda_analysis_exact
 from glocal_verify.model import System
 from glocal_verify.numerics.pencil_exact import analyze_pencil_exact
 from glocal_verify.numerics.zero_polynomial import left_invertible_zero_polynomial, poly_det

@@ -12,9 +12,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from glocal_verify import System, spec_from_dict, spec_from_graph
-from glocal_verify.analysis import zero_touch as zt_module
-from glocal_verify.analysis.zda import ZdaZero
-from glocal_verify.analysis.zero_touch import touch_at_zero, zero_touch
+from glocal_verify.analysis.switching import zero_touch as zt_module
+from glocal_verify.analysis.stealthy.zda import ZdaZero
+from glocal_verify.analysis.switching.zero_touch import touch_at_zero, zero_touch
 from glocal_verify.design.audit import audit
 from glocal_verify.numerics import exact as ex
 from glocal_verify.results import Status
@@ -199,7 +199,7 @@ def velocity_only(draw: st.DrawFn) -> tuple[System, list[int]]:
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(velocity_only())
 def test_a_persistent_zda_without_position_monitors_exists_iff_two_attacked_agents_share_a_component(case: tuple[System, list[int]]) -> None:
-    from glocal_verify.analysis.zda_certificate import exact_q_rows, zda_certificate
+    from glocal_verify.analysis.stealthy.zda_certificate import exact_q_rows, zda_certificate
 
     system, F = case
     N, m = system.n, len(F)
@@ -215,8 +215,8 @@ def test_a_persistent_zda_without_position_monitors_exists_iff_two_attacked_agen
 
 
 def test_a_set_inherits_a_proven_zda_of_a_single_member_padded_with_zero_inputs() -> None:
-    from glocal_verify.analysis.zda_screens import global_tables
-    from glocal_verify.analysis.zda_verdict import ZdaOptions, decide_zda, inherited_zda
+    from glocal_verify.analysis.stealthy.zda_screens import global_tables
+    from glocal_verify.analysis.stealthy.zda_verdict import ZdaOptions, decide_zda, inherited_zda
     from glocal_verify.spec import load_example
 
     system = System(load_example("paper19"))

@@ -2,26 +2,27 @@
 
 Each condition's decision is one function here returning a frozen
 :class:`~glocal_verify.results.Verdict` (``docs/architecture.md`` names them per condition id);
-the checkers of :mod:`glocal_verify.conditions` only wrap them.
+the checkers of :mod:`glocal_verify.conditions` only wrap them. The modules are grouped by the
+paper's condition families, each folder naming the objects it holds and exporting its rules:
 
-- :mod:`.observability` -- ``switched-observability`` (Lemma II.3) and the state-map witnesses;
-- :mod:`.privacy` -- the ``privacy.*`` rules (Lemma III.1, Problem 1 (i));
-- :mod:`.switching`, :mod:`.eigenstructure` -- Theorem III.3 (i)-(iii) and Lemma A.2;
-- :mod:`.local_structure`, :mod:`.local_pencil` -- Proposition III.2 (i)-(iii);
-- :mod:`.twins`, :mod:`.transfer` -- exact twin modes and the exact transfer function shared by rules;
+- :mod:`.laplacian` -- the Laplacian over Q shared by every topic: exact entries, twin modes,
+  the transfer function of the agents' input dynamics;
+- :mod:`.unobservable` -- unobservable subspaces: the modal structure, per mode, switched
+  (Lemma II.3, ``switched-observability``) and invariant (Lemma III.1, ``privacy.*``);
+- :mod:`.local` -- Proposition III.2 on each cluster (``local.k-connected``, ``local.rank``,
+  ``local.pencil``): local cases, cluster pencils, the interior modes the UIO designs share;
+- :mod:`.stealthy` -- Proposition II.4: zero-dynamics attacks (``stealthy.zda``) with their
+  certificates, and covert attacks (``stealthy.covert``);
+- :mod:`.switching` -- Theorem III.3 (i)-(iii), Lemma A.2 and Remark III.3.1 (``switching.*``):
+  the image-kernel and coverage rules, the eigenstructure of L_q, the touch tests;
+- :mod:`.sampled` -- the sampled implementation per Laplacian mode: stability, aliasing,
+  observability, the sampled pencil, pathological periods.
 
-- :mod:`.modal` -- eigen-groups of L_q with their unobservable parts (the modal structure);
-- :mod:`.unobservable` -- unobservable subspaces per mode (modal, exact);
-- :mod:`.switched` -- Lemma II.3's switched unobservable subspace;
-- :mod:`.zda`, :mod:`.zda_exact` -- zero-dynamics attacks: zeros, directions, growth;
-- :mod:`.covert` -- the channels a covert attacker must own;
-- :mod:`.avoidance` -- does a safe mode touch the stealthy kernel (Remark III.3.1)?
-- :mod:`.local_cases`, :mod:`.cluster_pencil` -- cluster subsystems and their reduced pencils;
-- :mod:`.cluster_modal` -- the interior eigen-decomposition of a cluster block shared by the UIO checks;
-- :mod:`.sampled`, :mod:`.sampled_zda`, :mod:`.sampled_scan` -- the sampled implementation per
-  Laplacian mode: stability, aliasing, observability, the sampled pencil, pathological periods.
+Inside the layer a topic imports only the topics listed before it (``tests/test_architecture.py``).
 
 Layer: imports :mod:`glocal_verify.numerics`, :mod:`glocal_verify.model` and the spec types.
 Derived results are kept on the system's explicit :class:`~glocal_verify.derived.Analysis`,
 each kind declared by the module that computes it (:class:`~glocal_verify.derived.Kind`).
 """
+
+__all__: list[str] = []

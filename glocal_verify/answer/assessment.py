@@ -26,7 +26,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from glocal_verify.answer.attack import ANSWER_IDS, DEPLOYMENT_IDS, AttackAnswer, answer_attack, format_labels, format_lambda, not_assessed
+from glocal_verify.answer.attack import ANSWER_IDS, DEPLOYMENT_IDS, AttackAnswer, answer_attack, not_assessed
+from glocal_verify.words import format_labels, format_lambda
 from glocal_verify.answer.evidence import combine, evidence_from_report
 from glocal_verify.conditions.catalogue import CATALOGUE
 from glocal_verify.results import ConditionResult, Polarity, Report, Status

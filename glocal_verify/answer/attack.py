@@ -53,6 +53,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from glocal_verify.results import FRAGILE_BELOW, Status, jsonable
+from glocal_verify.words import format_labels, format_lambda
 
 __all__ = [
     "ANSWER_IDS",
@@ -70,8 +71,6 @@ __all__ = [
     "ModeExposure",
     "Route",
     "answer_attack",
-    "format_labels",
-    "format_lambda",
     "not_assessed",
 ]
 
@@ -84,21 +83,6 @@ ANSWER_IDS = ("stealthy.zda", "stealthy.covert", "local.pencil", "local.uio", *T
 #: the conditions the deployment answer reads (only with a sampled ``[implementation]``)
 DEPLOYMENT_IDS = ("detection.thresholds", "detection.guarantee")
 _LABEL = MappingProxyType({"switching.image-kernel": "(i)", "switching.distinct-eigenvalues": "(ii)", "switching.eigenvector-differences": "(iii)"})
-
-
-def format_labels(xs: Sequence[Any]) -> str:
-    """``"3, 4"``."""
-    return ", ".join(str(x) for x in xs)
-
-
-def format_lambda(lam: complex | None) -> str:
-    """``"0.5"``, ``"-0.5 + 2.63i"``."""
-    if lam is None:
-        return "?"
-    c = complex(lam)
-    if c.imag == 0.0:
-        return f"{c.real:g}"
-    return f"{c.real:g} {'+' if c.imag > 0 else '-'} {abs(c.imag):g}i"
 
 
 def _agents(F: Sequence[Any]) -> str:

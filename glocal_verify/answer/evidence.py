@@ -13,7 +13,8 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from glocal_verify.answer.attack import THEOREM_IDS, AttackEvidence, DeploymentEvidence, DeploymentMode, LocalEvidence, ModeEvidence, format_lambda
+from glocal_verify.answer.attack import THEOREM_IDS, AttackEvidence, DeploymentEvidence, DeploymentMode, LocalEvidence, ModeEvidence
+from glocal_verify.words import format_lambda
 from glocal_verify.results import ConditionResult, Report, Status
 
 __all__ = ["combine", "deployment_of", "evidence_from_report", "lambda0_of"]

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 from glocal_verify.errors import ArgumentError
 from glocal_verify.results import ConditionResult, Polarity, Report, Status, id_polarity
-from glocal_verify.spec.arguments import ids_arg, instance_arg
+from glocal_verify.spec.arguments import id_list_arg, instance_arg
 
 __all__ = ["GateOutcome", "require", "require_holds"]
 
@@ -51,7 +51,7 @@ def _gate_arguments(who: str, report: object, ids: object) -> tuple[str, ...]:
     """The ids of a gate, checked: a :class:`Report` and at least one condition id (a gate that
     requires nothing would pass every report)."""
     instance_arg(who, report, Report, "a Report (from verify)")
-    items = ids_arg("ids", ids)
+    items = id_list_arg("ids", ids)
     if not items:
         raise ArgumentError(f"{who}: no condition id given; a gate that requires nothing passes every report")
     return tuple(items)

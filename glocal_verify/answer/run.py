@@ -14,8 +14,7 @@ from typing import Any
 
 from glocal_verify.answer.assessment import with_assessment
 from glocal_verify.conditions.detects import DETECTS_MAX_AGENTS
-from glocal_verify.conditions.registry import expect_system
-from glocal_verify.conditions.registry import verify as run_checkers
+from glocal_verify.conditions.registry import check_conditions, expect_system
 from glocal_verify.errors import ArgumentError
 from glocal_verify.model import System
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
@@ -86,7 +85,7 @@ def verify(
     expect_system(system)
     opts = mapping_arg("options", options)
     opts.setdefault("simulate", simulates(system, simulate))
-    report = run_checkers(
+    report = check_conditions(
         system, only, exact=exact, tol=tol, options=opts, progress=progress, escalate=escalate, exact_budget=exact_budget, fragile_below=fragile_below
     )
     return with_assessment(report)

@@ -25,7 +25,7 @@ import sys
 import warnings
 from typing import Sequence
 
-from glocal_verify import __version__
+from glocal_verify.version import __version__
 from glocal_verify.cli.common import PROG, Parser, UsageError
 from glocal_verify.cli.heartbeat import Heartbeat
 from glocal_verify.errors import GlocalVerifyError, shorten

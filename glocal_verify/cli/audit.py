@@ -75,7 +75,8 @@ _REPORT_NAMES = MappingProxyType({"json": "audit.json", "html": "audit.html", "m
 
 def cmd_audit(args: argparse.Namespace) -> int:
     from glocal_verify.design.audit import audit
-    from glocal_verify.design.audit_figure import audit_figure_bytes
+    from glocal_verify.reporting.audit_text import audit_json_chunks, audit_markdown
+    from glocal_verify.reporting.figures.audit import audit_figure_bytes
 
     if args.workers is not None and args.workers < 1:
         raise UsageError("--workers must be at least 1")
@@ -91,7 +92,7 @@ def cmd_audit(args: argparse.Namespace) -> int:
     if args.max_attackers > n_cand:
         raise UsageError(f"--max-attackers: {args.max_attackers} is larger than the number of candidate agents ({n_cand})")
     from glocal_verify.conditions.cost import C_START, SpecSizes, estimate_audit, format_seconds
-    from glocal_verify.design.distributed import DaskExecutor, workers_pay_off
+    from glocal_verify.extra.dask import DaskExecutor, workers_pay_off
 
     sizes = SpecSizes.from_spec(system.spec)
     serial = estimate_audit(sizes, args.max_attackers, n_cand, exact=args.exact)
@@ -112,13 +113,13 @@ def cmd_audit(args: argparse.Namespace) -> int:
         )
     text: str | Iterable[str]
     if args.format == "json":
-        text = itertools.chain(result.json_chunks(), ["\n"])  # streamed: 500,500 rows are ~1.4 GB of JSON
+        text = itertools.chain(audit_json_chunks(result), ["\n"])  # streamed: 500,500 rows are ~1.4 GB of JSON
     elif args.format == "html":
         from glocal_verify.reporting.audit_html import audit_to_html
 
         text = audit_to_html(result)
     else:
-        text = result.to_markdown()
+        text = audit_markdown(result)
     if out_dir is not None:
         from glocal_verify.reporting.output import OutputFolder
 

@@ -16,8 +16,10 @@ __all__ = ["register"]
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    """Write :func:`glocal_verify.reporting.export.export_observers` of SPEC to ``--out``."""
+    """Write the :func:`~glocal_verify.simulation.deployment.design_deployment` of SPEC to ``--out``
+    (:func:`glocal_verify.reporting.export.export_observers`)."""
     from glocal_verify.reporting.export import EXPORT_FORMATS, export_observers
+    from glocal_verify.simulation.deployment import design_deployment
 
     check_out_file(args)  # before any work: '' or a missing folder fails at once
     out = Path(args.out)
@@ -37,7 +39,8 @@ def cmd_export(args: argparse.Namespace) -> int:
         what = "observers and schedule" if args.no_thresholds else "observers, attack-free thresholds and schedule"
         write_line(f"{PROG}: designing the {what} of {system.name} ({system.n} agents) ...")
     with allow_large() if args.allow_large else contextlib.nullcontext():
-        wrote(export_observers(system, out, fmt, thresholds=not args.no_thresholds, progress=not args.quiet))
+        deployment = design_deployment(system, thresholds=not args.no_thresholds, progress=not args.quiet)
+    wrote(export_observers(deployment, out, fmt))
     return 0
 
 

@@ -29,8 +29,9 @@ def _check_sweep_cost(est: Any, args: argparse.Namespace) -> None:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from glocal_verify.design.sweep import load_sweep, run_sweep, sweep_outputs
+    from glocal_verify.design.sweep import compute_sweep, load_sweep, sweep_rates
     from glocal_verify.design.sweep_cost import estimate_sweep
+    from glocal_verify.reporting.sweep_report import sweep_outputs, write_sweep
 
     if args.workers < 1:
         raise UsageError("--workers must be at least 1")
@@ -65,13 +66,14 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         write_line(f"{PROG}: {line}")
 
     try:
-        res = run_sweep(
-            plan, args.out, scheduler=args.scheduler, workers=0 if est.in_process else args.workers, chunk_size=args.chunk,
-            figures=not args.no_figures, progress=progress, dashboard=args.dashboard, notice=notice,
+        run = compute_sweep(
+            plan, parts, scheduler=args.scheduler, workers=0 if est.in_process else args.workers, chunk_size=args.chunk,
+            progress=progress, dashboard=args.dashboard, notice=notice,
         )
     finally:
         if bar is not None:
             bar.close()
+    res = write_sweep(run, plan, args.out, rates=sweep_rates(run.rows, plan.grid), figures=not args.no_figures)
     failed = len({r["member"] for r in res.rows if r.get("status") == "error"})
     write_line(f"wrote {res.out} ({len(res.rows)} rows; {res.computed} members computed, {res.resumed} resumed, {failed} failed)")
     if res.summary is not None:

@@ -37,22 +37,22 @@ __all__ = ["register"]
 VERIFY_FORMATS = ("json", "markdown", "html")
 
 
-def verify(system: System, only: Any = None, **options: Any) -> Any:
-    """:func:`glocal_verify.answer.run.verify` (the library's ``verify``), imported when a command runs."""
-    from glocal_verify.answer.run import verify as run
+def make_report(system: System, only: Any = None, **options: Any) -> Any:
+    """The report of :func:`glocal_verify.answer.run.verify` (the library's ``verify``), imported when a command runs."""
+    from glocal_verify.answer.run import verify
 
-    return run(system, only, **options)
+    return verify(system, only, **options)
 
 
-def render(report: Any, fmt: str, system: System | None = None) -> str:
+def render_report(report: Any, fmt: str, system: System | None = None) -> str:
     """The report in ``fmt``; the HTML page also draws the network of ``system``."""
     if fmt == "html":
         from glocal_verify.reporting.html import to_html
 
         return to_html(report, system)
-    from glocal_verify.reporting.render import render as render_text
+    from glocal_verify.reporting.render import render
 
-    return render_text(report, fmt)
+    return render(report, fmt)
 
 
 def _graph_labels(text: str | None, nodes: Any, flag: str) -> list[Any]:
@@ -127,7 +127,7 @@ def cmd_verify(args: argparse.Namespace) -> int:
     from glocal_verify.simulation.limits import allow_large
 
     with allow_large() if args.allow_large else contextlib.nullcontext():
-        report = verify(
+        report = make_report(
             system,
             only,
             exact=args.exact,
@@ -139,7 +139,7 @@ def cmd_verify(args: argparse.Namespace) -> int:
             fragile_below=args.fragile_below,
         )
     try:
-        text = render(report, args.format, system)
+        text = render_report(report, args.format, system)
     except ValueError as exc:
         raise UsageError(f"--format {args.format}: {exc}") from None
     write_output(text, args.out, inputs=spec_inputs(args))

@@ -1,6 +1,7 @@
 """Conditions: the catalogue, the registry and one thin checker module per paper result.
 
-- :mod:`.registry` -- the condition catalogue, :class:`CheckContext` and :func:`verify`;
+- :mod:`.registry` -- the condition catalogue, :class:`CheckContext` and :func:`check_conditions`
+  (the checkers run, before the assessment that :func:`glocal_verify.verify` attaches);
 - :mod:`.privacy` -- Lemma III.1 and Problem 1 (i): every ``privacy.*`` id;
 - :mod:`.observability` -- Lemma II.3 (``switched-observability``);
 - :mod:`.stealthy` -- Proposition II.4 (``stealthy.zda``, ``stealthy.covert``);

@@ -20,7 +20,7 @@ from glocal_verify.conditions.registry import (
     CheckContext,
     checker,
     implemented_ids,
-    verify,
+    check_conditions,
 )
 from glocal_verify.derived import Kind
 from glocal_verify.errors import GlocalVerifyError, NotApplicableError
@@ -62,7 +62,7 @@ DETECTS_MAX_AGENTS = config.default("detects_max_agents")
 def rank_safe_modes(system: System, modes: Sequence[str] | None = None) -> tuple[ModeRanking, ...]:
     """Rank safe modes by Theorem III.3 (i)-(iii): eligible modes first, then by score.
 
-    Uses :func:`glocal_verify.conditions.registry.verify` with :data:`THEOREM_III3_IDS`. The score of a
+    Uses :func:`glocal_verify.conditions.registry.check_conditions` with :data:`THEOREM_III3_IDS`. The score of a
     mode is the smallest of its margins on a relative scale: sigma_min of (i) (in [0, 1]),
     the smallest eigenvalue gap of (ii) divided by ||L_q||_2, and the margin of (iii) as its
     checker reports it.
@@ -75,7 +75,7 @@ def rank_safe_modes(system: System, modes: Sequence[str] | None = None) -> tuple
     """
     wanted = list(system.safe_modes if modes is None else modes)
     ids = [c for c in THEOREM_III3_IDS if c in implemented_ids()]
-    report = verify(system, ids) if ids and wanted else None
+    report = check_conditions(system, ids) if ids and wanted else None
     out = []
     for q in wanted:
         st: dict[str, Status | None] = {}
@@ -128,7 +128,7 @@ def check_detects(system: System, ctx: CheckContext) -> list[ConditionResult]:
     .. math:: \\exists\\, t \\ge t_1,\\ k:\\ |r_{0,k}(t)| > \\theta_k(t).
 
     Opt-in: it runs only when the check context has ``options["simulate"]`` true (e.g.
-    ``verify(system, ["switching.detects"], options={"simulate": True})``; ``glocal-verify
+    ``check_conditions(system, ["switching.detects"], options={"simulate": True})``; ``glocal-verify
     simulate`` reports it), the spec has an attack and a ``[switching]`` table, the system has
     at most ``options["max_agents"]`` agents (default 150) and the numeric path is requested
     (a simulation has no exact counterpart: in exact mode the checker returns nothing).
@@ -230,14 +230,14 @@ def check_detects(system: System, ctx: CheckContext) -> list[ConditionResult]:
 def _attacker_choice(system: System, mode: str, atk: AttackModel | None, ctx: CheckContext) -> tuple[AttackModel | None, str]:
     """The ZDA an informed attacker would run against the switch to ``mode``.
 
-    When some stealthy direction at lambda0 is not touched by the switch (``switching.safe``
-    holds through :func:`glocal_verify.analysis.avoidance.avoidance`), the attacker uses it: a
+    When some stealthy direction at lambda0 is not touched by the switch (``switching.avoids-attack``
+    holds through :func:`glocal_verify.analysis.switching.avoidance.avoidance`), the attacker uses it: a
     detection verdict must hold against every stealthy direction, not only the one
     ``stealthy.zda`` happens to report.
     """
     if atk is None or atk.kind != "zda":
         return atk, "spec"
-    from glocal_verify.analysis.avoidance import avoidance
+    from glocal_verify.analysis.switching.avoidance import avoidance
 
     av = avoidance(system, mode, ctx.tol)
     if av is None or av.status is not Status.HOLDS or av.direction is None or av.direction_source == "stealthy.zda":
@@ -247,7 +247,7 @@ def _attacker_choice(system: System, mode: str, atk: AttackModel | None, ctx: Ch
     d = av.direction
     return (
         zda_attack_from_direction(system, d.lambda0, d.xi, d.u0, amplitude=a.amplitude, start=a.start),
-        "avoiding direction of switching.safe",
+        "avoiding direction of switching.avoids-attack",
     )
 
 

@@ -23,7 +23,7 @@ of (iii) loses rank at every lam, and the attack on that agent enters the UIO er
 T B e_k = 0, i.e. not at all. With the worst case this happens whenever the cluster has a
 boundary agent; the witnesses name the agent and a finding says so.
 
-Scale. (iii) is decided on the structure of the pencil (:mod:`glocal_verify.analysis.cluster_pencil`):
+Scale. (iii) is decided on the structure of the pencil (:mod:`glocal_verify.analysis.local.cluster_pencil`):
 zero forcing from the measured agents (a combinatorial proof), else the n-sized reduced pencil
 Q(s) = (s I + alpha L)[R, U], s = lam^2 + gamma lam, whose zeros are lifted to the 2n pencil
 and verified there by their backward error; the dense analysis of the 2n pencil is kept for
@@ -38,8 +38,8 @@ certificate come from one symmetric eigenproblem of the interior block L[P_i \\ 
 (:mod:`glocal_verify.observers.uio_modal_verdict`), shared by every observer of the cluster and
 every mode with the same block, instead of 2n-sized Schur forms, eigen-decompositions and SVDs.
 
-The rules live in :mod:`glocal_verify.analysis.local_structure` ((i), (ii)),
-:mod:`glocal_verify.analysis.local_pencil` ((iii)) and :mod:`glocal_verify.observers.uio_verdict`
+The rules live in :mod:`glocal_verify.analysis.local.structure` ((i), (ii)),
+:mod:`glocal_verify.analysis.local.pencil` ((iii)) and :mod:`glocal_verify.observers.uio_verdict`
 (the UIO, which designs the observer it certifies); the checkers below report them per case.
 """
 
@@ -48,9 +48,9 @@ from __future__ import annotations
 import dataclasses
 from typing import Sequence
 
-from glocal_verify.analysis.local_cases import local_cases
-from glocal_verify.analysis.local_pencil import pencil_verdict, pencil_verdict_exact
-from glocal_verify.analysis.local_structure import k_connected_verdict, rank_verdict
+from glocal_verify.analysis.local.cases import local_cases
+from glocal_verify.analysis.local.pencil import pencil_verdict, pencil_verdict_exact
+from glocal_verify.analysis.local.structure import k_connected_verdict, rank_verdict
 from glocal_verify.conditions.registry import (
     CheckContext,
     checker,
@@ -146,16 +146,16 @@ def check_pencil(system: System, ctx: CheckContext) -> list[ConditionResult]:
         \\end{bmatrix},\\qquad \\operatorname{rank} P(\\lambda) = 2 N_i + |\\bar F_i| +
         \\operatorname{rank} E^i \\quad \\forall \\lambda \\in \\mathbb C
 
-    i.e. full normal column rank and no finite zero. Numeric: :func:`~glocal_verify.analysis.local_pencil.pencil_verdict` (tolerance
+    i.e. full normal column rank and no finite zero. Numeric: :func:`~glocal_verify.analysis.local.pencil.pencil_verdict` (tolerance
     rule of :func:`glocal_verify.numerics.pencil.analyze_pencil`; every zero verified on the full
     pencil, by an SVD (dense method) or by the backward error of its lifted direction
-    (structured method)). Exact: :func:`~glocal_verify.analysis.local_pencil.pencil_verdict_exact` over Q. The method (option
+    (structured method)). Exact: :func:`~glocal_verify.analysis.local.pencil.pencil_verdict_exact` over Q. The method (option
     ``local_pencil_method``: ``auto``, ``structured`` or ``dense``; auto is dense for clusters
     of at most ``dense_max_agents`` (:mod:`glocal_verify.config`) agents) is recorded in the witness.
 
     Certification (numeric): a verdict of either method stands only when it is proved for the
     exact pencil (``certificate`` in the witness; see
-    :func:`~glocal_verify.analysis.local_cases.certify_pencil_verdict`): ``holds`` by zero forcing on the exact support
+    :func:`~glocal_verify.analysis.local.cases.certify_pencil_verdict`): ``holds`` by zero forcing on the exact support
     (and lam = 0 by a Weyl bound sigma_min(P(0)) > ||fl P(0) - P(0)||_2 + 8 max(m, n) eps
     ||P(0)||_F when only lam != 0 is forced), ``fails`` combinatorially (suspected boundary
     agent) or by the structural rank of the exact support (generically, or at lam in {0,

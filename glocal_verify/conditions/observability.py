@@ -2,19 +2,19 @@
 
 Holds when the switched pair (A_sigma, C) over the spec's mode sequence is observable,
 ``N_1^m = {0}``; the rule (per mode and on the schedule) is
-:func:`~glocal_verify.analysis.observability.observability_verdict` and
-:func:`~glocal_verify.analysis.observability.schedule_observability_verdict`. The witness is
+:func:`~glocal_verify.analysis.unobservable.observability.observability_verdict` and
+:func:`~glocal_verify.analysis.unobservable.observability.schedule_observability_verdict`. The witness is
 an orthonormal basis of the unobservable subspace (at most six vectors, in node labels). A
 finding rule reports when the switched subspace is not A_k-invariant
-(:func:`~glocal_verify.analysis.observability.switched_invariance`).
+(:func:`~glocal_verify.analysis.unobservable.observability.switched_invariance`).
 """
 
 from __future__ import annotations
 
 from typing import Sequence
 
-from glocal_verify.analysis.observability import observability_verdict, schedule_observability_verdict, switched_invariance
-from glocal_verify.analysis.switched import mode_sequence, sequence_text
+from glocal_verify.analysis.unobservable.observability import observability_verdict, schedule_observability_verdict, switched_invariance
+from glocal_verify.analysis.unobservable.switched import mode_sequence, sequence_text
 from glocal_verify.conditions.registry import CheckContext, checker, finding_rule, verdict_result
 from glocal_verify.model import System
 from glocal_verify.results import ConditionResult, Finding
@@ -31,22 +31,22 @@ def check_switched_observability(system: System, ctx: CheckContext) -> list[Cond
 
     .. math:: \\mathcal N_1^m = \\ker \\mathcal O = \\{0\\}
 
-    with the backward recursion of :func:`~glocal_verify.analysis.switched.switched_unobservable_subspace`. Scopes: every mode
+    with the backward recursion of :func:`~glocal_verify.analysis.unobservable.switched.switched_unobservable_subspace`. Scopes: every mode
     alone (``{"mode": q}``: observability of ``(A_q, C)``), and the spec's schedule (scope
-    ``{}``; the schedule is in the witness) when :func:`~glocal_verify.analysis.switched.mode_sequence` gives one.
+    ``{}``; the schedule is in the witness) when :func:`~glocal_verify.analysis.unobservable.switched.mode_sequence` gives one.
 
     Numeric (certified): proven bounds ``lo <= dim N <= up``. Per mode
-    (:func:`~glocal_verify.analysis.unobservable.certified_unobservable`): ``lo`` = the exact
+    (:func:`~glocal_verify.analysis.unobservable.subspace.certified_unobservable`): ``lo`` = the exact
     structural part ``W^x_0 x W_0`` (component indicators of the exact graph), ``up`` adds
     ``2 |g|`` for every eigenvalue cluster g of ``mu > 0`` on which injectivity of S_M is not
     proven by ``sigma_min(S_M U_g) sqrt(1 - s^2) - s - e > 0`` (Davis-Kahan sine s, rounding
-    e). Schedule (:func:`~glocal_verify.analysis.switched.certified_switched`): ``lo`` = the
+    e). Schedule (:func:`~glocal_verify.analysis.unobservable.switched.certified_switched`): ``lo`` = the
     exact subspace constant on the union components, ``up`` = min over the modes, exact when
     every mode is certified. Holds iff ``up = 0``, fails iff ``lo > 0``; otherwise undecided
     with the failed certificate in ``note`` and the largest sine in ``error_bound`` (a
     singular value that is merely small is never read as zero).
     Exact: per mode the rational kernel of the Krylov row closure; for the schedule the exact
-    dwell-time-independent bounds of :func:`~glocal_verify.analysis.switched.switched_unobservable_bounds_exact` (exact for two
+    dwell-time-independent bounds of :func:`~glocal_verify.analysis.unobservable.switched.switched_unobservable_bounds_exact` (exact for two
     modes). If they disagree (three or more modes), the result is the certified numeric one
     when it is decided, otherwise the numeric recursion's at ``rtol`` (not certified; the
     only uncertified verdict, flagged ``method = numeric`` with a note in the witness).

@@ -2,12 +2,12 @@
 
 Lemma III.1: span{[1; 0]} is an A_q-invariant unobservable subspace of the switched system
 provided [1; 0] lies in ker C and every G_q is connected and undirected. Each checker reports
-the rule of :mod:`glocal_verify.analysis.privacy` in every mode and on the spec's schedule.
+the rule of :mod:`glocal_verify.analysis.unobservable.privacy` in every mode and on the spec's schedule.
 """
 
 from __future__ import annotations
 
-from glocal_verify.analysis.privacy import (
+from glocal_verify.analysis.unobservable.privacy import (
     connected_verdict,
     consensus_unobservable_verdict,
     consensus_value_verdict,
@@ -17,7 +17,7 @@ from glocal_verify.analysis.privacy import (
     schedule_consensus_value_verdict,
     schedule_initial_state_verdict,
 )
-from glocal_verify.analysis.switched import mode_sequence
+from glocal_verify.analysis.unobservable.switched import mode_sequence
 from glocal_verify.conditions.registry import CheckContext, checker, verdict_result
 from glocal_verify.model import System
 from glocal_verify.results import ConditionResult
@@ -106,7 +106,7 @@ def check_privacy_consensus_value(system: System, ctx: CheckContext) -> list[Con
     Numeric (certified): per mode exact structure: ``f`` is orthogonal to ``W_mu x W_mu`` for
     ``mu > 0`` (``W_mu`` is orthogonal to ``1``) and to the velocity slot, so ``f`` is not
     orthogonal to ``N(A_q, C)`` iff ``W^x_0 != 0`` iff some component of G_q has no position
-    monitor (no rounding involved). Schedule: :func:`~glocal_verify.analysis.privacy.certified_consensus` (structure and the
+    monitor (no rounding involved). Schedule: :func:`~glocal_verify.analysis.unobservable.privacy.certified_consensus` (structure and the
     certified per-mode bounds; undecided when they do not settle it). The cosine
     ``c = ||P_N f|| / ||f||`` of the computed subspace is only the margin.
     Exact: per mode, ``f . b != 0`` for a rational basis vector b of N. Schedule with two

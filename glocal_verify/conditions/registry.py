@@ -2,7 +2,7 @@
 
 Each condition of ``docs/conditions.md`` has a public id, a paper reference and a one-line
 statement (:data:`CATALOGUE`). Checker functions register themselves with :func:`checker`;
-:func:`verify` runs the registered checkers on a :class:`~glocal_verify.model.System` and
+:func:`check_conditions` runs the registered checkers on a :class:`~glocal_verify.model.System` and
 collects a :class:`~glocal_verify.results.Report`.
 """
 
@@ -26,7 +26,7 @@ from glocal_verify.errors import ArgumentError, GlocalVerifyError, ModelError, U
 from glocal_verify.model import System
 from glocal_verify.numerics.deadline import DeadlineExceeded, call_with_deadline
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
-from glocal_verify.spec.arguments import callable_arg, choice_arg, ids_arg, mapping_arg, real_arg
+from glocal_verify.spec.arguments import callable_arg, choice_arg, id_list_arg, mapping_arg, real_arg
 from glocal_verify.results import (
     ALIASES,
     AttackScenario,
@@ -52,7 +52,7 @@ __all__ = [
     "implemented_ids",
     "resolve_ids",
     "system_info",
-    "verify",
+    "check_conditions",
 ]
 
 #: modules of this package that register checkers and finding rules (imported on first use)
@@ -356,7 +356,7 @@ def exact_estimate(system: System, cid: str) -> float | None:
     From the one exact-cost model, :func:`glocal_verify.conditions.exact_cost.exact_seconds`, for the
     checkers whose exact cost is one dense rational computation of known size:
     ``central.observer``, and ``stealthy.zda`` / ``switching.avoids-attack``, whose path is
-    learnt from the minor certificate (:func:`~glocal_verify.analysis.zda_exact.has_fast_exact_path`)
+    learnt from the minor certificate (:func:`~glocal_verify.analysis.stealthy.zda_exact.has_fast_exact_path`)
     while that certificate costs at most ``zda_certificate_max_seconds``
     (:mod:`glocal_verify.config`; N <~ 1700); beyond, the path is unknown and the estimate is
     the larger of the certificate's cost and the fast path's (a lower bound of either path:
@@ -377,7 +377,7 @@ def exact_estimate(system: System, cid: str) -> float | None:
     if certificate > config.get("zda_certificate_max_seconds"):
         # the path is unknown: the cheaper one (the fast path) bounds the cost from below
         return max(certificate, exact_seconds(cid, system.n, zda_path="fast"))
-    from glocal_verify.analysis.zda_exact import has_fast_exact_path
+    from glocal_verify.analysis.stealthy.zda_exact import has_fast_exact_path
 
     try:
         fast = has_fast_exact_path(system)
@@ -460,7 +460,7 @@ def expect_system(system: Any, who: str = "verify") -> System:
 def _verify_arguments(
     system: Any, only: Any, exact: Any, tol: Any, escalate: Any, exact_budget: Any, fragile_below: Any, options: Any = None, progress: Any = None
 ) -> tuple[System, list[str] | None, float | None, float | None]:
-    """The arguments of :func:`verify` checked against their documented domains
+    """The arguments of :func:`check_conditions` checked against their documented domains
     (:class:`~glocal_verify.errors.ArgumentError` naming the first one outside)."""
     expect_system(system)
     mapping_arg("options", options)
@@ -474,10 +474,10 @@ def _verify_arguments(
     if budget is not None and (budget == 0.0 or math.isinf(budget)):
         budget = None  # no limit
     fb = None if fragile_below is None else real_arg("fragile_below", fragile_below, 0.0, allow_inf=True)
-    return system, ids_arg("only", only), budget, fb
+    return system, id_list_arg("only", only), budget, fb
 
 
-def verify(
+def check_conditions(
     system: System,
     only: Iterable[str] | None = None,
     *,
@@ -489,7 +489,10 @@ def verify(
     exact_budget: float | None = 30.0,
     fragile_below: float | None = None,
 ) -> Report:
-    """Run the registered checkers on ``system``.
+    """Run the registered checkers on ``system``: the report without its assessment.
+
+    The public :func:`glocal_verify.verify` calls it, adds the simulation of
+    ``switching.detects`` by one option and attaches the assessment.
 
     Parameters
     ----------

@@ -42,7 +42,7 @@ ZDA: the attacker chooses the direction
     lambda0 is the spec's ``attack.lambda0`` when a stealthy ZDA exists there, else the
     exponent of ``stealthy.zda``'s witness direction (fastest-growing zero, or lambda0 = 1 when
     the system is not left-invertible and no zero is unstable) -- the same rule as
-    :func:`glocal_verify.analysis.zda.zda_analysis`. The verdict concerns that lambda0 only.
+    :func:`glocal_verify.analysis.stealthy.zda.zda_analysis`. The verdict concerns that lambda0 only.
 
 covert attack
     x~ stays in the attack-reachable subspace, inside span{e_j : j connected to F} for
@@ -57,7 +57,7 @@ holds, while Section IV says "only case 2 meets (unsafe_set) ... the global resi
 1 is bounded and vanishing ... while that of case 2 is unbounded" -- and case 2 is the switch
 that touches the attacked agents. Reading the remark, X_q ∩ Z = ∅ means "the switch does not
 touch the attack"; reading Section IV it means the opposite. The verdict of
-``switching.safe`` follows the remark: **holds := the switch does not touch the attack**
+``switching.avoids-attack`` follows the remark: **holds := the switch does not touch the attack**
 (an avoiding stealthy direction exists); both readings are spelled out in every witness, and
 a report-level finding states the contradiction.
 
@@ -105,16 +105,17 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from glocal_verify.analysis.avoidance import Avoidance, decide_avoidance
-from glocal_verify.analysis.covert import reachable_agents
-from glocal_verify.analysis.zda import (
+from glocal_verify.analysis.switching.avoidance import decide_avoidance
+from glocal_verify.analysis.switching.touch import Avoidance
+from glocal_verify.analysis.stealthy.covert import reachable_agents
+from glocal_verify.analysis.stealthy.zda import (
     GROWTH_DECAYING,
     GROWTH_PERSISTENT,
     GROWTH_UNBOUNDED,
     ZdaDirection,
     requested_lambda0,
 )
-from glocal_verify.analysis.zda_verdict import ZdaOptions, decide_zda
+from glocal_verify.analysis.stealthy.zda_verdict import ZdaOptions, decide_zda
 from glocal_verify.conditions.registry import (
     CheckContext,
     checker,
@@ -337,13 +338,13 @@ def check_safe(system: System, ctx: CheckContext) -> list[ConditionResult]:
 
     Certification (ZDA, numeric)
         A numeric verdict stands only when
-        :func:`~glocal_verify.analysis.avoidance.avoidance_certificate` proves it at the exact
+        :func:`~glocal_verify.analysis.switching.avoidance.avoidance_certificate` proves it at the exact
         lambda0 (the requested rational exponent): Weyl lower bounds of the stacked
         [Q; dL_q] and of its xi-part (SVD backward error 8 max(m, n) eps ||M||_F plus the
         rounding of the rational data) against structural upper bounds of the exact
         support, or the avoiding direction rationalised to an exact kernel vector; the
         vacuous ``holds`` needs a certified absence of ZDAs
-        (:func:`~glocal_verify.analysis.zda_certificate.zda_certificate`). The exponent of a computed
+        (:func:`~glocal_verify.analysis.stealthy.zda_certificate.zda_certificate`). The exponent of a computed
         (irrational) zero cannot be certified: ``undecided`` with ``error_bound`` and
         ``note``, escalated to exact arithmetic by ``verify``. The margin below stays a
         relative distance (robustness), not part of the decision.
@@ -392,7 +393,7 @@ def remark_contradiction(system: System, results: Sequence[ConditionResult]) -> 
         "that case 2 (the switch touching the attacked agents 3, 4) gives the unbounded residual while "
         "case 1 (not touching) gives the bounded, vanishing one. Under the remark's reading eq. unsafe_set "
         "means 'the switch does not touch the attack' and predicts a bounded residual; under Section IV's "
-        "it means the opposite. switching.safe follows the remark (holds = does not touch) and reports "
+        "it means the opposite. switching.avoids-attack follows the remark (holds = does not touch) and reports "
         "both readings; the algebra (dL_q x~ = 0 makes the discrepancy vanish) supports the remark's "
         "prediction and Section IV's simulation outcome, but not Section IV's wording."
     )

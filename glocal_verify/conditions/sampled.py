@@ -1,7 +1,7 @@
 """The ``sampled.*`` checkers: the paper's conditions re-decided for the sampled implementation.
 
 With ``[implementation]`` the detectors sample at period h and held signals are constant over a
-period; :mod:`glocal_verify.analysis.sampled` gives the exact discretisation mode by mode
+period; :mod:`glocal_verify.analysis.sampled.loop` gives the exact discretisation mode by mode
 (2 x 2 blocks per Laplacian eigenvalue). Each checker reads like its continuous counterpart:
 
 * ``sampled.stability`` -- the sampled loop converges to consensus (a sampled-data controller
@@ -24,8 +24,8 @@ from typing import Any
 import flint
 import numpy as np
 
-from glocal_verify.analysis.sampled import sampled_aliasing, sampled_observability, sampled_stability
-from glocal_verify.analysis.sampled_zda import sampled_zda
+from glocal_verify.analysis.sampled.loop import sampled_aliasing, sampled_observability, sampled_stability
+from glocal_verify.analysis.sampled.zda import sampled_zda
 from glocal_verify.conditions.registry import CheckContext, checker, result
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
@@ -56,7 +56,7 @@ def check_sampled_stability(system: System, ctx: CheckContext) -> list[Condition
     .. math:: |z| < 1 \\text{ for every eigenvalue z of } \\Phi_q \\text{ but one } z = 1 \\text{ per component}
 
     Numeric: the certified enclosures of the block eigenvalues
-    (:func:`~glocal_verify.analysis.sampled.sampled_stability`); exact: the sampled
+    (:func:`~glocal_verify.analysis.sampled.loop.sampled_stability`); exact: the sampled
     controller by Jury's test over Q (``gamma h < 2`` and ``L_q < 2 gamma / (alpha h)``, the
     latter by Descartes' rule on the characteristic polynomial), the continuous loop always.
 
@@ -83,7 +83,7 @@ def check_sampled_no_aliasing(system: System, ctx: CheckContext) -> list[Conditi
     :math:`\\Phi(\\mu_b)` share no eigenvalue, and no block is a multiple of I. Numeric: the
     certified enclosures separate every pair (else undecided); exact: the sampled controller
     aliases only at ``gamma h = 2``; a continuous loop sampled at a rational period never
-    aliases (Lindemann-Weierstrass, :mod:`glocal_verify.analysis.sampled`).
+    aliases (Lindemann-Weierstrass, :mod:`glocal_verify.analysis.sampled.loop`).
 
     Margin
         The smallest distance between sampled eigenvalues of distinct modes (or of an
@@ -109,7 +109,7 @@ def check_sampled_observability(system: System, ctx: CheckContext) -> list[Condi
     Holds when sampling aliases nothing (then ``A_q`` is a polynomial in ``Phi_q``); the
     sampled controller at ``gamma h = 2`` is decided by the exact dimensions over Q or by the
     exact eigenvectors ``[0; v]`` of -1 in ``ker C``
-    (:func:`~glocal_verify.analysis.sampled.sampled_observability`). Privacy is never weakened
+    (:func:`~glocal_verify.analysis.sampled.loop.sampled_observability`). Privacy is never weakened
     by sampling (the sampled unobservable subspace contains the continuous one); detection is.
 
     Margin
@@ -135,7 +135,7 @@ def check_sampled_zda(system: System, ctx: CheckContext) -> list[ConditionResult
         \\begin{bmatrix} \\tilde x_0 \\\\ u_0 \\end{bmatrix} = 0,\\quad u_0 \\ne 0
 
     Numeric: the dense pencil in delta form, certified at the tolerance
-    (:func:`~glocal_verify.analysis.sampled_zda.sampled_zda`); the sampled controller's zero
+    (:func:`~glocal_verify.analysis.sampled.zda.sampled_zda`); the sampled controller's zero
     at -1 (``F`` not inside ``M_v``) is exact and structural. Exact: the geometric analysis
     over Q (sampled controller); the continuous loop's pencil is transcendental, so its result
     stays numeric even under ``--exact`` (it says so).

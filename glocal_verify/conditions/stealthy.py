@@ -1,63 +1,18 @@
 """Stealthy attacks of Proposition II.4 (``propo:stealthy_attacks``): ZDA and covert attacks.
 
-Zero-dynamics attacks (Definition II.2, eq. ``zda_cond``)
-    A stealthy ZDA of (A_1, B, C, 0) is a zeroing direction ([x~_0; u_0], u_0 != 0) of the
-    Rosenbrock pencil at some lambda_0; u_0 = 0 directions are unobservable modes, not
-    attacks. With s = lambda^2 + gamma lambda the 2N-sized pencil reduces exactly to an
-    N-sized one: x~_0 = [xi; lambda xi] with
+The checkers wrap the rules of :mod:`glocal_verify.analysis.stealthy` and assemble the
+witnesses (the zero list, the attack direction):
 
-    .. math::
+``stealthy.zda`` (Definition II.2, eq. ``zda_cond``)
+    The rule is :func:`~glocal_verify.analysis.stealthy.zda_verdict.decide_zda`: a zeroing
+    direction ([x~_0; u_0], u_0 != 0) of the Rosenbrock pencil of (A_1, B_F, C, 0) at some
+    lambda_0, found on the N-sized pencil in s = lambda^2 + gamma lambda (the reduction and
+    the numeric, dense and exact paths are described in :mod:`glocal_verify.analysis.stealthy.zda`)
+    and certified for the exact system (:mod:`glocal_verify.analysis.stealthy.zda_certificate`).
 
-        (sI + \\alpha L)\\,\\xi = S_F^\\top u_0,\\qquad S_{M_x}\\xi = 0,\\qquad
-        \\lambda \\ne 0 \\Rightarrow S_{M_v}\\xi = 0,
-
-    so ``dim ker P(lambda) = dim ker Q_lambda(s)`` with the pencil in s
-
-    .. math::
-
-        Q(s) = \\begin{bmatrix} sI + \\alpha L & -S_F^\\top \\\\ S_M & 0 \\end{bmatrix}
-
-    (for lambda = 0 only the position rows S_{M_x} remain). Hence nrank P = N + nrank Q, P is
-    left-invertible iff Q is, and the nonzero finite zeros of P are the roots lambda of
-    lambda^2 + gamma lambda = s over the zeros s of Q; lambda = 0 is a zero iff
-    dim ker Q_0 exceeds the normal kernel dimension N + m - nrank Q.
-
-Structured numeric path (default)
-    In the modal coordinates of L = U diag(mu) U^T, Q(s) is the Rosenbrock pencil of the
-    N-state system (-alpha diag(mu), U_F^T, U_M, 0); :func:`glocal_verify.numerics.pencil.analyze_pencil`
-    gives its normal rank and zeros in s. Every resulting lambda is then verified on the full
-    2N pencil without forming it: the kernel of Q(s) is computed by eliminating the modes
-    far from -s (eta_k = (U_F^T u)_k / (s + alpha mu_k)) and taking the small kernel of the
-    remaining (near-pole modes, u) system; the direction is mapped back to
-    x~_0 = [xi; lambda xi] and its residual
-
-    .. math:: \\rho = \\frac{\\lVert P(\\lambda)[\\tilde x_0; u_0] \\rVert}
-              {\\lVert P(\\lambda) \\rVert_{lb}\\, \\lVert [\\tilde x_0; u_0] \\rVert}
-
-    is decided with the tolerance, where ||P(lambda)||_lb = max(||lambda I - A||_2, 1) is a
-    lower bound of the pencil norm computed blockwise from the modal 2 x 2 blocks (a lower
-    bound makes "zero" harder to reach: conservative for "a ZDA exists"). The input part is
-    an attack when ||u_0|| / ||[x~_0; u_0]|| is nonzero at the tolerance.
-    Cost: one symmetric eigendecomposition, one N-sized deflation and QZ, O(N^2) per zero.
-
-Dense path (``method="dense"``)
-    :func:`glocal_verify.numerics.pencil.analyze_pencil` on the 2N-sized (A_1, B, C): for small systems
-    and for the tests that compare the two.
-
-Exact path (:func:`zda_analysis_exact`)
-    The N-sized pencil in s over Q (:func:`glocal_verify.numerics.pencil_exact.analyze_pencil_exact`) gives
-    left-invertibility and the zero polynomial z(s); the lambda-zeros are the roots of
-    z(lambda^2 + gamma lambda) factored over Q, and for each irreducible factor g the kernel
-    of Q(lambda^2 + gamma lambda) is computed exactly in Q[lambda]/(g), which decides whether
-    an input direction exists and gives the direction. First, when the maximal minors of the
-    reduced pencil prove (modulo a prime, :mod:`glocal_verify.numerics.minors`) that no
-    kernel vector at any lambda != 0 has an input part, the same answer is assembled from the
-    exact twin modes and the one rational kernel at lambda = 0 (no V* iteration; the result
-    equals the general path's field by field).
-
-Covert attacks (eqs. ``ym_solution``-``covert_trajec_post``)
+``stealthy.covert`` (eqs. ``ym_solution``-``covert_trajec_post``)
     u_s = C x~ cancels u_a iff the attacker owns every monitored channel that u_a reaches;
-    see :func:`covert_required_channels`.
+    the rule is :func:`~glocal_verify.analysis.stealthy.covert.covert_required_channels`.
 """
 
 from __future__ import annotations
@@ -67,14 +22,14 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from glocal_verify.analysis.covert import (
+from glocal_verify.analysis.stealthy.covert import (
     channel_label as _channel_label,
     covert_required_channels,
     reachable_agents,
 )
-from glocal_verify.analysis.zda import ZdaZero, requested_lambda0
-from glocal_verify.analysis.zda_exact import ExactZdaZero, exact_witness
-from glocal_verify.analysis.zda_verdict import ZdaOptions, decide_zda
+from glocal_verify.analysis.stealthy.zda import ZdaZero, requested_lambda0
+from glocal_verify.analysis.stealthy.zda_exact import ExactZdaZero, exact_witness
+from glocal_verify.analysis.stealthy.zda_verdict import ZdaOptions, decide_zda
 from glocal_verify.conditions.registry import (
     CheckContext,
     checker,
@@ -159,12 +114,14 @@ def check_zda(system: System, ctx: CheckContext) -> list[ConditionResult]:
     zero at lambda0 = 0 with u0 != 0 -- a constant input that shifts positions without moving
     velocities -- is a persistent, not an unbounded, ZDA). ``fails`` = left-invertible and
     no zero has an input direction. Numeric: structured modal path (option
-    ``zda_method = "dense"`` for the dense pencil); tolerance rules in the module docstring.
-    Exact: :func:`zda_analysis_exact`. Option ``lambda0`` overrides the spec's exponent.
+    ``zda_method = "dense"`` for the dense pencil); tolerance rules in
+    :mod:`glocal_verify.analysis.stealthy.zda`. Exact:
+    :func:`~glocal_verify.analysis.stealthy.zda_exact.zda_analysis_exact`. Option ``lambda0``
+    overrides the spec's exponent.
 
     Certification (numeric)
         The tolerance of the deflation only *finds* candidates; a numeric ``holds``/``fails``
-        is reported only when :func:`~glocal_verify.analysis.zda_certificate.zda_certificate` proves it
+        is reported only when :func:`~glocal_verify.analysis.stealthy.zda_certificate.zda_certificate` proves it
         for the exact system: ``holds`` by the structural rank of the exact support (not
         left-invertible), by Weyl lower bounds (SVD backward error 8 max(m, n) eps ||M||_F
         plus the rounding of the rational data) against structural upper bounds at lambda0 =
@@ -176,7 +133,7 @@ def check_zda(system: System, ctx: CheckContext) -> list[ConditionResult]:
         ``certificate``; vectors are given at full double precision (only exact zeros
         left out), and in exact mode ``xi_exact``/``u0_exact`` (rationals) or
         ``field``/``xi_residues``/``u0_residues``/``lambda0_enclosure`` (algebraic lambda0;
-        :func:`~glocal_verify.analysis.zda_exact.exact_witness`).
+        :func:`~glocal_verify.analysis.stealthy.zda_exact.exact_witness`).
 
     Margin
         The largest growth rate Re lambda0 of an available stealthy ZDA: +inf when the system
@@ -189,7 +146,7 @@ def check_zda(system: System, ctx: CheckContext) -> list[ConditionResult]:
         (zeros with u0 = 0, not attacks) and ``direction`` (lambda0, u0, xi, moved, source).
         When the computed zero set chose lambda0 = 0 as its fastest-growing zero, ``zero_set``
         says whether that choice is proven (``complete`` and ``by``: the modular count of the
-        zeros of the pencil in s, :func:`~glocal_verify.analysis.zda_completeness.zero_set_completeness`)
+        zeros of the pencil in s, :func:`~glocal_verify.analysis.stealthy.zda_completeness.zero_set_completeness`)
         or why not (``note``); ``switching.avoids-attack`` is decided at a computed lambda0 = 0
         only when it is.
     """
@@ -266,7 +223,7 @@ def check_covert(system: System, ctx: CheckContext) -> list[ConditionResult]:
         \\text{channels of } F_s
 
     u_s = C x~ cancels u_a exactly when the attacker owns every monitored channel that u_a
-    reaches (:func:`covert_required_channels`; combinatorial for positive weights, so no
+    reaches (:func:`~glocal_verify.analysis.stealthy.covert.covert_required_channels`; combinatorial for positive weights, so no
     tolerance and the same verdict in numeric and exact mode). F_s = ``attack.sensors``
     (every monitored channel of a listed agent). Scope: global (normal mode). No attack in
     the spec: no result.

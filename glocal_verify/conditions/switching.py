@@ -2,15 +2,15 @@
 
 For a safe mode q with dL_q = L_q - L_1, the switching components D_c are the connected
 components (>= 2 nodes) of the graph whose edges are the nonzero off-diagonal entries of dL_q
-(Definition A.1). The rules live in :mod:`glocal_verify.analysis.switching` ((i), Lemma A.2)
-and :mod:`glocal_verify.analysis.eigenstructure` ((ii), (iii)); each checker reports one of
+(Definition A.1). The rules live in :mod:`glocal_verify.analysis.switching.image_kernel` ((i), Lemma A.2)
+and :mod:`glocal_verify.analysis.switching.eigenstructure` ((ii), (iii)); each checker reports one of
 them for every safe mode.
 """
 
 from __future__ import annotations
 
-from glocal_verify.analysis.eigenstructure import distinct_eigenvalues_verdict, eigenvector_differences_verdict
-from glocal_verify.analysis.switching import coverage_verdict, image_kernel_verdict
+from glocal_verify.analysis.switching.eigenstructure import distinct_eigenvalues_verdict, eigenvector_differences_verdict
+from glocal_verify.analysis.switching.image_kernel import coverage_verdict, image_kernel_verdict
 from glocal_verify.conditions.registry import CheckContext, checker, verdict_result
 from glocal_verify.model import System
 from glocal_verify.results import ConditionResult
@@ -32,7 +32,7 @@ def check_image_kernel(system: System, ctx: CheckContext) -> list[ConditionResul
               = \\operatorname{rank}(\\Delta L_q)
 
     (the paper writes "= emptyset"; an intersection of subspaces always holds 0). Decided per
-    switching component (see :func:`~glocal_verify.analysis.switching.image_kernel_component`). A necessary consequence: a
+    switching component (see :func:`~glocal_verify.analysis.switching.image_kernel.image_kernel_component`). A necessary consequence: a
     component whose block has rank r needs at least r monitored agents.
 
     Certainty
@@ -64,7 +64,7 @@ def check_distinct_eigenvalues(system: System, ctx: CheckContext) -> list[Condit
     (``error_bound = 2 rho``; escalation decides exactly), except where structure proves a
     repeated eigenvalue: a disconnected graph (from the exact edge set) has 0 with
     multiplicity = number of components (fails, with the component indicators as witness).
-    Before it is undecided, :func:`~glocal_verify.analysis.twins.distinct_eigenvalues_modular`
+    Before it is undecided, :func:`~glocal_verify.analysis.laplacian.twins.distinct_eigenvalues_modular`
     tries two exact certificates at the cost of a hash per agent and one characteristic
     polynomial modulo a prime: two twin modes with one eigenvalue (fails) or gcd(p, p') = 1
     modulo the prime (holds).
@@ -134,11 +134,11 @@ def check_eigenvector_differences(system: System, ctx: CheckContext) -> list[Con
     ``|u_l(i) - u_l(j)| > err_l``; a difference below its bound is undecided (never read as
     zero: only exact arithmetic proves an equality), with ``error_bound = err_l``.
     Exact: ``p`` = charpoly(L_q); repeated eigenvalue iff ``gcd(p, p') != 1`` (fails). Otherwise
-    with ``q_ij`` from :func:`~glocal_verify.analysis.eigenstructure.eigenvector_difference_polynomial`,
+    with ``q_ij`` from :func:`~glocal_verify.analysis.switching.eigenstructure.eigenvector_difference_polynomial`,
     ``q_ij(mu_l) = p'(mu_l) (u_l(i) - u_l(j))^2`` and ``p'(mu_l) != 0``, so (iii) fails for (i, j)
     iff ``gcd(p(mu) / mu, q_ij) != 1``.
 
-    Before the exact path, and when the numeric bound cannot decide, :func:`~glocal_verify.analysis.twins.eigenvector_differences_modular`
+    Before the exact path, and when the numeric bound cannot decide, :func:`~glocal_verify.analysis.laplacian.twins.eigenvector_differences_modular`
     decides exactly by an exact twin mode (fails) or by the two gcds modulo a prime (holds).
 
     Margin
@@ -149,7 +149,7 @@ def check_eigenvector_differences(system: System, ctx: CheckContext) -> list[Con
         the two entries; exact: also the common factor and ``eigenvalue_exact``, the
         eigenvalue as a rational or as an algebraic number (its minimal polynomial and a
         rational enclosure ``[lo, hi]`` on which it changes sign, isolated by arb ball
-        arithmetic: :func:`~glocal_verify.analysis.eigenstructure.algebraic_root_witness`). A repeated eigenvalue: the reason, the
+        arithmetic: :func:`~glocal_verify.analysis.switching.eigenstructure.algebraic_root_witness`). A repeated eigenvalue: the reason, the
         eigenvalue (or the repeated factor) and an eigenvector with equal entries on the pair.
         On success the closest (pair, l).
     """

@@ -14,7 +14,7 @@ Problem 2 with the checkers' own analyses, reusing one spectral decomposition pe
   unknown-input observer exists and verifies (``local.uio``).
 * **exposed_by_modes** -- the safe modes q for which Theorem III.3 (i)-(iii) hold and every
   stealthy direction at lambda0 is touched by the switch, dL_q xi != 0
-  (``switching.avoids-attack`` fails, :mod:`glocal_verify.analysis.avoidance`).
+  (``switching.avoids-attack`` fails, :mod:`glocal_verify.analysis.switching.avoidance`).
 * **verdict** -- ``detected`` when no stealthy ZDA exists, or every cluster F meets has a
   catching observer (any nonzero attack input has a nonzero part in some such cluster, whose
   pencil has full column rank for every lam), or some safe mode exposes it; ``undetected``
@@ -51,11 +51,11 @@ from typing import Any
 import numpy as np
 
 from glocal_verify import config
-from glocal_verify.analysis.avoidance import decide_avoidance
-from glocal_verify.analysis.zda_screens import disjoint_paths, global_tables
-from glocal_verify.analysis.zda_verdict import ZdaOptions, ZdaVerdict, decide_zda, prepare_witnesses, proven_single
+from glocal_verify.analysis.switching.avoidance import decide_avoidance
+from glocal_verify.analysis.stealthy.zda_screens import disjoint_paths, global_tables
+from glocal_verify.analysis.stealthy.zda_verdict import ZdaOptions, ZdaVerdict, decide_zda, prepare_witnesses, proven_single
 from glocal_verify.answer.attack import THEOREM_IDS, AttackAnswer, AttackEvidence, LocalEvidence, ModeEvidence, answer_attack
-from glocal_verify.conditions.registry import system_info, verify
+from glocal_verify.conditions.registry import system_info, check_conditions
 from glocal_verify.design.audit_local import local_part
 from glocal_verify.design.audit_records import AUDIT_SCHEMA_ID, AuditResult, AuditRow, SharedParts
 from glocal_verify.errors import ArgumentError, ModelError, NotApplicableError
@@ -143,7 +143,7 @@ def mode_theorem(system: System, tol: Tolerance = DEFAULT_TOLERANCE, *, exact: b
     """
     if not system.safe_modes:
         return {}
-    rep = verify(system, list(THEOREM_III3), exact=exact, tol=tol)
+    rep = check_conditions(system, list(THEOREM_III3), exact=exact, tol=tol)
     return {mode: {r.id: r.status for r in rep.conditions if r.scope.get("mode") == mode} for mode in system.safe_modes}
 
 
@@ -219,7 +219,7 @@ class _Shared:
         return _theorem_ok(self.theorem)
 
     def zda_options(self, growth: str | None = None) -> ZdaOptions:
-        """The options of :func:`~glocal_verify.analysis.zda_verdict.decide_zda` for this pass."""
+        """The options of :func:`~glocal_verify.analysis.stealthy.zda_verdict.decide_zda` for this pass."""
         return ZdaOptions(
             self.lambda0, self.tol, self.exact, growth or self.growth, self.screen and not self.exact, self.minors, _zda_fallback(self), completeness="count"
         )
@@ -437,7 +437,7 @@ class AuditChunk:
         (:class:`~glocal_verify.design.audit_records.SharedParts`, one table per audit).
 
         An executor calls it in the calling process as each chunk's rows arrive
-        (:class:`~glocal_verify.design.distributed.DaskExecutor`); the rows are equal to
+        (:class:`~glocal_verify.extra.dask.DaskExecutor`); the rows are equal to
         those returned, field by field.
         """
         return self.shared.row_parts.rows(rows)
@@ -462,7 +462,7 @@ class LocalSinglesChunk:
     are computed once, then seed the memo of every :class:`AuditChunk`. With
     ``growth="verdict"`` the phase also records whether the witness certificate's small
     effort proves each single (a set with a member it does not prove does not try it:
-    :func:`~glocal_verify.analysis.zda_verdict.proven_single`).
+    :func:`~glocal_verify.analysis.stealthy.zda_verdict.proven_single`).
     """
 
     shared: _Shared
@@ -637,7 +637,7 @@ def audit(
     executor : callable, optional
         Runs a list of zero-argument callables and returns their results in the same order:
         first the :class:`LocalSinglesChunk` tasks (the local verdicts of single agents, one per
-        cluster), then the :class:`AuditChunk` tasks (rows), e.g. :func:`glocal_verify.design.distributed.dask_executor` (Dask: an embedded
+        cluster), then the :class:`AuditChunk` tasks (rows), e.g. :func:`glocal_verify.extra.dask.dask_executor` (Dask: an embedded
         LocalCluster or an external scheduler); default: in this process, in order.
 
     Returns

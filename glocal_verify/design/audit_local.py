@@ -15,8 +15,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from glocal_verify.analysis.local_cases import LocalCase, minor_certificate, twin_failure
-from glocal_verify.analysis.local_pencil import pencil_verdict, pencil_verdict_exact
+from glocal_verify.analysis.local.cases import LocalCase, minor_certificate, twin_failure
+from glocal_verify.analysis.local.pencil import pencil_verdict, pencil_verdict_exact
 from glocal_verify.answer.attack import LocalEvidence
 from glocal_verify.observers.uio_verdict import uio_verdict
 from glocal_verify.results import Status

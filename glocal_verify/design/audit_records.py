@@ -1,4 +1,4 @@
-"""The records of an audit: one :class:`AuditRow` per attack set, the :class:`AuditResult` and its JSON and Markdown forms.
+"""The records of an audit: one :class:`AuditRow` per attack set, the :class:`AuditResult` and its JSON form.
 
 JSON shape ``glocal-verify/audit@1`` (schema ``reporting/schemas/audit.schema.json``):
 ``{"schema", "system", "n", "max_attackers", "candidates", "rows": [...], "summary": {...}}``.
@@ -7,15 +7,12 @@ JSON shape ``glocal-verify/audit@1`` (schema ``reporting/schemas/audit.schema.js
 from __future__ import annotations
 
 import dataclasses
-import json
-from collections.abc import Hashable, Iterator, Mapping, Sequence
+from collections.abc import Hashable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 from glocal_verify.answer.attack import AttackAnswer
-from glocal_verify.design.audit_json import IndentedJson, audit_jsonable
-from glocal_verify.numerics.collection import deferred_full_collections
-from glocal_verify.results import Status
+from glocal_verify.results import Status, audit_jsonable
 from glocal_verify.spec.types import Label
 
 __all__ = ["AUDIT_SCHEMA_ID", "VERDICTS", "AuditResult", "AuditRow", "SharedParts"]
@@ -75,11 +72,11 @@ class AuditRow:
 
     def to_json(self) -> dict[str, Any]:
         """The row in the ``glocal-verify/audit@1`` form."""
-        return audit_jsonable(self._json_form())  # type: ignore[no-any-return]
+        return audit_jsonable(self.json_form())  # type: ignore[no-any-return]
 
-    def _json_form(self) -> dict[str, Any]:
-        """The row's JSON fields before :func:`~glocal_verify.design.audit_json.audit_jsonable`
-        (what :class:`~glocal_verify.design.audit_json.IndentedJson` writes without building it)."""
+    def json_form(self) -> dict[str, Any]:
+        """The row's JSON fields before :func:`~glocal_verify.results.audit_jsonable`
+        (what :class:`~glocal_verify.reporting.audit_json.IndentedJson` writes without building it)."""
         routes = [] if self.answer is None else [{"name": r.name, "verdict": r.verdict} for r in self.answer.routes]
         return {
             "actuators": self.actuators,
@@ -254,54 +251,12 @@ class AuditResult:
         return (
             f"<div><p><b>{c['undetected']} undetected, {c['undecided']} undecided</b> of {len(self.rows)} attack sets of 1..{self.max_attackers} "
             f"({c['detected']} detected) &mdash; audit of <code>{escape(self.system)}</code></p>{table}"
-            + (f"<p>... and {more} more (AuditResult.to_markdown())</p>" if more > 0 else "") + "</div>"
+            + (f"<p>... and {more} more (glocal_verify.reporting.audit_text.audit_markdown)</p>" if more > 0 else "") + "</div>"
         )
 
     def to_json(self) -> dict[str, Any]:
         """``{"schema": "glocal-verify/audit@1", "system", "max_attackers", "candidates", "rows", "summary"}``."""
-        return {**self._json_head(), "rows": [r.to_json() for r in self.rows], "summary": audit_jsonable(self.summary())}
+        return {**self.json_head(), "rows": [r.to_json() for r in self.rows], "summary": audit_jsonable(self.summary())}
 
-    def _json_head(self) -> dict[str, Any]:
+    def json_head(self) -> dict[str, Any]:
         return {"schema": AUDIT_SCHEMA_ID, "system": self.system, "n": self.n, "max_attackers": self.max_attackers, "candidates": list(self.candidates)}
-
-    def json_chunks(self) -> Iterator[str]:
-        """``json.dumps(self.to_json(), indent=2)``, one row at a time.
-
-        The text is the same, but only one row's JSON form exists at any moment: an audit of
-        500,500 sets writes about 1.4 GB of JSON, which as one document would take several
-        times that in memory.
-        """
-        head = json.dumps(self._json_head(), indent=2)
-        yield head[: -len("\n}")] + ',\n  "rows": ['
-        writer = IndentedJson()
-        with deferred_full_collections():  # the rows are millions of live objects: no full collection rescans them meanwhile
-            for k, r in enumerate(self.rows):
-                yield ("\n    " if k == 0 else ",\n    ") + writer.text(r._json_form(), 2)  # noqa: SLF001 - the row's own form
-        yield ("\n  ]" if self.rows else "]") + ',\n  "summary": ' + json.dumps(audit_jsonable(self.summary()), indent=2).replace("\n", "\n  ") + "\n}"
-
-    def to_markdown(self) -> str:
-        """A table with one line per set, the undetected sets first."""
-        s = self.summary()
-        c = s["counts"]
-        lines = [
-            f"# Attack audit: {self.system}",
-            "",
-            (f"{s['sets']} sets of 1..{self.max_attackers} compromised actuators: {c['detected']} detected, "
-            f"{c['undetected']} undetected, {c['undecided']} undecided; {s['stealthy']} admit a stealthy ZDA."),
-            "",
-            "Safe modes meeting Theorem III.3 (i)-(iii): "
-            + (", ".join(m for m, ok in self.modes.items() if ok) or "none"),
-            "",
-            "| actuators | stealthy | growth | lambda0 | caught locally by | exposed by modes | verdict | why |",
-            "|---|---|---|---|---|---|---|---|",
-        ]
-        order = {"undetected": 0, "undecided": 1, "detected": 2}
-        for r in sorted(self.rows, key=lambda r: order[r.verdict]):
-            lam = "-" if r.lambda0 is None else f"{r.lambda0.real:.4g}{'' if r.lambda0.imag == 0 else f'{r.lambda0.imag:+.4g}i'}"
-            caught = ", ".join(f"{cl}@{o}" for cl, o in r.caught_locally_by) or "-"
-            st = "undecided" if r.stealthy is None else ("yes" if r.stealthy else "no")
-            why = r.chain.replace("|", "/")
-            lines.append(
-                f"| {', '.join(map(str, r.actuators))} | {st} | {r.growth} | {lam} | {caught} | {', '.join(r.exposed_by_modes) or '-'} | {r.verdict} | {why} |"
-            )
-        return "\n".join(lines) + "\n"

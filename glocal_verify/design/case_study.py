@@ -14,7 +14,7 @@ from types import MappingProxyType
 from typing import Any, Callable, Mapping, Sequence
 
 from glocal_verify.conditions.detects import THEOREM_III3_IDS, algorithm1, zda_touch
-from glocal_verify.conditions.registry import implemented_ids, verify
+from glocal_verify.conditions.registry import implemented_ids, check_conditions
 from glocal_verify.model import System
 from glocal_verify.results import jsonable
 from glocal_verify.simulation.algorithm1 import Algorithm1Result
@@ -206,7 +206,7 @@ def _verdicts(system: System, mode: str) -> dict[str, str]:
     out: dict[str, str] = {}
     if not ids:
         return out
-    rep = verify(system, ids)
+    rep = check_conditions(system, ids)
     for cid in ids:
         rs = [r for r in rep.results(cid) if r.scope.get("mode") in (None, mode)]
         if not rs:
@@ -360,7 +360,7 @@ def simulate_system(
     verdicts = None
     if detects:
         _say(phase, "switching.detects: one simulated switch per safe mode")
-        rep = verify(system, ["switching.detects"], options={"simulate": True})
+        rep = check_conditions(system, ["switching.detects"], options={"simulate": True})
         verdicts = [r.to_json() for r in rep.conditions]
     return SimulationRun(res, verdicts)
 

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from glocal_verify.conditions.registry import implemented_ids, verify
+from glocal_verify.conditions.registry import implemented_ids, check_conditions
 from glocal_verify.errors import SpecError, shorten
 from glocal_verify.model import System
 from glocal_verify.results import ALIASES, ConditionResult
@@ -138,7 +138,7 @@ def _matches(r: ConditionResult, e: dict[str, Any]) -> bool:
 def check_case(case: FindingCase, exact: bool = False) -> tuple[list[ConditionResult], list[str]]:
     """Verify a case; return its results and the list of unmet expectations (empty if all met)."""
     ids = [c for c in case.conditions if c in implemented_ids()]
-    results = list(verify(case.system, ids, exact=exact).conditions) if ids else []
+    results = list(check_conditions(case.system, ids, exact=exact).conditions) if ids else []
     problems = []
     for e in case.expect:
         if e["id"] not in implemented_ids():

@@ -35,7 +35,7 @@ from fractions import Fraction
 from typing import Any, Iterable, Mapping, Sequence
 
 from glocal_verify import config
-from glocal_verify.conditions.registry import verify
+from glocal_verify.conditions.registry import check_conditions
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.numerics import exact as ex
@@ -189,7 +189,7 @@ def design_monitors(
     verification: dict[str, str] = {}
     if verify_design:
         spec = dataclasses.replace(system.spec, monitor=MonitorSpec((), vel))
-        rep = verify(System(spec), list(CHECK_IDS), exact=system.n <= 60)
+        rep = check_conditions(System(spec), list(CHECK_IDS), exact=system.n <= 60)
         for r in rep.conditions:
             prev = verification.get(r.id, "holds")
             order = {"holds": 0, "undecided": 1, "fails": 2}

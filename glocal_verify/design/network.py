@@ -504,12 +504,12 @@ def _witness_xis(system: System, rows: Sequence[Any]) -> dict[tuple[Label, ...],
     """The position part xi of each row's witness ZDA (the proven direction at the row's lambda0).
 
     Rows keep xi out of their witness above 100 agents, so it is computed again: for all rows
-    of one lambda0 at once (:func:`glocal_verify.analysis.zda_batch.batch_directions`), the
+    of one lambda0 at once (:func:`glocal_verify.analysis.stealthy.zda_batch.batch_directions`), the
     per-set method for the sets the batch leaves open. Not a fresh zero set per set (an O(N^3)
     pencil analysis each, minutes for thousands of targets at N = 200).
     """
-    from glocal_verify.analysis.zda import ModalPencil
-    from glocal_verify.analysis.zda_batch import batch_directions
+    from glocal_verify.analysis.stealthy.zda import ModalPencil
+    from glocal_verify.analysis.stealthy.zda_batch import batch_directions
     from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision
 
     groups: dict[complex, list[tuple[Label, ...]]] = {}

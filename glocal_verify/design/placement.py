@@ -26,8 +26,8 @@ has full column rank for every complex s. Two tests on it:
   |R ∩ U| states, analysed by :func:`glocal_verify.numerics.pencil.analyze_pencil`.
 
 A necessary count: |M| >= |I| (Q(s) must be tall), i.e. |M \\ dP_i| >= |S|. Both tests, and
-the proofs that they decide (iii), live in :mod:`glocal_verify.analysis.cluster_pencil`, shared with the
-structured ``local.pencil`` checker (:func:`glocal_verify.analysis.local_pencil.pencil_verdict`).
+the proofs that they decide (iii), live in :mod:`glocal_verify.analysis.local.cluster_pencil`, shared with the
+structured ``local.pencil`` checker (:func:`glocal_verify.analysis.local.pencil.pencil_verdict`).
 
 **Search.** Greedy set cover: start from M = dP_i and add the agent whose measurement forces
 the most agents, until zero forcing completes (structural, no arithmetic: O(|P_i|) closures per
@@ -59,7 +59,7 @@ import numpy as np
 from tqdm import tqdm
 
 from glocal_verify import config
-from glocal_verify.analysis.cluster_pencil import (
+from glocal_verify.analysis.local.cluster_pencil import (
     intra_neighbours,
     reduced_pencil_holds,
     zero_forcing_closure,
@@ -288,7 +288,7 @@ def _closure_size_with(nbrs: list[list[int]], Z: set[int], inp: set[int], c: int
     Zero forcing is monotone and idempotent, so closure(M ∪ {c}) = closure(closure(M) ∪ {c});
     in a closed Z every agent outside ``inp`` has zero or at least two unknown neighbours, so
     only c and its known neighbours can force next (then the neighbours of what they force).
-    Same rule as :func:`~glocal_verify.analysis.cluster_pencil.zero_forcing_steps`.
+    Same rule as :func:`~glocal_verify.analysis.local.cluster_pencil.zero_forcing_steps`.
     """
     if c in Z:
         return len(Z)
@@ -370,9 +370,9 @@ def _center(cm: ClusterModel, nbrs: list[list[int]], M: Sequence[int]) -> tuple[
 
 
 def _verify(system: System, cm: ClusterModel, center: Label, measured: tuple[Label, ...], suspected: tuple[Label, ...], tol: Tolerance) -> dict[str, str]:
-    from glocal_verify.analysis.local_cases import LocalCase
-    from glocal_verify.analysis.local_pencil import pencil_verdict
-    from glocal_verify.analysis.local_structure import rank_verdict
+    from glocal_verify.analysis.local.cases import LocalCase
+    from glocal_verify.analysis.local.pencil import pencil_verdict
+    from glocal_verify.analysis.local.structure import rank_verdict
     from glocal_verify.observers.uio_verdict import uio_verdict
 
     obs = LocalObserver(cm.name, center, measured, measured, None)

@@ -35,7 +35,7 @@ Theorem III.3 for one link, from the rank-one structure (proof)
 
 Exposure (Remark III.3.1, ``switching.avoids-attack``)
     For an attack set F with exponent lambda0 (the audit's), the stealthy kernel Z at lambda0
-    is computed once (:func:`glocal_verify.analysis.avoidance.stealthy_bases`, the possible
+    is computed once (:func:`glocal_verify.analysis.switching.avoidance.stealthy_bases`, the possible
     kernel, orthonormalised in xi). A one-link mode gives dL xi = delta b (b^T xi), so the
     switch is avoidable iff some c with (b^T X) c = 0 has a nonzero input part B c. For
     dim Z = 1 this is b^T x = 0; in general one SVD of size dim Z.
@@ -90,10 +90,10 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 import numpy as np
 
 from glocal_verify import config
-from glocal_verify.analysis.avoidance import decide_avoidance, split_basis, stealthy_bases
-from glocal_verify.analysis.zda import ModalPencil
-from glocal_verify.analysis.zda_verdict import ZdaOptions, decide_zda
-from glocal_verify.conditions.registry import verify
+from glocal_verify.analysis.switching.avoidance import decide_avoidance, split_basis, stealthy_bases
+from glocal_verify.analysis.stealthy.zda import ModalPencil
+from glocal_verify.analysis.stealthy.zda_verdict import ZdaOptions, decide_zda
+from glocal_verify.conditions.registry import check_conditions
 from glocal_verify.design.multilink import (
     image_kernel_holds,
     link_forest,
@@ -102,7 +102,7 @@ from glocal_verify.design.multilink import (
 )
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
-from glocal_verify.numerics.spectrum import EPS
+from glocal_verify.numerics.rounding import EPS
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
 from glocal_verify.results import Status
 from glocal_verify.spec.types import AttackSpec, EdgeSpec, Label, ModeSpec, SystemSpec
@@ -492,8 +492,8 @@ class _Confirmations:
 
     Theorem III.3 (i)-(iii) are properties of the mode alone (no attack enters them): the
     checkers decide them once per mode. Whether the switch exposes each claimed attack is the
-    rule of ``switching.avoids-attack`` (:func:`~glocal_verify.analysis.zda_verdict.decide_zda`,
-    then :func:`~glocal_verify.analysis.avoidance.decide_avoidance`, as its checker calls
+    rule of ``switching.avoids-attack`` (:func:`~glocal_verify.analysis.stealthy.zda_verdict.decide_zda`,
+    then :func:`~glocal_verify.analysis.switching.avoidance.decide_avoidance`, as its checker calls
     them) at the set's own lambda0 from the audit, the exponent the design targeted: given,
     a rational lambda0 lets the numeric touch test be certified, where a computed one (the
     fastest zero found) could not be and went to an exact re-decision of up to 30 s per set.
@@ -517,7 +517,7 @@ class _Confirmations:
             return [], {}
         mode = ProposedMode(name, links[0], (), also=tuple(links[1:])).mode_spec()
         base = with_modes(self.system.spec, [mode], keep=False)
-        th = verify(System(with_attack(base, attacks[0])), list(THEOREM_IDS), exact=self.exact).conditions
+        th = check_conditions(System(with_attack(base, attacks[0])), list(THEOREM_IDS), exact=self.exact).conditions
         statuses = {r.id: r.status.value for r in th}
         if not all(r.status is Status.HOLDS for r in th):
             return [], statuses

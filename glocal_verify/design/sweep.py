@@ -15,7 +15,7 @@ A sweep file (TOML) declares an *ensemble* and what to *compute* for each member
     escalate = "auto"                       # re-decide numeric undecided results exactly
 
 Every member (one point of the parameter grid and one seed, or one spec file) becomes one
-task; a task builds the member's system, runs :func:`~glocal_verify.conditions.registry.verify`
+task; a task builds the member's system, runs :func:`~glocal_verify.conditions.registry.check_conditions`
 and returns one row per condition result (member parameters, seed, condition id, scope,
 status, margin, method, favourable, fragile) -- or, when the member fails, one row with the
 error class and message: a failing member never aborts the sweep.
@@ -24,16 +24,14 @@ Execution is ``dask.distributed``: an embedded ``LocalCluster`` on this machine 
 (``workers`` processes, one thread each), or an existing cluster given by its scheduler
 address (``tcp://host:8786``) unchanged. Each finished member is written at once, atomically,
 to a parts folder beside the output (``<out>.parts/<member>.json``); a sweep started again
-with the same output skips the members already there (resume), and the final file (Parquet
-through pyarrow, or CSV) is assembled from the parts. A Markdown summary with the rate of
-``holds`` per condition against each grid parameter (Wilson 95% intervals) and a plot
-accompanies it.
+with the same output skips the members already there (resume). :func:`compute_sweep` returns
+the rows, :func:`sweep_rates` the rate of ``holds`` per condition against each grid parameter
+(Wilson 95% intervals); the results file (Parquet through pyarrow, or CSV), the Markdown
+summary and its plots are written from them by :mod:`glocal_verify.reporting.sweep_report`.
 """
 
 from __future__ import annotations
 
-import csv
-import io
 import itertools
 import json
 import math
@@ -41,28 +39,26 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 from glocal_verify import config
 from glocal_verify.errors import GlocalVerifyError, SpecError
-from glocal_verify.runtime.files import OutputFolder, check_output_dir, check_output_file, make_folders, remove_empty_folders, write_bytes_atomic
-from glocal_verify.runtime.lines import write_line
+from glocal_verify.runtime.files import make_folders, remove_empty_folders, write_bytes_atomic
 from glocal_verify.spec.prepare import prepare, read_toml
-
-if TYPE_CHECKING:
-    from matplotlib.figure import Figure
+from glocal_verify.words import slug
 
 __all__ = [
+    "AxisRates",
     "Member",
+    "RateCell",
     "SweepPlan",
-    "SweepResult",
+    "SweepRates",
+    "SweepRun",
+    "compute_sweep",
     "load_sweep",
     "plan_from_dict",
     "run_member",
-    "rates_figure",
-    "run_sweep",
-    "sweep_outputs",
-    "summarize",
+    "sweep_rates",
     "wilson_interval",
     "GENERATORS",
     "COLUMNS",
@@ -245,7 +241,7 @@ def plan_from_dict(data: Mapping[str, Any], source: str | None = None, base: Pat
             raise _fail("ensemble.specs", f"no *.toml spec in {folder!r}", source)
         if len(files) > (limit := config.get("sweep_max_members")):
             raise _fail("ensemble.specs", f"{len(files)} specs exceed the limit of {limit} members", source)
-        members = tuple(Member(key=f"spec-{i:06d}-{_slug(p.stem)}", params={}, seed=None, spec_path=str(p)) for i, p in enumerate(files))
+        members = tuple(Member(key=f"spec-{i:06d}-{slug(p.stem)}", params={}, seed=None, spec_path=str(p)) for i, p in enumerate(files))
         return SweepPlan(members, tuple(conditions) if conditions else None, exact, escalate, {}, source)
 
     gen = ens.get("generator")
@@ -285,7 +281,7 @@ def plan_from_dict(data: Mapping[str, Any], source: str | None = None, base: Pat
     for combo in itertools.product(*(grid[a] for a in axes)):
         params = dict(fixed)
         params.update(dict(zip(axes, combo)))
-        tag = "-".join(f"{a}{_slug(str(v))}" for a, v in zip(axes, combo))
+        tag = "-".join(f"{a}{slug(str(v))}" for a, v in zip(axes, combo))
         stem = f"{gen}-{tag}-seed" if tag else f"{gen}-seed"
         generated.extend(Member(key=f"{stem}{s}", params=params, seed=s, generator=gen) for s in seeds)
     return SweepPlan(tuple(generated), tuple(conditions) if conditions else None, exact, escalate, grid, source)
@@ -343,11 +339,6 @@ def _seeds(spec: Any, source: str | None) -> list[int]:
     raise _fail("ensemble.seeds", "must be a list of integers or {start, count}", source)
 
 
-def _slug(text: str) -> str:
-    out = "".join(ch if ch.isalnum() or ch in "._" else "_" for ch in text)[:40]
-    return out or "x"
-
-
 def load_sweep(path: str | Path) -> SweepPlan:
     """Read and validate a sweep file, with the spec loader's guarantees (size, nesting, one
     :class:`~glocal_verify.errors.SpecError` naming the key path).
@@ -391,7 +382,7 @@ def run_member(member: Member, conditions: Sequence[str] | None, exact: bool = F
     list of dict
         One row per condition result, or one row carrying ``error_class`` and ``error``.
     """
-    from glocal_verify.conditions.registry import verify
+    from glocal_verify.conditions.registry import check_conditions
     from glocal_verify.results import jsonable
 
     t0 = time.perf_counter()
@@ -399,7 +390,7 @@ def run_member(member: Member, conditions: Sequence[str] | None, exact: bool = F
     base.update({f"param.{k}": v for k, v in member.params.items()})
     try:
         system = _member_system(member)
-        report = verify(system, list(conditions) if conditions else None, exact=exact, escalate=escalate)
+        report = check_conditions(system, list(conditions) if conditions else None, exact=exact, escalate=escalate)
     except Exception as exc:  # a member's failure is a result of the sweep, not its end
         return [{**base, "condition": None, "status": "error", "error_class": type(exc).__name__, "error": str(exc)[:500], "seconds": time.perf_counter() - t0}]
     dt = time.perf_counter() - t0
@@ -429,70 +420,20 @@ def _run_chunk(members: Sequence[Member], conditions: Sequence[str] | None, exac
 
 
 @dataclass(frozen=True, slots=True)
-class SweepResult:
-    """What a sweep wrote.
+class SweepRun:
+    """What a sweep computed: its rows and how many members ran now or came from earlier parts.
 
     Attributes
     ----------
     rows : tuple of dict
-        Every result row, in member order.
-    out : Path
-        The results file.
-    summary : Path or None
-        The Markdown summary.
+        Every result row (:func:`run_member`), in member order.
     computed, resumed : int
         Members computed in this run and members taken from earlier parts.
     """
 
     rows: tuple[dict[str, Any], ...]
-    out: Path
-    summary: Path | None
     computed: int
     resumed: int
-
-    def __repr__(self) -> str:
-        members = len({r.get("member") for r in self.rows})
-        return f"<SweepResult {members} members, {len(self.rows)} rows ({self.computed} computed, {self.resumed} resumed) in {self.out.name}>"
-
-    def _repr_html_(self) -> str:
-        from html import escape
-
-        pol: dict[str, int] = {}
-        for r in self.rows:
-            key = str(r.get("polarity") or ("favourable" if r.get("favourable") else "unfavourable" if r.get("favourable") is False else "undecided"))
-            pol[key] = pol.get(key, 0) + 1
-        counts = ", ".join(f"{n} {k}" for k, n in sorted(pol.items()))
-        return f"<div><p><b>{escape(counts)}</b> &mdash; sweep results in <code>{escape(str(self.out))}</code></p></div>"
-
-
-#: how the sweep's files are written: ``put(path, data)`` (default
-#: :func:`~glocal_verify.runtime.files.write_bytes_atomic`; a run stages its outputs in an
-#: :class:`~glocal_verify.runtime.files.OutputFolder`)
-Put = Callable[[Path, bytes], Any]
-
-
-def _columns(rows: Iterable[Mapping[str, Any]]) -> list[str]:
-    params = sorted({k for r in rows for k in r if k.startswith("param.")})
-    return [COLUMNS[0]] + params + list(COLUMNS[1:])
-
-
-def _write_table(rows: Sequence[Mapping[str, Any]], out: Path, put: Put = write_bytes_atomic) -> None:
-    cols = _columns(rows)
-    if out.suffix.lower() == ".csv":
-        buf = io.StringIO()
-        w = csv.DictWriter(buf, fieldnames=cols, extrasaction="ignore", lineterminator="\n")
-        w.writeheader()
-        for r in rows:
-            w.writerow({c: ("" if r.get(c) is None else r.get(c)) for c in cols})
-        put(out, buf.getvalue().encode("utf-8"))
-        return
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
-    table = pa.Table.from_pylist([{c: r.get(c) for c in cols} for r in rows])
-    sink = pa.BufferOutputStream()
-    pq.write_table(table, sink)
-    put(out, sink.getvalue().to_pybytes())
 
 
 def wilson_interval(successes: int, trials: int, z: float = 1.959963984540054) -> tuple[float, float]:
@@ -513,9 +454,63 @@ def wilson_interval(successes: int, trials: int, z: float = 1.959963984540054) -
     return (max(0.0, c - h), min(1.0, c + h))
 
 
-def summarize(rows: Sequence[Mapping[str, Any]], grid: Mapping[str, Sequence[Any]], out_md: Path, *, figures: bool = True, put: Put = write_bytes_atomic) -> Path:
-    """Write the Markdown summary: the rate of ``holds`` per condition (all scopes of a member
-    must hold) against each grid parameter, with Wilson 95% intervals, and a plot per parameter.
+@dataclass(frozen=True, slots=True)
+class RateCell:
+    """The ``holds`` rate of one condition at one value of a grid parameter.
+
+    Attributes
+    ----------
+    holds, members, undecided : int
+        Members where every scope of the condition holds, members with a result, members
+        where it is undecided (and fails nowhere).
+    rate, low, high : float
+        ``holds / members`` (NaN without members) and its Wilson 95% interval.
+    """
+
+    holds: int
+    members: int
+    undecided: int
+    rate: float
+    low: float
+    high: float
+
+
+@dataclass(frozen=True, slots=True)
+class AxisRates:
+    """The rates of every condition against one grid parameter (``"(all)"`` without a grid)."""
+
+    axis: str
+    values: tuple[Any, ...]
+    rates: Mapping[str, tuple[RateCell, ...]]
+
+
+@dataclass(frozen=True, slots=True)
+class SweepRates:
+    """The population answer of a sweep: per grid parameter, the rate of ``holds`` of each condition.
+
+    A member's condition holds iff every scope of it holds; it is undecided if any scope is
+    undecided and none fails. Failed members (rows with status ``error``) are listed apart.
+
+    Attributes
+    ----------
+    members : int
+    result_rows : int
+        Rows that are condition results (not failures).
+    errors : tuple of dict
+        The rows of failed members.
+    conditions : tuple of str
+    axes : tuple of AxisRates
+    """
+
+    members: int
+    result_rows: int
+    errors: tuple[Mapping[str, Any], ...]
+    conditions: tuple[str, ...]
+    axes: tuple[AxisRates, ...]
+
+
+def sweep_rates(rows: Sequence[Mapping[str, Any]], grid: Mapping[str, Sequence[Any]]) -> SweepRates:
+    """The rate of ``holds`` per condition against each grid parameter, with Wilson 95% intervals.
 
     Parameters
     ----------
@@ -523,16 +518,9 @@ def summarize(rows: Sequence[Mapping[str, Any]], grid: Mapping[str, Sequence[Any
         Result rows of :func:`run_member`.
     grid : mapping
         Grid axes of the sweep.
-    out_md : Path
-        Markdown file to write (plots beside it, ``<stem>-<param>.svg``).
-    figures : bool
-        Draw the plots (matplotlib, Agg).
-    put : callable
-        Writes a file: ``put(path, data)`` (default atomically, each on its own).
     """
     members = sorted({r["member"] for r in rows})
-    errors = [r for r in rows if r.get("status") == "error"]
-    lines = ["# Sweep summary", "", f"- members: {len(members)}", f"- result rows: {len(rows) - len(errors)}", f"- failed members: {len(errors)}", ""]
+    errors = tuple(r for r in rows if r.get("status") == "error")
     # per member and condition: holds iff every scope holds; undecided if any undecided and none fails
     verdict: dict[tuple[str, str], str] = {}
     for r in rows:
@@ -549,12 +537,10 @@ def summarize(rows: Sequence[Mapping[str, Any]], grid: Mapping[str, Sequence[Any
             verdict[k] = "holds"
     params_of = {r["member"]: {k[len("param.") :]: v for k, v in r.items() if k.startswith("param.")} for r in rows}
     conds = sorted({c for _, c in verdict})
-    axes = list(grid) or ["(all)"]
-    plots = []
-    for axis in axes:
-        values = list(grid.get(axis, ["all"]))
-        lines += [f"## Rate of `holds` against `{axis}`", "", "| condition | " + " | ".join(f"{axis} = {v}" for v in values) + " |", "|---|" + "---|" * len(values)]
-        series: dict[str, list[tuple[float, float, float]]] = {}
+    axes = []
+    for axis in list(grid) or ["(all)"]:
+        values = tuple(grid.get(axis, ["all"]))
+        rates: dict[str, tuple[RateCell, ...]] = {}
         for c in conds:
             cells = []
             for v in values:
@@ -562,148 +548,36 @@ def summarize(rows: Sequence[Mapping[str, Any]], grid: Mapping[str, Sequence[Any
                 vs = [verdict[(m, c)] for m in ms if (m, c) in verdict]
                 n, h = len(vs), sum(1 for x in vs if x == "holds")
                 lo, hi = wilson_interval(h, n)
-                series.setdefault(c, []).append((h / n if n else float("nan"), lo, hi))
-                und = sum(1 for x in vs if x == "undecided")
-                cells.append(f"{h}/{n} ({lo:.2f}-{hi:.2f})" + (f", {und} undecided" if und else ""))
-            lines.append(f"| `{c}` | " + " | ".join(cells) + " |")
-        lines.append("")
-        if figures and axis != "(all)" and conds:
-            svg = out_md.with_name(_plot_name(out_md, axis))
-            _plot_rates(axis, values, series, svg, put)
-            plots.append(svg)
-            lines += [f"![rates against {axis}]({svg.name})", ""]
-    if errors:
-        lines += ["## Failed members", "", "| member | error |", "|---|---|"]
-        for r in errors[:50]:
-            lines.append(f"| {r['member']} | {r['error_class']}: {str(r['error'])[:120]} |")
-        lines.append("")
-    put(out_md, "\n".join(lines).encode("utf-8"))
-    return out_md
+                cells.append(RateCell(h, n, sum(1 for x in vs if x == "undecided"), h / n if n else float("nan"), lo, hi))
+            rates[c] = tuple(cells)
+        axes.append(AxisRates(axis, values, MappingProxyType(rates)))
+    return SweepRates(len(members), len(rows) - len(errors), errors, tuple(conds), tuple(axes))
 
 
-def rates_figure(axis: str, values: Sequence[Any], series: Mapping[str, Sequence[tuple[float, float, float]]]) -> Figure:
-    """The rate of ``holds`` of each condition against one swept parameter, with Wilson intervals.
-
-    Parameters
-    ----------
-    axis : str
-        The parameter's name (the x label).
-    values : sequence
-        Its values (the x ticks).
-    series : mapping of condition id to sequence of (rate, low, high)
-        One point per value; a NaN rate is drawn as a gap.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-        Curves that coincide stay visible (each condition is shifted sideways by a small offset
-        and has its own marker and dash pattern); the legend is outside the axes.
-    """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(9, 4), layout="constrained")
-    FigureCanvasAgg(fig)
-    ax = fig.add_subplot(1, 1, 1)
-    xs = list(range(len(values)))
-    # curves that coincide (eight conditions all at 1.0) stay apart: each series is shifted
-    # sideways by a small offset and has its own marker and dash pattern
-    k = len(series)
-    width = min(0.5, 0.06 * k)
-    markers, dashes = "osD^vP*Xh<>p", ("-", "--", "-.", ":")
-    for j, (c, pts) in enumerate(series.items()):
-        shift = (j - (k - 1) / 2) * (width / max(k - 1, 1)) if k > 1 else 0.0
-        ys = [p[0] for p in pts]
-        lo = [max(0.0, p[0] - p[1]) if math.isfinite(p[0]) else 0.0 for p in pts]
-        hi = [max(0.0, p[2] - p[0]) if math.isfinite(p[0]) else 0.0 for p in pts]
-        ax.errorbar([x + shift for x in xs], ys, yerr=[lo, hi], marker=markers[j % len(markers)], ls=dashes[j % len(dashes)], ms=5, capsize=2, lw=1.2, label=c)
-    ax.set_xticks(xs, [str(v) for v in values])
-    ax.set_xlabel(axis)
-    ax.set_ylabel("rate of holds (Wilson 95%)")
-    ax.set_ylim(-0.05, 1.05)
-    # outside the axes: the legend never covers a curve
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, frameon=False, title="condition (markers offset sideways)", title_fontsize=7)
-    return fig
-
-
-def _plot_name(out_md: Path, axis: str) -> str:
-    return f"{out_md.stem}-{_slug(axis)}.svg"
-
-
-def _plot_rates(axis: str, values: Sequence[Any], series: Mapping[str, Sequence[tuple[float, float, float]]], path: Path, put: Put = write_bytes_atomic) -> None:
-    fig = rates_figure(axis, values, series)
-    buf = io.StringIO()
-    fig.savefig(buf, format="svg")
-    put(path, buf.getvalue().encode("utf-8"))
-
-
-def sweep_outputs(plan: SweepPlan, out: str | Path, *, summary: bool = True, figures: bool = True) -> tuple[Path, Path, list[str]]:
-    """Check where a sweep writes, before it starts: (results file, parts folder, the names of
-    the files written beside the results file).
-
-    The output policy of :mod:`glocal_verify.runtime.files`: no output may be an input of the
-    sweep (its file or a member's spec, by any path resolving to it), none may be a symbolic
-    link or lie in a folder given through one, and the folder must be writable.
-
-    Parameters
-    ----------
-    plan : SweepPlan
-    out : str or Path
-        The results file (``.parquet`` or ``.csv``).
-    summary, figures : bool
-        As for :func:`run_sweep`.
-
-    Raises
-    ------
-    SpecError
-        ``out`` does not end in ``.parquet`` or ``.csv``.
-    OutputError
-        An output location the policy refuses.
-    """
-    outp = Path(out)
-    if outp.suffix.lower() not in (".parquet", ".csv"):
-        raise SpecError("--out", "must end in .parquet or .csv", None)
-    inputs = plan.inputs
-    check_output_file(outp, inputs=inputs)
-    names = [outp.name]
-    if summary:
-        md = outp.with_suffix(".md")
-        names.append(md.name)
-        if figures:
-            names += [_plot_name(md, axis) for axis in plan.grid]
-    for name in names[1:]:
-        check_output_file(outp.with_name(name), inputs=inputs, what="--out (the summary beside it)")
-    parts = outp.with_name(outp.name + ".parts")
-    check_output_dir(parts, inputs=inputs, what="--out (its parts folder)")
-    return outp, parts, names
-
-
-def run_sweep(
+def compute_sweep(
     plan: SweepPlan,
-    out: str | Path,
+    parts: Path,
     *,
     scheduler: str | None = None,
     workers: int = 2,
     chunk_size: int = 4,
-    summary: bool = True,
-    figures: bool = True,
     progress: Callable[[str], None] | None = None,
     dashboard: str | None = None,
     notice: Callable[[str], None] | None = None,
-) -> SweepResult:
-    """Run ``plan`` (on Dask, or in this process) and write the results file, the parts and the summary.
+) -> SweepRun:
+    """Run ``plan`` (on Dask, or in this process): every member's rows, resumed from ``parts``.
 
-    The outputs are checked before any member runs (:func:`sweep_outputs`). Each finished
-    member is written at once to the parts folder (the resume state, kept on purpose when a
-    run stops); the results file, the summary and its plots are staged and moved into place
-    together at the end (:class:`~glocal_verify.runtime.files.OutputFolder`), so a failure or a
-    stop leaves none of them half written, and no parts folder when no member finished.
+    Each finished member is written at once to the parts folder (the resume state, kept on
+    purpose when a run stops; no folder is left when no member finished); a member already
+    there is not run again. The results file, the summary and its plots are written from the
+    returned :class:`SweepRun` by :func:`glocal_verify.reporting.sweep_report.write_sweep`, at
+    the locations :func:`glocal_verify.reporting.sweep_report.sweep_outputs` checked before.
 
     Parameters
     ----------
     plan : SweepPlan
-    out : str or Path
-        Results file: ``.parquet`` (pyarrow) or ``.csv``.
+    parts : Path
+        The parts folder (``<results file>.parts``, from ``sweep_outputs``).
     scheduler : str, optional
         Address of an existing Dask scheduler (``tcp://host:8786``); default an embedded
         ``LocalCluster`` of ``workers`` processes on this machine.
@@ -712,15 +586,12 @@ def run_sweep(
         order (no Dask: what a small sweep should do, :func:`estimate_sweep`).
     chunk_size : int
         Members per task (amortises task overhead; members of a chunk run in sequence).
-    summary, figures : bool
-        Write the Markdown summary (``<out stem>.md``) and its plots.
     progress : callable, optional
         Called with one line per finished chunk.
     dashboard, notice :
         The embedded cluster's dashboard address and where its one-line notices go
-        (:func:`~glocal_verify.design.distributed.dask_client`).
+        (:func:`~glocal_verify.extra.dask.dask_client`).
     """
-    outp, parts, names = sweep_outputs(plan, out, summary=summary, figures=figures)
     made = make_folders(parts)
     done = {p.stem for p in parts.glob("*.json")}
     todo = [m for m in plan.members if m.key not in done]
@@ -744,7 +615,7 @@ def run_sweep(
         if chunks and (scheduler or workers > 0):
             from functools import partial
 
-            from glocal_verify.design.distributed import dask_client, run_on_dask
+            from glocal_verify.extra.dask import dask_client, run_on_dask
 
             with dask_client(scheduler, workers, dashboard=dashboard, notice=notice) as client:
                 tasks = [partial(_run_chunk, c, plan.conditions, plan.exact, plan.escalate) for c in chunks]
@@ -759,17 +630,6 @@ def run_sweep(
     rows: list[dict[str, Any]] = []
     for m in plan.members:
         rows.extend(json.loads((parts / f"{m.key}.json").read_text(encoding="utf-8")))
-    md: Path | None = None
-    with OutputFolder(outp.parent if str(outp.parent) else Path("."), inputs=plan.inputs, names=names) as folder:
-
-        def put(path: Path, data: bytes) -> None:
-            folder.write_bytes(path.name, data)
-
-        _write_table(rows, outp, put)
-        if summary:
-            md = summarize(rows, plan.grid, outp.with_suffix(".md"), figures=figures, put=put)
-    return SweepResult(tuple(rows), outp, md, len(todo), resumed)
+    return SweepRun(tuple(rows), len(todo), resumed)
 
 
-def _stderr_progress(line: str) -> None:
-    write_line(line)

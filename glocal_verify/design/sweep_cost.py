@@ -3,7 +3,7 @@
 :func:`estimate_sweep` reads the sizes of every member (a generated member's from its
 parameters, no network built; a spec member's from its file) and prices each with
 :func:`glocal_verify.conditions.cost.estimate_verify`; it also decides whether worker
-processes pay off (:func:`glocal_verify.design.distributed.workers_pay_off`) or the members
+processes pay off (:func:`glocal_verify.extra.dask.workers_pay_off`) or the members
 should run in this process. ``glocal-verify sweep`` prints the estimate before it starts and
 refuses, in one line, a sweep above the limits of
 :func:`~glocal_verify.conditions.cost.default_limits` unless ``--allow-large``.
@@ -109,7 +109,7 @@ def estimate_sweep(plan: SweepPlan, *, workers: int = 2, scheduler: str | None =
     from its parameters; a spec member's from its file (:data:`ESTIMATE_SAMPLE` files, spread
     evenly, stand for a large folder; a file that does not load counts nothing, it will be a
     failed row). The work is shared by ``workers`` processes when they pay off
-    (:func:`~glocal_verify.design.distributed.workers_pay_off`), else it runs in this process;
+    (:func:`~glocal_verify.extra.dask.workers_pay_off`), else it runs in this process;
     a remote ``scheduler`` counts as one worker and is always used.
 
     Parameters
@@ -127,7 +127,7 @@ def estimate_sweep(plan: SweepPlan, *, workers: int = 2, scheduler: str | None =
     SweepEstimate
     """
     from glocal_verify.conditions.cost import B_BASE, C_START, SpecSizes, estimate_verify
-    from glocal_verify.design.distributed import DASK_OVERHEAD_SECONDS, workers_pay_off
+    from glocal_verify.extra.dask import DASK_OVERHEAD_SECONDS, workers_pay_off
 
     done = set(skip)
     todo = [m for m in plan.members if m.key not in done]

@@ -26,7 +26,9 @@ from typing import Iterable, Sequence
 import numpy as np
 import scipy.sparse
 
-from glocal_verify.numerics.spectrum import Spectrum, gamma_bound
+from glocal_verify.numerics.rounding import gamma_bound
+
+from glocal_verify.numerics.spectrum import Spectrum
 
 __all__ = ["BlockSpectrum", "clustered_spectrum", "laplacian_csr"]
 

@@ -42,7 +42,7 @@ from typing import Any
 import flint
 import numpy as np
 
-from glocal_verify.numerics.spectrum import EPS, gamma_bound
+from glocal_verify.numerics.rounding import EPS, gamma_bound
 
 __all__ = ["PowerCertificate", "power_certificate", "certified_orbit", "RowSequence", "certified_rows", "abs_row_sums", "exact_to_float", "upper", "MAX_WINDOW_LOG2"]
 

@@ -1,6 +1,6 @@
 """Kernels of the reduced cluster pencil over a number field through the transfer function.
 
-The reduced pencil of Proposition III.2 (iii) (:mod:`glocal_verify.analysis.cluster_pencil`) is
+The reduced pencil of Proposition III.2 (iii) (:mod:`glocal_verify.analysis.local.cluster_pencil`) is
 
 .. math:: Q(s) = (s I + \\alpha L)[R, U],\\qquad R = P_i \\setminus I,\\quad U = P_i \\setminus M,
 

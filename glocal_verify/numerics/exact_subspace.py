@@ -1,4 +1,5 @@
-"""Subspaces over Q with python-flint: row bases, kernels, closures under a matrix, annihilators."""
+"""Subspaces over Q with python-flint: row bases, kernels, closures under a matrix, annihilators,
+and exact kernel vectors recovered from float candidates."""
 
 from __future__ import annotations
 
@@ -16,6 +17,8 @@ __all__ = [
     "cols_closure",
     "kernel_basis",
     "qmat",
+    "rational_kernel_vector",
+    "rationalised",
     "row_basis",
     "row_closure",
     "stack_rows",
@@ -323,3 +326,44 @@ def _proved(
         if MK != K * T:
             return None
     return E
+
+
+def rationalised(v: np.ndarray, max_denominator: int) -> list[Fraction] | None:
+    """``v`` scaled to a largest entry of 1, each entry the nearest fraction with denominator <= ``max_denominator``.
+
+    None when ``v`` is empty, not finite, zero, or not real after the scaling.
+    """
+    w = np.asarray(v, dtype=complex)
+    if w.size == 0 or not np.all(np.isfinite(w)):
+        return None
+    k = int(np.argmax(np.abs(w)))
+    if w[k] == 0:
+        return None
+    w = w / w[k]
+    if np.any(np.abs(w.imag) > 1e-9):
+        return None
+    return [Fraction(float(x)).limit_denominator(max_denominator) for x in w.real]
+
+
+def rational_kernel_vector(rows: Sequence[Sequence[Fraction]], v: np.ndarray, max_denominator: int = 10**6) -> list[Fraction] | None:
+    """An exact rational kernel vector of ``rows`` recovered from the float candidate ``v``, or None.
+
+    v is scaled so that its largest entry is 1, each entry is replaced by the nearest fraction
+    with denominator <= ``max_denominator`` (continued fractions) and ``rows @ q = 0`` is
+    checked in exact arithmetic: a True check is a proof (no tolerance), a failed one proves
+    nothing.
+
+    Parameters
+    ----------
+    rows : exact rows
+    v : ndarray
+        Candidate (real, or complex with a zero imaginary part after scaling).
+    max_denominator : int
+    """
+    q = rationalised(v, max_denominator)
+    if q is None:
+        return None
+    for r in rows:
+        if sum((r[j] * q[j] for j in range(len(q)) if r[j] != 0 and q[j] != 0), Fraction(0)) != 0:
+            return None
+    return q

@@ -19,7 +19,7 @@ The cost is ``2 m`` sparse products modulo ``p`` (int64 arithmetic, ``p`` chosen
 row's sum of products can overflow) and one Berlekamp-Massey of length ``2 m``: about
 ``O(m (nnz + n))``, against ``O(n^3)`` for a characteristic polynomial. For a symmetric ``A``
 (a Laplacian) the degree counts the distinct eigenvalues on whose eigenspaces ``b`` has a
-nonzero component; :mod:`glocal_verify.analysis.twins` turns that into certificates of
+nonzero component; :mod:`glocal_verify.analysis.laplacian.twins` turns that into certificates of
 Theorem III.3 (ii) and (iii).
 
 Block Krylov ranks (observability)

@@ -61,7 +61,7 @@ from typing import Sequence
 import numpy as np
 import scipy.linalg.lapack
 
-from glocal_verify.numerics.spectrum import gamma_bound as gamma
+from glocal_verify.numerics.rounding import gamma_bound as gamma
 
 __all__ = ["CauchyBlock", "RankOneFactor", "cauchy_certificate", "eigh_rank_one_update", "eigh_updated", "rank_one_factor", "tree_rowsum"]
 

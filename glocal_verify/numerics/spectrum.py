@@ -34,6 +34,7 @@ import scipy.linalg
 import scipy.linalg.blas
 import scipy.sparse
 
+from glocal_verify.numerics.rounding import EPS, gamma_bound, product_rounding
 from glocal_verify.numerics.tolerance import (
     DEFAULT_TOLERANCE,
     EigenGroup,
@@ -41,49 +42,10 @@ from glocal_verify.numerics.tolerance import (
     group_eigenvalues,
 )
 
-__all__ = ["Spectrum", "EPS", "gamma_bound", "product_rounding"]
+__all__ = ["Spectrum"]
 
-#: unit roundoff doubled: the spacing of doubles at 1 (2^-52)
-EPS = float(np.finfo(float).eps)
 #: columns per block of the a-posteriori products (bounded temporaries)
 _BLOCK = 256
-
-
-def gamma_bound(k: float) -> float:
-    """gamma_k = k u / (1 - k u), u = eps / 2 (Higham's bound for a sum of k rounded terms).
-
-    Parameters
-    ----------
-    k : int or float
-        Number of floating-point operations in the longest chain (infinite bound when k u >= 1/2).
-    """
-    u = EPS / 2.0
-    return k * u / (1.0 - k * u) if k * u < 0.5 else math.inf
-
-
-def product_rounding(A: np.ndarray, B: np.ndarray, shifted: bool = False) -> float:
-    """A rigorous bound on ``||fl(A^T B) - A^T B||_F`` (plus one subtraction if ``shifted``).
-
-    Entrywise ``|fl(A^T B) - A^T B| <= gamma_n |A|^T |B|`` for inner dimension n (Higham,
-    Accuracy and Stability of Numerical Algorithms, Thm 3.5; ``gamma_{n+1}`` when a constant
-    such as I is subtracted afterwards), and ``|| |A|^T |B| ||_F <= || |A| ||_2 ||B||_F``
-    with ``|| |A| ||_2 <= sqrt(|| A ||_1 || A ||_inf)``. O(size of A and B).
-
-    Parameters
-    ----------
-    A, B : ndarray
-        n x k and n x l.
-    shifted : bool
-        Whether the product is followed by one more rounded operation per entry.
-    """
-    A, B = np.asarray(A), np.asarray(B)
-    n = A.shape[0]
-    if A.size == 0 or B.size == 0:
-        return 0.0
-    absA = np.abs(A)
-    norm_abs = math.sqrt(float(absA.sum(axis=0).max()) * float(absA.sum(axis=1).max()))
-    # (1 + 2 gamma_n): the sums of n nonnegative terms and the 2-norm are computed in floating point too
-    return gamma_bound(n + (1 if shifted else 0)) * norm_abs * float(np.linalg.norm(B)) * (1.0 + 2.0 * gamma_bound(max(n, B.size)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -263,7 +225,7 @@ class Spectrum:
         """Estimates of ``||L u_i - w_i u_i||_2`` for the tolerance readings (not certified): the computed norms here.
 
         The certified bounds add the rounding of these norms themselves; the readings at a
-        tolerance (:func:`~glocal_verify.analysis.modal.modal_decomposition`) take them as they
+        tolerance (:func:`~glocal_verify.analysis.unobservable.modal.modal_decomposition`) take them as they
         are. A spectrum kept in factored form, whose :attr:`residuals` are rigorous bounds,
         gives the same recurrence without its rounding allowances instead.
         """
@@ -322,30 +284,6 @@ class Spectrum:
         diag2 = float(np.dot(G[d, d], G[d, d]))
         total = 2.0 * float(np.vdot(G, G)) - diag2  # the strict upper triangle counts twice
         return math.sqrt(max(total, 0.0))
-
-    @classmethod
-    def updated(cls, matrix: np.ndarray | scipy.sparse.csr_matrix, base: Spectrum, changes: Sequence[tuple[int, int, float]]) -> Spectrum | None:
-        """The spectrum of ``matrix = base.matrix + sum rho (e_i - e_j)(e_i - e_j)^T`` by rank-one updates of ``base``.
-
-        The eigenvectors are kept as ``base.vectors`` times one factor per change
-        (:func:`~glocal_verify.numerics.updated_spectrum.update_spectrum`: one secular equation
-        per change, O(N^2), instead of a fresh ``syevd``); every bound of the result
-        (:attr:`residuals`, :attr:`orthogonality_error`, :attr:`error_radius`) is certified from
-        the factors, and the update is kept only when it is as good as ``eigh``'s; otherwise
-        (or when an update fails) None, and the caller decomposes ``matrix`` afresh.
-
-        Parameters
-        ----------
-        matrix : ndarray or scipy.sparse matrix
-            The changed matrix (its entries rounded once from exact values, as for the constructor).
-        base : Spectrum
-            The spectrum before the changes.
-        changes : sequence of (int, int, float)
-            ``(i, j, rho)`` per changed link.
-        """
-        from glocal_verify.numerics.updated_spectrum import update_spectrum
-
-        return update_spectrum(matrix, base, changes)
 
     @cached_property
     def error_radius(self) -> float:

@@ -49,8 +49,9 @@ import scipy.sparse
 
 from glocal_verify import config
 from glocal_verify.numerics.rank_one import RankOneFactor, rank_one_factor
-from glocal_verify.numerics.spectrum import EPS, Spectrum
-from glocal_verify.numerics.spectrum import gamma_bound as gamma
+from glocal_verify.numerics.rounding import EPS
+from glocal_verify.numerics.rounding import gamma_bound as gamma
+from glocal_verify.numerics.spectrum import Spectrum
 
 __all__ = ["UpdatedSpectrum", "update_spectrum"]
 

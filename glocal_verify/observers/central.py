@@ -75,14 +75,14 @@ import numpy as np
 import scipy.linalg
 
 from glocal_verify import config
-from glocal_verify.analysis.modal import EigenGroupPart, form_bases, modal_decomposition
-from glocal_verify.analysis.unobservable import (
+from glocal_verify.analysis.unobservable.modal import EigenGroupPart, form_bases, modal_decomposition
+from glocal_verify.analysis.unobservable.subspace import (
     certified_unobservable,
     unobservable_subspace,
 )
-from glocal_verify.analysis.transfer import laplacian_transfer
+from glocal_verify.analysis.laplacian.transfer import laplacian_transfer
 from glocal_verify.model import System
-from glocal_verify.numerics.spectrum import EPS, product_rounding
+from glocal_verify.numerics.rounding import EPS, product_rounding
 from glocal_verify.numerics.subspace import Subspace
 from glocal_verify.numerics.threads import single_threaded
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
@@ -268,7 +268,7 @@ def design_central_observer(
         ``scipy.signal.place_poles`` places them. Default: the Riccati (Kalman-Bucy) gain with
         unit noise intensities.
     tol : Tolerance
-        Tolerance of the modal decomposition (:func:`~glocal_verify.analysis.unobservable.unobservable_subspace`).
+        Tolerance of the modal decomposition (:func:`~glocal_verify.analysis.unobservable.subspace.unobservable_subspace`).
     mode : str
         The mode the observer is built for (the paper: the normal mode).
     max_design : int, optional
@@ -614,7 +614,7 @@ def certify_observable_stability(system: System, obsv: CentralObserver) -> Stabi
 
     Needs a proven unobservable subspace with an exact rational basis (``W^x_0 x W_0`` and the
     exactly verified parts ``W x W`` of
-    :func:`~glocal_verify.analysis.unobservable.certified_unobservable`, decided); N is
+    :func:`~glocal_verify.analysis.unobservable.subspace.certified_unobservable`, decided); N is
     ``(A_1 - H C)``-invariant (it is A_1-invariant and in ker C), so the observable eigenvalues
     are those of ``M_o = Q^T (A_1 - H C) Q`` for an orthonormal basis Q of ``N^perp``. With the
     computed ``M_o = V diag(lam) V^{-1} + R V^{-1}`` (``R`` the eigen-residual), the exact

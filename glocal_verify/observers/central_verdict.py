@@ -18,7 +18,7 @@ from typing import Any, Sequence
 import flint
 import numpy as np
 
-from glocal_verify.analysis.unobservable import (
+from glocal_verify.analysis.unobservable.subspace import (
     certified_unobservable,
     exact_A,
     exact_C,

@@ -2,7 +2,7 @@
 
 With a sampled-data consensus controller (``implementation.controller = "sampled"``) the loop
 is the rational discrete system :math:`x_{k+1} = \\Phi_q x_k + \\Gamma (u_{a,k} + d_k)`
-(:mod:`glocal_verify.analysis.sampled`), and each detector is designed on it, exactly:
+(:mod:`glocal_verify.analysis.sampled.loop`), and each detector is designed on it, exactly:
 
 **Central observer** (eq. ``obs_cent`` at the samples, normal-mode model):
 :math:`\\hat x_{k+1} = \\Phi_1 \\hat x_k + H (y_k - C \\hat x_k)`, :math:`\\hat x_0 = 0`,
@@ -43,7 +43,7 @@ import flint
 import numpy as np
 import scipy.linalg
 
-from glocal_verify.analysis.sampled import implementation_of, sampled_matrices_exact
+from glocal_verify.analysis.sampled.loop import implementation_of, sampled_matrices_exact
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import LocalObserver, System
 from glocal_verify.numerics.exact import columns as exact_columns

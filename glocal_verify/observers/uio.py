@@ -51,7 +51,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from glocal_verify import config
-from glocal_verify.analysis.cluster_modal import interior_modes, state_rounding_bound
+from glocal_verify.analysis.local.cluster_modal import interior_modes, state_rounding_bound
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import LocalObserver, System
 from glocal_verify.numerics.hurwitz import HurwitzCertificate, hurwitz_eigenvalues, hurwitz_reduced, matrix_operator, norm2

@@ -454,7 +454,7 @@ def cluster_detectability(
 
     Hence (C_loc, A_1) is detectable iff L[P_i \\ dP_i, P_i \\ M_x] has full column rank. Zero
     forcing from M_x with the boundary rows as inputs proves it combinatorially
-    (:func:`glocal_verify.analysis.cluster_pencil.zero_forcing_closure`); otherwise the smallest singular
+    (:func:`glocal_verify.analysis.local.cluster_pencil.zero_forcing_closure`); otherwise the smallest singular
     value relative to the largest is decided at ``tol``.
 
     Parameters
@@ -473,7 +473,7 @@ def cluster_detectability(
         The verdict, on failure the positions p of an unobservable mode at lam = 0 (the mode
         is [p; 0]), and how it was decided (``"zero forcing"`` or ``"rank"``).
     """
-    from glocal_verify.analysis.cluster_pencil import (
+    from glocal_verify.analysis.local.cluster_pencil import (
         intra_neighbours,
         zero_forcing_closure,
     )

@@ -1,6 +1,6 @@
 """The default UIO design and its Hurwitz certificate from the cluster's modal structure.
 
-With the interior decomposition of :mod:`glocal_verify.analysis.cluster_modal`
+With the interior decomposition of :mod:`glocal_verify.analysis.local.cluster_modal`
 (L_II U = U diag(mu), g = U^T L_Ib), the columns
 
 * z^a_k = [u_k; 0], z^c_k = [0; u_k] of the interior modes whose eigenvalues
@@ -46,7 +46,7 @@ import numpy as np
 import scipy.sparse
 
 from glocal_verify import config
-from glocal_verify.analysis.cluster_modal import EPS, InteriorModes, gamma_bound
+from glocal_verify.analysis.local.cluster_modal import EPS, InteriorModes, gamma_bound
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.numerics.pencil_exact import svd_error
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
@@ -432,7 +432,7 @@ def design_uio_modal(
         fl(A^i) (2n x 2n; :attr:`ClusterModel.A_sparse <glocal_verify.model.ClusterModel.A_sparse>`
         avoids the dense array); only its sparse structure is used (the decoupled A_1 = (I - h C) A).
     modes : InteriorModes
-        :func:`~glocal_verify.analysis.cluster_modal.interior_modes` of the same block.
+        :func:`~glocal_verify.analysis.local.cluster_modal.interior_modes` of the same block.
     positions, velocities : sequence of int
         Cluster indices measured by C_loc (the rows of C, positions first). Every boundary
         agent must be among ``velocities`` (rank condition).
@@ -441,7 +441,7 @@ def design_uio_modal(
     tol : Tolerance
         Rank decisions of the small observable split and of the placement.
     input_error : float
-        ||fl(A^i) - A^i_exact||_2 bound (:func:`~glocal_verify.analysis.cluster_modal.state_rounding_bound`).
+        ||fl(A^i) - A^i_exact||_2 bound (:func:`~glocal_verify.analysis.local.cluster_modal.state_rounding_bound`).
 
     Notes
     -----

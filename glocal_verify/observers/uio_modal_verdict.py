@@ -3,7 +3,7 @@
 The dense check (:mod:`glocal_verify.observers.uio_verdict`) costs an
 observable split, an ordered Schur form, a Hurwitz certificate from a nonsymmetric
 eigen-decomposition with its SVD, all of size 2 n. Here the same questions are answered from
-one ``eigh`` of the interior block L_II (:func:`glocal_verify.analysis.cluster_modal.interior_modes`,
+one ``eigh`` of the interior block L_II (:func:`glocal_verify.analysis.local.cluster_modal.interior_modes`,
 shared by every observer and every mode with the same cluster block):
 
 * the rank condition rank(C E) = rank(E) as before (exact 0/1 matrices, certified ranks);
@@ -31,9 +31,9 @@ import scipy.sparse
 import scipy.sparse.linalg
 
 from glocal_verify import config
-from glocal_verify.analysis.cluster_modal import interior_modes, state_rounding_bound
-from glocal_verify.analysis.cluster_pencil import intra_neighbours, zero_forcing_closure
-from glocal_verify.analysis.local_pencil import witness_number
+from glocal_verify.analysis.local.cluster_modal import interior_modes, state_rounding_bound
+from glocal_verify.analysis.local.cluster_pencil import intra_neighbours, zero_forcing_closure
+from glocal_verify.analysis.local.pencil import witness_number
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import ClusterModel, LocalObserver, System
 from glocal_verify.numerics.pencil_exact import rank_bounds

@@ -23,15 +23,15 @@ from typing import Any
 
 import numpy as np
 
-from glocal_verify.analysis.cluster_modal import state_rounding_bound
-from glocal_verify.analysis.local_cases import (
+from glocal_verify.analysis.local.cluster_modal import state_rounding_bound
+from glocal_verify.analysis.local.cases import (
     LocalCase,
     certificate_verdict,
     exact_A_float,
     exact_int,
     pencil_matrices_exact,
 )
-from glocal_verify.analysis.local_pencil import witness_number
+from glocal_verify.analysis.local.pencil import witness_number
 from glocal_verify.derived import Kind
 from glocal_verify.model import ClusterModel, LocalObserver, System
 from glocal_verify.numerics.pencil_exact import (

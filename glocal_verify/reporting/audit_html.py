@@ -11,7 +11,7 @@ no script, no font, no image or link to fetch. The page shows, in order:
    or undecided, with the number of sets each mode exposes (Remark III.3.1: the switch
    touches every stealthy direction, ``switching.avoids-attack`` fails);
 3. the **figures**: for k >= 2 the agent x agent verdict heat map of
-   :func:`glocal_verify.design.audit_figure.verdict_matrix` (cell (i, j) the set {i, j}, the
+   :func:`glocal_verify.reporting.figures.audit.verdict_matrix` (cell (i, j) the set {i, j}, the
    diagonal {i}), for k = 1 one bar per agent; and the number of sets each admissible safe
    mode exposes;
 4. the **table**, one row per set, the undetected sets first, then the undecided ones, then
@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from glocal_verify.design.audit import AuditResult, AuditRow
-from glocal_verify.design.audit_figure import verdict_matrix
+from glocal_verify.reporting.figures.audit import verdict_matrix
 
 __all__ = ["VERDICT_ORDER", "audit_to_html", "exposure_svg", "heatmap_svg", "ordered_rows"]
 

@@ -1,33 +1,20 @@
-"""The designed observers as a deployment file: MATLAB ``.mat``, JSON or NumPy ``.npz``.
+"""A :class:`~glocal_verify.simulation.deployment.Deployment` as a file: MATLAB ``.mat``, JSON or NumPy ``.npz``.
 
-:func:`export_observers` writes what a vehicle, a MATLAB/Octave script or a ROS node needs to
-run the detectors the toolkit designed and simulated, in the stated and versioned schema of
-``docs/export.md`` (:data:`SCHEMA`, :data:`SCHEMA_VERSION`):
-
-- the central observer of eq. ``obs_cent`` (``A``, ``C``, the gain ``H``, ``F = A - H C``:
-  :math:`\\dot z = F z + H y`, :math:`r_0 = y - C z`), designed by
-  :func:`~glocal_verify.observers.central.design_central_observer`;
-- every local unknown-input observer of eqs. ``obs_decent``, ``uio_conds_1``-``uio_conds_3``
-  (``C_loc``, ``E``, ``A``, ``h``, ``T``, ``A1``, ``K1``, ``F``, ``K`` with the measured channels,
-  the selection ``S`` of its cluster's state, the residual maps ``Ry = I - C_loc h`` and
-  ``Rz = C_loc``, and the mode-matched ``F``, ``K`` it switches to after a topology switch),
-  designed by :func:`~glocal_verify.observers.uio.local_uio`;
-- the attack-free thresholds the simulator uses
-  (:func:`~glocal_verify.simulation.thresholds.attack_free_thresholds` for the spec's
-  switching schedule), the monitor sets, the modes' Laplacians and the switching schedule.
-
-The observers are exactly the :class:`~glocal_verify.simulation.observer_models.ObserverBank`
-that :func:`glocal_verify.simulate` runs (the same designs, bit for bit), so rebuilding them
-from the file reproduces the simulator's residuals. :func:`read_deployment` reads any of the
-three formats back into the same nested structure of dicts, lists, strings, numbers and
-arrays.
+:func:`export_observers` writes the deployment that
+:func:`~glocal_verify.simulation.deployment.design_deployment` computed (the central observer,
+every local unknown-input observer with its mode-matched dynamics, the attack-free thresholds,
+the monitor sets, the modes' Laplacians and the switching schedule) in the stated and
+versioned schema of ``docs/export.md`` (:data:`SCHEMA`, :data:`SCHEMA_VERSION`). It renders
+only: every design and threshold is in the value it is given. :func:`read_deployment` reads
+any of the three formats back into the nested structure of dicts, lists, strings, numbers and
+arrays that :func:`deployment_tree` builds.
 
 Formats
 -------
 ``mat``
-    MATLAB v5 (``scipy.io.savemat``): the tree as nested structs, lists of records as cell
-    arrays of structs, lists of strings as cell arrays of char; every field name is a valid
-    MATLAB identifier. Reads with ``load`` in MATLAB/Octave and ``scipy.io.loadmat``.
+    MATLAB v5 (:func:`glocal_verify.extra.matlab.mat_bytes`): the tree as nested structs, lists
+    of records as cell arrays of structs, lists of strings as cell arrays of char; every field
+    name is a valid MATLAB identifier. Reads with ``load`` in MATLAB/Octave and ``scipy.io.loadmat``.
 ``json``
     One JSON object; matrices as lists of rows, complex eigenvalues as ``*_re``/``*_im``
     vectors, a non-finite number as ``null``.
@@ -48,12 +35,13 @@ from typing import Any, Iterable, Iterator, Mapping
 
 import numpy as np
 
-from glocal_verify.errors import GlocalVerifyError, NotApplicableError, shorten
-from glocal_verify.model import System
+from glocal_verify.errors import ArgumentError, GlocalVerifyError, shorten
+from glocal_verify.extra.matlab import mat_bytes, read_mat
 from glocal_verify.reporting.output import check_output_file, write_bytes_atomic
+from glocal_verify.simulation.deployment import CentralDesign, Deployment, LocalDesign
 from glocal_verify.spec.arguments import instance_arg
-from glocal_verify.simulation.observer_models import cluster_embedding
 from glocal_verify.spec.types import NORMAL_MODE, Label
+from glocal_verify.version import __version__
 
 __all__ = [
     "EXPORT_FORMATS",
@@ -97,90 +85,67 @@ def _texts(labels: Any) -> list[str]:
 
 
 
-def _central(system: System) -> tuple[dict[str, Any], np.ndarray | None]:
-    from glocal_verify.observers.central import design_central_observer
+def _complex(eig: np.ndarray) -> dict[str, np.ndarray]:
+    return {"eigenvalues_re": eig.real.copy(), "eigenvalues_im": eig.imag.copy()}
 
-    C = system.C()
-    empty: dict[str, Any] = {"present": 0, "note": "", "mode": NORMAL_MODE}
-    if C.shape[0] == 0:
-        return {**empty, "note": "no globally monitored channel: no central observer"}, None
-    try:
-        co = design_central_observer(system)
-    except (ImportError, NotApplicableError) as exc:
-        return {**empty, "note": f"central observer: {exc}"}, None
-    H = np.asarray(co.H, dtype=float)
-    A = system.A(NORMAL_MODE)
-    eig = np.asarray(co.eigenvalues, dtype=complex)
-    tree = {
+
+def _central(co: CentralDesign | None, note: str) -> dict[str, Any]:
+    if co is None:
+        return {"present": 0, "note": note, "mode": NORMAL_MODE}
+    return {
         "present": 1,
         "note": "",
         "mode": co.mode,
         "equations": "dz/dt = F z + H y, r = y - C z, z(0) = 0, F = A - H C (A: normal-mode model, kept in every mode)",
-        "channels": list(system.output_channels()),
-        "A": A,
-        "C": C,
-        "H": H,
-        "F": A - H @ C,
-        "eigenvalues_re": eig.real.copy(),
-        "eigenvalues_im": eig.imag.copy(),
-        "stability_margin": float(co.stability_margin),
+        "channels": list(co.channels),
+        "A": co.A,
+        "C": co.C,
+        "H": co.H,
+        "F": co.F,
+        **_complex(co.eigenvalues),
+        "stability_margin": co.stability_margin,
         "method": co.method,
     }
-    return tree, H
 
 
-def _local(system: System, model: Any) -> dict[str, Any]:
-    """One local observer: the normal-mode design and the mode-matched dynamics of the bank's ``model``."""
-    from glocal_verify.observers.uio import local_uio
-    from glocal_verify.simulation.schedule import ANY_MODE
-
-    lo = next(o for o in system.observers() if o.cluster == model.cluster and o.center == model.center)
-    d = local_uio(system, lo, mode=NORMAL_MODE)
-    p = d.C.shape[0]
-    eig = np.asarray(d.eigenvalues, dtype=complex)
-    designs = [{"mode": m, "F": np.asarray(model.F[m], dtype=float), "K": np.asarray(model.G[m], dtype=float)} for m in model.F if m != ANY_MODE]
+def _local(d: LocalDesign) -> dict[str, Any]:
+    u = d.uio
     return {
-        "name": model.name,
-        "cluster": d.cluster,
-        "center": _text(d.center),
+        "name": d.name,
+        "cluster": u.cluster,
+        "center": _text(u.center),
         "equations": "dz/dt = F z + K y, x_hat = z + h y, r = y - C_loc x_hat = Ry y - Rz z, z(0) = -h y(0), y = C_loc S x",
-        "nodes": _texts(d.nodes),
-        "positions": _texts(d.positions),
-        "velocities": _texts(d.velocities),
-        "channels": list(model.inputs),
-        "S": cluster_embedding(system, d.nodes),
-        "C_loc": d.C,
-        "E": d.E,
-        "A": d.A,
-        "h": d.h,
-        "T": d.T,
-        "A1": d.A1,
-        "K1": d.K1,
-        "F": np.asarray(model.F[ANY_MODE], dtype=float),
-        "K": np.asarray(model.G[ANY_MODE], dtype=float),
-        "Ry": np.eye(p) - d.C @ d.h,
-        "Rz": d.C.copy(),
-        "designs": designs,
-        "eigenvalues_re": eig.real.copy(),
-        "eigenvalues_im": eig.imag.copy(),
-        "hurwitz_margin": float(d.hurwitz_margin),
-        "hurwitz": d.hurwitz.value,
-        "notes": list(model.notes),
+        "nodes": _texts(u.nodes),
+        "positions": _texts(u.positions),
+        "velocities": _texts(u.velocities),
+        "channels": list(d.channels),
+        "S": d.S,
+        "C_loc": u.C,
+        "E": u.E,
+        "A": u.A,
+        "h": u.h,
+        "T": u.T,
+        "A1": u.A1,
+        "K1": u.K1,
+        "F": d.F,
+        "K": d.K,
+        "Ry": d.Ry,
+        "Rz": d.Rz,
+        "designs": [{"mode": g.mode, "F": g.F, "K": g.K} for g in d.designs],
+        **_complex(np.asarray(u.eigenvalues, dtype=complex)),
+        "hurwitz_margin": float(u.hurwitz_margin),
+        "hurwitz": u.hurwitz.value,
+        "notes": list(d.notes),
     }
 
 
-def deployment_tree(system: System, *, thresholds: bool = True, progress: bool = False) -> dict[str, Any]:
-    """The designed observers of ``system`` as the nested structure of the export schema.
+def deployment_tree(deployment: Deployment) -> dict[str, Any]:
+    """``deployment`` as the nested structure of the export schema.
 
     Parameters
     ----------
-    system : System
-    thresholds : bool
-        Compute the attack-free thresholds for the spec's switching schedule (the exact
-        envelope of :func:`~glocal_verify.simulation.thresholds.attack_free_thresholds`, over
-        the spec's horizon and step); False leaves ``thresholds.present = 0``.
-    progress : bool
-        Report the thresholds' progress on stderr.
+    deployment : Deployment
+        What :func:`~glocal_verify.simulation.deployment.design_deployment` computed.
 
     Returns
     -------
@@ -189,65 +154,54 @@ def deployment_tree(system: System, *, thresholds: bool = True, progress: bool =
         ``system``, ``monitors``, ``central``, ``local``, ``thresholds``, ``schedule``, ``notes``.
         Labels are written as text (``system.label_type`` says whether they were integers).
     """
-    from glocal_verify import __version__
-    from glocal_verify.simulation.observer_models import ObserverBank, central_observer_model, local_observer_models
-    from glocal_verify.simulation.schedule import Schedule
-    from glocal_verify.simulation.thresholds import ThresholdRule, attack_free_thresholds
-
-    central, H = _central(system)
-    models, notes = local_observer_models(system)
-    bank = ObserverBank(((central_observer_model(system, H),) if H is not None else ()) + tuple(models), tuple(notes))
-    schedule = Schedule.from_spec(system)
-    sim = system.spec.simulation
-    tree_thr: dict[str, Any] = {"present": 0, "horizon": float(sim.horizon), "step": float(sim.step)}
-    if thresholds and len(bank):
-        rule = ThresholdRule()
-        th = attack_free_thresholds(system, bank, schedule, rule, progress=progress)
+    if not isinstance(deployment, Deployment):
+        raise ArgumentError(f"deployment: expected a Deployment (glocal_verify.simulation.deployment.design_deployment(system)), got {type(deployment).__name__}")
+    d = deployment
+    tree_thr: dict[str, Any] = {"present": 0, "horizon": d.horizon, "step": d.step}
+    if d.thresholds is not None:
+        rule = d.thresholds.rule
         tree_thr = {
             "present": 1,
-            "horizon": float(sim.horizon),
-            "step": float(sim.step),
+            "horizon": d.horizon,
+            "step": d.step,
             "rule": {"kind": rule.kind, "box": float(rule.box), "rounding": float(rule.rounding), "description": rule.describe()},
             "equations": "threshold_k(t) = envelope[t, k] + rounding * max(box, ||s(t)||_2), s the plant and observer state; "
             "envelope[t, k] + rounding * box is the state-free lower bound",
-            "t": np.asarray(th.t, dtype=float),
-            "observers": [{"name": name, "channels": list(bank[name].channels), "envelope": np.asarray(env, dtype=float)} for name, env in th.envelope.items()],
+            "t": d.thresholds.t,
+            "observers": [{"name": o.name, "channels": list(o.channels), "envelope": o.envelope} for o in d.thresholds.observers],
         }
-    modes = [{"name": m, "L": system.laplacian(m)} for m in system.modes]
-    switches = []
-    for m in system.modes:
-        if m == NORMAL_MODE:
-            continue
-        links = system.switching_links(m)
-        switches.append({"mode": m, "u": [_text(u) for u, _, _ in links], "v": [_text(v) for _, v, _ in links], "delta": np.array([float(w) for *_, w in links])})
+    switches = [
+        {"mode": s.mode, "u": [_text(u) for u, _, _ in s.links], "v": [_text(v) for _, v, _ in s.links], "delta": np.array([float(w) for *_, w in s.links])}
+        for s in d.switches
+    ]
     return {
         "schema": SCHEMA,
         "schema_version": SCHEMA_VERSION,
         "generator": f"glocal-verify {__version__}",
         "system": {
-            "name": system.name,
-            "n": system.n,
-            "labels": _texts(system.labels),
-            "label_type": "int" if all(isinstance(a, int) for a in system.labels) else "str",
+            "name": d.name,
+            "n": len(d.labels),
+            "labels": _texts(d.labels),
+            "label_type": "int" if all(isinstance(a, int) for a in d.labels) else "str",
             "state": "x = [positions; velocities] of the agents in the order of labels (2N entries)",
-            "alpha": float(system.alpha),
-            "gamma": float(system.gamma),
-            "modes": modes,
+            "alpha": d.alpha,
+            "gamma": d.gamma,
+            "modes": [{"name": m, "L": L} for m, L in d.laplacians],
         },
         "monitors": {
-            "positions": _texts(system.monitored_positions),
-            "velocities": _texts(system.monitored_velocities),
-            "channels": list(system.output_channels()),
-            "C": system.C(),
+            "positions": _texts(d.monitored_positions),
+            "velocities": _texts(d.monitored_velocities),
+            "channels": list(d.channels),
+            "C": d.C,
         },
-        "central": central,
-        "local": [_local(system, m) for m in models],
+        "central": _central(d.central, d.central_note),
+        "local": [_local(x) for x in d.local],
         "thresholds": tree_thr,
         "schedule": {
-            "segments": [{"time": float(t), "mode": m} for t, m in schedule.segments],
+            "segments": [{"time": float(t), "mode": m} for t, m in d.schedule.segments],
             "switches": switches,
         },
-        "notes": list(notes),
+        "notes": list(d.notes),
     }
 
 
@@ -335,21 +289,6 @@ def _batched(texts: Iterable[str], size: int = 1 << 20) -> Iterator[bytes]:
         yield "".join(block).encode("utf-8")
 
 
-def _mat_value(x: Any) -> Any:
-    if isinstance(x, Mapping):
-        return {k: _mat_value(v) for k, v in x.items()}
-    if isinstance(x, list):
-        out = np.empty((1, len(x)), dtype=object)
-        for k, v in enumerate(x):
-            out[0, k] = _mat_value(v)
-        return out
-    if isinstance(x, np.ndarray):
-        return np.asarray(x, dtype=float)
-    if isinstance(x, float) and not math.isfinite(x):
-        return np.array(x)
-    return x
-
-
 def _flatten(x: Any, prefix: str, out: dict[str, np.ndarray]) -> None:
     if isinstance(x, Mapping):
         for k, v in x.items():
@@ -372,15 +311,12 @@ def _encode(tree: Mapping[str, Any], fmt: str) -> bytes | Iterator[bytes]:
     .mat and .npz whole (compressed, small)."""
     if fmt == "json":
         return _batched(itertools.chain(_json_chunks(tree), ["\n"]))
-    buf = io.BytesIO()
     if fmt == "mat":
-        import scipy.io
-
-        scipy.io.savemat(buf, {k: _mat_value(v) for k, v in tree.items()}, format="5", long_field_names=True, do_compression=True, oned_as="row")
-    else:
-        flat: dict[str, np.ndarray] = {}
-        _flatten(tree, "", flat)
-        np.savez_compressed(buf, **flat)  # type: ignore[arg-type]
+        return mat_bytes(tree)
+    buf = io.BytesIO()
+    flat: dict[str, np.ndarray] = {}
+    _flatten(tree, "", flat)
+    np.savez_compressed(buf, **flat)  # type: ignore[arg-type]
     return buf.getvalue()
 
 
@@ -392,20 +328,17 @@ def _format_of(path: Path, fmt: str | None) -> str:
     return chosen
 
 
-def export_observers(system: System, path: str | Path, fmt: str | None = None, *, thresholds: bool = True, progress: bool = False) -> Path:
-    """Write the designed observers of ``system`` to ``path`` (module docstring, ``docs/export.md``).
+def export_observers(deployment: Deployment, path: str | Path, fmt: str | None = None) -> Path:
+    """Write ``deployment`` to ``path`` (module docstring, ``docs/export.md``).
 
     Parameters
     ----------
-    system : System
+    deployment : Deployment
+        What :func:`~glocal_verify.simulation.deployment.design_deployment` computed.
     path : str or Path
         Output file, written atomically.
     fmt : str, optional
         ``"mat"``, ``"json"`` or ``"npz"``; default: the suffix of ``path``.
-    thresholds : bool
-        Include the attack-free thresholds (:func:`deployment_tree`).
-    progress : bool
-        Report the thresholds' progress on stderr.
 
     Returns
     -------
@@ -417,12 +350,15 @@ def export_observers(system: System, path: str | Path, fmt: str | None = None, *
     ExportError
         For an unknown format.
     """
-    instance_arg("export_observers", system, System, "a System")
+    if not isinstance(deployment, Deployment):
+        raise ArgumentError(
+            f"export_observers: expected a Deployment (design_deployment(system) computes one), got {type(deployment).__name__}"
+        )
     instance_arg("path", path, (str, Path), "a file name (str or Path)")
     p = Path(path)
     chosen = _format_of(p, fmt)
-    check_output_file(p, what=str(p))  # before the observers are designed: a bad path fails at once
-    return write_bytes_atomic(p, _encode(deployment_tree(system, thresholds=thresholds, progress=progress), chosen))
+    check_output_file(p, what=str(p))  # a bad path fails before the file is encoded
+    return write_bytes_atomic(p, _encode(deployment_tree(deployment), chosen))
 
 
 # --------------------------------------------------------------------------------------------
@@ -446,21 +382,6 @@ def _restore(key: str, x: Any) -> Any:
     if key in _VECTOR:
         return np.asarray(x, dtype=float).reshape(-1)
     return np.atleast_2d(np.asarray(x, dtype=float))
-
-
-def _from_mat(x: Any) -> Any:
-    import scipy.io
-
-    if isinstance(x, scipy.io.matlab.mat_struct):
-        return {k: _from_mat(getattr(x, k)) for k in x._fieldnames}
-    if isinstance(x, np.ndarray) and x.dtype == object:
-        items = list(x.reshape(-1))
-        if len(items) == 1 and isinstance(items[0], scipy.io.matlab.mat_struct):
-            return _from_mat(items[0])  # a struct (loadmat wraps it in a 1 x 1 array)
-        return [_from_mat(v) for v in items]  # a cell array: the schema's lists
-    if isinstance(x, np.ndarray) and x.dtype.kind == "U":
-        return "".join(x.reshape(-1)) if x.size else ""
-    return x
 
 
 def _from_npz(flat: Mapping[str, np.ndarray]) -> dict[str, Any]:
@@ -491,10 +412,7 @@ def _parse_deployment(p: Path, fmt: str) -> dict[str, Any]:
     if fmt == "json":
         raw: Any = json.loads(p.read_text(encoding="utf-8"))
     elif fmt == "mat":
-        import scipy.io
-
-        data = scipy.io.loadmat(p, squeeze_me=False, struct_as_record=False, chars_as_strings=True)
-        raw = {k: _from_mat(v) for k, v in data.items() if not k.startswith("__")}
+        raw = read_mat(p)
     else:
         with np.load(p, allow_pickle=False) as z:
             raw = _from_npz({k: z[k] for k in z.files})

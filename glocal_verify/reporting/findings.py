@@ -9,7 +9,7 @@ from __future__ import annotations
 from typing import Any, Sequence
 
 from glocal_verify.design.findings import PROOFS_INSTALL, TEXTUAL_FINDINGS, FindingsCheck
-from glocal_verify.reporting.words import counted
+from glocal_verify.words import counted
 from glocal_verify.results import json_preview
 
 __all__ = ["findings_markdown"]

@@ -4,7 +4,7 @@
 drawings as inline SVG, no script, no font, no image or link to fetch), so it opens offline
 and can be mailed or archived as one file. The page shows, in order:
 
-1. the **assessment** (:func:`glocal_verify.answer.assessment.assess`): Problem 1
+1. the **assessment** the report carries (:func:`glocal_verify.answer.assessment.assess`): Problem 1
    (privacy of :math:`x(t_0)` and :math:`x^*`) and Problem 2 (is the attack stealthy, caught
    locally, exposed by which safe mode, detected under Algorithm 1 and the schedule, and the
    chain that proves it), with its warnings;
@@ -34,12 +34,13 @@ import numpy as np
 from glocal_verify.conditions.registry import CATALOGUE
 from glocal_verify.model import System
 from glocal_verify.reporting.network_svg import network_svg
-from glocal_verify.answer.assessment import Assessment, assess
-from glocal_verify.answer.attack import format_labels, format_lambda
+from glocal_verify.reporting.assessment import assessment_of
+from glocal_verify.answer.assessment import Assessment
 from glocal_verify.results import ConditionResult, Method, Polarity, Report, jsonable
 from glocal_verify.simulation.algorithm1 import Algorithm1Result
 from glocal_verify.simulation.schedule import SimulationResult
 from glocal_verify.spec.types import NORMAL_MODE
+from glocal_verify.words import format_labels, format_lambda
 
 __all__ = [
     "WITNESS_CHARS",
@@ -113,7 +114,7 @@ def _witness(w: Mapping[str, Any]) -> str:
 
 def _assessment(report: Report) -> tuple[str, Assessment]:
     """The assessment block and the Assessment object."""
-    a = report.assessment if report.assessment is not None else assess(report)
+    a = assessment_of(report)
     return _assessment_block(a), a
 
 

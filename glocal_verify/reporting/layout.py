@@ -1,7 +1,7 @@
 """Where the agents and links of a network drawing go: a checked layout with routed links.
 
 Every drawing of a network (:func:`~glocal_verify.reporting.network_svg.network_svg`, the
-``draw`` command, the graph panels of :mod:`~glocal_verify.reporting.figures`) takes its
+``draw`` command, the graph panels of :mod:`~glocal_verify.reporting.figures.simulation`) takes its
 geometry from :func:`network_layout`, so they all share one property: **no link passes through,
 or near, an agent it does not join**. In units of the node radius (every agent is drawn as a
 disc of radius 1), every point of every drawn link is farther than :data:`CLEARANCE` from the

@@ -27,7 +27,7 @@ from html import escape
 
 from glocal_verify.model import System
 from glocal_verify.reporting.layout import network_layout
-from glocal_verify.reporting.words import counted
+from glocal_verify.words import counted
 from glocal_verify.spec.types import NORMAL_MODE, Label
 
 __all__ = [

@@ -16,9 +16,10 @@ import jsonschema
 
 from glocal_verify.conditions.registry import CATALOGUE
 from glocal_verify.errors import GlocalVerifyError
-from glocal_verify.answer.assessment import Assessment, assess, with_assessment
-from glocal_verify.answer.attack import format_labels, format_lambda
+from glocal_verify.answer.assessment import Assessment
+from glocal_verify.reporting.assessment import assessment_of
 from glocal_verify.results import ConditionResult, Method, Polarity, Report, json_preview
+from glocal_verify.words import format_labels, format_lambda
 
 __all__ = [
     "LEGEND",
@@ -27,7 +28,7 @@ __all__ = [
     "report_schema",
     "to_json_text",
     "to_markdown",
-    "to_html",
+    "to_html_text",
     "validate_report_json",
     "render",
 ]
@@ -47,8 +48,9 @@ def validate_report_json(data: dict[str, Any]) -> None:
 
 
 def to_json_text(report: Report) -> str:
-    """The report as JSON text, with its assessment attached (schema ``glocal-verify/report@1``)."""
-    return json.dumps(with_assessment(report).to_json(), indent=2, allow_nan=False) + "\n"
+    """The report as JSON text, its assessment included (schema ``glocal-verify/report@1``)."""
+    assessment_of(report)
+    return json.dumps(report.to_json(), indent=2, allow_nan=False) + "\n"
 
 
 def _fmt_num(x: Any) -> str:
@@ -168,14 +170,14 @@ def _assessment_markdown(a: Assessment, report: Report) -> list[str]:
 def to_markdown(report: Report) -> str:
     """Human-readable report: the assessment, a summary table and one section per condition id.
 
-    The assessment (:func:`~glocal_verify.answer.assessment.assess`) comes first. The
+    The assessment the report carries (:func:`~glocal_verify.reporting.assessment.assessment_of`) comes first. The
     summary has one row per condition id and scope set (the ``local.*`` ids get separate rows
     for the spec's suspected set and the worst case ``suspected = all``) with the status that
     is favourable for the defender and the count of each polarity; each result row shows its
     polarity (:data:`LEGEND`) and notes for fragile, escalated and vacuous results.
     """
     s = report.system
-    a = report.assessment if report.assessment is not None else assess(report)
+    a = assessment_of(report)
     lines = [f"# glocal-verify report: {s.name}", ""]
     lines += _assessment_markdown(a, report)
     lines += ["", "## System", "", f"- agents: {s.agents}", f"- modes: {', '.join(s.modes)}"]
@@ -236,7 +238,7 @@ def to_markdown(report: Report) -> str:
     return "\n".join(lines)
 
 
-def to_html(report: Report) -> str:
+def to_html_text(report: Report) -> str:
     """The report as a self-contained HTML page (:mod:`glocal_verify.reporting.html`, optional).
 
     Raises
@@ -253,13 +255,14 @@ def to_html(report: Report) -> str:
     fn = getattr(module, "to_html", None)
     if fn is None:
         raise GlocalVerifyError("the html format is not available: glocal_verify.reporting.html has no to_html(report)")
-    return str(fn(with_assessment(report)))
+    assessment_of(report)
+    return str(fn(report))
 
 
 def render(report: Report, fmt: str) -> str:
     """Render ``report`` in ``fmt``: ``"json"`` (schema ``glocal-verify/report@1``), ``"markdown"`` or ``"html"``.
 
-    Every format starts with the assessment (:func:`~glocal_verify.answer.assessment.assess`):
+    Every format starts with the assessment the report carries (:func:`~glocal_verify.reporting.assessment.assessment_of`):
     the JSON carries it as ``assessment``, Markdown as its first section. ``"html"`` needs the
     optional module :mod:`glocal_verify.reporting.html` (:class:`GlocalVerifyError` otherwise).
     """
@@ -268,5 +271,5 @@ def render(report: Report, fmt: str) -> str:
     if fmt == "markdown":
         return to_markdown(report)
     if fmt == "html":
-        return to_html(report)
+        return to_html_text(report)
     raise ValueError(f"unknown format {fmt!r} (expected one of {', '.join(FORMATS)})")

@@ -46,7 +46,8 @@ def _put_run(folder: OutputFolder, system: System, res: Algorithm1Result, stem: 
         data["verdicts"] = jsonable(verdicts)
     paths = [folder.write_text(f"{stem}.json", json.dumps(data, indent=2) + "\n")]
     if figures:
-        from glocal_verify.reporting.figures import figure_bytes, plot_run
+        from glocal_verify.reporting.figures.canvas import figure_bytes
+        from glocal_verify.reporting.figures.simulation import plot_run
 
         for ext, blob in figure_bytes(plot_run(system, res)).items():
             paths.append(folder.write_bytes(f"{stem}.{ext}", blob))
@@ -107,7 +108,7 @@ def cases_table(outcomes: Sequence[CaseOutcome]) -> str:
         "switching.distinct-eigenvalues": "(ii)",
         "switching.eigenvector-differences": "(iii)",
         "switching.coverage": "Lemma A.2",
-        "switching.avoids-attack": "switch avoids the attack (switching.safe)",
+        "switching.avoids-attack": "switch avoids the attack (switching.avoids-attack)",
     }
     head = ["case", "spec", "attack (moved agents)"] + [short.get(c, c) for c in ids] + [
         "local detection (before switch)",
@@ -190,7 +191,8 @@ def _put_cases(
     for oc in outcomes:
         _put_run(folder, oc.case.system, oc.result, safe_component(oc.case.name), {"case": oc.to_json() | {"run": None}}, figures)
     if figures:
-        from glocal_verify.reporting.figures import figure_bytes, plot_cases
+        from glocal_verify.reporting.figures.canvas import figure_bytes
+        from glocal_verify.reporting.figures.simulation import plot_cases
 
         for ext, blob in figure_bytes(plot_cases(outcomes)).items():
             folder.write_bytes(f"figure2.{ext}", blob)

@@ -20,7 +20,7 @@ Child processes
       call), ignores ``SIGINT`` (a terminal's Ctrl-C reaches the whole process group; the
       parent decides) and takes the default, immediate action for ``SIGTERM`` and ``SIGHUP``;
       the parent kills it (``SIGKILL``) on any exception, a stop signal included;
-    * an embedded Dask worker (:mod:`glocal_verify.design.distributed`) does the same in its
+    * an embedded Dask worker (:mod:`glocal_verify.extra.dask`) does the same in its
       set-up; its cluster is closed, or its processes killed, when the command stops.
 
     Where ``prctl`` does not exist (not Linux) the parent's clean-up is the only guarantee: a

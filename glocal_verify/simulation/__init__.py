@@ -14,6 +14,9 @@
   certified detection guarantee (who detects, by when, the smallest size);
 - :mod:`.sampled_runs`, :mod:`.escape` -- batched sampled runs of Algorithm 1 (random, vertex,
   worst case) and the largest attack an admissible run hides.
+- :mod:`.deployment` -- :func:`design_deployment`: the designed observers, their attack-free
+  thresholds, the monitors and the schedule as one frozen :class:`Deployment` (what the export
+  writes).
 
 Layer: imports :mod:`glocal_verify.observers`, :mod:`glocal_verify.analysis` and below; never a
 checker.

@@ -30,7 +30,7 @@ Algorithm 1
 :func:`algorithm1` runs the observers; a local residual crossing its threshold is a local
 detection. The safe mode is the one given (``mode``, or the spec's ``switching.mode``) or, when
 none is given, the best-ranked safe mode of :func:`rank_safe_modes` (conditions (i)-(iii) of
-Theorem III.3 from :func:`glocal_verify.conditions.registry.verify`). ``trigger="schedule"`` switches at
+Theorem III.3 from :func:`glocal_verify.conditions.registry.check_conditions`). ``trigger="schedule"`` switches at
 the spec's ``switching.time`` (the paper's figures, where node 5 "can trigger either of case
 1's or case 2's switching topologies"); ``trigger="local"`` switches one output step after the
 first local detection (the sampled Algorithm 1). The control centre detects when the global

@@ -13,7 +13,7 @@ from typing import Any, Sequence
 import numpy as np
 import scipy.linalg
 
-from glocal_verify.analysis.covert import channel_label
+from glocal_verify.analysis.stealthy.covert import channel_label
 from glocal_verify.errors import ModelError, NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.spec.types import NORMAL_MODE, Label
@@ -236,7 +236,7 @@ def zda_attack(
     ----------
     system : System
     lambda0 : complex, optional
-        Chosen zero; default the one :func:`glocal_verify.analysis.zda.zda_direction` picks.
+        Chosen zero; default the one :func:`glocal_verify.analysis.stealthy.zda.zda_direction` picks.
     amplitude : float
         Scale of the direction (:func:`zda_attack_from_direction`).
     start : float
@@ -248,7 +248,7 @@ def zda_attack(
         When no ZDA exists at ``lambda0`` (or ``stealthy`` is not available).
     """
     try:
-        from glocal_verify.analysis.zda import zda_direction  # type: ignore[attr-defined]
+        from glocal_verify.analysis.stealthy.zda import zda_direction  # type: ignore[attr-defined]
     except ImportError as exc:  # pragma: no cover - depends on the other module landing
         raise NotApplicableError(f"glocal_verify.conditions.stealthy is not available ({exc})") from None
     d = zda_direction(system, lambda0)

@@ -60,9 +60,9 @@ import numpy as np
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.numerics.certified_rows import RowSequence, abs_row_sums, certified_rows, exact_to_float, upper
-from glocal_verify.numerics.spectrum import gamma_bound
+from glocal_verify.numerics.rounding import gamma_bound
 from glocal_verify.observers.sampled import SampledObserver, sampled_observers
-from glocal_verify.analysis.sampled import implementation_of
+from glocal_verify.analysis.sampled.loop import implementation_of
 from glocal_verify.results import jsonable
 from glocal_verify.simulation.limits import THRESHOLD_KNOBS, SizeEstimate, check_size, estimate_threshold_size, threshold_samples
 from glocal_verify.spec.arguments import real_arg

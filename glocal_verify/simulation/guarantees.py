@@ -46,11 +46,11 @@ from typing import Any, Mapping, Sequence
 import flint
 import numpy as np
 
-from glocal_verify.analysis.sampled import implementation_of
+from glocal_verify.analysis.sampled.loop import implementation_of
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.numerics.certified_rows import RowSequence, certified_orbit, certified_rows, exact_to_float, power_certificate, upper
-from glocal_verify.numerics.spectrum import gamma_bound
+from glocal_verify.numerics.rounding import gamma_bound
 from glocal_verify.results import Status, jsonable
 from glocal_verify.simulation.certified_thresholds import CertifiedThresholds, certified_thresholds
 from glocal_verify.simulation.sampled_attack import Composite, SampledAttack, central_composite, local_composite, sampled_attack_from_spec

@@ -4,7 +4,7 @@
 :math:`u_k = \\operatorname{Re}(a\\,u_0 z^{k - k_a})` on its actuators ``F`` for ``k >= k_a``
 (``a`` the size, ``u_0`` a unit direction):
 
-* a sampled **ZDA** (:func:`~glocal_verify.analysis.sampled_zda.sampled_zda_direction`) at the
+* a sampled **ZDA** (:func:`~glocal_verify.analysis.sampled.zda.sampled_zda_direction`) at the
   zero ``z = z_0`` with the state deviation :math:`\\operatorname{Re}(a \\tilde x_0)` added at
   ``k_a`` (as in the continuous simulator: the deviation the attacker's initial state needs);
 * a **covert** attack (Proposition II.4 (i)): ``step`` (``z = 1``), ``sine`` (``z = e^{i 2 pi f h}``,
@@ -43,8 +43,8 @@ from typing import Any, Sequence
 import flint
 import numpy as np
 
-from glocal_verify.analysis.sampled import implementation_of, sampled_matrices_exact
-from glocal_verify.analysis.sampled_zda import sampled_zda_direction
+from glocal_verify.analysis.sampled.loop import implementation_of, sampled_matrices_exact
+from glocal_verify.analysis.sampled.zda import sampled_zda_direction
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.numerics.exact import columns as exact_columns

@@ -32,7 +32,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from glocal_verify.analysis.sampled import implementation_of, sampled_matrices
+from glocal_verify.analysis.sampled.loop import implementation_of, sampled_matrices
 from glocal_verify.errors import ModelError
 from glocal_verify.model import System
 from glocal_verify.numerics.certified_rows import exact_to_float

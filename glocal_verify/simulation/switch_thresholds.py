@@ -32,7 +32,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from glocal_verify.numerics.certified_rows import RowSequence, abs_row_sums, certified_rows, exact_to_float, upper
-from glocal_verify.numerics.spectrum import gamma_bound
+from glocal_verify.numerics.rounding import gamma_bound
 from glocal_verify.simulation.certified_thresholds import ROUNDING, UncertaintyModel, disturbance_support
 from glocal_verify.simulation.sampled_attack import Composite
 

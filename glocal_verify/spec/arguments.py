@@ -17,7 +17,7 @@ from typing import Any
 
 from glocal_verify.errors import ArgumentError
 
-__all__ = ["integer_arg", "real_arg", "choice_arg", "ids_arg", "instance_arg", "mapping_arg", "callable_arg"]
+__all__ = ["integer_arg", "real_arg", "choice_arg", "id_list_arg", "instance_arg", "mapping_arg", "callable_arg"]
 
 
 def _show(value: Any) -> str:
@@ -83,7 +83,7 @@ def choice_arg(name: str, value: Any, choices: Iterable[str]) -> str:
     return value
 
 
-def ids_arg(name: str, value: Any) -> list[str] | None:
+def id_list_arg(name: str, value: Any) -> list[str] | None:
     """Condition ids: None, one id, or an iterable of ids (each a string).
 
     Parameters

@@ -34,6 +34,7 @@ from __future__ import annotations
 import json
 import math
 import numbers
+import os
 import re
 from decimal import Decimal
 from fractions import Fraction
@@ -98,6 +99,7 @@ from glocal_verify.spec.types import (
 )
 
 __all__ = [
+    "as_spec",
     "load_spec",
     "loads_spec",
     "spec_from_dict",
@@ -189,6 +191,26 @@ def loads_spec(text: str | bytes, source: str | None = None) -> SystemSpec:
         and integers too long to read.
     """
     return spec_from_dict(parse_toml(text, source), source=source)
+
+
+def as_spec(value: Any, name: str = "spec") -> SystemSpec:
+    """``value`` as a specification: itself, or a mapping shaped like the spec file validated
+    by :func:`spec_from_dict` (which raises :class:`~glocal_verify.errors.SpecError`); anything
+    else (``None``, a file name: load it with ``load_spec``) raises
+    :class:`~glocal_verify.errors.ArgumentError` naming ``name``.
+
+    Parameters
+    ----------
+    value : object
+    name : str
+        The argument, for the message.
+    """
+    if isinstance(value, SystemSpec):
+        return value
+    if isinstance(value, Mapping):
+        return spec_from_dict(value)
+    hint = " (a file name: load it with load_spec)" if isinstance(value, (str, os.PathLike)) else ""
+    raise ArgumentError(f"{name}: expected a SystemSpec or a mapping shaped like the spec file, got {type(value).__name__}{hint}")
 
 
 def spec_from_dict(data: Mapping[str, Any], source: str | None = None) -> SystemSpec:

@@ -48,12 +48,12 @@ tables or arrays nested at most :data:`MAX_DEPTH` levels deep.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any, Final, Mapping
 
-from glocal_verify.errors import ArgumentError, SpecError
+from glocal_verify.errors import SpecError
+from glocal_verify.spec.writer import dump_spec
 
 __all__ = [
     "Label",
@@ -374,30 +374,6 @@ class SystemSpec:
                 return m
         raise SpecError("modes", f"no safe mode named {name!r}", self.source)
 
-    @classmethod
-    def of(cls, value: Any, name: str = "spec") -> SystemSpec:
-        """``value`` as a specification: itself, or a mapping shaped like the spec file
-        validated by :func:`~glocal_verify.spec.load.spec_from_dict` (which raises
-        :class:`~glocal_verify.errors.SpecError`); anything else (``None``, a file name: load it
-        with ``load_spec``) raises :class:`~glocal_verify.errors.ArgumentError` naming ``name``.
-
-        Parameters
-        ----------
-        value : object
-        name : str
-            The argument, for the message.
-        """
-        if isinstance(value, cls):
-            return value
-        if isinstance(value, Mapping):
-            from glocal_verify.spec.load import spec_from_dict
-
-            return spec_from_dict(value)
-        hint = " (a file name: load it with load_spec)" if isinstance(value, (str, os.PathLike)) else ""
-        raise ArgumentError(f"{name}: expected a SystemSpec or a mapping shaped like the spec file, got {type(value).__name__}{hint}")
-
     def to_toml(self) -> str:
         """This specification as TOML text (format 1), exactly; see :func:`glocal_verify.spec.writer.dump_spec`."""
-        from glocal_verify.spec.writer import dump_spec
-
         return dump_spec(self)

@@ -21,20 +21,23 @@ import math
 import re
 from fractions import Fraction
 from types import MappingProxyType
-from typing import Any, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
-from glocal_verify.spec.arguments import instance_arg
-from glocal_verify.spec.types import (
-    AttackSpec,
-    ClusterSpec,
-    EdgeSpec,
-    ImplementationSpec,
-    Label,
-    ModeSpec,
-    SwitchingSpec,
-    SystemSpec,
-    UncertaintySpec,
-)
+from glocal_verify.errors import ArgumentError
+
+if TYPE_CHECKING:  # annotations only: the spec types call this writer (SystemSpec.to_toml)
+    from glocal_verify.spec.types import (
+        AttackSpec,
+        ClusterSpec,
+        EdgeSpec,
+        ImplementationSpec,
+        Label,
+        ModeSpec,
+        SwitchingSpec,
+        SystemSpec,
+        UncertaintySpec,
+    )
+
 
 __all__ = [
     "dump_spec",
@@ -238,7 +241,9 @@ def dump_spec(spec: SystemSpec) -> str:
     >>> loads_spec(dump_spec(spec), source=spec.source) == spec
     True
     """
-    instance_arg("dump_spec", spec, SystemSpec, "a validated SystemSpec (load_spec, spec_from_graph, spec_from_dict ...)")
+    if not all(hasattr(spec, a) for a in ("name", "nodes", "edges", "modes", "clusters", "monitor", "simulation")):
+        # a structural check: the spec types import this writer (SystemSpec.to_toml)
+        raise ArgumentError(f"dump_spec: expected a validated SystemSpec (load_spec, spec_from_graph, spec_from_dict ...), got {type(spec).__name__}")
     lines = ["# glocal-verify system specification", "format = 1", f"name = {_string(spec.name)}"]
     if spec.description:
         lines.append(f"description = {_string(spec.description)}")

@@ -228,7 +228,7 @@ def _path_cluster_system() -> System:
 
 
 def test_a_certified_local_pencil_failure_comes_with_a_proved_zero() -> None:
-    from glocal_verify.analysis.local_cases import full_pencil, local_cases
+    from glocal_verify.analysis.local.cases import full_pencil, local_cases
 
     s = _path_cluster_system()
     case = next(c for c in local_cases(s) if c.model.name == "A" and c.kind == "attack")

@@ -20,7 +20,7 @@ from hypothesis import example, given, settings
 from near_degenerate import near_degenerate_specs
 
 from glocal_verify import System, spec_from_dict, spec_from_graph, verify
-from glocal_verify.analysis.eigenstructure import eigenvector_difference_polynomial
+from glocal_verify.analysis.switching.eigenstructure import eigenvector_difference_polynomial
 from glocal_verify.numerics import exact as ex
 from glocal_verify.results import ConditionResult, Status
 

@@ -14,7 +14,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from glocal_verify.conditions.registry import verify
+from glocal_verify.conditions.registry import check_conditions
 from glocal_verify.design.audit import audit
 from glocal_verify.design.generators import random_clustered_spec
 from glocal_verify.design.monitors import _blocks, _f, design_monitors
@@ -52,7 +52,7 @@ def test_one_link_theorem_agrees_with_the_exact_checkers(system: System, pick: i
         sub = System(with_modes(system.spec, [mode], keep=False))
         if not all(len(c) > 1 for c in sub.components("m")[:1]):
             continue  # a removal that disconnects the graph: (ii) fails, as the filter says
-        sts = {r.status for r in verify(sub, THEOREM, exact=True).conditions}
+        sts = {r.status for r in check_conditions(sub, THEOREM, exact=True).conditions}
         if ok[k]:
             assert sts == {Status.HOLDS}, cands[k]
         else:
@@ -77,7 +77,7 @@ def test_designed_monitors_are_minimal_and_keep_privacy(system: System) -> None:
 def test_audit_rows_agree_with_verify_on_their_attack(system: System, pick: int) -> None:
     res = audit(system, 1)
     row = res.rows[pick % len(res.rows)]
-    rep = verify(System(with_attack(system.spec, row.actuators)), ["stealthy.zda", "switching.avoids-attack"], exact=True)
+    rep = check_conditions(System(with_attack(system.spec, row.actuators)), ["stealthy.zda", "switching.avoids-attack"], exact=True)
     (z,) = rep.results("stealthy.zda")
     assert row.stealthy is (z.status is Status.HOLDS)
     if row.stealthy:
@@ -97,7 +97,7 @@ def test_designed_safe_modes_expose_what_they_claim(system: System) -> None:
     for m in d.modes:
         for F in m.exposes:
             spec = with_attack(with_modes(system.spec, [m.mode_spec()], keep=False), F)
-            rep = verify(System(spec), THEOREM + ["switching.avoids-attack"], exact=True)
+            rep = check_conditions(System(spec), THEOREM + ["switching.avoids-attack"], exact=True)
             assert all(r.status is Status.HOLDS for r in rep.conditions if r.id in THEOREM)
             assert [r.status for r in rep.results("switching.avoids-attack")] == [Status.FAILS]
     assert set(d.targets) == set(stealthy)

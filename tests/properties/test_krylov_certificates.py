@@ -15,8 +15,8 @@ from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
 from glocal_verify import System, config, loads_spec
-from glocal_verify.analysis.eigenstructure import distinct_eigenvalues_verdict, eigenvector_differences_verdict
-from glocal_verify.analysis.twins import distinct_eigenvalues_modular, eigenvector_differences_modular, laplacian_entries
+from glocal_verify.analysis.switching.eigenstructure import distinct_eigenvalues_verdict, eigenvector_differences_verdict
+from glocal_verify.analysis.laplacian.twins import distinct_eigenvalues_modular, eigenvector_differences_modular, laplacian_entries
 from glocal_verify.numerics.krylov import krylov_degree_mod, krylov_rank_mod
 from glocal_verify.results import Status
 from tests.strategies import graphs
@@ -147,8 +147,8 @@ def test_a_block_krylov_rank_modulo_a_prime_never_exceeds_the_observability_rank
 
 
 def test_the_observability_certificate_decides_a_cluster_of_a_hundred_agents_that_zero_forcing_leaves_open() -> None:
-    from glocal_verify.analysis.local_cases import certify_pencil_verdict, local_cases, observability_certificate
-    from glocal_verify.analysis.local_pencil import pencil_verdict
+    from glocal_verify.analysis.local.cases import certify_pencil_verdict, local_cases, observability_certificate
+    from glocal_verify.analysis.local.pencil import pencil_verdict
     from glocal_verify.design.generators import random_clustered_spec
 
     # the realistic family at N = 1000: in cluster P4 zero forcing leaves 93 of 100 agents unforced
@@ -164,8 +164,8 @@ def test_the_observability_certificate_decides_a_cluster_of_a_hundred_agents_tha
 @settings(max_examples=25, deadline=None)
 @given(st.integers(0, 10_000), st.integers(18, 30), st.integers(2, 3), st.booleans())
 def test_what_the_observability_certificate_proves_exact_arithmetic_confirms(seed: int, n: int, clusters: int, attack: bool) -> None:
-    from glocal_verify.analysis.local_cases import local_cases, minor_certificate, observability_certificate
-    from glocal_verify.analysis.local_pencil import pencil_verdict_exact
+    from glocal_verify.analysis.local.cases import local_cases, minor_certificate, observability_certificate
+    from glocal_verify.analysis.local.pencil import pencil_verdict_exact
     from glocal_verify.design.generators import random_clustered_spec
 
     s = System(random_clustered_spec(n, clusters, seed=seed, modes=1, attack=attack))

@@ -11,15 +11,15 @@ from hypothesis import strategies as st
 from strategies import assert_numeric_matches_exact, clustered_systems
 
 from glocal_verify import System, verify
-from glocal_verify.analysis.cluster_pencil import zero_forcing_steps
-from glocal_verify.analysis.local_cases import (
+from glocal_verify.analysis.local.cluster_pencil import zero_forcing_steps
+from glocal_verify.analysis.local.cases import (
     LocalCase,
     full_pencil,
     local_cases,
     pencil_matrices,
     pencil_matrices_exact,
 )
-from glocal_verify.analysis.local_pencil import pencil_verdict, pencil_verdict_exact
+from glocal_verify.analysis.local.pencil import pencil_verdict, pencil_verdict_exact
 from glocal_verify.design.placement import (
     _intra_neighbours,
     reduced_pencil_holds,

@@ -11,8 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from glocal_verify import System
-from glocal_verify.analysis.local_cases import certify_pencil_verdict, local_cases
-from glocal_verify.analysis.local_pencil import pencil_verdict, pencil_verdict_exact
+from glocal_verify.analysis.local.cases import certify_pencil_verdict, local_cases
+from glocal_verify.analysis.local.pencil import pencil_verdict, pencil_verdict_exact
 from glocal_verify.design.generators import random_clustered_spec
 from glocal_verify.results import Status
 

@@ -1,6 +1,6 @@
 """Stealthy ZDAs proved inside the attacked clusters, against exact arithmetic and the definition.
 
-A proof of :func:`~glocal_verify.analysis.zda_local.prove_local_zero` claims a stealthy ZDA at
+A proof of :func:`~glocal_verify.analysis.stealthy.zda_local.prove_local_zero` claims a stealthy ZDA at
 every root of an irreducible polynomial. The exact analysis of the whole pencil must find a
 zero there with the same growth class, and the reported direction must satisfy the definition:
 (s I + alpha L) xi = S_F^T u0, xi = 0 on every monitored agent, u0 != 0.
@@ -13,8 +13,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from glocal_verify import System
-from glocal_verify.analysis.zda_exact import zda_analysis_exact
-from glocal_verify.analysis.zda_local import prove_local_zero
+from glocal_verify.analysis.stealthy.zda_exact import zda_analysis_exact
+from glocal_verify.analysis.stealthy.zda_local import prove_local_zero
 from glocal_verify.design.audit import audit
 from glocal_verify.design.generators import random_clustered_spec
 from glocal_verify.spec.load import loads_spec
@@ -132,13 +132,13 @@ def test_a_zero_whose_direction_leaves_the_attacked_clusters_is_proved_at_its_ra
 def test_verify_proves_a_zda_its_numeric_pass_leaves_undecided_by_the_local_zero_and_reports_its_direction() -> None:
     import dataclasses
 
-    from glocal_verify.conditions.registry import verify
+    from glocal_verify.conditions.registry import check_conditions
     from glocal_verify.spec.types import AttackSpec
 
     # the deflation's rank decision for agent 59 falls in the undecided band; the local zero
     # inside the attacked clusters proves the attack stealthy without the exact escalation
     s = System(dataclasses.replace(random_clustered_spec(120, 6, seed=3), attack=AttackSpec("zda", (59,))))
-    (r,) = verify(s, ["stealthy.zda"]).results("stealthy.zda")
+    (r,) = check_conditions(s, ["stealthy.zda"]).results("stealthy.zda")
     assert r.status.value == "holds"
     assert "an exact kernel vector" in r.witness["certificate"]["by"]
     d = r.witness["direction"]

@@ -21,11 +21,11 @@ from strategies import assert_numeric_matches_exact, systems
 from test_observability import NEW_IDS
 
 from glocal_verify import System, spec_from_dict
-from glocal_verify.analysis.switched import (
+from glocal_verify.analysis.unobservable.switched import (
     switched_unobservable_bounds_exact,
     switched_unobservable_subspace,
 )
-from glocal_verify.analysis.unobservable import (
+from glocal_verify.analysis.unobservable.subspace import (
     unobservable_subspace,
     unobservable_subspace_exact,
 )

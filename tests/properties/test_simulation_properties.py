@@ -7,9 +7,9 @@
 * after a switch, the attack-induced global residual vanishes identically exactly when the
   switching discrepancy of the ZDA, [0; dL_q xi], lies in the unobservable subspace of
   (A_q, C), i.e. S_M P_mu dL_q xi = 0 for every eigenspace E_mu of L_q; in particular when
-  the switch does not touch the attack (dL_q xi = 0, Remark III.3.1): ``switching.safe``'s
+  the switch does not touch the attack (dL_q xi = 0, Remark III.3.1): ``switching.avoids-attack``'s
   "bounded, vanishing" prediction always holds -- for the simulated direction when it is the
-  avoiding one, else for the avoiding direction ``switching.safe`` found (the attacker chooses
+  avoiding one, else for the avoiding direction ``switching.avoids-attack`` found (the attacker chooses
   the direction, so that is the one to simulate) --, its "unbounded" prediction fails exactly
   on the hidden-discrepancy cases (a finding);
 * with Theorem III.3 (i)-(iii) holding and a switch that touches an unstable ZDA, the control
@@ -34,7 +34,7 @@ from hypothesis import strategies as st
 from strategies import clustered_systems, graphs
 
 from glocal_verify import System, load_example, spec_from_dict, verify
-from glocal_verify.analysis.avoidance import avoidance
+from glocal_verify.analysis.switching.avoidance import avoidance
 from glocal_verify.conditions.detects import THEOREM_III3_IDS, algorithm1, check_detects
 from glocal_verify.conditions.registry import CheckContext
 from glocal_verify.errors import GlocalVerifyError
@@ -118,7 +118,7 @@ def _system(n: int, edges: list[list[Any]], mv: list[int], F: list[int], add: li
 AVOIDS = _system(3, [[1, 2, 1], [2, 3, 1]], [1], [2, 3], [[1, 2, 2]], [[1, 2]])
 #: findings/remark-touching-switch-hides-zda (touches it, (ii) fails: hidden)
 HIDES = _system(3, [[1, 2, 1], [1, 3, 1]], [1], [1, 2], [[2, 3, 1]], [])
-#: stealthy.zda's direction is touched, yet xi = [1, 0, -1, 0] avoids the switch (switching.safe holds)
+#: stealthy.zda's direction is touched, yet xi = [1, 0, -1, 0] avoids the switch (switching.avoids-attack holds)
 AVOIDABLE = _system(4, [[1, 3, "1/2"], [2, 4, 2], [3, 4, 1]], [2], [1, 3, 4], [[1, 2, 1], [2, 3, 1]], [[1, 3]], lam=1.0)
 
 
@@ -187,16 +187,16 @@ def test_the_attack_reaches_the_global_residual_after_a_switch_iff_its_discrepan
         assert np.max(rel[~pre]) > 1e-9 * 1e3  # visible well above rounding
     if touches <= 1e-10:
         assert margin <= 1e-10  # Remark III.3.1: a switch that avoids the ZDA keeps it hidden
-    # switching.safe (Remark III.3.1, the remark's reading): "does not touch" predicts a
+    # switching.avoids-attack (Remark III.3.1, the remark's reading): "does not touch" predicts a
     # bounded, vanishing residual -- the attack part must stay at rounding level; "touches"
     # with an unbounded ZDA predicts an unbounded residual -- the attack must show, unless its
     # discrepancy hides in an unobservable eigenspace (findings/remark-touching-switch-hides-zda)
-    (safe,) = [r for r in verify(system, ["switching.safe"]).conditions if r.scope.get("mode") == "q"]
+    (safe,) = [r for r in verify(system, ["switching.avoids-attack"]).conditions if r.scope.get("mode") == "q"]
     if safe.status is Status.HOLDS and safe.witness["chosen_direction"]["touched"] is False:
         assert np.max(rel[~pre]) <= 1e-9, safe.witness  # the simulated direction is the avoiding one
     elif safe.status is Status.HOLDS:
         # the attacker chooses the direction: the simulated one (stealthy.zda's) is touched, but
-        # switching.safe found another stealthy direction at lambda0 that the switch does not
+        # switching.avoids-attack found another stealthy direction at lambda0 that the switch does not
         # touch -- simulated, it must stay hidden before and after the switch
         av = avoidance(system, "q")
         assert av is not None and av.direction is not None and av.status is Status.HOLDS
@@ -204,10 +204,10 @@ def test_the_attack_reaches_the_global_residual_after_a_switch_iff_its_discrepan
         atk2 = zda_attack_from_direction(system, d.lambda0, d.xi, d.u0)
         other = simulate(system, schedule=sched, attack=atk2, observers=bank, x0=np.zeros(2 * system.n), record_states=False)
         rel2 = np.max(np.abs(other.residuals["central"]), axis=1) / np.maximum(1.0, other.state_scale)
-        event("switching.safe holds through a direction other than the simulated one")
+        event("switching.avoids-attack holds through a direction other than the simulated one")
         assert np.max(rel2) <= 1e-9, safe.witness
     elif safe.status is Status.FAILS and safe.witness.get("predicted_residual") == "unbounded":
-        event(f"switching.safe predicts unbounded; simulated {'hidden (finding)' if margin <= 1e-10 else 'visible'}")
+        event(f"switching.avoids-attack predicts unbounded; simulated {'hidden (finding)' if margin <= 1e-10 else 'visible'}")
         assert np.max(rel[~pre]) > 1e-6 or margin <= 1e-10
 
 

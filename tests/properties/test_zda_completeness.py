@@ -1,4 +1,4 @@
-"""The completeness proof of the ZDA zero set (analysis.zda_completeness) against exact arithmetic.
+"""The completeness proof of the ZDA zero set (analysis.stealthy.zda_completeness) against exact arithmetic.
 
 ``complete`` claims that every invariant zero lambda != 0 of (A_1, B_F, C) has Re lambda < 0
 and that the system is left-invertible. The exact analysis over Q (python-flint) lists every

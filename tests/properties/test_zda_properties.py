@@ -14,8 +14,8 @@ from hypothesis import strategies as st
 from strategies import systems
 
 from glocal_verify import System, spec_from_graph, verify
-from glocal_verify.analysis.zda import ZdaAnalysis, zda_analysis
-from glocal_verify.analysis.zda_exact import zda_analysis_exact
+from glocal_verify.analysis.stealthy.zda import ZdaAnalysis, zda_analysis
+from glocal_verify.analysis.stealthy.zda_exact import zda_analysis_exact
 from glocal_verify.results import Status
 
 
@@ -107,8 +107,8 @@ def test_numeric_and_exact_switching_safe_agree_when_the_directions_coincide(sys
     a, b = num.direction.xi, exa.direction.xi
     if abs(num.direction.value - exa.direction.value) > 1e-8 or np.linalg.norm(a - b) > 1e-8 * np.linalg.norm(b):
         return  # a multi-dimensional kernel: the two paths may pick different directions
-    rn = {r.scope["mode"]: r for r in verify(system, ["switching.safe"]).conditions}
-    re_ = {r.scope["mode"]: r for r in verify(system, ["switching.safe"], exact=True).conditions}
+    rn = {r.scope["mode"]: r for r in verify(system, ["switching.avoids-attack"]).conditions}
+    re_ = {r.scope["mode"]: r for r in verify(system, ["switching.avoids-attack"], exact=True).conditions}
     for mode, r in re_.items():
         assert r.status is not Status.UNDECIDED
         if rn[mode].status is not Status.UNDECIDED:

@@ -1,0 +1,357 @@
+"""The touch test of a safe mode at lambda0 = 0, in exact arithmetic, from potentials of L_1.
+
+At lambda0 = 0 the stealthy kernel of eq. ``zda_cond`` is (s = 0, the outputs at lambda = 0
+are the monitored positions M_x)
+
+.. math::
+
+    Z_0 = \\{(\\xi, u_0) : \\alpha L_1 \\xi = S_F^\\top u_0,\\ S_{M_x} \\xi = 0\\}.
+
+With no monitored position and a connected G_1, :math:`\\mathbf 1^\\top L_1 = 0` forces
+:math:`\\mathbf 1^\\top S_F^\\top u_0 = 0`, so :math:`u_0 = \\sum_{k \\ge 2} c_k (e_1 - e_k)` (in the
+coordinates of F = (f_1, ..., f_m)) and
+
+.. math::
+
+    \\xi = \\frac{1}{\\alpha} \\sum_{k \\ge 2} c_k\\, y_k + c_1 \\mathbf 1, \\qquad
+    L_1 y_k = e_{f_1} - e_{f_k},
+
+the potentials of unit currents between attacked agents (y_k is unique up to a constant: ground
+one agent r, y_k[r] = 0, and solve the grounded Laplacian, nonsingular on a connected graph).
+Since :math:`\\Delta L_q \\mathbf 1 = 0`, a direction with an input avoids the switch to mode q
+(``switching.avoids-attack`` holds, Remark III.3.1) iff the columns :math:`\\Delta L_q y_k`
+are linearly dependent, i.e. :math:`\\operatorname{rank} [\\Delta L_q y_2, \\dots, \\Delta L_q y_m] < m - 1`;
+otherwise every stealthy direction at lambda0 = 0 is touched. Everything is decided over Q
+(python-flint ``fmpq_mat``): one solve of the grounded Laplacian per attack set, shared by
+the modes. Physically: a link change between i and j is invisible to the attack iff the
+attack's potential field takes the same value at i and j.
+
+The potential differences can be tiny (a link far from the attack, behind a two-vertex cut)
+while nonzero: the numeric test, which compares ||dL_q xi|| with ||dL_q|| ||xi|| against the
+tolerance, is then undecided, and this exact test settles it. The margin it reports is that
+ratio for the attack's potential without its constant part (small: the switch exposes the attack
+only by a small signal, and the result is marked fragile).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from fractions import Fraction
+from typing import Any, Sequence
+
+import numpy as np
+
+from glocal_verify import config
+from glocal_verify.analysis.switching.touch import Avoidance, block_norm, delta_block
+from glocal_verify.analysis.laplacian.twins import laplacian_entries
+from glocal_verify.analysis.stealthy.zda import ZdaDirection, ZdaZero
+from glocal_verify.derived import Kind
+from glocal_verify.model import System
+from glocal_verify.results import Status
+from glocal_verify.spec.types import NORMAL_MODE
+
+__all__ = ["ZeroTouch", "zero_touch", "touch_at_zero"]
+
+#: derived results this module keeps on the system (glocal_verify.derived)
+_DELTA_NORM_KIND: Kind[float] = Kind("delta-norm", __name__, "float")
+_GROUNDED_LAPLACIAN_INVERSE_MOD_KIND: Kind[Any] = Kind("grounded-laplacian-inverse-mod", __name__, "Any")
+_NORMAL_GRAPH_CONNECTED_KIND: Kind[bool] = Kind("normal-graph-connected", __name__, "bool")
+
+
+@dataclasses.dataclass(frozen=True, slots=True)
+class ZeroTouch:
+    """The exact touch test of one safe mode at lambda0 = 0 (module docstring).
+
+    Attributes
+    ----------
+    mode : str
+    avoids : bool
+        Some stealthy direction with an input at lambda0 = 0 has dL_q xi = 0 exactly.
+    rank : int
+        rank over Q of [dL_q y_2, ..., dL_q y_m].
+    inputs : int
+        m - 1, the dimension of the inputs of Z_0.
+    touched_agents : tuple of labels
+        Rows of dL_q y_2 that are nonzero (the agents whose links see the potential of the
+        first attacked pair).
+    ratio : float
+        ||dL_q y|| / (||dL_q||_2 ||y - mean(y)||) for y = y_2 (a magnitude, not a decision).
+    xi, u0 : tuple of Fraction, optional
+        When ``avoids``: an avoiding direction over Q (xi = sum c_k y_k / alpha with
+        [dL_q y_k] c = 0, u0 on F), scaled to max |xi_i| = 1.
+    """
+
+    mode: str
+    avoids: bool
+    rank: int
+    inputs: int
+    touched_agents: tuple[Any, ...]
+    ratio: float
+    xi: tuple[Fraction, ...] | None = None
+    u0: tuple[Fraction, ...] | None = None
+
+
+def _grounded(system: System) -> Any:
+    """The grounded Laplacian L_1 without its last row and column, as an fmpq_mat.
+
+    Built per call (it is only needed when the modular screen does not prove a touch): flint
+    matrices do not pickle, and the system's analysis store travels to Dask workers.
+    """
+    from flint import fmpq, fmpq_mat
+
+    L = system.laplacian_exact(NORMAL_MODE)
+    n = system.n - 1
+    return fmpq_mat(n, n, [fmpq(L[i][j].numerator, L[i][j].denominator) for i in range(n) for j in range(n)])
+
+
+#: the modular screen inverts the grounded Laplacian modulo a prime (O(N^3) once per system) up
+#: to this many agents; above, every set takes the exact solve
+MODULAR_MAX_AGENTS = config.get("zero_touch_modular_max_agents")
+
+
+def _inverse_mod(system: System) -> tuple[int, np.ndarray] | None:
+    """(p, L_g^{-1} mod p as an int64 array) for a prime p below 2^62 that divides no weight denominator and not det L_g.
+
+    Reduction modulo p is a ring homomorphism on the rationals whose denominators are units
+    modulo p, and L_g^{-1} = adj(L_g) / det(L_g) with det(L_g) a unit: so (L_g^{-1} b) mod p is
+    the reduction of the exact potential, and a potential difference nonzero modulo p is
+    nonzero over Q.
+    """
+    from flint import fmpz, nmod_mat
+
+    def build() -> tuple[int, Any] | None:
+        n = system.n - 1
+        nonzero = {(i, j): Fraction(v) for (i, j), v in laplacian_entries(system, NORMAL_MODE).items() if i < n and j < n and v != 0}
+        dens = {abs(v.denominator) for v in nonzero.values()}
+        q = (1 << 62) - 1
+        for _ in range(200):
+            q -= 2
+            if not fmpz(q).is_prime() or any(d % q == 0 for d in dens):
+                continue
+            entries = [0] * (n * n)
+            for (i, j), v in nonzero.items():
+                entries[i * n + j] = (v.numerator % q) * pow(v.denominator % q, -1, q) % q
+            M = nmod_mat(n, n, entries, q)
+            try:
+                inv = M.inv()
+            except ZeroDivisionError:  # det L_g = 0 modulo q: the next prime
+                continue
+            # a plain array (entries < 2^62 fit int64): flint matrices do not pickle
+            return q, np.array([int(x) for x in inv.entries()], dtype=np.int64).reshape(n, n)
+        return None
+
+    if system.n - 1 > MODULAR_MAX_AGENTS:
+        return None
+    return _GROUNDED_LAPLACIAN_INVERSE_MOD_KIND.get(system, (NORMAL_MODE,), build)  # type: ignore[no-any-return]
+
+
+def _applies(system: System, F: Sequence[int]) -> bool:
+    return (
+        system.n >= 2
+        and len(F) >= 2
+        and len(set(F)) == len(F)
+        and not system.monitored_positions
+        and _NORMAL_GRAPH_CONNECTED_KIND.get(system, (), lambda: len(system.components(NORMAL_MODE)) == 1)
+    )
+
+
+def _links(system: System, mode: str) -> tuple[list[tuple[int, int, Fraction]], list[int]]:
+    """The switching links (i, j, dw) of ``mode`` as agent indices, and the agents they touch (sorted)."""
+    links = [(system.index[u], system.index[v], Fraction(dw)) for u, v, dw in system.switching_links(mode)]
+    return links, sorted({a for i, j, _ in links for a in (i, j)})
+
+
+def _ratio(system: System, mode: str, F: Sequence[int], rows: Sequence[int], links: Sequence[tuple[int, int, Fraction]]) -> float:
+    """||dL_q y|| / (||dL_q||_2 ||y||) for y = L_1^+ (e_f1 - e_f2) in floating point (a magnitude).
+
+    With L_1 = U diag(mu) U^T: y = U c, c = (U[f1, :] - U[f2, :]) / mu off the zero mode, so
+    ||y|| = ||c|| and y_i - y_j = (U[i, :] - U[j, :]) c, O(N) per link.
+    """
+    w, U = system.eigh()
+    scale = max(1.0, float(np.max(np.abs(w))))
+    c = (U[F[0], :] - U[F[1], :]) / np.where(np.abs(w) > 1e-12 * scale, w, np.inf)
+    pos = {i: k for k, i in enumerate(rows)}
+    col = np.zeros(len(rows))
+    for i, j, dw in links:
+        d = float(dw) * float((U[i, :] - U[j, :]) @ c)
+        col[pos[i]] += d
+        col[pos[j]] -= d
+    dl_norm = _DELTA_NORM_KIND.get(system, (mode,), lambda: block_norm(delta_block(system, mode)[1]))
+    ny = float(np.linalg.norm(c))
+    return float(np.linalg.norm(col)) / (dl_norm * ny) if dl_norm > 0 and ny > 0 else 0.0
+
+
+def _modular(system: System, F: Sequence[int], mode: str) -> ZeroTouch | None:
+    """The proof that every direction is touched, modulo a prime (rank m - 1 modulo p), or None."""
+    from flint import nmod_mat
+
+    inv = _inverse_mod(system)
+    if inv is None:
+        return None
+    q, X = inv
+    r, m = system.n - 1, len(F)
+    links, rows = _links(system, mode)
+    if not rows:
+        return None
+    pos = {i: k for k, i in enumerate(rows)}
+
+    def y(i: int, k: int) -> int:  # (L_g^{-1} (e_f1 - e_fk))_i modulo q, y[r] = 0
+        if i == r:
+            return 0
+        a = int(X[i, F[0]]) if F[0] != r else 0
+        b = int(X[i, F[k]]) if F[k] != r else 0
+        return (a - b) % q
+
+    W = [[0] * (m - 1) for _ in rows]
+    for i, j, dw in links:
+        w = (dw.numerator % q) * pow(dw.denominator % q, -1, q) % q
+        for k in range(1, m):
+            d = w * (y(i, k) - y(j, k)) % q
+            W[pos[i]][k - 1] = (W[pos[i]][k - 1] + d) % q
+            W[pos[j]][k - 1] = (W[pos[j]][k - 1] - d) % q
+    rank = nmod_mat(len(rows), m - 1, [x for row in W for x in row], q).rank()
+    if rank < m - 1:
+        return None
+    touched = tuple(system.labels[i] for i in rows if W[pos[i]][0] != 0)
+    return ZeroTouch(mode, False, rank, m - 1, touched, _ratio(system, mode, F, rows, links))
+
+
+def zero_touch(system: System, F: Sequence[int], modes: Sequence[str]) -> list[ZeroTouch] | None:
+    """The exact touch test at lambda0 = 0 of each mode for actuators F, or None where it does not apply.
+
+    Applies when G_1 is connected, no position is monitored and |F| >= 2 (with |F| = 1 the
+    kernel Z_0 has no input: u_0 = 0). First modulo a prime p (the inverse of the grounded
+    Laplacian modulo p, once per system, up to :data:`MODULAR_MAX_AGENTS` agents): rank m - 1
+    of [dL_q y_k] modulo p proves rank m - 1 over Q (a nonzero minor modulo p is nonzero), so
+    every direction is touched. Otherwise one exact solve over Q (``fmpq_mat``) decides.
+
+    Parameters
+    ----------
+    system : System
+    F : sequence of int
+        Agent indices of the attacked actuators.
+    modes : sequence of str
+        Safe modes.
+
+    Returns
+    -------
+    list of ZeroTouch or None
+        ``touched_agents`` are the rows of dL_q y_2 proved nonzero (modulo p, or over Q).
+    """
+    from flint import fmpq, fmpq_mat
+
+    if not _applies(system, F):
+        return None
+    n = system.n
+    r = n - 1  # the grounded agent: y_k[r] = 0
+    m = len(F)
+    found: dict[str, ZeroTouch] = {}
+    for mode in modes:
+        mt = _modular(system, F, mode)
+        if mt is not None:
+            found[mode] = mt
+    rest = [mode for mode in modes if mode not in found]
+    if rest:
+        rhs = fmpq_mat(n - 1, m - 1)
+        for k in range(1, m):
+            for idx, sign in ((F[0], 1), (F[k], -1)):
+                if idx != r:
+                    rhs[idx, k - 1] += sign
+        Y = _grounded(system).solve(rhs)  # (n - 1) x (m - 1), exact
+        for mode in rest:
+            links, rows = _links(system, mode)
+            pos = {i: k for k, i in enumerate(rows)}
+            W = fmpq_mat(max(len(rows), 1), m - 1)
+            for i, j, dw in links:
+                w = fmpq(dw.numerator, dw.denominator)
+                for k in range(m - 1):
+                    yi = Y[i, k] if i != r else fmpq(0)
+                    yj = Y[j, k] if j != r else fmpq(0)
+                    d = w * (yi - yj)  # dL_q = sum dw (e_i - e_j)(e_i - e_j)^T
+                    W[pos[i], k] += d
+                    W[pos[j], k] -= d
+            rank = W.rank()
+            touched = tuple(system.labels[i] for i in rows if W[pos[i], 0] != 0)
+            xi = u0 = None
+            if rank < m - 1:
+                xi, u0 = _avoiding(system, F, Y, W, r)
+            found[mode] = ZeroTouch(mode, rank < m - 1, rank, m - 1, touched, _ratio(system, mode, F, rows, links) if rows else 0.0, xi, u0)
+    return [found[mode] for mode in modes]
+
+
+def _avoiding(system: System, F: Sequence[int], Y: Any, W: Any, r: int) -> tuple[tuple[Fraction, ...], tuple[Fraction, ...]]:
+    """An exact avoiding direction: c in ker W, xi = Y c / alpha (xi_r = 0), u0 = sum_k c_k (e_1 - e_k)."""
+    from glocal_verify.numerics import exact as ex
+
+    rows = [[Fraction(int(W[i, k].p), int(W[i, k].q)) for k in range(W.ncols())] for i in range(W.nrows())]
+    K = ex.nullspace(rows, W.ncols())
+    assert K, "rank < m - 1 leaves a kernel"
+    c = [Fraction(x) for x in K[0]]
+    alpha = Fraction(system.alpha_q)
+    xi = [Fraction(0)] * system.n
+    for i in range(system.n):
+        if i != r:
+            xi[i] = sum((Fraction(int(Y[i, k].p), int(Y[i, k].q)) * c[k] for k in range(len(c))), Fraction(0)) / alpha
+    u0 = [sum(c, Fraction(0))] + [-ck for ck in c]
+    top = max(xi, key=abs)
+    if top == 0:  # only the constant part moves: shift it (dL_q 1 = 0, L_1 1 = 0)
+        xi = [x + 1 for x in xi]
+        top = Fraction(1)
+    return tuple(x / top for x in xi), tuple(v / top for v in u0)
+
+
+def touch_at_zero(system: System, mode: str, z: ZdaZero, source: str, F: Sequence[int]) -> Avoidance | None:
+    """``switching.avoids-attack`` for mode q at the witness z (lambda0 = 0) over Q, or None where :func:`zero_touch` does not apply.
+
+    ``holds`` when some stealthy direction with an input at lambda0 = 0 has dL_q xi = 0
+    (with the exact avoiding direction), ``fails`` when every one is touched. The margin is
+    :attr:`ZeroTouch.ratio`; a note says how it was decided.
+
+    Parameters
+    ----------
+    system : System
+    mode : str
+        A safe mode q.
+    z : ZdaZero
+        The witness of ``stealthy.zda`` (its exponent must be 0).
+    source : str
+        Why ``stealthy.zda`` chose it.
+    F : sequence of int
+        Agent indices of the attacked actuators.
+    """
+    if complex(z.value) != 0:
+        return None
+    zt = zero_touch(system, F, [mode])
+    if zt is None:
+        return None
+    (t,) = zt
+    how = (
+        f"decided over Q at lambda0 = 0: rank [dL_q y_2 .. dL_q y_m] = {t.rank} of {t.inputs} for the attack's potentials "
+        "y_k (L_1 y_k = e_f1 - e_fk; grounded Laplacian modulo a prime for a touch, solved over Q otherwise)"
+    )
+    chosen = z.direction()
+    direction: ZdaDirection | None = None
+    if t.avoids:
+        assert t.xi is not None and t.u0 is not None
+        xi = np.array([float(x) for x in t.xi])
+        direction = ZdaDirection(0j, xi, np.array([float(x) for x in t.u0]), np.concatenate([xi, 0.0 * xi]), 0.0)
+    # Z_0 has one direction with an input (up to the constant) when m = 2: the chosen one
+    one = t.inputs == 1
+    return Avoidance(
+        mode=mode,
+        status=Status.HOLDS if t.avoids else Status.FAILS,
+        lambda0=0j,
+        growth=z.growth,
+        chosen=chosen,
+        chosen_source=source,
+        chosen_touched=(not t.avoids) if one else None,
+        chosen_touched_agents=t.touched_agents if one else (),
+        direction=direction,
+        direction_source="exact potentials of the attack (L_1 xi = S_F^T u0 / alpha over Q)" if t.avoids else "",
+        dimension=t.inputs - t.rank,
+        margin=t.ratio,
+        dl_residual=0.0 if t.avoids else float("nan"),
+        exact_xi=t.xi,
+        exact_u0=t.u0,
+        notes=(how,),
+    )

@@ -1,0 +1,304 @@
+"""The deployment of a system: the detectors the toolkit designed, their thresholds and the schedule.
+
+:func:`design_deployment` computes, once, everything a vehicle, a MATLAB/Octave script or a ROS
+node needs to run the detectors the toolkit designed and simulated, as one frozen
+:class:`Deployment`:
+
+- the central observer of eq. ``obs_cent`` (:class:`CentralDesign`: ``A``, ``C``, the gain
+  ``H``, ``F = A - H C``; :math:`\\dot z = F z + H y`, :math:`r_0 = y - C z`), designed by
+  :func:`~glocal_verify.observers.central.design_central_observer`;
+- every local unknown-input observer of eqs. ``obs_decent``, ``uio_conds_1``-``uio_conds_3``
+  (:class:`LocalDesign`: the normal-mode design of
+  :func:`~glocal_verify.observers.uio.local_uio`, the selection ``S`` of its cluster's state,
+  the residual maps and the mode-matched ``F``, ``K`` it switches to after a topology switch);
+- the attack-free thresholds the simulator uses (:class:`DeployedThresholds`, from
+  :func:`~glocal_verify.simulation.thresholds.attack_free_thresholds` for the spec's switching
+  schedule), the monitor sets, the modes' Laplacians and the switching schedule.
+
+The observers are exactly the :class:`~glocal_verify.simulation.observer_models.ObserverBank`
+that :func:`~glocal_verify.simulation.engine.simulate` runs (the same designs, bit for bit).
+Renderers write this value as it is (:mod:`glocal_verify.reporting.export`: ``.mat``, JSON,
+``.npz``); they compute nothing of it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Any
+
+import numpy as np
+
+from glocal_verify.errors import NotApplicableError
+from glocal_verify.model import System
+from glocal_verify.observers.central import design_central_observer
+from glocal_verify.observers.uio import UnknownInputObserver, local_uio
+from glocal_verify.simulation.observer_models import ObserverBank, cluster_embedding, central_observer_model, local_observer_models
+from glocal_verify.simulation.schedule import ANY_MODE, Schedule
+from glocal_verify.simulation.thresholds import ThresholdRule, attack_free_thresholds
+from glocal_verify.spec.types import NORMAL_MODE, Label
+
+__all__ = [
+    "CentralDesign",
+    "DeployedThresholds",
+    "Deployment",
+    "LocalDesign",
+    "ModeGains",
+    "ObserverEnvelope",
+    "SwitchLinks",
+    "design_deployment",
+]
+
+
+@dataclass(frozen=True, eq=False, slots=True)
+class CentralDesign:
+    """The central observer as deployed: :math:`\\dot z = F z + H y`, :math:`r_0 = y - C z`, ``z(0) = 0``.
+
+    Attributes
+    ----------
+    mode : str
+        The mode it is designed for (the normal mode; ``A`` is kept in every mode).
+    channels : tuple of str
+        The globally monitored output channels, the rows of ``C``.
+    A, C, H, F : ndarray
+        The normal-mode model, the output map, the gain and ``F = A - H C``.
+    eigenvalues : ndarray
+        The eigenvalues of ``F`` (complex).
+    stability_margin : float
+    method : str
+        How ``H`` was designed.
+    """
+
+    mode: str
+    channels: tuple[str, ...]
+    A: np.ndarray
+    C: np.ndarray
+    H: np.ndarray
+    F: np.ndarray
+    eigenvalues: np.ndarray
+    stability_margin: float
+    method: str
+
+
+@dataclass(frozen=True, eq=False, slots=True)
+class ModeGains:
+    """The dynamics ``F``, ``K`` a local observer switches to in one mode."""
+
+    mode: str
+    F: np.ndarray
+    K: np.ndarray
+
+
+@dataclass(frozen=True, eq=False, slots=True)
+class LocalDesign:
+    """One local unknown-input observer as deployed.
+
+    :math:`\\dot z = F z + K y`, :math:`\\hat x = z + h y`, :math:`r = y - C_{loc} \\hat x = R_y y - R_z z`,
+    ``z(0) = -h y(0)``, ``y = C_loc S x``.
+
+    Attributes
+    ----------
+    name : str
+        The observer's name in the simulator's bank.
+    uio : UnknownInputObserver
+        Its normal-mode design (:func:`~glocal_verify.observers.uio.local_uio`): the cluster,
+        the measured agents, ``C_loc`` (``uio.C``), ``E``, ``A``, ``h``, ``T``, ``A1``, ``K1``
+        and the certified Hurwitz verdict on its ``F``.
+    channels : tuple of str
+        Its measured channels, the rows of ``C_loc``.
+    S : ndarray
+        The selection of the cluster's state from the whole state x.
+    F, K : ndarray
+        The dynamics it runs in any mode without a mode-matched design.
+    Ry, Rz : ndarray
+        The residual maps ``I - C_loc h`` and ``C_loc``.
+    designs : tuple of ModeGains
+        The mode-matched dynamics per mode.
+    notes : tuple of str
+    """
+
+    name: str
+    uio: UnknownInputObserver
+    channels: tuple[str, ...]
+    S: np.ndarray
+    F: np.ndarray
+    K: np.ndarray
+    Ry: np.ndarray
+    Rz: np.ndarray
+    designs: tuple[ModeGains, ...]
+    notes: tuple[str, ...]
+
+
+@dataclass(frozen=True, eq=False, slots=True)
+class ObserverEnvelope:
+    """The attack-free envelope of one observer's residual: ``envelope[t, k]`` per channel k."""
+
+    name: str
+    channels: tuple[str, ...]
+    envelope: np.ndarray
+
+
+@dataclass(frozen=True, eq=False, slots=True)
+class DeployedThresholds:
+    """The attack-free thresholds: ``threshold_k(t) = envelope[t, k] + rounding * max(box, ||s(t)||_2)``.
+
+    Attributes
+    ----------
+    rule : ThresholdRule
+    t : ndarray
+        The sample times.
+    observers : tuple of ObserverEnvelope
+    """
+
+    rule: ThresholdRule
+    t: np.ndarray
+    observers: tuple[ObserverEnvelope, ...]
+
+
+@dataclass(frozen=True, eq=False, slots=True)
+class SwitchLinks:
+    """The links a safe mode changes: ``(u, v, delta weight)`` each."""
+
+    mode: str
+    links: tuple[tuple[Label, Label, Fraction], ...]
+
+
+@dataclass(frozen=True, eq=False, slots=True)
+class Deployment:
+    """Everything a deployment of ``system`` runs: observers, thresholds, monitors and the schedule.
+
+    Attributes
+    ----------
+    name : str
+        The system's name.
+    labels : tuple of labels
+        The agents, in the order of the state ``x = [positions; velocities]``.
+    alpha, gamma : float
+        The controller's gains.
+    laplacians : tuple of (str, ndarray)
+        ``L_q`` of every mode, normal mode first.
+    monitored_positions, monitored_velocities : tuple of labels
+        The global monitors.
+    channels : tuple of str
+        The globally monitored output channels, the rows of ``C``.
+    C : ndarray
+        The global output map.
+    central : CentralDesign or None
+        None when there is no globally monitored channel or no design (``central_note`` says why).
+    central_note : str
+    local : tuple of LocalDesign
+    horizon, step : float
+        The spec's simulation horizon and step (what the thresholds cover).
+    thresholds : DeployedThresholds or None
+        None when not asked for or when there is no observer.
+    schedule : Schedule
+        The spec's switching schedule.
+    switches : tuple of SwitchLinks
+        The link changes of every safe mode.
+    notes : tuple of str
+        The observer bank's notes (observers that could not be designed).
+    """
+
+    name: str
+    labels: tuple[Label, ...]
+    alpha: float
+    gamma: float
+    laplacians: tuple[tuple[str, np.ndarray], ...]
+    monitored_positions: tuple[Label, ...]
+    monitored_velocities: tuple[Label, ...]
+    channels: tuple[str, ...]
+    C: np.ndarray
+    central: CentralDesign | None
+    central_note: str
+    local: tuple[LocalDesign, ...]
+    horizon: float
+    step: float
+    thresholds: DeployedThresholds | None
+    schedule: Schedule
+    switches: tuple[SwitchLinks, ...]
+    notes: tuple[str, ...]
+
+
+def _central(system: System) -> tuple[CentralDesign | None, str]:
+    C = system.C()
+    if C.shape[0] == 0:
+        return None, "no globally monitored channel: no central observer"
+    try:
+        co = design_central_observer(system)
+    except (ImportError, NotApplicableError) as exc:
+        return None, f"central observer: {exc}"
+    H = np.asarray(co.H, dtype=float)
+    A = system.A(NORMAL_MODE)
+    eig = np.asarray(co.eigenvalues, dtype=complex)
+    return CentralDesign(co.mode, tuple(system.output_channels()), A, C, H, A - H @ C, eig, float(co.stability_margin), co.method), ""
+
+
+def _local(system: System, model: Any) -> LocalDesign:
+    """One local observer: the normal-mode design and the mode-matched dynamics of the bank's ``model``."""
+    lo = next(o for o in system.observers() if o.cluster == model.cluster and o.center == model.center)
+    d = local_uio(system, lo, mode=NORMAL_MODE)
+    p = d.C.shape[0]
+    designs = tuple(ModeGains(m, np.asarray(model.F[m], dtype=float), np.asarray(model.G[m], dtype=float)) for m in model.F if m != ANY_MODE)
+    return LocalDesign(
+        name=model.name,
+        uio=d,
+        channels=tuple(model.inputs),
+        S=cluster_embedding(system, d.nodes),
+        F=np.asarray(model.F[ANY_MODE], dtype=float),
+        K=np.asarray(model.G[ANY_MODE], dtype=float),
+        Ry=np.eye(p) - d.C @ d.h,
+        Rz=d.C.copy(),
+        designs=designs,
+        notes=tuple(model.notes),
+    )
+
+
+def design_deployment(system: System, *, thresholds: bool = True, progress: bool = False) -> Deployment:
+    """Design the observers of ``system`` and compute their thresholds: the :class:`Deployment`.
+
+    Parameters
+    ----------
+    system : System
+    thresholds : bool
+        Compute the attack-free thresholds for the spec's switching schedule (the exact
+        envelope of :func:`~glocal_verify.simulation.thresholds.attack_free_thresholds`, over
+        the spec's horizon and step, under the default :class:`ThresholdRule`); False leaves
+        :attr:`Deployment.thresholds` None.
+    progress : bool
+        Report the thresholds' progress on stderr.
+
+    Returns
+    -------
+    Deployment
+    """
+    central, note = _central(system)
+    models, notes = local_observer_models(system)
+    bank = ObserverBank(((central_observer_model(system, central.H),) if central is not None else ()) + tuple(models), tuple(notes))
+    schedule = Schedule.from_spec(system)
+    sim = system.spec.simulation
+    thr: DeployedThresholds | None = None
+    if thresholds and len(bank):
+        rule = ThresholdRule()
+        th = attack_free_thresholds(system, bank, schedule, rule, progress=progress)
+        envelopes = tuple(ObserverEnvelope(name, tuple(bank[name].channels), np.asarray(env, dtype=float)) for name, env in th.envelope.items())
+        thr = DeployedThresholds(rule, np.asarray(th.t, dtype=float), envelopes)
+    return Deployment(
+        name=system.name,
+        labels=tuple(system.labels),
+        alpha=float(system.alpha),
+        gamma=float(system.gamma),
+        laplacians=tuple((m, system.laplacian(m)) for m in system.modes),
+        monitored_positions=tuple(system.monitored_positions),
+        monitored_velocities=tuple(system.monitored_velocities),
+        channels=tuple(system.output_channels()),
+        C=system.C(),
+        central=central,
+        central_note=note,
+        local=tuple(_local(system, m) for m in models),
+        horizon=float(sim.horizon),
+        step=float(sim.step),
+        thresholds=thr,
+        schedule=schedule,
+        switches=tuple(SwitchLinks(m, tuple(system.switching_links(m))) for m in system.modes if m != NORMAL_MODE),
+        notes=tuple(notes),
+    )
