@@ -21,13 +21,14 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from glocal_verify import config
 from glocal_verify.conditions.registry import CheckContext, checker, result
 from glocal_verify.errors import GlocalVerifyError, NotApplicableError
 from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.results import ConditionResult, Status
 from glocal_verify.simulation.certified_thresholds import CertifiedThresholds, certified_thresholds
-from glocal_verify.simulation.guarantees import GUARANTEE_MAX_AGENTS, DetectionGuarantee, detection_guarantee
+from glocal_verify.simulation.guarantees import DetectionGuarantee, detection_guarantee
 
 __all__ = ["check_detection_thresholds", "check_local_alarm", "check_detection_guarantee", "shared_thresholds", "shared_guarantee"]
 
@@ -39,7 +40,7 @@ _GUARANTEE_KIND: Kind[DetectionGuarantee] = Kind("detection-guarantee", __name__
 
 def _applies(system: System) -> bool:
     impl = system.spec.implementation
-    return impl is not None and impl.controller == "sampled" and system.n <= GUARANTEE_MAX_AGENTS
+    return impl is not None and impl.controller == "sampled" and system.n <= config.get("guarantee_max_agents")
 
 
 def _numeric(ctx: CheckContext) -> CheckContext:
@@ -80,8 +81,8 @@ def check_detection_thresholds(system: System, ctx: CheckContext) -> list[Condit
     """
     impl = system.spec.implementation
     nctx = _numeric(ctx)
-    if impl is not None and impl.controller == "sampled" and system.n > GUARANTEE_MAX_AGENTS:
-        return [result("detection.thresholds", nctx, Status.UNDECIDED, note=f"not computed: {system.n} agents > {GUARANTEE_MAX_AGENTS} (dense detectors)")]
+    if impl is not None and impl.controller == "sampled" and system.n > (most := config.get("guarantee_max_agents")):
+        return [result("detection.thresholds", nctx, Status.UNDECIDED, note=f"not computed: {system.n} agents > {most} (dense detectors)")]
     if not _applies(system):
         return []
     try:
