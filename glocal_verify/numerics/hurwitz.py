@@ -366,12 +366,9 @@ def routh_hurwitz_poly(q: Any) -> bool:
     c = [flint.fmpz(int(x.p)) for x in reversed((q * q.denom()).coeffs())]
     if len(c) == 1:
         return True
-    sign = 1 if c[0] > 0 else -1
-    c = [sign * x for x in c]
-    if any(x <= 0 for x in c):
+    if (rows := _first_rows(c, flint.fmpz_poly)) is None:
         return False
-    r0, n0 = flint.fmpz_poly(c[0::2]), len(c[0::2])
-    r1, n1 = flint.fmpz_poly(c[1::2]), len(c[1::2])
+    r0, n0, r1, n1 = rows
     lead = [flint.fmpz(1), flint.fmpz(1), r1[0]]  # c_0, c_1 (= Delta_0), Delta_1, Delta_2, ...
     while n1:
         if r1[0] <= 0:
@@ -392,6 +389,17 @@ def routh_hurwitz_poly(q: Any) -> bool:
     return bool(r0[0] > 0)
 
 
+def _first_rows(c: list[Any], poly: Any) -> tuple[Any, int, Any, int] | None:
+    """The first two rows of the Routh array of the coefficients ``c`` (highest degree first,
+    as polynomials ``poly``, with their lengths), the leading sign made positive; None when a
+    coefficient is not of the leading sign (then the polynomial is not Hurwitz)."""
+    sign = 1 if c[0] > 0 else -1
+    c = [sign * x for x in c]
+    if any(x <= 0 for x in c):
+        return None
+    return poly(c[0::2]), len(c[0::2]), poly(c[1::2]), len(c[1::2])
+
+
 def _routh_hurwitz_rational(q: Any) -> bool:
     """The Routh array in exact rationals, row by row (the reference of :func:`routh_hurwitz_poly`).
 
@@ -407,12 +415,9 @@ def _routh_hurwitz_rational(q: Any) -> bool:
         return False
     if len(c) == 1:
         return True
-    sign = 1 if c[0] > 0 else -1
-    c = [sign * x for x in c]
-    if any(x <= 0 for x in c):
+    if (rows := _first_rows(c, flint.fmpq_poly)) is None:
         return False
-    r0, n0 = flint.fmpq_poly(c[0::2]), len(c[0::2])
-    r1, n1 = flint.fmpq_poly(c[1::2]), len(c[1::2])
+    r0, n0, r1, n1 = rows
     while n1:
         if r1[0] <= 0:
             return False
