@@ -10,7 +10,7 @@ import glocal_verify
 PACKAGE = Path(glocal_verify.__file__).parent
 
 #: lowest first; a module may import only its own layer and the ones before it
-LAYERS = ["errors", "runtime", "config", "results", "derived", "spec", "numerics", "model", "analysis", "observers", "simulation", "conditions", "answer", "design", "reporting", "cli"]
+LAYERS = ["errors", "runtime", "config", "results", "derived", "spec", "numerics", "model", "analysis", "observers", "simulation", "conditions", "certificates", "answer", "design", "reporting", "cli"]
 
 
 def _modules() -> list[tuple[str, Path]]:

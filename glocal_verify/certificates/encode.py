@@ -1,0 +1,122 @@
+"""How a certificate writes numbers, vectors and number fields, and the residues modulo a
+prime its minors state (the finder's side of the arithmetic the checker redoes)."""
+
+from __future__ import annotations
+
+from fractions import Fraction
+from typing import Any, Iterable, Mapping, Sequence
+
+import numpy as np
+from flint import fmpq, fmpq_poly, nmod_mat
+
+from glocal_verify.model import System
+from glocal_verify.numerics.minors import prime_for
+
+__all__ = [
+    "EMIT_PRIME_LIMIT",
+    "field",
+    "krylov_residue",
+    "laplacian_mod",
+    "mod_residues",
+    "pivots_mod",
+    "q",
+    "system_prime",
+    "vector",
+]
+
+#: primes of certificates lie below this (2^25: sparse products modulo p stay in int64)
+EMIT_PRIME_LIMIT = 2**25
+
+
+def q(x: Any) -> str:
+    """An exact rational as text (``"3"``, ``"-1/3"``); a float is taken exactly."""
+    if isinstance(x, float):
+        x = Fraction(x)
+    return str(x)
+
+
+def vector(system: System, v: Sequence[Any] | Mapping[Any, Any]) -> dict[str, Any]:
+    """A vector over the agents as ``{label: value}`` without its zeros; values are rationals
+    (text) or polynomials (lists of rational texts, lowest degree first)."""
+    items = v.items() if isinstance(v, Mapping) else zip(system.labels, v)
+    out: dict[str, Any] = {}
+    for lab, x in items:
+        if isinstance(x, fmpq_poly):
+            if x != 0:
+                out[str(lab)] = [q(c) for c in x.coeffs()]
+        elif x != 0:
+            out[str(lab)] = q(x)
+    return out
+
+
+def field(modulus: fmpq_poly) -> dict[str, Any]:
+    """The ring Q[t]/(modulus) as a certificate writes it."""
+    return {"modulus": [q(c) for c in modulus.coeffs()]}
+
+
+def system_prime(system: System) -> int:
+    """A prime below :data:`EMIT_PRIME_LIMIT` dividing no denominator of the gains or weights."""
+    values = [system.alpha_q, system.gamma_q] + [w for m in system.modes for w in system.edges(m).values()]
+    return prime_for(values, EMIT_PRIME_LIMIT)
+
+
+def mod_residues(values: Iterable[Fraction | fmpq], p: int) -> list[int]:
+    out = []
+    for x in values:
+        x = Fraction(int(x.p), int(x.q)) if isinstance(x, fmpq) else Fraction(x)
+        out.append(x.numerator * pow(x.denominator, -1, p) % p)
+    return out
+
+
+def laplacian_mod(system: System, mode: str, p: int) -> Any:
+    """L_q modulo p as a scipy CSR matrix of int64 residues."""
+    import scipy.sparse
+
+    idx = system.index
+    rows, cols, vals = [], [], []
+    deg = [Fraction(0)] * system.n
+    for key, w in system.edges(mode).items():
+        a, b = (idx[x] for x in key)
+        rows += [a, b]
+        cols += [b, a]
+        vals += [-w, -w]
+        deg[a] += w
+        deg[b] += w
+    rows += list(range(system.n))
+    cols += list(range(system.n))
+    vals += deg
+    return scipy.sparse.csr_matrix((np.array(mod_residues(vals, p), dtype=np.int64), (rows, cols)), shape=(system.n, system.n))
+
+
+def krylov_residue(system: System, mode: str, start: Sequence[int], length: int, p: int, drop_last_column: bool = False) -> int:
+    """det modulo p of the rows ``b^T L_q^j`` (j < ``length``), without the last column when
+    asked: the number a ``krylov`` certificate states (sparse products modulo p)."""
+    L = laplacian_mod(system, mode, p)
+    rows = []
+    v = np.array([x % p for x in start], dtype=np.int64)
+    for _ in range(length):
+        rows.append(v)
+        v = (L @ v) % p
+    cols = system.n - 1 if drop_last_column else system.n
+    flat = [int(x) for r in rows for x in r[:cols]]
+    return int(nmod_mat(cols, cols, flat, p).det()) if cols else 1
+
+
+def pivots_mod(rows: Sequence[Sequence[int]], ncols: int, p: int) -> tuple[list[int], list[int]]:
+    """(pivot rows, pivot columns) of a matrix of residues: a nonsingular square submatrix of
+    the size of its rank modulo p."""
+    if not rows or ncols == 0:
+        return [], []
+    M = nmod_mat(len(rows), ncols, [int(x) for r in rows for x in r], p)
+    cols = _pivots(M)
+    T = nmod_mat(ncols, len(rows), [int(rows[i][j]) for j in range(ncols) for i in range(len(rows))], p)
+    return _pivots(T), cols
+
+
+def _pivots(M: nmod_mat) -> list[int]:
+    R, r = M.rref()
+    out = []
+    lst = R.tolist()
+    for i in range(int(r)):
+        out.append(next(j for j, x in enumerate(lst[i]) if int(x) != 0))
+    return out
