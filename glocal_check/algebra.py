@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import Any, Iterable, Sequence
 
-from flint import acb, acb_mat, arb, fmpq, fmpq_mat, fmpq_poly, fmpz, nmod, nmod_mat, nmod_poly
+from flint import fmpq, fmpq_mat, fmpq_poly, fmpz, nmod, nmod_mat, nmod_poly
 
 from glocal_check.spec import CheckError, rational
 
@@ -228,29 +228,23 @@ class Field:
 # ball arithmetic
 
 
-def hurwitz(F: Sequence[Sequence[fmpq]], prec: int = 212) -> float:
+def hurwitz(F: Sequence[Sequence[fmpq]]) -> float:
     """An upper bound on max Re of the eigenvalues of the exact rational matrix ``F``.
 
-    The eigenvalues are enclosed by python-flint's ``acb_mat.eig`` (validated enclosures of
-    simple eigenvalues; it raises when it cannot isolate them), on balls that contain the
-    exact entries. Reject when the enclosure fails.
+    The characteristic polynomial is computed exactly over Q (``fmpq_mat.charpoly``); its
+    roots are enclosed by ``fmpq_poly.complex_roots`` (validated ball enclosures of the roots
+    of its squarefree factors, multiplicities counted). Reject when the enclosure fails.
     """
     n = len(F)
     if n == 0:
         return float("-inf")
-    from flint import ctx
-
-    old = ctx.prec
+    p = fmpq_mat(n, n, [x for r in F for x in r]).charpoly()
     try:
-        ctx.prec = prec
-        M = acb_mat(n, n, [acb(arb(x.p) / arb(x.q)) for r in F for x in r])
-        try:
-            ev = M.eig()
-        except (ValueError, ArithmeticError) as exc:
-            raise Rejected(f"the eigenvalues could not be enclosed ({exc})") from None
-        return max(float(e.real.upper()) for e in ev)
-    finally:
-        ctx.prec = old
+        roots = p.complex_roots()
+    except (ValueError, ArithmeticError) as exc:
+        raise Rejected(f"the eigenvalues could not be enclosed ({exc})") from None
+    require(sum(m for _, m in roots) == n, "the root enclosures miss an eigenvalue")
+    return max(float(r.real.upper()) for r, _ in roots)
 
 
 def dense(rows: Sequence[dict[int, fmpq]], cols: Iterable[int], pick: Iterable[int] | None = None) -> list[list[fmpq]]:

@@ -46,6 +46,8 @@ class Context:
         self.spec = spec
         self._lap: dict[str, list[dict[int, fmpq]]] = {}
         self._lap_mod: dict[tuple[str, int], nmod_mat] = {}
+        #: results of checks shared by several certificates (e.g. one observer's two suspected sets)
+        self.memo: dict[Any, Any] = {}
 
     def lap(self, mode: str) -> list[dict[int, fmpq]]:
         """Rows of L_q."""

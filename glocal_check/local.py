@@ -149,6 +149,9 @@ def uio(ctx: Context, scope: dict[str, Any], cert: dict[str, Any]) -> None:
         for i in range(2 * n):
             for k, c in enumerate(C_cols):
                 Fm[i][c] -= K1q[i][k]
-        top = hurwitz(Fm)
+        key = ("uio", ls.cluster.name, ls.observer.center, m, repr(K1))
+        if key not in ctx.memo:
+            ctx.memo[key] = hurwitz(Fm)
+        top = ctx.memo[key]
         require(top < 0, f"F of mode {m} is not shown Hurwitz (max Re <= {top:.3g})")
 

@@ -34,7 +34,7 @@ __all__ = [
 #: largest N for which dense exact or mod-p work on N x N (or 2N x 2N) matrices is attempted
 DENSE_MAX_AGENTS = 300
 #: largest number of states whose eigenvalues the checker encloses (python-flint ``acb_mat.eig``)
-ENCLOSURE_MAX_STATES = 120
+ENCLOSURE_MAX_STATES = 200
 
 
 class NoCertificate(Exception):
