@@ -24,7 +24,9 @@ __all__ = [
     "krylov_det",
     "matvec",
     "mod",
+    "poly_det_exact",
     "poly_det_mod",
+    "reduce_poly",
     "prime",
     "rank_exact",
 ]
@@ -140,6 +142,29 @@ def poly_det_mod(constant: Sequence[Sequence[int]], variable: Sequence[tuple[int
         xs.append(s)
         ys.append(int(nmod_mat(k, k, [x for r in M for x in r], p).det()) if k else 1)
     return _interpolate(xs, ys, p)
+
+
+def poly_det_exact(constant: Sequence[Sequence[fmpq]], variable: Sequence[tuple[int, int, int]], degree: int) -> fmpq_poly:
+    """det(K + s J) over Q (as :func:`poly_det_mod`, with exact rational determinants)."""
+    k = len(constant)
+    out = fmpq_poly(0)
+    pts = list(range(degree + 1))
+    for x in pts:
+        M = [list(r) for r in constant]
+        for i, j, c in variable:
+            M[i][j] = M[i][j] + x * c
+        y = fmpq_mat(k, k, [v for r in M for v in r]).det() if k else fmpq(1)
+        basis = fmpq_poly([1])
+        for z in pts:
+            if z != x:
+                basis = basis * fmpq_poly([-z, 1]) / (x - z)
+        out += basis * y
+    return out
+
+
+def reduce_poly(f: fmpq_poly, p: int) -> nmod_poly:
+    """``f`` modulo p (rejected when p divides a denominator)."""
+    return nmod_poly([mod(c, p) for c in f.coeffs()], p)
 
 
 def _interpolate(xs: list[int], ys: list[int], p: int) -> nmod_poly:

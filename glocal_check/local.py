@@ -16,7 +16,8 @@ if x = 0 then u = 0. Every s in C is lam^2 + gamma lam for some lam != 0. So it 
 Certificate ``pencil-minors``: a nonzero minor of T_0 modulo a prime, and square minors f_k(s)
 of T(s) (row sets), computed modulo p by evaluation, whose gcd modulo p is 1, the first one of
 the degree its rows allow (the rows of U it keeps) so that p does not divide its leading
-coefficient over Q. If the f_k had a common complex root, its minimal polynomial h (primitive
+coefficient over Q (or, marked ``exact``, computed over Q with its degree kept modulo p).
+If the f_k had a common complex root, its minimal polynomial h (primitive
 over Z) would divide each of them, p would not divide lc(h) (it divides lc(f_1)), and h mod p,
 of degree >= 1, would divide every f_k mod p: so T(s) has full column rank everywhere.
 
@@ -36,7 +37,7 @@ from typing import Any
 
 from flint import fmpq, nmod_poly
 
-from glocal_check.algebra import Field, det_mod, hurwitz, mod, poly_det_mod, prime, require, residue
+from glocal_check.algebra import Field, det_mod, hurwitz, mod, poly_det_exact, poly_det_mod, prime, reduce_poly, require, residue
 from glocal_check.context import Context, LocalScope
 from glocal_check.spec import rational
 
@@ -83,12 +84,19 @@ def pencil(ctx: Context, scope: dict[str, Any], status: str, cert: dict[str, Any
     polys: list[nmod_poly] = []
     for k, mnr in enumerate(minors):
         R = rows_of(mnr.get("rows", []), len(U))
-        const = [[al * mod(block[r].get(c, fmpq(0)), p) % p for c in U] for r in R]
         var = [(i, j, 1) for i, r in enumerate(R) for j, c in enumerate(U) if r == c]
-        f = poly_det_mod(const, var, len(var), p)
+        if k == 0 and mnr.get("exact"):
+            # the anchor over Q: its exact degree survives reduction iff p does not divide lc
+            f_q = poly_det_exact([[sp.alpha * block[r].get(c, fmpq(0)) for c in U] for r in R], var, len(var))
+            require(f_q != 0, "the first minor is 0 over Q")
+            f = reduce_poly(f_q, p)
+            require(f.degree() == f_q.degree(), f"p = {p} divides the leading coefficient of the first minor")
+        else:
+            const = [[al * mod(block[r].get(c, fmpq(0)), p) % p for c in U] for r in R]
+            f = poly_det_mod(const, var, len(var), p)
+            if k == 0:
+                require(f.degree() == len(var), "the first minor does not reach its degree bound: its leading coefficient may vanish modulo p")
         require(f.degree() == mnr.get("degree"), f"minor {k} has degree {f.degree()} modulo {p}, not {mnr.get('degree')}")
-        if k == 0:
-            require(f.degree() == len(var), "the first minor does not reach its degree bound: its leading coefficient may vanish modulo p")
         polys.append(f)
     g = polys[0]
     for f in polys[1:]:

@@ -8,7 +8,7 @@ from fractions import Fraction
 from typing import Any
 
 import numpy as np
-from flint import fmpq, fmpq_poly, nmod_mat, nmod_poly
+from flint import fmpq, fmpq_mat, fmpq_poly, nmod_mat, nmod_poly
 
 from glocal_verify.certificates.encode import field, mod_residues, pivots_mod, q, system_prime, vector
 from glocal_verify.certificates.global_certificates import ENCLOSURE_MAX_STATES, NoCertificate
@@ -20,6 +20,8 @@ __all__ = ["pencil_certificate", "uio_certificate"]
 
 #: row sets of the reduced pencil tried before giving up
 PENCIL_TRIES = 40
+#: largest U whose anchor minor is computed over Q
+EXACT_ANCHOR_MAX = 60
 
 
 class _Case:
@@ -88,12 +90,15 @@ def _pencil_holds(case: _Case) -> dict[str, Any]:
     hit = [a for a in case.U if a in case.inputs]
     others = [a for a in case.rows if a not in set(case.U)]
     Ra, _ = pivots_mod(case.residues(others, hit, p), len(hit), p)
-    if len(Ra) < len(hit):
-        raise NoCertificate("no row set of T(s) whose minor reaches its degree")
-    anchor = inner + [others[i] for i in Ra]
-    g = case.minor_poly(anchor, p)
-    cert["minors"].append({"rows": [str(a) for a in anchor], "degree": g.degree()})
     rng = np.random.default_rng(51)
+    if len(Ra) == len(hit):
+        anchor = inner + [others[i] for i in Ra]
+        g = case.minor_poly(anchor, p)
+        cert["minors"].append({"rows": [str(a) for a in anchor], "degree": g.degree()})
+    else:
+        # no minor reaches its degree bound: an anchor whose exact degree survives modulo p
+        anchor, g = _exact_anchor(case, p, rng)
+        cert["minors"].append({"rows": [str(a) for a in anchor], "degree": g.degree(), "exact": True})
     for _ in range(PENCIL_TRIES):
         if g.degree() == 0:
             return cert
@@ -106,6 +111,35 @@ def _pencil_holds(case: _Case) -> dict[str, Any]:
     if g.degree() == 0:
         return cert
     raise NoCertificate(f"the minors tried share a factor of degree {g.degree()} modulo the prime")
+
+
+def _exact_anchor(case: _Case, p: int, rng: np.random.Generator) -> tuple[list[Any], nmod_poly]:
+    """Rows of T(s) whose minor, computed over Q, keeps its degree modulo p."""
+    if len(case.U) > EXACT_ANCHOR_MAX:
+        raise NoCertificate(f"no minor of T(s) reaches its degree bound and U has more than {EXACT_ANCHOR_MAX} agents")
+    for _ in range(PENCIL_TRIES):
+        rows = [case.rows[i] for i in sorted(rng.choice(len(case.rows), len(case.U), replace=False))]
+        diag = {i: case.U.index(a) for i, a in enumerate(rows) if a in set(case.U)}
+        values = []
+        for x in range(len(diag) + 1):
+            M = fmpq_mat(len(rows), len(case.U))
+            for i, a in enumerate(rows):
+                for j, c in enumerate(case.U):
+                    M[i, j] = case.alpha * case.L[a].get(c, fmpq(0)) + (x if diag.get(i) == j else 0)
+            values.append(M.det())
+        f = fmpq_poly(0)
+        for x, y in enumerate(values):  # Lagrange's formula over the points 0..d
+            term = fmpq_poly([y])
+            for z in range(len(values)):
+                if z != x:
+                    term = term * fmpq_poly([fmpq(-z, x - z), fmpq(1, x - z)])
+            f += term
+        if f == 0:
+            continue
+        g = nmod_poly(mod_residues(f.coeffs(), p), p)
+        if g.degree() == f.degree():
+            return rows, g
+    raise NoCertificate("no minor of T(s) found whose exact degree survives modulo the prime")
 
 
 def _pencil_fails(case: _Case, r: ConditionResult) -> dict[str, Any]:
