@@ -253,17 +253,21 @@ class Field:
 # ball arithmetic
 
 
-def hurwitz(F: Sequence[Sequence[fmpq]]) -> float:
+def hurwitz(F: Sequence[Sequence[fmpq]], claim: Any = None) -> float:
     """An upper bound on max Re of the eigenvalues of the exact rational matrix ``F``.
 
-    The characteristic polynomial is computed exactly over Q (``fmpq_mat.charpoly``); its
-    roots are enclosed by ``fmpq_poly.complex_roots`` (validated ball enclosures of the roots
-    of its squarefree factors, multiplicities counted). Reject when the enclosure fails.
+    The characteristic polynomial is computed exactly over Q (``fmpq_mat.charpoly``); it must
+    be the one ``claim`` states (``{"prime": p, "charpoly": residues, lowest degree first}``);
+    its roots are enclosed by ``fmpq_poly.complex_roots`` (validated ball enclosures of the
+    roots of its squarefree factors, multiplicities counted). Reject when the enclosure fails.
     """
     n = len(F)
     if n == 0:
         return float("-inf")
     p = fmpq_mat(n, n, [x for r in F for x in r]).charpoly()
+    if claim is not None:
+        q = prime(claim.get("prime"))
+        require([int(c) for c in reduce_poly(p, q).coeffs()] == claim.get("charpoly"), f"the characteristic polynomial is not the one stated (modulo {q})")
     try:
         roots = p.complex_roots()
     except (ValueError, ArithmeticError) as exc:

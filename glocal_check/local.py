@@ -28,7 +28,8 @@ checked on the definition above, with an entry prime to g.
 Hurwitz, h = E (C E)^T (C E has orthonormal columns when every boundary velocity is measured:
 the rank condition). Then T = I - h C, K = K1 + F h give the unknown-input observer
 z' = F z + T B u + K y, x^ = z + h y, whose error obeys e' = F e whatever the coupling (Chen,
-Patton & Zhang 1996). Hurwitz: python-flint eigenvalue enclosures of the exact F.
+Patton & Zhang 1996). Hurwitz: python-flint root enclosures of the exact characteristic
+polynomial of F (stated modulo a prime in the certificate).
 """
 
 from __future__ import annotations
@@ -157,9 +158,9 @@ def uio(ctx: Context, scope: dict[str, Any], cert: dict[str, Any]) -> None:
         for i in range(2 * n):
             for k, c in enumerate(C_cols):
                 Fm[i][c] -= K1q[i][k]
-        key = ("uio", ls.cluster.name, ls.observer.center, m, repr(K1))
+        key = ("uio", ls.cluster.name, ls.observer.center, m, repr(modes[m]))
         if key not in ctx.memo:
-            ctx.memo[key] = hurwitz(Fm)
+            ctx.memo[key] = hurwitz(Fm, modes[m])
         top = ctx.memo[key]
         require(top < 0, f"F of mode {m} is not shown Hurwitz (max Re <= {top:.3g})")
 

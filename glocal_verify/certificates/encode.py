@@ -14,6 +14,8 @@ from glocal_verify.numerics.minors import prime_for
 
 __all__ = [
     "EMIT_PRIME_LIMIT",
+    "charpoly_claim",
+    "state_matrix_exact",
     "field",
     "krylov_residue",
     "laplacian_mod",
@@ -100,6 +102,43 @@ def krylov_residue(system: System, mode: str, start: Sequence[int], length: int,
     cols = system.n - 1 if drop_last_column else system.n
     flat = [int(x) for r in rows for x in r[:cols]]
     return int(nmod_mat(cols, cols, flat, p).det()) if cols else 1
+
+
+def charpoly_claim(A: Sequence[Sequence[Fraction]], K: np.ndarray, cols: Sequence[int], p: int, zero_rows: Iterable[int] = (), drop_zeros: int = 0) -> dict[str, Any]:
+    """``{"prime", "charpoly"}`` of F = A - K C over Q (rows ``zero_rows`` of A cleared first,
+    C the selection of the state columns ``cols``, K binary floating-point numbers taken
+    exactly), as residues modulo p, lowest degree first, divided by t^``drop_zeros``."""
+    from flint import fmpq_mat
+
+    n = len(A)
+    zero = set(zero_rows)
+    M = fmpq_mat(n, n)
+    for i in range(n):
+        if i not in zero:
+            for j, x in enumerate(A[i]):
+                if x:
+                    M[i, j] = fmpq(x.numerator, x.denominator)
+        for k, c in enumerate(cols):
+            g = Fraction(float(K[i, k]))
+            if g:
+                M[i, c] -= fmpq(g.numerator, g.denominator)
+    cp = M.charpoly()
+    coeffs = cp.coeffs()[drop_zeros:]
+    if any(c != 0 for c in cp.coeffs()[:drop_zeros]):
+        raise ValueError("the characteristic polynomial has fewer zero roots than the quotient removes")
+    return {"prime": p, "charpoly": mod_residues(coeffs, p)}
+
+
+def state_matrix_exact(L: Sequence[Sequence[Fraction]], alpha: Fraction, gamma: Fraction) -> list[list[Fraction]]:
+    """A = [[0, I], [-alpha L, -gamma I]] over Q."""
+    n = len(L)
+    A = [[Fraction(0)] * (2 * n) for _ in range(2 * n)]
+    for i in range(n):
+        A[i][n + i] = Fraction(1)
+        for j, x in enumerate(L[i]):
+            A[n + i][j] = -alpha * x
+        A[n + i][n + i] = -gamma
+    return A
 
 
 def pivots_mod(rows: Sequence[Sequence[int]], ncols: int, p: int) -> tuple[list[int], list[int]]:

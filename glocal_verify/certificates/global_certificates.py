@@ -14,7 +14,7 @@ from typing import Any, Mapping
 import numpy as np
 from flint import fmpq, fmpq_poly, nmod_mat
 
-from glocal_verify.certificates.encode import field, krylov_residue, laplacian_mod, mod_residues, pivots_mod, q, system_prime, vector
+from glocal_verify.certificates.encode import charpoly_claim, field, krylov_residue, laplacian_mod, mod_residues, pivots_mod, q, state_matrix_exact, system_prime, vector
 from glocal_verify.certificates.facts import schedule_modes
 from glocal_verify.certificates.kernels import fq, kernel_vectors, laplacian_rows
 from glocal_verify.model import System
@@ -339,10 +339,22 @@ def central_certificate(system: System, r: ConditionResult, options: Mapping[str
     px = set(system.monitored_positions)
     blind = [c for c in system.components("normal") if not px & set(c)]
     basis = [{f"x:{a}": "1" for a in c} for c in blind]
+    H = np.asarray(obsv.H)
+    L = [[Fraction(0)] * system.n for _ in range(system.n)]
+    for key, w in system.edges("normal").items():
+        a, b = (system.index[x] for x in key)
+        L[a][b] = L[b][a] = -w
+        L[a][a] += w
+        L[b][b] += w
+    A = state_matrix_exact(L, system.alpha_q, system.gamma_q)
+    cols = [system.index[a] for a in system.monitored_positions] + [system.n + system.index[a] for a in system.monitored_velocities]
+    # F = A_1 - H C is 0 on each [1_c; 0] (R = 0): the quotient's polynomial is charpoly(F) / t^d
+    claim = charpoly_claim(A, H, cols, system_prime(system), drop_zeros=len(blind))
     return {
         "kind": "central-gain",
-        "H": [[q(float(x)) for x in row] for row in np.asarray(obsv.H)],
+        "H": [[q(float(x)) for x in row] for row in H],
         "basis": basis,
         "R": [["0"] * len(blind) for _ in blind],
         "pivots": [f"x:{c[0]}" for c in blind],
+        **claim,
     }

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 from flint import fmpq, fmpq_mat, fmpq_poly, nmod_mat, nmod_poly
 
-from glocal_verify.certificates.encode import field, mod_residues, pivots_mod, q, system_prime, vector
+from glocal_verify.certificates.encode import charpoly_claim, field, mod_residues, pivots_mod, q, state_matrix_exact, system_prime, vector
 from glocal_verify.certificates.global_certificates import ENCLOSURE_MAX_STATES, NoCertificate
 from glocal_verify.certificates.kernels import fq, kernel_vectors, laplacian_rows
 from glocal_verify.model import System
@@ -207,9 +207,15 @@ def uio_certificate(system: System, r: ConditionResult) -> dict[str, Any]:
 
     obs = next(o for o in system.observers(r.scope["cluster"]) if o.center == r.scope["observer"])
     modes = {}
+    p = system_prime(system)
+    n = len(cm.nodes)
     for m in system.modes:
         d = local_uio(system, obs, mode=m, method="auto")
         K1 = (d.T @ d.A - d.F) @ d.C.T
-        modes[m] = {"K1": [[q(float(x)) for x in row] for row in K1]}
+        A = state_matrix_exact(system.cluster_laplacian_exact(cm.name, m), system.alpha_q, system.gamma_q)
+        at = {a: k for k, a in enumerate(cm.nodes)}
+        cols = [at[a] for a in obs.positions] + [n + at[a] for a in obs.velocities]
+        claim = charpoly_claim(A, K1, cols, p, zero_rows=[n + at[b] for b in cm.boundary])
+        modes[m] = {"K1": [[q(float(x)) for x in row] for row in K1], **claim}
     return {"kind": "uio", "modes": modes}
 
