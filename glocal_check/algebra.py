@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import Any, Iterable, Sequence
 
-from flint import fmpq, fmpq_mat, fmpq_poly, fmpz, nmod, nmod_mat, nmod_poly
+from flint import fmpq, fmpq_mat, fmpq_poly, fmpz, nmod_mat, nmod_poly
 
 from glocal_check.spec import CheckError, rational
 
@@ -29,6 +29,7 @@ __all__ = [
     "reduce_poly",
     "prime",
     "rank_exact",
+    "unit",
 ]
 
 
@@ -283,11 +284,12 @@ def dense(rows: Sequence[dict[int, fmpq]], cols: Iterable[int], pick: Iterable[i
     return [[rows[i].get(j, fmpq(0)) for j in cols] for i in rr]
 
 
-def residue(x: Any, where: str) -> int:
-    """A residue given in a certificate: a plain integer."""
-    require(isinstance(x, int) and not isinstance(x, bool), f"{where}: expected an integer residue")
-    return int(x)
+def unit(computed: int, claim: Any, p: int, what: str) -> None:
+    """A residue the certificate states as ``[r, r^-1 mod p]``: it must be the one computed,
+    and the stated inverse proves it nonzero modulo ``p``."""
+    ok = isinstance(claim, list) and len(claim) == 2 and all(isinstance(x, int) and not isinstance(x, bool) for x in claim)
+    require(ok, f"{what}: expected [residue, inverse]")
+    require(computed == claim[0], f"{what} is {computed} modulo {p}, not {claim[0]}")
+    require(claim[0] * claim[1] % p == 1, f"{what}: {claim[1]} is not the inverse of {claim[0]} modulo {p}")
 
 
-def nmod_value(x: Any, p: int) -> nmod:
-    return nmod(int(x), p)

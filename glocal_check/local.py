@@ -19,7 +19,8 @@ the degree its rows allow (the rows of U it keeps) so that p does not divide its
 coefficient over Q (or, marked ``exact``, computed over Q with its degree kept modulo p).
 If the f_k had a common complex root, its minimal polynomial h (primitive
 over Z) would divide each of them, p would not divide lc(h) (it divides lc(f_1)), and h mod p,
-of degree >= 1, would divide every f_k mod p: so T(s) has full column rank everywhere.
+of degree >= 1, would divide every f_k mod p, and so 1 = sum_k b_k f_k mod p (the stated
+Bezout coefficients): so T(s) has full column rank everywhere.
 
 Certificate ``pencil-kernel`` (fails): a kernel vector of P(lam) over Q[t]/(g), t = lam,
 checked on the definition above, with an entry prime to g.
@@ -38,7 +39,7 @@ from typing import Any
 
 from flint import fmpq, nmod_poly
 
-from glocal_check.algebra import Field, det_mod, hurwitz, mod, poly_det_exact, poly_det_mod, prime, reduce_poly, require, residue
+from glocal_check.algebra import Field, det_mod, hurwitz, mod, poly_det_exact, poly_det_mod, prime, reduce_poly, require, unit
 from glocal_check.context import Context, LocalScope
 from glocal_check.spec import rational
 
@@ -66,8 +67,8 @@ def pencil(ctx: Context, scope: dict[str, Any], status: str, cert: dict[str, Any
     U0 = [a for a in P if a not in pos]
     U = [a for a in P if a not in pos and a not in vel]
     block = dict(zip(P, _block(ctx, ls, "normal")))
-    p = prime(cert.get("prime"))
-    al = mod(sp.alpha, p)
+    p = prime(cert.get("prime")) if U0 or U else 0
+    al = mod(sp.alpha, p) if p else 0
 
     def rows_of(key: Any, size: int) -> list[int]:
         got = [sp.idx(a, "rows") for a in key]
@@ -75,9 +76,11 @@ def pencil(ctx: Context, scope: dict[str, Any], status: str, cert: dict[str, Any
         return got
 
     zero = cert.get("zero", {})
+    if not U0 and not U:
+        return  # every position and velocity is measured: nothing can hide
     R0 = rows_of(zero.get("rows", []), len(U0))
     d0 = det_mod([[al * mod(block[r].get(c, fmpq(0)), p) % p for c in U0] for r in R0], p)
-    require(d0 != 0 and d0 == residue(zero.get("det"), "zero.det"), f"T_0 minor is {d0} modulo {p}, not a nonzero {zero.get('det')}")
+    unit(d0, zero.get("det"), p, "the minor of T_0")
     if not U:
         return
     minors = cert.get("minors", [])
@@ -99,10 +102,14 @@ def pencil(ctx: Context, scope: dict[str, Any], status: str, cert: dict[str, Any
                 require(f.degree() == len(var), "the first minor does not reach its degree bound: its leading coefficient may vanish modulo p")
         require(f.degree() == mnr.get("degree"), f"minor {k} has degree {f.degree()} modulo {p}, not {mnr.get('degree')}")
         polys.append(f)
-    g = polys[0]
-    for f in polys[1:]:
-        g = g.gcd(f)
-    require(g.degree() == 0, f"the minors of T(s) share a factor of degree {g.degree()} modulo {p}")
+    # coprime modulo p: the stated Bezout coefficients give sum_k b_k f_k = 1
+    bez = cert.get("bezout")
+    require(isinstance(bez, list) and len(bez) == len(polys), "one Bezout coefficient per minor")
+    total = nmod_poly([0], p)
+    for b, f in zip(bez, polys):
+        require(isinstance(b, list) and all(isinstance(c, int) and not isinstance(c, bool) for c in b), "a Bezout coefficient is not a list of residues")
+        total += nmod_poly(b, p) * f
+    require(total == 1, f"the Bezout identity of the minors fails modulo {p}")
 
 
 def _pencil_kernel(ctx: Context, ls: LocalScope, cert: dict[str, Any]) -> None:

@@ -24,7 +24,7 @@ from __future__ import annotations
 from itertools import combinations
 from typing import Any
 
-from glocal_check.algebra import Field, krylov_det, mod, prime, require, residue
+from glocal_check.algebra import Field, krylov_det, mod, prime, require, unit
 from glocal_check.context import Context
 
 __all__ = ["distinct", "differences"]
@@ -43,8 +43,7 @@ def distinct(ctx: Context, scope: dict[str, Any], status: str, cert: dict[str, A
         p = prime(cert.get("prime"))
         b = [mod(x, p) for x in sp.vector(cert.get("start"), "start")]
         d = krylov_det(ctx.lap_mod(m, p), b, sp.n)
-        require(d != 0, f"the Krylov matrix is singular modulo {p}")
-        require(d == residue(cert.get("det"), "det"), f"the Krylov determinant is {d} modulo {p}, not {cert.get('det')}")
+        unit(d, cert.get("det"), p, "the Krylov determinant")
         return
     require(cert.get("kind") == "eigenvectors", "a repeated eigenvalue needs an eigenvectors certificate")
     K = Field(cert.get("field"))
@@ -77,8 +76,7 @@ def differences(ctx: Context, scope: dict[str, Any], status: str, cert: dict[str
             d = [0] * sp.n
             d[i], d[j] = 1, p - 1
             det = krylov_det(Lp, d, sp.n - 1, drop_last_column=True)
-            require(det != 0, f"the Krylov minor of e_{sp.labels[i]} - e_{sp.labels[j]} vanishes modulo {p}")
-            require(det == residue(claimed, "pairs"), f"the Krylov minor of pair ({sp.labels[i]}, {sp.labels[j]}) is {det}, not {claimed}")
+            unit(det, claimed, p, f"the Krylov minor of pair ({sp.labels[i]}, {sp.labels[j]})")
         return
     require(cert.get("kind") == "eigenvector", "equal entries need an eigenvector certificate")
     K = Field(cert.get("field"))

@@ -19,7 +19,7 @@ from typing import Any
 
 from flint import fmpq, fmpq_poly
 
-from glocal_check.algebra import Field, minor_of, prime, require, residue
+from glocal_check.algebra import Field, minor_of, prime, require, unit
 from glocal_check.context import Context
 
 __all__ = ["avoids_attack", "zda_exists"]
@@ -104,8 +104,7 @@ def avoids_attack(ctx: Context, scope: dict[str, Any], status: str, cert: dict[s
     require(all(isinstance(x, str) and x in cols for x in ck), "a minor column is not a column of G")
     sub = [[rows[r].get(cols[c], fmpq(0)) for c in ck] for r in rk]
     d = minor_of(sub, list(range(len(rk))), list(range(len(ck))), p) if rk else 1
-    require(d != 0, f"the minor of G vanishes modulo {p}")
-    require(d == residue(cert.get("det"), "det"), f"the minor of G is {d} modulo {p}, not {cert.get('det')}")
+    unit(d, cert.get("det"), p, "the minor of G")
     Z = [sp.vector(z, "kernel") for z in cert.get("kernel", [])]
     for z in Z:
         for key, r in rows.items():
@@ -114,6 +113,6 @@ def avoids_attack(ctx: Context, scope: dict[str, Any], status: str, cert: dict[s
         zr = [sp.idx(a, "kernel_rows") for a in cert.get("kernel_rows", [])]
         require(len(zr) == len(Z), "kernel_rows must pick one row per kernel vector")
         kd = minor_of([[z[a] for z in Z] for a in range(n)], zr, list(range(len(Z))), p)
-        require(kd != 0 and kd == residue(cert.get("kernel_det"), "kernel_det"), "the kernel vectors are not shown independent")
+        unit(kd, cert.get("kernel_det"), p, "the minor of the kernel vectors")
     require(len(rk) == (n - len(Z)) + len(F), f"rank {len(rk)} of G does not reach (N - {len(Z)}) + |F|")
 

@@ -23,6 +23,7 @@ __all__ = [
     "pivots_mod",
     "q",
     "system_prime",
+    "unit",
     "vector",
 ]
 
@@ -60,6 +61,11 @@ def system_prime(system: System) -> int:
     """A prime below :data:`EMIT_PRIME_LIMIT` dividing no denominator of the gains or weights."""
     values = [system.alpha_q, system.gamma_q] + [w for m in system.modes for w in system.edges(m).values()]
     return prime_for(values, EMIT_PRIME_LIMIT)
+
+
+def unit(r: int, p: int) -> list[int]:
+    """A nonzero residue as a certificate states it: ``[r, r^-1 mod p]``."""
+    return [int(r), pow(int(r), -1, p)]
 
 
 def mod_residues(values: Iterable[Fraction | fmpq], p: int) -> list[int]:

@@ -14,7 +14,7 @@ from typing import Any, Mapping
 import numpy as np
 from flint import fmpq, fmpq_poly, nmod_mat
 
-from glocal_verify.certificates.encode import charpoly_claim, field, krylov_residue, laplacian_mod, mod_residues, pivots_mod, q, state_matrix_exact, system_prime, vector
+from glocal_verify.certificates.encode import charpoly_claim, field, krylov_residue, laplacian_mod, mod_residues, pivots_mod, q, state_matrix_exact, system_prime, unit, vector
 from glocal_verify.certificates.facts import schedule_modes
 from glocal_verify.certificates.kernels import fq, kernel_vectors, laplacian_rows
 from glocal_verify.model import System
@@ -100,7 +100,7 @@ def observable_certificate(system: System, r: ConditionResult) -> dict[str, Any]
     if len(R) < system.n:
         raise NoCertificate("the Krylov rows do not reach rank N modulo the prime")
     det = int(nmod_mat(system.n, system.n, [x for i in R for x in rows[i]], p).det())
-    return {"kind": "observable", "mode": mode, "prime": p, "rows": [keys[i] for i in R], "det": det}
+    return {"kind": "observable", "mode": mode, "prime": p, "rows": [keys[i] for i in R], "det": unit(det, p)}
 
 
 # -------------------------------------------------------------------------------------------
@@ -245,12 +245,12 @@ def _touch_rank(system: System, lam0: Fraction, dL: list[dict[int, fmpq]]) -> di
     if len(R) != (n - len(Z)) + len(F):
         raise NoCertificate("the rank of G modulo the prime does not separate u0 from the kernel")
     det = int(nmod_mat(len(R), len(C), [res[i][j] for i in R for j in C], p).det()) if R else 1
-    out_cert: dict[str, Any] = {"prime": p, "rows": [names[i] for i in R], "cols": [cols[j] for j in C], "det": det, "kernel": [vector(system, z) for z in Z]}
+    out_cert: dict[str, Any] = {"prime": p, "rows": [names[i] for i in R], "cols": [cols[j] for j in C], "det": unit(det, p), "kernel": [vector(system, z) for z in Z]}
     if Z:
         zres = [mod_residues([z[a] for z in Z], p) for a in range(n)]
         ZR, _ = pivots_mod(zres, len(Z), p)
         out_cert["kernel_rows"] = [str(system.labels[a]) for a in ZR]
-        out_cert["kernel_det"] = int(nmod_mat(len(Z), len(Z), [zres[a][k] for a in ZR for k in range(len(Z))], p).det())
+        out_cert["kernel_det"] = unit(int(nmod_mat(len(Z), len(Z), [zres[a][k] for a in ZR for k in range(len(Z))], p).det()), p)
     return out_cert
 
 
@@ -273,7 +273,7 @@ def distinct_certificate(system: System, r: ConditionResult) -> dict[str, Any]:
         return {
             "kind": "eigenvectors",
             "field": field(fmpq_poly([-fq(Fraction(mu)), 1])),
-            "mu": q(Fraction(mu)),
+            "mu": ["0", "1"],
             "vectors": [vector(system, {system.labels[i]: x for i, x in v.items()}) for v in (v1, v2)],
             "rows": [str(system.labels[pair[0]]), str(system.labels[pair[1]])],
         }
@@ -283,7 +283,7 @@ def distinct_certificate(system: System, r: ConditionResult) -> dict[str, Any]:
         b = [int(x) for x in rng.integers(1, 1000, system.n)]
         det = krylov_residue(system, mode, b, system.n, p)
         if det:
-            return {"kind": "krylov", "prime": p, "start": vector(system, b), "det": det}
+            return {"kind": "krylov", "prime": p, "start": vector(system, b), "det": unit(det, p)}
     raise NoCertificate("three Krylov matrices were singular modulo the prime")
 
 
@@ -299,7 +299,7 @@ def differences_certificate(system: System, r: ConditionResult) -> dict[str, Any
         return {
             "kind": "eigenvector",
             "field": field(fmpq_poly([-fq(Fraction(mu)), 1])),
-            "mu": q(Fraction(mu)),
+            "mu": ["0", "1"],
             "vector": {str(k): q(Fraction(x)) for k, x in v.items() if x != 0},
             "pair": [str(x) for x in w["pair"]],
         }
@@ -316,6 +316,8 @@ def differences_certificate(system: System, r: ConditionResult) -> dict[str, Any
             d[system.index[a]], d[system.index[b]] = 1, p - 1
             got.append([str(a), str(b), krylov_residue(system, mode, d, system.n - 1, p, drop_last_column=True)])
         if all(x[2] for x in got):
+            for x in got:
+                x[2] = unit(x[2], p)
             return {"kind": "krylov-pairs", "prime": p, "pairs": got}
     raise NoCertificate("a Krylov minor vanished modulo two primes")
 

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 from flint import fmpq, fmpq_mat, fmpq_poly, nmod_mat, nmod_poly
 
-from glocal_verify.certificates.encode import charpoly_claim, field, mod_residues, pivots_mod, q, state_matrix_exact, system_prime, vector
+from glocal_verify.certificates.encode import charpoly_claim, field, mod_residues, pivots_mod, q, state_matrix_exact, system_prime, unit, vector
 from glocal_verify.certificates.global_certificates import ENCLOSURE_MAX_STATES, NoCertificate
 from glocal_verify.certificates.kernels import fq, kernel_vectors, laplacian_rows
 from glocal_verify.model import System
@@ -77,12 +77,14 @@ def pencil_certificate(system: System, r: ConditionResult) -> dict[str, Any]:
 
 
 def _pencil_holds(case: _Case) -> dict[str, Any]:
+    if not case.U0 and not case.U:
+        return {"kind": "pencil-minors"}  # every position and velocity is measured
     p = system_prime(case.system)
     R0, _ = pivots_mod(case.residues(case.rows, case.U0, p), len(case.U0), p)
     if len(R0) < len(case.U0):
         raise NoCertificate("T_0 has no full column rank modulo the prime")
     rows0 = [case.rows[i] for i in R0]
-    zero = {"rows": [str(a) for a in rows0], "det": int(nmod_mat(len(R0), len(R0), [x for rr in case.residues(rows0, case.U0, p) for x in rr], p).det()) if R0 else 1}
+    zero = {"rows": [str(a) for a in rows0], "det": unit(int(nmod_mat(len(R0), len(R0), [x for rr in case.residues(rows0, case.U0, p) for x in rr], p).det()) if R0 else 1, p)}
     cert: dict[str, Any] = {"kind": "pencil-minors", "prime": p, "zero": zero, "minors": []}
     if not case.U:
         return cert
@@ -99,18 +101,32 @@ def _pencil_holds(case: _Case) -> dict[str, Any]:
         # no minor reaches its degree bound: an anchor whose exact degree survives modulo p
         anchor, g = _exact_anchor(case, p, rng)
         cert["minors"].append({"rows": [str(a) for a in anchor], "degree": g.degree(), "exact": True})
+    polys = [g]
     for _ in range(PENCIL_TRIES):
         if g.degree() == 0:
-            return cert
+            break
         pick = [case.rows[i] for i in sorted(rng.choice(len(case.rows), len(case.U), replace=False))]
         f = case.minor_poly(pick, p)
         if f == 0 or g.gcd(f).degree() == g.degree():
             continue
         g = g.gcd(f)
+        polys.append(f)
         cert["minors"].append({"rows": [str(a) for a in pick], "degree": f.degree()})
-    if g.degree() == 0:
-        return cert
-    raise NoCertificate(f"the minors tried share a factor of degree {g.degree()} modulo the prime")
+    if g.degree() != 0:
+        raise NoCertificate(f"the minors tried share a factor of degree {g.degree()} modulo the prime")
+    cert["bezout"] = _bezout(polys, p)
+    return cert
+
+
+def _bezout(polys: list[nmod_poly], p: int) -> list[list[int]]:
+    """b_k with sum_k b_k f_k = 1 modulo p (coprime f_k), by repeated extended gcds."""
+    g, coeffs = polys[0], [nmod_poly([1], p)]
+    for f in polys[1:]:
+        d, a, b = g.xgcd(f)
+        coeffs = [a * c for c in coeffs] + [b]
+        g = d
+    inv = pow(int(g.coeffs()[0]), -1, p)
+    return [[int(x) * inv % p for x in c.coeffs()] for c in coeffs]
 
 
 def _exact_anchor(case: _Case, p: int, rng: np.random.Generator) -> tuple[list[Any], nmod_poly]:
