@@ -57,10 +57,10 @@ def field(modulus: fmpq_poly) -> dict[str, Any]:
     return {"modulus": [q(c) for c in modulus.coeffs()]}
 
 
-def system_prime(system: System) -> int:
-    """A prime below :data:`EMIT_PRIME_LIMIT` dividing no denominator of the gains or weights."""
+def system_prime(system: System, limit: int = EMIT_PRIME_LIMIT) -> int:
+    """The largest prime below ``limit`` dividing no denominator of the gains or weights."""
     values = [system.alpha_q, system.gamma_q] + [w for m in system.modes for w in system.edges(m).values()]
-    return prime_for(values, EMIT_PRIME_LIMIT)
+    return prime_for(values, limit)
 
 
 def unit(r: int, p: int) -> list[int]:

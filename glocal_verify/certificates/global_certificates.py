@@ -309,8 +309,8 @@ def differences_certificate(system: System, r: ConditionResult) -> dict[str, Any
     pairs = [(a, b) for c in comps for i, a in enumerate(c) for b in c[i + 1 :]]
     if len(pairs) > 200:
         raise NoCertificate(f"{len(pairs)} pairs (at most 200 are certified)")
-    for p in (system_prime(system), 2**24 - 3):
-        got = []
+    for p in (system_prime(system), system_prime(system, 2**24)):
+        got: list[list[Any]] = []
         for a, b in pairs:
             d = [0] * system.n
             d[system.index[a]], d[system.index[b]] = 1, p - 1

@@ -54,7 +54,7 @@ def kernel_vectors(rows: SparseRows, ncols: int, p: int, limit: int | None = Non
             for b, j in enumerate(free):
                 if j in r:
                     B[a, b] = -r[j]
-        X = A.solve(B, algorithm="dixon")
+        X = A.solve(B, algorithm="dixon")  # type: ignore[call-arg]
     for b, j in enumerate(free):
         v = [fmpq(0)] * ncols
         v[j] = fmpq(1)

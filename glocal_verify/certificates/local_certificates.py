@@ -174,9 +174,9 @@ def _pencil_fails(case: _Case, r: ConditionResult) -> dict[str, Any]:
         if isinstance(lam, (list, tuple)):
             lam = complex(float(lam[0]), float(lam[1]))
         if lam is not None:
-            s = complex(lam) ** 2 + float(sys_.gamma_q) * complex(lam)
-            if abs(s.imag) < 1e-9 * max(1.0, abs(s)):
-                ss.append(Fraction(s.real).limit_denominator(1000))
+            sz = complex(lam) ** 2 + float(sys_.gamma_q) * complex(lam)
+            if abs(sz.imag) < 1e-9 * max(1.0, abs(sz)):
+                ss.append(Fraction(sz.real).limit_denominator(1000))
     for s in dict.fromkeys(ss + [Fraction(0), Fraction(1)]):
         sq = fq(s)
         colU = {a: k for k, a in enumerate(case.U)}
@@ -194,7 +194,8 @@ def _pencil_fails(case: _Case, r: ConditionResult) -> dict[str, Any]:
 
 def _kernel_cert(case: _Case, x: dict[Any, fmpq], s: fmpq, g: fmpq_poly) -> dict[str, Any]:
     """The kernel vector [x; t x; u_b; u_e] over Q[t]/(g), u from the input rows."""
-    ub, ue = {}, {}
+    ub: dict[Any, fmpq] = {}
+    ue: dict[Any, fmpq] = {}
     for a in case.inputs:
         val = s * x.get(a, fmpq(0)) + case.alpha * sum((w * x.get(c, fmpq(0)) for c, w in case.L[a].items()), fmpq(0))
         (ub if a in set(case.suspected) else ue)[a] = val if a in set(case.suspected) else -val
