@@ -17,6 +17,7 @@ from flint import fmpq, fmpq_poly, nmod_mat
 from glocal_verify.certificates.encode import charpoly_claim, field, krylov_residue, laplacian_mod, mod_residues, pivots_mod, q, state_matrix_exact, system_prime, unit, vector
 from glocal_verify.certificates.facts import schedule_modes
 from glocal_verify.certificates.kernels import fq, kernel_vectors, laplacian_rows
+from glocal_verify import config
 from glocal_verify.model import System
 from glocal_verify.results import ConditionResult
 
@@ -31,10 +32,6 @@ __all__ = [
     "zda_certificate",
 ]
 
-#: largest N for which dense exact or mod-p work on N x N (or 2N x 2N) matrices is attempted
-DENSE_MAX_AGENTS = 300
-#: largest number of states whose eigenvalues the checker encloses (python-flint ``acb_mat.eig``)
-ENCLOSURE_MAX_STATES = 200
 
 
 class NoCertificate(Exception):
@@ -83,8 +80,8 @@ def hidden_certificate(system: System, r: ConditionResult) -> dict[str, Any]:
 
 def observable_certificate(system: System, r: ConditionResult) -> dict[str, Any]:
     """``observable``: N Krylov rows e_a^T L_q^k (a monitored) with a nonzero minor modulo p."""
-    if system.n > DENSE_MAX_AGENTS:
-        raise NoCertificate(f"more than {DENSE_MAX_AGENTS} agents")
+    if system.n > config.get("certificate_dense_max_agents"):
+        raise NoCertificate(f"more than {config.get('certificate_dense_max_agents')} agents")
     mode = schedule_modes(system, r.scope)[0]
     p = system_prime(system)
     L = laplacian_mod(system, mode, p)
@@ -177,7 +174,7 @@ def zda_certificate(system: System, r: ConditionResult) -> dict[str, Any]:
         cands.append(got)
     cands += [Fraction(0), Fraction(1)]
     for lam0 in dict.fromkeys(cands):
-        if system.n > DENSE_MAX_AGENTS and lam0 != 0:
+        if system.n > config.get("certificate_dense_max_agents") and lam0 != 0:
             continue
         cert = _zda_at(system, lam0)
         if cert is not None:
@@ -192,8 +189,8 @@ def touch_certificate(system: System, r: ConditionResult) -> dict[str, Any]:
     wl = _rational(r.witness.get("lambda0"))
     if lam is None or lam.imag != 0 or wl is None or wl != Fraction(repr(lam.real)):
         raise NoCertificate("the verdict's lambda0 is not the spec's real attack.lambda0")
-    if system.n > DENSE_MAX_AGENTS:
-        raise NoCertificate(f"more than {DENSE_MAX_AGENTS} agents")
+    if system.n > config.get("certificate_dense_max_agents"):
+        raise NoCertificate(f"more than {config.get('certificate_dense_max_agents')} agents")
     lam0 = Fraction(repr(lam.real))
     mode = r.scope["mode"]
     dL = _delta_rows(system, mode)
@@ -331,8 +328,8 @@ def central_certificate(system: System, r: ConditionResult, options: Mapping[str
     design = (r.witness.get("design") or {}).get("method")
     if design == "injection":
         return {"kind": "central-injection"}
-    if 2 * system.n - 1 > ENCLOSURE_MAX_STATES:
-        raise NoCertificate(f"more than {ENCLOSURE_MAX_STATES} observable states to enclose")
+    if 2 * system.n - 1 > config.get("certificate_max_states"):
+        raise NoCertificate(f"more than {config.get('certificate_max_states')} observable states to enclose")
     from glocal_verify.observers.central import design_central_observer
 
     obsv = design_central_observer(system, poles=options.get("central_poles"))

@@ -11,17 +11,14 @@ import numpy as np
 from flint import fmpq, fmpq_mat, fmpq_poly, nmod_mat, nmod_poly
 
 from glocal_verify.certificates.encode import charpoly_claim, field, mod_residues, pivots_mod, q, state_matrix_exact, system_prime, unit, vector
-from glocal_verify.certificates.global_certificates import ENCLOSURE_MAX_STATES, NoCertificate
+from glocal_verify import config
+from glocal_verify.certificates.global_certificates import NoCertificate
 from glocal_verify.certificates.kernels import fq, kernel_vectors, laplacian_rows
 from glocal_verify.model import System
 from glocal_verify.results import ConditionResult
 
 __all__ = ["pencil_certificate", "uio_certificate"]
 
-#: row sets of the reduced pencil tried before giving up
-PENCIL_TRIES = 40
-#: largest U whose anchor minor is computed over Q
-EXACT_ANCHOR_MAX = 60
 
 
 class _Case:
@@ -102,7 +99,7 @@ def _pencil_holds(case: _Case) -> dict[str, Any]:
         anchor, g = _exact_anchor(case, p, rng)
         cert["minors"].append({"rows": [str(a) for a in anchor], "degree": g.degree(), "exact": True})
     polys = [g]
-    for _ in range(PENCIL_TRIES):
+    for _ in range(config.get("certificate_minor_tries")):
         if g.degree() == 0:
             break
         pick = [case.rows[i] for i in sorted(rng.choice(len(case.rows), len(case.U), replace=False))]
@@ -131,9 +128,10 @@ def _bezout(polys: list[nmod_poly], p: int) -> list[list[int]]:
 
 def _exact_anchor(case: _Case, p: int, rng: np.random.Generator) -> tuple[list[Any], nmod_poly]:
     """Rows of T(s) whose minor, computed over Q, keeps its degree modulo p."""
-    if len(case.U) > EXACT_ANCHOR_MAX:
-        raise NoCertificate(f"no minor of T(s) reaches its degree bound and U has more than {EXACT_ANCHOR_MAX} agents")
-    for _ in range(PENCIL_TRIES):
+    most = config.get("certificate_exact_anchor_max")
+    if len(case.U) > most:
+        raise NoCertificate(f"no minor of T(s) reaches its degree bound and U has more than {most} agents")
+    for _ in range(config.get("certificate_minor_tries")):
         rows = [case.rows[i] for i in sorted(rng.choice(len(case.rows), len(case.U), replace=False))]
         diag = {i: case.U.index(a) for i, a in enumerate(rows) if a in set(case.U)}
         values = []
@@ -218,8 +216,8 @@ def uio_certificate(system: System, r: ConditionResult) -> dict[str, Any]:
             return {"kind": "structure"}
         raise NoCertificate("an unstable unobservable mode has no certificate yet")
     cm = system.cluster_model(r.scope["cluster"], "normal")
-    if 2 * len(cm.nodes) > ENCLOSURE_MAX_STATES:
-        raise NoCertificate(f"more than {ENCLOSURE_MAX_STATES} states to enclose")
+    if 2 * len(cm.nodes) > config.get("certificate_max_states"):
+        raise NoCertificate(f"more than {config.get('certificate_max_states')} states to enclose")
     from glocal_verify.observers.uio import local_uio
 
     obs = next(o for o in system.observers(r.scope["cluster"]) if o.center == r.scope["observer"])
