@@ -206,10 +206,11 @@ def echelon_mod(M: Sequence[Sequence[Any]], f: Any, ncols: int, *, fraction_free
     Parameters
     ----------
     M : rows of fmpq_poly
-        The matrix (entries reduced or not mod f).
+        The polynomial matrix; its entries need not be reduced modulo f.
     f : fmpq_poly
-        Irreducible over Q.
+        The modulus, irreducible over Q.
     ncols : int
+        Columns of M (it may have no rows).
     fraction_free : bool
 
     Returns
