@@ -62,7 +62,7 @@ EXPORT_FORMATS = ("mat", "json", "npz")
 
 # the kinds of the schema's leaves, by field name (what read_deployment restores)
 _TEXT = frozenset({"schema", "generator", "name", "label_type", "state", "mode", "method", "note", "cluster", "center", "hurwitz", "kind", "description", "equations"})
-_TEXTS = frozenset({"labels", "positions", "velocities", "channels", "nodes", "notes", "u", "v"})
+_TEXTS = frozenset({"labels", "positions", "velocities", "channels", "nodes", "notes", "u", "v", "not_decoupled"})
 _NUMBER = frozenset({"schema_version", "n", "alpha", "gamma", "present", "stability_margin", "hurwitz_margin", "box", "rounding", "time", "horizon", "step"})
 _VECTOR = frozenset({"eigenvalues_re", "eigenvalues_im", "t", "delta"})
 _RECORDS = frozenset({"modes", "local", "designs", "segments", "observers", "switches"})
@@ -108,13 +108,32 @@ def _central(co: CentralDesign | None, note: str) -> dict[str, Any]:
     }
 
 
+def _uio_fields(u: Any) -> dict[str, Any]:
+    """The design matrices of one UIO (eqs. uio_conds_1-uio_conds_3) and its certified spectrum."""
+    return {
+        "A": u.A,
+        "E": u.E,
+        "h": u.h,
+        "T": u.T,
+        "A1": u.A1,
+        "K1": u.K1,
+        "F": u.F,
+        "K": u.K,
+        **_complex(np.asarray(u.eigenvalues, dtype=complex)),
+        "hurwitz_margin": float(u.hurwitz_margin),
+        "hurwitz": u.hurwitz.value,
+    }
+
+
 def _local(d: LocalDesign) -> dict[str, Any]:
     u = d.uio
     return {
         "name": d.name,
         "cluster": u.cluster,
         "center": _text(u.center),
-        "equations": "dz/dt = F z + K y, x_hat = z + h y, r = y - C_loc x_hat = Ry y - Rz z, z(0) = -h y(0), y = C_loc S x",
+        "equations": "in mode q (designs[.].mode, else the normal-mode fields): dz/dt = F_q z + K_q y, x_hat = z + h_q y, "
+        "r = y - C_loc x_hat = Ry_q y - Rz z, y = C_loc S x; z(0) = -h y(0) (x_hat(0) = 0); "
+        "at a switch from mode p to mode q: z <- z + (h_p - h_q) y (x_hat stays continuous)",
         "nodes": _texts(u.nodes),
         "positions": _texts(u.positions),
         "velocities": _texts(u.velocities),
@@ -131,7 +150,8 @@ def _local(d: LocalDesign) -> dict[str, Any]:
         "K": d.K,
         "Ry": d.Ry,
         "Rz": d.Rz,
-        "designs": [{"mode": g.mode, "F": g.F, "K": g.K} for g in d.designs],
+        "designs": [{"mode": g.mode, **_uio_fields(g.uio), "Ry": g.Ry, "reset": g.reset} for g in d.designs],
+        "not_decoupled": [m for m, _ in d.not_decoupled],
         **_complex(np.asarray(u.eigenvalues, dtype=complex)),
         "hurwitz_margin": float(u.hurwitz_margin),
         "hurwitz": u.hurwitz.value,

@@ -32,8 +32,9 @@ import numpy as np
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.observers.central import design_central_observer
-from glocal_verify.observers.uio import UnknownInputObserver, local_uio
-from glocal_verify.simulation.observer_models import ObserverBank, cluster_embedding, central_observer_model, local_observer_models
+from glocal_verify.observers.uio import UnknownInputObserver
+from glocal_verify.observers.uio_modes import ModeDesigns
+from glocal_verify.simulation.observer_models import ObserverBank, ObserverModel, central_observer_model, cluster_embedding, local_designs, local_observer_model
 from glocal_verify.simulation.schedule import ANY_MODE, Schedule
 from glocal_verify.simulation.thresholds import ThresholdRule, attack_free_thresholds
 from glocal_verify.spec.types import NORMAL_MODE, Label
@@ -43,7 +44,7 @@ __all__ = [
     "DeployedThresholds",
     "Deployment",
     "LocalDesign",
-    "ModeGains",
+    "ModeDesign",
     "ObserverEnvelope",
     "SwitchLinks",
     "design_deployment",
@@ -81,20 +82,34 @@ class CentralDesign:
 
 
 @dataclass(frozen=True, eq=False, slots=True)
-class ModeGains:
-    """The dynamics ``F``, ``K`` a local observer switches to in one mode."""
+class ModeDesign:
+    """The design a local observer switches to in one mode whose cluster matrices differ.
+
+    Attributes
+    ----------
+    mode : str
+    uio : UnknownInputObserver
+        The design for the mode's ``A^i_q``, ``E^i_q``: ``h``, ``T``, ``A1``, ``K1``, ``F``, ``K``.
+    Ry : ndarray
+        ``I - C_loc h_q``.
+    reset : ndarray
+        ``h_1 - h_q``: at the switch from the normal mode, ``z <- z + reset y`` (zero when ``h``
+        does not change). Between two other modes p, q the reset is ``h_p - h_q``.
+    """
 
     mode: str
-    F: np.ndarray
-    K: np.ndarray
+    uio: UnknownInputObserver
+    Ry: np.ndarray
+    reset: np.ndarray
 
 
 @dataclass(frozen=True, eq=False, slots=True)
 class LocalDesign:
     """One local unknown-input observer as deployed.
 
-    :math:`\\dot z = F z + K y`, :math:`\\hat x = z + h y`, :math:`r = y - C_{loc} \\hat x = R_y y - R_z z`,
-    ``z(0) = -h y(0)``, ``y = C_loc S x``.
+    :math:`\\dot z = F_q z + K_q y`, :math:`\\hat x = z + h_q y`,
+    :math:`r = y - C_{loc} \\hat x = R_{y,q} y - R_z z`, ``z(0) = -h y(0)`` (:math:`\\hat x(0) = 0`),
+    ``y = C_loc S x``; at a switch from p to q, ``z <- z + (h_p - h_q) y``.
 
     Attributes
     ----------
@@ -112,8 +127,11 @@ class LocalDesign:
         The dynamics it runs in any mode without a mode-matched design.
     Ry, Rz : ndarray
         The residual maps ``I - C_loc h`` and ``C_loc``.
-    designs : tuple of ModeGains
-        The mode-matched dynamics per mode.
+    designs : tuple of ModeDesign
+        The mode-matched designs (every mode whose ``A^i_q`` or ``E^i_q`` differs and has a UIO).
+    not_decoupled : tuple of (str, str)
+        Modes whose cluster matrices differ but have no UIO (the normal-mode design keeps
+        running there, not decoupled), and why.
     notes : tuple of str
     """
 
@@ -125,8 +143,13 @@ class LocalDesign:
     K: np.ndarray
     Ry: np.ndarray
     Rz: np.ndarray
-    designs: tuple[ModeGains, ...]
+    designs: tuple[ModeDesign, ...]
+    not_decoupled: tuple[tuple[str, str], ...]
     notes: tuple[str, ...]
+
+    def design(self, mode: str) -> UnknownInputObserver:
+        """The design that runs in ``mode``."""
+        return next((d.uio for d in self.designs if d.mode == mode), self.uio)
 
 
 @dataclass(frozen=True, eq=False, slots=True)
@@ -233,12 +256,11 @@ def _central(system: System) -> tuple[CentralDesign | None, str]:
     return CentralDesign(co.mode, tuple(system.output_channels()), A, C, H, A - H @ C, eig, float(co.stability_margin), co.method), ""
 
 
-def _local(system: System, model: Any) -> LocalDesign:
-    """One local observer: the normal-mode design and the mode-matched dynamics of the bank's ``model``."""
-    lo = next(o for o in system.observers() if o.cluster == model.cluster and o.center == model.center)
-    d = local_uio(system, lo, mode=NORMAL_MODE)
+def _local(system: System, designs: ModeDesigns, model: ObserverModel) -> LocalDesign:
+    """One local observer: its designs in every mode and the simulator's ``model`` built from them."""
+    d = designs.normal
     p = d.C.shape[0]
-    designs = tuple(ModeGains(m, np.asarray(model.F[m], dtype=float), np.asarray(model.G[m], dtype=float)) for m in model.F if m != ANY_MODE)
+    per_mode = tuple(ModeDesign(m, u, model.output_map(m), d.h - u.h) for m, u in designs.modes)
     return LocalDesign(
         name=model.name,
         uio=d,
@@ -248,7 +270,8 @@ def _local(system: System, model: Any) -> LocalDesign:
         K=np.asarray(model.G[ANY_MODE], dtype=float),
         Ry=np.eye(p) - d.C @ d.h,
         Rz=d.C.copy(),
-        designs=designs,
+        designs=per_mode,
+        not_decoupled=designs.missing,
         notes=tuple(model.notes),
     )
 
@@ -272,7 +295,9 @@ def design_deployment(system: System, *, thresholds: bool = True, progress: bool
     Deployment
     """
     central, note = _central(system)
-    models, notes = local_observer_models(system)
+    notes: list[str] = []
+    designs = local_designs(system, notes=notes)
+    models = [local_observer_model(system, d) for d in designs]
     bank = ObserverBank(((central_observer_model(system, central.H),) if central is not None else ()) + tuple(models), tuple(notes))
     schedule = Schedule.from_spec(system)
     sim = system.spec.simulation
@@ -294,7 +319,7 @@ def design_deployment(system: System, *, thresholds: bool = True, progress: bool
         C=system.C(),
         central=central,
         central_note=note,
-        local=tuple(_local(system, m) for m in models),
+        local=tuple(_local(system, d, m) for d, m in zip(designs, models)),
         horizon=float(sim.horizon),
         step=float(sim.step),
         thresholds=thr,
