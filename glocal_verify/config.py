@@ -374,6 +374,10 @@ _ALL = (
     _t("zero_touch_modular_max_agents", 2000, "agents", "glocal_verify.analysis.switching.zero_touch",
        "the modular touch screen inverts the grounded Laplacian modulo a prime up to this many agents",
        "O(N^3) once per system", read_at_import=True),
+    # ---- replay (simulation.replay) ------------------------------------------------------------
+    _t("replay_noise_slack", 0.01, "fraction", "glocal_verify.simulation.replay",
+       "a replayed channel's fourth-difference noise estimate above (1 + this) x its [uncertainty] bound says the noise premise failed",
+       "noise at its bound reaches exactly 1; the loop's own signal adds h^4 |y''''| / 16, below 1e-4 of the bound on paper19's logs"),
 )
 
 #: every tunable by name (read-only)

@@ -34,6 +34,7 @@ from glocal_verify.model import System
 from glocal_verify.observers.central import design_central_observer
 from glocal_verify.observers.uio import UnknownInputObserver
 from glocal_verify.observers.uio_modes import ModeDesigns
+from glocal_verify.simulation.sampled_deployment import SampledDeployment, sampled_deployment
 from glocal_verify.simulation.observer_models import ObserverBank, ObserverModel, central_observer_model, cluster_embedding, local_designs, local_observer_model
 from glocal_verify.simulation.schedule import ANY_MODE, Schedule
 from glocal_verify.simulation.thresholds import ThresholdRule, attack_free_thresholds
@@ -47,7 +48,9 @@ __all__ = [
     "ModeDesign",
     "ObserverEnvelope",
     "SwitchLinks",
+    "deployment_checks",
     "design_deployment",
+    "schedule_end",
 ]
 
 
@@ -219,7 +222,13 @@ class Deployment:
     switches : tuple of SwitchLinks
         The link changes of every safe mode.
     notes : tuple of str
-        The observer bank's notes (observers that could not be designed).
+        What the deployment cannot promise: observers that could not be designed, modes of
+        the schedule without a decoupled local observer, thresholds that stop before the
+        schedule ends (:func:`deployment_checks`).
+    sampled : SampledDeployment or None
+        With a sampled ``[implementation]``: the detectors at period h in every mode of the
+        schedule, their certified thresholds over it, Algorithm 1 and the guarantee
+        (:func:`~glocal_verify.simulation.sampled_deployment.sampled_deployment`).
     """
 
     name: str
@@ -240,6 +249,7 @@ class Deployment:
     schedule: Schedule
     switches: tuple[SwitchLinks, ...]
     notes: tuple[str, ...]
+    sampled: SampledDeployment | None = None
 
 
 def _central(system: System) -> tuple[CentralDesign | None, str]:
@@ -276,7 +286,41 @@ def _local(system: System, designs: ModeDesigns, model: ObserverModel) -> LocalD
     )
 
 
-def design_deployment(system: System, *, thresholds: bool = True, progress: bool = False) -> Deployment:
+def schedule_end(system: System, schedule: Schedule) -> float:
+    """When the spec's schedule ends: a ``sequence``'s start plus its durations (its last mode
+    persists after it), else the last switch."""
+    sw = system.spec.switching
+    if sw is not None and sw.sequence:
+        return float(sw.time or 0.0) + sum(float(st.duration) for st in sw.sequence)
+    return max(schedule.switch_times, default=0.0)
+
+
+def deployment_checks(system: System, schedule: Schedule, local: tuple[LocalDesign, ...], horizon: float, sampled: SampledDeployment | None, thresholds: bool) -> list[str]:
+    """What the deployment cannot promise, as notes: every mode of the schedule must have a
+    decoupled local observer, the thresholds must cover the schedule."""
+    out: list[str] = []
+    modes = set(schedule.modes)
+    for d in local:
+        for m, why in d.not_decoupled:
+            if m in modes:
+                out.append(f"{d.name}: no decoupled observer in mode {m} of the schedule ({why}); its residual there moves with the neighbours and its threshold is no guarantee")
+    end = schedule_end(system, schedule)
+    if thresholds and end > horizon:
+        out.append(f"the continuous thresholds stop at t = {horizon:g} s, before the schedule ends at t = {end:g} s")
+    if thresholds and schedule.switch_times:
+        out.append(f"the continuous envelope covers t <= {horizon:g} s; the last mode persists after it without an envelope (the sampled thresholds' tail covers it)" if sampled is not None else f"the continuous envelope covers t <= {horizon:g} s only; the last mode persists after it without a threshold")
+    if sampled is not None:
+        for name, ds in sampled.thresholds.detectors.items():
+            for s, m, c in ds.segments:
+                if not c:
+                    out.append(f"sampled {name}: no certified threshold in mode {m} from sample {s} (t = {s * sampled.thresholds.period:g} s) on")
+                    break
+        if sampled.safe_mode is not None and sampled.thresholds.after_switch is None:
+            out.append(f"sampled central: no certified threshold after Algorithm 1's switch to {sampled.safe_mode}")
+    return out
+
+
+def design_deployment(system: System, *, thresholds: bool = True, progress: bool = False, sampled: bool = True) -> Deployment:
     """Design the observers of ``system`` and compute their thresholds: the :class:`Deployment`.
 
     Parameters
@@ -289,10 +333,15 @@ def design_deployment(system: System, *, thresholds: bool = True, progress: bool
         :attr:`Deployment.thresholds` None.
     progress : bool
         Report the thresholds' progress on stderr.
+    sampled : bool
+        With a sampled ``[implementation]``, include the sampled deployment (detectors per
+        mode, certified thresholds over the schedule, Algorithm 1, the guarantee).
 
     Returns
     -------
     Deployment
+        Its ``notes`` say what it cannot promise (:func:`deployment_checks`); the command
+        prints them on stderr.
     """
     central, note = _central(system)
     notes: list[str] = []
@@ -301,12 +350,26 @@ def design_deployment(system: System, *, thresholds: bool = True, progress: bool
     bank = ObserverBank(((central_observer_model(system, central.H),) if central is not None else ()) + tuple(models), tuple(notes))
     schedule = Schedule.from_spec(system)
     sim = system.spec.simulation
+    horizon = max(float(sim.horizon), schedule_end(system, schedule))
+    if horizon > float(sim.horizon):
+        notes.append(f"thresholds computed to t = {horizon:g} s, where the schedule ends (the spec's horizon is {float(sim.horizon):g} s)")
     thr: DeployedThresholds | None = None
     if thresholds and len(bank):
         rule = ThresholdRule()
-        th = attack_free_thresholds(system, bank, schedule, rule, progress=progress)
+        th = attack_free_thresholds(system, bank, schedule, rule, horizon=horizon, progress=progress)
         envelopes = tuple(ObserverEnvelope(name, tuple(bank[name].channels), np.asarray(env, dtype=float)) for name, env in th.envelope.items())
         thr = DeployedThresholds(rule, np.asarray(th.t, dtype=float), envelopes)
+    dep_sampled = None
+    impl = system.spec.implementation
+    if sampled and impl is not None and impl.controller == "sampled":
+        try:
+            dep_sampled = sampled_deployment(system)
+        except NotApplicableError as exc:
+            notes.append(f"sampled deployment: {exc}")
+    local = tuple(_local(system, d, m) for d, m in zip(designs, models))
+    warnings = deployment_checks(system, schedule, local, horizon, dep_sampled, thr is not None)
+    if dep_sampled is not None:
+        warnings += [f"sampled: {n}" for n in dep_sampled.notes]
     return Deployment(
         name=system.name,
         labels=tuple(system.labels),
@@ -319,11 +382,12 @@ def design_deployment(system: System, *, thresholds: bool = True, progress: bool
         C=system.C(),
         central=central,
         central_note=note,
-        local=tuple(_local(system, d, m) for d, m in zip(designs, models)),
-        horizon=float(sim.horizon),
+        local=local,
+        horizon=horizon,
         step=float(sim.step),
         thresholds=thr,
         schedule=schedule,
         switches=tuple(SwitchLinks(m, tuple(system.switching_links(m))) for m in system.modes if m != NORMAL_MODE),
-        notes=tuple(notes),
+        notes=tuple(dict.fromkeys(notes + warnings)),
+        sampled=dep_sampled,
     )

@@ -25,6 +25,8 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from glocal_verify.analysis.sampled.loop import implementation_of
 from glocal_verify.derived import Kind
 from glocal_verify.errors import NotApplicableError
@@ -32,10 +34,11 @@ from glocal_verify.model import System
 from glocal_verify.simulation.certified_thresholds import certified_thresholds
 from glocal_verify.simulation.guarantees import GUARANTEE_MAX_AGENTS, DetectionGuarantee, detection_guarantee
 from glocal_verify.simulation.schedule import Schedule
-from glocal_verify.simulation.schedule_thresholds import ScheduleThresholds, schedule_thresholds
+from glocal_verify.observers.sampled import to_float
+from glocal_verify.simulation.schedule_thresholds import DetectorSchedule, ScheduleThresholds, schedule_thresholds
 from glocal_verify.spec.types import ImplementationSpec
 
-__all__ = ["SampledDeployment", "sampled_deployment", "deployment_horizon", "ALGORITHM1"]
+__all__ = ["DetectorMode", "DeployedDetector", "SampledDeployment", "sampled_deployment", "deployment_horizon", "ALGORITHM1"]
 
 #: Algorithm 1 as the deployment runs it (written into the file)
 ALGORITHM1 = (
@@ -45,6 +48,46 @@ ALGORITHM1 = (
     "centre's residual is compared with the after-switch threshold of the block holding s, at m = k - s samples after it; "
     "a crossing is the control centre's alarm (lines 6-7: stealthy attack detected)"
 )
+
+@dataclass(frozen=True, eq=False, slots=True)
+class DetectorMode:
+    """One detector as it runs in one mode: ``z+ = Fo z + Go y``, ``r = Ry y - Rz z``, ``y = C x + n``;
+    ``H`` its decoupling matrix (zero for the central observer): at a switch from p to q,
+    ``z <- z + (H_p - H_q) y``. Floats of the exact rationals the certificates are about
+    (every entry rounded once)."""
+
+    mode: str
+    Fo: np.ndarray
+    Go: np.ndarray
+    Ry: np.ndarray
+    Rz: np.ndarray
+    H: np.ndarray
+
+
+@dataclass(frozen=True, eq=False, slots=True)
+class DeployedDetector:
+    """A sampled detector in every mode of the schedule it has a certified model in.
+
+    Attributes
+    ----------
+    name, kind : str
+    channels : tuple of str
+        Its measured channels (rows of ``C``) and residual components.
+    C : ndarray
+        (p, 2N) its measurement map on the plant state.
+    modes : tuple of DetectorMode
+    """
+
+    name: str
+    kind: str
+    channels: tuple[str, ...]
+    C: np.ndarray
+    modes: tuple[DetectorMode, ...]
+
+    def mode(self, mode: str) -> DetectorMode | None:
+        """Its matrices in ``mode`` (None when it has no certified model there)."""
+        return next((m for m in self.modes if m.mode == mode), None)
+
 
 _KIND: Kind["SampledDeployment"] = Kind("sampled-deployment", __name__, "SampledDeployment")
 
@@ -60,6 +103,8 @@ class SampledDeployment:
         The defender's timed schedule.
     safe_mode : str or None
         Algorithm 1's safe mode (the spec's ``switching.mode``).
+    detectors : tuple of DeployedDetector
+        What runs, per mode of the schedule (the central observer also in the safe mode).
     thresholds : ScheduleThresholds
         Per detector and sample over the schedule (the first segment is ``detection.thresholds``'
         :class:`~glocal_verify.simulation.certified_thresholds.CertifiedThresholds`), the tail,
@@ -75,6 +120,7 @@ class SampledDeployment:
     implementation: ImplementationSpec
     schedule: Schedule
     safe_mode: str | None
+    detectors: tuple[DeployedDetector, ...]
     thresholds: ScheduleThresholds
     guarantee: DetectionGuarantee | None
     horizon: float
@@ -129,10 +175,20 @@ def _compute(system: System, implementation: ImplementationSpec | None) -> Sampl
             guarantee = detection_guarantee(system, mode=safe, implementation=impl, thresholds=cert, after_switch=sched.after_switch, before=first_switch)
         except NotApplicableError as exc:
             notes.append(f"detection guarantee of the spec's attack: {exc}")
-    return SampledDeployment(impl, schedule, safe, sched, guarantee, T, tuple(dict.fromkeys(notes)))
+    detectors = tuple(_deployed(system, ds, cert, safe) for ds in sched.detectors.values())
+    return SampledDeployment(impl, schedule, safe, detectors, sched, guarantee, T, tuple(dict.fromkeys(notes)))
 
 
-def describe(deployment: SampledDeployment) -> dict[str, Any]:
-    """A short summary (for messages)."""
-    th = deployment.thresholds
-    return {"period": th.period, "samples": th.samples, "segments": [m for _, m in th.segments], "safe_mode": deployment.safe_mode}
+def _deployed(system: System, ds: DetectorSchedule, cert: Any, safe: str | None) -> DeployedDetector:
+    """The floats of one detector's implementation in every mode it runs in."""
+    seen: dict[str, DetectorMode] = {}
+    pairs = list(ds.detectors)
+    if ds.kind == "central" and safe is not None and all(m != safe for m, _ in pairs) and pairs:
+        pairs.append((safe, pairs[0][1]))  # the central observer keeps the normal-mode model in every mode
+    for mode, d in pairs:
+        if mode in seen:
+            continue
+        H = to_float(d.Pn) if d.kind == "local" else np.zeros((d.Fo.nrows(), d.C.nrows()))
+        seen[mode] = DetectorMode(mode, to_float(d.Fo), to_float(d.Go), to_float(d.Ry), to_float(d.Rz), H)
+    first = pairs[0][1] if pairs else next(o for o in cert.detectors if o.name == ds.name)
+    return DeployedDetector(ds.name, ds.kind, ds.channels, to_float(first.C), tuple(seen.values()))
