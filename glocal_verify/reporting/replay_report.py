@@ -5,13 +5,14 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from types import MappingProxyType
 
 from glocal_verify.reporting.output import write_bytes_atomic
 from glocal_verify.simulation.replay import Alarm, ReplayResult
 
 __all__ = ["replay_text", "replay_json", "write_replay_figure"]
 
-_KINDS = {"local": "local alarm", "central": "control centre's alarm (after the switch)", "central-before-switch": "control centre's alarm (before any switch)"}
+_KINDS = MappingProxyType({"local": "local alarm", "central": "control centre's alarm (after the switch)", "central-before-switch": "control centre's alarm (before any switch)"})
 
 
 def _alarm_line(a: Alarm) -> str:

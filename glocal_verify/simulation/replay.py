@@ -38,6 +38,7 @@ import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
@@ -54,11 +55,13 @@ class ReplayError(GlocalVerifyError, ValueError):
 
 
 #: unit factors to the file's units, by the kind of column
-UNITS: Mapping[str, Mapping[str, float]] = {
-    "t": {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9, "min": 60.0},
-    "x": {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "km": 1e3},
-    "v": {"m/s": 1.0, "cm/s": 1e-2, "mm/s": 1e-3, "km/h": 1.0 / 3.6},
-}
+UNITS: Mapping[str, Mapping[str, float]] = MappingProxyType(
+    {
+        "t": MappingProxyType({"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9, "min": 60.0}),
+        "x": MappingProxyType({"m": 1.0, "cm": 1e-2, "mm": 1e-3, "km": 1e3}),
+        "v": MappingProxyType({"m/s": 1.0, "cm/s": 1e-2, "mm/s": 1e-3, "km/h": 1.0 / 3.6}),
+    }
+)
 
 _HEADER = re.compile(r"^\s*(?P<name>[^\[\]]+?)\s*(\[\s*(?P<unit>[^\]]*?)\s*\])?\s*$")
 
