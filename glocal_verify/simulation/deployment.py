@@ -31,6 +31,7 @@ import numpy as np
 
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
+from glocal_verify.runtime.lines import write_line
 from glocal_verify.observers.central import design_central_observer
 from glocal_verify.observers.uio import UnknownInputObserver
 from glocal_verify.observers.uio_modes import ModeDesigns
@@ -362,6 +363,8 @@ def design_deployment(system: System, *, thresholds: bool = True, progress: bool
     dep_sampled = None
     impl = system.spec.implementation
     if sampled and impl is not None and impl.controller == "sampled":
+        if progress:
+            write_line("glocal-verify: the sampled detectors of every mode and their certified thresholds over the schedule ...")
         try:
             dep_sampled = sampled_deployment(system)
         except NotApplicableError as exc:

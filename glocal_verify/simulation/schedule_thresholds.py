@@ -253,7 +253,7 @@ class ScheduleThresholds:
         if self.after_switch is not None and self.after_switch.mode == mode:
             return self.after_switch
         central = next((d for d in self.certified.detectors if d.kind == "central" and d.name in self.detectors), None)
-        if central is None or self.state_blocks is None or self.model.initial != "state":
+        if central is None or self.state_blocks is None or self.model.initial != "state" or self.model.spec.gaussian:
             return None
         try:
             return _after_switch(system, central, system.check_mode(mode), list(self.state_blocks), self.samples, self.model, self.period, implementation_of(system))
@@ -656,6 +656,8 @@ def schedule_thresholds(
     if safe_mode is not None and central is not None:
         if model.initial != "state":
             notes.append("central: the threshold after Algorithm 1's switch needs a box of initial states (uncertainty.initial_state)")
+        elif model.spec.gaussian:
+            notes.append("central: the Gaussian part of the noise is bounded before any switch only: no certified threshold after Algorithm 1's switch")
         elif central_blocks is None:
             notes.append("central: no certified bound of the state at Algorithm 1's switch: no threshold after it")
         else:
