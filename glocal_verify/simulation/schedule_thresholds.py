@@ -529,7 +529,7 @@ def _schedule_of(
     starts = [s for s, _ in segs] + [K]
     s1 = starts[1]
     theta[:s1] = pre.theta[:s1]
-    bound[:s1] = sum(pre.parts.values())[:s1]  # the certified bound (pre.bound is the float worst case)
+    bound[:s1] = (pre.parts["initial"] + pre.parts["noise"] + pre.parts["disturbance"])[:s1]  # the certified bound (pre.bound is the float worst case)
     first = comps[0]
     gaussian = model.spec.gaussian and len(segs) > 1
     if gaussian:
@@ -584,8 +584,8 @@ def _schedule_of(
         beta = upper(carried[L] + reach[L], 4)
         if blocks is not None:
             bs = _doubling_blocks(L)
-            for a, b_ in zip(bs, bs[1:] + [L]):
-                blocks.append((s + a, upper(carried[a:b_].max(axis=0) + reach[b_ - 1], 4)))
+            for a0, b0 in zip(bs, bs[1:] + [L]):
+                blocks.append((s + a0, upper(carried[a0:b0].max(axis=0) + reach[b0 - 1], 4)))
             if last:
                 a, b_ = blocks[-1]
                 beyond = _sup_after(carried, L, pcj) + reach[L] + _sum_after(n_cols, L, pcj) + _sum_after(w_cols, L, pcj)
@@ -665,5 +665,5 @@ def schedule_thresholds(
                 after = _after_switch(system, central, system.check_mode(safe_mode), central_blocks, K, model, h, impl)
             except NotApplicableError as exc:
                 notes.append(f"central: no threshold after Algorithm 1's switch to {safe_mode} ({exc})")
-    blocks = tuple(central_blocks) if central_blocks is not None else None
-    return ScheduleThresholds(h, K, segs, out, after, certified, model, tuple(dict.fromkeys(notes)), blocks)
+    kept = tuple(central_blocks) if central_blocks is not None else None
+    return ScheduleThresholds(h, K, segs, out, after, certified, model, tuple(dict.fromkeys(notes)), kept)
