@@ -1,6 +1,12 @@
 """The wheel alone: built from the sources, installed into a fresh virtual environment, run
 outside the repository, it writes the same findings report as the repository does (the
-counterexample specs and the examples are package data)."""
+counterexample specs and the examples are package data), and every command of the README's
+Tour works there from an empty folder.
+
+The virtual environment is isolated (no ``--system-site-packages``: the base interpreter may
+lack the dependencies, as in a user's fresh venv); a ``.pth`` file lists the running
+interpreter's site-packages folders after the venv's own, so the dependencies are found there
+and the wheel shadows any installed copy of the project."""
 
 from __future__ import annotations
 
@@ -29,13 +35,19 @@ def _run(args: list[str], cwd: Path, env: dict[str, str]) -> subprocess.Complete
     return done
 
 
+def _site_folders() -> list[str]:
+    """The running interpreter's site-packages folders (its venv's and, with system site-packages, the base's)."""
+    return [p for p in sys.path if p and Path(p).is_dir() and Path(p).name in ("site-packages", "dist-packages")]
+
+
 @pytest.fixture(scope="module")
 def venv(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, str]]:
-    """A fresh venv (dependencies from the running interpreter's site-packages) holding the wheel.
+    """A fresh, isolated venv holding the wheel; the dependencies come from the running interpreter.
 
-    ``--ignore-installed``: the running interpreter may itself hold a (non-editable) install of
-    the project, which the venv sees through its system site-packages; pip would call the wheel
-    already satisfied and the test would run that copy instead."""
+    The ``.pth`` file's plain folder lines add those folders behind the venv's own
+    site-packages, without running their ``.pth`` files (an editable install of the project
+    there stays inert). ``--ignore-installed``: pip sees the project's metadata in those folders
+    and would call the wheel already satisfied."""
     base = tmp_path_factory.mktemp("wheel")
     src = base / "src"
     src.mkdir()
@@ -49,8 +61,10 @@ def venv(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, str]
     _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--quiet", "-w", str(base / "dist"), str(src)], base, env)
     (wheel,) = (base / "dist").glob("glocal_verify-*.whl")
     env_dir = base / "venv"
-    _run([sys.executable, "-m", "venv", "--system-site-packages", "--without-pip", str(env_dir)], base, env)
+    _run([sys.executable, "-m", "venv", "--without-pip", str(env_dir)], base, env)
     python = env_dir / "bin" / "python"
+    (site,) = (env_dir / "lib").glob("python3*/site-packages")
+    (site / "running_interpreter.pth").write_text("".join(f"{p}\n" for p in _site_folders()), encoding="utf-8")
     _run([sys.executable, "-m", "pip", "--python", str(python), "install", "--no-deps", "--no-index", "--ignore-installed", "--quiet", str(wheel)], base, env)
     return env_dir, env
 
