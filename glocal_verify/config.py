@@ -374,6 +374,19 @@ _ALL = (
     _t("zero_touch_modular_max_agents", 2000, "agents", "glocal_verify.analysis.switching.zero_touch",
        "the modular touch screen inverts the grounded Laplacian modulo a prime up to this many agents",
        "O(N^3) once per system", read_at_import=True),
+    # ---- certificates of verdicts (docs/certificates.md) --------------------------------------
+    _t("certificate_dense_max_agents", 300, "agents", "glocal_verify.certificates.global_certificates",
+       "certificates that need dense exact or modular work on N-sized matrices (touch ranks, Krylov rows of observability, ZDAs at lambda0 != 0) are written up to this many agents",
+       "O(N^3) exact elimination per certificate; 0.1 s at N = 200"),
+    _t("certificate_max_states", 200, "states", "glocal_verify.certificates.global_certificates",
+       "Hurwitz certificates (local.uio per mode, central.observer's quotient) are written up to this many states",
+       "the checker's exact characteristic polynomial and root enclosures: 0.4 s at 100 states, about 1 s at 120, growing like n^4"),
+    _t("certificate_minor_tries", 40, "row sets", "glocal_verify.certificates.local_certificates",
+       "row sets of the reduced local pencil T(s) tried for coprime minors (and an anchor over Q) before no certificate is written",
+       "two or three minors suffice on every bundled and generated network"),
+    _t("certificate_exact_anchor_max", 60, "agents", "glocal_verify.certificates.local_certificates",
+       "largest set U of unmeasured agents whose anchor minor of T(s) is computed over Q",
+       "|U| + 1 exact determinants of |U| x |U| rational matrices"),
 )
 
 #: every tunable by name (read-only)
