@@ -197,11 +197,7 @@ B_AUDIT_ROW = 6_500.0
 C_AUDIT_ROW_OUT = 2e-4
 #: exact audit rows (``--exact``): a factor on the per-set seconds
 F_AUDIT_EXACT = 10.0
-#: small networks (N <= the tunable exact_fallback_full_agents) re-decide every set's ZDA and
-#: safe-mode parts over Q (the audit's exact fallback): seconds per set and safe mode.
-#: Measured on paper19 (190 sets, 3 safe modes): 5.4 CPU-s for the audit call (the estimate
-#: without this term: 0.5 s, so 'audit --workers 2' announced 4 s for a run of 8 s and more)
-C_AUDIT_EXACT_FALLBACK = 0.01
+C_AUDIT_EXACT_FALLBACK = 0.01  # N <= exact_fallback_full_agents: rows re-decided over Q, s per set and safe mode (paper19: 5.4 CPU-s)
 
 #: the default limits are the tunables ``max_seconds``, ``max_bytes`` (with ``memory_fraction`` of
 #: the available memory) and ``notice_seconds`` of :mod:`glocal_verify.config`
@@ -642,8 +638,7 @@ def estimate_audit(sizes: SpecSizes, k: int, candidates: int | None = None, *, e
     = 4e-9, :data:`C_AUDIT_SET_MODE` (``C_mode``, S safe modes) = 1.5e-3,
     :data:`C_AUDIT_ROW_OUT` = 2e-4 s (writing each row), :data:`A_AUDIT` = 20,
     :data:`B_AUDIT_ROW` = 6.5 kB); ``exact`` multiplies the per-set seconds by
-    :data:`F_AUDIT_EXACT`; a network of at most ``exact_fallback_full_agents`` agents (the
-    audit re-decides every row over Q) adds :data:`C_AUDIT_EXACT_FALLBACK` R max(1, S) / W. Measured: the whole N = 1000 audit on 50 clusters with JSON output
+    :data:`F_AUDIT_EXACT`; N <= ``exact_fallback_full_agents`` adds :data:`C_AUDIT_EXACT_FALLBACK` R max(1, S) / W. Measured: the whole N = 1000 audit on 50 clusters with JSON output
     on 2 workers took 641 s and 11.9 GiB over its processes (estimate 7.3 min, 8.8 GiB; before
     the singles were decided by minors and local zeros: 29 min and 9.2 GB); N = 200 on 10 clusters 8 s in the
     library, about 20 s with JSON from the command line (estimate 17 s); 27 min at N = 300 on
