@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from glocal_verify.conditions.premises import missing_input
 from glocal_verify.conditions.registry import CheckContext, checker, result
 from glocal_verify.errors import GlocalVerifyError, NotApplicableError
 from glocal_verify.derived import Kind
@@ -35,11 +36,6 @@ __all__ = ["check_detection_thresholds", "check_local_alarm", "check_detection_g
 
 #: derived results this module keeps on the system (glocal_verify.derived)
 _GUARANTEE_KIND: Kind[DetectionGuarantee] = Kind("detection-guarantee", __name__, "DetectionGuarantee")
-
-
-def _applies(system: System) -> bool:
-    impl = system.spec.implementation
-    return impl is not None and impl.controller == "sampled" and system.n <= GUARANTEE_MAX_AGENTS
 
 
 def _numeric(ctx: CheckContext) -> CheckContext:
@@ -97,7 +93,7 @@ def check_detection_thresholds(system: System, ctx: CheckContext) -> list[Condit
     nctx = _numeric(ctx)
     if impl is not None and impl.controller == "sampled" and system.n > GUARANTEE_MAX_AGENTS:
         return [result("detection.thresholds", nctx, Status.UNDECIDED, note=f"not computed: {system.n} agents > {GUARANTEE_MAX_AGENTS} (dense detectors)")]
-    if not _applies(system):
+    if missing_input(system, "detection.thresholds") is not None:
         return []
     try:
         th = shared_thresholds(system)
@@ -138,7 +134,7 @@ def check_local_alarm(system: System, ctx: CheckContext) -> list[ConditionResult
         the guaranteed sample and time after the attack's start, the channel, the smallest
         guaranteed size within the horizon, the zero run's first crossing.
     """
-    if not _applies(system) or system.spec.attack is None:
+    if missing_input(system, "detection.local-alarm") is not None:
         return []
     nctx = _numeric(ctx)
     modes: list[str | None] = list(_modes(system)) or [None]
@@ -176,7 +172,7 @@ def check_detection_guarantee(system: System, ctx: CheckContext) -> list[Conditi
         :meth:`~glocal_verify.simulation.guarantees.DetectionGuarantee.to_json`: detected_by,
         within, switch window, global_within, global_detection, min_size, per-observer stages.
     """
-    if not _applies(system) or system.spec.attack is None:
+    if missing_input(system, "detection.guarantee") is not None:
         return []
     nctx = _numeric(ctx)
     out = []
