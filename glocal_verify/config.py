@@ -396,6 +396,10 @@ _ALL = (
     _t("certificate_exact_anchor_max", 60, "agents", "glocal_verify.certificates.local_certificates",
        "largest set U of unmeasured agents whose anchor minor of T(s) is computed over Q",
        "|U| + 1 exact determinants of |U| x |U| rational matrices"),
+    # ---- replay (simulation.replay) ------------------------------------------------------------
+    _t("replay_noise_slack", 0.01, "fraction", "glocal_verify.simulation.replay",
+       "a replayed channel's fourth-difference noise estimate above (1 + this) x its [uncertainty] bound says the noise premise failed",
+       "noise at its bound reaches exactly 1; the loop's own signal adds h^4 |y''''| / 16, below 1e-4 of the bound on paper19's logs"),
 )
 
 #: every tunable by name (read-only)
