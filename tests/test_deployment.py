@@ -342,6 +342,33 @@ def test_the_guaranteed_attack_raises_its_alarms_within_the_files_bounds(paper19
     assert (tmp_path / "r.png").stat().st_size > 0
 
 
+def test_an_attack_of_the_certified_smallest_size_is_caught_within_its_horizon(paper19_sampled: tuple[System, dict[str, Any], Path], tmp_path: Path) -> None:
+    """The file's min_size: every admissible run of the attack at that size raises a local alarm
+    within size_horizon. Replayed at the size itself (a hair above, for the rounding of the
+    file's number) under random admissible initial states, noise and disturbance."""
+    system, tree, _ = paper19_sampled
+    g = tree["sampled"]["guarantee"]
+    a_star, T = g["min_size"], g["size_horizon"]
+    assert 0 < a_star < g["size"]
+    atk = sampled_attack_from_spec(system)
+    h = tree["sampled"]["period"]
+    K = int(round(T / h)) + 1
+    n = system.n
+    _, _, chs, _ = _loop(tree)
+    unc = tree["sampled"]["uncertainty"]
+    nb = np.array([dict(zip(unc["noise_channels"], unc["noise"]))[c] for c in chs])
+    scale = a_star * (1 + 1e-9) / atk.amplitude
+    U = np.zeros((K, n))
+    U[:, system.idx(atk.actuators)] = scale * atk.inputs(K)
+    rng = np.random.default_rng(20261207)
+    for run in range(3):
+        args = (unc["box"] * rng.choice([-1.0, 1.0], 2 * n), nb * rng.choice([-1.0, 1.0], (K, len(chs))),
+                unc["disturbance"] * rng.uniform(-1, 1, (K, n)), U, np.real(scale * atk.amplitude * atk.x0))
+        got = replay(tree, resample(read_log(_log(tmp_path, tree, _run(tree, K, *args), f"min{run}.csv")), chs, h))
+        local = [a for a in got.alarms if a.kind == "local"]
+        assert local and local[0].time <= T + 1e-9, (run, got.alarms)
+
+
 def test_replay_maps_jitter_units_and_gaps_by_its_rule_and_refuses_in_one_line(small: tuple[System, dict[str, Any], Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     _, tree, path = small
     _, _, chs, _ = _loop(tree)
