@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 import ast
 from dataclasses import dataclass
 from pathlib import Path
@@ -321,6 +322,7 @@ def _declared_kinds() -> dict[str, list[tuple[str, str]]]:
     return out
 
 
+@pytest.mark.slow
 def test_each_kind_of_derived_result_is_declared_and_written_by_one_module() -> None:
     kinds = _declared_kinds()
     assert len(kinds) >= 30

@@ -92,6 +92,7 @@ def _check_direction(system: System, row: AuditRow) -> None:
     assert set(int(k) for k in d["u0"]) <= set(row.actuators)
 
 
+@pytest.mark.slow
 def test_paper19_audit_lists_all_190_sets_with_a_verdict(result: AuditResult) -> None:
     assert len(result.rows) == 190
     assert {r.verdict for r in result.rows} <= {"detected", "undetected", "undecided"}

@@ -311,6 +311,7 @@ def paper19_sampled(tmp_path_factory: pytest.TempPathFactory) -> tuple[System, d
     return system, read_deployment(path), path
 
 
+@pytest.mark.slow
 def test_the_guaranteed_attack_raises_its_alarms_within_the_files_bounds(paper19_sampled: tuple[System, dict[str, Any], Path], tmp_path: Path) -> None:
     system, tree, path = paper19_sampled
     g = tree["sampled"]["guarantee"]

@@ -47,6 +47,7 @@ def _run(args: list[str], cwd: Path, env: dict[str, str], timeout: float) -> sub
     return done
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(bool(os.environ.get(NESTED)), reason="inside the fresh venv of this very test")
 def test_the_readme_test_command_passes_in_a_fresh_venv_on_a_clean_clone(tmp_path: Path) -> None:
     clone = tmp_path / "clone"

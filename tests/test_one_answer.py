@@ -68,6 +68,7 @@ def paper19() -> System:
     return System(load_example("paper19"))
 
 
+@pytest.mark.slow
 def test_every_ring_attacker_gets_the_same_answer_from_audit_verify_and_designs_before_table(ring: System) -> None:
     rows = audit(ring, 2).rows
     before = before_table(ring, 2).rows
