@@ -374,6 +374,15 @@ _ALL = (
     _t("zero_touch_modular_max_agents", 2000, "agents", "glocal_verify.analysis.switching.zero_touch",
        "the modular touch screen inverts the grounded Laplacian modulo a prime up to this many agents",
        "O(N^3) once per system", read_at_import=True),
+    _t("symmetry_weight_tries", 4, "weightings", "glocal_verify.design.symmetry",
+       "generic weightings of one symmetry-breaking link plan decided by the Theorem III.3 rules before a failing link is banned",
+       "a generic weighting passes at the first or second try on symmetric clusters"),
+    _t("symmetry_plan_tries", 6, "plans", "glocal_verify.design.symmetry",
+       "link plans drawn per symmetry-breaking mode (each after banning the link a failed plan names)",
+       "bounds the rule decisions of one mode"),
+    _t("symmetry_max_links", 12, "links", "glocal_verify.design.symmetry",
+       "largest number of links of a symmetry-breaking mode when --max-links is not given",
+       "the interlacing bound asks as many links as the largest multiplicity of L_1"),
 )
 
 #: every tunable by name (read-only)
