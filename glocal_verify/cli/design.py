@@ -37,10 +37,13 @@ def cmd_design(args: argparse.Namespace) -> int:
         raise UsageError(f"--max-attackers: must be between 1 and the number of agents ({system.n}), not {args.max_attackers}")
     if args.max_links is not None and args.max_links < 1:
         raise UsageError(f"--max-links: must be at least 1, not {args.max_links}")
-    from glocal_verify.conditions.cost import SpecSizes, estimate_design
+    from glocal_verify.conditions.cost import SpecSizes
+    from glocal_verify.conditions.design_cost import estimate_whole_design
+    from glocal_verify.design.network import CONFIRM_LIMIT
 
     exact = not args.numeric and system.n <= 60
-    est = estimate_design(SpecSizes.from_spec(system.spec), max_attackers=args.max_attackers, place=not args.keep_observers, exact_assessment=exact)
+    est = estimate_whole_design(SpecSizes.from_spec(system.spec), max_attackers=args.max_attackers, place=not args.keep_observers, exact_assessment=exact,
+                                budget=args.budget, confirm_limit=CONFIRM_LIMIT)
     check_cost(est, args, how=("a smaller --max-attackers",))
     say = None if args.quiet else (lambda line: write_line(f"design: {line} ..."))
     tick = count_progress(args.quiet, prefix="design")

@@ -68,7 +68,11 @@ from glocal_verify.spec.types import (
     SystemSpec,
 )
 
-__all__ = ["DesignChange", "NetworkDesign", "before_table", "design_comments", "design_network"]
+__all__ = ["CONFIRM_LIMIT", "DesignChange", "NetworkDesign", "before_table", "design_comments", "design_network"]
+
+#: claims of each proposed safe mode re-verified before the whole design is audited (the audit
+#: decides the others: every set it reports detected is checked by the rules of ``verify``)
+CONFIRM_LIMIT = 64
 
 
 @dataclass(frozen=True, slots=True)
@@ -352,8 +356,11 @@ def design_network(
         notes += more
         spec = Blueprint(spec, observers=obs).build([Edit("observer", k) for k in obs])
     mid_sys = System(spec)
-    say(f"auditing the {len(movable)} attack sets not detected, with the observers")
-    mid = audit_sets(spec, movable, tick)
+    if spec != base:
+        say(f"auditing the {len(movable)} attack sets not detected, with the observers")
+        mid = audit_sets(spec, movable, tick)
+    else:
+        mid = {F: base_rows[F] for F in movable}
     targets = tuple(F for F in movable if mid[F].verdict != "detected" and mid[F].stealthy is True and not mid[F].exposed_by_modes)
     lambdas = {F: r.lambda0 for F, r in mid.items() if r.lambda0 is not None}
     if targets:
@@ -361,18 +368,30 @@ def design_network(
             admit(estimate_safe_modes(SpecSizes.from_spec(spec), len(targets), exact=mid_sys.n <= SAFE_MODES_EXACT_MAX_AGENTS))
         say(f"designing safe modes for {len(targets)} undetected attack sets")
         safe = design_safe_modes(mid_sys, targets, None, budget, weights=weights, lambdas=lambdas, max_links=max_links,
-                                 monitor_room=monitor_budget, progress=say, tick=tick)
+                                 monitor_room=monitor_budget, confirm_limit=CONFIRM_LIMIT, progress=say, tick=tick)
     else:
         safe = SafeModeDesign((), (), {}, 0, 0.0, 0)
-    spec = with_modes(with_monitors(spec, safe.monitors), [m.mode_spec() for m in safe.modes], keep=True)
+
+    def blueprint(safe: SafeModeDesign, monitors: Sequence[Label]) -> Blueprint:
+        # the schedule is always proposed with the modes: pruning keeps it only where no local alarm would switch
+        return Blueprint(base, monitors=tuple(dict.fromkeys(monitors)), observers=obs,
+                         modes={m.name: tuple((c.u, c.v, c.weight, c.remove, c.was) for c in m.links) for m in safe.modes},
+                         descriptions={m.name: m.mode_spec().description for m in safe.modes}, schedule=bool(safe.modes), weights=normal, dwell=schedule_dwell)
+
+    bp = blueprint(safe, safe.monitors)
+    say(f"auditing the {len(movable)} attack sets the design can move, with its {len(safe.modes)} safe mode(s)")
+    rows = audit_sets(bp.build(bp.edits()), movable, tick)
     added: list[tuple[Label, tuple[Label, ...]]] = []
     room = monitor_budget - len(safe.monitors)
-    if safe.unexposed and room > 0:
-        pending = [F for F in targets if ",".join(map(str, F)) in safe.unexposed]
+    pending = [F for F in targets if rows[F].verdict != "detected"]
+    if pending and room > 0:
         if admit is not None:
             admit(estimate_monitor_step(SpecSizes.from_spec(spec), len(pending), room, exact=mid_sys.n <= SAFE_MODES_EXACT_MAX_AGENTS))
+        spec = with_modes(with_monitors(spec, safe.monitors), [m.mode_spec() for m in safe.modes], keep=True)
         spec, added, safe = _monitor_unexposed(spec, pending, room, safe, budget, weights, max_links, say, tick)
     say("choosing the global monitors")
+    bp = blueprint(safe, [*safe.monitors, *(a for a, _ in added)])
+    spec = bp.build(bp.edits())
     mon = design_monitors(System(spec), required=spec.monitor.velocities, verify_design=False)
     extra = [a for a in mon.velocities if a not in spec.monitor.velocities]
     room = monitor_budget - len(safe.monitors) - len(added)
@@ -382,25 +401,15 @@ def design_network(
             f"({', '.join(map(str, extra))}); the monitor budget leaves {max(room, 0)}, so none was added"
         )
         extra = []
-    spec = with_monitors(spec, extra)
-    say(f"auditing the {len(movable)} attack sets the design can move")
-    rows = audit_sets(spec, movable, tick)
-    need = [F for F, r in rows.items() if r.verdict != "detected" and r.exposed_by_modes and r.answer is not None and r.answer.caught_locally is not True]
-    bp = Blueprint(
-        base,
-        monitors=tuple(dict.fromkeys([*safe.monitors, *(a for a, _ in added), *extra])),
-        observers=obs,
-        modes={m.name: tuple((c.u, c.v, c.weight, c.remove, c.was) for c in m.links) for m in safe.modes},
-        descriptions={m.name: m.mode_spec().description for m in safe.modes},
-        schedule=bool(need),
-        weights=normal,
-        dwell=schedule_dwell,
-    )
+    bp = blueprint(safe, [*safe.monitors, *(a for a, _ in added), *extra])
+    if added or extra:
+        say(f"auditing the {len(movable)} attack sets the design can move")
+        rows = audit_sets(bp.build(bp.edits()), movable, tick)
     kept = frozenset(bp.edits())
     moved: dict[Edit, tuple[tuple[Label, ...], ...]] = {}
     if prune_changes and kept:
         say(f"checking that each of the {len(kept)} changes earns its place")
-        kept, moved, rows = prune(bp, movable, say=say, tick=tick)
+        kept, moved, rows = prune(bp, movable, rows=rows, say=say, tick=tick)
     spec = bp.build(kept)
     final = System(spec)
     say("auditing the design")
@@ -498,7 +507,7 @@ def _changes(
         desc = " + ".join(c.describe() for c in links)
         each = f"; each of its {len(links)} links is needed (without any one, Theorem III.3 fails or fewer sets are exposed)" if len(links) > 1 else ""
         put("mode", "added", f"mode {m.name} ({desc})",
-            f"Theorem III.3 (i)-(iii) hold ({m.method}) and it touches every stealthy direction of {len(m.exposes)} audited attack set(s){each}", es)
+            f"Theorem III.3 (i)-(iii) hold ({m.method}) and the switch touches every stealthy direction of the attack sets it exposes{each}", es)
     if Edit("schedule") in kept:
         sw = bp.build(kept).switching
         text = " -> ".join(f"{st.mode}({st.duration:g})" for st in sw.sequence) if sw is not None else ""

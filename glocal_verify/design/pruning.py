@@ -209,29 +209,49 @@ def _affected(e: Edit, rows: Mapping[tuple[Label, ...], AuditRow]) -> Sets:
         tag = f"{e.key[0]}@{e.key[1]}"
         return tuple(F for F, r in live if tag in r.caught_locally_by)
     if e.kind == "schedule":
-        return tuple(F for F, r in live if r.answer is None or r.answer.caught_locally is not True)
+        return tuple(F for F, r in live if r.exposed_by_modes and (r.answer is None or r.answer.caught_locally is not True))
     return tuple(F for F, _ in live)
+
+
+def _certain(e: Edit, rows: Mapping[tuple[Label, ...], AuditRow], affected: Sets) -> Sets:
+    """The affected sets that fall back for certain without ``e`` (no audit needed), by the routes of the answer.
+
+    A stealthy set is detected only through a safe mode that exposes it: by Algorithm 1 (a
+    local alarm, then any exposing mode) or by the schedule (an exposing mode it visits).
+    Without mode q (or with q failing Theorem III.3), a detected set that only q exposes has
+    no route left; without the schedule, a detected set no observer catches has none. Their
+    ZDA verdicts do not change (the monitors are the same).
+    """
+    if e.kind == "link":
+        return tuple(F for F in affected if rows[F].verdict == "detected" and tuple(rows[F].exposed_by_modes) == (e.key[0],))
+    if e.kind == "schedule":
+        return tuple(F for F in affected if rows[F].verdict == "detected" and rows[F].stealthy is True and rows[F].answer is not None
+                     and rows[F].answer.caught_locally is not True)
+    return ()
 
 
 def prune(
     blueprint: Blueprint,
     sets: Sequence[tuple[Label, ...]],
     *,
+    rows: Mapping[tuple[Label, ...], AuditRow] | None = None,
     say: Callable[[str], None] | None = None,
     tick: Callable[[int, int], None] | None = None,
 ) -> tuple[frozenset[Edit], dict[Edit, Sets], dict[tuple[Label, ...], AuditRow]]:
     """Remove every edit the audit of ``sets`` does not need (module docstring).
 
-    Removing an edit is audited only on the sets it can make worse (:func:`_affected`). A
-    link whose removal makes its mode fail Theorem III.3 (by the rule functions) leaves the
-    mode no guarantee, as if the whole mode were gone: one audit without the mode serves
-    every such link of it.
+    Removing an edit is audited only on the sets it can make worse (:func:`_affected`), and
+    not on those that fall back for certain (:func:`_certain`). A link whose removal makes its
+    mode fail Theorem III.3 (by the rule functions) leaves the mode no guarantee, as if the
+    whole mode were gone: one audit without the mode serves every such link of it.
 
     Parameters
     ----------
     blueprint : Blueprint
     sets : sequence of attack sets
         The sets the design can move (those the base spec does not detect).
+    rows : mapping, optional
+        The rows of ``sets`` with every edit, when the caller has them.
     say, tick : callable, optional
         Progress: one line per edit tried, and the audit's (sets done, total).
 
@@ -244,7 +264,7 @@ def prune(
 
     edits = blueprint.edits()
     current = frozenset(edits)
-    rows = audit_sets(blueprint.build(current), sets, tick)
+    rows = dict(rows) if rows is not None else audit_sets(blueprint.build(current), sets, tick)
     no_mode: dict[tuple[str, frozenset[Edit]], Sets] = {}
 
     def lost_without(e: Edit) -> tuple[Sets, dict[tuple[Label, ...], AuditRow]]:
@@ -259,10 +279,14 @@ def prune(
                 key = (q, current)
                 if key not in no_mode:
                     others = frozenset(x for x in current if not (x.kind == "link" and x.key[0] == q))
-                    no_mode[key] = worse(rows, audit_sets(blueprint.build(others), affected, tick))
+                    sure = _certain(e, rows, affected)
+                    rest = [F for F in affected if F not in set(sure)]
+                    no_mode[key] = tuple(sure) + worse(rows, audit_sets(blueprint.build(others), rest, tick))
                 return no_mode[key], {}
-        got = audit_sets(spec, affected, tick)
-        return worse(rows, got), got
+        sure = _certain(e, rows, affected)
+        rest = [F for F in affected if F not in set(sure)]
+        got = audit_sets(spec, rest, tick)
+        return tuple(sure) + worse(rows, got), got
 
     tried: dict[Edit, tuple[frozenset[Edit], Sets]] = {}
     for k, e in enumerate(edits):

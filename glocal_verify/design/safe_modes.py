@@ -502,17 +502,24 @@ class _Confirmations:
     fastest zero found) could not be and went to an exact re-decision of up to 30 s per set.
     One system with the mode serves every set (its spectra computed once, where a checker run
     per set built a fresh one). An attack left undecided is not claimed; a mode none of whose
-    first ``CONFIRM_GIVE_UP`` claims is confirmed is dropped unchecked beyond them.
+    first ``CONFIRM_GIVE_UP`` claims is confirmed is dropped unchecked beyond them. With a
+    ``limit``, only the first ``limit`` claims of a mode are checked: a mode with a confirmed
+    claim is kept, its unchecked claims are ``deferred`` (never counted as exposed: the caller
+    audits them, as ``design`` does with the whole design).
     """
 
-    def __init__(self, system: System, exact: bool, lambdas: Mapping[tuple[Label, ...], complex], tol: Tolerance, tick: Callable[[int, int], None] | None) -> None:
+    def __init__(self, system: System, exact: bool, lambdas: Mapping[tuple[Label, ...], complex], tol: Tolerance, tick: Callable[[int, int], None] | None,
+                 limit: int | None = None) -> None:
         self.system = system
         self.exact = exact
         self.lambdas = lambdas
         self.tol = tol
         self.tick = tick
+        self.limit = limit
         #: attack set -> why its exposure by a proposed mode was left undecided
         self.undecided: dict[tuple[Label, ...], str] = {}
+        #: claims of kept modes left for the caller's audit
+        self.deferred: set[tuple[Label, ...]] = set()
 
     def __call__(self, links: Sequence[LinkCandidate], name: str, attacks: Sequence[tuple[Label, ...]], monitors: Sequence[Label] = ()) -> tuple[list[tuple[Label, ...]], dict[str, str]]:
         """The attacks the mode changing ``links`` (with velocity monitors added at ``monitors``) is confirmed to expose, and its Theorem III.3 statuses."""
@@ -526,6 +533,8 @@ class _Confirmations:
             return [], statuses
         msys = System(base)
         confirmed: list[tuple[Label, ...]] = []
+        rest = list(attacks[self.limit:]) if self.limit is not None else []
+        attacks = attacks[: self.limit] if self.limit is not None else attacks
         for c, F in enumerate(attacks):
             z = decide_zda(msys, F, ZdaOptions(lambda0=self.lambdas.get(F), tol=self.tol, exact=self.exact))
             v = decide_avoidance(msys, name, z, tol=self.tol)
@@ -539,7 +548,13 @@ class _Confirmations:
                 self.tick(c + 1, len(attacks))
             if not confirmed and c + 1 >= CONFIRM_GIVE_UP < len(attacks):
                 break  # the touch test misjudged this mode: drop it without checking thousands more
+        if confirmed:
+            self.deferred.update(rest)
         return confirmed, statuses
+
+    def settled(self, got: Iterable[tuple[Label, ...]]) -> set[tuple[Label, ...]]:
+        """The sets a kept mode takes off the search: its confirmed claims and the deferred ones."""
+        return set(got) | self.deferred
 
 
 # ------------------------------------------------------------------------------------------
@@ -651,7 +666,7 @@ def _multi_search(
             if chosen is None:
                 break
             modes.append(chosen)
-            hit = set(chosen.exposes)
+            hit = confirm.settled(chosen.exposes) if confirm is not None else set(chosen.exposes)
             for c, t in enumerate(left):
                 if tg[t].F in hit:
                     remaining[c] = False
@@ -672,6 +687,7 @@ def design_safe_modes(
     verify_designs: bool = True,
     max_links: int | None = None,
     monitor_room: int = 0,
+    confirm_limit: int | None = None,
     progress: Callable[[str], None] | None = None,
     tick: Callable[[int, int], None] | None = None,
 ) -> SafeModeDesign:
@@ -707,6 +723,9 @@ def design_safe_modes(
     monitor_room : int
         Velocity monitors the symmetry-breaking modes may add for Theorem III.3 (i)
         (:mod:`glocal_verify.design.symmetry`); the result lists them in ``monitors``.
+    confirm_limit : int, optional
+        Re-verify at most this many claims of each proposed mode; the rest are neither exposed
+        nor unexposed in the result (``design`` audits them with the whole design).
     progress : callable, optional
         Called with one line as each proposed mode is checked against the attacks it should
         expose.
@@ -758,7 +777,7 @@ def design_safe_modes(
     cover = _cover(system, cands, ok, tg, thr)
     rate = len(cands) / max(time.perf_counter() - t0, 1e-9)
     say = progress if progress is not None else (lambda line: None)
-    confirm = _Confirmations(system, exact, lambdas, tol, tick) if verify_designs else None
+    confirm = _Confirmations(system, exact, lambdas, tol, tick, confirm_limit) if verify_designs else None
     uncovered = set(range(len(tg)))
     modes: list[ProposedMode] = []
     rejected: set[int] = set()
@@ -779,7 +798,8 @@ def design_safe_modes(
         if not got:
             continue
         modes.append(ProposedMode(name, cands[best], tuple(got), statuses, "exact" if exact else "numeric"))
-        uncovered -= {k for k in range(len(tg)) if tg[k].F in set(got)}
+        settled = confirm.settled(got) if confirm is not None else set(got)
+        uncovered -= {k for k in range(len(tg)) if tg[k].F in settled}
     combo_links = 2 if max_links is None else max_links
     scored, multi_rate, screened = 0, 0.0, 0
     if uncovered and len(modes) < budget and combo_links >= 2 and err is not None:
@@ -796,15 +816,18 @@ def design_safe_modes(
         if not obstacle:
             def sym_confirm(links: Sequence[tuple[Label, Label, Fraction, Fraction | None]], name: str, claim: Sequence[tuple[Label, ...]],
                             mons: Sequence[Label]) -> tuple[list[tuple[Label, ...]], dict[str, str]]:
-                return confirm([LinkCandidate(u, v, w, False, old) for u, v, w, old in links], name, claim, mons)
+                got, statuses = confirm([LinkCandidate(u, v, w, False, old) for u, v, w, old in links], name, claim, mons)
+                return (got + [F for F in claim if F in confirm.deferred and F not in got] if got else got), statuses  # deferred: off the search
 
             found, done, notes = break_symmetry(system, tg, uncovered, slots=budget - len(modes), max_links=max_links, room=monitor_room,
                                                 confirm=sym_confirm, thr=thr, first=len(modes) + 1, say=say)
             for b in found:
                 links = [LinkCandidate(u, v, w, False, old) for u, v, w, old in b.links]
-                modes.append(ProposedMode(f"designed-{len(modes) + 1}", links[0], b.exposes, b.verification, "exact" if exact else "numeric", tuple(links[1:]), b.monitors))
+                exposes = tuple(F for F in b.exposes if F not in confirm.deferred)
+                modes.append(ProposedMode(f"designed-{len(modes) + 1}", links[0], exposes, b.verification, "exact" if exact else "numeric", tuple(links[1:]), b.monitors))
                 added += [a for a in b.monitors if a not in added]
             uncovered -= done
+            uncovered -= {k for k in range(len(tg)) if tg[k].F in confirm.deferred}
     unexposed: dict[str, str] = {}
     for F in targets_F:
         if F not in lambdas:
