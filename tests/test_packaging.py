@@ -20,7 +20,7 @@ from glocal_verify.spec.examples import example_names, finding_names
 ROOT = Path(__file__).resolve().parent.parent
 
 #: what the build reads (pyproject.toml names README.md as the long description)
-SOURCES = ("pyproject.toml", "README.md", "glocal_verify", "proofs_checks")
+SOURCES = ("pyproject.toml", "README.md", "glocal_verify", "proofs_checks", "glocal_check")
 
 
 def _run(args: list[str], cwd: Path, env: dict[str, str]) -> subprocess.CompletedProcess[str]:
@@ -75,3 +75,14 @@ def test_findings_from_the_installed_wheel_writes_the_repositorys_report(venv: t
     assert (tmp_path / "findings.md").read_text(encoding="utf-8") == findings_markdown(verify_findings())
     run = _run([str(env_dir / "bin" / "glocal-verify"), "verify", "--example", finding_names()[0], "--quiet", "--escalate", "never"], tmp_path, env)
     assert run.stdout.startswith("#")
+
+
+def test_the_installed_wheel_checks_the_certificates_it_writes(venv: tuple[Path, dict[str, str]], tmp_path: Path) -> None:
+    env_dir, env = venv
+    bin_ = env_dir / "bin"
+    where = _run([str(bin_ / "python"), "-c", "import glocal_check; print(glocal_check.__file__)"], tmp_path, env).stdout.strip()
+    assert Path(where).resolve().is_relative_to(env_dir.resolve()), where
+    (tmp_path / "s.toml").write_text(_run([str(bin_ / "glocal-verify"), "example", "paper19"], tmp_path, env).stdout, encoding="utf-8")
+    _run([str(bin_ / "glocal-verify"), "verify", "s.toml", "--quiet", "--out", "r.md", "--certificates", "c.json"], tmp_path, env)
+    done = subprocess.run([str(bin_ / "python"), "-m", "glocal_check", "s.toml", "c.json"], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    assert done.stdout.strip().endswith("75 accepted, 0 rejected; 3 decided verdicts without a certificate"), done.stdout

@@ -112,6 +112,10 @@ def cmd_verify(args: argparse.Namespace) -> int:
     if (args.velocities or args.positions) and not args.graph:
         raise UsageError("--velocities/--positions need --graph FILE")
     check_out_file(args)  # before any computation: a bad --out fails at once
+    if args.certificates:
+        if args.certificates == args.out:
+            raise UsageError("--certificates: give a file other than --out")
+        check_out_file(argparse.Namespace(**{**vars(args), "out": args.certificates}))
     system = _graph_system(args) if args.graph else load_system(args)
     progress: Callable[[str], None] | None = None
     if not args.quiet:  # one line per checker, on a terminal or in a log (--quiet: none)
@@ -143,6 +147,10 @@ def cmd_verify(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UsageError(f"--format {args.format}: {exc}") from None
     write_output(text, args.out, inputs=spec_inputs(args))
+    if args.certificates:
+        from glocal_verify.certificates import certificate_json
+
+        write_output(certificate_json(system, report), args.certificates, inputs=spec_inputs(args))
     from glocal_verify.answer.gate import require as gate, require_holds as gate_holds
 
     bad = list(gate(report, require).failures) if require else []
@@ -211,6 +219,7 @@ def register(sub: Any) -> None:
     v.add_argument("--exact-budget", type=float, default=30.0, metavar="SECONDS", help="one time budget for all the exact escalations of the run, in seconds (default 30; 0 or inf: no limit)")
     v.add_argument("--fragile-below", type=float, default=1e-9, metavar="X", help="mark a verdict fragile when its margin is below X (default 1e-9)")
     v.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    v.add_argument("--certificates", metavar="FILE", help="also write a certificate of every decided verdict to FILE (JSON; check it with: python -m glocal_check SPEC FILE)")
     add_allow_large(v)
     v.set_defaults(func=cmd_verify)
 

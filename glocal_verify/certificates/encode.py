@@ -1,0 +1,167 @@
+"""How a certificate writes numbers, vectors and number fields, and the residues modulo a
+prime its minors state (the finder's side of the arithmetic the checker redoes)."""
+
+from __future__ import annotations
+
+from fractions import Fraction
+from typing import Any, Iterable, Mapping, Sequence
+
+import numpy as np
+from flint import fmpq, fmpq_poly, nmod_mat
+
+from glocal_verify.model import System
+from glocal_verify.numerics.minors import prime_for
+
+__all__ = [
+    "EMIT_PRIME_LIMIT",
+    "charpoly_claim",
+    "state_matrix_exact",
+    "field",
+    "krylov_residue",
+    "laplacian_mod",
+    "mod_residues",
+    "pivots_mod",
+    "q",
+    "system_prime",
+    "unit",
+    "vector",
+]
+
+#: primes of certificates lie below this (2^25: sparse products modulo p stay in int64)
+EMIT_PRIME_LIMIT = 2**25
+
+
+def q(x: Any) -> str:
+    """An exact rational as text (``"3"``, ``"-1/3"``); a float is taken exactly."""
+    if isinstance(x, float):
+        x = Fraction(x)
+    return str(x)
+
+
+def vector(system: System, v: Sequence[Any] | Mapping[Any, Any]) -> dict[str, Any]:
+    """A vector over the agents as ``{label: value}`` without its zeros; values are rationals
+    (text) or polynomials (lists of rational texts, lowest degree first)."""
+    items = v.items() if isinstance(v, Mapping) else zip(system.labels, v)
+    out: dict[str, Any] = {}
+    for lab, x in items:
+        if isinstance(x, fmpq_poly):
+            if x != 0:
+                out[str(lab)] = [q(c) for c in x.coeffs()]
+        elif x != 0:
+            out[str(lab)] = q(x)
+    return out
+
+
+def field(modulus: fmpq_poly) -> dict[str, Any]:
+    """The ring Q[t]/(modulus) as a certificate writes it."""
+    return {"modulus": [q(c) for c in modulus.coeffs()]}
+
+
+def system_prime(system: System, limit: int = EMIT_PRIME_LIMIT) -> int:
+    """The largest prime below ``limit`` dividing no denominator of the gains or weights."""
+    values = [system.alpha_q, system.gamma_q] + [w for m in system.modes for w in system.edges(m).values()]
+    return prime_for(values, limit)
+
+
+def unit(r: int, p: int) -> list[int]:
+    """A nonzero residue as a certificate states it: ``[r, r^-1 mod p]``."""
+    return [int(r), pow(int(r), -1, p)]
+
+
+def mod_residues(values: Iterable[Fraction | fmpq], p: int) -> list[int]:
+    out = []
+    for x in values:
+        x = Fraction(int(x.p), int(x.q)) if isinstance(x, fmpq) else Fraction(x)
+        out.append(x.numerator * pow(x.denominator, -1, p) % p)
+    return out
+
+
+def laplacian_mod(system: System, mode: str, p: int) -> Any:
+    """L_q modulo p as a scipy CSR matrix of int64 residues."""
+    import scipy.sparse
+
+    idx = system.index
+    rows, cols, vals = [], [], []
+    deg = [Fraction(0)] * system.n
+    for key, w in system.edges(mode).items():
+        a, b = (idx[x] for x in key)
+        rows += [a, b]
+        cols += [b, a]
+        vals += [-w, -w]
+        deg[a] += w
+        deg[b] += w
+    rows += list(range(system.n))
+    cols += list(range(system.n))
+    vals += deg
+    return scipy.sparse.csr_matrix((np.array(mod_residues(vals, p), dtype=np.int64), (rows, cols)), shape=(system.n, system.n))
+
+
+def krylov_residue(system: System, mode: str, start: Sequence[int], length: int, p: int, drop_last_column: bool = False) -> int:
+    """det modulo p of the rows ``b^T L_q^j`` (j < ``length``), without the last column when
+    asked: the number a ``krylov`` certificate states (sparse products modulo p)."""
+    L = laplacian_mod(system, mode, p)
+    rows = []
+    v = np.array([x % p for x in start], dtype=np.int64)
+    for _ in range(length):
+        rows.append(v)
+        v = (L @ v) % p
+    cols = system.n - 1 if drop_last_column else system.n
+    flat = [int(x) for r in rows for x in r[:cols]]
+    return int(nmod_mat(cols, cols, flat, p).det()) if cols else 1
+
+
+def charpoly_claim(A: Sequence[Sequence[Fraction]], K: np.ndarray, cols: Sequence[int], p: int, zero_rows: Iterable[int] = (), drop_zeros: int = 0) -> dict[str, Any]:
+    """``{"prime", "charpoly"}`` of F = A - K C over Q (rows ``zero_rows`` of A cleared first,
+    C the selection of the state columns ``cols``, K binary floating-point numbers taken
+    exactly), as residues modulo p, lowest degree first, divided by t^``drop_zeros``."""
+    from flint import fmpq_mat
+
+    n = len(A)
+    zero = set(zero_rows)
+    M = fmpq_mat(n, n)
+    for i in range(n):
+        if i not in zero:
+            for j, x in enumerate(A[i]):
+                if x:
+                    M[i, j] = fmpq(x.numerator, x.denominator)
+        for k, c in enumerate(cols):
+            g = Fraction(float(K[i, k]))
+            if g:
+                M[i, c] -= fmpq(g.numerator, g.denominator)
+    cp = M.charpoly()
+    coeffs = cp.coeffs()[drop_zeros:]
+    if any(c != 0 for c in cp.coeffs()[:drop_zeros]):
+        raise ValueError("the characteristic polynomial has fewer zero roots than the quotient removes")
+    return {"prime": p, "charpoly": mod_residues(coeffs, p)}
+
+
+def state_matrix_exact(L: Sequence[Sequence[Fraction]], alpha: Fraction, gamma: Fraction) -> list[list[Fraction]]:
+    """A = [[0, I], [-alpha L, -gamma I]] over Q."""
+    n = len(L)
+    A = [[Fraction(0)] * (2 * n) for _ in range(2 * n)]
+    for i in range(n):
+        A[i][n + i] = Fraction(1)
+        for j, x in enumerate(L[i]):
+            A[n + i][j] = -alpha * x
+        A[n + i][n + i] = -gamma
+    return A
+
+
+def pivots_mod(rows: Sequence[Sequence[int]], ncols: int, p: int) -> tuple[list[int], list[int]]:
+    """(pivot rows, pivot columns) of a matrix of residues: a nonsingular square submatrix of
+    the size of its rank modulo p."""
+    if not rows or ncols == 0:
+        return [], []
+    M = nmod_mat(len(rows), ncols, [int(x) for r in rows for x in r], p)
+    cols = _pivots(M)
+    T = nmod_mat(ncols, len(rows), [int(rows[i][j]) for j in range(ncols) for i in range(len(rows))], p)
+    return _pivots(T), cols
+
+
+def _pivots(M: nmod_mat) -> list[int]:
+    R, r = M.rref()
+    out = []
+    lst = R.tolist()
+    for i in range(int(r)):
+        out.append(next(j for j, x in enumerate(lst[i]) if int(x) != 0))
+    return out
