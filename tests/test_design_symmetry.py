@@ -13,7 +13,8 @@ from glocal_verify.design.audit import audit
 from glocal_verify.design.generators import symmetric_clusters_spec
 from glocal_verify.design.network import NetworkDesign, design_network
 from glocal_verify.design.pruning import RANK
-from glocal_verify.design.safe_modes import LinkCandidate, _admissible, _screen, default_candidates, design_safe_modes, eigenvector_error
+from glocal_verify.design.one_link import one_link_screen as _screen
+from glocal_verify.design.safe_modes import LinkCandidate, _admissible, default_candidates, design_safe_modes, eigenvector_error
 from glocal_verify.design.symmetry import exact_multiplicity, symmetry_obstacle
 from glocal_verify.model import System
 from glocal_verify.results import Status

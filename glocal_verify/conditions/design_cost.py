@@ -114,7 +114,7 @@ def estimate_whole_design(
 
     .. math::
 
-        t = t_{design} + (2 + R + p)\, t_{audit} + B\, L\, t_{check},\qquad m = \max(m_{design}, m_{audit})
+        t = t_{design} + (2 + R + p)\\, t_{audit} + B\\, L\\, t_{check},\\qquad m = \\max(m_{design}, m_{audit})
 
     with R = 2 + ``monitor_budget`` audits of what pruning removes (one per monitor, the mode, the
     schedule), p = 1 when observers are placed (the audit with them), B = ``budget`` modes each

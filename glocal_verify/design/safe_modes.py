@@ -102,6 +102,7 @@ from glocal_verify.analysis.stealthy.zda import ModalPencil
 from glocal_verify.analysis.stealthy.zda_verdict import ZdaOptions, decide_zda
 from glocal_verify.conditions.registry import check_conditions
 from glocal_verify.design.symmetry import SymmetryTarget, blocking_reason, break_symmetry, symmetry_obstacle, theorem_verdicts, with_monitors
+from glocal_verify.design.one_link import eigenvector_error, one_link_screen
 from glocal_verify.design.multilink import (
     image_kernel_holds,
     link_forest,
@@ -110,7 +111,6 @@ from glocal_verify.design.multilink import (
 )
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
-from glocal_verify.numerics.rounding import EPS
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
 from glocal_verify.results import Status
 from glocal_verify.spec.types import AttackSpec, EdgeSpec, Label, ModeSpec, SystemSpec
@@ -337,37 +337,6 @@ def default_candidates(system: System, weights: Sequence[Fraction] = DEFAULT_WEI
     return out
 
 
-def eigenvector_error(system: System) -> np.ndarray | None:
-    """Certified bounds e_k >= |(u_k(i) - u_k(j)) - (u_k^*(i) - u_k^*(j))| for every pair (module docstring).
-
-    Parameters
-    ----------
-    system : System
-
-    Returns
-    -------
-    ndarray or None
-        None when the eigenvalues of L_1 are not certified distinct (the one-link theorem then
-        does not apply).
-    """
-    sp = system.spectrum()
-    if any(len(c) > 1 for c in sp.clusters):
-        return None
-    n = sp.size
-    w = np.asarray(sp.values)
-    rho = sp.error_radius
-    gaps = np.diff(w)
-    left = np.concatenate([[math.inf], gaps])
-    right = np.concatenate([gaps, [math.inf]])
-    delta = np.minimum(left, right) - rho
-    k = sp.row_nonzeros
-    fro = sp.frobenius
-    r = np.asarray(sp.residuals) + (k + 2) * EPS * math.sqrt(n) * (fro + np.abs(w)) + sp.input_error
-    r = r * (1.0 + 4.0 * n * EPS)
-    s = np.where(delta > 0, np.minimum(1.0, r / np.where(delta > 0, delta, 1.0)), 1.0)
-    return 2.0 * s + math.sqrt(2.0) * sp.orthogonality_error + 4.0 * EPS
-
-
 # ------------------------------------------------------------------------------------------
 # the search
 
@@ -397,39 +366,6 @@ def _exposes(t: SymmetryTarget, i: int, j: int, thr: float) -> bool:
     _, _, Vh = np.linalg.svd(a.reshape(1, -1))
     K = Vh[1:].conj().T  # directions with a . c = 0
     return bool(np.linalg.norm(t.B @ K, 2) <= thr)
-
-
-def _screen(system: System, cands: Sequence[LinkCandidate], err: np.ndarray | None, chunk: int = 2048) -> np.ndarray:
-    """Boolean mask: the one-link theorem's fast filter (module docstring), in chunks of ``chunk`` rows.
-
-    A filter, not a verdict: a candidate it lets through is admitted only when the rule
-    functions of Theorem III.3 hold for it (:class:`_OneLinkRules`). It lets through what its
-    certified bounds cannot reject: |z_k| above its error bound for k >= 2, an endpoint
-    monitored, and for a removal w R_eff < 1 up to a relative slack.
-    """
-    if err is None or len(cands) == 0:
-        return np.zeros(len(cands), dtype=bool)
-    U = np.asarray(system.spectrum().vectors)
-    w = np.asarray(system.spectrum().values)
-    M = set(system.monitored)
-    I = np.array([system.index[c.u] for c in cands], dtype=int)
-    J = np.array([system.index[c.v] for c in cands], dtype=int)
-    ok = np.array([(c.u in M) or (c.v in M) for c in cands], dtype=bool)
-    rem = np.array([c.remove for c in cands], dtype=bool)
-    wts = np.array([float(c.weight) for c in cands])
-    U1, e1, w1 = U[:, 1:], err[None, 1:], w[None, 1:]
-    for a in range(0, len(cands), chunk):
-        sl = slice(a, a + chunk)
-        Z = U1[I[sl]] - U1[J[sl]]
-        good = np.all(np.abs(Z) > e1, axis=1)
-        r = rem[sl]
-        if r.any():
-            reff = np.sum(Z[r] ** 2 / w1, axis=1)
-            g = good[r]
-            g &= 1.0 - wts[sl][r] * reff > -1e-6  # a filter: the rule decides the bridge case
-            good[r] = g
-        ok[sl] &= good
-    return ok
 
 
 class _OneLinkRules:
@@ -462,7 +398,7 @@ class _OneLinkRules:
 
 def _admissible(system: System, cands: Sequence[LinkCandidate], err: np.ndarray | None, chunk: int = 2048) -> np.ndarray:
     """Boolean mask: (i)-(iii) hold by the rule functions, decided for the candidates the one-link screen lets through."""
-    ok = _screen(system, cands, err, chunk)
+    ok = one_link_screen(system, cands, err, chunk)
     rules = _OneLinkRules(system, cands)
     rules.decide(np.flatnonzero(ok).tolist())
     return np.array([bool(ok[k]) and rules.known[k] for k in range(len(cands))], dtype=bool)
@@ -769,7 +705,7 @@ def design_safe_modes(
     exact = system.n <= EXACT_MAX_AGENTS if exact is None else exact
     t0 = time.perf_counter()
     err = eigenvector_error(system)
-    ok = _screen(system, cands, err)
+    ok = one_link_screen(system, cands, err)
     rules = _OneLinkRules(system, cands)
     stealthy = [F for F in targets_F if F in lambdas]
     tg = _targets(system, stealthy, lambdas, tol)
