@@ -124,6 +124,7 @@ def test_the_interlacing_bound_proves_that_no_mode_exists_with_too_few_monitors(
     why = symmetry_obstacle(one, monitor_room=2, max_links=None)
     assert why.startswith("proven") and "multiplicity 6" in why and "rank(dL_q) >= 5" in why
     assert symmetry_obstacle(sym12, monitor_room=3, max_links=None) == ""
+    assert "6 monitored agents" in symmetry_obstacle(sym12, monitor_room=2, max_links=None)  # (iii) within the options
     assert symmetry_obstacle(sym12, monitor_room=3, max_links=1).startswith("proven")
     rows = audit(one, 2, [3, 4])
     targets = [r.actuators for r in rows.rows if r.verdict == "undetected"]

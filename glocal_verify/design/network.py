@@ -186,7 +186,7 @@ class NetworkDesign:
             f"audit before: {b['detected']} detected, {b['undetected']} undetected, {b['undecided']} undecided of {n} attack sets",
             f"audit after:  {a['detected']} detected, {a['undetected']} undetected, {a['undecided']} undecided",
         ]
-        lines += [f"- {c.text()}" for c in self.changes] or ["- no change was needed"]
+        lines += [f"- {c.text()}" for c in self.changes] or (["- no change moves an attack set toward detected"] if b["undetected"] or b["undecided"] else ["- no change was needed"])
         lines += [f"NOT MET: {u}" for u in self.unmet]
         return lines
 
@@ -416,7 +416,7 @@ def design_network(
     after = audit(final, max_attackers, candidates, None, tick)
     mon = design_monitors(final, required=spec.monitor.velocities)
     unmet = [f"{cid}: {mon.verification[cid]} on the designed spec" for cid, st in mon.verification.items() if st != "holds" and cid.startswith("privacy.")]
-    unmet += _obstacles(after, safe, added)
+    unmet += _obstacles(after, safe, [(a, F) for a, F in added if Edit("monitor", (a,)) in kept])
     changes, edits = _changes(system.spec, bp, kept, moved, props, safe, added, extra)
     if spec.simulation.horizon != system.spec.simulation.horizon:
         notes.append(f"the horizon was extended from {system.spec.simulation.horizon:g} s to {spec.simulation.horizon:g} s so that the designed schedule fits")

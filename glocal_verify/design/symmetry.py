@@ -134,11 +134,13 @@ def exact_multiplicity(system: System) -> int:
 
 
 def symmetry_obstacle(system: System, monitor_room: int, max_links: int | None) -> str:
-    """A proof that no safe mode meets Theorem III.3 (ii), or ``""`` when the counts allow one.
+    """A proof that no safe mode meets Theorem III.3 (ii)-(iii), or ``""`` when the counts allow one.
 
     With m the largest multiplicity of an eigenvalue of L_1 (exact), (ii) needs rank(dL_q) >=
     m - 1, while (i) bounds rank(dL_q) by the monitored agents (at most |M| + ``monitor_room``)
-    and a change of s links has rank at most s (module docstring).
+    and a change of s links has rank at most s: no mode at all. For the modes the search
+    proposes (one sign, a forest), (iii) needs m links and m monitored agents: none of them
+    (module docstring).
 
     Parameters
     ----------
@@ -165,7 +167,17 @@ def symmetry_obstacle(system: System, monitor_room: int, max_links: int | None) 
                 f"b = e_i - e_j) keeps every eigenvector v of it with v_i = v_j (a subspace of dimension >= {m - 1}), so Theorem III.3 (ii) or (iii) "
                 "fails for every link and weight; modes of several links (--max-links), or changed weights of the normal graph, remove the obstacle")
     if not out:
-        return ""
+        few = []
+        if m > can_monitor:
+            few.append(f"{m} monitored agents in their components (at most {can_monitor} can be monitored)")
+        if max_links is not None and m > max_links:
+            few.append(f"{m} links (at most {max_links})")
+        if not few:
+            return ""
+        return (f"proven for the modes the design proposes (changes of one sign on a forest of links): L_1 has an eigenvalue of multiplicity {m} "
+                f"(exact characteristic polynomial); such a change keeps every eigenvector v of it with equal values across each changed link "
+                f"unless the links' vectors U_E[i] - U_E[j] span its eigenspace, and Theorem III.3 (i) then asks "
+                + " and ".join(few) + "; more monitors, or changed weights of the normal graph (--normal-weights), remove the obstacle")
     return (f"proven: L_1 has an eigenvalue of multiplicity {m} (exact characteristic polynomial), and a mode whose dL_q has rank r leaves it "
             f"multiplicity >= {m} - r, so Theorem III.3 (ii) needs rank(dL_q) >= {m - 1}; but " + " and ".join(out)
             + "; more monitors, or changed weights of the normal graph, remove the obstacle")
