@@ -220,7 +220,9 @@ def _certain(e: Edit, rows: Mapping[tuple[Label, ...], AuditRow], affected: Sets
     local alarm, then any exposing mode) or by the schedule (an exposing mode it visits).
     Without mode q (or with q failing Theorem III.3), a detected set that only q exposes has
     no route left; without the schedule, a detected set no observer catches has none. Their
-    ZDA verdicts do not change (the monitors are the same).
+    ZDA verdicts do not change (the monitors are the same). Without a monitor, a stealthy set
+    stays stealthy (a kernel vector of the pencil with more output rows is one with fewer), so
+    one that only modes failing Theorem III.3 without it expose falls back too (in :func:`prune`).
     """
     if e.kind == "link":
         return tuple(F for F in affected if rows[F].verdict == "detected" and tuple(rows[F].exposed_by_modes) == (e.key[0],))
@@ -284,6 +286,13 @@ def prune(
                     no_mode[key] = tuple(sure) + worse(rows, audit_sets(blueprint.build(others), rest, tick))
                 return no_mode[key], {}
         sure = _certain(e, rows, affected)
+        if e.kind == "monitor":
+            # fewer monitors keep every stealthy set stealthy; a designed mode whose (i) fails without it gives no guarantee
+            T = System(spec)
+            failing = {q for q in blueprint.modes if q in T.safe_modes
+                       and any(st is not Status.HOLDS for k, st in theorem_verdicts(T, q).items() if k != "pair")}
+            sure = tuple(F for F in affected if rows[F].verdict == "detected" and rows[F].stealthy is True and rows[F].exposed_by_modes
+                         and set(rows[F].exposed_by_modes) <= failing)
         rest = [F for F in affected if F not in set(sure)]
         got = audit_sets(spec, rest, tick)
         return tuple(sure) + worse(rows, got), got
