@@ -167,7 +167,7 @@ def _generated_case(n: int, clusters: int, seed: int, degree: float) -> None:
     spec = symmetric_clusters_spec(n, clusters, seed=seed, degree=degree)
     d = design_network(System(spec), max_attackers=2, place=False)
     after = {r.actuators: r.verdict for r in d.after.rows}
-    if any(v == "undetected" for v in after.values()):
+    if any(v == "undetected" for F, v in after.items() if len(F) == 1):  # every single attacker detected, or the obstacle proven
         assert any("proven" in u for u in d.unmet), d.summary()
         return
     assert d.before.summary()["counts"]["undetected"] == 0 or d.spec.modes
