@@ -340,6 +340,7 @@ def design_network(
         say("auditing the spec with its position monitors moved to velocities (privacy)")
         base_rows = {r.actuators: r for r in audit(System(base), max_attackers, candidates, None, tick).rows}
     movable = [F for F, r in base_rows.items() if r.verdict != "detected"]
+    say(f"{len(movable)} of {len(base_rows)} attack sets not detected: the design works on them")
     notes: list[str] = []
     normal: dict[tuple[Label, Label], Fraction] = {}
     spec = base
@@ -351,7 +352,7 @@ def design_network(
     props: list[ObserverProposal] = []
     obs: dict[tuple[str, Label], ObserverSpec] = {}
     if place and spec.clusters and movable:
-        say(f"placing local observers ({len(movable)} attack sets not detected)")
+        say("placing local observers")
         obs, props, more = _observers(System(spec), exact_limit)
         notes += more
         spec = Blueprint(spec, observers=obs).build([Edit("observer", k) for k in obs])
