@@ -118,7 +118,7 @@ def estimate_whole_design(
 
     with R = 2 + ``monitor_budget`` audits of what pruning removes (one per monitor, the mode, the
     schedule), p = 1 when observers are placed (the audit with them), B = ``budget`` modes each
-    checked on ``confirm_limit`` = L sets (:func:`estimate_safe_modes`), and one audit of the
+    checked on ``confirm_limit`` = L sets, at most every set once (:func:`estimate_safe_modes`), and one audit of the
     sets with the modes and one of them with the monitors.
 
     Parameters
@@ -141,7 +141,11 @@ def estimate_whole_design(
     head = estimate_design(sizes, max_attackers=max_attackers, place=place, exact_assessment=exact_assessment)
     one = estimate_audit(sizes, max_attackers)
     audits = 2 + (2 + max(0, int(monitor_budget))) + (1 if place else 0)
-    checks = estimate_safe_modes(sizes, max(0, int(budget)) * max(0, int(confirm_limit)), exact=sizes.n <= int(config.get("safe_modes_exact_max_agents")))
+    import math
+
+    sets = sum(math.comb(sizes.n, j) for j in range(1, max(1, int(max_attackers)) + 1))
+    claims = min(sets, max(0, int(budget)) * max(0, int(confirm_limit)))
+    checks = estimate_safe_modes(sizes, claims, exact=sizes.n <= int(config.get("safe_modes_exact_max_agents")))
     phases = dict(head.phases)
     phases[f"up to {audits} audits of the attack sets the design can move (safe modes, monitors, each change earning its place)"] = audits * sum(v for _, v in one.phases)
     for name, secs in checks.phases:
