@@ -410,7 +410,7 @@ def design_network(
     moved: dict[Edit, tuple[tuple[Label, ...], ...]] = {}
     if prune_changes and kept:
         say(f"checking that each of the {len(kept)} changes earns its place")
-        kept, moved, rows = prune(bp, movable, rows=rows, say=say, tick=tick)
+        kept, moved, rows = prune(bp, movable, known=rows, say=say, tick=tick)
     spec = bp.build(kept)
     final = System(spec)
     say("auditing the design")
@@ -524,7 +524,7 @@ def _monitor_unexposed(
     safe: SafeModeDesign,
     mode_budget: int,
     weights: Sequence[Any],
-    max_links: int,
+    max_links: int | None,
     say: Callable[[str], None] | None = None,
     tick: Callable[[int, int], None] | None = None,
 ) -> tuple[SystemSpec, list[tuple[Label, tuple[Label, ...]]], SafeModeDesign]:

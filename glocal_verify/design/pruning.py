@@ -209,7 +209,7 @@ def _affected(e: Edit, rows: Mapping[tuple[Label, ...], AuditRow]) -> Sets:
         tag = f"{e.key[0]}@{e.key[1]}"
         return tuple(F for F, r in live if tag in r.caught_locally_by)
     if e.kind == "schedule":
-        return tuple(F for F, r in live if r.exposed_by_modes and (r.answer is None or r.answer.caught_locally is not True))
+        return tuple(F for F, r in live if r.exposed_by_modes and _alarm(r) is not True)
     return tuple(F for F, _ in live)
 
 
@@ -227,16 +227,20 @@ def _certain(e: Edit, rows: Mapping[tuple[Label, ...], AuditRow], affected: Sets
     if e.kind == "link":
         return tuple(F for F in affected if rows[F].verdict == "detected" and tuple(rows[F].exposed_by_modes) == (e.key[0],))
     if e.kind == "schedule":
-        return tuple(F for F in affected if rows[F].verdict == "detected" and rows[F].stealthy is True and rows[F].answer is not None
-                     and rows[F].answer.caught_locally is not True)
+        return tuple(F for F in affected if rows[F].verdict == "detected" and rows[F].stealthy is True and _alarm(rows[F]) is not True)
     return ()
+
+
+def _alarm(row: AuditRow) -> bool | None:
+    """Whether a local alarm is guaranteed for the row's set (None: undecided or not known)."""
+    return None if row.answer is None else row.answer.caught_locally
 
 
 def prune(
     blueprint: Blueprint,
     sets: Sequence[tuple[Label, ...]],
     *,
-    rows: Mapping[tuple[Label, ...], AuditRow] | None = None,
+    known: Mapping[tuple[Label, ...], AuditRow] | None = None,
     say: Callable[[str], None] | None = None,
     tick: Callable[[int, int], None] | None = None,
 ) -> tuple[frozenset[Edit], dict[Edit, Sets], dict[tuple[Label, ...], AuditRow]]:
@@ -252,7 +256,7 @@ def prune(
     blueprint : Blueprint
     sets : sequence of attack sets
         The sets the design can move (those the base spec does not detect).
-    rows : mapping, optional
+    known : mapping, optional
         The rows of ``sets`` with every edit, when the caller has them.
     say, tick : callable, optional
         Progress: one line per edit tried, and the audit's (sets done, total).
@@ -266,7 +270,7 @@ def prune(
 
     edits = blueprint.edits()
     current = frozenset(edits)
-    rows = dict(rows) if rows is not None else audit_sets(blueprint.build(current), sets, tick)
+    rows = dict(known) if known is not None else audit_sets(blueprint.build(current), sets, tick)
     no_mode: dict[tuple[str, frozenset[Edit]], Sets] = {}
 
     def lost_without(e: Edit) -> tuple[Sets, dict[tuple[Label, ...], AuditRow]]:

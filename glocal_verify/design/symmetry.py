@@ -334,8 +334,8 @@ def plan_links(
             break
     if not sel:
         return None
-    pairs = tuple(cand[q] for q in sel)
-    return LinkPlan(pairs, tuple(frozenset(p) in edges for p in pairs), tuple(sorted(mon - set(monitored))), int(sum(max(x, 0) for x in need)))
+    chosen_pairs = tuple(cand[q] for q in sel)
+    return LinkPlan(chosen_pairs, tuple(frozenset(p) in edges for p in chosen_pairs), tuple(sorted(mon - set(monitored))), int(sum(max(x, 0) for x in need)))
 
 
 def weighted_mode(system: System, plan: LinkPlan, name: str, weights: Sequence[Fraction], description: str = "") -> ModeSpec:
@@ -574,7 +574,7 @@ def split_normal_weights(system: System, tries: int = 4) -> tuple[dict[tuple[Lab
     if not spaces:
         return {}, ""
     need = {k: e.multiplicity - 1 for k, e in enumerate(spaces)}
-    pool = sorted(tuple(sorted(system.idx(tuple(k)))) for k in system.edges())
+    pool: list[tuple[int, int]] = sorted((min(a, b), max(a, b)) for a, b in (system.idx(tuple(k)) for k in system.edges()))
     rows: dict[int, list[np.ndarray]] = {k: [] for k in need}
     chosen: list[tuple[int, int]] = []
     for _ in range(sum(need.values())):
