@@ -45,6 +45,7 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
+from glocal_verify import config
 from glocal_verify.conditions.cost import CostEstimate, SpecSizes
 from glocal_verify.conditions.design_cost import estimate_monitor_step, estimate_safe_modes
 from glocal_verify.design.audit import AuditResult, audit
@@ -54,7 +55,6 @@ from glocal_verify.design.pruning import Blueprint, Edit, audit_sets, prune
 from glocal_verify.design.symmetry import split_normal_weights, with_monitors
 from glocal_verify.design.safe_modes import (
     DEFAULT_WEIGHTS,
-    EXACT_MAX_AGENTS as SAFE_MODES_EXACT_MAX_AGENTS,
     SafeModeDesign,
     design_safe_modes,
     with_modes,
@@ -214,7 +214,7 @@ def _velocity_only(spec: SystemSpec) -> SystemSpec:
     return dataclasses.replace(spec, monitor=new, attack=attack)
 
 
-def _observers(system: System, exact_limit: int) -> tuple[dict[tuple[str, Label], ObserverSpec], list[ObserverProposal], list[str]]:
+def _observers(system: System, exact_limit: int | None) -> tuple[dict[tuple[str, Label], ObserverSpec], list[ObserverProposal], list[str]]:
     """Step 2: one more (or a wider) observer per cluster for its interior agents (or the spec's attack).
 
     At a centre that already has an observer the new one measures what both measure: more
@@ -272,7 +272,7 @@ def design_network(
     candidates: Sequence[Label] | None = None,
     weights: Sequence[Any] = DEFAULT_WEIGHTS,
     place: bool = True,
-    exact_limit: int = 2000,
+    exact_limit: int | None = None,
     max_links: int | None = None,
     monitor_budget: int = 3,
     schedule_dwell: float | None = None,
@@ -301,8 +301,9 @@ def design_network(
         Weights of added links of one-link modes.
     place : bool
         Add local observers (step 2).
-    exact_limit : int
-        Exhaustive-search limit of the observer placement.
+    exact_limit : int, optional
+        Exhaustive-search limit of the observer placement (default: the tunable
+        ``placement_exact_limit`` of :mod:`glocal_verify.config` in force).
     monitor_budget : int
         Largest number of velocity monitors the design adds in all.
     schedule_dwell : float, optional
@@ -366,7 +367,7 @@ def design_network(
     lambdas = {F: r.lambda0 for F, r in mid.items() if r.lambda0 is not None}
     if targets:
         if admit is not None:
-            admit(estimate_safe_modes(SpecSizes.from_spec(spec), len(targets), exact=mid_sys.n <= SAFE_MODES_EXACT_MAX_AGENTS))
+            admit(estimate_safe_modes(SpecSizes.from_spec(spec), len(targets), exact=mid_sys.n <= config.get("safe_modes_exact_max_agents")))
         say(f"designing safe modes for {len(targets)} undetected attack sets")
         safe = design_safe_modes(mid_sys, targets, None, budget, weights=weights, lambdas=lambdas, max_links=max_links,
                                  monitor_room=monitor_budget, confirm_limit=CONFIRM_LIMIT, progress=say, tick=tick)
@@ -387,7 +388,7 @@ def design_network(
     pending = [F for F in targets if rows[F].verdict != "detected"]
     if pending and room > 0:
         if admit is not None:
-            admit(estimate_monitor_step(SpecSizes.from_spec(spec), len(pending), room, exact=mid_sys.n <= SAFE_MODES_EXACT_MAX_AGENTS))
+            admit(estimate_monitor_step(SpecSizes.from_spec(spec), len(pending), room, exact=mid_sys.n <= config.get("safe_modes_exact_max_agents")))
         spec = with_modes(with_monitors(spec, safe.monitors), [m.mode_spec() for m in safe.modes], keep=True)
         spec, added, safe = _monitor_unexposed(spec, pending, room, safe, budget, weights, max_links, say, tick)
     say("choosing the global monitors")
