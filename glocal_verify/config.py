@@ -400,6 +400,15 @@ _ALL = (
     _t("replay_noise_slack", 0.01, "fraction", "glocal_verify.simulation.replay",
        "a replayed channel's fourth-difference noise estimate above (1 + this) x its [uncertainty] bound says the noise premise failed",
        "noise at its bound reaches exactly 1; the loop's own signal adds h^4 |y''''| / 16, below 1e-4 of the bound on paper19's logs"),
+    _t("symmetry_weight_tries", 4, "weightings", "glocal_verify.design.symmetry",
+       "generic weightings of one symmetry-breaking link plan decided by the Theorem III.3 rules before a failing link is banned",
+       "a generic weighting passes at the first or second try on symmetric clusters"),
+    _t("symmetry_plan_tries", 6, "plans", "glocal_verify.design.symmetry",
+       "link plans drawn per symmetry-breaking mode (each after banning the link a failed plan names)",
+       "bounds the rule decisions of one mode"),
+    _t("symmetry_max_links", 12, "links", "glocal_verify.design.symmetry",
+       "largest number of links of a symmetry-breaking mode when --max-links is not given",
+       "the interlacing bound asks as many links as the largest multiplicity of L_1"),
 )
 
 #: every tunable by name (read-only)
