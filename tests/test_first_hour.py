@@ -20,21 +20,14 @@ from glocal_verify.results import Report
 from glocal_verify.spec.examples import example_names, load_example
 from glocal_verify.spec.load import loads_spec
 
+from guarantee_checks.__main__ import UNCERTAINTY
+
 ROOT = Path(__file__).resolve().parent.parent
 
 #: a sampled deployment of paper19 whose P2 observer measures only its centre's neighbours:
 #: its sampled decoupling fails (rank(C E_d) = 1 < rank(E_d) = 2), and P2 holds no attacked agent
-DEPLOYMENT = """
-[uncertainty]
-initial_state = 1
-noise = 0.001
-disturbance = 0.001
-
-[implementation]
-period = 0.01
-controller = "sampled"
-switch_delay = 1
-"""
+#: (the deployment of guarantee_checks)
+DEPLOYMENT = UNCERTAINTY
 
 
 @pytest.fixture(scope="module")
