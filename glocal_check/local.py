@@ -14,13 +14,11 @@ if x = 0 then u = 0. Every s in C is lam^2 + gamma lam for some lam != 0. So it 
     T(s) = (s I + alpha L)[P \\ I, U], U = P \\ (pos u vel),   has full column rank for all s.
 
 Certificate ``pencil-minors``: a nonzero minor of T_0 modulo a prime, and square minors f_k(s)
-of T(s) (row sets), computed modulo p by evaluation, whose gcd modulo p is 1, the first one of
-the degree its rows allow (the rows of U it keeps) so that p does not divide its leading
-coefficient over Q (or, marked ``exact``, computed over Q with its degree kept modulo p).
-If the f_k had a common complex root, its minimal polynomial h (primitive
-over Z) would divide each of them, p would not divide lc(h) (it divides lc(f_1)), and h mod p,
-of degree >= 1, would divide every f_k mod p, and so 1 = sum_k b_k f_k mod p (the stated
-Bezout coefficients): so T(s) has full column rank everywhere.
+of T(s) (row sets), computed modulo p by evaluation, whose gcd modulo p is 1, the first one
+keeping its exact degree over Q modulo p (:func:`~glocal_check.algebra.pencil_minors`).
+If the f_k had a common complex root, its minimal polynomial h would divide each of them, and
+h mod p, of degree >= 1, would divide every f_k mod p, and so 1 = sum_k b_k f_k mod p (the
+stated Bezout coefficients): so T(s) has full column rank everywhere.
 
 Certificate ``pencil-kernel`` (fails): a kernel vector of P(lam) over Q[t]/(g), t = lam,
 checked on the definition above, with an entry prime to g.
@@ -39,7 +37,7 @@ from typing import Any
 
 from flint import fmpq, nmod_poly
 
-from glocal_check.algebra import Field, det_mod, hurwitz, mod, poly_det_exact, poly_det_mod, prime, reduce_poly, require, unit
+from glocal_check.algebra import Field, det_mod, hurwitz, mod, pencil_minors, prime, require, unit
 from glocal_check.context import Context, LocalScope
 from glocal_check.spec import rational
 
@@ -83,25 +81,8 @@ def pencil(ctx: Context, scope: dict[str, Any], status: str, cert: dict[str, Any
     unit(d0, zero.get("det"), p, "the minor of T_0")
     if not U:
         return
-    minors = cert.get("minors", [])
-    require(isinstance(minors, list) and bool(minors), "no minors of T(s)")
-    polys: list[nmod_poly] = []
-    for k, mnr in enumerate(minors):
-        R = rows_of(mnr.get("rows", []), len(U))
-        var = [(i, j, 1) for i, r in enumerate(R) for j, c in enumerate(U) if r == c]
-        if k == 0 and mnr.get("exact"):
-            # the anchor over Q: its exact degree survives reduction iff p does not divide lc
-            f_q = poly_det_exact([[sp.alpha * block[r].get(c, fmpq(0)) for c in U] for r in R], var, len(var))
-            require(f_q != 0, "the first minor is 0 over Q")
-            f = reduce_poly(f_q, p)
-            require(f.degree() == f_q.degree(), f"p = {p} divides the leading coefficient of the first minor")
-        else:
-            const = [[al * mod(block[r].get(c, fmpq(0)), p) % p for c in U] for r in R]
-            f = poly_det_mod(const, var, len(var), p)
-            if k == 0:
-                require(f.degree() == len(var), "the first minor does not reach its degree bound: its leading coefficient may vanish modulo p")
-        require(f.degree() == mnr.get("degree"), f"minor {k} has degree {f.degree()} modulo {p}, not {mnr.get('degree')}")
-        polys.append(f)
+    K = {a: {c: sp.alpha * x for c, x in row.items()} for a, row in block.items()}
+    polys = pencil_minors(K, rows_ok, U, ctx.minors(cert.get("minors")), p)
     # coprime modulo p: the stated Bezout coefficients give sum_k b_k f_k = 1
     bez = cert.get("bezout")
     require(isinstance(bez, list) and len(bez) == len(polys), "one Bezout coefficient per minor")
