@@ -20,6 +20,9 @@ If the f_k had a common complex root, its minimal polynomial h would divide each
 h mod p, of degree >= 1, would divide every f_k mod p, and so 1 = sum_k b_k f_k mod p (the
 stated Bezout coefficients): so T(s) has full column rank everywhere.
 
+Or, with ``zero_set``, T(s) loses column rank nowhere: the zero set of T(s) without factors
+(:func:`~glocal_check.zda.pencil_zero_set`).
+
 Certificate ``pencil-kernel`` (fails): a kernel vector of P(lam) over Q[t]/(g), t = lam,
 checked on the definition above, with an entry prime to g.
 
@@ -39,6 +42,7 @@ from flint import fmpq, nmod_poly
 
 from glocal_check.algebra import Field, det_mod, hurwitz, mod, pencil_minors, prime, require, unit
 from glocal_check.context import Context, LocalScope
+from glocal_check.zda import pencil_zero_set
 from glocal_check.spec import rational
 
 __all__ = ["pencil", "uio"]
@@ -82,6 +86,9 @@ def pencil(ctx: Context, scope: dict[str, Any], status: str, cert: dict[str, Any
     if not U:
         return
     K = {a: {c: sp.alpha * x for c, x in row.items()} for a, row in block.items()}
+    if "zero_set" in cert:  # T(s) loses column rank nowhere: a zero set without factors
+        require(not pencil_zero_set(ctx, cert["zero_set"], rows_ok, U, K), "the zero set of T(s) is not empty")
+        return
     polys = pencil_minors(K, rows_ok, U, ctx.minors(cert.get("minors")), p)
     # coprime modulo p: the stated Bezout coefficients give sum_k b_k f_k = 1
     bez = cert.get("bezout")

@@ -22,7 +22,7 @@ from flint import fmpq, fmpq_poly
 from glocal_check.algebra import Field, combination_det, hurwitz_poly, minor_of, pencil_minors, poly_det, prime, require, unit
 from glocal_check.context import Context
 
-__all__ = ["avoids_attack", "fastest_is_zero", "input_free", "no_zda", "zda_exists", "zero_set"]
+__all__ = ["avoids_attack", "fastest_is_zero", "input_free", "no_zda", "pencil_zero_set", "zda_exists", "zero_set"]
 
 
 def zda_exists(ctx: Context, cert: dict[str, Any]) -> tuple[Field, list[fmpq_poly]]:
@@ -137,7 +137,7 @@ def input_free(ctx: Context, lam0: fmpq, extra: list[dict[int, fmpq]], cert: dic
 
 def zero_set(ctx: Context, cert: Any) -> list[tuple[Field, list[list[fmpq_poly]]]]:
     """Check a ``zero-set`` certificate of the ZDA pencil in s = lambda^2 + gamma lambda and
-    return its factors (Q[s]/(g_i), kernel vectors).
+    return its factors (:func:`pencil_zero_set` of T(s) below).
 
     For lambda != 0 the Rosenbrock pencil loses column rank exactly where
     T(s) = (s I + alpha L_1)[V \\ F, U], U = V \\ M, does (xi = 0 on M, u = rows F of
@@ -152,11 +152,19 @@ def zero_set(ctx: Context, cert: Any) -> list[tuple[Field, list[list[fmpq_poly]]
     exactly at the roots of the g_i, and there its kernel is spanned by the k_i vectors.
     """
     sp = ctx.spec
-    require(isinstance(cert, dict) and sp.attack is not None, "a zero set needs an [attack] and a mapping")
+    require(sp.attack is not None, "a zero set of the ZDA pencil needs an [attack]")
     F = set(sp.attack["actuators"])
     rows = [a for a in range(sp.n) if a not in F]
     U = [a for a in range(sp.n) if a not in set(sp.monitored)]
     Kr = {a: {j: sp.alpha * x for j, x in row.items()} for a, row in enumerate(ctx.lap("normal"))}
+    return pencil_zero_set(ctx, cert, rows, U, Kr)
+
+
+def pencil_zero_set(ctx: Context, cert: Any, rows: list[int], U: list[int], Kr: dict[int, dict[int, fmpq]]) -> list[tuple[Field, list[list[fmpq_poly]]]]:
+    """Check the ``zero-set`` certificate of T(s) = (s I + K)[rows, U] (:func:`zero_set` gives
+    the argument) and return its factors (Q[s]/(g_i), kernel vectors supported on U)."""
+    sp = ctx.spec
+    require(isinstance(cert, dict), "a zero set is a mapping")
     p = prime(cert.get("prime"))
     polys = pencil_minors(Kr, rows, U, ctx.minors(cert.get("minors")), p)
     for c in cert.get("combinations", []):

@@ -382,11 +382,8 @@ _ALL = (
        "Hurwitz certificates (local.uio per mode, central.observer's quotient) are written up to this many states",
        "the checker's exact characteristic polynomial and root enclosures: 0.4 s at 100 states, about 1 s at 120, growing like n^4"),
     _t("certificate_minor_tries", 40, "row sets", "glocal_verify.certificates.local_certificates",
-       "row sets of the reduced local pencil T(s) tried for coprime minors (and an anchor over Q) before no certificate is written",
+       "row sets of the reduced local pencil T(s) tried for coprime minors (and for an anchor of large degree) before no certificate is written",
        "two or three minors suffice on every bundled and generated network"),
-    _t("certificate_exact_anchor_max", 60, "agents", "glocal_verify.certificates.local_certificates",
-       "largest set U of unmeasured agents whose anchor minor of T(s) is computed over Q",
-       "|U| + 1 exact determinants of |U| x |U| rational matrices"),
 )
 
 #: every tunable by name (read-only)

@@ -176,7 +176,73 @@ class Pencil:
 
     def kernel(self, g: fmpq_poly, count: int, p: int) -> list[list[fmpq_poly]]:
         """``count`` vectors over Q[s]/(g) in the kernel of T (supported on U), independent over
-        that field (g irreducible), from the rational kernel of the regular representation."""
+        that field (g irreducible): the rational kernel at a rational root, else (one vector)
+        the maximal minors of |U| - 1 rows (:meth:`_minors_kernel`)."""
+        if g.degree() == 1:
+            return self._regular_kernel(g, count, p)
+        if count != 1:
+            raise NoZeroSet(f"a factor of degree {g.degree()} with {count} kernel vectors (one is certified)")
+        return [self._minors_kernel(g, p)]
+
+    def _minors_kernel(self, g: fmpq_poly, p: int) -> list[fmpq_poly]:
+        """A kernel vector of T over Q[s]/(g) when its kernel there is a line: for rows R' of
+        size |U| - 1 with rank |U| - 1 at the roots of g, m_i = (-1)^i det T[R', U \\ i] is
+        in the kernel of T[R'] identically and nonzero at the roots, so it spans ker T there.
+        Computed at |U| points (m = (-1)^j det B n, B = T[R', U \\ j], n the kernel vector
+        with n_j = 1) and interpolated; kept when T m = 0 modulo g."""
+        base = self.anchor(p)
+        k = len(self.U)
+        rng = np.random.default_rng(53)
+        for drop in [base[i] for i in rng.permutation(len(base))[:6]]:
+            Rp = [a for a in base if a != drop]
+            for j in (k - 1, 0):
+                pts, vals = [], []
+                x = 0
+                while len(pts) < k and x < 3 * k + 3:
+                    A = self.dense(Rp, x)
+                    B = fmpq_mat(k - 1, k - 1, [A[i][c] for i in range(k - 1) for c in range(k) if c != j])
+                    det = B.det()
+                    if det != 0:
+                        b = fmpq_mat(k - 1, 1, [-A[i][j] for i in range(k - 1)])
+                        w = B.solve(b)
+                        n = [w[c if c < j else c - 1, 0] if c != j else fmpq(1) for c in range(k)]
+                        pts.append(x)
+                        vals.append([(-1) ** j * det * y for y in n])
+                    x += 1
+                if len(pts) < k:
+                    continue
+                m = [_interpolate_q(pts, [v[i] for v in vals]) % g for i in range(k)]
+                if all(y == 0 for y in m):
+                    continue
+                if all((z % g) == 0 for z in self.apply(m)):
+                    return m
+        raise NoZeroSet(f"no kernel vector of T(s) found over Q[s]/(g), g of degree {g.degree()}")
+
+    def dense(self, rows: Sequence[int], x: int) -> list[list[fmpq]]:
+        """T(x)[rows, U] over Q."""
+        out = []
+        for a in rows:
+            r = [self.K[a].get(c, fmpq(0)) for c in self.U]
+            if a in self.U:
+                r[self.U.index(a)] += x
+            out.append(r)
+        return out
+
+    def apply(self, v: Sequence[fmpq_poly]) -> list[fmpq_poly]:
+        """T(s) v over Q[s] (v indexed like U), every row."""
+        col = {c: j for j, c in enumerate(self.U)}
+        s = fmpq_poly([0, 1])
+        out = []
+        for a in self.rows:
+            acc = s * v[col[a]] if a in col else fmpq_poly(0)
+            for j, x in self.K[a].items():
+                if j in col and v[col[j]] != 0:
+                    acc += x * v[col[j]]
+            out.append(acc)
+        return out
+
+    def _regular_kernel(self, g: fmpq_poly, count: int, p: int) -> list[list[fmpq_poly]]:
+        """The kernel over Q[s]/(g) from the rational kernel of the regular representation."""
         d = g.degree()
         comp = [[fmpq(0)] * d for _ in range(d)]  # multiplication by s on the basis 1, s, .., s^(d-1)
         mono = g / g.leading_coefficient()
@@ -229,6 +295,18 @@ def _field_span(v: Sequence[fmpq_poly], g: fmpq_poly) -> list[list[fmpq_poly]]:
     for _ in range(g.degree()):
         out.append(w)
         w = [(x * fmpq_poly([0, 1])) % g for x in w]
+    return out
+
+
+def _interpolate_q(xs: Sequence[int], ys: Sequence[fmpq]) -> fmpq_poly:
+    """The polynomial of degree < len(xs) through the points over Q (divided differences)."""
+    c = list(ys)
+    for j in range(1, len(xs)):
+        for i in range(len(xs) - 1, j - 1, -1):
+            c[i] = (c[i] - c[i - 1]) / (xs[i] - xs[i - j])
+    out = fmpq_poly([c[-1]])
+    for i in range(len(xs) - 2, -1, -1):
+        out = out * fmpq_poly([-xs[i], 1]) + c[i]
     return out
 
 
