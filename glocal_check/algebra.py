@@ -11,9 +11,10 @@ the rank over Q.
 from __future__ import annotations
 
 from itertools import permutations
+from math import frexp, fsum, lcm, ldexp, sqrt
 from typing import Any, Iterable, Sequence
 
-from flint import fmpq, fmpq_mat, fmpq_poly, fmpz, nmod_mat, nmod_poly
+from flint import fmpq, fmpq_mat, fmpq_poly, fmpz, fmpz_mat, nmod_mat, nmod_poly
 
 from glocal_check.spec import CheckError, rational
 
@@ -23,6 +24,7 @@ __all__ = [
     "det_mod",
     "hurwitz",
     "hurwitz_poly",
+    "lyapunov",
     "poly_det",
     "krylov_det",
     "matvec",
@@ -362,6 +364,58 @@ def hurwitz(F: Sequence[Sequence[fmpq]], claim: Any = None) -> float:
         q = prime(claim.get("prime"))
         require([int(c) for c in reduce_poly(p, q).coeffs()] == claim.get("charpoly"), f"the characteristic polynomial is not the one stated (modulo {q})")
     return hurwitz_poly(p)
+
+
+def lyapunov(F: Sequence[Sequence[fmpq]], cert: Any) -> None:
+    """F is Hurwitz, by a Lyapunov matrix: P = P^T > 0 and Q = -(F^T P + P F) > 0 (both by
+    :func:`positive_definite`, with the stated shifts). For F v = lam v, v != 0:
+    v* Q v = -2 Re(lam) v* P v, so Re lam < 0. ``cert``: ``{"P": upper triangle rows,
+    "shift_P": c_P, "shift_Q": c_Q}`` (rationals). Exact integer products (python-flint)."""
+    n = len(F)
+    rows = cert.get("P") if isinstance(cert, dict) else None
+    require(isinstance(rows, list) and len(rows) == n and all(isinstance(r, list) and len(r) == n - i for i, r in enumerate(rows)), "P is not the upper triangle of an n x n matrix")
+    P = [[fmpq(0)] * n for _ in range(n)]
+    for i, r in enumerate(rows):
+        for k, x in enumerate(r):
+            P[i][i + k] = P[i + k][i] = rational(x, "P")
+    Fi, dF = _integer(F)
+    Pi, dP = _integer(P)
+    Qi = -(Fi.transpose() * Pi + Pi * Fi)  # dF dP Q
+    positive_definite(Pi, dP, rational(cert.get("shift_P"), "shift_P"), "P")
+    positive_definite(Qi, dF * dP, rational(cert.get("shift_Q"), "shift_Q"), "Q")
+
+
+def _integer(M: Sequence[Sequence[fmpq]]) -> tuple[fmpz_mat, int]:
+    """(d M as an integer matrix, d) with d the lcm of the denominators."""
+    d = 1
+    for r in M:
+        for x in r:
+            d = lcm(d, int(x.q))
+    return fmpz_mat(len(M), len(M), [int(x.p) * (d // int(x.q)) for r in M for x in r]), d
+
+
+def positive_definite(Z: fmpz_mat, scale: int, c: fmpq, what: str) -> None:
+    """A = Z / scale (symmetric) is positive definite: for R, the checker's floating-point
+    Cholesky factor of A - c I rounded to a dyadic grid, E = A - c I - R^T R is computed
+    exactly and ||E||_F < c; then A = R^T R + c I + E >= (c - ||E||_2) I > 0."""
+    n = Z.nrows()
+    require(c > 0, f"the shift of {what} must be positive")
+    A = [[float(fmpq(int(x), scale)) for x in r] for r in Z.tolist()]
+    cf = float(c)
+    R = [[0.0] * n for _ in range(n)]
+    for i in range(n):  # A - c I = R^T R, R upper triangular, row by row
+        cols = R[:i]
+        d = A[i][i] - cf - fsum(r[i] * r[i] for r in cols)
+        require(d > 0, f"{what} - c I is not numerically positive definite (pivot {i})")
+        R[i][i] = d = sqrt(d)
+        for j in range(i + 1, n):
+            R[i][j] = (A[i][j] - fsum(r[i] * r[j] for r in cols)) / d
+    top = max(abs(x) for r in R for x in r)
+    b = max(0, 50 - frexp(top)[1])
+    Ri = fmpz_mat(n, n, [int(round(ldexp(x, b))) for r in R for x in r])
+    cn, cd = int(c.p), int(c.q)
+    E = (Z * (cd << 2 * b)) - fmpz_mat(n, n, [(cn * scale << 2 * b) if i == j else 0 for i in range(n) for j in range(n)]) - (Ri.transpose() * Ri) * (scale * cd)
+    require(sum(int(x) ** 2 for x in E.entries()) < (cn * scale << 2 * b) ** 2, f"{what}: the Cholesky residual is not below the shift")
 
 
 def hurwitz_poly(p: fmpq_poly) -> float:

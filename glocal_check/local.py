@@ -31,7 +31,8 @@ Hurwitz, h = E (C E)^T (C E has orthonormal columns when every boundary velocity
 the rank condition). Then T = I - h C, K = K1 + F h give the unknown-input observer
 z' = F z + T B u + K y, x^ = z + h y, whose error obeys e' = F e whatever the coupling (Chen,
 Patton & Zhang 1996). Hurwitz: python-flint root enclosures of the exact characteristic
-polynomial of F (stated modulo a prime in the certificate).
+polynomial of F (stated modulo a prime in the certificate), or a Lyapunov matrix
+(:func:`~glocal_check.algebra.lyapunov`) for large clusters.
 """
 
 from __future__ import annotations
@@ -40,7 +41,7 @@ from typing import Any
 
 from flint import fmpq, nmod_poly
 
-from glocal_check.algebra import Field, det_mod, hurwitz, mod, pencil_minors, prime, require, unit
+from glocal_check.algebra import Field, det_mod, hurwitz, lyapunov, mod, pencil_minors, prime, require, unit
 from glocal_check.context import Context, LocalScope
 from glocal_check.zda import pencil_zero_set
 from glocal_check.spec import rational
@@ -155,7 +156,7 @@ def uio(ctx: Context, scope: dict[str, Any], cert: dict[str, Any]) -> None:
                 Fm[i][c] -= K1q[i][k]
         key = ("uio", ls.cluster.name, ls.observer.center, m, repr(modes[m]))
         if key not in ctx.memo:
-            ctx.memo[key] = hurwitz(Fm, modes[m])
+            ctx.memo[key] = lyapunov(Fm, modes[m]["lyapunov"]) or -1.0 if "lyapunov" in modes[m] else hurwitz(Fm, modes[m])
         top = ctx.memo[key]
         require(top < 0, f"F of mode {m} is not shown Hurwitz (max Re <= {top:.3g})")
 

@@ -384,6 +384,9 @@ _ALL = (
     _t("certificate_minor_tries", 40, "row sets", "glocal_verify.certificates.local_certificates",
        "row sets of the reduced local pencil T(s) tried for coprime minors (and for an anchor of large degree) before no certificate is written",
        "two or three minors suffice on every bundled and generated network"),
+    _t("certificate_lift_primes", 200, "primes", "glocal_verify.certificates.zero_sets",
+       "primes tried to lift the zero polynomial of a pencil in s from its reductions to Q (Chinese remainders, rational reconstruction) before no zero set is written",
+       "one set of minors modulo each prime; degree 90 needs about 100 primes"),
 )
 
 #: every tunable by name (read-only)

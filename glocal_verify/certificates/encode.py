@@ -15,6 +15,8 @@ from glocal_verify.numerics.minors import prime_for
 __all__ = [
     "EMIT_PRIME_LIMIT",
     "charpoly_claim",
+    "lyapunov_claim",
+    "stability_claim",
     "state_matrix_exact",
     "field",
     "krylov_residue",
@@ -113,26 +115,52 @@ def krylov_residue(system: System, mode: str, start: Sequence[int], length: int,
 def charpoly_claim(A: Sequence[Sequence[Fraction]], K: np.ndarray, cols: Sequence[int], p: int, zero_rows: Iterable[int] = (), drop_zeros: int = 0) -> dict[str, Any]:
     """``{"prime", "charpoly"}`` of F = A - K C over Q (rows ``zero_rows`` of A cleared first,
     C the selection of the state columns ``cols``, K binary floating-point numbers taken
-    exactly), as residues modulo p, lowest degree first, divided by t^``drop_zeros``."""
-    from flint import fmpq_mat
-
+    exactly), as residues modulo p, lowest degree first, divided by t^``drop_zeros``: the
+    characteristic polynomial of F reduced modulo p (p divides no denominator), computed there."""
     n = len(A)
     zero = set(zero_rows)
-    M = fmpq_mat(n, n)
+    rows = [[0 if i in zero else x for x in A[i]] for i in range(n)]
+    flat = []
     for i in range(n):
-        if i not in zero:
-            for j, x in enumerate(A[i]):
-                if x:
-                    M[i, j] = fmpq(x.numerator, x.denominator)
+        r = list(rows[i])
         for k, c in enumerate(cols):
-            g = Fraction(float(K[i, k]))
-            if g:
-                M[i, c] -= fmpq(g.numerator, g.denominator)
-    cp = M.charpoly()
-    coeffs = cp.coeffs()[drop_zeros:]
-    if any(c != 0 for c in cp.coeffs()[:drop_zeros]):
+            r[c] = r[c] - Fraction(float(K[i, k]))
+        flat += mod_residues(r, p)
+    cp = [int(c) for c in nmod_mat(n, n, flat, p).charpoly().coeffs()]
+    if any(cp[:drop_zeros]):
         raise ValueError("the characteristic polynomial has fewer zero roots than the quotient removes")
-    return {"prime": p, "charpoly": mod_residues(coeffs, p)}
+    return {"prime": p, "charpoly": cp[drop_zeros:]}
+
+
+def lyapunov_claim(F: np.ndarray) -> dict[str, Any]:
+    """``{"lyapunov": {"P", "shift_P", "shift_Q"}}`` for a Hurwitz matrix F (floating point):
+    P solves F^T P + P F = -I (symmetrised, its entries the decimals of its doubles, upper
+    triangle), the shifts half the smallest eigenvalues of P and of Q = -(F^T P + P F). The
+    checker proves P > 0 and Q > 0 for the exact F (``glocal_check.algebra.lyapunov``)."""
+    import scipy.linalg
+
+    P = scipy.linalg.solve_continuous_lyapunov(F.T, -np.eye(len(F)))
+    P = (P + P.T) / 2
+    Q = -(F.T @ P + P @ F)
+    shift_P = float(np.linalg.eigvalsh(P)[0]) / 2
+    shift_Q = float(np.linalg.eigvalsh((Q + Q.T) / 2)[0]) / 2
+    if not (shift_P > 0 and shift_Q > 0):
+        raise ValueError("no Lyapunov matrix found in floating point")
+    return {"lyapunov": {"P": [[repr(float(x)) for x in P[i, i:]] for i in range(len(F))], "shift_P": q(Fraction(repr(shift_P))), "shift_Q": q(Fraction(repr(shift_Q)))}}
+
+
+def stability_claim(A: Sequence[Sequence[Fraction]], K: np.ndarray, cols: Sequence[int], p: int, zero_rows: Iterable[int] = ()) -> dict[str, Any]:
+    """What proves F = A - K C Hurwitz (rows ``zero_rows`` of A cleared): its characteristic
+    polynomial modulo p up to ``certificate_max_states`` states (the checker encloses its
+    roots), a Lyapunov matrix above."""
+    from glocal_verify import config
+
+    if len(A) <= config.get("certificate_max_states"):
+        return charpoly_claim(A, K, cols, p, zero_rows)
+    zero = set(zero_rows)
+    F = np.array([[0.0 if i in zero else float(x) for x in A[i]] for i in range(len(A))])
+    F[:, list(cols)] -= np.asarray(K, dtype=float)
+    return lyapunov_claim(F)
 
 
 def state_matrix_exact(L: Sequence[Sequence[Fraction]], alpha: Fraction, gamma: Fraction) -> list[list[Fraction]]:

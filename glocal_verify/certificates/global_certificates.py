@@ -14,7 +14,7 @@ from typing import Any, Mapping
 import numpy as np
 from flint import fmpq, fmpq_poly, nmod_mat
 
-from glocal_verify.certificates.encode import charpoly_claim, field, krylov_residue, laplacian_mod, mod_residues, pivots_mod, q, state_matrix_exact, system_prime, unit, vector
+from glocal_verify.certificates.encode import charpoly_claim, field, krylov_residue, laplacian_mod, lyapunov_claim, mod_residues, pivots_mod, q, state_matrix_exact, system_prime, unit, vector
 from glocal_verify.certificates.facts import schedule_modes
 from glocal_verify.certificates.kernels import fq, kernel_vectors, laplacian_rows
 from glocal_verify.certificates.zero_sets import NoZeroSet, zda_zero_set
@@ -386,8 +386,6 @@ def central_certificate(system: System, r: ConditionResult, options: Mapping[str
     design = (r.witness.get("design") or {}).get("method")
     if design == "injection":
         return {"kind": "central-injection"}
-    if 2 * system.n - 1 > config.get("certificate_max_states"):
-        raise NoCertificate(f"more than {config.get('certificate_max_states')} observable states to enclose")
     from glocal_verify.observers.central import design_central_observer
 
     obsv = design_central_observer(system, poles=options.get("central_poles"))
@@ -406,7 +404,21 @@ def central_certificate(system: System, r: ConditionResult, options: Mapping[str
     A = state_matrix_exact(L, system.alpha_q, system.gamma_q)
     cols = [system.index[a] for a in system.monitored_positions] + [system.n + system.index[a] for a in system.monitored_velocities]
     # F = A_1 - H C is 0 on each [1_c; 0] (R = 0): the quotient's polynomial is charpoly(F) / t^d
-    claim = charpoly_claim(A, H, cols, system_prime(system), drop_zeros=len(blind))
+    if 2 * system.n - len(blind) <= config.get("certificate_max_states"):
+        claim = charpoly_claim(A, H, cols, system_prime(system), drop_zeros=len(blind))
+    else:  # the quotient by span X (F - X F[pivots, :] on the other states) and a Lyapunov matrix of it
+        Ff = np.array([[float(x) for x in row] for row in A])
+        Ff[:, cols] -= H
+        piv = [system.index[c[0]] for c in blind]
+        for c, k in zip(blind, piv):
+            for a in c:
+                if system.index[a] != k:
+                    Ff[system.index[a]] -= Ff[k]
+        keep = [i for i in range(2 * system.n) if i not in set(piv)]
+        try:
+            claim = lyapunov_claim(Ff[np.ix_(keep, keep)])
+        except ValueError as exc:
+            raise NoCertificate(str(exc)) from None
     return {
         "kind": "central-gain",
         "H": [[q(float(x)) for x in row] for row in H],

@@ -10,15 +10,19 @@ from typing import Any
 import numpy as np
 from flint import fmpq, fmpq_mat, fmpq_poly, nmod_mat, nmod_poly
 
-from glocal_verify.certificates.encode import charpoly_claim, field, mod_residues, pivots_mod, q, state_matrix_exact, system_prime, unit, vector
+from glocal_verify.certificates.encode import field, stability_claim, mod_residues, pivots_mod, q, state_matrix_exact, system_prime, unit, vector
 from glocal_verify import config
 from glocal_verify.certificates.global_certificates import NoCertificate
 from glocal_verify.certificates.kernels import fq, kernel_vectors, laplacian_rows
 from glocal_verify.certificates.zero_sets import NoZeroSet, Pencil, zero_set
+from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.results import ConditionResult
 
 __all__ = ["pencil_certificate", "uio_certificate"]
+
+#: the ``uio`` certificate of one observer (cluster, centre), shared by its suspected sets
+_UIO: Kind[dict[str, Any]] = Kind("certificate-uio", __name__, "the uio certificate of one observer")
 
 
 
@@ -203,12 +207,15 @@ def uio_certificate(system: System, r: ConditionResult) -> dict[str, Any]:
         if r.witness.get("unmeasured_boundary") or r.witness.get("normal", {}).get("unmeasured_boundary"):
             return {"kind": "structure"}
         raise NoCertificate("an unstable unobservable mode has no certificate yet")
-    cm = system.cluster_model(r.scope["cluster"], "normal")
-    if 2 * len(cm.nodes) > config.get("certificate_max_states"):
-        raise NoCertificate(f"more than {config.get('certificate_max_states')} states to enclose")
+    # the observer's design does not depend on the suspected set: one certificate per observer
+    return _UIO.get(system, (r.scope["cluster"], r.scope["observer"]), lambda: _uio_modes(system, r.scope["cluster"], r.scope["observer"]))
+
+
+def _uio_modes(system: System, cluster: str, observer: Any) -> dict[str, Any]:
     from glocal_verify.observers.uio import local_uio
 
-    obs = next(o for o in system.observers(r.scope["cluster"]) if o.center == r.scope["observer"])
+    cm = system.cluster_model(cluster, "normal")
+    obs = next(o for o in system.observers(cluster) if o.center == observer)
     modes = {}
     p = system_prime(system)
     n = len(cm.nodes)
@@ -218,7 +225,7 @@ def uio_certificate(system: System, r: ConditionResult) -> dict[str, Any]:
         A = state_matrix_exact(system.cluster_laplacian_exact(cm.name, m), system.alpha_q, system.gamma_q)
         at = {a: k for k, a in enumerate(cm.nodes)}
         cols = [at[a] for a in obs.positions] + [n + at[a] for a in obs.velocities]
-        claim = charpoly_claim(A, K1, cols, p, zero_rows=[n + at[b] for b in cm.boundary])
+        claim = stability_claim(A, K1, cols, p, zero_rows=[n + at[b] for b in cm.boundary])
         modes[m] = {"K1": [[q(float(x)) for x in row] for row in K1], **claim}
     return {"kind": "uio", "modes": modes}
 

@@ -324,26 +324,24 @@ def _reconstruct(residues: Sequence[int], modulus: int) -> Fraction | None:
     return Fraction(r1, s1)
 
 
-def _lift(polys: Sequence[tuple[nmod_poly, int]]) -> fmpq_poly | None:
-    """The monic rational polynomial whose reductions are the monic ``polys`` (same degree)."""
-    deg = polys[0][0].degree()
-    modulus = 1
-    for _, p in polys:
-        modulus *= p
-    coeffs = []
-    for i in range(deg + 1):
-        acc, m = 0, 1
-        for f, p in polys:
-            lc_inv = pow(int(f.coeffs()[-1]), -1, p)
-            c = int(f.coeffs()[i]) * lc_inv % p
-            # CRT: acc = x mod m and c mod p
-            t = (c - acc) * pow(m, -1, p) % p
-            acc, m = acc + m * t, m * p
-        got = _reconstruct([acc], modulus)
-        if got is None:
+class _Lift:
+    """Chinese remainders of the monic reductions of one rational polynomial, and its rational
+    reconstruction (coefficients a/b with |a|, b below the square root of half the modulus)."""
+
+    def __init__(self, degree: int) -> None:
+        self.acc, self.modulus = [0] * (degree + 1), 1
+
+    def add(self, f: nmod_poly, p: int) -> fmpq_poly | None:
+        cs = [int(c) for c in f.coeffs()]
+        inv = pow(cs[-1], -1, p)
+        for i, c in enumerate(cs):
+            t = (c * inv - self.acc[i]) * pow(self.modulus, -1, p) % p
+            self.acc[i] += self.modulus * t
+        self.modulus *= p
+        got = [_reconstruct([a], self.modulus) for a in self.acc]
+        if any(x is None for x in got):
             return None
-        coeffs.append(fmpq(got.numerator, got.denominator))
-    return fmpq_poly(coeffs)
+        return fmpq_poly([fmpq(x.numerator, x.denominator) for x in got])  # type: ignore[union-attr]
 
 
 def zda_pencil(system: System) -> Pencil:
@@ -388,17 +386,16 @@ def _zero_set(system: System, pencil: Pencil, patience: int) -> tuple[dict[str, 
         return cert, []
     # z over Q: the same gcd modulo more primes, lifted (the checker needs only the factors)
     values = [system.alpha_q] + list(system.edges("normal").values())
-    lifted: list[tuple[nmod_poly, int]] = [(g_p, p)]
-    z, q_ = None, p
-    for _ in range(12):
+    lift = _Lift(g_p.degree())
+    z, q_ = lift.add(g_p, p), p
+    for _ in range(config.get("certificate_lift_primes")):
         q_ = prime_for(values, q_ - 1)
         h = pencil.minor(first, q_)
         for E, Y in used:
             h = h.gcd(pencil.combination(E, Y, q_))  # Y read modulo q_: another combination, still a multiple of z
         if h.degree() != g_p.degree():
             continue
-        lifted.append((h, q_))
-        cand = _lift(lifted)
+        cand = lift.add(h, q_)
         if cand is not None and cand == z:
             break
         z = cand
