@@ -11,7 +11,7 @@ the rank over Q.
 from __future__ import annotations
 
 from itertools import permutations
-from math import frexp, fsum, lcm, ldexp, sqrt
+from math import frexp, lcm, ldexp, sqrt
 from typing import Any, Iterable, Sequence
 
 from flint import fmpq, fmpq_mat, fmpq_poly, fmpz, fmpz_mat, nmod_mat, nmod_poly
@@ -402,14 +402,19 @@ def positive_definite(Z: fmpz_mat, scale: int, c: fmpq, what: str) -> None:
     require(c > 0, f"the shift of {what} must be positive")
     A = [[float(fmpq(int(x), scale)) for x in r] for r in Z.tolist()]
     cf = float(c)
-    R = [[0.0] * n for _ in range(n)]
-    for i in range(n):  # A - c I = R^T R, R upper triangular, row by row
-        cols = R[:i]
-        d = A[i][i] - cf - fsum(r[i] * r[i] for r in cols)
+    for i in range(n):
+        A[i][i] -= cf
+    R = []
+    for i in range(n):  # A - c I = R^T R, R upper triangular: row i, then the trailing update
+        d = A[i][i]
         require(d > 0, f"{what} - c I is not numerically positive definite (pivot {i})")
-        R[i][i] = d = sqrt(d)
+        d = sqrt(d)
+        Ri = [0.0] * i + [x / d for x in A[i][i:]]
+        R.append(Ri)
         for j in range(i + 1, n):
-            R[i][j] = (A[i][j] - fsum(r[i] * r[j] for r in cols)) / d
+            if Ri[j] != 0.0:
+                rij, Aj = Ri[j], A[j]
+                Aj[j:] = [a - rij * b for a, b in zip(Aj[j:], Ri[j:])]
     top = max(abs(x) for r in R for x in r)
     b = max(0, 50 - frexp(top)[1])
     Ri = fmpz_mat(n, n, [int(round(ldexp(x, b))) for r in R for x in r])

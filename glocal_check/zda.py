@@ -169,6 +169,7 @@ def pencil_zero_set(ctx: Context, cert: Any, rows: list[int], U: list[int], Kr: 
     polys = pencil_minors(Kr, rows, U, ctx.minors(cert.get("minors")), p)
     for c in cert.get("combinations", []):
         polys.append(combination_det(Kr, rows, U, [sp.idx(a, "extra") for a in c.get("extra", [])], c.get("Y"), p))
+        require([int(x) for x in polys[-1].coeffs()] == c.get("det"), f"a combination's determinant is not the one stated (modulo {p})")
     g = polys[0]
     for f in polys[1:]:
         g = g.gcd(f)

@@ -379,7 +379,7 @@ def _zero_set(system: System, pencil: Pencil, patience: int) -> tuple[dict[str, 
     cert: dict[str, Any] = {
         "prime": p,
         "minors": [{"rows": [str(labels[a]) for a in first], "degree": int(pencil.minor(first, p).degree())}],
-        "combinations": [{"extra": [str(labels[a]) for a in E], "Y": Y} for E, Y in used],
+        "combinations": [{"extra": [str(labels[a]) for a in E], "Y": Y, "det": [int(c) for c in pencil.combination(E, Y, p).coeffs()]} for E, Y in used],
         "factors": [],
     }
     if g_p.degree() == 0:
