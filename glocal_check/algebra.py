@@ -24,7 +24,9 @@ __all__ = [
     "det_mod",
     "hurwitz",
     "hurwitz_poly",
+    "integer_matrix",
     "lyapunov",
+    "positive_definite",
     "poly_det",
     "krylov_det",
     "matvec",
@@ -378,14 +380,14 @@ def lyapunov(F: Sequence[Sequence[fmpq]], cert: Any) -> None:
     for i, r in enumerate(rows):
         for k, x in enumerate(r):
             P[i][i + k] = P[i + k][i] = rational(x, "P")
-    Fi, dF = _integer(F)
-    Pi, dP = _integer(P)
+    Fi, dF = integer_matrix(F)
+    Pi, dP = integer_matrix(P)
     Qi = -(Fi.transpose() * Pi + Pi * Fi)  # dF dP Q
     positive_definite(Pi, dP, rational(cert.get("shift_P"), "shift_P"), "P")
     positive_definite(Qi, dF * dP, rational(cert.get("shift_Q"), "shift_Q"), "Q")
 
 
-def _integer(M: Sequence[Sequence[fmpq]]) -> tuple[fmpz_mat, int]:
+def integer_matrix(M: Sequence[Sequence[fmpq]]) -> tuple[fmpz_mat, int]:
     """(d M as an integer matrix, d) with d the lcm of the denominators."""
     d = 1
     for r in M:

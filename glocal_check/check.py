@@ -26,6 +26,7 @@ from glocal_check.context import Context
 from glocal_check.local import pencil, uio
 from glocal_check.spec import CheckError, Spec, read_spec
 from glocal_check.spectra import differences, distinct
+from glocal_check.sampled import SAMPLED_STRUCTURAL, sampled_stability, sampled_zda
 from glocal_check.structure import STRUCTURAL
 from glocal_check.subspaces import hidden, observable
 from glocal_check.zda import avoids_attack, no_zda, zda_exists
@@ -90,6 +91,8 @@ def assumptions(spec: Spec) -> dict[str, Any]:
         "schedule": list(spec.schedule),
         "attack": None,
     }
+    if spec.implementation is not None:
+        out["implementation"] = {"period": str(spec.implementation["period"]), "controller": spec.implementation["controller"]}
     if spec.attack is not None:
         a = spec.attack
         out["attack"] = {
@@ -102,7 +105,7 @@ def assumptions(spec: Spec) -> dict[str, Any]:
 
 
 def _structure(ctx: Context, cid: str, scope: dict[str, Any], status: str, cert: dict[str, Any]) -> None:
-    rule = STRUCTURAL.get(cid)
+    rule = STRUCTURAL.get(cid) or SAMPLED_STRUCTURAL.get(cid)
     require(rule is not None, f"{cid} has no structural rule")
     require(status in STRUCTURE_PROVES.get(cid, {"holds", "fails"}), f"a structure certificate cannot prove that {cid} {status}")
     got, facts = rule(ctx, scope)
@@ -172,6 +175,8 @@ CHECKS: dict[str, Check] = {
     "local.pencil": _pencil,
     "local.uio": _uio,
     "central.observer": _central,
+    "sampled.stability": lambda ctx, cid, scope, status, cert: sampled_stability(ctx, scope, status, cert),
+    "sampled.zda": lambda ctx, cid, scope, status, cert: sampled_zda(ctx, scope, status, cert),
 }
 
 
@@ -209,7 +214,8 @@ def check_files(spec_path: str, cert_path: str, report: Callable[[str], None] = 
         raise CheckError(f"{cert_path}: no list of verdicts")
     out = Outcome()
     mine = json.loads(json.dumps(assumptions(spec)))
-    differ = [k for k in mine if mine[k] != (data.get("assumes") or {}).get(k)]
+    theirs = data.get("assumes") if isinstance(data.get("assumes"), dict) else {}
+    differ = [k for k in sorted(set(mine) | set(theirs)) if mine.get(k) != theirs.get(k)]
     ctx = Context(spec)
     observations = data.get("observations", [])
     if not isinstance(observations, list):

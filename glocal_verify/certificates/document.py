@@ -40,6 +40,7 @@ from glocal_verify.certificates.global_certificates import (
     zda_certificate,
 )
 from glocal_verify.certificates.local_certificates import pencil_certificate, uio_certificate
+from glocal_verify.certificates.sampled_certificates import sampled_certificate
 from glocal_verify.model import System
 from glocal_verify.results import ConditionResult, Report, Status
 
@@ -87,6 +88,8 @@ def assumptions(system: System) -> dict[str, Any]:
         "schedule": _schedule(system),
         "attack": None,
     }
+    if spec.implementation is not None:
+        out["implementation"] = {"period": str(spec.implementation.period), "controller": spec.implementation.controller}
     a = spec.attack
     if a is not None:
         lam = None if a.lambda0 is None else [str(Fraction(repr(a.lambda0.real))), str(Fraction(repr(a.lambda0.imag)))]
@@ -144,6 +147,10 @@ EMITTERS: Mapping[str, Emitter] = MappingProxyType({
     "switching.eigenvector-differences": differences_certificate,
     "local.pencil": pencil_certificate,
     "local.uio": uio_certificate,
+    "sampled.stability": sampled_certificate,
+    "sampled.no-aliasing": sampled_certificate,
+    "sampled.observability": sampled_certificate,
+    "sampled.zda": sampled_certificate,
 })
 
 

@@ -87,6 +87,12 @@ def _image_kernel(system: System, r: ConditionResult) -> dict[str, Any]:
     return {"ranks": ranks}
 
 
+def _sampled(system: System, r: ConditionResult) -> dict[str, Any]:
+    impl = system.spec.implementation
+    assert impl is not None
+    return {"controller": impl.controller, "gamma_h": str(system.gamma_q * impl.period)}
+
+
 #: condition id -> the facts of its structure certificate
 STRUCTURE_FACTS: Mapping[str, Callable[[System, ConditionResult], dict[str, Any]]] = MappingProxyType({
     "privacy.connected": _connected,
@@ -100,4 +106,7 @@ STRUCTURE_FACTS: Mapping[str, Callable[[System, ConditionResult], dict[str, Any]
     "local.pencil": _pencil,
     "switching.coverage": _coverage,
     "switching.image-kernel": _image_kernel,
+    "sampled.no-aliasing": _sampled,
+    "sampled.observability": _sampled,
+    "sampled.stability": _sampled,
 })
