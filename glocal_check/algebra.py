@@ -368,11 +368,13 @@ def hurwitz(F: Sequence[Sequence[fmpq]], claim: Any = None) -> float:
     return hurwitz_poly(p)
 
 
-def lyapunov(F: Sequence[Sequence[fmpq]], cert: Any) -> None:
+def lyapunov(F: Sequence[Sequence[fmpq]], cert: Any, discrete: bool = False) -> None:
     """F is Hurwitz, by a Lyapunov matrix: P = P^T > 0 and Q = -(F^T P + P F) > 0 (both by
     :func:`positive_definite`, with the stated shifts). For F v = lam v, v != 0:
     v* Q v = -2 Re(lam) v* P v, so Re lam < 0. ``cert``: ``{"P": upper triangle rows,
-    "shift_P": c_P, "shift_Q": c_Q}`` (rationals). Exact integer products (python-flint)."""
+    "shift_P": c_P, "shift_Q": c_Q}`` (rationals). Exact integer products (python-flint).
+    ``discrete``: F is Schur stable, by P > 0 and Q = P - F^T P F > 0 (Stein):
+    v* Q v = (1 - |z|^2) v* P v, so |z| < 1."""
     n = len(F)
     rows = cert.get("P") if isinstance(cert, dict) else None
     require(isinstance(rows, list) and len(rows) == n and all(isinstance(r, list) and len(r) == n - i for i, r in enumerate(rows)), "P is not the upper triangle of an n x n matrix")
@@ -382,9 +384,12 @@ def lyapunov(F: Sequence[Sequence[fmpq]], cert: Any) -> None:
             P[i][i + k] = P[i + k][i] = rational(x, "P")
     Fi, dF = integer_matrix(F)
     Pi, dP = integer_matrix(P)
-    Qi = -(Fi.transpose() * Pi + Pi * Fi)  # dF dP Q
+    if discrete:
+        Qi, dQ = Pi * (dF * dF) - Fi.transpose() * Pi * Fi, dF * dF * dP
+    else:
+        Qi, dQ = -(Fi.transpose() * Pi + Pi * Fi), dF * dP
     positive_definite(Pi, dP, rational(cert.get("shift_P"), "shift_P"), "P")
-    positive_definite(Qi, dF * dP, rational(cert.get("shift_Q"), "shift_Q"), "Q")
+    positive_definite(Qi, dQ, rational(cert.get("shift_Q"), "shift_Q"), "Q")
 
 
 def integer_matrix(M: Sequence[Sequence[fmpq]]) -> tuple[fmpz_mat, int]:
@@ -393,7 +398,7 @@ def integer_matrix(M: Sequence[Sequence[fmpq]]) -> tuple[fmpz_mat, int]:
     for r in M:
         for x in r:
             d = lcm(d, int(x.q))
-    return fmpz_mat(len(M), len(M), [int(x.p) * (d // int(x.q)) for r in M for x in r]), d
+    return fmpz_mat(len(M), len(M[0]) if M else 0, [int(x.p) * (d // int(x.q)) for r in M for x in r]), d
 
 
 def positive_definite(Z: fmpz_mat, scale: int, c: fmpq, what: str) -> None:

@@ -26,7 +26,7 @@ from glocal_check.context import Context
 from glocal_check.local import pencil, uio
 from glocal_check.spec import CheckError, Spec, read_spec
 from glocal_check.spectra import differences, distinct
-from glocal_check.sampled import SAMPLED_STRUCTURAL, sampled_stability, sampled_zda
+from glocal_check.sampled import SAMPLED_STRUCTURAL, detector_stable, sampled_stability, sampled_uio, sampled_zda
 from glocal_check.structure import STRUCTURAL
 from glocal_check.subspaces import hidden, observable
 from glocal_check.zda import avoids_attack, no_zda, zda_exists
@@ -177,6 +177,8 @@ CHECKS: dict[str, Check] = {
     "central.observer": _central,
     "sampled.stability": lambda ctx, cid, scope, status, cert: sampled_stability(ctx, scope, status, cert),
     "sampled.zda": lambda ctx, cid, scope, status, cert: sampled_zda(ctx, scope, status, cert),
+    "sampled.local-uio": lambda ctx, cid, scope, status, cert: sampled_uio(ctx, scope, status, cert),
+    "detection.thresholds": lambda ctx, cid, scope, status, cert: detector_stable(ctx, scope, status, cert),
 }
 
 

@@ -165,3 +165,12 @@ def test_large_observers_are_proven_stable_by_a_lyapunov_matrix(tmp_path: Path) 
     kinds = [e["certificate"] for e in doc["verdicts"] if e["id"] in ("local.uio", "central.observer") and e["status"] == "holds"]
     assert any("lyapunov" in json.dumps(c) for c in kinds)
     assert out.rejected == [] and out.without == 0
+
+
+@pytest.mark.parametrize("implementation", ['period = 0.01', 'period = 0.2', 'period = 0.05\ncontroller = "continuous"'])
+def test_the_sampled_implementation_s_verdicts_are_certified(implementation: str, tmp_path: Path) -> None:
+    _, doc, out = certify(example_text("paper19") + f"\n[implementation]\n{implementation}\n", tmp_path)
+    assert out.rejected == [], out.rejected
+    missing = {e["id"] for e in doc["verdicts"] if e["certificate"] is None}
+    assert missing <= {"detection.local-alarm", "detection.guarantee", "sampled.zda"}, missing
+    assert any(e["id"] == "sampled.stability" for e in doc["verdicts"])

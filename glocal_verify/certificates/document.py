@@ -40,7 +40,7 @@ from glocal_verify.certificates.global_certificates import (
     zda_certificate,
 )
 from glocal_verify.certificates.local_certificates import pencil_certificate, uio_certificate
-from glocal_verify.certificates.sampled_certificates import sampled_certificate
+from glocal_verify.certificates.sampled_certificates import detector_certificate, sampled_certificate
 from glocal_verify.model import System
 from glocal_verify.results import ConditionResult, Report, Status
 
@@ -151,6 +151,8 @@ EMITTERS: Mapping[str, Emitter] = MappingProxyType({
     "sampled.no-aliasing": sampled_certificate,
     "sampled.observability": sampled_certificate,
     "sampled.zda": sampled_certificate,
+    "sampled.local-uio": sampled_certificate,
+    "detection.thresholds": detector_certificate,
 })
 
 

@@ -16,6 +16,7 @@ __all__ = [
     "EMIT_PRIME_LIMIT",
     "charpoly_claim",
     "lyapunov_claim",
+    "schur_claim",
     "stability_claim",
     "state_matrix_exact",
     "field",
@@ -140,13 +141,27 @@ def lyapunov_claim(F: np.ndarray) -> dict[str, Any]:
     import scipy.linalg
 
     P = scipy.linalg.solve_continuous_lyapunov(F.T, -np.eye(len(F)))
+    return {"lyapunov": _lyapunov_entries(P, -(F.T @ P + P @ F))}
+
+
+def _lyapunov_entries(P: np.ndarray, Q: np.ndarray) -> dict[str, Any]:
+    """P (symmetrised; the decimals of its doubles, upper triangle) and the shifts: half the
+    smallest eigenvalues of P and Q."""
     P = (P + P.T) / 2
-    Q = -(F.T @ P + P @ F)
     shift_P = float(np.linalg.eigvalsh(P)[0]) / 2
     shift_Q = float(np.linalg.eigvalsh((Q + Q.T) / 2)[0]) / 2
     if not (shift_P > 0 and shift_Q > 0):
         raise ValueError("no Lyapunov matrix found in floating point")
-    return {"lyapunov": {"P": [[repr(float(x)) for x in P[i, i:]] for i in range(len(F))], "shift_P": q(Fraction(repr(shift_P))), "shift_Q": q(Fraction(repr(shift_Q)))}}
+    return {"P": [[repr(float(x)) for x in P[i, i:]] for i in range(len(P))], "shift_P": q(Fraction(repr(shift_P))), "shift_Q": q(Fraction(repr(shift_Q)))}
+
+
+def schur_claim(F: np.ndarray) -> dict[str, Any]:
+    """``{"P", "shift_P", "shift_Q"}`` for a Schur-stable F (floating point): P solves
+    P - F^T P F = I (a Stein matrix; the checker proves P > 0 and P - F^T P F > 0 exactly)."""
+    import scipy.linalg
+
+    P = scipy.linalg.solve_discrete_lyapunov(F.T, np.eye(len(F)))
+    return _lyapunov_entries(P, P - F.T @ P @ F)
 
 
 def stability_claim(A: Sequence[Sequence[Fraction]], K: np.ndarray, cols: Sequence[int], p: int, zero_rows: Iterable[int] = ()) -> dict[str, Any]:

@@ -12,12 +12,12 @@ from typing import Any
 
 import numpy as np
 
-from glocal_verify.certificates.encode import q, vector
+from glocal_verify.certificates.encode import q, schur_claim, vector
 from glocal_verify.certificates.global_certificates import NoCertificate
 from glocal_verify.model import System
 from glocal_verify.results import ConditionResult
 
-__all__ = ["sampled_certificate"]
+__all__ = ["detector_certificate", "sampled_certificate"]
 
 
 def _jury(system: System, mode: str, c: Fraction, holds: bool) -> dict[str, Any]:
@@ -35,6 +35,56 @@ def _jury(system: System, mode: str, c: Fraction, holds: bool) -> dict[str, Any]
     return {"kind": "rayleigh", "x": vector(system, x)}
 
 
+def _uio(system: System, r: ConditionResult) -> dict[str, Any]:
+    """``sampled-uio``: K1 = (T A_d - F) C^T of the designed observer (C selects distinct
+    channels, so C C^T = I) and a Stein matrix of F; ``structure`` when the rank fails."""
+    from glocal_verify.observers.sampled import DecouplingError, design_sampled_uio, sampled_cluster_model, to_float
+
+    obs = next(o for o in system.observers(r.scope["cluster"]) if o.center == r.scope["observer"])
+    if r.status.value == "fails":
+        try:
+            sampled_cluster_model(system, obs)
+        except DecouplingError:
+            return {"kind": "structure"}
+        raise NoCertificate("sampled.local-uio fails without its rank condition failing: not certified yet")
+    model = sampled_cluster_model(system, obs)
+    F = design_sampled_uio(system, obs).F
+    try:
+        stein = schur_claim(np.asarray(to_float(F), dtype=float))
+    except ValueError as exc:
+        raise NoCertificate(str(exc)) from None
+    return {"kind": "sampled-uio", "K1": _exact_rows((model.Abar - F) * model.C.transpose()), "stein": stein}
+
+
+def detector_certificate(system: System, r: ConditionResult) -> dict[str, Any]:
+    """``detector-stable`` (``detection.thresholds`` holds): the detector's gain and a Stein
+    matrix of its exact error dynamics (central: on the consensus quotient, with its
+    representatives)."""
+    from glocal_verify.observers.sampled import consensus_quotient, design_sampled_central, design_sampled_uio, sampled_cluster_model, to_float
+
+    name = str(r.scope["observer"])
+    if r.status.value != "holds" or system.spec.implementation is None or system.spec.implementation.controller != "sampled":
+        raise NoCertificate("only detection.thresholds holds of a sampled controller has a certificate")
+    if name == "central":
+        obs = design_sampled_central(system)
+        _, _, reps = consensus_quotient(system)
+        cert: dict[str, Any] = {"kind": "detector-stable", "reps": [str(system.labels[i]) for i in reps], "gain": _exact_rows(obs.Kn)}
+    else:
+        lo = next(o for o in system.observers() if f"{o.cluster}@{o.center}" == name)
+        obs = design_sampled_uio(system, lo)
+        model = sampled_cluster_model(system, lo)
+        cert = {"kind": "detector-stable", "K1": _exact_rows((model.Abar - obs.F) * model.C.transpose())}
+    try:
+        cert["stein"] = schur_claim(np.asarray(to_float(obs.F), dtype=float))
+    except ValueError as exc:
+        raise NoCertificate(str(exc)) from None
+    return cert
+
+
+def _exact_rows(M: Any) -> list[list[str]]:
+    return [[q(Fraction(int(x.p), int(x.q))) for x in row] for row in M.tolist()]
+
+
 def sampled_certificate(system: System, r: ConditionResult) -> dict[str, Any]:
     """The certificate of a ``sampled.*`` verdict, or :class:`NoCertificate`."""
     impl = system.spec.implementation
@@ -48,6 +98,8 @@ def sampled_certificate(system: System, r: ConditionResult) -> dict[str, Any]:
         if impl.controller == "continuous" or gamma * h >= 2:
             return {"kind": "structure"}
         return _jury(system, r.scope["mode"], 2 * gamma / (system.alpha_q * h), r.status.value == "holds")
+    if r.id == "sampled.local-uio" and impl.controller == "sampled":
+        return _uio(system, r)
     if r.id == "sampled.zda" and r.status.value == "holds" and impl.controller == "sampled":
         free = [f for f in system.attacked if f not in set(system.monitored_velocities)]
         if free:  # at z0 = -1 the positions stay, the velocity answers its own held input only
