@@ -21,7 +21,7 @@ h mod p, of degree >= 1, would divide every f_k mod p, and so 1 = sum_k b_k f_k 
 stated Bezout coefficients): so T(s) has full column rank everywhere.
 
 Or, with ``zero_set``, T(s) loses column rank nowhere: the zero set of T(s) without factors
-(:func:`~glocal_check.zda.pencil_zero_set`).
+(:func:`~glocal_check.zeros.pencil_zero_set`).
 
 Certificate ``pencil-kernel`` (fails): a kernel vector of P(lam) over Q[t]/(g), t = lam,
 checked on the definition above, with an entry prime to g.
@@ -43,7 +43,7 @@ from flint import fmpq, nmod_poly
 
 from glocal_check.algebra import Field, det_mod, hurwitz, lyapunov, mod, pencil_minors, prime, require, unit
 from glocal_check.context import Context, LocalScope
-from glocal_check.zda import pencil_zero_set
+from glocal_check.zeros import pencil_zero_set
 from glocal_check.spec import rational
 
 __all__ = ["pencil", "uio"]

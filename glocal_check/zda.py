@@ -19,10 +19,11 @@ from typing import Any
 
 from flint import fmpq, fmpq_poly
 
-from glocal_check.algebra import Field, combination_det, hurwitz_poly, minor_of, pencil_minors, poly_det, prime, require, unit
+from glocal_check.algebra import Field, hurwitz_poly, minor_of, prime, require, unit
 from glocal_check.context import Context
+from glocal_check.zeros import pencil_zero_set
 
-__all__ = ["avoids_attack", "fastest_is_zero", "input_free", "no_zda", "pencil_zero_set", "zda_exists", "zero_set"]
+__all__ = ["avoids_attack", "fastest_is_zero", "input_free", "no_zda", "zda_exists", "zero_set"]
 
 
 def zda_exists(ctx: Context, cert: dict[str, Any]) -> tuple[Field, list[fmpq_poly]]:
@@ -158,41 +159,6 @@ def zero_set(ctx: Context, cert: Any) -> list[tuple[Field, list[list[fmpq_poly]]
     U = [a for a in range(sp.n) if a not in set(sp.monitored)]
     Kr = {a: {j: sp.alpha * x for j, x in row.items()} for a, row in enumerate(ctx.lap("normal"))}
     return pencil_zero_set(ctx, cert, rows, U, Kr)
-
-
-def pencil_zero_set(ctx: Context, cert: Any, rows: list[int], U: list[int], Kr: dict[int, dict[int, fmpq]]) -> list[tuple[Field, list[list[fmpq_poly]]]]:
-    """Check the ``zero-set`` certificate of T(s) = (s I + K)[rows, U] (:func:`zero_set` gives
-    the argument) and return its factors (Q[s]/(g_i), kernel vectors supported on U)."""
-    sp = ctx.spec
-    require(isinstance(cert, dict), "a zero set is a mapping")
-    p = prime(cert.get("prime"))
-    polys = pencil_minors(Kr, rows, U, ctx.minors(cert.get("minors")), p)
-    for c in cert.get("combinations", []):
-        polys.append(combination_det(Kr, rows, U, [sp.idx(a, "extra") for a in c.get("extra", [])], c.get("Y"), p))
-        require([int(x) for x in polys[-1].coeffs()] == c.get("det"), f"a combination's determinant is not the one stated (modulo {p})")
-    g = polys[0]
-    for f in polys[1:]:
-        g = g.gcd(f)
-    out: list[tuple[Field, list[list[fmpq_poly]]]] = []
-    count = 0
-    Us = set(U)
-    for k, fac in enumerate(cert.get("factors", [])):
-        K = Field(fac.get("field"), f"factor {k}")
-        require(K.g.gcd(K.g.derivative()).degree() == 0, f"factor {k} is not squarefree")
-        require(all(K.g.gcd(other.g).degree() == 0 for other, _ in out), f"factor {k} shares a root with another factor")
-        vecs = [K.vector(v, sp.idx, sp.n, "kernel") for v in fac.get("kernel", [])]
-        require(bool(vecs), f"factor {k} has no kernel vector")
-        for v in vecs:
-            require(all(v[a] == 0 for a in range(sp.n) if a not in Us), "a kernel vector is nonzero on a monitored agent")
-            Tv = K.apply([Kr[a] for a in rows], v)
-            require(all(K.is_zero(K.t * v[a] + x) for a, x in zip(rows, Tv)), f"T(s) xi != 0 modulo factor {k}")
-        at = [sp.idx(a, "rows") for a in fac.get("rows", [])]
-        require(len(at) == len(vecs), "one row per kernel vector")
-        require(K.nonzero_everywhere(poly_det([[v[a] for v in vecs] for a in at])), f"the kernel vectors of factor {k} are not shown independent")
-        out.append((K, vecs))
-        count += K.g.degree() * len(vecs)
-    require(count == g.degree(), f"the factors account for {count} zeros, the minors' gcd modulo {p} for {g.degree()}")
-    return out
 
 
 def input_rows(ctx: Context, K: Field, v: list[fmpq_poly]) -> list[fmpq_poly]:

@@ -120,8 +120,8 @@ def charpoly_claim(A: Sequence[Sequence[Fraction]], K: np.ndarray, cols: Sequenc
     characteristic polynomial of F reduced modulo p (p divides no denominator), computed there."""
     n = len(A)
     zero = set(zero_rows)
-    rows = [[0 if i in zero else x for x in A[i]] for i in range(n)]
-    flat = []
+    rows = [[Fraction(0) if i in zero else x for x in A[i]] for i in range(n)]
+    flat: list[int] = []
     for i in range(n):
         r = list(rows[i])
         for k, c in enumerate(cols):

@@ -410,10 +410,10 @@ def central_certificate(system: System, r: ConditionResult, options: Mapping[str
         Ff = np.array([[float(x) for x in row] for row in A])
         Ff[:, cols] -= H
         piv = [system.index[c[0]] for c in blind]
-        for c, k in zip(blind, piv):
-            for a in c:
-                if system.index[a] != k:
-                    Ff[system.index[a]] -= Ff[k]
+        for comp, rep in zip(blind, piv):
+            for lab in comp:
+                if system.index[lab] != rep:
+                    Ff[system.index[lab]] -= Ff[rep]
         keep = [i for i in range(2 * system.n) if i not in set(piv)]
         try:
             claim = lyapunov_claim(Ff[np.ix_(keep, keep)])

@@ -177,8 +177,8 @@ def _pencil_fails(case: _Case, r: ConditionResult) -> dict[str, Any]:
         G = G // fmpq_poly([0, 1])
     G = G / G.leading_coefficient()
     labels = sys_.labels
-    x = {labels[a]: v(sub) % G for a, v in zip(case.pencil().U, vecs[0])}
-    return _kernel_cert(case, x, sub, G)
+    xg: dict[Any, Any] = {labels[a]: v(sub) % G for a, v in zip(case.pencil().U, vecs[0])}
+    return _kernel_cert(case, xg, sub, G)
 
 
 def _kernel_cert(case: _Case, x: dict[Any, Any], s: Any, g: fmpq_poly) -> dict[str, Any]:

@@ -196,7 +196,8 @@ class Pencil:
         for drop in [base[i] for i in rng.permutation(len(base))[:6]]:
             Rp = [a for a in base if a != drop]
             for j in (k - 1, 0):
-                pts, vals = [], []
+                pts: list[int] = []
+                vals: list[list[fmpq]] = []
                 x = 0
                 while len(pts) < k and x < 3 * k + 3:
                     A = self.dense(Rp, x)
