@@ -387,6 +387,10 @@ _ALL = (
     _t("certificate_lift_primes", 200, "primes", "glocal_verify.certificates.zero_sets",
        "primes tried to lift the zero polynomial of a pencil in s from its reductions to Q (Chinese remainders, rational reconstruction) before no zero set is written",
        "one set of minors modulo each prime; degree 90 needs about 100 primes"),
+    # ---- replay (simulation.replay) ------------------------------------------------------------
+    _t("replay_noise_slack", 0.01, "fraction", "glocal_verify.simulation.replay",
+       "a replayed channel's fourth-difference noise estimate above (1 + this) x its [uncertainty] bound says the noise premise failed",
+       "noise at its bound reaches exactly 1; the loop's own signal adds h^4 |y''''| / 16, below 1e-4 of the bound on paper19's logs"),
 )
 
 #: every tunable by name (read-only)

@@ -152,7 +152,7 @@ def test_the_detection_checkers_report_through_verify() -> None:
     assert all(got[k] is Status.HOLDS for k in got if k[0] == "detection.thresholds")
     w = rep.results("detection.guarantee")[0].witness
     assert w["detected_by"] == "P1@5" and w["global_within"] > 0
-    assert np.all(np.isfinite(to_float(next(iter(sy.analysis[("detection-thresholds",)].detectors)).F)))
+    assert np.all(np.isfinite(to_float(next(iter(sy.analysis[("sampled-deployment",)].thresholds.certified.detectors)).F)))
 
 
 def test_the_assessment_reads_the_deployment_guarantee_into_the_answer() -> None:

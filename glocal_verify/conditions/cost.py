@@ -197,6 +197,7 @@ B_AUDIT_ROW = 6_500.0
 C_AUDIT_ROW_OUT = 2e-4
 #: exact audit rows (``--exact``): a factor on the per-set seconds
 F_AUDIT_EXACT = 10.0
+C_AUDIT_EXACT_FALLBACK = 0.01  # N <= exact_fallback_full_agents: rows re-decided over Q, s per set and safe mode (paper19: 5.4 CPU-s)
 
 #: the default limits are the tunables ``max_seconds``, ``max_bytes`` (with ``memory_fraction`` of
 #: the available memory) and ``notice_seconds`` of :mod:`glocal_verify.config`
@@ -637,7 +638,7 @@ def estimate_audit(sizes: SpecSizes, k: int, candidates: int | None = None, *, e
     = 4e-9, :data:`C_AUDIT_SET_MODE` (``C_mode``, S safe modes) = 1.5e-3,
     :data:`C_AUDIT_ROW_OUT` = 2e-4 s (writing each row), :data:`A_AUDIT` = 20,
     :data:`B_AUDIT_ROW` = 6.5 kB); ``exact`` multiplies the per-set seconds by
-    :data:`F_AUDIT_EXACT`. Measured: the whole N = 1000 audit on 50 clusters with JSON output
+    :data:`F_AUDIT_EXACT`; N <= ``exact_fallback_full_agents`` adds :data:`C_AUDIT_EXACT_FALLBACK` R max(1, S) / W. Measured: the whole N = 1000 audit on 50 clusters with JSON output
     on 2 workers took 641 s and 11.9 GiB over its processes (estimate 7.3 min, 8.8 GiB; before
     the singles were decided by minors and local zeros: 29 min and 9.2 GB); N = 200 on 10 clusters 8 s in the
     library, about 20 s with JSON from the command line (estimate 17 s); 27 min at N = 300 on
@@ -672,6 +673,7 @@ def estimate_audit(sizes: SpecSizes, k: int, candidates: int | None = None, *, e
         "single actuators": f * per_single * singles / w,
         f"{larger} sets of 2..{k} actuators": f * per_larger * larger / w,
         f"safe-mode tests of {singles + larger} sets x {sizes.modes} modes": f * C_AUDIT_SET_MODE * (singles + larger) * max(0, sizes.modes - config.get("cost_calibration_modes")) / w,
+        "exact re-decisions of a small network": (0.0 if exact or n > config.get("exact_fallback_full_agents") else C_AUDIT_EXACT_FALLBACK * (singles + larger) * max(1, sizes.modes) / w),
         "writing the rows": C_AUDIT_ROW_OUT * (singles + larger),
     }
     nbytes = B_BASE + A_AUDIT * dense_bytes(n) + B_AUDIT_ROW * (singles + larger)

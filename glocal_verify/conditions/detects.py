@@ -16,6 +16,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from glocal_verify import config
+from glocal_verify.conditions.premises import missing_input
 from glocal_verify.conditions.registry import (
     CheckContext,
     checker,
@@ -145,11 +146,9 @@ def check_detects(system: System, ctx: CheckContext) -> list[ConditionResult]:
         invisible / vanishing / unbounded, exponential rate), ||dL_q xi|| / ||xi|| for a ZDA,
         the attack (kind, lambda0, moved agents), the threshold rule, horizon, step, seed.
     """
-    if ctx.exact or not ctx.options.get("simulate"):
+    if missing_input(system, "switching.detects", exact=ctx.exact, options=ctx.options) is not None:
         return []
     spec = system.spec
-    if spec.attack is None or spec.switching is None or not system.safe_modes:
-        return []
     limit = int(ctx.options.get("max_agents", config.get("detects_max_agents")))
     params = (ctx.tol.rtol, ctx.tol.band, limit)
     kept = _DETECTS_KIND.peek(system, params)

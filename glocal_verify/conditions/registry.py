@@ -21,7 +21,7 @@ import scipy.linalg
 
 from glocal_verify import config
 from glocal_verify.conditions.catalogue import CATALOGUE, ConditionInfo
-from glocal_verify.conditions.premises import vacuous_premise
+from glocal_verify.conditions.premises import missing_input, vacuous_premise
 from glocal_verify.errors import ArgumentError, GlocalVerifyError, ModelError, UnknownConditionError, did_you_mean, shorten
 from glocal_verify.model import System
 from glocal_verify.numerics.deadline import DeadlineExceeded, call_with_deadline
@@ -507,7 +507,10 @@ def check_conditions(
     options : mapping, optional
         Extra options passed to every checker through :class:`CheckContext`.
     progress : callable, optional
-        Called with each condition id before it runs.
+        Called with each condition id before it runs. A condition with nothing to evaluate on
+        this system (:func:`~glocal_verify.conditions.premises.missing_input`: no
+        ``[implementation]``, no attack ...) is neither run nor announced; the report's
+        ``options["skipped"]`` says why (``options["selected"]``: ``only`` was given).
     escalate : {"auto", "never"}
         ``"auto"``: a numeric ``undecided`` is re-decided by the checker's exact path (the
         spec's weights are rational), within ``exact_budget``; the result then says
@@ -543,12 +546,19 @@ def check_conditions(
         fragile_below = float(config.get("fragile_below"))
     ctx = CheckContext(exact=exact, tol=tol, options=dict(options or {}), fragile_below=fragile_below)
     per_checker: dict[str, list[ConditionResult]] = {}
+    skipped: dict[str, str] = {}
     for cid in ids:
         if cid not in _CHECKERS:
+            continue
+        why = missing_input(system, cid, exact=exact, options=ctx.options)
+        if why is not None:  # nothing to evaluate: neither run nor announced, but said
+            skipped[cid] = why
             continue
         if progress:
             progress(cid)
         per_checker[cid] = _run_checker(system, cid, ctx)
+        if not per_checker[cid]:
+            skipped[cid] = "the checker found nothing to evaluate on this system"
     if not exact and escalate == "auto":
         _escalate_all(system, per_checker, ctx, exact_budget, progress)
     results = [r for rs in per_checker.values() for r in rs]
@@ -568,5 +578,7 @@ def check_conditions(
         "exact_budget": exact_budget,
         "fragile_below": fragile_below,
         "simulate": bool(ctx.options.get("simulate")),
+        "selected": only is not None,
+        "skipped": skipped,
     }
     return Report(info, tuple(results), tuple(findings), opts)

@@ -27,6 +27,7 @@ import numpy as np
 from glocal_verify.analysis.sampled.loop import sampled_aliasing, sampled_observability, sampled_stability
 from glocal_verify.analysis.sampled.zda import sampled_zda
 from glocal_verify.conditions.registry import CheckContext, checker, result
+from glocal_verify.conditions.premises import missing_input
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.numerics.certified_rows import power_certificate
@@ -65,7 +66,7 @@ def check_sampled_stability(system: System, ctx: CheckContext) -> list[Condition
     Witness
         spectral radius, its certified radius, the largest stable period (sampled controller).
     """
-    if system.spec.implementation is None:
+    if missing_input(system, "sampled.stability") is not None:
         return []
     out = []
     for q in system.modes:
@@ -92,7 +93,7 @@ def check_sampled_no_aliasing(system: System, ctx: CheckContext) -> list[Conditi
         The closest pair (``mu``, ``z``), for the continuous loop the nearest pathological
         period ``h* = 2 pi k / |omega_a -/+ omega_b|``; on overlap the pairs involved.
     """
-    if system.spec.implementation is None:
+    if missing_input(system, "sampled.no-aliasing") is not None:
         return []
     out = []
     for q in system.modes:
@@ -115,7 +116,7 @@ def check_sampled_observability(system: System, ctx: CheckContext) -> list[Condi
     Margin
         The aliasing margin. Witness: the dimensions when computed, the reason.
     """
-    if system.spec.implementation is None:
+    if missing_input(system, "sampled.observability") is not None:
         return []
     out = []
     for q in system.modes:
@@ -146,7 +147,7 @@ def check_sampled_zda(system: System, ctx: CheckContext) -> list[ConditionResult
         with modulus and growth, the actuators with the zero at -1.
     """
     impl = system.spec.implementation
-    if impl is None or system.spec.attack is None:
+    if impl is None or missing_input(system, "sampled.zda") is not None:
         return []
     exact_ok = ctx.exact and impl.controller == "sampled"
     rctx = ctx if (not ctx.exact or exact_ok) else CheckContext(exact=False, tol=ctx.tol, options=ctx.options, fragile_below=ctx.fragile_below)
@@ -246,7 +247,7 @@ def check_sampled_local_uio(system: System, ctx: CheckContext) -> list[Condition
         ``1 - rho(F)`` (0 on failure). Witness: order, spectral radius, certificate or reason.
     """
     impl = system.spec.implementation
-    if impl is None or impl.controller != "sampled":
+    if impl is None or missing_input(system, "sampled.local-uio") is not None:
         return []
     out = []
     for lo in system.observers():

@@ -606,7 +606,8 @@ def audit(
         audit runs with M without these agents (stealthiness needs only the other channels to
         stay zero).
     progress : callable, optional
-        ``progress(done, total)`` after each chunk.
+        ``progress(0, total)`` when the sets are known, then ``progress(done, total)`` after
+        each chunk (in this process; an executor reports its own).
     tol : Tolerance
         The checkers' numeric tolerance.
     exact : bool
@@ -677,6 +678,8 @@ def _audit(
     if sensors is not None:
         system = without_sensors(system, list(sensors))
     sets = attack_sets(system, max_attackers, candidates)
+    if progress is not None and executor is None:
+        progress(0, len(sets))  # the phase starts: its set-up (the single agents) counts in it
     chunks = audit_chunks(system, sets, chunk_size, tol=tol, exact=exact, exact_fallback=exact_fallback, screen=screen, growth=growth)
     singles = local_singles_chunks(chunks, _candidates(system, candidates))
     chunks = seed_chunks(chunks, executor(singles) if executor is not None else [t() for t in singles])
