@@ -35,25 +35,11 @@ from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.numerics.minors import prime_for
 
-__all__ = ["NoZeroSet", "Pencil", "poly_det_mod", "zda_pencil", "zda_zero_set", "zero_set"]
+__all__ = ["NoZeroSet", "Pencil", "zda_pencil", "zda_zero_set", "zero_set"]
 
 
 class NoZeroSet(Exception):
     """The zero set could not be certified; the message says why."""
-
-
-def poly_det_mod(K: Sequence[Sequence[int]], diag: Sequence[tuple[int, int]], p: int) -> nmod_poly:
-    """det(K + s J) modulo p, J with a 1 at each (row, column) of ``diag``: evaluated at
-    0..len(diag) and interpolated (Newton)."""
-    k = len(K)
-    if k == 0:
-        return nmod_poly([1], p)
-    Km = nmod_mat(k, k, [int(x) for r in K for x in r], p)
-    J = nmod_mat(k, k, [0] * (k * k), p)
-    for i, j in diag:
-        J[i, j] = 1
-    xs = list(range(len(diag) + 1))
-    return _newton(xs, [int((Km + J * x).det()) for x in xs], p)
 
 
 def _newton(xs: Sequence[int], ys: Sequence[int], p: int) -> nmod_poly:
@@ -78,28 +64,15 @@ class Pencil:
         self.rows, self.U, self.K = list(rows), list(U), K
 
     def minor(self, rows: Sequence[int], p: int) -> nmod_poly:
-        """det T(s)[rows, U] modulo p."""
-        col = {c: j for j, c in enumerate(self.U)}
-        K = []
-        for a in rows:
-            r = [0] * len(self.U)
-            for j, x in self.K[a].items():
-                if j in col:
-                    r[col[j]] = mod_residues([x], p)[0]
-            K.append(r)
-        return poly_det_mod(K, [(i, col[a]) for i, a in enumerate(rows) if a in col], p)
+        """det T(s)[rows, U] modulo p (evaluated at 0..d, d the positions of s, and interpolated)."""
+        K, J = self.residues(rows, p)
+        xs = list(range(sum(1 for a in rows if a in set(self.U)) + 1))
+        return _newton(xs, [int((K + J * x).det()) for x in xs], p) if rows else nmod_poly([1], p)
 
     def _at(self, rows: Sequence[int], x: int, p: int) -> int:
         """det T(x)[rows, U] modulo p at one point (a cheap test that a minor is not 0)."""
-        col = {c: j for j, c in enumerate(self.U)}
-        M = nmod_mat(len(rows), len(self.U), [0] * (len(rows) * len(self.U)), p)
-        for i, a in enumerate(rows):
-            for j, v in self.K[a].items():
-                if j in col:
-                    M[i, col[j]] = mod_residues([v], p)[0]
-            if a in col:
-                M[i, col[a]] = (int(M[i, col[a]]) + x) % p
-        return int(M.det())
+        K, J = self.residues(rows, p)
+        return int((K + J * x).det())
 
     def anchor(self, p: int) -> list[int]:
         """Every row in U, and as many other rows as U has columns without a row of their own,
