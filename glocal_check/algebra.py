@@ -11,7 +11,7 @@ the rank over Q.
 from __future__ import annotations
 
 from itertools import permutations
-from math import frexp, lcm, ldexp, sqrt
+from math import lcm
 from typing import Any, Iterable, Sequence
 
 from flint import fmpq, fmpq_mat, fmpq_poly, fmpz, fmpz_mat, nmod_mat, nmod_poly
@@ -370,26 +370,32 @@ def hurwitz(F: Sequence[Sequence[fmpq]], claim: Any = None) -> float:
 
 def lyapunov(F: Sequence[Sequence[fmpq]], cert: Any, discrete: bool = False) -> None:
     """F is Hurwitz, by a Lyapunov matrix: P = P^T > 0 and Q = -(F^T P + P F) > 0 (both by
-    :func:`positive_definite`, with the stated shifts). For F v = lam v, v != 0:
-    v* Q v = -2 Re(lam) v* P v, so Re lam < 0. ``cert``: ``{"P": upper triangle rows,
-    "shift_P": c_P, "shift_Q": c_Q}`` (rationals). Exact integer products (python-flint).
-    ``discrete``: F is Schur stable, by P > 0 and Q = P - F^T P F > 0 (Stein):
-    v* Q v = (1 - |z|^2) v* P v, so |z| < 1."""
+    :func:`positive_definite`, with the stated shifts and factors). For F v = lam v, v != 0:
+    v* Q v = -2 Re(lam) v* P v, so Re lam < 0. ``discrete``: F is Schur stable, by P > 0 and
+    Q = P - F^T P F > 0 (Stein): v* Q v = (1 - |z|^2) v* P v, so |z| < 1.
+
+    ``cert``: ``{"P", "R_P", "R_Q"}`` upper triangles of integers scaled by 2^-scale
+    (``{"scale": b, "upper": rows}``) and ``"shift_P"``, ``"shift_Q"`` (rationals). Exact
+    integer products (python-flint)."""
+    require(isinstance(cert, dict), "a Lyapunov certificate is a mapping")
     n = len(F)
-    rows = cert.get("P") if isinstance(cert, dict) else None
-    require(isinstance(rows, list) and len(rows) == n and all(isinstance(r, list) and len(r) == n - i for i, r in enumerate(rows)), "P is not the upper triangle of an n x n matrix")
-    P = [[fmpq(0)] * n for _ in range(n)]
-    for i, r in enumerate(rows):
-        for k, x in enumerate(r):
-            P[i][i + k] = P[i + k][i] = rational(x, "P")
+    Pu, bP = _dyadic_upper(cert.get("P"), n, "P")
+    Pi = fmpz_mat(n, n, [Pu[min(i, j)][max(i, j)] for i in range(n) for j in range(n)])
     Fi, dF = integer_matrix(F)
-    Pi, dP = integer_matrix(P)
+    dP = 1 << bP
     if discrete:
         Qi, dQ = Pi * (dF * dF) - Fi.transpose() * Pi * Fi, dF * dF * dP
     else:
         Qi, dQ = -(Fi.transpose() * Pi + Pi * Fi), dF * dP
-    positive_definite(Pi, dP, rational(cert.get("shift_P"), "shift_P"), "P")
-    positive_definite(Qi, dQ, rational(cert.get("shift_Q"), "shift_Q"), "Q")
+    positive_definite(Pi, dP, rational(cert.get("shift_P"), "shift_P"), cert.get("R_P"), "P")
+    positive_definite(Qi, dQ, rational(cert.get("shift_Q"), "shift_Q"), cert.get("R_Q"), "Q")
+
+
+def _dyadic_upper(x: Any, n: int, what: str) -> tuple[list[list[int]], int]:
+    """An n x n upper triangle of integers and its scale exponent: (rows padded with zeros, b)."""
+    ok = isinstance(x, dict) and isinstance(x.get("scale"), int) and 0 <= x["scale"] <= 4096 and isinstance(x.get("upper"), list) and len(x["upper"]) == n
+    require(ok and all(isinstance(r, list) and len(r) == n - i and all(isinstance(v, int) and not isinstance(v, bool) for v in r) for i, r in enumerate(x["upper"])), f"{what} is not {{scale, upper}} of an {n} x {n} matrix")
+    return [[0] * i + list(r) for i, r in enumerate(x["upper"])], x["scale"]
 
 
 def integer_matrix(M: Sequence[Sequence[fmpq]]) -> tuple[fmpz_mat, int]:
@@ -401,33 +407,18 @@ def integer_matrix(M: Sequence[Sequence[fmpq]]) -> tuple[fmpz_mat, int]:
     return fmpz_mat(len(M), len(M[0]) if M else 0, [int(x.p) * (d // int(x.q)) for r in M for x in r]), d
 
 
-def positive_definite(Z: fmpz_mat, scale: int, c: fmpq, what: str) -> None:
-    """A = Z / scale (symmetric) is positive definite: for R, the checker's floating-point
-    Cholesky factor of A - c I rounded to a dyadic grid, E = A - c I - R^T R is computed
-    exactly and ||E||_F < c; then A = R^T R + c I + E >= (c - ||E||_2) I > 0."""
+def positive_definite(Z: fmpz_mat, scale: int, c: fmpq, R: Any, what: str) -> None:
+    """A = Z / scale (symmetric) is positive definite: with the stated R (upper triangular,
+    integers scaled by 2^-b; in practice a Cholesky factor of A - c I) the residual
+    E = A - c I - R^T R, computed exactly, has ||E||_F < c; then for every x,
+    x^T A x = |R x|^2 + c |x|^2 + x^T E x >= (c - ||E||_2) |x|^2 > 0."""
     n = Z.nrows()
     require(c > 0, f"the shift of {what} must be positive")
-    A = [[float(fmpq(int(x), scale)) for x in r] for r in Z.tolist()]
-    cf = float(c)
-    for i in range(n):
-        A[i][i] -= cf
-    R = []
-    for i in range(n):  # A - c I = R^T R, R upper triangular: row i, then the trailing update
-        d = A[i][i]
-        require(d > 0, f"{what} - c I is not numerically positive definite (pivot {i})")
-        d = sqrt(d)
-        Ri = [0.0] * i + [x / d for x in A[i][i:]]
-        R.append(Ri)
-        for j in range(i + 1, n):
-            if Ri[j] != 0.0:
-                rij, Aj = Ri[j], A[j]
-                Aj[j:] = [a - rij * b for a, b in zip(Aj[j:], Ri[j:])]
-    top = max(abs(x) for r in R for x in r)
-    b = max(0, 50 - frexp(top)[1])
-    Ri = fmpz_mat(n, n, [int(round(ldexp(x, b))) for r in R for x in r])
+    Ru, b = _dyadic_upper(R, n, f"the factor of {what}")
+    Ri = fmpz_mat(n, n, [v for r in Ru for v in r])
     cn, cd = int(c.p), int(c.q)
     E = (Z * (cd << 2 * b)) - fmpz_mat(n, n, [(cn * scale << 2 * b) if i == j else 0 for i in range(n) for j in range(n)]) - (Ri.transpose() * Ri) * (scale * cd)
-    require(sum(int(x) ** 2 for x in E.entries()) < (cn * scale << 2 * b) ** 2, f"{what}: the Cholesky residual is not below the shift")
+    require(sum(int(x) ** 2 for x in E.entries()) < (cn * scale << 2 * b) ** 2, f"{what}: the residual of its factor is not below the shift")
 
 
 def hurwitz_poly(p: fmpq_poly) -> float:

@@ -11,7 +11,8 @@ p_mu(z) = (z - 1)(z - 1 + gamma h) + (alpha mu h^2 / 2)(z + 1).
 
 * Stability (Jury's test on p_mu): the loop is stable apart from one z = 1 per component iff
   gamma h < 2 and every eigenvalue of L_q is below c = 2 gamma / (alpha h). ``jury``: gamma h < 2
-  and c I - L_q > 0 (:func:`~glocal_check.algebra.positive_definite`, the stated shift);
+  and c I - L_q > 0 (:func:`~glocal_check.algebra.positive_definite`, the stated shift and
+  factor);
   ``rayleigh`` (fails): a rational x with x^T L_q x >= c x^T x; ``structure`` (fails):
   gamma h >= 2.
 * Aliasing: p_a - p_b = (alpha (mu_a - mu_b) h^2 / 2)(z + 1), so two blocks share an eigenvalue
@@ -110,7 +111,7 @@ def sampled_stability(ctx: Context, scope: dict[str, Any], status: str, cert: di
         require(cert.get("kind") == "jury", "sampled.stability holds needs a jury certificate")
         rows = [[(c if i == j else fmpq(0)) - L[i].get(j, fmpq(0)) for j in range(sp.n)] for i in range(sp.n)]
         Z, den = integer_matrix(rows)
-        positive_definite(Z, den, rational(cert.get("shift"), "shift"), f"2 gamma / (alpha h) I - L_{m}")
+        positive_definite(Z, den, rational(cert.get("shift"), "shift"), cert.get("R"), f"2 gamma / (alpha h) I - L_{m}")
         return
     require(cert.get("kind") == "rayleigh", "sampled.stability fails needs a rayleigh or structure certificate")
     x = sp.vector(cert.get("x"), "x")

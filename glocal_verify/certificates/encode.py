@@ -15,6 +15,7 @@ from glocal_verify.numerics.minors import prime_for
 __all__ = [
     "EMIT_PRIME_LIMIT",
     "charpoly_claim",
+    "cholesky_upper",
     "lyapunov_claim",
     "schur_claim",
     "stability_claim",
@@ -134,10 +135,9 @@ def charpoly_claim(A: Sequence[Sequence[Fraction]], K: np.ndarray, cols: Sequenc
 
 
 def lyapunov_claim(F: np.ndarray) -> dict[str, Any]:
-    """``{"lyapunov": {"P", "shift_P", "shift_Q"}}`` for a Hurwitz matrix F (floating point):
-    P solves F^T P + P F = -I (symmetrised, its entries the decimals of its doubles, upper
-    triangle), the shifts half the smallest eigenvalues of P and of Q = -(F^T P + P F). The
-    checker proves P > 0 and Q > 0 for the exact F (``glocal_check.algebra.lyapunov``)."""
+    """``{"lyapunov": {"P", "shift_P", "shift_Q", "R_P", "R_Q"}}`` for a Hurwitz matrix F
+    (floating point): P solves F^T P + P F = -I (:func:`_lyapunov_entries`). The checker proves
+    P > 0 and Q = -(F^T P + P F) > 0 for the exact F (``glocal_check.algebra.lyapunov``)."""
     import scipy.linalg
 
     P = scipy.linalg.solve_continuous_lyapunov(F.T, -np.eye(len(F)))
@@ -145,14 +145,40 @@ def lyapunov_claim(F: np.ndarray) -> dict[str, Any]:
 
 
 def _lyapunov_entries(P: np.ndarray, Q: np.ndarray) -> dict[str, Any]:
-    """P (symmetrised; the decimals of its doubles, upper triangle) and the shifts: half the
-    smallest eigenvalues of P and Q."""
+    """P (symmetrised, scaled integers), the shifts (half the smallest eigenvalues of P and Q)
+    and the Cholesky factors of P - c_P I and Q - c_Q I (``dyadic_upper``)."""
     P = (P + P.T) / 2
+    Q = (Q + Q.T) / 2
     shift_P = float(np.linalg.eigvalsh(P)[0]) / 2
-    shift_Q = float(np.linalg.eigvalsh((Q + Q.T) / 2)[0]) / 2
+    shift_Q = float(np.linalg.eigvalsh(Q)[0]) / 2
     if not (shift_P > 0 and shift_Q > 0):
         raise ValueError("no Lyapunov matrix found in floating point")
-    return {"P": [[repr(float(x)) for x in P[i, i:]] for i in range(len(P))], "shift_P": q(Fraction(repr(shift_P))), "shift_Q": q(Fraction(repr(shift_Q)))}
+    Pd = dyadic_upper(P)
+    Pr = np.array([[0.0] * i + [float(x) / 2 ** Pd["scale"] for x in row] for i, row in enumerate(Pd["upper"])])
+    Pr = np.triu(Pr) + np.triu(Pr, 1).T  # the P the checker reads
+    return {
+        "P": Pd,
+        "shift_P": q(Fraction(repr(shift_P))),
+        "shift_Q": q(Fraction(repr(shift_Q))),
+        "R_P": cholesky_upper(Pr - shift_P * np.eye(len(P))),
+        "R_Q": cholesky_upper(Q - shift_Q * np.eye(len(Q))),
+    }
+
+
+def dyadic_upper(M: np.ndarray) -> dict[str, Any]:
+    """The upper triangle of M as integers scaled by 2^-scale (about 50 significant bits)."""
+    top = float(np.max(np.abs(M))) or 1.0
+    b = max(0, 50 - int(np.frexp(top)[1]))
+    return {"scale": b, "upper": [[int(round(float(x) * 2.0**b)) for x in M[i, i:]] for i in range(len(M))]}
+
+
+def cholesky_upper(M: np.ndarray) -> dict[str, Any]:
+    """R (upper, ``dyadic_upper``) with R^T R = M in floating point (M positive definite)."""
+    try:
+        L = np.linalg.cholesky((M + M.T) / 2)
+    except np.linalg.LinAlgError:
+        raise ValueError("no Cholesky factor in floating point") from None
+    return dyadic_upper(L.T)
 
 
 def schur_claim(F: np.ndarray) -> dict[str, Any]:

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from glocal_verify.certificates.encode import q, schur_claim, vector
+from glocal_verify.certificates.encode import cholesky_upper, q, schur_claim, vector
 from glocal_verify.certificates.global_certificates import NoCertificate
 from glocal_verify.model import System
 from glocal_verify.results import ConditionResult
@@ -27,7 +27,8 @@ def _jury(system: System, mode: str, c: Fraction, holds: bool) -> dict[str, Any]
         gap = float(c) - float(mu[-1])
         if not gap > 0:  # pragma: no cover - a verdict bug
             raise NoCertificate("the largest eigenvalue of L_q is not below 2 gamma / (alpha h) in floating point")
-        return {"kind": "jury", "shift": q(Fraction(repr(gap / 2)))}
+        shift = Fraction(repr(gap / 2))
+        return {"kind": "jury", "shift": q(shift), "R": cholesky_upper((float(c) - float(shift)) * np.eye(len(mu)) - np.array([[float(x) for x in row] for row in Lq]))}
     x = [Fraction(float(v)) for v in U[:, -1]]
     Lx = [sum((a * b for a, b in zip(row, x)), Fraction(0)) for row in Lq]
     if sum(a * b for a, b in zip(x, Lx)) < c * sum(v * v for v in x):
