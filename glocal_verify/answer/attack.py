@@ -53,7 +53,9 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from glocal_verify.results import FRAGILE_BELOW, Status, jsonable
+from glocal_verify import config
+from glocal_verify.conditions.catalogue import THEOREM_III3_IDS as THEOREM_IDS  # the conditions of Theorem III.3 (i)-(iii), per safe mode
+from glocal_verify.results import Status, jsonable
 from glocal_verify.words import format_labels, format_lambda
 
 __all__ = [
@@ -77,8 +79,6 @@ __all__ = [
 
 #: the answers of :func:`answer_attack` (``not assessed``: no attack)
 ATTACK_VERDICTS = ("detected", "undetected", "undecided", "not assessed")
-#: the conditions of Theorem III.3 (i)-(iii), per safe mode
-THEOREM_IDS = ("switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences")
 #: every condition the answer reads (``switching.detects`` only to show it beside the algebra)
 ANSWER_IDS = ("stealthy.zda", "stealthy.covert", "local.pencil", "local.uio", *THEOREM_IDS, "switching.avoids-attack", "switching.detects")
 #: the conditions the deployment answer reads (only with a sampled ``[implementation]``)
@@ -238,6 +238,9 @@ class AttackEvidence:
         The control centre measures something.
     deployment : DeploymentEvidence or None
         The ``detection.*`` results (None: no sampled ``[implementation]`` or not evaluated).
+    fragile_below : float or None
+        The robustness tolerance of the run the evidence comes from (``verify``'s
+        ``fragile_below``); None: the tunable ``fragile_below`` in force when answering.
     """
 
     kind: str
@@ -252,6 +255,7 @@ class AttackEvidence:
     schedule_text: str = ""
     monitored: bool = True
     deployment: DeploymentEvidence | None = None
+    fragile_below: float | None = None
 
 
 # ------------------------------------------------------------------------------------------
@@ -532,8 +536,9 @@ def _exposure(ev: AttackEvidence, m: ModeEvidence) -> ModeExposure:
     sim = None if m.simulated in (None, Status.UNDECIDED) else m.simulated is Status.HOLDS
     agrees = None if sim is None or exposes is None else sim == exposes
     fragile = ""
-    if exposes and m.touch_margin is not None and math.isfinite(m.touch_margin) and m.touch_margin < FRAGILE_BELOW:
-        fragile = f"{m.mode} touches the attack only by a relative signal of {m.touch_margin:.2g} (below {FRAGILE_BELOW:g})"
+    below = float(config.resolve("fragile_below", ev.fragile_below))
+    if exposes and m.touch_margin is not None and math.isfinite(m.touch_margin) and m.touch_margin < below:
+        fragile = f"{m.mode} touches the attack only by a relative signal of {m.touch_margin:.2g} (below {below:g})"
     if sim is not None:
         seen = f"; simulation: the control centre {'detects' if sim else 'does not detect'} it" + (f" ({m.simulation})" if m.simulation else "")
         if agrees is False:

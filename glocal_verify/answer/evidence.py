@@ -141,4 +141,5 @@ def evidence_from_report(report: Report) -> AttackEvidence | None:
     return AttackEvidence(
         atk.kind, tuple(atk.actuators), tuple(atk.by_cluster), stealthy, lam, source, tuple(local), tuple(modes),
         None if sched is None else tuple(sched.modes), "" if sched is None else sched.text, report.system.monitored, deployment_of(report),
+        _number(report.options.get("fragile_below")),
     )

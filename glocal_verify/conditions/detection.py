@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from glocal_verify import config
 from glocal_verify.conditions.premises import missing_input
 from glocal_verify.conditions.registry import CheckContext, checker, result
 from glocal_verify.errors import GlocalVerifyError, NotApplicableError
@@ -28,7 +29,7 @@ from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.results import ConditionResult, Status
 from glocal_verify.simulation.certified_thresholds import CertifiedThresholds
-from glocal_verify.simulation.guarantees import GUARANTEE_MAX_AGENTS, DetectionGuarantee, detection_guarantee
+from glocal_verify.simulation.guarantees import DetectionGuarantee, detection_guarantee
 from glocal_verify.simulation.sampled_deployment import SampledDeployment, sampled_deployment
 
 __all__ = ["check_detection_thresholds", "check_local_alarm", "check_detection_guarantee", "shared_thresholds", "shared_guarantee"]
@@ -91,8 +92,8 @@ def check_detection_thresholds(system: System, ctx: CheckContext) -> list[Condit
     """
     impl = system.spec.implementation
     nctx = _numeric(ctx)
-    if impl is not None and impl.controller == "sampled" and system.n > GUARANTEE_MAX_AGENTS:
-        return [result("detection.thresholds", nctx, Status.UNDECIDED, note=f"not computed: {system.n} agents > {GUARANTEE_MAX_AGENTS} (dense detectors)")]
+    if impl is not None and impl.controller == "sampled" and system.n > (most := config.get("guarantee_max_agents")):
+        return [result("detection.thresholds", nctx, Status.UNDECIDED, note=f"not computed: {system.n} agents > {most} (dense detectors)")]
     if missing_input(system, "detection.thresholds") is not None:
         return []
     try:

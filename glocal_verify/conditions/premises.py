@@ -18,6 +18,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from glocal_verify import config
 from glocal_verify.model import System
 
 __all__ = ["NO_MONITORS_PREMISE", "missing_input", "vacuous_premise"]
@@ -75,8 +76,6 @@ def missing_input(system: System, cid: str, *, exact: bool = False, options: Map
     options : mapping, optional
         The checkers' options (``simulate``: whether ``switching.detects`` simulates).
     """
-    from glocal_verify.simulation.guarantees import GUARANTEE_MAX_AGENTS
-
     spec = system.spec
     impl = spec.implementation
     if cid.startswith(("sampled.", "detection.")):
@@ -84,8 +83,8 @@ def missing_input(system: System, cid: str, *, exact: bool = False, options: Map
             return "the spec has no [implementation] (a sampled deployment)"
         if impl.controller != "sampled" and (cid.startswith("detection.") or cid == "sampled.local-uio"):
             return f"the [implementation] controller is {impl.controller}, not sampled"
-        if cid in ("detection.local-alarm", "detection.guarantee") and system.n > GUARANTEE_MAX_AGENTS:
-            return f"{system.n} agents, more than {GUARANTEE_MAX_AGENTS} (the certified detectors are dense)"
+        if cid in ("detection.local-alarm", "detection.guarantee") and system.n > (most := config.get("guarantee_max_agents")):
+            return f"{system.n} agents, more than {most} (the certified detectors are dense)"
     if cid in _NEEDS_ATTACK and spec.attack is None:
         return "no [attack] in the spec"
     if cid in _NEEDS_SAFE_MODES and not system.safe_modes:

@@ -470,7 +470,7 @@ def _verify_arguments(
     if not isinstance(tol, Tolerance):
         raise ArgumentError(f"tol: expected a Tolerance, got {type(tol).__name__}")
     choice_arg("escalate", escalate, ("auto", "never"))
-    budget = None if exact_budget is None else real_arg("exact_budget", exact_budget, 0.0, allow_inf=True)
+    budget = None if exact_budget is None else real_arg("exact_budget", config.resolve("exact_budget", exact_budget), 0.0, allow_inf=True)
     if budget is not None and (budget == 0.0 or math.isinf(budget)):
         budget = None  # no limit
     fb = None if fragile_below is None else real_arg("fragile_below", fragile_below, 0.0, allow_inf=True)
@@ -486,7 +486,7 @@ def check_conditions(
     options: Mapping[str, Any] | None = None,
     progress: Callable[[str], None] | None = None,
     escalate: str = "auto",
-    exact_budget: float | None = 30.0,
+    exact_budget: float | None = config.IN_FORCE,
     fragile_below: float | None = None,
 ) -> Report:
     """Run the registered checkers on ``system``: the report without its assessment.
@@ -517,7 +517,8 @@ def check_conditions(
         ``method: exact (escalated)``.
     exact_budget : float or None
         Seconds of wall time for all escalated exact runs of this call together, a real
-        number >= 0 (None, 0 or ``inf``: no limit). They run after every numeric checker, the cheap ones first; each gets a fair
+        number >= 0 (None, 0 or ``inf``: no limit; default the tunable ``exact_budget`` of
+        :mod:`glocal_verify.config` in force, 30 s). They run after every numeric checker, the cheap ones first; each gets a fair
         share of what is left (what it does not use passes on) and is stopped, not merely
         warned, at the end of its share. One whose estimated cost (:func:`exact_estimate`)
         times ``escalation_estimate_fraction`` (:mod:`glocal_verify.config`) exceeds the whole
@@ -542,8 +543,7 @@ def check_conditions(
     system, only, exact_budget, fragile_below = _verify_arguments(system, only, exact, tol, escalate, exact_budget, fragile_below, options, progress)
     _load()
     ids = resolve_ids(only) if only is not None else implemented_ids()
-    if fragile_below is None:
-        fragile_below = float(config.get("fragile_below"))
+    fragile_below = float(config.resolve("fragile_below", fragile_below))
     ctx = CheckContext(exact=exact, tol=tol, options=dict(options or {}), fragile_below=fragile_below)
     per_checker: dict[str, list[ConditionResult]] = {}
     skipped: dict[str, str] = {}

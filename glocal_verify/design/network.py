@@ -44,6 +44,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from glocal_verify import config
 from glocal_verify.conditions.cost import CostEstimate, SpecSizes
 from glocal_verify.conditions.design_cost import estimate_monitor_step, estimate_safe_modes
 from glocal_verify.design.audit import AuditResult, audit
@@ -51,7 +52,6 @@ from glocal_verify.design.monitors import MonitorDesign, design_monitors
 from glocal_verify.design.placement import ObserverProposal, place_cluster
 from glocal_verify.design.safe_modes import (
     DEFAULT_WEIGHTS,
-    EXACT_MAX_AGENTS as SAFE_MODES_EXACT_MAX_AGENTS,
     SafeModeDesign,
     design_safe_modes,
     with_modes,
@@ -183,7 +183,7 @@ def _velocity_only(spec: SystemSpec) -> SystemSpec:
     return dataclasses.replace(spec, monitor=new, attack=attack)
 
 
-def _observers(system: System, exact_limit: int) -> tuple[SystemSpec, list[ObserverProposal], list[str]]:
+def _observers(system: System, exact_limit: int | None) -> tuple[SystemSpec, list[ObserverProposal], list[str]]:
     """Step 2: one more (or a wider) observer per cluster for its interior agents (or the spec's attack)."""
     props: list[ObserverProposal] = []
     notes: list[str] = []
@@ -229,7 +229,7 @@ def design_network(
     candidates: Sequence[Label] | None = None,
     weights: Sequence[Any] = DEFAULT_WEIGHTS,
     place: bool = True,
-    exact_limit: int = 2000,
+    exact_limit: int | None = None,
     max_links: int = 2,
     monitor_budget: int = 3,
     schedule_dwell: float = SCHEDULE_DWELL,
@@ -254,8 +254,9 @@ def design_network(
         Weights of added links.
     place : bool
         Add local observers (step 2).
-    exact_limit : int
-        Exhaustive-search limit of the observer placement.
+    exact_limit : int, optional
+        Exhaustive-search limit of the observer placement (default: the tunable
+        ``placement_exact_limit`` of :mod:`glocal_verify.config` in force).
     monitor_budget : int
         Largest number of velocity monitors the design adds in all (steps 5 and 6).
     schedule_dwell : float
@@ -296,7 +297,7 @@ def design_network(
     lambdas = {r.actuators: r.lambda0 for r in mid.rows if r.lambda0 is not None}
     if targets:
         if admit is not None:
-            admit(estimate_safe_modes(SpecSizes.from_spec(spec), len(targets), exact=mid_sys.n <= SAFE_MODES_EXACT_MAX_AGENTS))
+            admit(estimate_safe_modes(SpecSizes.from_spec(spec), len(targets), exact=mid_sys.n <= config.get("safe_modes_exact_max_agents")))
         say(f"designing safe modes for {len(targets)} undetected attack sets")
         safe = design_safe_modes(mid_sys, targets, None, budget, weights=weights, lambdas=lambdas, max_links=max_links, progress=say, tick=tick)
     else:
@@ -306,7 +307,7 @@ def design_network(
     if safe.unexposed and monitor_budget > 0:
         pending = [F for F in targets if ",".join(map(str, F)) in safe.unexposed]
         if admit is not None:
-            admit(estimate_monitor_step(SpecSizes.from_spec(spec), len(pending), monitor_budget, exact=mid_sys.n <= SAFE_MODES_EXACT_MAX_AGENTS))
+            admit(estimate_monitor_step(SpecSizes.from_spec(spec), len(pending), monitor_budget, exact=mid_sys.n <= config.get("safe_modes_exact_max_agents")))
         spec, added, safe = _monitor_unexposed(spec, pending, monitor_budget, safe, budget, weights, max_links, say, tick)
     final = System(spec)
     say("choosing the global monitors")

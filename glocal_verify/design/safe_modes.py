@@ -60,9 +60,9 @@ Multi-link modes (attacks no one-link mode exposes)
       eigendecomposition. The screen is not a proof; it only orders the proposals
       (:mod:`glocal_verify.design.multilink` holds this machinery and its thresholds).
 
-    Changes are scored against the remaining attacks (at most ``MAX_COMBINATIONS`` per size,
+    Changes are scored against the remaining attacks (at most ``safe_modes_max_combinations`` per size,
     size 2 first, then up to ``max_links``), and the best-scoring ones are screened (at most
-    ``MAX_SCREENS`` per chosen mode, fewer for large N: ``MAX_SCREEN_WORK``) and re-verified as below: so a multi-link mode is
+    ``safe_modes_max_screens`` per chosen mode, fewer for large N: ``safe_modes_max_screen_work``) and re-verified as below: so a multi-link mode is
     proposed only for attacks no one-link mode exposes, with as few links as the search finds.
 
 Search and verification
@@ -93,6 +93,7 @@ from glocal_verify import config
 from glocal_verify.analysis.switching.avoidance import decide_avoidance, split_basis, stealthy_bases
 from glocal_verify.analysis.stealthy.zda import ModalPencil
 from glocal_verify.analysis.stealthy.zda_verdict import ZdaOptions, decide_zda
+from glocal_verify.conditions.catalogue import THEOREM_III3_IDS as THEOREM_IDS
 from glocal_verify.conditions.registry import check_conditions
 from glocal_verify.design.multilink import (
     image_kernel_holds,
@@ -119,8 +120,6 @@ __all__ = [
 ]
 
 DEFAULT_WEIGHTS = (Fraction(1), Fraction(2), Fraction(3))
-EXACT_MAX_AGENTS = config.get("safe_modes_exact_max_agents")
-THEOREM_IDS = ("switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences")
 #: attack sets between two progress reports of a mode's confirmation
 CONFIRM_CHUNK = 50
 #: a proposed mode none of whose first this many claimed sets is confirmed is dropped (the
@@ -542,15 +541,11 @@ class _Confirmations:
 # ------------------------------------------------------------------------------------------
 # multi-link changes (module docstring, "Multi-link modes")
 
-#: at most this many multi-link changes are scored, and this many screened per chosen mode
-MAX_COMBINATIONS = config.get("safe_modes_max_combinations")
-MAX_SCREENS = config.get("safe_modes_max_screens")
-#: and at most about this many entry operations of the screen per chosen mode (64 s N^2 each)
-MAX_SCREEN_WORK = config.get("safe_modes_max_screen_work")
-#: changes screened together (one batched secular solve), at most about this many array
-#: entries (B (N - 1)^2) per temporary
-SCREEN_BATCH = config.get("safe_modes_screen_batch")
-SCREEN_BATCH_ENTRIES = config.get("safe_modes_screen_batch_entries")
+#: the multi-link changes scored (``safe_modes_max_combinations``) and screened per chosen mode
+#: (``safe_modes_max_screens``, ``safe_modes_max_screen_work`` entry operations of 64 s N^2 each),
+#: and the batches of the screen (``safe_modes_screen_batch`` changes, about
+#: ``safe_modes_screen_batch_entries`` array entries B (N - 1)^2 per temporary) are tunables of
+#: :mod:`glocal_verify.config`, read when used
 
 
 def _pairs(system: System, links: Sequence[LinkCandidate]) -> list[tuple[int, int]]:
@@ -576,7 +571,7 @@ def _multi_combinations(system: System, cands: Sequence[LinkCandidate], tg: Sequ
             if link_forest(_pairs(system, [cands[k] for k in combo])) is None:
                 continue
             out.append(combo)
-            if len(out) >= MAX_COMBINATIONS:
+            if len(out) >= config.get("safe_modes_max_combinations"):
                 return out
     return out
 
@@ -619,7 +614,7 @@ def _multi_search(
             counts = C[:, remaining].sum(axis=1)
             order = iter([int(p) for p in np.argsort(-counts, kind="stable") if counts[p] > 0 and int(p) not in tried])
             chosen = None
-            budget = int(min(MAX_SCREENS, max(8, MAX_SCREEN_WORK / (64 * size * system.n**2))))
+            budget = int(min(config.get("safe_modes_max_screens"), max(8, config.get("safe_modes_max_screen_work") / (64 * size * system.n**2))))
             while budget > 0 and chosen is None:
                 batch: list[int] = []
                 for p in order:
@@ -627,7 +622,7 @@ def _multi_search(
                         batch.append(p)
                     else:
                         tried.add(p)
-                    if len(batch) >= min(SCREEN_BATCH, budget, max(1, int(SCREEN_BATCH_ENTRIES // system.n**2))):
+                    if len(batch) >= min(config.get("safe_modes_screen_batch"), budget, max(1, int(config.get("safe_modes_screen_batch_entries") // system.n**2))):
                         break
                 if not batch:
                     break
@@ -738,7 +733,7 @@ def design_safe_modes(
             attacks = [F for F, r in rows.items() if r.verdict == "undetected"]
         lambdas = {F: r.lambda0 for F, r in rows.items() if r.lambda0 is not None}
     targets_F = [tuple(sorted(F, key=system.index.__getitem__)) for F in attacks]
-    exact = system.n <= EXACT_MAX_AGENTS if exact is None else exact
+    exact = system.n <= config.get("safe_modes_exact_max_agents") if exact is None else exact
     t0 = time.perf_counter()
     err = eigenvector_error(system)
     ok = _admissible(system, cands, err)

@@ -46,6 +46,7 @@ from typing import Any, Mapping, Sequence
 import flint
 import numpy as np
 
+from glocal_verify import config
 from glocal_verify.analysis.sampled.loop import implementation_of
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
@@ -59,7 +60,6 @@ from glocal_verify.spec.arguments import real_arg
 from glocal_verify.spec.types import NORMAL_MODE, ImplementationSpec, UncertaintySpec
 
 __all__ = [
-    "GUARANTEE_MAX_AGENTS",
     "AttackResponse",
     "attack_response",
     "StageGuarantee",
@@ -67,8 +67,6 @@ __all__ = [
     "detection_guarantee",
 ]
 
-#: largest network for which the dense composites are built
-GUARANTEE_MAX_AGENTS = 150
 #: bits of the complex ball arithmetic of the particular solutions
 _PREC = 128
 
@@ -413,7 +411,7 @@ def detection_guarantee(
     ------
     NotApplicableError
         Without a sampled implementation or an attack, or on more than
-        :data:`GUARANTEE_MAX_AGENTS` agents.
+        ``guarantee_max_agents`` (:mod:`glocal_verify.config`) agents.
     """
     impl = implementation_of(system, implementation)
     if size is not None:
@@ -422,8 +420,8 @@ def detection_guarantee(
         real_arg("horizon", horizon, 0.0)
     if size_horizon is not None:
         real_arg("size_horizon", size_horizon, 0.0)
-    if system.n > GUARANTEE_MAX_AGENTS:
-        raise NotApplicableError(f"{system.n} agents > {GUARANTEE_MAX_AGENTS}: the dense composites are not built")
+    if system.n > (most := config.get("guarantee_max_agents")):
+        raise NotApplicableError(f"{system.n} agents > {most}: the dense composites are not built")
     th = thresholds if thresholds is not None else certified_thresholds(system, implementation=impl, uncertainty=uncertainty, horizon=horizon)
     atk = attack if attack is not None else sampled_attack_from_spec(system, impl)
     a = float(atk.amplitude if size is None else size)

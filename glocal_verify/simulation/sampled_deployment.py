@@ -27,12 +27,13 @@ from typing import Any
 
 import numpy as np
 
+from glocal_verify import config
 from glocal_verify.analysis.sampled.loop import implementation_of
 from glocal_verify.derived import Kind
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.simulation.certified_thresholds import certified_thresholds
-from glocal_verify.simulation.guarantees import GUARANTEE_MAX_AGENTS, DetectionGuarantee, detection_guarantee
+from glocal_verify.simulation.guarantees import DetectionGuarantee, detection_guarantee
 from glocal_verify.simulation.schedule import Schedule
 from glocal_verify.observers.sampled import to_float
 from glocal_verify.simulation.schedule_thresholds import DetectorSchedule, ScheduleThresholds, schedule_thresholds
@@ -141,7 +142,7 @@ def sampled_deployment(system: System, implementation: ImplementationSpec | None
     Raises
     ------
     NotApplicableError
-        Without a sampled ``[implementation]``, beyond :data:`GUARANTEE_MAX_AGENTS` agents, or
+        Without a sampled ``[implementation]``, beyond ``guarantee_max_agents`` (:mod:`glocal_verify.config`) agents, or
         when no detector can be built.
     """
     if implementation is not None:
@@ -153,8 +154,8 @@ def _compute(system: System, implementation: ImplementationSpec | None) -> Sampl
     impl = implementation_of(system, implementation)
     if impl.controller != "sampled":
         raise NotApplicableError("the detectors' exact model needs a sampled controller (implementation.controller = 'sampled')")
-    if system.n > GUARANTEE_MAX_AGENTS:
-        raise NotApplicableError(f"{system.n} agents > {GUARANTEE_MAX_AGENTS}: the dense composites are not built")
+    if system.n > (most := config.get("guarantee_max_agents")):
+        raise NotApplicableError(f"{system.n} agents > {most}: the dense composites are not built")
     schedule = Schedule.from_spec(system)
     h = float(impl.period)
     T = deployment_horizon(system, schedule, h)

@@ -44,6 +44,7 @@ from glocal_verify.results import jsonable
 from glocal_verify.runtime.lines import write_line
 from glocal_verify.simulation.engine import simulate
 from glocal_verify.simulation.envelope import Reporter, envelope_by_rows
+from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE
 from glocal_verify.simulation.observer_models import ObserverBank
 from glocal_verify.simulation.schedule import Schedule, SimulationResult
 from glocal_verify.simulation.step_operators import StepOperators
@@ -80,7 +81,7 @@ class ThresholdRule:
 
     kind: str = "envelope"
     box: float = 1.0
-    rounding: float = 1e-9
+    rounding: float = DEFAULT_TOLERANCE.rtol
     runs: int = 16
     factor: float = 2.0
     seed: int = 12345

@@ -25,6 +25,7 @@ from glocal_verify.spec.types import NORMAL_MODE, Label
 
 __all__ = [
     "LocalCase",
+    "PencilScreen",
     "certificate_verdict",
     "certify_pencil_verdict",
     "exact_int",
@@ -37,6 +38,7 @@ __all__ = [
     "observability_certificate",
     "pencil_matrices",
     "pencil_matrices_exact",
+    "screened_pencil_verdict",
 ]
 
 #: derived results this module keeps on the system (glocal_verify.derived)
@@ -604,6 +606,62 @@ def certificate_verdict(status: Status, margin: float | None, witness: Mapping[s
         return Verdict(status, margin=margin, witness=witness, exact=exact)
     eb = cert.get("error_bound")
     return Verdict(status, margin=margin, error_bound=None if eb is None else float(eb), witness=witness, exact=exact, note=str(cert.get("note", "")))
+
+
+@dataclass(frozen=True, eq=False)
+class PencilScreen:
+    """The exact screens the rule of ``local.pencil`` may try before its pencil analysis (an audit's options).
+
+    They choose how a verdict is proved, never how a status follows from a proof
+    (:func:`screened_pencil_verdict`).
+
+    Attributes
+    ----------
+    member : (label, Verdict) or None
+        A suspected agent and the rule's verdict of its single set (the caller's earlier call):
+        when that verdict fails, so does every set containing the agent.
+    minors : bool
+        Try the exact maximal minors (:func:`minor_certificate`).
+    cache : dict or None
+        The per-run store of the minors' polynomials.
+    """
+
+    member: tuple[Label, Verdict] | None = None
+    minors: bool = True
+    cache: dict[Any, Any] | None = None
+
+
+def screened_pencil_verdict(system: System, case: LocalCase, screen: PencilScreen, method: str, *, exact: bool = False) -> Verdict | None:
+    """The verdict of Proposition III.2 (iii) an exact screen proves, or None (then the pencil analysis decides).
+
+    In this order: a member a of the suspected set S whose pencil loses column rank at some
+    lam makes S's lose it too (its kernel vector padded with zero inputs on S minus {a}); a
+    twin mode the observer cannot see is an exact kernel vector (:func:`twin_failure`); exact
+    maximal minors prove full column rank for every lam (:func:`minor_certificate`). Called by
+    the rule (``pencil_verdict(..., screen=)``), which states the verdict.
+
+    Parameters
+    ----------
+    system : System
+    case : LocalCase
+    screen : PencilScreen
+    method : str
+        The method the witness records.
+    exact : bool
+        The verdict is one of the exact path.
+    """
+    a, single = screen.member if screen.member is not None else (None, None)
+    if single is not None and single.status is Status.FAILS and a in case.suspected and len(case.suspected) > 1:
+        proof = single.witness.get("certificate", {}).get("by") if isinstance(single.witness.get("certificate"), Mapping) else None
+        by = f"the suspected agent {a} alone fails ({proof or 'its verdict'}): its kernel vector, padded with zero inputs, is one of this suspected set"
+        status = Status.FAILS
+    elif (by := twin_failure(system, case)) is not None:  # type: ignore[assignment]
+        status = Status.FAILS
+    elif screen.minors and (by := minor_certificate(system, case, screen.cache)) is not None:  # type: ignore[assignment]
+        status = Status.HOLDS
+    else:
+        return None
+    return Verdict(status, margin=0.0 if status is Status.FAILS else math.nan, witness={"method": method, "certificate": {"by": by, "error_bound": None}}, exact=exact)
 
 
 def certify_pencil_verdict(system: System, case: LocalCase, numeric: Verdict) -> Verdict:

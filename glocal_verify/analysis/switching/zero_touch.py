@@ -105,8 +105,8 @@ def _grounded(system: System) -> Any:
 
 
 #: the modular screen inverts the grounded Laplacian modulo a prime (O(N^3) once per system) up
-#: to this many agents; above, every set takes the exact solve
-MODULAR_MAX_AGENTS = config.get("zero_touch_modular_max_agents")
+#: to ``zero_touch_modular_max_agents`` agents (:mod:`glocal_verify.config`, read when used);
+#: above, every set takes the exact solve
 
 
 def _inverse_mod(system: System) -> tuple[int, np.ndarray] | None:
@@ -140,7 +140,7 @@ def _inverse_mod(system: System) -> tuple[int, np.ndarray] | None:
             return q, np.array([int(x) for x in inv.entries()], dtype=np.int64).reshape(n, n)
         return None
 
-    if system.n - 1 > MODULAR_MAX_AGENTS:
+    if system.n - 1 > config.get("zero_touch_modular_max_agents"):
         return None
     return _GROUNDED_LAPLACIAN_INVERSE_MOD_KIND.get(system, (NORMAL_MODE,), build)  # type: ignore[no-any-return]
 
@@ -221,7 +221,7 @@ def zero_touch(system: System, F: Sequence[int], modes: Sequence[str]) -> list[Z
 
     Applies when G_1 is connected, no position is monitored and |F| >= 2 (with |F| = 1 the
     kernel Z_0 has no input: u_0 = 0). First modulo a prime p (the inverse of the grounded
-    Laplacian modulo p, once per system, up to :data:`MODULAR_MAX_AGENTS` agents): rank m - 1
+    Laplacian modulo p, once per system, up to ``zero_touch_modular_max_agents`` agents): rank m - 1
     of [dL_q y_k] modulo p proves rank m - 1 over Q (a nonzero minor modulo p is nonzero), so
     every direction is touched. Otherwise one exact solve over Q (``fmpq_mat``) decides.
 
