@@ -20,6 +20,8 @@ def main(argv: list[str] | None = None) -> int:
     except CheckError as exc:
         print(f"glocal_check: {exc}", file=sys.stderr)
         return 2
+    if out.observed():
+        print(out.observed())
     print(out.summary())
     return 0 if out.ok else 1
 

@@ -8,7 +8,8 @@ the state space by the unobservable subspace N (its eigenvalues there are fixed 
   pivot rows where X is invertible. On the quotient by span X, F acts as
   F_bar = (Q F)[rest, rest] with Q = I - X X[piv]^-1 E_piv^T; its eigenvalues, enclosed by
   python-flint, have negative real parts (its characteristic polynomial is the one stated,
-  modulo a prime). The quotient by N is a further quotient, whose
+  modulo a prime), or a Lyapunov matrix proves them so (``lyapunov``,
+  :func:`~glocal_check.algebra.lyapunov`: large quotients). The quotient by N is a further quotient, whose
   eigenvalues are some of these.
 * ``central-injection``: H = [0; alpha S_Mx^T] (the design of large networks). Then
   F = [[0, I], [-K, -gamma I]] with K = alpha (L_1 + S_Mx^T S_Mx) symmetric >= 0; an
@@ -24,7 +25,7 @@ from typing import Any
 
 from flint import fmpq, fmpq_mat
 
-from glocal_check.algebra import hurwitz, require
+from glocal_check.algebra import hurwitz, lyapunov, require
 from glocal_check.context import Context
 from glocal_check.spec import rational
 
@@ -87,5 +88,7 @@ def central(ctx: Context, cert: dict[str, Any]) -> None:
                 F[i] = [F[i][j] - sum((coeffs[k] * G[k][j] for k in range(d)), fmpq(0)) for j in range(2 * n)]
     keep = [i for i in range(2 * n) if i not in set(piv)]
     Fbar = [[F[i][j] for j in keep] for i in keep]
+    if "lyapunov" in cert:
+        return lyapunov(Fbar, cert["lyapunov"])
     top = hurwitz(Fbar, cert)
     require(top < 0, f"A_1 - H C is not shown stable on the observable part (max Re <= {top:.3g})")

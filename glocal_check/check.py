@@ -4,6 +4,14 @@ The file (``format = "glocal-verify/certificates"``, ``version = 1``) lists ever
 verdict of a ``glocal-verify verify`` run: its condition id, scope and status, and its
 certificate or ``null`` (then ``reason`` says why there is none). ``assumes`` states the exact
 numbers the certificates are about; they must be those the checker reads from the spec.
+
+Simulated observations (:data:`SIMULATED`, the checker's own list) are not decided verdicts:
+``switching.detects`` reports what one floating-point simulation from one initial state showed,
+which no exact statement about the system decides (Theorem III.3's conditions and
+``switching.avoids-attack`` carry the algebra, each with its own certificate). Wherever the file
+lists them (``observations``, or ``verdicts`` without a certificate) they are counted apart and
+named on one line; any other id listed as an observation counts as a decided verdict without a
+certificate, and a certificate for a simulated id is rejected.
 """
 
 from __future__ import annotations
@@ -18,14 +26,18 @@ from glocal_check.context import Context
 from glocal_check.local import pencil, uio
 from glocal_check.spec import CheckError, Spec, read_spec
 from glocal_check.spectra import differences, distinct
+from glocal_check.sampled import SAMPLED_STRUCTURAL, detector_stable, sampled_stability, sampled_uio, sampled_zda
 from glocal_check.structure import STRUCTURAL
 from glocal_check.subspaces import hidden, observable
-from glocal_check.zda import avoids_attack, zda_exists
+from glocal_check.zda import avoids_attack, no_zda, zda_exists
 
-__all__ = ["FORMAT", "VERSION", "Outcome", "assumptions", "check_certificate", "check_files"]
+__all__ = ["FORMAT", "SIMULATED", "VERSION", "Outcome", "assumptions", "check_certificate", "check_files"]
 
 FORMAT = "glocal-verify/certificates"
 VERSION = 1
+
+#: condition ids whose status is a simulated observation, not a decided verdict
+SIMULATED = frozenset({"switching.detects"})
 
 #: statuses a ``structure`` certificate may prove for ids whose other status needs more
 STRUCTURE_PROVES = {"local.uio": {"fails"}, "local.pencil": {"fails"}}
@@ -38,6 +50,7 @@ class Outcome:
     accepted: int = 0
     rejected: list[str] = field(default_factory=list)
     without: int = 0
+    observations: int = 0
 
     @property
     def checked(self) -> int:
@@ -46,6 +59,12 @@ class Outcome:
     @property
     def ok(self) -> bool:
         return not self.rejected and self.without == 0
+
+    def observed(self) -> str:
+        """The line naming the simulated observations (empty when there are none)."""
+        if not self.observations:
+            return ""
+        return f"not checked: {self.observations} simulated observation(s) ({', '.join(sorted(SIMULATED))}: a simulation, not a decided verdict)"
 
     def summary(self) -> str:
         return f"checked {self.checked} certificates: {self.accepted} accepted, {len(self.rejected)} rejected; {self.without} decided verdicts without a certificate"
@@ -72,6 +91,8 @@ def assumptions(spec: Spec) -> dict[str, Any]:
         "schedule": list(spec.schedule),
         "attack": None,
     }
+    if spec.implementation is not None:
+        out["implementation"] = {"period": str(spec.implementation["period"]), "controller": spec.implementation["controller"]}
     if spec.attack is not None:
         a = spec.attack
         out["attack"] = {
@@ -84,7 +105,7 @@ def assumptions(spec: Spec) -> dict[str, Any]:
 
 
 def _structure(ctx: Context, cid: str, scope: dict[str, Any], status: str, cert: dict[str, Any]) -> None:
-    rule = STRUCTURAL.get(cid)
+    rule = STRUCTURAL.get(cid) or SAMPLED_STRUCTURAL.get(cid)
     require(rule is not None, f"{cid} has no structural rule")
     require(status in STRUCTURE_PROVES.get(cid, {"holds", "fails"}), f"a structure certificate cannot prove that {cid} {status}")
     got, facts = rule(ctx, scope)
@@ -107,7 +128,9 @@ def _privacy(ctx: Context, cid: str, scope: dict[str, Any], status: str, cert: d
 
 
 def _zda(ctx: Context, cid: str, scope: dict[str, Any], status: str, cert: dict[str, Any]) -> None:
-    require(status == "holds" and cert.get("kind") == "zda", "stealthy.zda: only an existing ZDA has a certificate")
+    if status == "fails":
+        return no_zda(ctx, scope, cert)
+    require(cert.get("kind") == "zda", "stealthy.zda holds needs a zda certificate")
     require(not scope, "stealthy.zda has the global scope")
     zda_exists(ctx, cert)
 
@@ -152,6 +175,10 @@ CHECKS: dict[str, Check] = {
     "local.pencil": _pencil,
     "local.uio": _uio,
     "central.observer": _central,
+    "sampled.stability": lambda ctx, cid, scope, status, cert: sampled_stability(ctx, scope, status, cert),
+    "sampled.zda": lambda ctx, cid, scope, status, cert: sampled_zda(ctx, scope, status, cert),
+    "sampled.local-uio": lambda ctx, cid, scope, status, cert: sampled_uio(ctx, scope, status, cert),
+    "detection.thresholds": lambda ctx, cid, scope, status, cert: detector_stable(ctx, scope, status, cert),
 }
 
 
@@ -159,6 +186,7 @@ def check_certificate(ctx: Context, entry: dict[str, Any]) -> None:
     """Check one entry of the file; raise :class:`Rejected` with the reason."""
     cid, scope, status, cert = entry.get("id"), entry.get("scope"), entry.get("status"), entry.get("certificate")
     require(isinstance(cid, str) and isinstance(scope, dict) and status in ("holds", "fails") and isinstance(cert, dict), "malformed entry")
+    require(cid not in SIMULATED, f"{cid} is a simulated observation: no certificate can prove it")
     if cert.get("kind") == "structure":
         return _structure(ctx, cid, scope, status, cert)
     check = CHECKS.get(cid)
@@ -188,12 +216,23 @@ def check_files(spec_path: str, cert_path: str, report: Callable[[str], None] = 
         raise CheckError(f"{cert_path}: no list of verdicts")
     out = Outcome()
     mine = json.loads(json.dumps(assumptions(spec)))
-    differ = [k for k in mine if mine[k] != (data.get("assumes") or {}).get(k)]
+    theirs = data.get("assumes") if isinstance(data.get("assumes"), dict) else {}
+    differ = [k for k in sorted(set(mine) | set(theirs)) if mine.get(k) != theirs.get(k)]
     ctx = Context(spec)
+    observations = data.get("observations", [])
+    if not isinstance(observations, list):
+        raise CheckError(f"{cert_path}: observations is not a list")
+    for entry in observations:
+        simulated = isinstance(entry, dict) and entry.get("id") in SIMULATED
+        out.observations += simulated
+        out.without += not simulated  # a decided verdict listed as an observation has no certificate
     for entry in entries:
         if not isinstance(entry, dict) or entry.get("status") not in ("holds", "fails"):
             out.rejected.append(f"REJECTED {entry!r:.80}: not a decided verdict")
             report(out.rejected[-1])
+            continue
+        if entry.get("id") in SIMULATED and entry.get("certificate") is None:
+            out.observations += 1
             continue
         if entry.get("certificate") is None:
             out.without += 1

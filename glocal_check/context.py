@@ -78,6 +78,11 @@ class Context:
         """The mode a scope starts in (the schedule's first mode for ``{}``)."""
         return self.mode(scope["mode"]) if "mode" in scope else self.spec.schedule[0]
 
+    def minors(self, minors: Any) -> list[dict[str, Any]]:
+        """A certificate's minors with their row labels as agent indices."""
+        require(isinstance(minors, list) and all(isinstance(m, dict) and isinstance(m.get("rows"), list) for m in minors), "minors: expected [{rows, degree}, ...]")
+        return [dict(m, rows=[self.spec.idx(a, "rows") for a in m["rows"]]) for m in minors]
+
     def labels(self, idx: Any) -> list[str]:
         return [str(self.spec.labels[i]) for i in idx]
 

@@ -14,13 +14,14 @@ if x = 0 then u = 0. Every s in C is lam^2 + gamma lam for some lam != 0. So it 
     T(s) = (s I + alpha L)[P \\ I, U], U = P \\ (pos u vel),   has full column rank for all s.
 
 Certificate ``pencil-minors``: a nonzero minor of T_0 modulo a prime, and square minors f_k(s)
-of T(s) (row sets), computed modulo p by evaluation, whose gcd modulo p is 1, the first one of
-the degree its rows allow (the rows of U it keeps) so that p does not divide its leading
-coefficient over Q (or, marked ``exact``, computed over Q with its degree kept modulo p).
-If the f_k had a common complex root, its minimal polynomial h (primitive
-over Z) would divide each of them, p would not divide lc(h) (it divides lc(f_1)), and h mod p,
-of degree >= 1, would divide every f_k mod p, and so 1 = sum_k b_k f_k mod p (the stated
-Bezout coefficients): so T(s) has full column rank everywhere.
+of T(s) (row sets), computed modulo p by evaluation, whose gcd modulo p is 1, the first one
+keeping its exact degree over Q modulo p (:func:`~glocal_check.algebra.pencil_minors`).
+If the f_k had a common complex root, its minimal polynomial h would divide each of them, and
+h mod p, of degree >= 1, would divide every f_k mod p, and so 1 = sum_k b_k f_k mod p (the
+stated Bezout coefficients): so T(s) has full column rank everywhere.
+
+Or, with ``zero_set``, T(s) loses column rank nowhere: the zero set of T(s) without factors
+(:func:`~glocal_check.zeros.pencil_zero_set`).
 
 Certificate ``pencil-kernel`` (fails): a kernel vector of P(lam) over Q[t]/(g), t = lam,
 checked on the definition above, with an entry prime to g.
@@ -30,7 +31,8 @@ Hurwitz, h = E (C E)^T (C E has orthonormal columns when every boundary velocity
 the rank condition). Then T = I - h C, K = K1 + F h give the unknown-input observer
 z' = F z + T B u + K y, x^ = z + h y, whose error obeys e' = F e whatever the coupling (Chen,
 Patton & Zhang 1996). Hurwitz: python-flint root enclosures of the exact characteristic
-polynomial of F (stated modulo a prime in the certificate).
+polynomial of F (stated modulo a prime in the certificate), or a Lyapunov matrix
+(:func:`~glocal_check.algebra.lyapunov`) for large clusters.
 """
 
 from __future__ import annotations
@@ -39,8 +41,9 @@ from typing import Any
 
 from flint import fmpq, nmod_poly
 
-from glocal_check.algebra import Field, det_mod, hurwitz, mod, poly_det_exact, poly_det_mod, prime, reduce_poly, require, unit
+from glocal_check.algebra import Field, det_mod, hurwitz, lyapunov, mod, pencil_minors, prime, require, unit
 from glocal_check.context import Context, LocalScope
+from glocal_check.zeros import pencil_zero_set
 from glocal_check.spec import rational
 
 __all__ = ["pencil", "uio"]
@@ -83,25 +86,11 @@ def pencil(ctx: Context, scope: dict[str, Any], status: str, cert: dict[str, Any
     unit(d0, zero.get("det"), p, "the minor of T_0")
     if not U:
         return
-    minors = cert.get("minors", [])
-    require(isinstance(minors, list) and bool(minors), "no minors of T(s)")
-    polys: list[nmod_poly] = []
-    for k, mnr in enumerate(minors):
-        R = rows_of(mnr.get("rows", []), len(U))
-        var = [(i, j, 1) for i, r in enumerate(R) for j, c in enumerate(U) if r == c]
-        if k == 0 and mnr.get("exact"):
-            # the anchor over Q: its exact degree survives reduction iff p does not divide lc
-            f_q = poly_det_exact([[sp.alpha * block[r].get(c, fmpq(0)) for c in U] for r in R], var, len(var))
-            require(f_q != 0, "the first minor is 0 over Q")
-            f = reduce_poly(f_q, p)
-            require(f.degree() == f_q.degree(), f"p = {p} divides the leading coefficient of the first minor")
-        else:
-            const = [[al * mod(block[r].get(c, fmpq(0)), p) % p for c in U] for r in R]
-            f = poly_det_mod(const, var, len(var), p)
-            if k == 0:
-                require(f.degree() == len(var), "the first minor does not reach its degree bound: its leading coefficient may vanish modulo p")
-        require(f.degree() == mnr.get("degree"), f"minor {k} has degree {f.degree()} modulo {p}, not {mnr.get('degree')}")
-        polys.append(f)
+    K = {a: {c: sp.alpha * x for c, x in row.items()} for a, row in block.items()}
+    if "zero_set" in cert:  # T(s) loses column rank nowhere: a zero set without factors
+        require(not pencil_zero_set(ctx, cert["zero_set"], rows_ok, U, K), "the zero set of T(s) is not empty")
+        return
+    polys = pencil_minors(K, rows_ok, U, ctx.minors(cert.get("minors")), p)
     # coprime modulo p: the stated Bezout coefficients give sum_k b_k f_k = 1
     bez = cert.get("bezout")
     require(isinstance(bez, list) and len(bez) == len(polys), "one Bezout coefficient per minor")
@@ -167,7 +156,7 @@ def uio(ctx: Context, scope: dict[str, Any], cert: dict[str, Any]) -> None:
                 Fm[i][c] -= K1q[i][k]
         key = ("uio", ls.cluster.name, ls.observer.center, m, repr(modes[m]))
         if key not in ctx.memo:
-            ctx.memo[key] = hurwitz(Fm, modes[m])
+            ctx.memo[key] = lyapunov(Fm, modes[m]["lyapunov"]) or -1.0 if "lyapunov" in modes[m] else hurwitz(Fm, modes[m])
         top = ctx.memo[key]
         require(top < 0, f"F of mode {m} is not shown Hurwitz (max Re <= {top:.3g})")
 

@@ -76,6 +76,7 @@ class Spec:
     attack: dict[str, Any] | None
     schedule: tuple[str, ...]  # the modes of the switching schedule, in order (empty: none)
     index: dict[str, int] = field(default_factory=dict)
+    implementation: dict[str, Any] | None = None  # {"period": h, "controller": "sampled" | "continuous"}
 
     @property
     def n(self) -> int:
@@ -261,7 +262,10 @@ def _build(d: dict[str, Any]) -> Spec:
     for m in schedule:
         if m not in weights:
             raise CheckError(f"switching: no mode named {m!r}")
+    impl = d.get("implementation")
+    implementation = None if impl is None else {"period": rational(impl["period"], "implementation.period"), "controller": str(impl.get("controller", "sampled"))}
     return Spec(
+        implementation=implementation,
         labels=labels,
         alpha=rational(dyn.get("alpha", 1), "dynamics.alpha"),
         gamma=rational(dyn.get("gamma", 1), "dynamics.gamma"),

@@ -11,8 +11,8 @@
    first generated networks: the rejection rate, and every accepted mutant with whether its
    claim is true (``verify(..., exact=True)``).
 
-Exit 1 when a certificate is rejected, a mutant rate is below 99 % or an accepted mutant's
-claim is false.
+Exit 1 when a certificate is rejected, a decided verdict has none, a mutant rate is below 99 %
+or an accepted mutant's claim is false.
 """
 
 from __future__ import annotations
@@ -65,12 +65,12 @@ def main() -> int:
             print(f"{name}: {out.summary()} ({time.perf_counter() - t:.1f} s)", flush=True)
             for line in out.rejected:
                 print("   ", line)
-            bad |= bool(out.rejected)
-            total.update(accepted=out.accepted, rejected=len(out.rejected), without=out.without)
+            bad |= bool(out.rejected) or out.without > 0
+            total.update(accepted=out.accepted, rejected=len(out.rejected), without=out.without, observations=out.observations)
             for e in doc["verdicts"]:
                 if e["certificate"] is None:
                     missing[(e["id"], e["reason"])] += 1
-        print(f"\nall {len(specs)} networks: {total['accepted']} accepted, {total['rejected']} rejected, {total['without']} without a certificate")
+        print(f"\nall {len(specs)} networks: {total['accepted']} accepted, {total['rejected']} rejected, {total['without']} without a certificate; {total['observations']} simulated observations (switching.detects) listed apart")
         for (cid, why), n in missing.most_common():
             print(f"  {n:4d} x {cid}: {why}")
         targets = [("paper19", example_text("paper19"))] + networks(4)

@@ -157,4 +157,5 @@ def test_the_installed_wheel_checks_the_certificates_it_writes(venv: tuple[Path,
     (tmp_path / "s.toml").write_text(_run([str(bin_ / "glocal-verify"), "example", "paper19"], tmp_path, env).stdout, encoding="utf-8")
     _run([str(bin_ / "glocal-verify"), "verify", "s.toml", "--quiet", "--out", "r.md", "--certificates", "c.json"], tmp_path, env)
     done = subprocess.run([str(bin_ / "python"), "-m", "glocal_check", "s.toml", "c.json"], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
-    assert done.stdout.strip().endswith("75 accepted, 0 rejected; 3 decided verdicts without a certificate"), done.stdout
+    assert done.stdout.strip().endswith("75 accepted, 0 rejected; 0 decided verdicts without a certificate"), done.stdout
+    assert done.returncode == 0, done.stdout  # switching.detects is a simulated observation, not a verdict

@@ -8,9 +8,15 @@ Format ``glocal-verify/certificates`` version 1 (``docs/certificates.md``)::
                  "modes": {q: [[u, v, "w_q"], ...]}, "monitor": {...}, "clusters": [...],
                  "schedule": [...], "attack": {...}},
      "verdicts": [{"id": ..., "scope": {...}, "status": "holds" | "fails",
-                   "certificate": {"kind": ..., ...} | null, "reason": "..."}]}
+                   "certificate": {"kind": ..., ...} | null, "reason": "..."}],
+     "observations": [{"id": "switching.detects", "scope": {...}, "status": ..., "reason": ...}]}
 
 ``python -m glocal_check SPEC FILE`` checks it without this package.
+
+Simulated observations (:data:`SIMULATED`) are not decided verdicts: their status is what one
+simulation from one initial state showed, not a statement about the exact system, so no
+certificate can prove it. They are listed apart, with the reason, and the checker (which has
+its own list of them) counts them neither as certified nor as verdicts without a certificate.
 """
 
 from __future__ import annotations
@@ -28,18 +34,31 @@ from glocal_verify.certificates.global_certificates import (
     differences_certificate,
     distinct_certificate,
     hidden_certificate,
+    no_zda_certificate,
     observable_certificate,
     touch_certificate,
     zda_certificate,
 )
 from glocal_verify.certificates.local_certificates import pencil_certificate, uio_certificate
+from glocal_verify.certificates.sampled_certificates import detector_certificate, sampled_certificate
 from glocal_verify.model import System
 from glocal_verify.results import ConditionResult, Report, Status
 
-__all__ = ["CERTIFICATE_FORMAT", "CERTIFICATE_VERSION", "assumptions", "certificate_document", "certificate_json"]
+__all__ = ["CERTIFICATE_FORMAT", "CERTIFICATE_VERSION", "SIMULATED", "assumptions", "certificate_document", "certificate_json"]
 
 CERTIFICATE_FORMAT = "glocal-verify/certificates"
 CERTIFICATE_VERSION = 1
+
+#: condition ids whose status is a simulated observation, not a decided verdict (the checker's
+#: ``glocal_check.check.SIMULATED`` is the same set): condition id -> why
+SIMULATED: Mapping[str, str] = MappingProxyType({
+    "switching.detects": (
+        "a simulated observation, not a decided verdict: one floating-point simulation from one attack-free initial "
+        "state (the spec's seed) crosses, or not, a threshold within the horizon; no exact statement about the system "
+        "is claimed, so nothing can be certified (the algebra of the exposure is certified by Theorem III.3's conditions "
+        "and switching.avoids-attack)"
+    ),
+})
 
 
 def assumptions(system: System) -> dict[str, Any]:
@@ -69,6 +88,8 @@ def assumptions(system: System) -> dict[str, Any]:
         "schedule": _schedule(system),
         "attack": None,
     }
+    if spec.implementation is not None:
+        out["implementation"] = {"period": str(spec.implementation.period), "controller": spec.implementation.controller}
     a = spec.attack
     if a is not None:
         lam = None if a.lambda0 is None else [str(Fraction(repr(a.lambda0.real))), str(Fraction(repr(a.lambda0.imag)))]
@@ -97,9 +118,7 @@ def _privacy(system: System, r: ConditionResult) -> dict[str, Any]:
 
 
 def _zda(system: System, r: ConditionResult) -> dict[str, Any]:
-    if r.status is not Status.HOLDS:
-        raise NoCertificate("no ZDA for any lambda0: the minors certificate of this claim is not written yet")
-    return zda_certificate(system, r)
+    return zda_certificate(system, r) if r.status is Status.HOLDS else no_zda_certificate(system, r)
 
 
 def _structure(system: System, r: ConditionResult) -> dict[str, Any]:
@@ -128,6 +147,12 @@ EMITTERS: Mapping[str, Emitter] = MappingProxyType({
     "switching.eigenvector-differences": differences_certificate,
     "local.pencil": pencil_certificate,
     "local.uio": uio_certificate,
+    "sampled.stability": sampled_certificate,
+    "sampled.no-aliasing": sampled_certificate,
+    "sampled.observability": sampled_certificate,
+    "sampled.zda": sampled_certificate,
+    "sampled.local-uio": sampled_certificate,
+    "detection.thresholds": detector_certificate,
 })
 
 
@@ -163,19 +188,29 @@ def certificate_document(system: System, report: Report) -> dict[str, Any]:
         Its verdicts (``undecided`` results are left out).
     """
     options = dict(report.options.get("options", {}) or {}) if isinstance(report.options.get("options"), Mapping) else {}
-    verdicts = [_entry(system, r, options) for r in report.conditions if r.status is not Status.UNDECIDED]
+    decided = [r for r in report.conditions if r.status is not Status.UNDECIDED]
+    verdicts = [_entry(system, r, options) for r in decided if r.id not in SIMULATED]
+    observations = [
+        {"id": r.id, "scope": json.loads(json.dumps(dict(r.scope), default=str)), "status": r.status.value, "reason": SIMULATED[r.id]}
+        for r in decided
+        if r.id in SIMULATED
+    ]
     return {
         "format": CERTIFICATE_FORMAT,
         "version": CERTIFICATE_VERSION,
         "spec": {"name": system.name},
         "assumes": assumptions(system),
         "verdicts": verdicts,
+        "observations": observations,
     }
 
 
 def certificate_json(system: System, report: Report) -> str:
     """:func:`certificate_document` as JSON text (one verdict per line)."""
     doc = certificate_document(system, report)
-    head = {k: v for k, v in doc.items() if k != "verdicts"}
-    lines = [json.dumps(v, separators=(",", ":")) for v in doc["verdicts"]]
-    return json.dumps(head, separators=(",", ":"))[:-1] + ',"verdicts":[\n' + ",\n".join(lines) + "\n]}\n"
+    head = {k: v for k, v in doc.items() if k not in ("verdicts", "observations")}
+    out = json.dumps(head, separators=(",", ":"))[:-1]
+    for key in ("verdicts", "observations"):
+        lines = [json.dumps(v, separators=(",", ":")) for v in doc[key]]
+        out += f',"{key}":[\n' + ",\n".join(lines) + "\n]"
+    return out + "}\n"

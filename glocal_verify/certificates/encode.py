@@ -15,6 +15,10 @@ from glocal_verify.numerics.minors import prime_for
 __all__ = [
     "EMIT_PRIME_LIMIT",
     "charpoly_claim",
+    "cholesky_upper",
+    "lyapunov_claim",
+    "schur_claim",
+    "stability_claim",
     "state_matrix_exact",
     "field",
     "krylov_residue",
@@ -113,26 +117,97 @@ def krylov_residue(system: System, mode: str, start: Sequence[int], length: int,
 def charpoly_claim(A: Sequence[Sequence[Fraction]], K: np.ndarray, cols: Sequence[int], p: int, zero_rows: Iterable[int] = (), drop_zeros: int = 0) -> dict[str, Any]:
     """``{"prime", "charpoly"}`` of F = A - K C over Q (rows ``zero_rows`` of A cleared first,
     C the selection of the state columns ``cols``, K binary floating-point numbers taken
-    exactly), as residues modulo p, lowest degree first, divided by t^``drop_zeros``."""
-    from flint import fmpq_mat
-
+    exactly), as residues modulo p, lowest degree first, divided by t^``drop_zeros``: the
+    characteristic polynomial of F reduced modulo p (p divides no denominator), computed there."""
     n = len(A)
     zero = set(zero_rows)
-    M = fmpq_mat(n, n)
+    rows = [[Fraction(0) if i in zero else x for x in A[i]] for i in range(n)]
+    flat: list[int] = []
     for i in range(n):
-        if i not in zero:
-            for j, x in enumerate(A[i]):
-                if x:
-                    M[i, j] = fmpq(x.numerator, x.denominator)
+        r = list(rows[i])
         for k, c in enumerate(cols):
-            g = Fraction(float(K[i, k]))
-            if g:
-                M[i, c] -= fmpq(g.numerator, g.denominator)
-    cp = M.charpoly()
-    coeffs = cp.coeffs()[drop_zeros:]
-    if any(c != 0 for c in cp.coeffs()[:drop_zeros]):
+            r[c] = r[c] - Fraction(float(K[i, k]))
+        flat += mod_residues(r, p)
+    cp = [int(c) for c in nmod_mat(n, n, flat, p).charpoly().coeffs()]
+    if any(cp[:drop_zeros]):
         raise ValueError("the characteristic polynomial has fewer zero roots than the quotient removes")
-    return {"prime": p, "charpoly": mod_residues(coeffs, p)}
+    return {"prime": p, "charpoly": cp[drop_zeros:]}
+
+
+def lyapunov_claim(F: np.ndarray) -> dict[str, Any]:
+    """``{"lyapunov": {"P", "shift_P", "shift_Q", "R_P", "R_Q"}}`` for a Hurwitz matrix F
+    (floating point): P solves F^T P + P F = -I (:func:`_lyapunov_entries`). The checker proves
+    P > 0 and Q = -(F^T P + P F) > 0 for the exact F (``glocal_check.algebra.lyapunov``)."""
+    import scipy.linalg
+
+    P = scipy.linalg.solve_continuous_lyapunov(F.T, -np.eye(len(F)))
+    return {"lyapunov": _lyapunov_entries(P, -(F.T @ P + P @ F))}
+
+
+def _lyapunov_entries(P: np.ndarray, Q: np.ndarray) -> dict[str, Any]:
+    """P (symmetrised, scaled integers), the shifts (half the smallest eigenvalues of P and Q)
+    and the Cholesky factors of P - c_P I and Q - c_Q I (``dyadic_upper``)."""
+    P = (P + P.T) / 2
+    Q = (Q + Q.T) / 2
+    shift_P = float(np.linalg.eigvalsh(P)[0]) / 2
+    shift_Q = float(np.linalg.eigvalsh(Q)[0]) / 2
+    if not (shift_P > 0 and shift_Q > 0):
+        raise ValueError("no Lyapunov matrix found in floating point")
+    Pd = dyadic_upper(P)
+    Pr = np.array([[0.0] * i + [float(x) / 2 ** Pd["scale"] for x in row] for i, row in enumerate(Pd["upper"])])
+    Pr = np.triu(Pr) + np.triu(Pr, 1).T  # the P the checker reads
+    return {
+        "P": Pd,
+        "shift_P": q(Fraction(repr(shift_P))),
+        "shift_Q": q(Fraction(repr(shift_Q))),
+        "R_P": cholesky_upper(Pr - shift_P * np.eye(len(P))),
+        "R_Q": cholesky_upper(Q - shift_Q * np.eye(len(Q))),
+    }
+
+
+def dyadic_upper(M: np.ndarray) -> dict[str, Any]:
+    """The upper triangle of M as integers scaled by 2^-scale (about 50 significant bits)."""
+    top = float(np.max(np.abs(M))) or 1.0
+    b = max(0, 50 - int(np.frexp(top)[1]))
+    return {"scale": b, "upper": [[int(round(float(x) * 2.0**b)) for x in M[i, i:]] for i in range(len(M))]}
+
+
+def cholesky_upper(M: np.ndarray) -> dict[str, Any]:
+    """R (upper, ``dyadic_upper``) with R^T R = M in floating point (M positive definite)."""
+    try:
+        L = np.linalg.cholesky((M + M.T) / 2)
+    except np.linalg.LinAlgError:
+        raise ValueError("no Cholesky factor in floating point") from None
+    return dyadic_upper(L.T)
+
+
+def schur_claim(F: np.ndarray) -> dict[str, Any]:
+    """``{"P", "shift_P", "shift_Q"}`` for a Schur-stable F (floating point): P solves
+    P - F^T P F = I (a Stein matrix; the checker proves P > 0 and P - F^T P F > 0 exactly)."""
+    import scipy.linalg
+
+    P = scipy.linalg.solve_discrete_lyapunov(F.T, np.eye(len(F)))
+    return _lyapunov_entries(P, P - F.T @ P @ F)
+
+
+def stability_claim(A: Sequence[Sequence[Fraction]], K: np.ndarray, cols: Sequence[int], p: int, zero_rows: Iterable[int] = ()) -> dict[str, Any]:
+    """What proves F = A - K C Hurwitz (rows ``zero_rows`` of A cleared): its characteristic
+    polynomial modulo p up to ``certificate_max_states`` states (the checker encloses its
+    roots), a Lyapunov matrix above (or the polynomial up to twice as many states when no
+    Lyapunov matrix is found in floating point)."""
+    from glocal_verify import config
+
+    if len(A) <= config.get("certificate_max_states"):
+        return charpoly_claim(A, K, cols, p, zero_rows)
+    zero = set(zero_rows)
+    F = np.array([[0.0 if i in zero else float(x) for x in A[i]] for i in range(len(A))])
+    F[:, list(cols)] -= np.asarray(K, dtype=float)
+    try:
+        return lyapunov_claim(F)
+    except ValueError:
+        if len(A) <= 2 * config.get("certificate_max_states"):
+            return charpoly_claim(A, K, cols, p, zero_rows)  # slower to check, but exact without a Lyapunov matrix
+        raise
 
 
 def state_matrix_exact(L: Sequence[Sequence[Fraction]], alpha: Fraction, gamma: Fraction) -> list[list[Fraction]]:

@@ -87,6 +87,19 @@ def _image_kernel(system: System, r: ConditionResult) -> dict[str, Any]:
     return {"ranks": ranks}
 
 
+def _sampled(system: System, r: ConditionResult) -> dict[str, Any]:
+    impl = system.spec.implementation
+    assert impl is not None
+    return {"controller": impl.controller, "gamma_h": str(system.gamma_q * impl.period)}
+
+
+def _sampled_uio_rank(system: System, r: ConditionResult) -> dict[str, Any]:
+    """The boundary agents with neither position nor velocity measured (rank(C E_d) < rank(E_d))."""
+    obs = next(o for o in system.observers(r.scope["cluster"]) if o.center == r.scope["observer"])
+    seen = set(obs.positions) | set(obs.velocities)
+    return {"unmeasured_boundary": [str(a) for a in system.cluster_model(r.scope["cluster"], NORMAL_MODE).boundary if a not in seen]}
+
+
 #: condition id -> the facts of its structure certificate
 STRUCTURE_FACTS: Mapping[str, Callable[[System, ConditionResult], dict[str, Any]]] = MappingProxyType({
     "privacy.connected": _connected,
@@ -100,4 +113,8 @@ STRUCTURE_FACTS: Mapping[str, Callable[[System, ConditionResult], dict[str, Any]
     "local.pencil": _pencil,
     "switching.coverage": _coverage,
     "switching.image-kernel": _image_kernel,
+    "sampled.no-aliasing": _sampled,
+    "sampled.observability": _sampled,
+    "sampled.stability": _sampled,
+    "sampled.local-uio": _sampled_uio_rank,
 })

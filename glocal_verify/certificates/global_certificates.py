@@ -14,9 +14,10 @@ from typing import Any, Mapping
 import numpy as np
 from flint import fmpq, fmpq_poly, nmod_mat
 
-from glocal_verify.certificates.encode import charpoly_claim, field, krylov_residue, laplacian_mod, mod_residues, pivots_mod, q, state_matrix_exact, system_prime, unit, vector
+from glocal_verify.certificates.encode import charpoly_claim, field, krylov_residue, laplacian_mod, lyapunov_claim, mod_residues, pivots_mod, q, state_matrix_exact, system_prime, unit, vector
 from glocal_verify.certificates.facts import schedule_modes
 from glocal_verify.certificates.kernels import fq, kernel_vectors, laplacian_rows
+from glocal_verify.certificates.zero_sets import NoZeroSet, zda_zero_set
 from glocal_verify import config
 from glocal_verify.model import System
 from glocal_verify.results import ConditionResult
@@ -27,6 +28,7 @@ __all__ = [
     "differences_certificate",
     "distinct_certificate",
     "hidden_certificate",
+    "no_zda_certificate",
     "observable_certificate",
     "touch_certificate",
     "zda_certificate",
@@ -179,7 +181,44 @@ def zda_certificate(system: System, r: ConditionResult) -> dict[str, Any]:
         cert = _zda_at(system, lam0)
         if cert is not None:
             return cert
-    raise NoCertificate("no ZDA at a rational exponent (the spec's lambda0, the witness's, 0, 1); irrational zeros have no certificate yet")
+    try:
+        _, factors = zda_zero_set(system)
+    except NoZeroSet as exc:
+        raise NoCertificate(f"no ZDA at a rational exponent (the spec's lambda0, the witness's, 0, 1), and no zero set: {exc}") from None
+    for g, vecs in factors:
+        for v in vecs:
+            cert = _zda_in_field(system, g, v)
+            if cert is not None:
+                return cert
+    raise NoCertificate("no ZDA at a rational exponent, and no zero of the certified zero set has an input direction")
+
+
+def _zda_in_field(system: System, g: fmpq_poly, v: list[fmpq_poly]) -> dict[str, Any] | None:
+    """A ``zda`` certificate over Q[t]/(G), G(t) = g(t^2 + gamma t), from a kernel vector v of
+    T(s) over Q[s]/(g) (supported on U = V \\ M), when its input u = rows F of
+    (s I + alpha L_1) v has an entry prime to g; else None."""
+    U = [a for a in range(system.n) if system.labels[a] not in set(system.monitored)]
+    xi = [fmpq_poly(0)] * system.n
+    for a, x in zip(U, v):
+        xi[a] = x
+    L = laplacian_rows(system, "normal")
+    alpha = fq(system.alpha_q)
+    s = fmpq_poly([0, 1])
+    u = {}
+    for f in system.attacked:
+        i = system.index[f]
+        u[f] = (s * xi[i] + alpha * sum((x * xi[j] for j, x in L[i].items() if xi[j] != 0), fmpq_poly(0))) % g
+    if not any(x != 0 and g.gcd(x).degree() == 0 for x in u.values()):
+        return None
+    sub = fmpq_poly([0, fq(system.gamma_q), 1])
+    G = g(sub)
+    G = G / G.leading_coefficient()
+    return {
+        "kind": "zda",
+        "field": field(G),
+        "xi": vector(system, [x(sub) % G for x in xi]),
+        "u0": vector(system, {f: x(sub) % G for f, x in u.items()}),
+    }
 
 
 def touch_certificate(system: System, r: ConditionResult) -> dict[str, Any]:
@@ -187,22 +226,41 @@ def touch_certificate(system: System, r: ConditionResult) -> dict[str, Any]:
     holds), or the rank certificate that every stealthy direction is touched."""
     lam = system.spec.attack.lambda0 if system.spec.attack else None
     wl = _rational(r.witness.get("lambda0"))
-    if lam is None or lam.imag != 0 or wl is None or wl != Fraction(repr(lam.real)):
-        raise NoCertificate("the verdict's lambda0 is not the spec's real attack.lambda0")
     if system.n > config.get("certificate_dense_max_agents"):
         raise NoCertificate(f"more than {config.get('certificate_dense_max_agents')} agents")
-    lam0 = Fraction(repr(lam.real))
+    extra: dict[str, Any] = {}
+    if lam is None and wl == 0:
+        try:
+            extra["zero_set"] = zda_zero_set(system)[0]  # 0 is the fastest-growing zero: every other decays
+        except NoZeroSet as exc:
+            raise NoCertificate(f"lambda0 = 0 is the fastest-growing zero of the computed zero set, whose certificate failed: {exc}") from None
+    elif lam is None or lam.imag != 0 or wl is None or wl != Fraction(repr(lam.real)):
+        raise NoCertificate("the verdict's lambda0 is neither the spec's real attack.lambda0 nor a computed 0")
+    lam0 = wl if lam is None else Fraction(repr(lam.real))
     mode = r.scope["mode"]
     dL = _delta_rows(system, mode)
     if r.status.value == "holds":
         cert = _zda_at(system, lam0, dL)
         if cert is None:
             raise NoCertificate("no exact avoiding direction found")
-        return {"kind": "zda-avoids", "zda": cert}
+        return {"kind": "zda-avoids", "zda": cert, **extra}
     zda = _zda_at(system, lam0)
     if zda is None:
-        raise NoCertificate("no exact ZDA at the spec's lambda0")
-    return {"kind": "zda-touched", "zda": zda, **_touch_rank(system, lam0, dL)}
+        raise NoCertificate("no exact ZDA at the verdict's lambda0")
+    return {"kind": "zda-touched", "zda": zda, **_touch_rank(system, lam0, dL), **extra}
+
+
+def no_zda_certificate(system: System, r: ConditionResult) -> dict[str, Any]:
+    """``no-zda`` (``stealthy.zda`` fails): the zero set of the pencil in s, every kernel
+    vector input-free, and the rank certificate that every kernel vector at lambda = 0 has
+    u0 = 0."""
+    try:
+        cert, factors = zda_zero_set(system)
+    except NoZeroSet as exc:
+        raise NoCertificate(f"no ZDA for any lambda0, but no zero set: {exc}") from None
+    if any(_zda_in_field(system, g, v) is not None for g, vecs in factors for v in vecs):  # pragma: no cover - a verdict bug
+        raise NoCertificate("a zero of the zero set has an input direction")
+    return {"kind": "no-zda", "zero_set": cert, "zero": _touch_rank(system, Fraction(0), [{} for _ in range(system.n)])}
 
 
 def _touch_rank(system: System, lam0: Fraction, dL: list[dict[int, fmpq]]) -> dict[str, Any]:
@@ -328,8 +386,6 @@ def central_certificate(system: System, r: ConditionResult, options: Mapping[str
     design = (r.witness.get("design") or {}).get("method")
     if design == "injection":
         return {"kind": "central-injection"}
-    if 2 * system.n - 1 > config.get("certificate_max_states"):
-        raise NoCertificate(f"more than {config.get('certificate_max_states')} observable states to enclose")
     from glocal_verify.observers.central import design_central_observer
 
     obsv = design_central_observer(system, poles=options.get("central_poles"))
@@ -348,7 +404,24 @@ def central_certificate(system: System, r: ConditionResult, options: Mapping[str
     A = state_matrix_exact(L, system.alpha_q, system.gamma_q)
     cols = [system.index[a] for a in system.monitored_positions] + [system.n + system.index[a] for a in system.monitored_velocities]
     # F = A_1 - H C is 0 on each [1_c; 0] (R = 0): the quotient's polynomial is charpoly(F) / t^d
-    claim = charpoly_claim(A, H, cols, system_prime(system), drop_zeros=len(blind))
+    states, most = 2 * system.n - len(blind), config.get("certificate_max_states")
+    claim: dict[str, Any] = {}
+    if states > most:  # the quotient by span X (F - X F[pivots, :] on the other states) and a Lyapunov matrix of it
+        Ff = np.array([[float(x) for x in row] for row in A])
+        Ff[:, cols] -= H
+        piv = [system.index[c[0]] for c in blind]
+        for comp, rep in zip(blind, piv):
+            for lab in comp:
+                if system.index[lab] != rep:
+                    Ff[system.index[lab]] -= Ff[rep]
+        keep = [i for i in range(2 * system.n) if i not in set(piv)]
+        try:
+            claim = lyapunov_claim(Ff[np.ix_(keep, keep)])
+        except ValueError as exc:
+            if states > 2 * most:
+                raise NoCertificate(str(exc)) from None
+    if not claim:
+        claim = charpoly_claim(A, H, cols, system_prime(system), drop_zeros=len(blind))
     return {
         "kind": "central-gain",
         "H": [[q(float(x)) for x in row] for row in H],

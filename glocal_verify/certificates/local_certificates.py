@@ -10,14 +10,19 @@ from typing import Any
 import numpy as np
 from flint import fmpq, fmpq_mat, fmpq_poly, nmod_mat, nmod_poly
 
-from glocal_verify.certificates.encode import charpoly_claim, field, mod_residues, pivots_mod, q, state_matrix_exact, system_prime, unit, vector
+from glocal_verify.certificates.encode import field, stability_claim, mod_residues, pivots_mod, q, state_matrix_exact, system_prime, unit, vector
 from glocal_verify import config
 from glocal_verify.certificates.global_certificates import NoCertificate
 from glocal_verify.certificates.kernels import fq, kernel_vectors, laplacian_rows
+from glocal_verify.certificates.zero_sets import NoZeroSet, Pencil, zero_set
+from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.results import ConditionResult
 
 __all__ = ["pencil_certificate", "uio_certificate"]
+
+#: the ``uio`` certificate of one observer (cluster, centre), shared by its suspected sets
+_UIO: Kind[dict[str, Any]] = Kind("certificate-uio", __name__, "the uio certificate of one observer")
 
 
 
@@ -42,73 +47,75 @@ class _Case:
         self.L = {a: {system.labels[j]: x for j, x in L[system.index[a]].items() if system.labels[j] in members} for a in cm.nodes}
         self.alpha = fq(system.alpha_q)
 
+    def pencil(self) -> Pencil:
+        """T(s) = (s I + alpha L[P, P])[P \\ I, U] by agent index."""
+        idx = self.system.index
+        K = {idx[a]: {idx[c]: self.alpha * x for c, x in row.items()} for a, row in self.L.items()}
+        return Pencil([idx[a] for a in self.rows], [idx[a] for a in self.U], K)
+
     def residues(self, rows: list[Any], cols: list[Any], p: int) -> list[list[int]]:
         return [mod_residues([self.alpha * self.L[a].get(c, fmpq(0)) for c in cols], p) for a in rows]
 
-    def minor_poly(self, rows: list[Any], p: int) -> nmod_poly:
-        """det T(s)[rows, U] modulo p (evaluation at 0..d, Lagrange's formula)."""
-        K = self.residues(rows, self.U, p)
-        diag = [(i, self.U.index(a)) for i, a in enumerate(rows) if a in set(self.U)]
-        d, k = len(diag), len(self.U)
-        acc = nmod_poly([0], p)
-        pts = list(range(d + 1))
-        for x in pts:
-            M = [list(r) for r in K]
-            for i, j in diag:
-                M[i][j] = (M[i][j] + x) % p
-            y = int(nmod_mat(k, k, [v for r in M for v in r], p).det())
-            basis = nmod_poly([1], p)
-            for z in pts:
-                if z != x:
-                    basis = basis * nmod_poly([-z % p, 1], p) * pow(x - z, -1, p)
-            acc = acc + basis * y
-        return acc
-
 
 def pencil_certificate(system: System, r: ConditionResult) -> dict[str, Any]:
-    """``structure`` (suspected and boundary), ``pencil-kernel`` (fails) or ``pencil-minors``."""
+    """``structure`` (suspected and boundary), ``pencil-kernel`` (fails) or ``pencil-minors``
+    (the Bezout identity of a few minors, or an empty zero set of T(s))."""
     if r.witness.get("suspected_and_boundary"):
         return {"kind": "structure"}
     case = _Case(system, r)
-    return _pencil_holds(case) if r.status.value == "holds" else _pencil_fails(case, r)
+    if r.status.value == "fails":
+        return _pencil_fails(case, r)
+    try:
+        return _pencil_holds(case)
+    except NoCertificate as exc:
+        first = str(exc)
+    cert = _pencil_zero(case)
+    try:
+        zs, factors = zero_set(system, case.pencil())
+    except NoZeroSet as exc:
+        raise NoCertificate(f"{first}; and no zero set of T(s): {exc}") from None
+    if factors:  # pragma: no cover - a verdict bug
+        raise NoCertificate("T(s) loses column rank at the roots of the zero set's factors")
+    return {**cert, "zero_set": zs}
 
 
-def _pencil_holds(case: _Case) -> dict[str, Any]:
-    if not case.U0 and not case.U:
-        return {"kind": "pencil-minors"}  # every position and velocity is measured
+def _pencil_zero(case: "_Case") -> dict[str, Any]:
+    """``pencil-minors`` with its T_0 part only: a nonzero minor of T_0 modulo the prime."""
     p = system_prime(case.system)
     R0, _ = pivots_mod(case.residues(case.rows, case.U0, p), len(case.U0), p)
     if len(R0) < len(case.U0):
         raise NoCertificate("T_0 has no full column rank modulo the prime")
     rows0 = [case.rows[i] for i in R0]
-    zero = {"rows": [str(a) for a in rows0], "det": unit(int(nmod_mat(len(R0), len(R0), [x for rr in case.residues(rows0, case.U0, p) for x in rr], p).det()) if R0 else 1, p)}
-    cert: dict[str, Any] = {"kind": "pencil-minors", "prime": p, "zero": zero, "minors": []}
+    det = int(nmod_mat(len(R0), len(R0), [x for rr in case.residues(rows0, case.U0, p) for x in rr], p).det()) if R0 else 1
+    return {"kind": "pencil-minors", "prime": p, "zero": {"rows": [str(a) for a in rows0], "det": unit(det, p)}}
+
+
+def _pencil_holds(case: _Case) -> dict[str, Any]:
+    if not case.U0 and not case.U:
+        return {"kind": "pencil-minors"}  # every position and velocity is measured
+    cert = {**_pencil_zero(case), "minors": []}
+    p = cert["prime"]
     if not case.U:
         return cert
-    inner = [a for a in case.U if a not in case.inputs]
-    hit = [a for a in case.U if a in case.inputs]
-    others = [a for a in case.rows if a not in set(case.U)]
-    Ra, _ = pivots_mod(case.residues(others, hit, p), len(hit), p)
-    rng = np.random.default_rng(51)
-    if len(Ra) == len(hit):
-        anchor = inner + [others[i] for i in Ra]
-        g = case.minor_poly(anchor, p)
-        cert["minors"].append({"rows": [str(a) for a in anchor], "degree": g.degree()})
-    else:
-        # no minor reaches its degree bound: an anchor whose exact degree survives modulo p
-        anchor, g = _exact_anchor(case, p, rng)
-        cert["minors"].append({"rows": [str(a) for a in anchor], "degree": g.degree(), "exact": True})
+    pencil, labels = case.pencil(), case.system.labels
+    try:
+        anchor = pencil.anchor(p)  # its degree modulo p is its exact degree (the checker proves it)
+    except NoZeroSet as exc:
+        raise NoCertificate(str(exc)) from None
+    g = pencil.minor(anchor, p)
+    cert["minors"].append({"rows": [str(labels[a]) for a in anchor], "degree": g.degree()})
     polys = [g]
+    rng = np.random.default_rng(51)
     for _ in range(config.get("certificate_minor_tries")):
         if g.degree() == 0:
             break
-        pick = [case.rows[i] for i in sorted(rng.choice(len(case.rows), len(case.U), replace=False))]
-        f = case.minor_poly(pick, p)
+        pick = sorted(pencil.rows[i] for i in rng.choice(len(pencil.rows), len(pencil.U), replace=False))
+        f = pencil.minor(pick, p)
         if f == 0 or g.gcd(f).degree() == g.degree():
             continue
         g = g.gcd(f)
         polys.append(f)
-        cert["minors"].append({"rows": [str(a) for a in pick], "degree": f.degree()})
+        cert["minors"].append({"rows": [str(labels[a]) for a in pick], "degree": f.degree()})
     if g.degree() != 0:
         raise NoCertificate(f"the minors tried share a factor of degree {g.degree()} modulo the prime")
     cert["bezout"] = _bezout(polys, p)
@@ -124,36 +131,6 @@ def _bezout(polys: list[nmod_poly], p: int) -> list[list[int]]:
         g = d
     inv = pow(int(g.coeffs()[0]), -1, p)
     return [[int(x) * inv % p for x in c.coeffs()] for c in coeffs]
-
-
-def _exact_anchor(case: _Case, p: int, rng: np.random.Generator) -> tuple[list[Any], nmod_poly]:
-    """Rows of T(s) whose minor, computed over Q, keeps its degree modulo p."""
-    most = config.get("certificate_exact_anchor_max")
-    if len(case.U) > most:
-        raise NoCertificate(f"no minor of T(s) reaches its degree bound and U has more than {most} agents")
-    for _ in range(config.get("certificate_minor_tries")):
-        rows = [case.rows[i] for i in sorted(rng.choice(len(case.rows), len(case.U), replace=False))]
-        diag = {i: case.U.index(a) for i, a in enumerate(rows) if a in set(case.U)}
-        values = []
-        for x in range(len(diag) + 1):
-            M = fmpq_mat(len(rows), len(case.U))
-            for i, a in enumerate(rows):
-                for j, c in enumerate(case.U):
-                    M[i, j] = case.alpha * case.L[a].get(c, fmpq(0)) + (x if diag.get(i) == j else 0)
-            values.append(M.det())
-        f = fmpq_poly(0)
-        for x, y in enumerate(values):  # Lagrange's formula over the points 0..d
-            term = fmpq_poly([y])
-            for z in range(len(values)):
-                if z != x:
-                    term = term * fmpq_poly([fmpq(-z, x - z), fmpq(1, x - z)])
-            f += term
-        if f == 0:
-            continue
-        g = nmod_poly(mod_residues(f.coeffs(), p), p)
-        if g.degree() == f.degree():
-            return rows, g
-    raise NoCertificate("no minor of T(s) found whose exact degree survives modulo the prime")
 
 
 def _pencil_fails(case: _Case, r: ConditionResult) -> dict[str, Any]:
@@ -187,15 +164,30 @@ def _pencil_fails(case: _Case, r: ConditionResult) -> dict[str, Any]:
         for z in kernel_vectors(rows, len(case.U), p, limit=1):
             x = {a: z[colU[a]] for a in case.U}
             return _kernel_cert(case, x, sq, fmpq_poly([-sq, gamma, 1]))
-    raise NoCertificate("no exact kernel vector at lam = 0 or at a rational s = lam^2 + gamma lam")
+    try:
+        _, factors = zero_set(sys_, case.pencil())
+    except NoZeroSet as exc:
+        raise NoCertificate(f"no exact kernel vector at lam = 0 or at a rational s = lam^2 + gamma lam, and no zero set: {exc}") from None
+    if not factors:  # pragma: no cover - a verdict bug
+        raise NoCertificate("the zero set of T(s) is empty: the pencil has full column rank for every lam != 0")
+    g, vecs = factors[0]
+    sub = fmpq_poly([0, gamma, 1])  # s = lam^2 + gamma lam
+    G = g(sub)
+    while G(0) == 0:  # lam = 0 is the pencil T_0, not T(s)
+        G = G // fmpq_poly([0, 1])
+    G = G / G.leading_coefficient()
+    labels = sys_.labels
+    xg: dict[Any, Any] = {labels[a]: v(sub) % G for a, v in zip(case.pencil().U, vecs[0])}
+    return _kernel_cert(case, xg, sub, G)
 
 
-def _kernel_cert(case: _Case, x: dict[Any, fmpq], s: fmpq, g: fmpq_poly) -> dict[str, Any]:
-    """The kernel vector [x; t x; u_b; u_e] over Q[t]/(g), u from the input rows."""
-    ub: dict[Any, fmpq] = {}
-    ue: dict[Any, fmpq] = {}
+def _kernel_cert(case: _Case, x: dict[Any, Any], s: Any, g: fmpq_poly) -> dict[str, Any]:
+    """The kernel vector [x; t x; u_b; u_e] over Q[t]/(g), u from the input rows (x and s
+    rationals, or polynomials in t)."""
+    ub: dict[Any, Any] = {}
+    ue: dict[Any, Any] = {}
     for a in case.inputs:
-        val = s * x.get(a, fmpq(0)) + case.alpha * sum((w * x.get(c, fmpq(0)) for c, w in case.L[a].items()), fmpq(0))
+        val = (s * x.get(a, fmpq(0)) + case.alpha * sum((w * x.get(c, fmpq(0)) for c, w in case.L[a].items()), fmpq(0))) % g
         (ub if a in set(case.suspected) else ue)[a] = val if a in set(case.suspected) else -val
     t = fmpq_poly([0, 1])
     return {
@@ -215,12 +207,15 @@ def uio_certificate(system: System, r: ConditionResult) -> dict[str, Any]:
         if r.witness.get("unmeasured_boundary") or r.witness.get("normal", {}).get("unmeasured_boundary"):
             return {"kind": "structure"}
         raise NoCertificate("an unstable unobservable mode has no certificate yet")
-    cm = system.cluster_model(r.scope["cluster"], "normal")
-    if 2 * len(cm.nodes) > config.get("certificate_max_states"):
-        raise NoCertificate(f"more than {config.get('certificate_max_states')} states to enclose")
+    # the observer's design does not depend on the suspected set: one certificate per observer
+    return _UIO.get(system, (r.scope["cluster"], r.scope["observer"]), lambda: _uio_modes(system, r.scope["cluster"], r.scope["observer"]))
+
+
+def _uio_modes(system: System, cluster: str, observer: Any) -> dict[str, Any]:
     from glocal_verify.observers.uio import local_uio
 
-    obs = next(o for o in system.observers(r.scope["cluster"]) if o.center == r.scope["observer"])
+    cm = system.cluster_model(cluster, "normal")
+    obs = next(o for o in system.observers(cluster) if o.center == observer)
     modes = {}
     p = system_prime(system)
     n = len(cm.nodes)
@@ -230,7 +225,7 @@ def uio_certificate(system: System, r: ConditionResult) -> dict[str, Any]:
         A = state_matrix_exact(system.cluster_laplacian_exact(cm.name, m), system.alpha_q, system.gamma_q)
         at = {a: k for k, a in enumerate(cm.nodes)}
         cols = [at[a] for a in obs.positions] + [n + at[a] for a in obs.velocities]
-        claim = charpoly_claim(A, K1, cols, p, zero_rows=[n + at[b] for b in cm.boundary])
+        claim = stability_claim(A, K1, cols, p, zero_rows=[n + at[b] for b in cm.boundary])
         modes[m] = {"K1": [[q(float(x)) for x in row] for row in K1], **claim}
     return {"kind": "uio", "modes": modes}
 
