@@ -63,7 +63,7 @@ def export_floats(sizes: SpecSizes, *, thresholds: bool = True) -> float:
 
 
 def estimate_export(sizes: SpecSizes, fmt: str, *, thresholds: bool = True) -> CostEstimate:
-    """Seconds and peak memory of ``export`` of a spec of ``sizes`` to format ``fmt``.
+    r"""Seconds and peak memory of ``export`` of a spec of ``sizes`` to format ``fmt``.
 
     .. math::
 
