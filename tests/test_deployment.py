@@ -422,3 +422,30 @@ def test_the_python_snippet_of_docs_export_md_rebuilds_a_detector(small: tuple[S
     Y2 = Y.copy()
     Y2[120:, 0] += 0.05  # a sensor step on a measured position: the detector sees it
     assert scope["run"](Y2) and min(scope["run"](Y2)) >= 120
+
+
+def test_an_unstable_sampled_loop_gets_infinite_thresholds_never_nan_and_a_strict_json_file(tmp_path: Path) -> None:
+    # paper19 sampled at 0.2 s: the sampled loop is unstable (sampled.stability fails), so the
+    # certified power bounds overflow; with no noise declared, every inf meets an exact 0
+    import json
+    import warnings
+
+    from glocal_verify.simulation.sampled_deployment import sampled_deployment
+    from glocal_verify.spec.examples import example_text
+
+    text = example_text("paper19") + "\n[implementation]\nperiod = 0.2\n"
+    system = System(loads_spec(text))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)  # an inf * 0 anywhere would warn
+        dep = sampled_deployment(system)
+    central = dep.thresholds.detectors["central"]
+    for arr in (central.theta, central.bound, central.tail, *dep.guarantee.switch_thresholds.theta.values()):
+        assert not np.isnan(np.asarray(arr, dtype=float)).any()
+    assert np.isinf(central.theta).any()  # no finite bound after the switch: said, not hidden
+    (tmp_path / "s.toml").write_text(text, encoding="utf-8")
+    assert main(["export", str(tmp_path / "s.toml"), "--out", str(tmp_path / "d.json"), "--quiet"]) == 0
+
+    def refuse(constant: str) -> None:
+        raise AssertionError(f"non-standard JSON constant {constant}")
+
+    json.loads((tmp_path / "d.json").read_text(encoding="utf-8"), parse_constant=refuse)

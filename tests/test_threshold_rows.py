@@ -145,3 +145,22 @@ def test_a_nested_limit_to_the_count_in_force_keeps_it_and_the_outer_limit_survi
             assert all(i["num_threads"] == 1 for i in threadpool_info())
         assert all(i["num_threads"] == 1 for i in threadpool_info())
     assert [i["num_threads"] for i in threadpool_info()] == before
+
+
+def test_a_bound_product_with_an_exact_zero_is_zero_and_with_an_overflowed_bound_is_infinite() -> None:
+    from glocal_verify.numerics.certified_rows import times, upper, weighted
+
+    rng = np.random.default_rng(7)
+    A, w = np.abs(rng.standard_normal((4, 3, 5))), np.abs(rng.standard_normal(5))
+    assert np.allclose(weighted(A, w), A @ w)  # finite: the plain product
+    A[0, 0, :] = np.inf  # an overflowed error row ...
+    w[1] = 0.0  # ... against an absent channel: exact 0 there, inf where the weight is not 0
+    A[1, 1, :] = 0.0
+    A[1, 1, 1] = np.inf
+    out = weighted(A, w)
+    assert np.isinf(out[0, 0]) and out[1, 1] == 0.0 and not np.isnan(out).any()
+    w2 = np.zeros(5)
+    w2[2] = np.inf
+    assert np.isinf(weighted(np.ones((2, 5)), w2)).all() and (weighted(np.zeros((2, 5)), w2) == 0).all()
+    assert times(0.0, np.inf) == 0.0 and np.isinf(times(2.0, np.inf)) and (times(np.array([0.0, 1.0]), np.inf) == [0.0, np.inf]).all()
+    assert np.isinf(upper(np.nan)) and np.isinf(upper(np.array([np.nan, 1.0]))[0])  # a bound not computed bounds nothing

@@ -44,17 +44,49 @@ import numpy as np
 
 from glocal_verify.numerics.rounding import EPS, gamma_bound
 
-__all__ = ["PowerCertificate", "power_certificate", "certified_orbit", "RowSequence", "certified_rows", "certified_row_chunks", "abs_row_sums", "exact_to_float", "upper", "MAX_WINDOW_LOG2"]
+__all__ = ["PowerCertificate", "power_certificate", "certified_orbit", "RowSequence", "certified_rows", "certified_row_chunks", "abs_row_sums", "exact_to_float", "upper", "weighted", "times", "MAX_WINDOW_LOG2"]
 
 #: largest exponent i tried for the window 2^i of the tail certificate
 MAX_WINDOW_LOG2 = 16
 
 
 def upper(x: Any, ops: int = 4) -> Any:
-    """``x`` (>= 0) widened by the rounding of ``ops`` floating-point operations, ``(1 + gamma_ops) x``."""
+    """``x`` (>= 0) widened by the rounding of ``ops`` floating-point operations, ``(1 + gamma_ops) x``.
+
+    A NaN (an overflowed bound times an exact zero, ``inf * 0``) becomes ``inf``: a bound that
+    could not be computed bounds nothing, and ``inf`` keeps every comparison with it on the safe
+    side (no alarm is ever guaranteed by it), where a NaN would make ``r > theta`` and ``max``
+    answer by accident.
+    """
     if isinstance(x, np.ndarray):
-        return x * (1.0 + gamma_bound(ops)) + 1e-300
-    return float(x) * (1.0 + gamma_bound(ops)) + 1e-300
+        out = x * (1.0 + gamma_bound(ops)) + 1e-300
+        return np.where(np.isnan(out), np.inf, out)
+    v = float(x) * (1.0 + gamma_bound(ops)) + 1e-300
+    return math.inf if math.isnan(v) else v
+
+
+def weighted(A: Any, w: Any) -> Any:
+    """``A @ w`` for nonnegative ``A`` (..., n) and ``w`` (n,) with ``0 * inf = 0``.
+
+    Certified error rows of the powers of an unstable matrix are ``inf``, and so may be the state
+    bounds they carry; an exact 0 on the other side (an absent noise channel, a row that does not
+    reach a state) contributes exactly 0, where floating point would give NaN. A product of a
+    nonzero and an ``inf`` makes its entry ``inf``.
+    """
+    A = np.asarray(A, dtype=float)
+    w = np.asarray(w, dtype=float)
+    A_inf, w_inf = np.isinf(A), np.isinf(w)
+    out = np.asarray(np.where(A_inf, 0.0, A) @ np.where(w_inf, 0.0, w), dtype=float)
+    hit = ((A_inf & (w != 0)) | ((A != 0) & w_inf)).any(axis=-1)
+    return np.where(hit, np.inf, out)
+
+
+def times(a: Any, b: Any) -> Any:
+    """``a * b`` (elementwise) with ``0 * inf = 0``: a factor that is exactly 0 makes the product exactly 0."""
+    a_, b_ = np.broadcast_arrays(np.asarray(a, dtype=float), np.asarray(b, dtype=float))
+    out = np.zeros(a_.shape)
+    np.multiply(a_, b_, out=out, where=(a_ != 0) & (b_ != 0))
+    return float(out) if out.ndim == 0 else out
 
 
 @dataclass(frozen=True, slots=True)

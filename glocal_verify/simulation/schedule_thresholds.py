@@ -69,7 +69,9 @@ from glocal_verify.numerics.certified_rows import (
     certified_rows,
     exact_to_float,
     power_certificate,
+    times,
     upper,
+    weighted,
 )
 from glocal_verify.numerics.rounding import gamma_bound
 from glocal_verify.observers.sampled import SampledObserver, design_sampled_uio
@@ -388,7 +390,7 @@ def _columns(M: Any, X: Any, steps: int, weigh: Any) -> np.ndarray:
 
 def _noise_columns(M: Any, X: Any, w: np.ndarray, steps: int) -> np.ndarray:
     """Componentwise bounds of ``|M^i X| w`` for i < steps: (steps, dim)."""
-    return _columns(M, X, steps, lambda mid, err: upper(np.einsum("icd,c->id", np.abs(mid), w) + (err @ w)[:, None], len(w) + 4))
+    return _columns(M, X, steps, lambda mid, err: upper(np.einsum("icd,c->id", np.abs(mid), w) + weighted(err, w)[:, None], len(w) + 4))
 
 
 def _disturbance_columns(M: Any, Nw: Any, steps: int, dbar: float, h: float) -> np.ndarray:
@@ -468,7 +470,7 @@ class _SegmentRows:
         self.tsup, tsum = rows.tail_norms()
         gw_inf = _abs_inf(comp.Nw, np.ones(comp.Nw.ncols())) * max(h * h / 2, h) * model.disturbance
         self.common_tail = upper(
-            cs[L - 1] + nz[L - 1] + tsum * _abs_inf(comp.Nn, nbar) + np.maximum(nz1[L - 1], self.tsup * _abs_inf(Nn1, nbar)) + direct + dist[L - 1] + per[L - 1] + tsum * gw_inf,
+            cs[L - 1] + nz[L - 1] + times(tsum, _abs_inf(comp.Nn, nbar)) + np.maximum(nz1[L - 1], times(self.tsup, _abs_inf(Nn1, nbar))) + direct + dist[L - 1] + per[L - 1] + times(tsum, gw_inf),
             16,
         )
 
@@ -476,9 +478,9 @@ class _SegmentRows:
         """(theta, bound, tail theta) for a segment entered with ``|zeta^-| <= beta``."""
         L, rows = self.L, self.rows
         binf = float(beta.max(initial=0.0))
-        pre = np.abs(rows.mid[:L]) @ beta + rows.err[:L] * binf
+        pre = weighted(np.abs(rows.mid[:L]), beta) + times(rows.err[:L], binf)
         bound = upper(pre + self.common, len(beta) + 8)
-        tail = upper(self.tsup * binf + self.common_tail, 4)
+        tail = upper(times(self.tsup, binf) + self.common_tail, 4)
         return (1 + ROUNDING) * bound + ROUNDING * self.scale, bound, (1 + ROUNDING) * tail + ROUNDING * self.scale
 
 

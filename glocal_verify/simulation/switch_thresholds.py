@@ -31,7 +31,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from glocal_verify.numerics.certified_rows import RowSequence, abs_row_sums, certified_rows, exact_to_float, upper
+from glocal_verify.numerics.certified_rows import RowSequence, abs_row_sums, certified_rows, exact_to_float, upper, weighted
 from glocal_verify.numerics.rounding import gamma_bound
 from glocal_verify.simulation.certified_thresholds import ROUNDING, UncertaintyModel, disturbance_support
 from glocal_verify.simulation.sampled_attack import Composite
@@ -120,7 +120,7 @@ def post_switch_thresholds(
     beta = np.zeros((s_max + 1, pre.M.nrows()))
     if S:
         nmid = np.abs(colsN.mid[: s_max + 1])  # (s, p, dim): |(M_1^i Nn)^T|
-        ncol = upper(np.einsum("ipd,p->id", nmid, nbar) + (colsN.err[: s_max + 1] * nbar[None, :]).sum(axis=1)[:, None], 8)
+        ncol = upper(np.einsum("ipd,p->id", nmid, nbar) + weighted(colsN.err[: s_max + 1], nbar)[:, None], 8)
         beta[1:] = upper(np.cumsum(ncol[:s_max], axis=0), s_max + 2)
         if model.disturbance > 0:
             W = np.transpose(colsW.mid[: s_max + 1], (0, 2, 1))  # (s, dim, 2N)
