@@ -234,9 +234,6 @@ _ALL = (
     _t("zero_count_squarings", 2, "count", "glocal_verify.numerics.zero_count",
        "random squarings-down det(R P(s)) whose gcd modulo p bounds the number of invariant zeros",
        "two random ones share a spurious factor with probability about N / p; each more costs one truncated product"),
-    _t("zero_count_max_inputs", 4, "inputs", "glocal_verify.numerics.zero_count",
-       "a leading coefficient of det(R_1 P(s)) that the graph's walk-length bound does not settle is checked over Z up to this many inputs",
-       "the check expands by permutations and compositions: 4! of them per term; beyond, it costs more than the rest"),
     _t("zero_count_values_max_inputs", 32, "inputs", "glocal_verify.numerics.zero_count",
        "the modular zero count runs up to this many inputs (det(R P(s)) from its values at n + 1 points above three inputs)",
        "a 300-agent cluster's pencil with 12 inputs takes well under a second; the determinants grow like the cube of the inputs"),
@@ -375,8 +372,17 @@ _ALL = (
        "up to this many agents an undecided touch test at lambda0 = 0 notes what Q says there",
        "the note costs an N-sized exact solve"),
     _t("zero_touch_modular_max_agents", 2000, "agents", "glocal_verify.analysis.switching.zero_touch",
-       "the modular touch screen inverts the grounded Laplacian modulo a prime up to this many agents",
+       "an audit's modular touch screen inverts the grounded Laplacian modulo a prime up to this many agents (one attack set solves sparsely instead)",
        "O(N^3) once per system", read_at_import=True),
+    _t("avoidance_dense_max_agents", 600, "agents", "glocal_verify.analysis.switching.avoidance",
+       "the numeric touch test at an exact lambda0 is certified by dense rank bounds (SVDs of N-sized exact matrices) up to this many agents",
+       "four SVDs and an N^2 table of rationals: 42 s at N = 2000 on the adverse family; beyond, the touch test over Q at lambda0 = 0 decides, or the verdict stays undecided"),
+    _t("zero_touch_primes", 3, "count", "glocal_verify.analysis.switching.zero_touch",
+       "primes (with fresh random vectors and diagonal) the sparse modular solve of the attack's potentials tries",
+       "a try fails only when L_g D is derogatory or p divides det L_g: about N / p each"),
+    _t("zero_touch_exact_max_agents", 400, "agents", "glocal_verify.analysis.switching.zero_touch",
+       "the touch test at lambda0 = 0 solves the grounded Laplacian over Q (what the modular and structural proofs leave) up to this many agents",
+       "a dense rational solve; beyond, the verdict stays undecided and says so instead of running for minutes"),
 )
 
 #: every tunable by name (read-only)

@@ -826,7 +826,7 @@ def prime_for(values: Sequence[Fraction], limit: int = 2**30) -> int:
     values : sequence of Fraction
     limit : int
     """
-    dens = {abs(int(Fraction(v).denominator)) for v in values}
+    dens = {abs(int(v.denominator if isinstance(v, Fraction) else Fraction(v).denominator)) for v in values} - {1}
     return next(q for q in _primes_below(limit) if all(d % q for d in dens))
 
 

@@ -42,9 +42,9 @@ The bound (each step an exact statement)
        for an injective sigma: rho >= m + (the least such sum, a linear assignment). When
        rho_p meets that bound, rho = rho_p and c_rho is a p-adic unit. Otherwise the terms
        c_k, k < rho_p, are recomputed over Z (integer Markov parameters of D A, D the common
-       denominator, for the first rho_p - m powers only, up to ``zero_count_max_inputs``
-       inputs) and must all vanish; if one does not, p divides lc(z_1) and another prime is
-       taken.
+       denominator, for the first rho_p - m powers only; the determinant of their series
+       from its values at integers) and must all vanish; if one does not, p divides lc(z_1)
+       and another prime is taken.
     5. *Two ways to z_R modulo p.* With few inputs (at most three), as the polynomial part
        of chi times the series det(R G(w)), expanded by permutations. With more, by values:
        z_R(x) = det(R N(x)) / chi(x)^(m-1) at n + 1 consecutive points x where chi(x) != 0,
@@ -131,10 +131,19 @@ def _exact_leading_terms(
 ) -> int | None:
     """The first k < ``upto`` with c_k != 0 over Q (c the series of det(R C (sI - A)^{-1} B)), or None if all vanish.
 
-    Integer Markov parameters of D A (D the common denominator): c_k = D^{-(k - m)} times
-    the same Leibniz sum over them, so c_k = 0 iff the integer sum is 0.
+    Integer Markov parameters G_j = R C (D A)^j B (D the common denominator) give
+    c_k = D^{-(k - m)} c'_k with c'_k the coefficient of w^k in det(sum_j G_j w^(j+1)); only
+    j < ``upto`` - m reach the orders below ``upto`` (every entry has order >= 1). That
+    determinant is a polynomial of degree at most m (upto - m) in w, computed exactly from its
+    values at as many integers plus one (python-flint ``fmpz_mat`` determinants) and Newton's
+    interpolation over Q.
     """
+    from flint import fmpz_mat
+
     m = len(F)
+    J = max(upto - m, 0)
+    if J == 0:
+        return None
     D = 1
     for v in entries.values():
         D = D * v.denominator // math.gcd(D, v.denominator)
@@ -143,10 +152,9 @@ def _exact_leading_terms(
         if v != 0:
             rows[j].append((i, int(v * D)))  # by column: y_new[i] += A_ij y[j]
     Rint = [[int(x) for x in r] for r in R]
-    # G_j = R (D A)^j B restricted to M: m x m integer matrices, j = 0 .. upto - m - 1
     G: list[list[list[int]]] = []
     vecs = [{f: 1} for f in F]
-    for _ in range(max(upto - m, 0)):
+    for _ in range(J):
         H = [[vec.get(o, 0) for vec in vecs] for o in M]  # q x m
         G.append([[sum(Rint[i][t] * H[t][j] for t in range(len(M)) if H[t][j]) for j in range(m)] for i in range(m)])
         nxt = []
@@ -157,30 +165,23 @@ def _exact_leading_terms(
                     out[i] = out.get(i, 0) + a * y
             nxt.append({i: y for i, y in out.items() if y})
         vecs = nxt
-    for k in range(m, upto):
-        total = 0
-        for perm, sign in _signed_permutations(m):
-            # exponents j_1 + ... + j_m = k - m, entry i from G_{j_i}[i][perm[i]]
-            for js in _compositions(k - m, m):
-                prod = 1
-                for i, j in enumerate(js):
-                    prod *= G[j][i][perm[i]]
-                    if not prod:
-                        break
-                total += sign * prod
-        if total:
+    degree = m * J  # the entries have degree <= J
+    values = []
+    for x in range(degree + 1):
+        P = [[sum(G[j][a][b] * x ** (j + 1) for j in range(J)) for b in range(m)] for a in range(m)]
+        values.append(Fraction(int(fmpz_mat(P).det())))
+    # Newton's divided differences on the points 0, 1, ..., degree, then the monomial coefficients
+    d = list(values)
+    for j in range(1, degree + 1):
+        for i in range(degree, j - 1, -1):
+            d[i] = (d[i] - d[i - 1]) / j
+    poly = [d[degree]]
+    for j in range(degree - 1, -1, -1):  # poly * (w - j) + d[j]
+        poly = [(poly[0] * -j) + d[j]] + [poly[i - 1] - j * poly[i] for i in range(1, len(poly))] + [poly[-1]]
+    for k in range(m, min(upto, len(poly))):
+        if poly[k] != 0:
             return k
     return None
-
-
-def _compositions(total: int, parts: int) -> Any:
-    """Tuples of ``parts`` non-negative integers summing to ``total``."""
-    if parts == 1:
-        yield (total,)
-        return
-    for first in range(total + 1):
-        for rest in _compositions(total - first, parts - 1):
-            yield (first, *rest)
 
 
 #: up to this many inputs z_R comes from the series expanded by permutations (m! products), above from values
@@ -433,10 +434,6 @@ def zero_count_bound_mod_p(
         if structural is None:
             structural = _structural_order(n, keys, F, M) or -1
         if rho != structural:
-            if m > config.get("zero_count_max_inputs"):
-                notes.append(f"the leading term of det(R_1 P(s)) modulo {p} lies {rho} deep, not at the graph's bound {structural}, "
-                             f"and {m} inputs are more than zero_count_max_inputs to check it over Z")
-                continue
             if rho - m > config.get("zero_count_exact_terms"):
                 return ZeroCountBound(None, True, p, rho, feedback, f"the leading term of det(R_1 P(s)) lies {rho} terms deep, more than zero_count_exact_terms to check over Z")
             first = _exact_leading_terms(n, entries, F, M, Rs[0], rho)

@@ -49,12 +49,16 @@ def laplacian_entries(system: System, mode: str) -> Mapping[tuple[int, int], Fra
 
     def build() -> Mapping[tuple[int, int], Fraction]:
         ent: dict[tuple[int, int], Fraction] = {}
-        for key, w in system.edges(mode).items():
-            u, v = (system.index[a] for a in key)
-            ent[(u, v)] = ent.get((u, v), Fraction(0)) - w
-            ent[(v, u)] = ent.get((v, u), Fraction(0)) - w
-            ent[(u, u)] = ent.get((u, u), Fraction(0)) + w
-            ent[(v, v)] = ent.get((v, v), Fraction(0)) + w
+        diag: list[list[Fraction]] = [[] for _ in range(system.n)]
+        index = system.index
+        for key, w in system.edges(mode).items():  # one weight per pair of agents
+            u, v = (index[a] for a in key)
+            ent[(u, v)] = ent[(v, u)] = -w
+            diag[u].append(w)
+            diag[v].append(w)
+        for i, ws in enumerate(diag):
+            if ws:
+                ent[(i, i)] = sum(ws, Fraction(0))
         return ent
 
     return _LAPLACIAN_ENTRIES_KIND.get(system, (system.check_mode(mode),), build)  # type: ignore[no-any-return]

@@ -486,7 +486,7 @@ def minor_certificate(system: System, case: LocalCase, cache: dict[Any, Any] | N
         mx = {idx[a] for a in obs.positions}
         # alpha L[P_i \ I, P_i \ M_x] modulo the tables' prime (which divides no denominator of
         # alpha L): the residues of alpha L are kept per cluster and mode
-        res = _ALPHA_LAPLACIAN_MOD_KIND.get(system, (cm.name, case.mode, tables.prime), lambda: residues_mod_p([[alpha * x for x in row] for row in system.cluster_laplacian_exact(cm.name, case.mode)], tables.prime))
+        res = _ALPHA_LAPLACIAN_MOD_KIND.get(system, (cm.name, case.mode, tables.prime), lambda: residues_mod_p(_alpha_rows(system, case, alpha), tables.prime))
         inset = set(inputs)
         if not submatrix_full_rank_mod_p(res, [i for i in range(len(nodes)) if i not in inset], [j for j in range(len(nodes)) if j not in mx], tables.prime):
             return None
@@ -495,6 +495,15 @@ def minor_certificate(system: System, case: LocalCase, cache: dict[Any, Any] | N
     # the outcome (a proof or None) depends only on the exact tables and the input rows: the
     # audit's screen and the certification of a numeric verdict ask for the same one
     return _LOCAL_MINOR_CERTIFICATE_KIND.get(system, (cm.name, case.mode, tuple(measured), tuple(obs.positions), tuple(sorted(inputs))), prove)
+
+
+def _alpha_rows(system: System, case: LocalCase, alpha: Fraction) -> list[list[Fraction]]:
+    """alpha L[P_i, P_i] as rational rows, from the nonzero entries only (the zeros share one object)."""
+    n = len(case.model.nodes)
+    rows = [[RATIONAL_ZERO] * n for _ in range(n)]
+    for (i, j), v in system.cluster_laplacian_entries(case.model.name, case.mode).items():
+        rows[i][j] = alpha * v
+    return rows
 
 
 def observability_certificate(system: System, case: LocalCase) -> str | None:

@@ -75,9 +75,9 @@ def exact_q_pattern(system: System, F: Sequence[int], rows_out: Sequence[int]) -
     N, m = system.n, len(F)
     a = Fraction(system.alpha_q)
     pat = np.zeros((N + len(rows_out), N + m), dtype=bool)
-    for (i, j), v in laplacian_entries(system, NORMAL_MODE).items():
-        if i != j and a * v != 0:
-            pat[i, j] = True
+    if a != 0:  # alpha L_ij is zero exactly when L_ij is
+        ij = np.array([k for k, v in laplacian_entries(system, NORMAL_MODE).items() if v != 0], dtype=np.int64).reshape(-1, 2)
+        pat[ij[:, 0], ij[:, 1]] = True
     pat[np.arange(N), np.arange(N)] = True
     for k, f in enumerate(F):
         pat[f, N + k] = True  # -1 (an agent listed twice adds -1 in another column)

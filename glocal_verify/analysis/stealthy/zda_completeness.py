@@ -124,8 +124,12 @@ def _quotient(n: int, lap: Mapping[tuple[int, int], Fraction], alpha: Fraction, 
             rows[i][j] = v
     colour = [(-1 - a) if a in special else 0 for a in range(n)]
     cells = len(set(colour))
+    # the entries as small integers (one per distinct rational), so that the signatures hash and sort fast
+    value_id: dict[Fraction, int] = {}
+    diag_id = [value_id.setdefault(rows[a].get(a, Fraction(0)), len(value_id)) for a in range(n)]
+    off = [[(b, value_id.setdefault(v, len(value_id))) for b, v in rows[a].items() if b != a] for a in range(n)]
     for _ in range(n):
-        sig = [(colour[a], rows[a].get(a, Fraction(0)), tuple(sorted((colour[b], v) for b, v in rows[a].items() if b != a))) for a in range(n)]
+        sig = [(colour[a], diag_id[a], tuple(sorted((colour[b], v) for b, v in off[a]))) for a in range(n)]
         ids: dict[object, int] = {}
         colour = [ids.setdefault(x, len(ids)) for x in sig]
         if len(ids) == cells:

@@ -480,6 +480,11 @@ def avoidance_certificate(
             f"lambda0 = {lam:.6g} is a computed (irrational or complex) zero chosen as the fastest-growing one: "
             "neither its kernel nor the completeness of the zero set has a floating-point certificate"
         )
+    if system.n > config.get("avoidance_dense_max_agents"):
+        return False, None, (
+            f"the certified rank bounds of [Q; dL_q] at lambda0 need SVDs of {system.n}-sized exact matrices, "
+            f"not run above avoidance_dense_max_agents = {config.get('avoidance_dense_max_agents')} agents"
+        )
     q = Fraction(lam.real)
     s0 = q * q + system.gamma_q * q
     out = system.idx(system.monitored_positions) if q == 0 else system.idx(system.monitored)
@@ -593,8 +598,9 @@ def decide_avoidance(
        completeness proof of :func:`~glocal_verify.analysis.stealthy.zda_completeness.zero_set_completeness`
        --, or lambda0 = 1 of a system proved not left-invertible);
     3. at an exact lambda0 = 0 (no monitored position, G_1 connected, |F| >= 2), the touch
-       test over Q from the attack's potentials (:func:`~glocal_verify.analysis.switching.zero_touch.touch_at_zero`);
-       at a computed lambda0 = 0 its answer is only a note;
+       test over Q from the attack's potentials (:func:`~glocal_verify.analysis.switching.zero_touch.touch_at_zero`),
+       tried before step 2 (it is exact and costs a sparse solve); at a computed lambda0 = 0
+       its answer is only a note;
     4. ``fallback``: an undecided verdict is re-decided from the exact ZDA analysis.
 
     Parameters
@@ -610,9 +616,8 @@ def decide_avoidance(
     memo : mutable mapping, optional
         Shares the modal pencil and the stealthy bases between the modes of one attack set.
     zero_first : bool
-        Try step 3 before step 2 (cheaper per set in an audit; the same status either way,
-        since both are proofs; the numeric analysis also reports whether the witness is
-        touched).
+        Many attack sets share the system (an audit): step 3 solves for the potentials with
+        one inverse of the grounded Laplacian modulo a prime shared by every set.
 
     Returns
     -------
@@ -634,11 +639,14 @@ def decide_avoidance(
     exact_lambda = bool(zda.lambda0_exact)
 
     def at_zero() -> AvoidanceVerdict | None:
-        if exact_lambda and complex(d.value) == 0 and (av0 := touch_at_zero(system, mode, d, zda.direction_source, Fi)) is not None:
+        if exact_lambda and complex(d.value) == 0 and (av0 := touch_at_zero(system, mode, d, zda.direction_source, Fi, many=zero_first)) is not None:
             return AvoidanceVerdict(mode, av0.status, av0, exact=True, certificate={"certified": True, "error_bound": None, "by": av0.notes[-1], "note": ""})
         return None
 
-    if zero_first and (v0 := at_zero()) is not None:
+    # at an exact lambda0 = 0 the touch test over Q comes first: it is exact and costs a sparse
+    # solve (or, in an audit, one shared inverse), where certifying the numeric test takes
+    # dense SVDs of N-sized exact matrices
+    if (v0 := at_zero()) is not None:
         return v0
     key = ("avoidance-bases", F, complex(d.value))
     if key not in store:
@@ -649,8 +657,6 @@ def decide_avoidance(
     av, cert = _certify_numeric(system, F, numeric_mode_avoidance(system, mode, md, d, zda.direction_source, bases), exact_lambda, why)
     if av.status is not Status.UNDECIDED:
         return AvoidanceVerdict(mode, av.status, av, certificate=cert)
-    if not zero_first and (v0 := at_zero()) is not None:
-        return v0
     if fallback:
         ea = store.get(("exact-zda", F))
         if ea is None:
