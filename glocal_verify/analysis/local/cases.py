@@ -466,35 +466,46 @@ def minor_certificate(system: System, case: LocalCase, cache: dict[Any, Any] | N
     def build() -> Any:
         return grounded_tables(len(nodes), system.cluster_laplacian_entries(cm.name, case.mode), alpha, measured)
 
-    tables = _GROUNDED_TABLES_KIND.get(system, (cm.name, case.mode, tuple(measured)), build)
-    if tables is None:
-        return None
     inputs = [idx[a] for a in case.suspected] + [idx[a] for a in cm.boundary]
+    mset = set(measured)
+    unmeasured_inputs = sum(1 for i in set(inputs) if i not in mset)
+    # the maximal minors apply to at most minor_max_inputs unmeasured inputs (and as many other
+    # measured rows): their tables (a characteristic polynomial and a Krylov sequence) are
+    # built only then
+    minors_apply = unmeasured_inputs <= config.get("minor_max_inputs") and len(mset - set(inputs)) >= unmeasured_inputs
 
     def prove() -> str | None:
+        tables = _GROUNDED_TABLES_KIND.get(system, (cm.name, case.mode, tuple(measured)), build) if minors_apply else None
         kr = observability_certificate(system, case)
+        cert = None
         if kr is not None:
             text = kr
+        elif tables is not None and (cert := full_rank_certificate(tables, inputs, cache if cache is not None else {})) is not None:
+            text = cert.text()
+        elif (zc := zero_count_certificate(system, case)) is not None:
+            text = zc
         else:
-            cert = full_rank_certificate(tables, inputs, cache if cache is not None else {})
-            if cert is not None:
-                text = cert.text()
-            elif (zc := zero_count_certificate(system, case)) is not None:
-                text = zc
-            else:
-                return None
-        mx = {idx[a] for a in obs.positions}
-        # alpha L[P_i \ I, P_i \ M_x] modulo the tables' prime (which divides no denominator of
-        # alpha L): the residues of alpha L are kept per cluster and mode
-        res = _ALPHA_LAPLACIAN_MOD_KIND.get(system, (cm.name, case.mode, tables.prime), lambda: residues_mod_p(_alpha_rows(system, case, alpha), tables.prime))
-        inset = set(inputs)
-        if not submatrix_full_rank_mod_p(res, [i for i in range(len(nodes)) if i not in inset], [j for j in range(len(nodes)) if j not in mx], tables.prime):
             return None
-        return text + f"; lam = 0: alpha L[P_i \\ I, P_i \\ M_x] has full column rank modulo the prime {tables.prime}"
+        mx = {idx[a] for a in obs.positions}
+        # alpha L[P_i \ I, P_i \ M_x] modulo a prime which divides no denominator of alpha L
+        # (the tables', when they were built): the residues of alpha L are kept per cluster and mode
+        p = tables.prime if tables is not None else _prime_of(system, case, alpha)
+        res = _ALPHA_LAPLACIAN_MOD_KIND.get(system, (cm.name, case.mode, p), lambda: residues_mod_p(_alpha_rows(system, case, alpha), p))
+        inset = set(inputs)
+        if not submatrix_full_rank_mod_p(res, [i for i in range(len(nodes)) if i not in inset], [j for j in range(len(nodes)) if j not in mx], p):
+            return None
+        return text + f"; lam = 0: alpha L[P_i \\ I, P_i \\ M_x] has full column rank modulo the prime {p}"
 
     # the outcome (a proof or None) depends only on the exact tables and the input rows: the
     # audit's screen and the certification of a numeric verdict ask for the same one
     return _LOCAL_MINOR_CERTIFICATE_KIND.get(system, (cm.name, case.mode, tuple(measured), tuple(obs.positions), tuple(sorted(inputs))), prove)
+
+
+def _prime_of(system: System, case: LocalCase, alpha: Fraction) -> int:
+    """A prime below 2^30 that divides no denominator of alpha L[P_i, P_i]."""
+    from glocal_verify.numerics.minors import prime_for
+
+    return prime_for([alpha, *system.cluster_laplacian_entries(case.model.name, case.mode).values()])
 
 
 def _alpha_rows(system: System, case: LocalCase, alpha: Fraction) -> list[list[Fraction]]:

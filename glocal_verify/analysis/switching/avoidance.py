@@ -36,6 +36,7 @@ from glocal_verify.analysis.stealthy.zda_exact import (
     transfer_kernel,
     zda_analysis_exact,
 )
+from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.numerics import exact as ex
 from glocal_verify.numerics.exact_subspace import rational_kernel_vector
@@ -47,7 +48,7 @@ from glocal_verify.numerics.pencil_exact import (
 )
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
 from glocal_verify.results import Status
-from glocal_verify.spec.types import Label
+from glocal_verify.spec.types import NORMAL_MODE, Label
 
 __all__ = [
     "AvoidanceVerdict",
@@ -56,6 +57,7 @@ __all__ = [
     "avoidance",
     "avoidance_exact",
     "avoidance_certificate",
+    "separator_avoidance",
     "exact_mode_avoidance",
     "numeric_mode_avoidance",
     "stealthy_bases",
@@ -63,6 +65,9 @@ __all__ = [
     "StealthyBasis",
     "SplitBasis",
 ]
+
+#: derived results this module keeps on the system (glocal_verify.derived)
+_ENCLOSED_KIND: Kind[Any] = Kind("separator-enclosure", __name__, "Any")
 
 #: modes with |s + alpha mu_k| above this are eliminated in the numeric reduction (see the module docstring)
 _NEAR = 1.0
@@ -424,6 +429,96 @@ def avoidance_exact(system: System, mode: str, *, lambda0: complex | float | Seq
     return exact_mode_avoidance(system, mode, ea.direction, ea.direction_source, system.idx(ea.actuators), tol)
 
 
+def separator_avoidance(system: System, mode: str, F: Sequence[int], lam: complex) -> str | None:
+    """Prove that a stealthy direction at lambda0 avoids the switch to ``mode``, from a separator of F and the monitors, or return None.
+
+    Let X (|X| < |F|) separate F from M = M_x ∪ M_v in G_1 and R be the agents reached from
+    F \ X without meeting X. A vector xi supported on R is a stealthy direction at s =
+    lambda0^2 + gamma lambda0 when the rows (R ∪ X) \ F of (s I + alpha L_1) xi vanish (the
+    other rows do, R having no neighbour outside R ∪ X) and S_M xi = 0 (M meets R nowhere):
+    |R| unknowns, at most |R| - |F| + |X| < |R| equations, so such a nonzero xi exists. Its
+    input u0 = S_F (s I + alpha L_1) xi is nonzero: u0 = 0 would make (s I + alpha L_1[R, R]) xi_R
+    = 0, impossible for s not real and <= 0 (L_1[R, R] is positive semidefinite; s = 0 needs
+    every part of G_1[R] to have a link leaving R, which makes it definite). When no switching
+    link of the mode has an end in R, dL_q xi = 0: the switch is avoided (exact, combinatorial;
+    a unit-capacity maximum flow for X).
+
+    Parameters
+    ----------
+    system : System
+    mode : str
+    F : sequence of int
+        The attacked agents (indices).
+    lam : complex
+        lambda0.
+
+    Returns
+    -------
+    str or None
+        The proof, one line.
+    """
+    s0 = lam * lam + system.gamma * lam
+    M = system.idx(system.monitored)
+    if len(set(F)) < 2 or not M or (s0.imag == 0 and s0.real < 0):
+        return None
+    def enclosed() -> tuple[frozenset[int], frozenset[int], bool] | None:
+        """(X, R, every part of G_1[R] has a link to X), or None when no separator smaller than |F| exists.
+
+        X is a minimum vertex cut (a unit-capacity maximum flow on the vertex-split graph, the
+        agents left of the saturated arcs v_in -> v_out reached in the residual graph)."""
+        import scipy.sparse
+        from scipy.sparse.csgraph import breadth_first_order, connected_components, maximum_flow
+
+        n = system.n
+        L = system.laplacian_sparse(NORMAL_MODE).tocoo()
+        off = L.row != L.col
+        u, v = L.row[off].astype(np.int64), L.col[off].astype(np.int64)
+        src, snk = 2 * n, 2 * n + 1
+        Fs, Ms = sorted(set(F)), sorted(set(M))
+        big = n + 1
+        rows = np.concatenate([np.arange(n), n + u, np.full(len(Fs), src), n + np.asarray(Ms, dtype=np.int64)])
+        cols = np.concatenate([n + np.arange(n), v, np.asarray(Fs, dtype=np.int64), np.full(len(Ms), snk)])
+        caps = np.concatenate([np.ones(n), np.full(len(u), big), np.full(len(Fs), big), np.full(len(Ms), big)]).astype(np.int32)
+        cap = scipy.sparse.csr_matrix((caps, (rows, cols)), shape=(2 * n + 2, 2 * n + 2))
+        cap.sum_duplicates()
+        res = maximum_flow(cap, src, snk)
+        if res.flow_value >= len(Fs):
+            return None
+        resid = (cap - res.flow).tocsr()
+        resid.data = (resid.data > 0).astype(np.int8)
+        resid.eliminate_zeros()
+        reached = np.zeros(2 * n + 2, dtype=bool)
+        reached[breadth_first_order(resid, src, directed=True, return_predecessors=False)] = True
+        X = {int(x) for x in np.flatnonzero(reached[:n] & ~reached[n : 2 * n])}
+        keep = np.array([i not in X for i in range(n)])
+        A = scipy.sparse.csr_matrix((np.ones(len(u)), (u, v)), shape=(n, n))
+        sub = A[keep][:, keep]
+        ids = np.flatnonzero(keep)
+        _, lab = connected_components(sub, directed=False)
+        comp_of = dict(zip(ids.tolist(), lab.tolist()))
+        mine = {comp_of[f] for f in Fs if f not in X}
+        R = {int(i) for i, c in comp_of.items() if c in mine}
+        if R & set(Ms):  # pragma: no cover - X separates F from M
+            return None
+        # every part of G_1[R] (one per component reached from F) has a link to X
+        tied = all(any(int(w) in X for i in R if comp_of[i] == c for w in A.indices[A.indptr[i] : A.indptr[i + 1]]) for c in mine)
+        return frozenset(X), frozenset(R), tied
+
+    sep = _ENCLOSED_KIND.get(system, (tuple(sorted(set(F))),), enclosed)
+    if sep is None:
+        return None
+    X, R, tied = sep
+    if s0 == 0 and not tied:
+        return None
+    links = system.switching_links(mode)
+    if any(system.index[u] in R or system.index[v] in R for u, v, _ in links):
+        return None
+    return (
+        f"{len(X)} agent(s) {sorted(system.labels[x] for x in X)} separate the {len(set(F))} attacked agents from the monitors: a stealthy "
+        f"direction with an input lives on the {len(R)} agents they enclose, where no switching link of {mode} ends, so dL_q xi = 0 (exact, from the graph)"
+    )
+
+
 def avoidance_certificate(
     system: System,
     mode: str,
@@ -446,7 +541,9 @@ def avoidance_certificate(
     can be certified this way; the exponent of an irrational zero cannot. A ``holds`` is also
     proved by the avoiding direction ``candidate`` = (xi, u0) when it rationalises to an exact
     kernel vector of K with u0 != 0 (:func:`~glocal_verify.numerics.exact_subspace.rational_kernel_vector`).
-    Returns (certified, error bound, note saying which bound failed).
+    A ``holds`` is first tried by :func:`separator_avoidance` (combinatorial, at every N).
+    Returns (certified, error bound, note saying which bound failed or, when certified by the
+    separator, the proof).
 
     Parameters
     ----------
@@ -480,6 +577,8 @@ def avoidance_certificate(
             f"lambda0 = {lam:.6g} is a computed (irrational or complex) zero chosen as the fastest-growing one: "
             "neither its kernel nor the completeness of the zero set has a floating-point certificate"
         )
+    if status is Status.HOLDS and (sep := separator_avoidance(system, mode, F, lam)) is not None:
+        return True, None, sep
     if system.n > config.get("avoidance_dense_max_agents"):
         return False, None, (
             f"the certified rank bounds of [Q; dL_q] at lambda0 need SVDs of {system.n}-sized exact matrices, "
@@ -565,7 +664,7 @@ def _certify_numeric(system: System, F: Sequence[Label], av: Avoidance, exact_la
     ok, bound, note = avoidance_certificate(system, av.mode, system.idx(F), av.lambda0, av.status, exact_lambda, cand, why_not_exact)
     cert: dict[str, Any] = {"certified": ok, "error_bound": bound, "note": "" if ok else f"numeric {av.status.value} not certified: {note}"}
     if ok:
-        cert["by"] = (
+        cert["by"] = note or (
             "the avoiding direction rationalises to an exact kernel vector (checked over Q)"
             if bound is None
             else "Weyl lower bounds (SVD backward error and data rounding) against structural rank upper bounds at lambda0"
