@@ -57,6 +57,9 @@ __all__ = [
     "avoidance",
     "avoidance_exact",
     "avoidance_certificate",
+    "avoiding_subspace",
+    "direction_touch",
+    "DirectionTouch",
     "separator_avoidance",
     "exact_mode_avoidance",
     "numeric_mode_avoidance",
@@ -163,17 +166,44 @@ def _input_decisions(sv: np.ndarray, lam: complex, tol: Tolerance) -> list[Decis
     return [tol.decide(float(v), math.sqrt(x2 + float(v) ** 2)) for v in sv]
 
 
+def avoiding_subspace(A: np.ndarray, B: np.ndarray, cut: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The touch test of ``switching.avoids-attack`` on a basis of the stealthy kernel (its one home).
+
+    With xi = X c (X xi-orthonormal), u0 = B c and A c = dL_q xi / ||dL_q|| (a
+    :class:`SplitBasis`), the directions that avoid the switch are those c whose touch
+    ||A c|| is at most ``cut``: K spans the right singular vectors of A with singular values
+    <= ``cut`` (the exact avoiding subspace when ``cut`` is 0 and A exact). Returns K and the
+    singular values and right singular vectors (rows) of B K, the inputs an avoiding attacker
+    has: every direction with an input is touched iff they vanish. The rule
+    (:func:`numeric_mode_avoidance`, through :func:`decide_avoidance`) decides them with its
+    tolerance; the safe-mode design's screen calls this function with its own threshold.
+
+    Parameters
+    ----------
+    A : ndarray (rows x r)
+    B : ndarray (m x r)
+    cut : float
+    """
+    r = A.shape[1] if A.ndim == 2 else 0
+    r = max(r, B.shape[1] if B.ndim == 2 else 0)
+    if r == 0:
+        return np.zeros((0, 0)), np.zeros(0), np.zeros((0, 0))
+    sa, Va = _right_svd(A, r)
+    K = Va[:, sa <= cut]
+    if K.shape[1] == 0 or B.shape[0] == 0:
+        return K, np.zeros(0), np.zeros((0, K.shape[1]))
+    _, su, Vuh = np.linalg.svd(B @ K, full_matrices=False)
+    return K, su, Vuh
+
+
 def _avoiding(sp: SplitBasis, lam: complex, tol: Tolerance, cut: float) -> tuple[np.ndarray | None, int, bool]:
     """(best coefficient vector, certain u0-rank, some input not certainly zero) of the
-    avoiding subspace {c : singular values of A <= cut} of ``sp``."""
-    r = sp.Xo.shape[1]
-    if r == 0:
+    avoiding subspace {c : singular values of A <= cut} of ``sp`` (:func:`avoiding_subspace`)."""
+    if sp.Xo.shape[1] == 0:
         return None, 0, False
-    sa, Va = _right_svd(sp.A, r)
-    K = Va[:, sa <= cut]
+    K, su, Vuh = avoiding_subspace(sp.A, sp.B, cut)
     if K.shape[1] == 0 or sp.B.shape[0] == 0:
         return None, 0, False
-    _, su, Vuh = np.linalg.svd(sp.B @ K, full_matrices=False)
     dec = _input_decisions(su, lam, tol)
     dim = sum(1 for x in dec if x is Decision.NONZERO)
     some = any(x is not Decision.ZERO for x in dec)
@@ -199,6 +229,51 @@ def _fails_margin(sp: SplitBasis, lam: complex, tol: Tolerance) -> float | None:
         AV = AV - Q0 @ (Q0.conj().T @ AV)
     sp_, _ = _right_svd(AV, Vr.shape[1])
     return float(sp_[-1])
+
+
+@dataclass(frozen=True, slots=True)
+class DirectionTouch:
+    """Does the switch to a mode touch one given direction xi? (:func:`direction_touch`)
+
+    Attributes
+    ----------
+    decision : Decision
+        ``NONZERO``: dL_q xi != 0 (touched); ``ZERO``: untouched; ``UNDECIDED`` within the tolerance band.
+    ratio : float
+        ||dL_q xi|| / (||dL_q||_2 ||xi||).
+    agents : tuple of labels
+        The rows of dL_q xi decided nonzero.
+    """
+
+    decision: Decision
+    ratio: float
+    agents: tuple[Label, ...]
+
+    @property
+    def touched(self) -> bool | None:
+        """True: touched; False: untouched; None: undecided."""
+        return None if self.decision is Decision.UNDECIDED else self.decision is Decision.NONZERO
+
+
+def direction_touch(system: System, mode: str, xi: np.ndarray, tol: Tolerance = DEFAULT_TOLERANCE) -> DirectionTouch:
+    """The rule's touch test of one direction: ||dL_q xi|| against ||dL_q||_2 ||xi|| with the tolerance.
+
+    What :func:`numeric_mode_avoidance` decides for the chosen direction of ``stealthy.zda``;
+    a simulated attack's direction (``switching.detects``, the case study) is judged by the
+    same function.
+
+    Parameters
+    ----------
+    system : System
+    mode : str
+        A safe mode q.
+    xi : ndarray
+        A direction (N entries, complex allowed).
+    tol : Tolerance
+    """
+    dl_idx, dl_blk = delta_block(system, mode)
+    d, ratio, rows = _touched(system, dl_idx, dl_blk, block_norm(dl_blk), np.asarray(xi), tol)
+    return DirectionTouch(d, ratio, tuple(rows))
 
 
 def _touched(system: System, dl_idx: Sequence[int], dl_blk: np.ndarray, dl_norm: float, xi: np.ndarray, tol: Tolerance) -> tuple[Decision, float, list[Label]]:
