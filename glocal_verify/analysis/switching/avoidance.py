@@ -508,8 +508,8 @@ def separator_avoidance(system: System, mode: str, F: Sequence[int], lam: comple
     """Prove that a stealthy direction at lambda0 avoids the switch to ``mode``, from a separator of F and the monitors, or return None.
 
     Let X (|X| < |F|) separate F from M = M_x ∪ M_v in G_1 and R be the agents reached from
-    F \ X without meeting X. A vector xi supported on R is a stealthy direction at s =
-    lambda0^2 + gamma lambda0 when the rows (R ∪ X) \ F of (s I + alpha L_1) xi vanish (the
+    F \\ X without meeting X. A vector xi supported on R is a stealthy direction at s =
+    lambda0^2 + gamma lambda0 when the rows (R ∪ X) \\ F of (s I + alpha L_1) xi vanish (the
     other rows do, R having no neighbour outside R ∪ X) and S_M xi = 0 (M meets R nowhere):
     |R| unknowns, at most |R| - |F| + |X| < |R| equations, so such a nonzero xi exists. Its
     input u0 = S_F (s I + alpha L_1) xi is nonzero: u0 = 0 would make (s I + alpha L_1[R, R]) xi_R
@@ -772,9 +772,10 @@ def decide_avoidance(
        completeness proof of :func:`~glocal_verify.analysis.stealthy.zda_completeness.zero_set_completeness`
        --, or lambda0 = 1 of a system proved not left-invertible);
     3. at an exact lambda0 = 0 (no monitored position, G_1 connected, |F| >= 2), the touch
-       test over Q from the attack's potentials (:func:`~glocal_verify.analysis.switching.zero_touch.touch_at_zero`),
-       tried before step 2 (it is exact and costs a sparse solve); at a computed lambda0 = 0
-       its answer is only a note;
+       test over Q from the attack's potentials (:func:`~glocal_verify.analysis.switching.zero_touch.touch_at_zero`:
+       a sparse modular solve, no N-sized dense work; above ``avoidance_dense_max_agents``
+       step 2 is not certified and this step decides); at a computed lambda0 = 0 its answer
+       is only a note;
     4. ``fallback``: an undecided verdict is re-decided from the exact ZDA analysis.
 
     Parameters
@@ -790,8 +791,9 @@ def decide_avoidance(
     memo : mutable mapping, optional
         Shares the modal pencil and the stealthy bases between the modes of one attack set.
     zero_first : bool
-        Many attack sets share the system (an audit): step 3 solves for the potentials with
-        one inverse of the grounded Laplacian modulo a prime shared by every set.
+        Many attack sets share the system (an audit): step 3 comes before step 2 (cheaper per
+        set; the same status, both being proofs) and solves for the potentials with one
+        inverse of the grounded Laplacian modulo a prime shared by every set.
 
     Returns
     -------
@@ -814,13 +816,13 @@ def decide_avoidance(
 
     def at_zero() -> AvoidanceVerdict | None:
         if exact_lambda and complex(d.value) == 0 and (av0 := touch_at_zero(system, mode, d, zda.direction_source, Fi, many=zero_first)) is not None:
+            if av0.chosen_touched is None:  # several inputs: whether the chosen direction itself is touched, by the rule's direction test
+                dt = direction_touch(system, mode, d.xi, tol)
+                av0 = dataclasses.replace(av0, chosen_touched=dt.touched, chosen_touched_agents=dt.agents)
             return AvoidanceVerdict(mode, av0.status, av0, exact=True, certificate={"certified": True, "error_bound": None, "by": av0.notes[-1], "note": ""})
         return None
 
-    # at an exact lambda0 = 0 the touch test over Q comes first: it is exact and costs a sparse
-    # solve (or, in an audit, one shared inverse), where certifying the numeric test takes
-    # dense SVDs of N-sized exact matrices
-    if (v0 := at_zero()) is not None:
+    if zero_first and (v0 := at_zero()) is not None:
         return v0
     key = ("avoidance-bases", F, complex(d.value))
     if key not in store:
@@ -831,6 +833,8 @@ def decide_avoidance(
     av, cert = _certify_numeric(system, F, numeric_mode_avoidance(system, mode, md, d, zda.direction_source, bases), exact_lambda, why)
     if av.status is not Status.UNDECIDED:
         return AvoidanceVerdict(mode, av.status, av, certificate=cert)
+    if not zero_first and (v0 := at_zero()) is not None:
+        return v0
     if fallback:
         ea = store.get(("exact-zda", F))
         if ea is None:
