@@ -617,7 +617,7 @@ def twin_failure(system: System, case: LocalCase) -> str | None:
     """An exact proof that Proposition III.2 (iii) fails: a twin mode the observer cannot see.
 
     If agents a, r of the cluster are twins of L[P_i, P_i] (equal rows off {a, r}, equal
-    diagonal; :func:`glocal_verify.numerics.minors.twin_modes`) and the observer measures
+    diagonal; :func:`glocal_verify.numerics.symmetry.twin_modes`) and the observer measures
     neither, z = e_a - e_r satisfies L[P_i, P_i] z = mu z exactly, so [z; lam z; 0] is a kernel
     vector of the pencil of eq. ``pencil_uio`` at both roots of lam^2 + gamma lam + alpha mu:
     the pencil loses column rank there, whatever the suspected set.
@@ -632,7 +632,7 @@ def twin_failure(system: System, case: LocalCase) -> str | None:
     str or None
         The proof, one line; None proves nothing.
     """
-    from glocal_verify.numerics.minors import twin_modes
+    from glocal_verify.numerics.symmetry import twin_modes
 
     cm, obs = case.model, case.observer
     nodes = cm.nodes
