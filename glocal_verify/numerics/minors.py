@@ -232,7 +232,8 @@ def grounded_tables(
     pos = [-1] * size
     for j, i in enumerate(U):
         pos[i] = j
-    dens = {abs(int(v.denominator)) for v in laplacian.values()} | {abs(int(alpha.denominator)), abs(int(alpha.numerator))}
+    # a prime dividing no denominator (the proof) and no numerator (so no nonzero entry vanishes modulo p)
+    dens = _data_factors([*laplacian.values(), alpha])
     limit = int(min(2**24, math.isqrt(2**52 // max(n, 1))))
     p = next((q for q in _primes_below(limit) if all(d % q for d in dens)), None)
     if p is None:
@@ -724,8 +725,7 @@ def constant_full_rank_mod_p(rows: Sequence[Sequence[Fraction]], prime: int | No
         return True
     if len(rows) < ncols:
         return False
-    dens = {abs(int(Fraction(x).denominator)) for r in rows for x in r}
-    p = prime if prime is not None else next(q for q in _primes_below(2**30) if all(d % q for d in dens))
+    p = prime if prime is not None else prime_for([x for r in rows for x in r if x])
     ent = [_mod(Fraction(x), p) for r in rows for x in r]
     return int(nmod_mat(len(rows), ncols, ent, p).rank()) == ncols
 
@@ -752,15 +752,31 @@ def submatrix_full_rank_mod_p(residues: Sequence[Sequence[int]], rows: Sequence[
     return int(nmod_mat(len(rows), len(cols), ent, prime).rank()) == len(cols)
 
 
+def _data_factors(values: Sequence[Any]) -> set[int]:
+    """The denominators and nonzero numerators (absolute values above 1) of rational data: a
+    prime dividing none keeps every entry defined and every nonzero entry nonzero modulo p."""
+    out: set[int] = set()
+    for v in values:
+        q = v if isinstance(v, Fraction) else Fraction(v)
+        out.add(abs(int(q.denominator)))
+        out.add(abs(int(q.numerator)))
+    return out - {0, 1}
+
+
 def prime_for(values: Sequence[Fraction], limit: int = 2**30) -> int:
-    """The largest prime below ``limit`` that divides no denominator of ``values``.
+    """The largest prime below ``limit`` that divides no denominator and no nonzero numerator of ``values``.
+
+    Only the denominators matter for the proofs (reduction modulo p is then a ring
+    homomorphism); a prime that divides a numerator would turn a nonzero entry into zero
+    modulo p and make a certificate fail for nothing (weights such as p^2 / 10^6 chosen
+    against the first primes tried), so it is passed over too.
 
     Parameters
     ----------
     values : sequence of Fraction
     limit : int
     """
-    dens = {abs(int(v.denominator if isinstance(v, Fraction) else Fraction(v).denominator)) for v in values} - {1}
+    dens = _data_factors(values)
     return next(q for q in _primes_below(limit) if all(d % q for d in dens))
 
 
