@@ -1,8 +1,9 @@
-"""A stealthy ZDA at lambda0 = 0: the modular rank of Q_0 that proves there is none.
+"""A stealthy ZDA at lambda0 = 0: the modular rank of Q_0 that proves there is none, and the
+persistent ZDA the numeric zero set misses on badly scaled weights, decided as over Q.
 
 Q_0 = [[alpha L_1, -S_F^T], [S_Mx, 0]]; a stealthy ZDA at 0 exists iff some kernel vector has
 an input part, i.e. rank Q_0 < rank [alpha L_1; S_Mx] + |F|. The reference is that criterion
-computed over Q (python-flint).
+computed over Q (python-flint), and the exact decider of ``stealthy.zda``.
 """
 
 from __future__ import annotations
@@ -12,10 +13,12 @@ from fractions import Fraction
 
 import flint
 import networkx as nx
+import numpy as np
 
 from glocal_verify import System, config, spec_from_graph
 from glocal_verify.analysis.laplacian.twins import laplacian_entries
 from glocal_verify.analysis.stealthy.zda_screens import zero_exponent_status
+from glocal_verify.analysis.stealthy.zda_verdict import ZdaOptions, decide_zda, growth_rank
 from glocal_verify.numerics.minors import prime_for
 from glocal_verify.results import Status
 from glocal_verify.spec.types import NORMAL_MODE
@@ -85,3 +88,35 @@ def test_the_prime_of_a_modular_certificate_divides_no_weight_numerator() -> Non
     p = prime_for(values)
     assert p not in (P30, 7) and all(v.numerator % p and v.denominator % p for v in values)
     assert prime_for([Fraction(P24**2, 10**6)], limit=2**24) != P24
+
+
+def _badly_scaled_network() -> System:
+    """Seven agents with weights p^2 / 10^6 and p^2 / 10^7 beside 1-2; velocities of 2 and 4 monitored, 5 and 6 attacked."""
+    big, huge = Fraction(P24**2, 10**6), Fraction(P30**2, 10**7)
+    G = nx.Graph()
+    G.add_weighted_edges_from([(2, 3, huge), (3, 4, 2), (2, 5, huge), (2, 6, 1), (2, 7, big), (5, 6, 2), (5, 7, big), (4, 5, 1), (1, 7, 1)])
+    return System(spec_from_graph(G, monitor_velocities=[2, 4], attack={"kind": "zda", "actuators": [5, 6]}))
+
+
+def test_a_persistent_zda_at_zero_the_numeric_zero_set_misses_on_badly_scaled_weights_holds_as_over_q() -> None:
+    system = _badly_scaled_network()
+    v = decide_zda(system)
+    exact = decide_zda(system, options=ZdaOptions(exact=True))
+    at0 = decide_zda(system, options=ZdaOptions(exact=True, lambda0=0))
+    assert exact.status is Status.HOLDS and at0.direction_source == "requested lambda0"  # a ZDA at 0 over Q
+    assert v.numeric_analysis is not None and not v.numeric_analysis.exists  # the point of the example: the numeric zero set misses it
+    assert v.status is Status.HOLDS and v.note.startswith("the numeric zero set missed it")
+    assert v.certificate is not None and v.certificate.lambda0 == 0 and "exact, from the graph" in v.proof
+    # nothing the numeric analysis decided is kept: growth and left-invertibility as proven, or unknown
+    assert v.left_invertible in (None, exact.left_invertible)
+    if v.growth == "undecided":
+        assert not v.complete and growth_rank(v.growth_at_least) <= growth_rank(exact.growth)
+    else:
+        assert v.growth == exact.growth
+    if v.direction is not None:  # a witness is checked against the definition: alpha L_1 xi = S_F^T u0, u0 != 0
+        L = np.asarray(system.laplacian(), dtype=float)
+        Fi = system.idx((5, 6))
+        rhs = np.zeros(system.n, dtype=complex)
+        rhs[Fi] = v.direction.u0
+        assert np.linalg.norm(float(system.alpha) * L @ v.direction.xi - rhs) <= 1e-6 * np.linalg.norm(L, 2) * np.linalg.norm(v.direction.xi)
+        assert np.linalg.norm(v.direction.u0) > 0 and complex(v.direction.value) == 0
