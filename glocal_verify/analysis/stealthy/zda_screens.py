@@ -45,6 +45,7 @@ from glocal_verify.analysis.laplacian.twins import laplacian_entries
 from glocal_verify.analysis.unobservable.subspace import rational_unobservable_candidates
 from glocal_verify.derived import Kind
 from glocal_verify.model import System
+from glocal_verify.numerics.symmetry import equitable_differences
 from glocal_verify.numerics.minors import (
     GroundedTables,
     grounded_tables,
@@ -200,10 +201,15 @@ def global_tables(system: System) -> GroundedTables | None:
 
 
 def _unobservable_candidates(system: System, M: Sequence[int], grouped: bool = False) -> Any:
-    """Rationalised reduced-echelon bases of E_mu ∩ ker S_M per eigenvalue group (floating point)."""
+    """Rationalised reduced-echelon bases of E_mu ∩ ker S_M per eigenvalue group (floating point), and one group of
+    exact differences of the equitable partition with M kept apart (identical clusters, twins:
+    :func:`~glocal_verify.numerics.symmetry.equitable_differences`), whose eigenvectors are irrational."""
     sp = system.spectrum()
     U = np.asarray(sp.vectors)
     out = [rows for g in sp.clusters if (rows := rational_unobservable_candidates(U[:, list(g)], M))]
+    sym = equitable_differences(system.n, laplacian_entries(system, NORMAL_MODE), M)
+    if sym:
+        out.append(sym)
     if grouped:
         return out
     return [r for grp in out for r in grp]

@@ -47,6 +47,9 @@ What proves a status (tried in this order; each is a proof about the exact syste
        without ``fallback`` (``verify``'s numeric pass): an undecided status is proven by
        :func:`~glocal_verify.analysis.stealthy.zda_local.prove_local_zero` when it finds a zero the
        numeric zero set missed (the growth then a lower bound; the escalation decides the rest).
+       An undecided status of step 5 then gets step 4 when its tables are affordable
+       (``zda_certificate_max_seconds``), the unobservable modes of identical clusters and
+       twins divided out exactly (their basis from the equitable partition).
     6. ``fallback=True``: an undecided status is re-decided over Q (step 1).
 
 The witness direction is the spec's lambda0 when a stealthy ZDA exists there, else the
@@ -486,6 +489,11 @@ def _by_minors(
     return ZdaVerdict(F, Status.HOLDS, GROWTH_PERSISTENT, True, z, source, "numeric", proof, zeros_exact=True)
 
 
+def _minors_affordable(system: System) -> bool:
+    """The minor certificate's tables (a characteristic polynomial modulo p of the N-sized pencil) fit its time share."""
+    return float(config.get("zda_certificate_seconds_n3")) * float(system.n) ** 3 <= float(config.get("zda_certificate_max_seconds"))
+
+
 def _by_local_zero(system: System, F: tuple[Label, ...], numeric: ZdaVerdict | None = None) -> ZdaVerdict | None:
     """Step 4b: a stealthy ZDA inside the clusters of F, found and proved exactly there.
 
@@ -622,6 +630,16 @@ def _decide(system: System, F: tuple[Label, ...], opt: ZdaOptions, memo: Mutable
     if (zs := _screened(system, F, opt)) is not None:
         return zs
     v = _numeric(system, F, opt)
+    if v.status is Status.UNDECIDED and opt.minors is None and _minors_affordable(system):
+        # the numeric zero set is not certified (e.g. the repeated unobservable modes of identical
+        # clusters, weights of very different scales): the maximal minors, modulo the exactly
+        # verified unobservable modes, may prove that no zero has an input direction
+        from glocal_verify.analysis.stealthy.zda_screens import global_tables
+
+        zc = _by_minors(system, F, dataclasses.replace(opt, minors=global_tables(system)), memo)
+        if zc is not None:
+            return dataclasses.replace(zc, numeric_analysis=v.numeric_analysis, certificate=v.certificate,
+                                       note=f"the numeric zero set was not certified ({v.note}); the maximal minors decide")
     if v.status is Status.UNDECIDED and opt.growth == "full" and not opt.fallback and (zl := _by_local_zero(system, F, v)) is not None:
         return zl  # verify's numeric pass: the status is proven, the zero set (growth, fastest zero) is left to its escalation
     if v.status is Status.UNDECIDED and opt.fallback:
