@@ -532,9 +532,9 @@ def touch_at_zero(system: System, mode: str, z: ZdaZero, source: str, F: Sequenc
     if complex(z.value) != 0:
         return None
     zt = zero_touch(system, F, [mode], many=many)
-    if zt is None or zt[0] is None:
+    t = None if zt is None else zt[0]
+    if t is None:
         return None
-    (t,) = zt
     if t.avoids and t.xi is None:
         how = (
             f"decided over Q at lambda0 = 0: the attack's potentials y_k (L_1 y_k = e_f1 - e_fk) agree across every switching link "
