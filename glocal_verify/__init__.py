@@ -31,7 +31,8 @@ if TYPE_CHECKING:  # the names below load on first use (PEP 562): `import glocal
     from glocal_verify.analysis.stealthy.covert import covert_required_channels
     from glocal_verify.analysis.unobservable.switched import switched_unobservable_subspace
     from glocal_verify.analysis.unobservable.subspace import unobservable_subspace
-    from glocal_verify.analysis.stealthy.zda import ZdaDirection, zda_analysis, zda_direction
+    from glocal_verify.analysis.stealthy.zda import ZdaDirection
+    from glocal_verify.analysis.stealthy.zda_verdict import ZdaOptions, ZdaVerdict, decide_zda, zda_direction
     from glocal_verify.conditions.detects import algorithm1
     from glocal_verify.answer.run import verify
     from glocal_verify.conditions.registry import (
@@ -96,8 +97,10 @@ _LAZY: Mapping[str, str] = MappingProxyType({
     "switched_unobservable_subspace": "glocal_verify.analysis.unobservable.switched",
     "unobservable_subspace": "glocal_verify.analysis.unobservable.subspace",
     "ZdaDirection": "glocal_verify.analysis.stealthy.zda",
-    "zda_analysis": "glocal_verify.analysis.stealthy.zda",
-    "zda_direction": "glocal_verify.analysis.stealthy.zda",
+    "ZdaOptions": "glocal_verify.analysis.stealthy.zda_verdict",
+    "ZdaVerdict": "glocal_verify.analysis.stealthy.zda_verdict",
+    "decide_zda": "glocal_verify.analysis.stealthy.zda_verdict",
+    "zda_direction": "glocal_verify.analysis.stealthy.zda_verdict",
     "algorithm1": "glocal_verify.conditions.detects",
     "CATALOGUE": "glocal_verify.conditions.registry",
     "CheckContext": "glocal_verify.conditions.registry",
@@ -207,7 +210,9 @@ __all__ = [
     "analyze_pencil_exact",
     "ZdaDirection",
     "covert_required_channels",
-    "zda_analysis",
+    "ZdaOptions",
+    "ZdaVerdict",
+    "decide_zda",
     "zda_direction",
     "Subspace",
     "switched_unobservable_subspace",

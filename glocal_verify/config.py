@@ -18,8 +18,11 @@ Reading and changing them::
     config.set_defaults(max_seconds=1200.0)      # for the rest of the process
     config.reset_defaults()                      # every value back to its default
 
-Modules read a tunable when they use it, so an override takes effect at once; the few marked
-"read at import" (``Tunable.read_at_import``) are read once, when their module is imported.
+Modules read a tunable when they use it, so an override takes effect at once: a module never
+keeps a tunable in a constant of its own. A function argument that stands for a tunable
+defaults to None (or :data:`IN_FORCE` where None means something else) and is read through
+the one resolver, :func:`resolve`: the argument if given, else the value in force when the
+function runs (python-control's ``config._get_param``).
 A value must have the default's type (an int where the default is an int; a real, possibly
 infinite, where it is a float) and be non-negative; anything else raises :class:`ConfigError`. The
 values hold in this process: an exact re-decision forked by ``verify`` inherits them, a
@@ -38,6 +41,7 @@ from glocal_verify.errors import ConfigError, did_you_mean, shorten
 
 __all__ = [
     "ConfigError",
+    "IN_FORCE",
     "TUNABLES",
     "Tunable",
     "default",
@@ -45,6 +49,7 @@ __all__ = [
     "get",
     "override",
     "reset_defaults",
+    "resolve",
     "set_defaults",
 ]
 
@@ -68,8 +73,6 @@ class Tunable:
         What it decides.
     why : str
         Why it has this value (a measurement, a bound, a compromise).
-    read_at_import : bool
-        Read once when ``home`` is imported (an override then needs a fresh process).
     """
 
     name: str
@@ -78,11 +81,10 @@ class Tunable:
     home: str
     meaning: str
     why: str
-    read_at_import: bool = False
 
 
-def _t(name: str, default: Any, unit: str, home: str, meaning: str, why: str, read_at_import: bool = False) -> Tunable:
-    return Tunable(name, default, unit, home, meaning, why, read_at_import)
+def _t(name: str, default: Any, unit: str, home: str, meaning: str, why: str) -> Tunable:
+    return Tunable(name, default, unit, home, meaning, why)
 
 
 _ALL = (
@@ -325,10 +327,10 @@ _ALL = (
        "none of 7,854 successful pair certificates used one; the failing ones spent a third of their time there"),
     _t("monitors_exact_max_agents", 30, "agents", "glocal_verify.design.monitors",
        "monitor design searches exhaustively up to this many agents in the union of the switching components",
-       "the search is exponential", read_at_import=True),
+       "the search is exponential"),
     _t("safe_modes_exact_max_agents", 40, "agents", "glocal_verify.design.safe_modes",
        "safe-mode design re-verifies its proposals over Q up to this many agents",
-       "exact Theorem III.3 checks grow fast with N", read_at_import=True),
+       "exact Theorem III.3 checks grow fast with N"),
     _t("monitor_step_set_seconds", 5e-3, "seconds", "glocal_verify.conditions.design_cost",
        "constant part of one audit of one hard attack set in design's monitor step",
        "the sets left there are stealthy and unexposed: their witnesses are the costly ones"),
@@ -346,25 +348,25 @@ _ALL = (
        "42 ms against 8 ms per set at N = 40"),
     _t("safe_modes_max_combinations", 200_000, "changes", "glocal_verify.design.safe_modes",
        "multi-link changes scored per size by the safe-mode design",
-       "bounds the scoring work", read_at_import=True),
+       "bounds the scoring work"),
     _t("safe_modes_max_screens", 4000, "changes", "glocal_verify.design.safe_modes",
        "changes screened per chosen mode (fewer for large N: safe_modes_max_screen_work)",
-       "bounds the screening work", read_at_import=True),
+       "bounds the screening work"),
     _t("safe_modes_max_screen_work", 2e9, "entry operations", "glocal_verify.design.safe_modes",
        "about this many entry operations of the screen per chosen mode (64 s N^2 each)",
-       "a few seconds of screening", read_at_import=True),
+       "a few seconds of screening"),
     _t("safe_modes_screen_batch", 64, "changes", "glocal_verify.design.safe_modes",
        "changes screened together (one batched secular solve)",
-       "amortises the solve's calls", read_at_import=True),
+       "amortises the solve's calls"),
     _t("safe_modes_screen_batch_entries", 4e6, "entries", "glocal_verify.design.safe_modes",
        "at most about this many array entries (B (N - 1)^2) per temporary of a batch",
-       "32 MB temporaries", read_at_import=True),
+       "32 MB temporaries"),
     _t("multilink_screen_margin", 1e-8, "relative margin", "glocal_verify.design.multilink",
        "a change is proposed only when its screened gaps and eigenvector differences exceed this",
-       "above the rounding of the screen; every proposal is verified afterwards", read_at_import=True),
+       "above the rounding of the screen; every proposal is verified afterwards"),
     _t("multilink_bisection_steps", 64, "steps", "glocal_verify.design.multilink",
        "bisection steps of the secular equation (each halves the bracket)",
-       "64 halvings reach double precision", read_at_import=True),
+       "64 halvings reach double precision"),
     _t("zero_exponent_modular_max_agents", 2000, "agents", "glocal_verify.analysis.stealthy.zda_screens",
        "with monitored positions, the absence of a ZDA at lambda0 = 0 is proved by the rank of Q_0 modulo a prime up to this many agents",
        "one dense rank modulo p of an (N + |M_x|) x (N + m) matrix (python-flint), tried only where zero forcing stops: "
@@ -377,7 +379,7 @@ _ALL = (
        "the note costs an N-sized exact solve"),
     _t("zero_touch_modular_max_agents", 2000, "agents", "glocal_verify.analysis.switching.zero_touch",
        "an audit's modular touch screen inverts the grounded Laplacian modulo a prime up to this many agents (one attack set solves sparsely instead)",
-       "O(N^3) once per system", read_at_import=True),
+       "O(N^3) once per system"),
     _t("avoidance_dense_max_agents", 600, "agents", "glocal_verify.analysis.switching.avoidance",
        "the numeric touch test at an exact lambda0 is certified by dense rank bounds (SVDs of N-sized exact matrices) up to this many agents",
        "four SVDs and an N^2 table of rationals: 42 s at N = 2000 on the adverse family; beyond, the touch test over Q at lambda0 = 0 decides, or the verdict stays undecided"),
@@ -387,6 +389,39 @@ _ALL = (
     _t("zero_touch_exact_max_agents", 400, "agents", "glocal_verify.analysis.switching.zero_touch",
        "the touch test at lambda0 = 0 solves the grounded Laplacian over Q (what the modular and structural proofs leave) up to this many agents",
        "a dense rational solve; beyond, the verdict stays undecided and says so instead of running for minutes"),
+    # ---- run options and limits read where they are in force ---------------------------------
+    _t("exact_budget", 30.0, "seconds", "glocal_verify.conditions.registry",
+       "one time budget for all the exact escalations of a verify run (verify's and the CLI's --exact-budget default)",
+       "half a minute keeps an interactive run interactive; most re-decisions of the bundled examples take a second"),
+    _t("guarantee_max_agents", 150, "agents", "glocal_verify.simulation.guarantees",
+       "largest network whose certified detection guarantee (detection.*) is computed (dense 2N-sized composites)",
+       "the composites are dense, cubic in 2N; the same bound as detects_max_agents (no separate measurement)"),
+    # ---- certificates of verdicts (docs/certificates.md) --------------------------------------
+    _t("certificate_dense_max_agents", 300, "agents", "glocal_verify.certificates.global_certificates",
+       "certificates that need dense exact or modular work on N-sized matrices (touch ranks, Krylov rows of observability, ZDAs at lambda0 != 0) are written up to this many agents",
+       "O(N^3) exact elimination per certificate; 0.1 s at N = 200"),
+    _t("certificate_max_states", 100, "states", "glocal_verify.certificates.encode",
+       "Hurwitz certificates (local.uio per mode, central.observer's quotient) state the characteristic polynomial up to this many states, a Lyapunov matrix above",
+       "the checker's exact characteristic polynomial and root enclosures: 0.4 s at 100 states, 45 s at 240, growing like n^4; a Lyapunov matrix costs one floating-point Cholesky and exact integer products: 2 s at 240 states"),
+    _t("certificate_minor_tries", 40, "row sets", "glocal_verify.certificates.local_certificates",
+       "row sets of the reduced local pencil T(s) tried for coprime minors (and for an anchor of large degree) before no certificate is written",
+       "two or three minors suffice on every bundled and generated network"),
+    _t("certificate_lift_primes", 200, "primes", "glocal_verify.certificates.zero_sets",
+       "primes tried to lift the zero polynomial of a pencil in s from its reductions to Q (Chinese remainders, rational reconstruction) before no zero set is written",
+       "one set of minors modulo each prime; degree 90 needs about 100 primes"),
+    # ---- replay (simulation.replay) ------------------------------------------------------------
+    _t("replay_noise_slack", 0.01, "fraction", "glocal_verify.simulation.replay",
+       "a replayed channel's fourth-difference noise estimate above (1 + this) x its [uncertainty] bound says the noise premise failed",
+       "noise at its bound reaches exactly 1; the loop's own signal adds h^4 |y''''| / 16, below 1e-4 of the bound on paper19's logs"),
+    _t("symmetry_weight_tries", 4, "weightings", "glocal_verify.design.symmetry",
+       "generic weightings of one symmetry-breaking link plan decided by the Theorem III.3 rules before a failing link is banned",
+       "a generic weighting passes at the first or second try on symmetric clusters"),
+    _t("symmetry_plan_tries", 6, "plans", "glocal_verify.design.symmetry",
+       "link plans drawn per symmetry-breaking mode (each after banning the link a failed plan names)",
+       "bounds the rule decisions of one mode"),
+    _t("symmetry_max_links", 12, "links", "glocal_verify.design.symmetry",
+       "largest number of links of a symmetry-breaking mode when --max-links is not given",
+       "the interlacing bound asks as many links as the largest multiplicity of L_1"),
 )
 
 #: every tunable by name (read-only)
@@ -445,6 +480,45 @@ def get(name: str) -> Any:
     except KeyError:
         _tunable(name)
         raise  # pragma: no cover - _tunable raised
+
+
+@dataclass(frozen=True, slots=True)
+class _InForce:
+    """The type of :data:`IN_FORCE` (one instance, no state)."""
+
+    def __repr__(self) -> str:
+        return "IN_FORCE"
+
+    def __reduce__(self) -> str:
+        return "IN_FORCE"
+
+
+#: the default of an argument that stands for a tunable when None already means something
+#: else (``exact_budget=None``: no budget): "the value in force when the function runs"
+IN_FORCE: Any = _InForce()
+
+
+def resolve(name: str, value: Any = None) -> Any:
+    """The argument if given, else the value of tunable ``name`` in force (read now).
+
+    The one resolver of the package (python-control's ``config._get_param``): a function whose
+    argument stands for a tunable defaults it to None (or :data:`IN_FORCE`) and calls this
+    when it runs, so that :func:`override` and :func:`set_defaults` reach it.
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`TUNABLES` (checked even when ``value`` is given).
+    value : object, optional
+        The argument; None or :data:`IN_FORCE` mean "not given".
+
+    Raises
+    ------
+    ConfigError
+        For an unknown name.
+    """
+    in_force = get(name)
+    return in_force if value is None or value is IN_FORCE else value
 
 
 def default(name: str) -> Any:

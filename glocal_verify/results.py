@@ -19,10 +19,13 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from glocal_verify import config
 from glocal_verify.errors import ArgumentError, UnknownConditionError, did_you_mean, shorten
 __all__ = [
-    "FRAGILE_BELOW",
+    "GROWTH_DECAYING",
+    "GROWTH_NULL",
+    "GROWTH_PERSISTENT",
+    "GROWTH_UNBOUNDED",
+    "GROWTH_UNDECIDED",
     "Status",
     "Method",
     "Polarity",
@@ -36,14 +39,14 @@ __all__ = [
     "AttackScenario",
     "ScheduleInfo",
     "audit_jsonable",
+    "growth_of_sign",
+    "growth_rank",
+    "vector_json",
     "jsonable",
     "json_preview",
     "REPORT_SCHEMA_ID",
 ]
 
-#: a margin below this marks a result fragile: the default of the tunable ``fragile_below`` of
-#: :mod:`glocal_verify.config` (read that for the value in force) and of ``--fragile-below``
-FRAGILE_BELOW: float = config.default("fragile_below")
 
 REPORT_SCHEMA_ID = "glocal-verify/report@1"
 
@@ -61,6 +64,43 @@ class Status(str, Enum):
 
     def __str__(self) -> str:
         return self.value
+
+
+#: the growth classes of an attack signal u0 exp(lambda0 t) (sampled: u0 z0^k): by the sign of
+#: Re lambda0 (of |z0| - 1); ``null`` when there is no such attack, ``undecided`` when the sign
+#: is not known
+GROWTH_UNBOUNDED = "unbounded"
+GROWTH_PERSISTENT = "persistent"
+GROWTH_DECAYING = "decaying"
+GROWTH_UNDECIDED = "undecided"
+GROWTH_NULL = "null"
+
+#: the growth classes from the mildest to the fastest (``undecided`` below ``unbounded``: it may be anything but that)
+_GROWTH_ORDER = MappingProxyType({GROWTH_NULL: 0, GROWTH_DECAYING: 1, GROWTH_PERSISTENT: 2, GROWTH_UNDECIDED: 3, GROWTH_UNBOUNDED: 4})
+
+
+def growth_of_sign(sign: int) -> str:
+    """The growth class of an attack whose exponent has real part of sign ``sign`` (1, 0, -1).
+
+    The one mapping of the package: exact signs (python-flint), decided numeric signs and the
+    sampled loop's ``|z0| - 1`` all come here.
+
+    Parameters
+    ----------
+    sign : int
+        The sign of Re lambda0 (or of ``|z0| - 1``): 1, 0 or -1.
+    """
+    return GROWTH_UNBOUNDED if sign > 0 else GROWTH_PERSISTENT if sign == 0 else GROWTH_DECAYING
+
+
+def growth_rank(g: str) -> int:
+    """Order of the growth classes: null < decaying < persistent < undecided < unbounded (an unknown class ranks as undecided).
+
+    Parameters
+    ----------
+    g : str
+    """
+    return _GROWTH_ORDER.get(g, 3)
 
 
 class Method(str, Enum):
@@ -615,6 +655,41 @@ def json_preview(x: Any, limit: int, separators: tuple[str, str] = (", ", ": "))
         text = "".join(parts)
         return text[: limit - 3] + "..."
     return "".join(parts)
+
+
+def vector_json(labels: Sequence[Any], v: Any, *, cut: float | None = None, zeros: bool = False) -> dict[Any, Any]:
+    """A witness vector by label at full double precision: the one encoding of xi and u0 of a ZDA.
+
+    An entry is a float when its imaginary part is exactly 0, else a Python complex (``[re,
+    im]`` in JSON, :func:`jsonable` and :func:`audit_jsonable`).
+
+    Parameters
+    ----------
+    labels : sequence
+        The key of each entry (agent labels; the audit passes them as strings).
+    v : array_like
+        The vector, one entry per label.
+    cut : float, optional
+        Keep only the entries above ``cut`` times the largest magnitude (none when that is 0
+        or not finite): the audit's rows, at the tolerance's rtol. Default: no relative cut,
+        so a tiny entry is kept and the residual is not lost.
+    zeros : bool
+        Keep the entries that are exactly 0.0 too (an input direction u0, listed whole).
+    """
+    a = np.asarray(v)
+    keep: Any = range(len(labels))
+    if cut is not None:
+        mag = np.abs(a)
+        big = float(np.max(mag, initial=0.0))
+        if big <= 0.0 or not math.isfinite(big):
+            return {}
+        keep = np.flatnonzero(mag / big > cut).tolist()
+    out: dict[Any, Any] = {}
+    for k in keep:
+        c = complex(a[k])
+        if zeros or c != 0:
+            out[labels[k]] = c.real if c.imag == 0 else c
+    return out
 
 
 def audit_jsonable(x: Any) -> Any:

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from typing import Any, Sequence
 
-__all__ = ["counted", "format_labels", "format_lambda", "slug"]
+__all__ = ["counted", "format_labels", "format_lambda", "sentence", "slug"]
 
 
 def counted(count: int, noun: str, plural: str | None = None) -> str:
@@ -48,3 +48,26 @@ def slug(text: str) -> str:
     """``text`` as a file-name component: letters, digits, ``.`` and ``_`` (others become ``_``), at most 40."""
     out = "".join(ch if ch.isalnum() or ch in "._" else "_" for ch in text)[:40]
     return out or "x"
+
+
+def sentence(text: str) -> str:
+    """``text`` as a sentence: a capital first letter and a full stop, an identifier kept as written.
+
+    A text that starts with a condition id, a symbol or a file name (``stealthy.zda``,
+    ``x(t0)``, ``x*``, ``my.toml``: a first word holding ``.``, ``(``, ``*``, ``_``, ``@`` or
+    ``/``) keeps its case; rephrase such a message rather than start it with an identifier.
+
+    Examples
+    --------
+    >>> sentence("not evaluated: stealthy.zda (--only)")
+    'Not evaluated: stealthy.zda (--only).'
+    >>> sentence("x(t0) cannot be reconstructed.")
+    'x(t0) cannot be reconstructed.'
+    """
+    text = text.strip()
+    if not text:
+        return text
+    first = text.split(maxsplit=1)[0]
+    if not any(ch in first for ch in ".(*_@/"):
+        text = text[0].upper() + text[1:]
+    return text if text.endswith((".", "!", "?", ":")) else text + "."

@@ -1676,6 +1676,14 @@ def _session_survivors(sid: int) -> list[str]:
     return out
 
 
+def _default_stop_signals() -> None:
+    """In the child before it runs: the stop signals at their default, as a shell starts a
+    command. A campaign started under ``nohup`` (SIGHUP ignored) would otherwise hand its runs an
+    ignored SIGHUP, which the command rightly keeps ignoring: every SIGHUP case would "hang"."""
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, signal.SIG_DFL)
+
+
 def _run_signalled(case: Case, work: Path, timeout_s: float) -> RunResult:
     """Run the case as a real process in its own session and send it its signal."""
     import subprocess
@@ -1688,7 +1696,7 @@ def _run_signalled(case: Case, work: Path, timeout_s: float) -> RunResult:
     t0 = time.monotonic()
     p = subprocess.Popen([sys.executable, "-m", "glocal_verify", *argv], cwd=work, env=env, stdin=subprocess.DEVNULL,
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True,
-                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # noqa: PLW1509 - one thread here
+                         preexec_fn=_default_stop_signals)  # noqa: PLW1509 - one thread here
     try:
         out, err = p.communicate(timeout=at)
     except subprocess.TimeoutExpired:

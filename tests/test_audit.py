@@ -92,6 +92,7 @@ def _check_direction(system: System, row: AuditRow) -> None:
     assert set(int(k) for k in d["u0"]) <= set(row.actuators)
 
 
+@pytest.mark.slow
 def test_paper19_audit_lists_all_190_sets_with_a_verdict(result: AuditResult) -> None:
     assert len(result.rows) == 190
     assert {r.verdict for r in result.rows} <= {"detected", "undetected", "undecided"}
@@ -231,14 +232,15 @@ def test_the_audit_progress_line_extrapolates_the_recent_rate_not_the_setup(monk
 
     from glocal_verify.cli.common import count_progress
 
-    # created at 0; first report at 100 s (after the set-up) with 200 sets done, the next at
-    # 115 s with 400: 200 sets per 15 s, 600 left -> 45 s (not 100 s / 400 sets * 600)
-    clock = iter([0.0, 100.0, 100.0, 115.0, 115.0])
-    monkeypatch.setattr(time, "monotonic", lambda: next(clock))
+    # the phase starts at 0; first report at 100 s (after the set-up) with 200 sets done, the
+    # next at 115 s with 400: 200 sets per 15 s, 600 left -> 45 s (not 100 s / 400 sets * 600)
+    now = [0.0]
+    monkeypatch.setattr(time, "monotonic", lambda: now[0])
     line = count_progress(False)
     assert line is not None
-    line(200, 1000)
-    line(400, 1000)
+    for t, done in ((0.0, 0), (100.0, 200), (115.0, 400)):
+        now[0] = t
+        line(done, 1000)
     err = capsys.readouterr().err
     assert "400/1000 attack sets, 115 s elapsed, about 45 s left" in err, err
 

@@ -7,6 +7,8 @@ against the definition (an exact eigenvector with the stated entries).
 
 from __future__ import annotations
 
+import pytest
+
 from fractions import Fraction
 from typing import Any
 
@@ -27,6 +29,7 @@ def _key(audit_result: Any) -> dict[tuple[Any, ...], tuple[Any, ...]]:
     return {r.actuators: (r.stealthy, r.growth, r.verdict, r.caught_locally_by, r.exposed_by_modes) for r in audit_result.rows}
 
 
+@pytest.mark.slow
 def test_the_minor_certificate_leaves_every_paper19_row_as_the_full_analysis_gives_it() -> None:
     system = System(load_example("paper19"))
     fast = audit(system, 2)

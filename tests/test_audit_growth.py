@@ -82,6 +82,7 @@ def both(generated: System) -> tuple[Any, Any]:
     return audit(generated, 2, cands, growth="verdict"), audit(generated, 2, cands, growth="full")
 
 
+@pytest.mark.slow
 def test_verdict_growth_gives_every_verdict_of_the_full_audit(both: tuple[Any, Any]) -> None:
     lazy, full = both
     key = lambda r: (r.stealthy, r.verdict, r.caught_locally_by, r.exposed_by_modes)

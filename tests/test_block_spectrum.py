@@ -136,6 +136,7 @@ def _clustered_systems_with_modes(draw: st.DrawFn) -> System:
 GLOBAL = ["switching.distinct-eigenvalues", "switching.eigenvector-differences", "switched-observability", "privacy.unobservable", "stealthy.zda"]
 
 
+@pytest.mark.slow
 @settings(max_examples=30, deadline=None)
 @given(_clustered_systems_with_modes())
 def test_numeric_verdicts_from_a_normal_mode_built_from_blocks_never_contradict_exact_arithmetic(system: System) -> None:
@@ -144,6 +145,7 @@ def test_numeric_verdicts_from_a_normal_mode_built_from_blocks_never_contradict_
         assert_numeric_matches_exact(fresh, GLOBAL)
 
 
+@pytest.mark.slow
 def test_the_normal_mode_of_a_large_clustered_network_is_built_from_blocks_and_gives_the_eigh_verdicts(monkeypatch: pytest.MonkeyPatch) -> None:
     spec = random_clustered_spec(config.get("block_min_agents"), 3, seed=7)
     system = System(spec)
@@ -160,6 +162,7 @@ def test_the_normal_mode_of_a_large_clustered_network_is_built_from_blocks_and_g
     assert [(c.id, c.scope, c.status) for c in factored.conditions] == [(c.id, c.scope, c.status) for c in reference.conditions]
 
 
+@pytest.mark.slow
 def test_a_normal_mode_of_many_small_clusters_is_kept_from_blocks_and_is_as_sharp_as_eigh() -> None:
     # ten clusters of 200 agents and nine links between them: the blocks' radius is far below
     # eigh's, the links cost some of it, and the result is still kept (its radius against the one

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from glocal_verify import System, load_example, spec_from_graph, verify
-from glocal_verify.observers.central import design_central_observer, routh_hurwitz
+from glocal_verify.numerics.hurwitz import routh_hurwitz
+from glocal_verify.observers.central import design_central_observer
 from glocal_verify.results import Method, Status
 
 

@@ -11,11 +11,10 @@ from hypothesis import strategies as st
 
 from glocal_verify.analysis.unobservable.subspace import exact_A, exact_C
 from glocal_verify.model import System
+from glocal_verify.numerics.hurwitz import _routh_hurwitz_rational, routh_hurwitz_poly
 from glocal_verify.observers.central import (
-    _routh_hurwitz_rational,
     design_central_observer,
     observer_charpoly_exact,
-    routh_hurwitz_poly,
 )
 from glocal_verify.spec import load_example
 from tests.strategies import systems

@@ -220,6 +220,7 @@ def test_first_crossing_reports_the_peak_even_without_a_crossing(paper19: System
 # the command
 
 
+@pytest.mark.slow
 def test_simulate_writes_a_json_summary_and_png_and_svg_figures(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     system = _tiny()
     spec = tmp_path / "tiny.toml"

@@ -17,7 +17,7 @@ from glocal_verify.numerics.exact_subspace import (
     _row_closure_direct,
 )
 from glocal_verify.numerics.pencil_exact import (
-    _echelon_mod,
+    echelon_mod as _echelon_mod,
     kernel_over_field,
     rank_over_field,
 )
@@ -138,7 +138,7 @@ def test_transfer_kernel_with_switch_rows_equals_the_stacked_kernel() -> None:
 
 @pytest.mark.parametrize("seed", range(40))
 def test_the_routh_array_on_flint_polynomials_agrees_with_the_roots(seed: int) -> None:
-    from glocal_verify.observers.central import routh_hurwitz, routh_hurwitz_poly
+    from glocal_verify.numerics.hurwitz import routh_hurwitz, routh_hurwitz_poly
 
     rng = random.Random(seed)
     # a product of quadratic factors with rational roots or clearly complex ones, so that the

@@ -54,7 +54,9 @@ def _rebuild(tree: dict[str, Any]) -> ObserverBank:
         F = {ANY_MODE: o["F"], **{d["mode"]: d["F"] for d in o["designs"]}}
         G = {ANY_MODE: o["K"], **{d["mode"]: d["K"] for d in o["designs"]}}
         ch = tuple(o["channels"])
-        out.append(ObserverModel(o["name"], "local", Cg, F, G, o["Ry"], o["Rz"], -o["h"] @ Cg, ch, ch, o["cluster"]))
+        H = {ANY_MODE: o["h"], **{d["mode"]: d["h"] for d in o["designs"]}}  # x_hat = z + h_q y, reset at a switch
+        H = H if any(not np.array_equal(v, o["h"]) for v in H.values()) else {}
+        out.append(ObserverModel(o["name"], "local", Cg, F, G, o["Ry"], o["Rz"], -o["h"] @ Cg, ch, ch, o["cluster"], None, (), H))
     return ObserverBank(tuple(out))
 
 

@@ -28,6 +28,7 @@ def _cases(kind: str) -> list[fs.Case]:
     return [fs.random_case(fs.RandomChooser(7919 * k + 17), kind) for k in range(DRAWS)]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["graph", "sweep", "options", "output"])
 def test_fixed_draws_of_every_input_kind_end_cleanly_and_keep_the_output_policy(kind: str) -> None:
     bad = []
@@ -44,6 +45,7 @@ def _stopped(label: str, sig: int, at: float) -> fs.Case:
     return fs.Case("signal", label, list(argv), files, protected=list(files), signal=(int(sig), at), description=f"{label}: {signal.Signals(sig).name} after {at} s")
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc for surviving processes")
 def test_runs_stopped_at_work_print_one_line_and_leave_no_process_behind() -> None:
     cases = [
@@ -60,6 +62,7 @@ def test_runs_stopped_at_work_print_one_line_and_leave_no_process_behind() -> No
 _SINGLE_FILE_WRITERS = [w[0] for w in fs.WRITERS if not w[3]]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("target", ["null-device", "fifo"])
 @pytest.mark.parametrize("label", _SINGLE_FILE_WRITERS)
 def test_every_single_file_output_into_a_device_or_a_fifo_leaves_it_what_it_was(label: str, target: str) -> None:

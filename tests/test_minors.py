@@ -162,6 +162,7 @@ def _exact_gcd_and_kernel(n: int, L: dict[tuple[int, int], Fraction], alpha: Fra
     return _gcd(_maximal_minors(n, L, alpha, M, inputs)), kernel_dim
 
 
+@pytest.mark.slow
 def test_a_certificate_modulo_twin_modes_leaves_only_twin_modes_in_the_kernel() -> None:
     from glocal_verify.numerics.symmetry import twin_modes
 

@@ -132,6 +132,7 @@ def _shown(nb: Any) -> dict[str, list[dict[str, Any]]]:
     return out
 
 
+@pytest.mark.slow
 def test_the_tour_notebook_runs_and_every_tagged_cell_shows_its_object(executed: Any) -> None:
     errors = [o for c in executed.cells if c.cell_type == "code" for o in c.outputs if o.get("output_type") == "error"]
     assert errors == []

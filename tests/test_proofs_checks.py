@@ -29,6 +29,7 @@ def outcomes():
     return run(all_steps())
 
 
+@pytest.mark.slow
 def test_every_proof_step_comes_out_as_expected(outcomes):
     bad = [
         f"{o.step.qualname} [{o.step.equation}]: {o.verdict.value} {o.error or o.residual[:300]}"

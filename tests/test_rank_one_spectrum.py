@@ -129,6 +129,7 @@ def test_a_poor_update_is_refused_and_eigh_decides() -> None:
     assert update_spectrum(L1, base, [(0, 1, 5.0)]) is None
 
 
+@pytest.mark.slow
 def test_verdicts_with_updated_safe_mode_spectra_equal_those_with_fresh_eigendecompositions(monkeypatch: pytest.MonkeyPatch) -> None:
     spec = random_clustered_spec(520, 3, seed=11)
     updated = verify(System(spec))

@@ -9,6 +9,8 @@ derandomized subset runs in ``tests/test_fuzz_surfaces.py``.
 
 from __future__ import annotations
 
+import re
+
 import math
 import os
 import signal
@@ -124,6 +126,7 @@ def test_a_bad_sweep_file_is_one_line_before_any_cluster_starts(text: str, where
     [('agents = 12\nclusters = 2\nseeds = {start = 0, count = 1000000}', "1000000 members"), ("agents = [100000]", "time and memory limits")],
     ids=["a-million-members", "100000-agents"],
 )
+@pytest.mark.slow
 def test_a_sweep_above_the_limits_is_refused_with_its_estimate(ensemble: str, why: str, tmp_path: Path, capsys: pytest.CaptureFixture[str], no_cluster: None) -> None:
     sw = tmp_path / "sw.toml"
     sw.write_text(f'[ensemble]\ngenerator = "random-clustered"\n{ensemble}\n')
@@ -524,7 +527,8 @@ def test_design_refuses_a_safe_mode_phase_above_the_limits_with_its_estimate_bef
     err = capsys.readouterr().err
     last = err.strip().splitlines()[-1]
     assert last.startswith("glocal-verify: error: design of 8 agents: estimated ") and "--allow-large" in last, last
-    assert "checks of 28 undetected attack sets" in last
+    # refused by the up-front estimate of the whole design, which bounds the checks before any audit counts the sets
+    assert re.search(r"checks of \d+ undetected attack sets", last), last
     assert "designing safe modes" not in err and not (tmp_path / "d.toml").exists()
 
 
@@ -544,6 +548,7 @@ def test_designs_monitor_step_is_estimated_per_round_and_per_unexposed_set() -> 
     assert one.seconds > estimate_safe_modes(sizes, 107, exact=True).seconds
 
 
+@pytest.mark.slow
 def test_safe_modes_for_120_targets_are_confirmed_without_an_exact_run_per_set(monkeypatch: pytest.MonkeyPatch) -> None:
     # the clustered check of 2026-12-05: a design of 80 agents with 2,393 targets confirmed
     # each claimed set with a checker run whose computed lambda0 = 0 could not be certified,
@@ -557,8 +562,11 @@ def test_safe_modes_for_120_targets_are_confirmed_without_an_exact_run_per_set(m
     from glocal_verify.design.safe_modes import design_safe_modes, with_modes
     from glocal_verify.spec.types import AttackSpec
 
+    from glocal_verify.design.pruning import Blueprint, Edit
+
     spec = network._velocity_only(random_clustered_spec(80, 5, seed=960675))
-    spec, _, _ = network._observers(System(spec), 2000)
+    obs, _, _ = network._observers(System(spec), 2000)
+    spec = Blueprint(spec, observers=obs).build([Edit("observer", k) for k in obs])
     mid = System(spec)
     pairs = list(itertools.combinations(range(1, 17), 2))  # cluster P1: 116 of its 120 pairs are stealthy at lambda0 = 0
 
@@ -591,6 +599,7 @@ def test_safe_modes_for_120_targets_are_confirmed_without_an_exact_run_per_set(m
     assert ticks[-1] == (CONFIRM_GIVE_UP, len(many))
 
 
+@pytest.mark.slow
 def test_sets_whose_exposure_stays_undecided_share_one_reason_in_the_design() -> None:
     # the clustered check of 2026-12-06: a design of 63 agents listed 150 requirements not met,
     # one per computed lambda0 the reasons quoted (-0.5-1.6583123951777j, -0.5-1.658312395177694j ...)
@@ -599,8 +608,11 @@ def test_sets_whose_exposure_stays_undecided_share_one_reason_in_the_design() ->
     from glocal_verify.design.generators import random_clustered_spec
     from glocal_verify.design.safe_modes import design_safe_modes
 
+    from glocal_verify.design.pruning import Blueprint, Edit
+
     spec = network._velocity_only(random_clustered_spec(80, 5, seed=960675))
-    spec, _, _ = network._observers(System(spec), 2000)
+    obs, _, _ = network._observers(System(spec), 2000)
+    spec = Blueprint(spec, observers=obs).build([Edit("observer", k) for k in obs])
     mid = System(spec)
     rows = audit(mid, 2, list(range(17, 49))).rows
     targets = [r.actuators for r in rows if r.verdict != "detected" and r.stealthy is True and not r.exposed_by_modes]
@@ -632,6 +644,7 @@ def test_the_exact_witness_of_a_zero_with_huge_coefficients_is_evaluated_not_ass
     assert np.allclose(x, np.array([3 + root, 7]) / 7)
 
 
+@pytest.mark.slow
 def test_verify_exact_and_design_finish_on_a_generated_clustered_network(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     from glocal_verify.design.generators import random_clustered_spec
 

@@ -24,7 +24,7 @@ from glocal_verify.analysis.sampled.loop import (
 from glocal_verify.analysis.sampled.scan import scan_periods
 from glocal_verify.analysis.sampled.zda import sampled_zda
 from glocal_verify.analysis.unobservable.subspace import unobservable_subspace_exact
-from glocal_verify.conditions.sampled import schur_stable_exact
+from glocal_verify.numerics.hurwitz import schur_cohn as schur_stable_exact
 from glocal_verify.observers.sampled import sampled_cluster_model, to_float
 from glocal_verify.results import Status
 from glocal_verify.spec.types import ImplementationSpec

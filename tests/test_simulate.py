@@ -122,11 +122,20 @@ def _reference(
     bounds = [0.0] + [e for e in events if e < horizon] + [grid[-1]]
     states = np.full((K + 1, len(s)), np.nan)
     states[0] = s
+    prev = schedule.mode_at(0.0)
     for a, b in zip(bounds, bounds[1:]):
         if attack is not None and attack.offset is not None and a == ta and ta > 0:
             s = s.copy()
             s[offs[1] : offs[2]] += attack.offset
         mode = schedule.mode_at(a + 1e-12)
+        if mode != prev:  # a UIO whose decoupling matrix changes: z <- z + (h_p - h_q) y
+            s = s.copy()
+            for k, o in enumerate(obs):
+                if o.Hy:
+                    H = {m: o.Hy[o.dynamics_key(m)] for m in (prev, mode)}
+                    y = o.C @ s[offs[1] : offs[2]] - spoof[o.name] @ o.C @ s[offs[0] : offs[1]]
+                    s[offs[k + 2] : offs[k + 3]] += (H[prev] - H[mode]) @ y
+            prev = mode
         inside = grid[(grid > a + 1e-12) & (grid < b - 1e-12)]
         scale = max(1.0, float(np.abs(s).max()))
         sol = solve_ivp(rhs, (a, b), s, method="DOP853", rtol=1e-12, atol=1e-13 * scale, t_eval=np.append(inside, b), args=(mode,))
@@ -137,10 +146,13 @@ def _reference(
                 states[k] = col
         s = sol.y[:, -1]
     out: dict[str, np.ndarray] = {"x": states[:, offs[1] : offs[2]]}
+    modes = [schedule.mode_at(t - 1e-12) for t in grid]  # a sample at a switch holds the state before it
     for k, o in enumerate(obs):
         xt, x, z = states[:, offs[0] : offs[1]], states[:, offs[1] : offs[2]], states[:, offs[k + 2] : offs[k + 3]]
         y = x @ o.C.T - xt @ (spoof[o.name] @ o.C).T
-        out[o.name] = y @ o.Ry.T - z @ o.Rz.T
+        # r = y - C_loc x_hat, x_hat = z + h_q y (the mode's decoupling matrix)
+        Ry = np.stack([np.eye(len(o.channels)) - o.Rz @ o.Hy[o.dynamics_key(m)] if o.Hy else o.Ry for m in modes])
+        out[o.name] = np.einsum("kij,kj->ki", Ry, y) - z @ o.Rz.T
     return out
 
 

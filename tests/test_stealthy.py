@@ -13,7 +13,8 @@ from strategies import systems
 
 from glocal_verify import System, load_example, spec_from_graph, verify
 from glocal_verify.analysis.stealthy.covert import covert_required_channels
-from glocal_verify.analysis.stealthy.zda import zda_analysis, zda_direction
+from glocal_verify.analysis.stealthy.zda import zda_analysis
+from glocal_verify.analysis.stealthy.zda_verdict import zda_direction
 from glocal_verify.analysis.stealthy.zda_exact import zda_analysis_exact
 from glocal_verify.errors import ModelError, NotApplicableError
 from glocal_verify.results import ConditionResult, Status

@@ -69,6 +69,7 @@ def test_a_sweep_on_a_two_worker_local_cluster_matches_the_members_computed_in_p
     assert (tmp_path / "r-agents.svg").exists()
 
 
+@pytest.mark.slow
 def test_a_sweep_through_an_external_scheduler_gives_identical_rows(tmp_path: Path) -> None:
     # this interpreter's modules, not a `dask` script found on PATH: the worker must import the
     # glocal_verify under test (a `dask` of another environment cannot unpickle its tasks)
@@ -112,6 +113,7 @@ def _run_sweep(plan: SweepPlan, out: Path) -> SweepResult:
     return write_sweep(run, plan, out, rates=sweep_rates(run.rows, plan.grid), figures=False)
 
 
+@pytest.mark.slow
 def test_a_failing_member_is_a_row_and_an_interrupted_sweep_resumes_from_its_parts(tmp_path: Path) -> None:
     from glocal_verify.spec.examples import example_text
 
@@ -162,6 +164,7 @@ def test_the_wilson_interval_contains_the_rate_and_narrows_with_more_trials() ->
     assert wilson_interval(0, 0) == (0.0, 1.0)
 
 
+@pytest.mark.slow
 def test_an_audit_through_dask_gives_the_rows_of_the_in_process_audit() -> None:
     from glocal_verify import System
     from glocal_verify.design.audit import audit
@@ -177,6 +180,7 @@ def test_an_audit_through_dask_gives_the_rows_of_the_in_process_audit() -> None:
     assert len({id(c) for c in chains}) == len(set(chains))  # rows from the workers were received: parts shared
 
 
+@pytest.mark.slow
 def test_tasks_sharing_one_object_send_it_once_not_once_per_task() -> None:
     import cloudpickle
     from distributed import Client, LocalCluster

@@ -24,7 +24,7 @@ from glocal_verify import (
 )
 from glocal_verify.analysis.switching.avoidance import avoidance, avoidance_exact
 from glocal_verify.analysis.switching.touch import Avoidance
-from glocal_verify.analysis.stealthy.zda import zda_direction
+from glocal_verify.analysis.stealthy.zda_verdict import zda_direction
 from glocal_verify.results import Status
 from glocal_verify.simulation.attacks import zda_attack_from_direction
 from glocal_verify.simulation.engine import simulate

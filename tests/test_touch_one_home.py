@@ -75,12 +75,13 @@ def test_the_case_studys_touch_is_the_rules_direction_test(monkeypatch: pytest.M
 
 def test_the_safe_mode_designs_screen_calls_the_rules_avoiding_subspace(monkeypatch: pytest.MonkeyPatch) -> None:
     from glocal_verify.design import safe_modes
+    from glocal_verify.design.symmetry import SymmetryTarget
 
     assert safe_modes.avoiding_subspace is rule.avoiding_subspace
     calls = _recording(monkeypatch, safe_modes, "avoiding_subspace")
     rng = np.random.default_rng(0)
     X = np.linalg.qr(rng.standard_normal((6, 2)))[0]
-    target = safe_modes._Target((1, 2), X, rng.standard_normal((2, 2)))
+    target = SymmetryTarget((1, 2), X, rng.standard_normal((2, 2)))
     exposed = safe_modes._exposes(target, 0, 3, 1e-6)
     assert calls
     # with two directions and one link, some combination avoids it and keeps an input

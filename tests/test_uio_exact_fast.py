@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pytest
+
 from fractions import Fraction
 from typing import Any
 from unittest import mock
@@ -43,6 +45,7 @@ def _exact_triples(draw: st.DrawFn) -> tuple[list[list[Fraction]], list[list[Fra
     return A, E, C
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None)
 @given(_exact_triples())
 def test_the_fast_exact_uio_existence_equals_the_reference_on_random_rational_data(triple: tuple[Any, Any, Any]) -> None:

@@ -10,10 +10,12 @@ from __future__ import annotations
 
 import random
 from fractions import Fraction
+from pathlib import Path
 
 import flint
 import networkx as nx
 import numpy as np
+from certificate_support import certify
 
 from glocal_verify import System, config, spec_from_graph
 from glocal_verify.analysis.laplacian.twins import laplacian_entries
@@ -22,6 +24,7 @@ from glocal_verify.analysis.stealthy.zda_verdict import ZdaOptions, decide_zda, 
 from glocal_verify.numerics.minors import prime_for
 from glocal_verify.results import Status
 from glocal_verify.spec.types import NORMAL_MODE
+from glocal_verify.spec.writer import dump_spec
 
 #: the largest primes below 2^24 and 2^30: those a modular certificate tries first
 P24, P30 = 16777213, 1073741789
@@ -120,3 +123,11 @@ def test_a_persistent_zda_at_zero_the_numeric_zero_set_misses_on_badly_scaled_we
         rhs[Fi] = v.direction.u0
         assert np.linalg.norm(float(system.alpha) * L @ v.direction.xi - rhs) <= 1e-6 * np.linalg.norm(L, 2) * np.linalg.norm(v.direction.xi)
         assert np.linalg.norm(v.direction.u0) > 0 and complex(v.direction.value) == 0
+
+
+def test_the_zda_at_zero_the_numeric_zero_set_misses_gets_an_exact_witness_the_checker_accepts(tmp_path: Path) -> None:
+    system = _badly_scaled_network()
+    _, doc, out = certify(dump_spec(system.spec), tmp_path)
+    zda = next(e for e in doc["verdicts"] if e["id"] == "stealthy.zda")
+    assert zda["status"] == "holds" and zda["certificate"]["kind"] == "zda"
+    assert out.rejected == []

@@ -8,6 +8,7 @@ and the rule of ``stealthy.zda`` when the separator proves a system not left-inv
 
 from __future__ import annotations
 
+import pytest
 import re
 from fractions import Fraction
 
@@ -115,6 +116,7 @@ def test_a_numeric_full_rank_the_separator_disproves_gives_the_witness_at_lambda
     assert "vertex-disjoint" in v.proof
 
 
+@pytest.mark.slow
 def test_the_cluster_step_locates_the_zeros_the_count_finds_on_the_realistic_family() -> None:
     # random_clustered_spec(800, 8, seed=7, modes=1): the pencil in s has 180 zeros of unknown location;
     # the clusters P1 and P2 (outputs at their boundary agents) hold them all, every one decaying,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 import itertools
 import random
 from fractions import Fraction
@@ -121,6 +122,7 @@ def test_the_exact_zda_analysis_on_the_proved_zero_polynomial_is_the_dense_one_o
     _compare_paths(system, lambda0=0.0)
 
 
+@pytest.mark.slow
 def test_the_exact_zda_analysis_on_the_proved_zero_polynomial_is_the_dense_one_on_paper19() -> None:
     system = System(load_example("paper19"))
     applied = sum(_compare_paths(system, F) for k in (1, 2) for F in itertools.combinations(system.labels, k))

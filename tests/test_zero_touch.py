@@ -137,6 +137,7 @@ def test_an_exposure_by_a_tiny_signal_is_marked_fragile_but_stays_detected() -> 
     assert answer(1e-3).fragile == "" and answer(3e-13, 1e-3).fragile == ""  # one robust exposure suffices
 
 
+@pytest.mark.slow
 def test_audit_rows_report_the_touch_margin_of_every_evaluated_mode() -> None:
     from glocal_verify.spec import load_example
 

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from glocal_verify.answer.attack import ANSWER_IDS, DEPLOYMENT_IDS, AttackAnswer, answer_attack, not_assessed
-from glocal_verify.words import format_labels, format_lambda
+from glocal_verify.words import format_labels, format_lambda, sentence
 from glocal_verify.answer.evidence import combine, evidence_from_report
 from glocal_verify.conditions.catalogue import CATALOGUE
 from glocal_verify.results import ConditionResult, Polarity, Report, Status
@@ -115,7 +115,7 @@ class Assessment:
     def headline(self) -> str:
         """One line: the privacy answers and the attack's verdict."""
         p, a = self.privacy, self.attack
-        att = "no attack in the spec" if not a.present else f"attack on {format_labels(a.actuators)}: {a.verdict}"
+        att = "no attack in the spec" if not a.present else f"attack on {format_labels(a.actuators)}: {a.verdict_words()}"
         if a.deployment is not None:
             att += f" (sampled deployment: {a.deployment.word})"
         return f"x(t0) {p.initial_state}, x* {p.consensus_value}; {att}"
@@ -159,7 +159,7 @@ def _privacy(report: Report, no_monitors: bool, disconnected: Sequence[str]) -> 
     if no_monitors:
         parts.append("vacuously: the control centre measures nothing, so it learns nothing")
     elif s_init is None and s_cons is None:
-        parts.append("privacy.initial-state and privacy.consensus-value were not evaluated")
+        parts.append("not evaluated: privacy.initial-state and privacy.consensus-value (--only)")
     else:
         if s_init is Status.HOLDS:
             scopes = _plural(len(init), "evaluated scope")
@@ -188,10 +188,7 @@ def _privacy(report: Report, no_monitors: bool, disconnected: Sequence[str]) -> 
             parts.append("privacy.consensus-value was not evaluated")
     if disconnected:
         parts.append(f"the graph is disconnected in {', '.join(disconnected)}, so there is no single consensus value")
-    text = "; ".join(parts) + "."
-    if not text.startswith("x"):  # x(t0) and x* keep their case
-        text = text[0].upper() + text[1:]
-    return PrivacyAnswer(word[s_init], word[s_cons], hidden, text)
+    return PrivacyAnswer(word[s_init], word[s_cons], hidden, sentence("; ".join(parts)))
 
 
 # --------------------------------------------------------------------------------------------
@@ -213,7 +210,7 @@ def _attack(report: Report, warnings: list[str], not_evaluated: dict[str, str]) 
                 if cid in requested:
                     not_evaluated[cid] = "no [attack] in the spec"
             return not_assessed(NO_ATTACK)
-        return not_assessed("stealthy.zda and stealthy.covert were not evaluated (--only)" if ev is not None or report.system.attack is None else "")
+        return not_assessed("not evaluated: stealthy.zda and stealthy.covert (--only)" if ev is not None or report.system.attack is None else "")
     a = answer_attack(ev)
     atk = report.system.attack
     if ev.kind == "zda" and atk is not None and atk.lambda0 is not None and ev.lambda0_source.startswith("substituted"):
@@ -228,6 +225,26 @@ def _attack(report: Report, warnings: list[str], not_evaluated: dict[str, str]) 
     if a.fragile:
         warnings.append(a.fragile)
     return a
+
+
+#: the note of an undecided result whose only reason is the floating-point bound (registry.result)
+_BOUND_NOTE = "the certified error bound does not separate the cases"
+
+
+def _undecided_warning(report: Report, undecided: Sequence[ConditionResult]) -> str:
+    """One warning for the undecided results: each id with its reason, and the next step."""
+    parts = []
+    for cid in sorted({r.id for r in undecided}):
+        rs = [r for r in undecided if r.id == cid]
+        notes = sorted({r.note for r in rs if r.note and not r.note.startswith(_BOUND_NOTE)})
+        if notes:
+            why = "; ".join(notes[:3]) + ("; ..." if len(notes) > 3 else "")
+        elif report.options.get("exact"):
+            why = "the exact run fell back to floating point, which could not separate the cases"
+        else:
+            why = "floating point could not separate the cases; try --exact"
+        parts.append(f"{cid} ({why})")
+    return f"{_plural(len(undecided), 'result')} undecided: {'; '.join(parts)}"
 
 
 def assess(report: Report) -> Assessment:
@@ -266,10 +283,19 @@ def assess(report: Report) -> Assessment:
                 notes[(cid, mode)] = (note,)
     privacy = _privacy(report, no_monitors, list(disconnected))
     attack = _attack(report, warnings, not_evaluated)
+    if report.options.get("selected"):  # asked for by --only: say why each has no result
+        for cid, why in (report.options.get("skipped") or {}).items():
+            not_evaluated.setdefault(cid, why)
+    left_out = {d for d, _ in (attack.deployment.left_out if attack.deployment is not None else ())}
     undecided = [r for r in report.conditions if r.polarity is Polarity.UNDECIDED and r.id != "switching.detects"]
+    undecided = [r for r in undecided if not (r.id == "detection.thresholds" and str(r.scope.get("observer")) in left_out)]
     if undecided:
-        ids = sorted({r.id for r in undecided})
-        warnings.append(f"{_plural(len(undecided), 'result')} undecided ({', '.join(ids)}): floating point could not separate the cases; try --exact")
+        warnings.append(_undecided_warning(report, undecided))
+    for name, note in (attack.deployment.left_out if attack.deployment is not None else ()):
+        warnings.append(
+            f"the threshold of {name} is not certified ({note}); its cluster holds no attacked agent, so the deployment answer "
+            f"does not wait for it; to certify it, let {name} measure more of its cluster (glocal-verify place-observers proposes a set)"
+        )
     fragile = [r for r in report.conditions if r.fragile]
     if fragile:
         ids = sorted({r.id for r in fragile})

@@ -46,13 +46,16 @@ In the sampled deployment
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from types import MappingProxyType
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from glocal_verify.results import FRAGILE_BELOW, Status, jsonable
+from glocal_verify import config
+from glocal_verify.conditions.catalogue import THEOREM_III3_IDS as THEOREM_IDS  # the conditions of Theorem III.3 (i)-(iii), per safe mode
+from glocal_verify.results import Status, jsonable
 from glocal_verify.words import format_labels, format_lambda
 
 __all__ = [
@@ -76,8 +79,6 @@ __all__ = [
 
 #: the answers of :func:`answer_attack` (``not assessed``: no attack)
 ATTACK_VERDICTS = ("detected", "undetected", "undecided", "not assessed")
-#: the conditions of Theorem III.3 (i)-(iii), per safe mode
-THEOREM_IDS = ("switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences")
 #: every condition the answer reads (``switching.detects`` only to show it beside the algebra)
 ANSWER_IDS = ("stealthy.zda", "stealthy.covert", "local.pencil", "local.uio", *THEOREM_IDS, "switching.avoids-attack", "switching.detects")
 #: the conditions the deployment answer reads (only with a sampled ``[implementation]``)
@@ -196,12 +197,18 @@ class DeploymentEvidence:
     Attributes
     ----------
     thresholds : Status or None
-        ``detection.thresholds`` over every detector (None: not evaluated).
+        ``detection.thresholds`` over the detectors that have the attack to detect: the
+        control centre's and the observers of the clusters the attack meets (None: not
+        evaluated).
     modes : tuple of DeploymentMode
+    left_out : tuple of (detector, note)
+        Detectors whose threshold is not certified but that have nothing to detect (their
+        cluster holds no attacked agent): the answer does not wait for them, and says so.
     """
 
     thresholds: Status | None
     modes: tuple[DeploymentMode, ...] = ()
+    left_out: tuple[tuple[str, str], ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -231,6 +238,9 @@ class AttackEvidence:
         The control centre measures something.
     deployment : DeploymentEvidence or None
         The ``detection.*`` results (None: no sampled ``[implementation]`` or not evaluated).
+    fragile_below : float or None
+        The robustness tolerance of the run the evidence comes from (``verify``'s
+        ``fragile_below``); None: the tunable ``fragile_below`` in force when answering.
     """
 
     kind: str
@@ -245,6 +255,7 @@ class AttackEvidence:
     schedule_text: str = ""
     monitored: bool = True
     deployment: DeploymentEvidence | None = None
+    fragile_below: float | None = None
 
 
 # ------------------------------------------------------------------------------------------
@@ -340,6 +351,9 @@ class DeploymentAnswer:
         Seconds after the attack starts by which the control centre's alarm is guaranteed.
     min_size : float or None
         The smallest attack amplitude the guarantee covers.
+    left_out : tuple of (detector, note)
+        Detectors left out of the answer: their threshold is not certified (the note says
+        why) but their cluster holds no attacked agent, so they have nothing to detect.
     """
 
     guaranteed: bool | None
@@ -348,6 +362,7 @@ class DeploymentAnswer:
     reason: str
     detection_time: float | None = None
     min_size: float | None = None
+    left_out: tuple[tuple[str, str], ...] = ()
 
     @property
     def word(self) -> str:
@@ -355,7 +370,12 @@ class DeploymentAnswer:
         return {True: "guaranteed", False: "not guaranteed", None: "undecided"}[self.guaranteed]
 
     def to_json(self) -> dict[str, Any]:
-        return {"guaranteed": self.guaranteed, "mode": self.mode, "chain": list(self.chain), "reason": self.reason, "detection_time": self.detection_time, "min_size": self.min_size}
+        return {"guaranteed": self.guaranteed, "mode": self.mode, "chain": list(self.chain), "reason": self.reason, "detection_time": self.detection_time, "min_size": self.min_size,
+                "left_out": [{"detector": d, "note": n} for d, n in self.left_out]}
+
+
+#: the routes of an answer as a sentence names them
+ROUTE_NAMES: Mapping[str, str] = MappingProxyType({"algorithm 1": "Algorithm 1", "schedule": "the [switching] schedule", "direct": "the control centre directly"})
 
 
 @dataclass(frozen=True, slots=True)
@@ -419,6 +439,20 @@ class AttackAnswer:
     def route(self, name: str) -> Route | None:
         """The route called ``name``, if any."""
         return next((r for r in self.routes if r.name == name), None)
+
+    def verdict_words(self) -> str:
+        """The verdict with the route that proves it: ``detected (Algorithm 1 and the [switching]
+        schedule)``, ``detected only through the [switching] schedule (Algorithm 1: undetected)``,
+        ``detected (not stealthy)``; other verdicts as they are."""
+        if self.verdict != "detected":
+            return self.verdict
+        by = [r for r in self.routes if r.verdict == "detected"]
+        if [r.name for r in by] == ["direct"]:
+            return "detected (not stealthy)"
+        if len(by) == len(self.routes):
+            return f"detected ({' and '.join(ROUTE_NAMES.get(r.name, r.name) for r in by)})"
+        rest = "; ".join(f"{ROUTE_NAMES.get(r.name, r.name)}: {r.verdict}" for r in self.routes if r.verdict != "detected")
+        return f"detected only through {' and '.join(ROUTE_NAMES.get(r.name, r.name) for r in by)} ({rest})"
 
     def to_json(self) -> dict[str, Any]:
         """JSON form (``assessment.attack`` of the report, ``answer`` of an audit row)."""
@@ -502,8 +536,9 @@ def _exposure(ev: AttackEvidence, m: ModeEvidence) -> ModeExposure:
     sim = None if m.simulated in (None, Status.UNDECIDED) else m.simulated is Status.HOLDS
     agrees = None if sim is None or exposes is None else sim == exposes
     fragile = ""
-    if exposes and m.touch_margin is not None and math.isfinite(m.touch_margin) and m.touch_margin < FRAGILE_BELOW:
-        fragile = f"{m.mode} touches the attack only by a relative signal of {m.touch_margin:.2g} (below {FRAGILE_BELOW:g})"
+    below = float(config.resolve("fragile_below", ev.fragile_below))
+    if exposes and m.touch_margin is not None and math.isfinite(m.touch_margin) and m.touch_margin < below:
+        fragile = f"{m.mode} touches the attack only by a relative signal of {m.touch_margin:.2g} (below {below:g})"
     if sim is not None:
         seen = f"; simulation: the control centre {'detects' if sim else 'does not detect'} it" + (f" ({m.simulation})" if m.simulation else "")
         if agrees is False:
@@ -586,9 +621,18 @@ def _deployment(dep: DeploymentEvidence | None) -> DeploymentAnswer | None:
     """The rule of "In the sampled deployment" (module docstring)."""
     if dep is None:
         return None
+    answer = _deployment_answer(dep)
+    if not dep.left_out:
+        return answer
+    names = format_labels([d for d, _ in dep.left_out])
+    aside = f" Left out: {names}, whose cluster holds no attacked agent (nothing to detect there), although {'its threshold is' if len(dep.left_out) == 1 else 'their thresholds are'} not certified."
+    return dataclasses.replace(answer, reason=answer.reason + aside, left_out=dep.left_out)
+
+
+def _deployment_answer(dep: DeploymentEvidence) -> DeploymentAnswer:
     every = "for every admissible initial state, noise and disturbance"
     if dep.thresholds is not Status.HOLDS:
-        why = "not evaluated" if dep.thresholds is None else "not certified for every detector (detection.thresholds undecided)"
+        why = "not evaluated" if dep.thresholds is None else "not certified for every detector that watches the attack (detection.thresholds undecided)"
         return DeploymentAnswer(None, None, (f"thresholds {why}",), f"The detection thresholds are {why}: no guarantee can be stated.")
     head = "certified thresholds (no attack-free run raises an alarm)"
     proven = [m for m in dep.modes if m.guarantee is Status.HOLDS]

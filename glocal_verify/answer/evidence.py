@@ -84,7 +84,13 @@ def deployment_of(report: Report) -> DeploymentEvidence | None:
                 _number(w.get("within")), _number(w.get("global_detection")), _number(w.get("size")), _number(w.get("min_size")), r.note,
             )
         )
-    return DeploymentEvidence(combine([r.status for r in thresholds]), tuple(modes))
+    atk = report.system.attack
+    watching = {"central"} | {f"{c}@{o}" for c, _, obs in (atk.by_cluster if atk is not None else ()) if c is not None for o in obs}
+    def watches(r: ConditionResult) -> bool:
+        return atk is None or str(r.scope.get("observer", "central")) in watching
+
+    left = tuple((str(r.scope.get("observer")), r.note) for r in thresholds if not watches(r) and r.status is not Status.HOLDS)
+    return DeploymentEvidence(combine([r.status for r in thresholds if watches(r)]), tuple(modes), left)
 
 
 def evidence_from_report(report: Report) -> AttackEvidence | None:
@@ -135,4 +141,5 @@ def evidence_from_report(report: Report) -> AttackEvidence | None:
     return AttackEvidence(
         atk.kind, tuple(atk.actuators), tuple(atk.by_cluster), stealthy, lam, source, tuple(local), tuple(modes),
         None if sched is None else tuple(sched.modes), "" if sched is None else sched.text, report.system.monitored, deployment_of(report),
+        _number(report.options.get("fragile_below")),
     )

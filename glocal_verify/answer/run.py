@@ -2,8 +2,8 @@
 
 The command line (``glocal-verify verify``) and the library call the same function with the
 same defaults, so ``verify(system)`` returns what the command reports: every condition
-result, ``switching.detects`` simulated on networks of at most
-:data:`~glocal_verify.conditions.detects.DETECTS_MAX_AGENTS` agents (``simulate="auto"``),
+result, ``switching.detects`` simulated on networks of at most ``detects_max_agents``
+(:mod:`glocal_verify.config`, the value in force) agents (``simulate="auto"``),
 and :attr:`Report.assessment`.
 """
 
@@ -13,7 +13,7 @@ from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
 from glocal_verify.answer.assessment import with_assessment
-from glocal_verify.conditions.detects import DETECTS_MAX_AGENTS
+from glocal_verify import config
 from glocal_verify.conditions.registry import check_conditions, expect_system
 from glocal_verify.errors import ArgumentError
 from glocal_verify.model import System
@@ -30,12 +30,12 @@ SIMULATE_CHOICES = ("auto", "always", "never")
 def simulates(system: System, simulate: str = "auto") -> bool:
     """Whether ``verify(system, simulate=...)`` runs the simulation of ``switching.detects``.
 
-    ``auto``: on networks of at most :data:`DETECTS_MAX_AGENTS` agents; ``always``; ``never``.
+    ``auto``: on networks of at most ``detects_max_agents`` (:mod:`glocal_verify.config`) agents; ``always``; ``never``.
     """
     expect_system(system)
     if not isinstance(simulate, str) or simulate not in SIMULATE_CHOICES:
         raise ArgumentError(f"simulate: must be one of {', '.join(SIMULATE_CHOICES)}, not {simulate!r}"[:120])
-    return simulate == "always" or (simulate == "auto" and system.n <= DETECTS_MAX_AGENTS)
+    return simulate == "always" or (simulate == "auto" and system.n <= config.get("detects_max_agents"))
 
 
 def verify(
@@ -47,7 +47,7 @@ def verify(
     options: Mapping[str, Any] | None = None,
     progress: Callable[[str], None] | None = None,
     escalate: str = "auto",
-    exact_budget: float | None = 30.0,
+    exact_budget: float | None = config.IN_FORCE,
     fragile_below: float | None = None,
     simulate: str = "auto",
 ) -> Report:
@@ -69,12 +69,13 @@ def verify(
     escalate : {"auto", "never"}
         Re-decide numeric ``undecided`` results over Q within ``exact_budget``.
     exact_budget : float or None
-        Seconds for all escalations of this call together (None: no limit).
+        Seconds for all escalations of this call together (None: no limit; default the tunable
+        ``exact_budget`` of :mod:`glocal_verify.config` in force, 30 s).
     fragile_below : float, optional
         Robustness tolerance of ``fragile`` (default: ``config.get("fragile_below")``).
     simulate : {"auto", "always", "never"}
         Run the simulation of ``switching.detects`` (Theorem III.3's conclusion, one simulated
-        switch per safe mode): ``auto`` on at most :data:`DETECTS_MAX_AGENTS` agents (the
+        switch per safe mode): ``auto`` on at most ``detects_max_agents`` agents (the
         command line's default too). It never decides the answer; it is shown beside it.
 
     Returns

@@ -45,7 +45,7 @@ BROKEN_PIPE = 141
 _STOP_LINES = MappingProxyType({"SIGINT": "interrupted", "SIGTERM": "terminated (SIGTERM)", "SIGHUP": "hung up (SIGHUP)"})
 
 #: modules of this package that add subcommands, in the order ``--help`` lists them
-COMMAND_MODULES = ("verify", "placement", "simulate", "audit", "design", "sweep", "draw", "export")
+COMMAND_MODULES = ("verify", "placement", "simulate", "audit", "design", "sweep", "draw", "export", "replay")
 
 
 def build_parser() -> Parser:

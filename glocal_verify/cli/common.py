@@ -210,10 +210,16 @@ LINE_SECONDS = 10.0
 def count_progress(quiet: bool, unit: str = "attack sets", prefix: str = "audit") -> Callable[[int, int], None] | None:
     """A progress callback ``(done, total)``: a bar with ETA on a terminal; otherwise lines on stderr.
 
-    Off a terminal, a line ``<prefix>: <done>/<total> <unit>, <s> s elapsed, about <s> s left``
-    comes at most once per :data:`LINE_SECONDS`, and when a phase that lasted that long ends.
     A new ``total``, or a ``done`` that goes back, starts a new phase (the design calls it for
-    several audits and checks in turn): a new bar, a new rate.
+    several audits and checks in turn): a new bar, a new clock, a new rate. Off a terminal a
+    phase prints
+
+    - ``<prefix>: <total> <unit> ...`` when it starts (a first call with ``done == 0``), so
+      that the heartbeat's still-working lines name it;
+    - at most once per :data:`LINE_SECONDS` in between, ``<prefix>: <done>/<total> <unit>, <s>
+      s elapsed, about <s> s left`` (the phase's own clock);
+    - when it ends, ``<prefix>: <total>/<total> <unit> in <s> s``: never a time left at
+      completion.
 
     The time left is the units left over the rate of the last :data:`ETA_WINDOW` seconds
     (from the first report on, so the set-up before it does not count): sets differ widely in
@@ -234,35 +240,42 @@ def count_progress(quiet: bool, unit: str = "attack sets", prefix: str = "audit"
     import collections
     import time
 
-    start = time.monotonic()
     seen: collections.deque[tuple[float, int]] = collections.deque()
-    phase: dict[str, Any] = {"total": None, "start": 0.0, "lines": 0}
+    phase: dict[str, Any] = {"total": None, "start": 0.0, "lines": 0, "last": 0.0}
 
-    def eta(done: int, total: int) -> float:
+    def eta(done: int, total: int) -> tuple[float, float]:
+        """(seconds of the phase so far, seconds left or NaN); a new phase starts its clock."""
         now = time.monotonic()
-        if phase["total"] != total or (seen and done < seen[-1][1]):  # a new phase: a new rate
+        if phase["total"] != total or (seen and done < seen[-1][1]) or (done == 0 and phase["lines"]):  # a new phase
             seen.clear()
-            phase.update(total=total, start=now - start, lines=0)
+            phase.update(total=total, start=now, lines=0, last=now)
+        if done == 0:  # the phase's start: its set-up does not count in the rate
+            return 0.0, float("nan")
         seen.append((now, done))
         while len(seen) > 2 and now - seen[1][0] >= ETA_WINDOW:
             seen.popleft()
         (t0, d0) = seen[0]
         if done <= d0 or now <= t0:
-            return float("nan")
-        return (total - done) * (now - t0) / (done - d0)
+            return now - phase["start"], float("nan")
+        return now - phase["start"], (total - done) * (now - t0) / (done - d0)
 
     if not sys.stderr.isatty():
-        last = [0.0]
 
         def line(done: int, total: int) -> None:
-            left = eta(done, total)
-            now = time.monotonic() - start
-            if now - last[0] < LINE_SECONDS and (done < total or (not phase["lines"] and now - phase["start"] < LINE_SECONDS)):
+            elapsed, left = eta(done, total)
+            now = time.monotonic()
+            if done >= total:
+                text = f"{prefix}: {done}/{total} {unit} in {elapsed:.0f} s"
+            elif not phase["lines"] and done == 0:
+                text = f"{prefix}: {total} {unit} ..."
+            elif now - phase["last"] < LINE_SECONDS:
                 return
-            last[0] = now
+            else:
+                tail = f", about {left:.0f} s left" if left == left else ""
+                text = f"{prefix}: {done}/{total} {unit}, {elapsed:.0f} s elapsed{tail}"
             phase["lines"] += 1
-            tail = f"about {left:.0f} s left" if left == left else "estimating the time left"
-            write_line(f"{prefix}: {done}/{total} {unit}, {now:.0f} s elapsed, {tail}")
+            phase["last"] = now
+            write_line(text)
 
         return line
     from tqdm import tqdm
@@ -272,13 +285,14 @@ def count_progress(quiet: bool, unit: str = "attack sets", prefix: str = "audit"
     def tick(done: int, total: int) -> None:
         if "bar" not in bar or bar["bar"].total != total or bar["bar"].n > done:
             # tqdm's own remaining time averages over the whole run: show the windowed one
-            bar["bar"] = tqdm(total=total, desc=unit, leave=False, bar_format="{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} [{elapsed}{postfix}]")
+            bar["bar"] = tqdm(total=total, desc=f"{prefix}: {unit}", leave=False, bar_format="{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} [{elapsed}{postfix}]")
         b = bar["bar"]
         b.update(done - b.n)
-        left = eta(done, total)
-        if left == left:  # not NaN
-            b.set_postfix_str(f"about {left:.0f} s left", refresh=True)
         if done >= total:
             b.close()
+            return
+        _, left = eta(done, total)
+        if left == left:  # not NaN
+            b.set_postfix_str(f"about {left:.0f} s left", refresh=True)
 
     return tick

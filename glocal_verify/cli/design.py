@@ -35,17 +35,21 @@ def cmd_design(args: argparse.Namespace) -> int:
         raise UsageError(f"--budget: must be at least 1 safe mode, not {args.budget}")
     if args.max_attackers < 1 or args.max_attackers > system.n:
         raise UsageError(f"--max-attackers: must be between 1 and the number of agents ({system.n}), not {args.max_attackers}")
-    if args.max_links < 1:
+    if args.max_links is not None and args.max_links < 1:
         raise UsageError(f"--max-links: must be at least 1, not {args.max_links}")
-    from glocal_verify.conditions.cost import SpecSizes, estimate_design
+    from glocal_verify.conditions.cost import SpecSizes
+    from glocal_verify.conditions.design_cost import estimate_whole_design
+    from glocal_verify.design.network import CONFIRM_LIMIT
 
     exact = not args.numeric and system.n <= 60
-    est = estimate_design(SpecSizes.from_spec(system.spec), max_attackers=args.max_attackers, place=not args.keep_observers, exact_assessment=exact)
+    est = estimate_whole_design(SpecSizes.from_spec(system.spec), max_attackers=args.max_attackers, place=not args.keep_observers, exact_assessment=exact,
+                                budget=args.budget, confirm_limit=CONFIRM_LIMIT)
     check_cost(est, args, how=("a smaller --max-attackers",))
     say = None if args.quiet else (lambda line: write_line(f"design: {line} ..."))
     tick = count_progress(args.quiet, prefix="design")
     d = design_network(
-        system, budget=args.budget, max_attackers=args.max_attackers, place=not args.keep_observers, max_links=args.max_links, progress=say, tick=tick,
+        system, budget=args.budget, max_attackers=args.max_attackers, place=not args.keep_observers, max_links=args.max_links,
+        normal_weights=args.normal_weights, progress=say, tick=tick,
         admit=lambda est: check_cost(est, args, how=("a smaller --max-attackers, or more monitors or observers in the spec",)),
     )
     from glocal_verify.model import System
@@ -72,7 +76,10 @@ def register(sub: Any) -> None:
     p.add_argument("--example", metavar="NAME", help="use a bundled example")
     p.add_argument("--out", metavar="DESIGNED.toml", help="write the designed spec here (default stdout)")
     p.add_argument("--budget", type=int, default=3, metavar="N", help="largest number of designed safe modes (default 3; the added velocity monitors have their own budget of 3)")
-    p.add_argument("--max-links", type=int, default=2, metavar="K", help="largest number of link changes in one safe mode (one-link modes are tried first; default 2)")
+    p.add_argument("--max-links", type=int, default=None, metavar="K",
+                   help="largest number of link changes in one safe mode (one-link modes are tried first; default: 2, and as many as a symmetry of the normal graph needs)")
+    p.add_argument("--normal-weights", action="store_true",
+                   help="where L_1 has repeated eigenvalues, change weights of the normal graph's links so that they split (the change is listed)")
     p.add_argument("--max-attackers", type=int, default=2, metavar="K", help="k of the audit (default 2)")
     p.add_argument("--keep-observers", action="store_true", help="keep the spec's local observers instead of placing new ones")
     # the former spelling of --keep-observers, still accepted

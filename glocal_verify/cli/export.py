@@ -40,6 +40,8 @@ def cmd_export(args: argparse.Namespace) -> int:
         write_line(f"{PROG}: designing the {what} of {system.name} ({system.n} agents) ...")
     with allow_large() if args.allow_large else contextlib.nullcontext():
         deployment = design_deployment(system, thresholds=not args.no_thresholds, progress=not args.quiet)
+    for note in deployment.notes:  # what the file cannot promise (also in its notes)
+        write_line(f"{PROG}: warning: {note}")
     wrote(export_observers(deployment, out, fmt))
     return 0
 

@@ -39,7 +39,7 @@ def register(sub: Any) -> None:
     po.add_argument("--example", metavar="NAME", help="use a bundled example")
     po.add_argument("--cluster", metavar="NAME", help="only this cluster")
     po.add_argument("--suspected", default="attack", metavar="SET", help="attack (default), interior, all, or a comma-separated agent list")
-    po.add_argument("--exact-limit", type=int, default=2000, metavar="N", help="candidate sets the exhaustive search may visit per cluster (0: greedy only)")
+    po.add_argument("--exact-limit", type=int, default=None, metavar="N", help="candidate sets the exhaustive search may visit per cluster (0: greedy only; default: the tunable placement_exact_limit, 2000)")
     po.add_argument("--format", choices=("toml", "json"), default="toml", help="toml: the spec fragment to paste (default)")
     po.add_argument("--out", metavar="FILE", help="write to FILE instead of stdout")
     po.add_argument("--quiet", action="store_true", help="no progress on stderr")

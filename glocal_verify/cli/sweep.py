@@ -15,16 +15,16 @@ __all__ = ["register"]
 
 def _check_sweep_cost(est: Any, args: argparse.Namespace) -> None:
     """Refuse a sweep above the limits (unless ``--allow-large``), in one line with the estimate."""
-    from glocal_verify.conditions.cost import CostEstimate, SizeLimitError, default_limits, format_bytes, format_seconds
+    from glocal_verify.conditions.cost import CostEstimate, default_limits, format_bytes, format_seconds
+    from glocal_verify.simulation.limits import refuse
 
     limits = default_limits()
     over = [w for w, bad in (("time", est.seconds > limits.seconds), ("memory", est.bytes > limits.bytes)) if bad]
-    if over and not args.allow_large:
-        raise SizeLimitError(
+    if over:
+        refuse(
             f"sweep: estimated {est.describe()}, above the {' and '.join(over)} limit{'s' if len(over) > 1 else ''} ({format_seconds(limits.seconds)}, "
             f"{format_bytes(limits.bytes)}); rerun with --allow-large to run it anyway, or with fewer seeds, grid values or agents",
-            CostEstimate("sweep", est.largest, est.seconds, est.bytes),
-            limits,
+            allow=bool(args.allow_large), estimate=CostEstimate("sweep", est.largest, est.seconds, est.bytes), limits=limits,
         )
 
 

@@ -9,6 +9,7 @@ import os
 import sys
 from typing import TYPE_CHECKING, Any, Callable
 
+from glocal_verify import config
 from glocal_verify.cli.common import (
     PROG,
     UsageError,
@@ -26,10 +27,6 @@ from glocal_verify.spec.examples import example_names, example_text, finding_nam
 
 if TYPE_CHECKING:
     from glocal_verify.model import System
-
-#: defaults of the numeric tolerance (glocal_verify.numerics.tolerance.Tolerance), kept literal
-#: here so that parsing the command line loads no numerics
-_RTOL, _BAND = 1e-9, 1e3
 
 __all__ = ["register"]
 
@@ -100,9 +97,12 @@ def cmd_verify(args: argparse.Namespace) -> int:
         if missing:
             raise UsageError(f"--only: no checker implements {', '.join(missing)} yet")
     try:
-        tol = Tolerance(args.rtol, args.band)
+        d = Tolerance()  # the defaults of rtol and band live there; parsing the command line loads no numerics
+        tol = Tolerance(d.rtol if args.rtol is None else args.rtol, d.band if args.band is None else args.band)
     except ValueError as exc:
         raise UsageError(f"--rtol/--band: {exc}") from None
+    args.exact_budget = float(config.resolve("exact_budget", args.exact_budget))
+    args.fragile_below = float(config.resolve("fragile_below", args.fragile_below))
     if not (args.exact_budget >= 0.0):
         raise UsageError(f"--exact-budget: {args.exact_budget} must be >= 0 seconds (0 or inf: no limit)")
     if math.isinf(args.exact_budget):
@@ -112,6 +112,10 @@ def cmd_verify(args: argparse.Namespace) -> int:
     if (args.velocities or args.positions) and not args.graph:
         raise UsageError("--velocities/--positions need --graph FILE")
     check_out_file(args)  # before any computation: a bad --out fails at once
+    if args.certificates:
+        if args.certificates == args.out:
+            raise UsageError("--certificates: give a file other than --out")
+        check_out_file(argparse.Namespace(**{**vars(args), "out": args.certificates}))
     system = _graph_system(args) if args.graph else load_system(args)
     progress: Callable[[str], None] | None = None
     if not args.quiet:  # one line per checker, on a terminal or in a log (--quiet: none)
@@ -143,6 +147,10 @@ def cmd_verify(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UsageError(f"--format {args.format}: {exc}") from None
     write_output(text, args.out, inputs=spec_inputs(args))
+    if args.certificates:
+        from glocal_verify.certificates import certificate_json
+
+        write_output(certificate_json(system, report), args.certificates, inputs=spec_inputs(args))
     from glocal_verify.answer.gate import require as gate, require_holds as gate_holds
 
     bad = list(gate(report, require).failures) if require else []
@@ -199,18 +207,19 @@ def register(sub: Any) -> None:
     v.add_argument("--exact", action="store_true", help="decide with exact rational arithmetic (python-flint)")
     v.add_argument("--require", metavar="ID,...", help="exit 1 unless every result of these ids is good news for the defender (favourable)")
     v.add_argument("--require-holds", metavar="ID,...", help="exit 1 unless every result of these ids has status holds (raw status, whatever it means for the defender)")
-    v.add_argument("--rtol", type=float, default=_RTOL, help="relative tolerance of numeric decisions (default 1e-9)")
-    v.add_argument("--band", type=float, default=_BAND, help="undecided band factor above rtol (default 1e3)")
+    v.add_argument("--rtol", type=float, default=None, help="relative tolerance of numeric decisions (default 1e-9)")
+    v.add_argument("--band", type=float, default=None, help="undecided band factor above rtol (default 1e3)")
     v.add_argument(
         "--simulate",
         choices=("auto", "always", "never"),
         default="auto",
-        help="run switching.detects (Theorem III.3's conclusion, one simulated switch per safe mode; auto: up to 150 agents)",
+        help="run switching.detects (Theorem III.3's conclusion, one simulated switch per safe mode; auto: up to the tunable detects_max_agents, 150 agents)",
     )
     v.add_argument("--escalate", choices=("auto", "never"), default="auto", help="auto (default): re-decide a numeric undecided exactly within --exact-budget")
-    v.add_argument("--exact-budget", type=float, default=30.0, metavar="SECONDS", help="one time budget for all the exact escalations of the run, in seconds (default 30; 0 or inf: no limit)")
-    v.add_argument("--fragile-below", type=float, default=1e-9, metavar="X", help="mark a verdict fragile when its margin is below X (default 1e-9)")
+    v.add_argument("--exact-budget", type=float, default=None, metavar="SECONDS", help="one time budget for all the exact escalations of the run, in seconds (default: the tunable exact_budget, 30; 0 or inf: no limit)")
+    v.add_argument("--fragile-below", type=float, default=None, metavar="X", help="mark a verdict fragile when its margin is below X (default: the tunable fragile_below, 1e-9)")
     v.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    v.add_argument("--certificates", metavar="FILE", help="also write a certificate of every decided verdict to FILE (JSON; check it with: python -m glocal_check SPEC FILE)")
     add_allow_large(v)
     v.set_defaults(func=cmd_verify)
 

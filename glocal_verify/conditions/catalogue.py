@@ -12,7 +12,7 @@ from typing import Mapping
 
 from glocal_verify.results import Status
 
-__all__ = ["ConditionInfo", "CATALOGUE", "DESIGN_ASSESSMENT_IDS"]
+__all__ = ["ConditionInfo", "CATALOGUE", "DESIGN_ASSESSMENT_IDS", "THEOREM_III3_IDS"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -86,6 +86,10 @@ CATALOGUE: Mapping[str, ConditionInfo] = MappingProxyType({e[0]: ConditionInfo(*
 
 #: the conditions of a design's before/after assessment (``glocal-verify design``): privacy,
 #: stealthy ZDA, the local observers and Theorem III.3 with the attack's avoidance
+#: the conditions of Theorem III.3 (i)-(iii), decided per safe mode: what Algorithm 1 (line 4)
+#: evaluates and the answer for one attacker reads (the one list of the package)
+THEOREM_III3_IDS: tuple[str, ...] = ("switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences")
+
 DESIGN_ASSESSMENT_IDS: tuple[str, ...] = (
     "privacy.initial-state",
     "privacy.consensus-value",

@@ -51,7 +51,7 @@ def check_central_observer(system: System, ctx: CheckContext) -> list[ConditionR
     the matrix determinant lemma on the N-sized transfer numerators, no 2N x 2N matrix)
     divided by that of A_1 on the rational unobservable subspace is tested with the exact
     Routh-Hurwitz criterion (the Routh array of
-    :func:`~glocal_verify.observers.central.routh_hurwitz`, on integer rows with their contents removed).
+    :func:`~glocal_verify.numerics.hurwitz.routh_hurwitz`, on integer rows with their contents removed).
 
     Margin
         The stability margin ``-max Re`` on the observable part (floating point).

@@ -34,8 +34,7 @@ from typing import Iterable, Sequence
 from glocal_verify import config
 from glocal_verify.conditions.catalogue import CATALOGUE, DESIGN_ASSESSMENT_IDS
 from glocal_verify.conditions.exact_cost import exact_seconds
-from glocal_verify.errors import ModelError
-from glocal_verify.simulation.limits import THRESHOLD_ARRAYS, detector_work, samples_over
+from glocal_verify.simulation.limits import THRESHOLD_ARRAYS, SizeLimitError, detector_work, refuse, samples_over
 from glocal_verify.spec.types import SystemSpec
 
 __all__ = [
@@ -115,7 +114,7 @@ A_UIO_MODAL = 1.0
 #: (30 s before the sparse residuals and the fused deflation steps), about 60 s at N = 10,000.
 C_PENCIL = 0.6e-10
 
-#: switching.detects with simulation (``--simulate always`` above 150 agents): seconds per N^3
+#: switching.detects with simulation (``--simulate always`` above ``detects_max_agents`` agents): seconds per N^3
 #: per safe mode (61 s for one N = 1000 run, reports/benchmarks.md)
 C_SIMULATE = 6.1e-8
 #: and per output sample of each simulated switch: a constant and a term per (2N)^2 (the modal
@@ -197,27 +196,13 @@ B_AUDIT_ROW = 6_500.0
 C_AUDIT_ROW_OUT = 2e-4
 #: exact audit rows (``--exact``): a factor on the per-set seconds
 F_AUDIT_EXACT = 10.0
+C_AUDIT_EXACT_FALLBACK = 0.01  # N <= exact_fallback_full_agents: rows re-decided over Q, s per set and safe mode (paper19: 5.4 CPU-s)
 
 #: the default limits are the tunables ``max_seconds``, ``max_bytes`` (with ``memory_fraction`` of
 #: the available memory) and ``notice_seconds`` of :mod:`glocal_verify.config`
 
 #: condition ids of the cluster-level checkers (the rest need the global spectra)
 LOCAL_CHEAP = frozenset({"local.k-connected", "local.rank"})
-
-
-class SizeLimitError(ModelError):
-    """A run whose estimated time or memory exceeds the limits (:func:`check_limits`).
-
-    Attributes
-    ----------
-    estimate : CostEstimate
-    limits : Limits
-    """
-
-    def __init__(self, message: str, estimate: CostEstimate, limits: Limits) -> None:
-        super().__init__(message)
-        self.estimate = estimate
-        self.limits = limits
 
 
 # --------------------------------------------------------------------------------------------
@@ -426,7 +411,7 @@ def estimate_verify(
     *,
     exact: bool = False,
     simulate: bool = False,
-    exact_budget: float | None = 30.0,
+    exact_budget: float | None = config.IN_FORCE,
 ) -> CostEstimate:
     """Seconds and peak memory of ``verify`` (every checker, or those of ``only``).
 
@@ -454,7 +439,7 @@ def estimate_verify(
     thresholds, :math:`C_{thr} K \\sum_o q_o (d_o + 2)` seconds and ``THRESHOLD_ARRAYS`` (K, q, d)
     arrays (:attr:`SpecSizes.threshold_samples`, :attr:`SpecSizes.detector_work`); plus, with ``simulate``,
     :math:`C_{sim} N^3 \\max(1, S)` for ``switching.detects`` above
-    150 agents, and with ``exact`` the rational terms of :func:`exact_seconds` (``central.observer``
+    ``detects_max_agents`` (:mod:`glocal_verify.config`) agents, and with ``exact`` the rational terms of :func:`exact_seconds` (``central.observer``
     in N^4, ``stealthy.zda`` and ``switching.avoids-attack`` on their fast path in N^3 each, the
     other global checkers in N^3), :data:`C_EXACT_UIO` and :data:`C_EXACT_PENCIL` per
     design and case, :data:`B_EXACT` N^2 bytes). :math:`C_{uio}` is :data:`C_UIO_MODAL` = 0.8e-10
@@ -478,9 +463,10 @@ def estimate_verify(
     exact : bool
         ``--exact``: every checker in rational arithmetic.
     simulate : bool
-        ``switching.detects`` simulates (``--simulate always``, or auto up to 150 agents).
+        ``switching.detects`` simulates (``--simulate always``, or auto up to ``detects_max_agents`` agents).
     exact_budget : float, optional
-        ``--exact-budget`` of a numeric run (None or 0: no limit, then not counted); becomes
+        ``--exact-budget`` of a numeric run (None or 0: no limit, then not counted; default the
+        tunable ``exact_budget`` in force); becomes
         :attr:`CostEstimate.extra_seconds`.
 
     Returns
@@ -511,7 +497,7 @@ def estimate_verify(
     if simulate and "switching.detects" in ids:
         runs = max(1, S)
         per_sample = C_SIMULATE_SAMPLE + C_SIMULATE_SAMPLE_N2 * float(2 * n) ** 2
-        phases["switching.detects simulations"] = (C_SIMULATE * n3 if n > 150 else 0.0) + runs * sizes.samples * per_sample
+        phases["switching.detects simulations"] = (C_SIMULATE * n3 if n > config.get("detects_max_agents") else 0.0) + runs * sizes.samples * per_sample
     deployment = sizes.threshold_samples > 0 and any(c.startswith("detection.") for c in ids)
     if deployment:
         phases["certified thresholds and guarantees"] = C_THRESHOLD * sizes.threshold_samples * sizes.detector_work
@@ -536,7 +522,8 @@ def estimate_verify(
         if pencil:
             phases["exact local.pencil"] = sum(C_EXACT_PENCIL * c * float(m) ** 3 for m, c in _cases(sizes))
         nbytes += B_EXACT * float(n) ** 2
-    extra = float(exact_budget) if (not exact and exact_budget) else 0.0
+    budget = None if exact_budget is None else config.resolve("exact_budget", exact_budget)
+    extra = float(budget) if (not exact and budget) else 0.0
     return phase_estimate("verify", n, phases, nbytes, arrays, extra)
 
 
@@ -637,7 +624,7 @@ def estimate_audit(sizes: SpecSizes, k: int, candidates: int | None = None, *, e
     = 4e-9, :data:`C_AUDIT_SET_MODE` (``C_mode``, S safe modes) = 1.5e-3,
     :data:`C_AUDIT_ROW_OUT` = 2e-4 s (writing each row), :data:`A_AUDIT` = 20,
     :data:`B_AUDIT_ROW` = 6.5 kB); ``exact`` multiplies the per-set seconds by
-    :data:`F_AUDIT_EXACT`. Measured: the whole N = 1000 audit on 50 clusters with JSON output
+    :data:`F_AUDIT_EXACT`; N <= ``exact_fallback_full_agents`` adds :data:`C_AUDIT_EXACT_FALLBACK` R max(1, S) / W. Measured: the whole N = 1000 audit on 50 clusters with JSON output
     on 2 workers took 641 s and 11.9 GiB over its processes (estimate 7.3 min, 8.8 GiB; before
     the singles were decided by minors and local zeros: 29 min and 9.2 GB); N = 200 on 10 clusters 8 s in the
     library, about 20 s with JSON from the command line (estimate 17 s); 27 min at N = 300 on
@@ -672,6 +659,7 @@ def estimate_audit(sizes: SpecSizes, k: int, candidates: int | None = None, *, e
         "single actuators": f * per_single * singles / w,
         f"{larger} sets of 2..{k} actuators": f * per_larger * larger / w,
         f"safe-mode tests of {singles + larger} sets x {sizes.modes} modes": f * C_AUDIT_SET_MODE * (singles + larger) * max(0, sizes.modes - config.get("cost_calibration_modes")) / w,
+        "exact re-decisions of a small network": (0.0 if exact or n > config.get("exact_fallback_full_agents") else C_AUDIT_EXACT_FALLBACK * (singles + larger) * max(1, sizes.modes) / w),
         "writing the rows": C_AUDIT_ROW_OUT * (singles + larger),
     }
     nbytes = B_BASE + A_AUDIT * dense_bytes(n) + B_AUDIT_ROW * (singles + larger)
@@ -780,7 +768,7 @@ def refusal(est: CostEstimate, limits: Limits) -> str | None:
 
 
 def check_limits(est: CostEstimate, limits: Limits | None = None, *, allow: bool = False, how: Sequence[str] = ()) -> None:
-    """Raise :class:`SizeLimitError` when ``est`` exceeds ``limits`` (unless ``allow``).
+    """Raise :class:`~glocal_verify.simulation.limits.SizeLimitError` when ``est`` exceeds ``limits`` (unless ``allow``), through the one refusal :func:`~glocal_verify.simulation.limits.refuse`.
 
     The message is one line: the command, N, the estimate, the limits, and how to proceed,
     e.g. ``verify of 20000 agents: estimated 36 min and 15 GiB (5 dense 20000 x 20000 arrays;
@@ -807,7 +795,7 @@ def check_limits(est: CostEstimate, limits: Limits | None = None, *, allow: bool
     limits_text = f"limits {format_seconds(lim.seconds)}, {format_bytes(lim.bytes)}"
     text = text[:-1] + f"; {limits_text})" if text.endswith(")") else f"{text} ({limits_text})"
     ways = ", or ".join(["rerun with --allow-large to run it anyway", *how])
-    raise SizeLimitError(f"{est.command} of {est.n} agents: estimated {text}; {ways}", est, lim)
+    refuse(f"{est.command} of {est.n} agents: estimated {text}; {ways}", allow=False, estimate=est, limits=lim)
 
 
 def format_seconds(seconds: float) -> str:

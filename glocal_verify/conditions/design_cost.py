@@ -9,9 +9,9 @@ estimates are printed, and checked against the limits, when each phase starts.
 from __future__ import annotations
 
 from glocal_verify import config
-from glocal_verify.conditions.cost import A_AUDIT, B_BASE, CostEstimate, SpecSizes, dense_bytes, phase_estimate
+from glocal_verify.conditions.cost import A_AUDIT, B_BASE, CostEstimate, SpecSizes, dense_bytes, estimate_audit, estimate_design, phase_estimate
 
-__all__ = ["estimate_monitor_step", "estimate_safe_modes"]
+__all__ = ["estimate_monitor_step", "estimate_safe_modes", "estimate_whole_design"]
 
 
 def estimate_safe_modes(sizes: SpecSizes, targets: int, *, exact: bool = False) -> CostEstimate:
@@ -94,3 +94,61 @@ def estimate_monitor_step(sizes: SpecSizes, targets: int, monitors: int, *, exac
     t = max(0, int(targets))
     phases = {f"up to {monitors} monitor round(s) for {t} unexposed attack sets": max(0, int(monitors)) * t * (2.0 * per_audit + check)}
     return phase_estimate("design", n, phases, B_BASE + A_AUDIT * dense_bytes(n), A_AUDIT)
+
+
+def estimate_whole_design(
+    sizes: SpecSizes,
+    *,
+    max_attackers: int = 2,
+    place: bool = True,
+    exact_assessment: bool | None = None,
+    budget: int = 3,
+    monitor_budget: int = 3,
+    confirm_limit: int = 64,
+) -> CostEstimate:
+    """Seconds and peak memory of the whole of ``design``, before it starts: an upper bound for planning.
+
+    The later phases work on the attack sets the spec leaves undetected, unknown before the
+    first audit; they are bounded here as if every set were one. Besides the two audits, the
+    placement and the two assessments of :func:`~glocal_verify.conditions.cost.estimate_design`:
+
+    .. math::
+
+        t = t_{design} + (2 + R + p)\\, t_{audit} + B\\, L\\, t_{check},\\qquad m = \\max(m_{design}, m_{audit})
+
+    with R = 2 + ``monitor_budget`` audits of what pruning removes (one per monitor, the mode, the
+    schedule), p = 1 when observers are placed (the audit with them), B = ``budget`` modes each
+    checked on ``confirm_limit`` = L sets, at most every set once (:func:`estimate_safe_modes`), and one audit of the
+    sets with the modes and one of them with the monitors.
+
+    Parameters
+    ----------
+    sizes : SpecSizes
+    max_attackers : int
+    place : bool
+    exact_assessment : bool, optional
+    budget : int
+        Largest number of designed safe modes.
+    monitor_budget : int
+        Velocity monitors the design may add.
+    confirm_limit : int
+        Claims of each proposed mode re-verified before the audit of the design.
+
+    Returns
+    -------
+    CostEstimate
+    """
+    head = estimate_design(sizes, max_attackers=max_attackers, place=place, exact_assessment=exact_assessment)
+    one = estimate_audit(sizes, max_attackers)
+    audits = 2 + (2 + max(0, int(monitor_budget))) + (1 if place else 0)
+    import math
+
+    sets = sum(math.comb(sizes.n, j) for j in range(1, max(1, int(max_attackers)) + 1))
+    claims = min(sets, max(0, int(budget)) * max(0, int(confirm_limit)))
+    checks = estimate_safe_modes(sizes, claims, exact=sizes.n <= int(config.get("safe_modes_exact_max_agents")))
+    phases = dict(head.phases)
+    phases[f"up to {audits} audits of the attack sets the design can move (safe modes, monitors, each change earning its place)"] = audits * sum(v for _, v in one.phases)
+    for name, secs in checks.phases:
+        phases[f"design: {name}"] = secs
+    peak = max(head, one, key=lambda e: e.bytes)
+    return phase_estimate("design", sizes.n, phases, peak.bytes, peak.dense_arrays)

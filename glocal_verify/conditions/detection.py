@@ -21,25 +21,22 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from glocal_verify import config
+from glocal_verify.conditions.premises import missing_input
 from glocal_verify.conditions.registry import CheckContext, checker, result
 from glocal_verify.errors import GlocalVerifyError, NotApplicableError
 from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.results import ConditionResult, Status
-from glocal_verify.simulation.certified_thresholds import CertifiedThresholds, certified_thresholds
-from glocal_verify.simulation.guarantees import GUARANTEE_MAX_AGENTS, DetectionGuarantee, detection_guarantee
+from glocal_verify.simulation.certified_thresholds import CertifiedThresholds
+from glocal_verify.simulation.guarantees import DetectionGuarantee, detection_guarantee
+from glocal_verify.simulation.sampled_deployment import SampledDeployment, sampled_deployment
 
 __all__ = ["check_detection_thresholds", "check_local_alarm", "check_detection_guarantee", "shared_thresholds", "shared_guarantee"]
 
 
 #: derived results this module keeps on the system (glocal_verify.derived)
-_THRESHOLDS_KIND: Kind[CertifiedThresholds] = Kind("detection-thresholds", __name__, "CertifiedThresholds")
 _GUARANTEE_KIND: Kind[DetectionGuarantee] = Kind("detection-guarantee", __name__, "DetectionGuarantee")
-
-
-def _applies(system: System) -> bool:
-    impl = system.spec.implementation
-    return impl is not None and impl.controller == "sampled" and system.n <= GUARANTEE_MAX_AGENTS
 
 
 def _numeric(ctx: CheckContext) -> CheckContext:
@@ -47,14 +44,26 @@ def _numeric(ctx: CheckContext) -> CheckContext:
     return ctx if not ctx.exact else CheckContext(exact=False, tol=ctx.tol, options=ctx.options, fragile_below=ctx.fragile_below)
 
 
+def shared_deployment(system: System) -> SampledDeployment:
+    """The spec's sampled deployment (:func:`~glocal_verify.simulation.sampled_deployment.sampled_deployment`,
+    computed once per system): the thresholds, schedule and guarantee the deployment file ships."""
+    return sampled_deployment(system)
+
+
 def shared_thresholds(system: System) -> CertifiedThresholds:
-    """The spec's certified thresholds, computed once per system (kept on ``system.analysis``)."""
-    return _THRESHOLDS_KIND.get(system, (), lambda: certified_thresholds(system))
+    """The spec's certified thresholds before any switch: the deployment's first segment."""
+    return shared_deployment(system).thresholds.certified
 
 
 def shared_guarantee(system: System, mode: str | None) -> DetectionGuarantee:
-    """The spec's attack's guarantee for a switch to ``mode``, computed once per system and mode."""
-    return _GUARANTEE_KIND.get(system, (mode,), lambda: detection_guarantee(system, mode=mode, thresholds=shared_thresholds(system)))
+    """The spec's attack's guarantee for a switch to ``mode``: the deployment's when ``mode`` is its
+    safe mode, else computed once per system and mode against the same thresholds."""
+    dep = shared_deployment(system)
+    if mode == dep.safe_mode and dep.guarantee is not None:
+        return dep.guarantee
+    sched = dep.thresholds
+    first = sched.segments[1][0] if len(sched.segments) > 1 else None
+    return _GUARANTEE_KIND.get(system, (mode,), lambda: detection_guarantee(system, mode=mode, thresholds=sched.certified, after_switch=sched.after_switch_to(system, mode), before=first))
 
 
 @checker("detection.thresholds")
@@ -76,21 +85,25 @@ def check_detection_thresholds(system: System, ctx: CheckContext) -> list[Condit
     Witness
         peak and tail per channel, the slack between threshold and worst case, the
         certificate (window, ``||F^m0||``, ``kappa``, largest row error), the false-alarm bound
-        with Gaussian noise.
+        with Gaussian noise; ``schedule``: per segment of the defender's schedule its mode,
+        whether it is covered and its peak threshold, and the tail after the last switch
+        (:mod:`glocal_verify.simulation.schedule_thresholds`: the thresholds the deployment
+        file ships, :func:`~glocal_verify.simulation.sampled_deployment.sampled_deployment`).
     """
     impl = system.spec.implementation
     nctx = _numeric(ctx)
-    if impl is not None and impl.controller == "sampled" and system.n > GUARANTEE_MAX_AGENTS:
-        return [result("detection.thresholds", nctx, Status.UNDECIDED, note=f"not computed: {system.n} agents > {GUARANTEE_MAX_AGENTS} (dense detectors)")]
-    if not _applies(system):
+    if impl is not None and impl.controller == "sampled" and system.n > (most := config.get("guarantee_max_agents")):
+        return [result("detection.thresholds", nctx, Status.UNDECIDED, note=f"not computed: {system.n} agents > {most} (dense detectors)")]
+    if missing_input(system, "detection.thresholds") is not None:
         return []
     try:
         th = shared_thresholds(system)
     except (NotApplicableError, GlocalVerifyError) as exc:
         return [result("detection.thresholds", nctx, Status.UNDECIDED, note=f"not computed: {exc}")]
     out = []
+    schedule = shared_deployment(system).thresholds.to_json()
     for name, t in th.observers.items():
-        w = {**t.to_json(), "horizon_samples": th.horizon}
+        w = {**t.to_json(), "horizon_samples": th.horizon, "schedule": schedule["detectors"].get(name)}
         cert = t.certificate
         out.append(result("detection.thresholds", nctx, Status.HOLDS, scope={"observer": name}, margin=1.0 - float(cert["theta_M"]), witness=w, error_bound=float(cert["max_row_error"])))
     for note in th.notes:
@@ -122,7 +135,7 @@ def check_local_alarm(system: System, ctx: CheckContext) -> list[ConditionResult
         the guaranteed sample and time after the attack's start, the channel, the smallest
         guaranteed size within the horizon, the zero run's first crossing.
     """
-    if not _applies(system) or system.spec.attack is None:
+    if missing_input(system, "detection.local-alarm") is not None:
         return []
     nctx = _numeric(ctx)
     modes: list[str | None] = list(_modes(system)) or [None]
@@ -160,7 +173,7 @@ def check_detection_guarantee(system: System, ctx: CheckContext) -> list[Conditi
         :meth:`~glocal_verify.simulation.guarantees.DetectionGuarantee.to_json`: detected_by,
         within, switch window, global_within, global_detection, min_size, per-observer stages.
     """
-    if not _applies(system) or system.spec.attack is None:
+    if missing_input(system, "detection.guarantee") is not None:
         return []
     nctx = _numeric(ctx)
     out = []

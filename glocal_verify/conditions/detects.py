@@ -16,6 +16,8 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from glocal_verify import config
+from glocal_verify.conditions.catalogue import THEOREM_III3_IDS
+from glocal_verify.conditions.premises import missing_input
 from glocal_verify.conditions.registry import (
     CheckContext,
     checker,
@@ -52,12 +54,7 @@ __all__ = [
 #: the switching.detects results per (tolerance, size limit), kept on the system
 _DETECTS_KIND: Kind[list[ConditionResult]] = Kind("switching.detects", __name__, "list[ConditionResult]")
 
-#: the conditions Algorithm 1 (line 4) evaluates for a safe mode
-THEOREM_III3_IDS = ("switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences")
 
-#: largest network on which ``switching.detects`` simulates: the default of the tunable
-#: ``detects_max_agents`` of :mod:`glocal_verify.config` (read at each check)
-DETECTS_MAX_AGENTS = config.default("detects_max_agents")
 
 
 def rank_safe_modes(system: System, modes: Sequence[str] | None = None) -> tuple[ModeRanking, ...]:
@@ -169,11 +166,9 @@ def check_detects(system: System, ctx: CheckContext) -> list[ConditionResult]:
         invisible / vanishing / unbounded, exponential rate), ||dL_q xi|| / ||xi|| for a ZDA,
         the attack (kind, lambda0, moved agents), the threshold rule, horizon, step, seed.
     """
-    if ctx.exact or not ctx.options.get("simulate"):
+    if missing_input(system, "switching.detects", exact=ctx.exact, options=ctx.options) is not None:
         return []
     spec = system.spec
-    if spec.attack is None or spec.switching is None or not system.safe_modes:
-        return []
     limit = int(ctx.options.get("max_agents", config.get("detects_max_agents")))
     params = (ctx.tol.rtol, ctx.tol.band, limit)
     kept = _DETECTS_KIND.peek(system, params)

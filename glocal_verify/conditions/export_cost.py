@@ -12,7 +12,8 @@ from __future__ import annotations
 
 from types import MappingProxyType
 
-from glocal_verify.conditions.cost import B_BASE, C_EIGH, C_SIMULATE_SAMPLE, CostEstimate, SpecSizes, dense_bytes, phase_estimate
+from glocal_verify.conditions.cost import B_BASE, C_EIGH, C_SIMULATE_SAMPLE, C_THRESHOLD, CostEstimate, SpecSizes, dense_bytes, phase_estimate
+from glocal_verify.simulation.limits import THRESHOLD_ARRAYS
 
 __all__ = ["estimate_export", "export_floats"]
 
@@ -26,6 +27,14 @@ C_WRITE = MappingProxyType({"json": 2.0e-7, "mat": 4.0e-8, "npz": 4.0e-8})
 #: and, for JSON, the block of text in flight; the compressed formats hold their whole (small)
 #: file and the arrays scipy/numpy copy
 B_WRITE = MappingProxyType({"json": 10.0, "mat": 24.0, "npz": 24.0})
+#: the sampled section (with ``[implementation]``): floats per sample and unit of detector work
+#: (the thresholds of every segment, the guarantee's responses: 112 floats a sample for
+#: paper19's work of 656), and passes over the (K, q, d) rows per segment (the thresholds of the
+#: segment, the guarantee against them): 8.8 s at K = 1201, 11.6 s at K = 3001 on paper19
+F_SAMPLED = 0.17
+P_SAMPLED = 2.0
+#: start of the sampled section (the exact discretisation and the sampled designs of every mode)
+C_SAMPLED_START = 3.0
 #: dense 2N x 2N arrays the central observer's design keeps at once (the closed loop, its
 #: eigenvectors, the gain's workspace)
 A_CENTRAL = 6.0
@@ -49,11 +58,12 @@ def export_floats(sizes: SpecSizes, *, thresholds: bool = True) -> float:
     if thresholds:
         local_channels = sum(2.0 * ni * obs for ni, obs in zip(sizes.cluster_sizes, sizes.observers))
         floats += float(sizes.samples) * (sizes.channels + local_channels + 1)
+    floats += F_SAMPLED * float(sizes.threshold_samples) * sizes.detector_work  # 0 without [implementation]
     return floats
 
 
 def estimate_export(sizes: SpecSizes, fmt: str, *, thresholds: bool = True) -> CostEstimate:
-    """Seconds and peak memory of ``export`` of a spec of ``sizes`` to format ``fmt``.
+    r"""Seconds and peak memory of ``export`` of a spec of ``sizes`` to format ``fmt``.
 
     .. math::
 
@@ -63,7 +73,10 @@ def estimate_export(sizes: SpecSizes, fmt: str, *, thresholds: bool = True) -> C
         m = B_{base} + A_c \\cdot 8 (2N)^2 + (8 + B_{write}) F
 
     with F the floats of the tree (:func:`export_floats`), :math:`n_s` the output samples of the
-    spec's horizon and S the safe modes.
+    spec's horizon and S the safe modes; with ``[implementation]`` the certified thresholds of
+    every segment of the schedule and the guarantee add
+    :math:`C_{s} + P\, C_{thr} K W (S + 2)` seconds and the (K, q, d) rows' bytes, with K the
+    thresholds' samples and W the detector work (:class:`~glocal_verify.conditions.cost.SpecSizes`).
 
     Parameters
     ----------
@@ -85,5 +98,8 @@ def estimate_export(sizes: SpecSizes, fmt: str, *, thresholds: bool = True) -> C
     }
     if thresholds:
         phases["attack-free thresholds"] = float(sizes.samples) * runs * (C_SIMULATE_SAMPLE + C_ENVELOPE_N2 * (2.0 * n) ** 2)
-    nbytes = B_BASE + A_CENTRAL * dense_bytes(2 * n) + (8.0 + B_WRITE.get(fmt, B_WRITE["json"])) * floats
+    rows = float(sizes.threshold_samples) * sizes.detector_work  # the sampled deployment's (K, q, d) rows
+    if rows:
+        phases["certified thresholds of the schedule"] = C_SAMPLED_START + P_SAMPLED * C_THRESHOLD * rows * (runs + 1)
+    nbytes = B_BASE + A_CENTRAL * dense_bytes(2 * n) + (8.0 + B_WRITE.get(fmt, B_WRITE["json"])) * floats + 8.0 * THRESHOLD_ARRAYS * rows
     return phase_estimate("export", n, phases, nbytes, A_CENTRAL * 4.0)

@@ -21,7 +21,7 @@ import scipy.linalg
 
 from glocal_verify import config
 from glocal_verify.conditions.catalogue import CATALOGUE, ConditionInfo
-from glocal_verify.conditions.premises import vacuous_premise
+from glocal_verify.conditions.premises import missing_input, vacuous_premise
 from glocal_verify.errors import ArgumentError, GlocalVerifyError, ModelError, UnknownConditionError, did_you_mean, shorten
 from glocal_verify.model import System
 from glocal_verify.numerics.deadline import DeadlineExceeded, call_with_deadline
@@ -478,7 +478,7 @@ def _verify_arguments(
     if not isinstance(tol, Tolerance):
         raise ArgumentError(f"tol: expected a Tolerance, got {type(tol).__name__}")
     choice_arg("escalate", escalate, ("auto", "never"))
-    budget = None if exact_budget is None else real_arg("exact_budget", exact_budget, 0.0, allow_inf=True)
+    budget = None if exact_budget is None else real_arg("exact_budget", config.resolve("exact_budget", exact_budget), 0.0, allow_inf=True)
     if budget is not None and (budget == 0.0 or math.isinf(budget)):
         budget = None  # no limit
     fb = None if fragile_below is None else real_arg("fragile_below", fragile_below, 0.0, allow_inf=True)
@@ -494,7 +494,7 @@ def check_conditions(
     options: Mapping[str, Any] | None = None,
     progress: Callable[[str], None] | None = None,
     escalate: str = "auto",
-    exact_budget: float | None = 30.0,
+    exact_budget: float | None = config.IN_FORCE,
     fragile_below: float | None = None,
 ) -> Report:
     """Run the registered checkers on ``system``: the report without its assessment.
@@ -515,14 +515,18 @@ def check_conditions(
     options : mapping, optional
         Extra options passed to every checker through :class:`CheckContext`.
     progress : callable, optional
-        Called with each condition id before it runs.
+        Called with each condition id before it runs. A condition with nothing to evaluate on
+        this system (:func:`~glocal_verify.conditions.premises.missing_input`: no
+        ``[implementation]``, no attack ...) is neither run nor announced; the report's
+        ``options["skipped"]`` says why (``options["selected"]``: ``only`` was given).
     escalate : {"auto", "never"}
         ``"auto"``: a numeric ``undecided`` is re-decided by the checker's exact path (the
         spec's weights are rational), within ``exact_budget``; the result then says
         ``method: exact (escalated)``.
     exact_budget : float or None
         Seconds of wall time for all escalated exact runs of this call together, a real
-        number >= 0 (None, 0 or ``inf``: no limit). They run after every numeric checker, the cheap ones first; each gets a fair
+        number >= 0 (None, 0 or ``inf``: no limit; default the tunable ``exact_budget`` of
+        :mod:`glocal_verify.config` in force, 30 s). They run after every numeric checker, the cheap ones first; each gets a fair
         share of what is left (what it does not use passes on) and is stopped, not merely
         warned, at the end of its share. One whose estimated cost (:func:`exact_estimate`)
         times ``escalation_estimate_fraction`` (:mod:`glocal_verify.config`) exceeds the whole
@@ -547,16 +551,22 @@ def check_conditions(
     system, only, exact_budget, fragile_below = _verify_arguments(system, only, exact, tol, escalate, exact_budget, fragile_below, options, progress)
     _load()
     ids = resolve_ids(only) if only is not None else implemented_ids()
-    if fragile_below is None:
-        fragile_below = float(config.get("fragile_below"))
+    fragile_below = float(config.resolve("fragile_below", fragile_below))
     ctx = CheckContext(exact=exact, tol=tol, options=dict(options or {}), fragile_below=fragile_below)
     per_checker: dict[str, list[ConditionResult]] = {}
+    skipped: dict[str, str] = {}
     for cid in ids:
         if cid not in _CHECKERS:
+            continue
+        why = missing_input(system, cid, exact=exact, options=ctx.options)
+        if why is not None:  # nothing to evaluate: neither run nor announced, but said
+            skipped[cid] = why
             continue
         if progress:
             progress(cid)
         per_checker[cid] = _run_checker(system, cid, ctx)
+        if not per_checker[cid]:
+            skipped[cid] = "the checker found nothing to evaluate on this system"
     if not exact and escalate == "auto":
         _escalate_all(system, per_checker, ctx, exact_budget, progress)
     results = [r for rs in per_checker.values() for r in rs]
@@ -576,5 +586,7 @@ def check_conditions(
         "exact_budget": exact_budget,
         "fragile_below": fragile_below,
         "simulate": bool(ctx.options.get("simulate")),
+        "selected": only is not None,
+        "skipped": skipped,
     }
     return Report(info, tuple(results), tuple(findings), opts)

@@ -122,14 +122,15 @@ from glocal_verify.conditions.registry import (
     finding_rule,
     result,
 )
-from glocal_verify.conditions.stealthy import _moved, _vec
+from glocal_verify.conditions.stealthy import direction_json
 from glocal_verify.model import System
 from glocal_verify.numerics.tolerance import Tolerance
-from glocal_verify.results import ConditionResult, Finding, Status
+from glocal_verify.results import ConditionResult, Finding, Status, growth_of_sign
 from glocal_verify.spec.types import Label
 
 __all__ = [
     "check_safe",
+    "predicted_residual",
     "remark_contradiction",
 ]
 
@@ -170,7 +171,18 @@ def _links_json(system: System, mode: str) -> list[list[Any]]:
     return [[u, v, float(dw)] for u, v, dw in system.switching_links(mode)]
 
 
-def _predict(touches: bool, growth: str) -> str:
+def predicted_residual(touches: bool, growth: str) -> str:
+    """The global residual Remark III.3.1 predicts after a switch: ``bounded-vanishing`` when the
+    switch does not touch the attack (or the attack decays), ``unbounded`` for an unbounded
+    attack it touches, ``bounded`` otherwise (the one mapping; the audit's rows read it too).
+
+    Parameters
+    ----------
+    touches : bool
+        The switch touches the attack direction.
+    growth : str
+        The attack's growth class.
+    """
     if not touches:
         return PRED_BOUNDED_VANISHING
     if growth == GROWTH_UNBOUNDED:
@@ -181,12 +193,7 @@ def _predict(touches: bool, growth: str) -> str:
 
 
 def _direction_json(system: System, F: Sequence[Label], d: ZdaDirection, tol: Tolerance) -> dict[str, Any]:
-    return {
-        "lambda0": [d.lambda0.real, d.lambda0.imag],
-        "xi": _vec(system, d.xi, system.labels, tol),
-        "u0": _vec(system, d.u0, F, tol, support_only=False),
-        "moved": _moved(system, d.xi, tol),
-    }
+    return {"lambda0": [d.lambda0.real, d.lambda0.imag], **direction_json(system, F, d.xi, d.u0, tol)}
 
 
 def _avoidance_result(
@@ -222,7 +229,7 @@ def _avoidance_result(
     elif av.status is Status.FAILS:
         w["moved_by_attack"] = chosen["moved"]
         w["touched_agents"] = list(av.chosen_touched_agents)
-        w["predicted_residual"] = _predict(True, av.growth)
+        w["predicted_residual"] = predicted_residual(True, av.growth)
     else:
         w["moved_by_attack"] = chosen["moved"]
         w["touched_agents"] = list(av.chosen_touched_agents)
@@ -279,14 +286,14 @@ def _covert_results(system: System, ctx: CheckContext) -> list[ConditionResult]:
     out: list[ConditionResult] = []
     lam = attack.lambda0
     if attack.signal == "exponential" and lam is not None:
-        growth = GROWTH_UNBOUNDED if lam.real > 0 else (GROWTH_PERSISTENT if lam.real == 0 else GROWTH_DECAYING)
+        growth = growth_of_sign((lam.real > 0) - (lam.real < 0))
     else:
         growth = GROWTH_PERSISTENT  # bounded (step, sine or unspecified) input
     for mode in system.safe_modes:
         links = system.switching_links(mode)
         touching = [[u, v, float(dw)] for u, v, dw in links if u in R or v in R]
         touches = bool(touching)
-        predicted = _predict(touches, growth)
+        predicted = predicted_residual(touches, growth)
         remark, sec4 = _readings(touches, predicted)
         witness: dict[str, Any] = {
             "attack_kind": "covert",

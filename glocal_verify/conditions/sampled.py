@@ -18,18 +18,18 @@ Without ``[implementation]`` they give no result (listed as not evaluated).
 from __future__ import annotations
 
 import math
-from fractions import Fraction
 from typing import Any
 
-import flint
 import numpy as np
 
 from glocal_verify.analysis.sampled.loop import sampled_aliasing, sampled_observability, sampled_stability
 from glocal_verify.analysis.sampled.zda import sampled_zda
 from glocal_verify.conditions.registry import CheckContext, checker, result
+from glocal_verify.conditions.premises import missing_input
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.numerics.certified_rows import power_certificate
+from glocal_verify.numerics.hurwitz import schur_cohn, unobservable_schur_stable
 from glocal_verify.observers.sampled import DecouplingError, design_sampled_uio, sampled_cluster_model, to_float
 from glocal_verify.results import ConditionResult, Status
 
@@ -39,7 +39,6 @@ __all__ = [
     "check_sampled_observability",
     "check_sampled_zda",
     "check_sampled_local_uio",
-    "schur_stable_exact",
 ]
 
 
@@ -65,7 +64,7 @@ def check_sampled_stability(system: System, ctx: CheckContext) -> list[Condition
     Witness
         spectral radius, its certified radius, the largest stable period (sampled controller).
     """
-    if system.spec.implementation is None:
+    if missing_input(system, "sampled.stability") is not None:
         return []
     out = []
     for q in system.modes:
@@ -92,7 +91,7 @@ def check_sampled_no_aliasing(system: System, ctx: CheckContext) -> list[Conditi
         The closest pair (``mu``, ``z``), for the continuous loop the nearest pathological
         period ``h* = 2 pi k / |omega_a -/+ omega_b|``; on overlap the pairs involved.
     """
-    if system.spec.implementation is None:
+    if missing_input(system, "sampled.no-aliasing") is not None:
         return []
     out = []
     for q in system.modes:
@@ -115,7 +114,7 @@ def check_sampled_observability(system: System, ctx: CheckContext) -> list[Condi
     Margin
         The aliasing margin. Witness: the dimensions when computed, the reason.
     """
-    if system.spec.implementation is None:
+    if missing_input(system, "sampled.observability") is not None:
         return []
     out = []
     for q in system.modes:
@@ -146,7 +145,7 @@ def check_sampled_zda(system: System, ctx: CheckContext) -> list[ConditionResult
         with modulus and growth, the actuators with the zero at -1.
     """
     impl = system.spec.implementation
-    if impl is None or system.spec.attack is None:
+    if impl is None or missing_input(system, "sampled.zda") is not None:
         return []
     exact_ok = ctx.exact and impl.controller == "sampled"
     rctx = ctx if (not ctx.exact or exact_ok) else CheckContext(exact=False, tol=ctx.tol, options=ctx.options, fragile_below=ctx.fragile_below)
@@ -164,67 +163,6 @@ def check_sampled_zda(system: System, ctx: CheckContext) -> list[ConditionResult
     if ctx.exact and not exact_ok:
         note = (note + "; " if note else "") + "the continuous loop's sampled pencil is transcendental: decided numerically"
     return [result("sampled.zda", rctx, z.status, margin=margin, witness=w, note=note)]
-
-
-def schur_stable_exact(p: Any) -> bool:
-    """Exact Schur-Cohn test over Q: every root of the rational polynomial ``p`` has modulus < 1.
-
-    Recursion: with ``a_0, a_n`` the constant and leading coefficients and ``p*`` the
-    reversed polynomial, ``p`` is Schur-stable iff ``|a_0| < |a_n|`` and
-    ``(a_n p - a_0 p*) / z`` is (Schur-Cohn, real coefficients). Each step is made primitive
-    over Z (a positive scaling changes no root), so the coefficients grow slowly.
-    """
-    c = [Fraction(int(x.p), int(x.q)) if hasattr(x, "p") else Fraction(x) for x in (p[k] for k in range(p.degree() + 1))]
-    ints = _primitive(c)
-    while len(ints) > 1:
-        a0, an = ints[0], ints[-1]
-        if abs(a0) >= abs(an):
-            return False
-        rev = ints[::-1]
-        ints = _primitive([Fraction(an * ints[k] - a0 * rev[k]) for k in range(1, len(ints))])
-    return True
-
-
-def _primitive(c: list[Fraction]) -> list[int]:
-    """The coefficients times their common denominator, divided by their gcd (sign kept)."""
-    den = math.lcm(*(x.denominator for x in c)) if c else 1
-    ints = [int(x * den) for x in c]
-    g = math.gcd(*ints) if any(ints) else 1
-    return [x // g for x in ints]
-
-
-def _detectable_exact(Abar: Any, C: Any) -> bool:
-    """Exactly: the unobservable part of ``(Abar, C)`` is Schur-stable (over Q)."""
-    n = Abar.ncols()
-    R = _row_basis(C)
-    while True:
-        S = _vstack(R, R * Abar)
-        B = _row_basis(S)
-        if B.nrows() == R.nrows():
-            break
-        R = B
-    if R.nrows() == n:
-        return True
-    X = _nullspace(R)
-    XT = X.transpose()
-    Bm = (XT * X).inv() * (XT * Abar * X)
-    return schur_stable_exact(Bm.charpoly())
-
-
-def _row_basis(M: Any) -> Any:
-    Rr, r = M.rref()
-    return flint.fmpq_mat(r, M.ncols(), [Rr[i, j] for i in range(r) for j in range(M.ncols())])
-
-
-def _vstack(A: Any, B: Any) -> Any:
-    n = A.ncols()
-    return flint.fmpq_mat(A.nrows() + B.nrows(), n, [A[i, j] for i in range(A.nrows()) for j in range(n)] + [B[i, j] for i in range(B.nrows()) for j in range(n)])
-
-
-def _nullspace(R: Any) -> Any:
-    N, nullity = R.nullspace()
-    n = R.ncols()
-    return flint.fmpq_mat(n, nullity, [N[i, j] for i in range(n) for j in range(nullity)])
 
 
 @checker("sampled.local-uio")
@@ -246,7 +184,7 @@ def check_sampled_local_uio(system: System, ctx: CheckContext) -> list[Condition
         ``1 - rho(F)`` (0 on failure). Witness: order, spectral radius, certificate or reason.
     """
     impl = system.spec.implementation
-    if impl is None or impl.controller != "sampled":
+    if impl is None or missing_input(system, "sampled.local-uio") is not None:
         return []
     out = []
     for lo in system.observers():
@@ -261,7 +199,7 @@ def check_sampled_local_uio(system: System, ctx: CheckContext) -> list[Condition
             o = design_sampled_uio(system, lo, impl)
         except NotApplicableError as exc:
             if ctx.exact:
-                ok = _detectable_exact(m.Abar, m.C)
+                ok = unobservable_schur_stable(m.Abar, m.C)
                 st = Status.HOLDS if ok else Status.FAILS
                 out.append(result("sampled.local-uio", ctx, st, scope=scope, margin=0.0, witness={**base, "reason": f"design failed ({exc}); exact detectability {'holds' if ok else 'fails'}"}))
             else:
@@ -271,7 +209,7 @@ def check_sampled_local_uio(system: System, ctx: CheckContext) -> list[Condition
         w: dict[str, Any] = {**base, "order": o.order, "spectral_radius": rho}
         if ctx.exact:
             w["method"] = "Schur-Cohn over Q"
-            status = Status.HOLDS if schur_stable_exact(o.F.charpoly()) else Status.FAILS
+            status = Status.HOLDS if schur_cohn(o.F.charpoly()) else Status.FAILS
         else:
             pc = power_certificate(o.F)
             w["certificate"] = {"window": pc.window, "theta": pc.theta, "kappa": pc.kappa}

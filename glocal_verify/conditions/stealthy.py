@@ -38,7 +38,7 @@ from glocal_verify.conditions.registry import (
 )
 from glocal_verify.model import System
 from glocal_verify.numerics.tolerance import Decision, Tolerance
-from glocal_verify.results import ConditionResult, Finding, Status
+from glocal_verify.results import ConditionResult, Finding, Status, vector_json
 from glocal_verify.spec.types import Label
 
 __all__ = [
@@ -46,6 +46,7 @@ __all__ = [
     "check_covert",
     "unobservable_zeros_finding",
     "covert_sensors_finding",
+    "direction_json",
 ]
 
 
@@ -54,16 +55,11 @@ __all__ = [
 # checkers
 
 
-def _vec(system: System, v: np.ndarray, labels: Sequence[Label], tol: Tolerance, support_only: bool = True) -> dict[Label, Any]:
-    """A vector by label at full double precision; ``support_only`` leaves out the entries that
-    are exactly 0.0 (no relative cut: a tiny entry is kept, so the residual is not lost)."""
-    out: dict[Label, Any] = {}
-    for lab, x in zip(labels, v):
-        c = complex(x)
-        if support_only and c == 0:
-            continue
-        out[lab] = c.real if c.imag == 0 else c
-    return out
+def direction_json(system: System, F: Sequence[Label], xi: np.ndarray, u0: np.ndarray, tol: Tolerance) -> dict[str, Any]:
+    """A ZDA direction in a checker's witness: ``xi`` by label (every entry not exactly 0),
+    ``u0`` by actuator (every entry) and the agents it moves (:func:`~glocal_verify.results.vector_json`);
+    ``stealthy.zda`` and ``switching.avoids-attack`` both write it."""
+    return {"xi": vector_json(system.labels, xi), "u0": vector_json(F, u0, zeros=True), "moved": _moved(system, xi, tol)}
 
 
 def _moved(system: System, xi: np.ndarray, tol: Tolerance) -> list[Label]:
@@ -76,9 +72,7 @@ def _zero_json(system: System, F: Sequence[Label], z: ZdaZero | ExactZdaZero, to
         "lambda": [z.value.real, z.value.imag],
         "growth": z.growth,
         "multiplicity": z.multiplicity,
-        "u0": _vec(system, z.u0, F, tol, support_only=False),
-        "xi": _vec(system, z.xi, system.labels, tol),
-        "moved": _moved(system, z.xi, tol),
+        **direction_json(system, F, z.xi, z.u0, tol),
     }
     if isinstance(z, ZdaZero):
         d["residual"] = z.residual

@@ -56,6 +56,7 @@ from glocal_verify.analysis.stealthy.zda_screens import disjoint_paths, global_t
 from glocal_verify.analysis.stealthy.zda_verdict import ZdaOptions, ZdaVerdict, decide_zda, prepare_witnesses, proven_single
 from glocal_verify.answer.attack import THEOREM_IDS, AttackAnswer, AttackEvidence, LocalEvidence, ModeEvidence, answer_attack
 from glocal_verify.conditions.registry import system_info, check_conditions
+from glocal_verify.conditions.safe_switch import predicted_residual
 from glocal_verify.design.audit_local import local_part
 from glocal_verify.design.audit_records import AUDIT_SCHEMA_ID, AuditResult, AuditRow, SharedParts
 from glocal_verify.errors import ArgumentError, ModelError, NotApplicableError
@@ -63,7 +64,7 @@ from glocal_verify.model import System
 from glocal_verify.numerics.collection import deferred_full_collections, release_freed_memory
 from glocal_verify.numerics.minors import GroundedTables
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
-from glocal_verify.results import Status
+from glocal_verify.results import Status, vector_json
 from glocal_verify.spec.arguments import choice_arg, integer_arg
 from glocal_verify.spec.types import Label
 
@@ -83,8 +84,6 @@ __all__ = [
     "mode_theorem",
     "seed_chunks",
 ]
-
-THEOREM_III3 = THEOREM_IDS
 
 
 # ------------------------------------------------------------------------------------------
@@ -143,7 +142,7 @@ def mode_theorem(system: System, tol: Tolerance = DEFAULT_TOLERANCE, *, exact: b
     """
     if not system.safe_modes:
         return {}
-    rep = check_conditions(system, list(THEOREM_III3), exact=exact, tol=tol)
+    rep = check_conditions(system, list(THEOREM_IDS), exact=exact, tol=tol)
     return {mode: {r.id: r.status for r in rep.conditions if r.scope.get("mode") == mode} for mode in system.safe_modes}
 
 
@@ -249,27 +248,6 @@ def _shared(system: System, tol: Tolerance, exact: bool, exact_fallback: bool | 
 # one set
 
 
-def _xi_json(system: System, xi: np.ndarray, tol: Tolerance) -> dict[str, Any]:
-    """The entries of xi that are not zero at the tolerance (relative to its largest), by label."""
-    mag = np.abs(xi)
-    big = float(np.max(mag, initial=0.0))
-    out: dict[str, Any] = {}
-    if big <= 0.0 or not np.isfinite(big):
-        return out
-    for k in np.flatnonzero(mag / big > tol.rtol):  # Tolerance.decide(|x|, big) is not ZERO
-        c = complex(xi[k])
-        out[str(system.labels[k])] = c.real if c.imag == 0 else [c.real, c.imag]
-    return out
-
-
-def _u_json(F: Sequence[Label], u: np.ndarray) -> dict[str, Any]:
-    out: dict[str, Any] = {}
-    for lab, x in zip(F, u):
-        c = complex(x)
-        out[str(lab)] = c.real if c.imag == 0 else [c.real, c.imag]
-    return out
-
-
 def without_sensors(system: System, sensors: Sequence[Label]) -> System:
     """``system`` with the global channels of ``sensors`` removed (the attacker owns and cancels them)."""
     bad = [a for a in sensors if a not in system.index]
@@ -332,7 +310,7 @@ def _mode_evidence(sh: _Shared, F: tuple[Label, ...], z: ZdaVerdict, mode: str, 
         detail["touch_margin"] = 0.0  # as verify's vacuous result
     predicted = ""
     if v.touches and av is not None:
-        predicted = "unbounded" if av.growth == "unbounded" else ("bounded-vanishing" if av.growth == "decaying" else "bounded")
+        predicted = predicted_residual(True, av.growth)
     ev = ModeEvidence(mode, dict(sh.theorem.get(mode, {})), v.status, margin if v.status is Status.FAILS else None, predicted)
     return ev, detail
 
@@ -395,8 +373,8 @@ def _audit_set(sh: _Shared, F: tuple[Label, ...], memo: dict[Any, Any]) -> Audit
         witness["direction"] = {
             "lambda0": [d.value.real, d.value.imag],
             "source": z.direction_source,
-            "xi": _xi_json(system, np.asarray(d.xi), tol) if system.n <= xi_max else None,
-            "u0": _u_json(F, np.asarray(d.u0)),
+            "xi": vector_json([str(a) for a in system.labels], d.xi, cut=tol.rtol) if system.n <= xi_max else None,
+            "u0": vector_json([str(a) for a in F], d.u0, zeros=True),
             "residual": float(getattr(d, "residual", 0.0)),
         }
         if system.n > xi_max:
@@ -606,7 +584,8 @@ def audit(
         audit runs with M without these agents (stealthiness needs only the other channels to
         stay zero).
     progress : callable, optional
-        ``progress(done, total)`` after each chunk.
+        ``progress(0, total)`` when the sets are known, then ``progress(done, total)`` after
+        each chunk (in this process; an executor reports its own).
     tol : Tolerance
         The checkers' numeric tolerance.
     exact : bool
@@ -677,6 +656,8 @@ def _audit(
     if sensors is not None:
         system = without_sensors(system, list(sensors))
     sets = attack_sets(system, max_attackers, candidates)
+    if progress is not None and executor is None:
+        progress(0, len(sets))  # the phase starts: its set-up (the single agents) counts in it
     chunks = audit_chunks(system, sets, chunk_size, tol=tol, exact=exact, exact_fallback=exact_fallback, screen=screen, growth=growth)
     singles = local_singles_chunks(chunks, _candidates(system, candidates))
     chunks = seed_chunks(chunks, executor(singles) if executor is not None else [t() for t in singles])

@@ -2,9 +2,10 @@
 
 A set's local part is assembled per cluster from the verdicts of ``local.pencil`` (eq.
 ``pencil_uio``, condition (iii)) and ``local.uio`` for the set's members in that cluster,
-with the screens that decide most of them without a pencil analysis: a suspected agent on
-the boundary fails at once, a failing member fails every set containing it (monotone
-screen), an exact twin mode proves a failure, and exact maximal minors prove a success.
+each status stated by the rule, which the audit lets try the exact screens that decide most
+of them without a pencil analysis: a suspected agent on the boundary fails at once, a
+failing member fails every set containing it (monotone screen), an exact twin mode proves a
+failure, and exact maximal minors prove a success.
 Verdicts are memoised per (cluster, observer, suspected set), and so are the evidence and
 witness objects built from them (rows share them: the witness detail is read-only);
 :func:`local_part` is called by
@@ -15,7 +16,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from glocal_verify.analysis.local.cases import LocalCase, minor_certificate, twin_failure
+from glocal_verify.analysis.local.cases import LocalCase, PencilScreen
 from glocal_verify.analysis.local.pencil import pencil_verdict, pencil_verdict_exact
 from glocal_verify.answer.attack import LocalEvidence
 from glocal_verify.observers.uio_verdict import uio_verdict
@@ -26,34 +27,32 @@ __all__ = ["local_part", "pencil_status"]
 
 
 def pencil_status(sh: Any, cm: Any, obs: Any, sus: tuple[Label, ...], memo: dict[Any, Any]) -> Status:
-    """local.pencil for one observer and suspected set, with the monotone screen.
+    """local.pencil for one observer and suspected set: the status of its rule, with the audit's screens.
 
-    If the pencil of eq. ``pencil_uio`` loses column rank at some lam for a suspected set S,
-    it does so for every S' ⊇ S (pad the kernel vector with zero inputs on S' \\ S). So a
-    failing single agent decides every set containing it without a pencil analysis.
+    The rule (:func:`~glocal_verify.analysis.local.pencil.pencil_verdict`, or
+    :func:`~glocal_verify.analysis.local.pencil.pencil_verdict_exact`) states every status; the
+    audit only hands it the exact screens it may try first
+    (:class:`~glocal_verify.analysis.local.cases.PencilScreen`): a member of the suspected set
+    whose single set fails (if the pencil of eq. ``pencil_uio`` loses column rank at some lam
+    for S, it does for every S' ⊇ S), a twin mode, and (numeric) exact maximal minors.
     """
     pkey = ("pencil", cm.name, obs.center, sus)
     if pkey in memo:
         return memo[pkey]  # type: ignore[no-any-return]
-    st: Status | None = None
     case = LocalCase(cm, obs, "attack", sus)
-    if case.structural:
-        st = Status.FAILS  # a suspected agent on the boundary: rank loss at every lam (as pencil_verdict decides it)
-    elif len(sus) > 1 and any(pencil_status(sh, cm, obs, (a,), memo) is Status.FAILS for a in sus):
-        st = Status.FAILS
-    if st is None and twin_failure(sh.system, case) is not None:
-        st = Status.FAILS
-    if st is None and not sh.exact and minor_certificate(sh.system, case, memo.setdefault("minors", {})) is not None:
-        st = Status.HOLDS
-    if st is None:
-        if sh.exact:
-            st = pencil_verdict_exact(sh.system, case, margin=False).status
-        else:
-            st = pencil_verdict(sh.system, case, sh.tol, margin=False).status
-            if st is Status.UNDECIDED and sh.exact_fallback:
-                st = pencil_verdict_exact(sh.system, case, margin=False).status
-    memo[pkey] = st
-    return st
+    member = None
+    if not case.structural and len(sus) > 1:
+        member = next(((a, memo[("pencil-verdict", cm.name, obs.center, (a,))]) for a in sus if pencil_status(sh, cm, obs, (a,), memo) is Status.FAILS), None)
+    screen = PencilScreen(member, minors=not sh.exact, cache=memo.setdefault("minors", {}))
+    if sh.exact:
+        v = pencil_verdict_exact(sh.system, case, margin=False, screen=screen)
+    else:
+        v = pencil_verdict(sh.system, case, sh.tol, margin=False, screen=screen)
+        if v.status is Status.UNDECIDED and sh.exact_fallback:
+            v = pencil_verdict_exact(sh.system, case, margin=False)
+    memo[("pencil-verdict", cm.name, obs.center, sus)] = v
+    memo[pkey] = v.status
+    return v.status
 
 
 def local_part(sh: Any, F: tuple[Label, ...], memo: dict[Any, Any]) -> tuple[list[LocalEvidence], dict[str, Any]]:

@@ -67,6 +67,17 @@ TEXTUAL_FINDINGS: tuple[tuple[str, str, str], ...] = (
         "the bundled example paper19 (`glocal-verify example paper19` prints it) reconstructs a graph "
         "that fits every sentence and cites them.",
     ),
+    (
+        "Eqs. E_definition, uio_conds_1: one decoupling matrix h^i for every mode",
+        "Section III.C, eqs. E_definition, obs_decent, uio_conds_1",
+        "E^i is defined for sigma = 1 only and h^i carries no mode, while F, K and A-bar switch with sigma. A safe mode "
+        "that adds an inter-cluster link at an agent without outside neighbour adds a column to E^i_q, and "
+        "(h^i C - I) E^i_q != 0: the normal-mode h^i no longer decouples the neighbours. In the designed paper19 "
+        "(tests/data/paper19-designed.toml) P2@10 in mode designed-3 (link 7-9) and P3@13 in designed-1 (link 12-17) "
+        "then have residuals of order 0.1 with only agents outside their clusters moving. The toolkit designs h_q per "
+        "mode (observers/uio_modes.py) and resets z <- z + (h_p - h_q) y at the switch, which keeps x_hat and the error "
+        "continuous (tests/test_deployment.py checks both).",
+    ),
 )
 
 

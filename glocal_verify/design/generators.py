@@ -1,13 +1,15 @@
 """Random clustered networks for benchmarks, property tests and design studies.
 
-Two generators:
+Three generators:
 
 - :func:`random_clustered_spec`, the friendly family (below);
 - :func:`adverse_clustered_spec`, networks built the way people draw them: stochastic-block-model
   clusters of 30-300 agents with mean degree 3-10, links between consecutive or random pairs of
   clusters, observers that measure only their neighbours (the spec's default), their
   neighbours and the cluster's boundary, or the whole cluster; :func:`adverse_family` draws its
-  members across that range (the benchmarks report the worst of them).
+  members across that range (the benchmarks report the worst of them);
+- :func:`symmetric_clusters_spec`, copies of one random cluster joined in a ring (a symmetry of
+  the weighted graph: repeated eigenvalues of L_1).
 
 :func:`random_clustered_spec` builds a validated :class:`~glocal_verify.spec.types.SystemSpec`:
 clusters are sparse connected random graphs (a random spanning tree plus a few chords, integer
@@ -42,6 +44,7 @@ __all__ = [
     "adverse_family",
     "check_generator_arguments",
     "random_clustered_spec",
+    "symmetric_clusters_spec",
 ]
 
 def _count(value: Any, name: str, lo: int, hi: int | None = None) -> None:
@@ -436,3 +439,94 @@ def adverse_family(n: int, members: int = 6, *, seed: int = 0) -> list[AdverseMe
             measure, int(rng.integers(0, 4)), bool(rng.random() < 0.75),
         ))
     return out
+
+
+def symmetric_clusters_spec(
+    n: int,
+    clusters: int = 3,
+    *,
+    seed: int = 0,
+    degree: float = 4.0,
+    cut_edges: int = 1,
+    monitors_per_cluster: int = 1,
+    horizon: float = 30.0,
+    step: float = 0.05,
+) -> SystemSpec:
+    """A network of ``clusters`` copies of one random cluster, joined in a ring: a symmetry of the weighted graph.
+
+    Every link has weight 1; each cluster is the same connected random graph (a random spanning
+    tree plus chords up to a mean degree of about ``degree``); cluster k is joined to cluster
+    k + 1 (mod ``clusters``) by ``cut_edges`` links between the same two template agents, so a
+    rotation maps the network onto itself and L_1 repeats eigenvalues (twin agents of the
+    template repeat them further). Each cluster has its velocity monitors at the same template
+    agents and one observer, at its first boundary agent, measuring its neighbours (the spec's
+    default); a ZDA attacks two unmonitored agents of the first cluster (interior ones when
+    there are two).
+
+    Parameters
+    ----------
+    n : int
+        Number of agents (labels 1..n), a multiple of ``clusters``; each cluster has at least 4.
+    clusters : int
+    seed : int
+    degree : float
+        Mean degree inside a cluster (about).
+    cut_edges : int
+        Links between consecutive clusters.
+    monitors_per_cluster : int
+        Velocity-monitored agents per cluster.
+    horizon, step : float
+        The ``[simulation]`` table.
+
+    Raises
+    ------
+    SpecError
+        For arguments outside their domain (one line naming the argument).
+    """
+    _count(clusters, "clusters", 1, MAX_NODES // 4)
+    _count(n, "n", 4 * int(clusters), MAX_NODES)
+    _count(seed, "seed", 0, 2**63 - 1)
+    _count(cut_edges, "cut_edges", 1, 8)
+    _count(monitors_per_cluster, "monitors_per_cluster", 0, 8)
+    if n % clusters:
+        raise SpecError("n", f"must be a multiple of clusters ({clusters}), got {n}")
+    size = n // clusters
+    rng = np.random.default_rng(seed)
+    template: set[tuple[int, int]] = set()
+    order = list(rng.permutation(size))
+    for k in range(1, size):
+        a, b = int(order[k]), int(order[int(rng.integers(0, k))])
+        template.add((min(a, b), max(a, b)))
+    want = min(int(round(degree * size / 2)), size * (size - 1) // 2)
+    while len(template) < want:
+        a, b = (int(x) for x in rng.choice(size, 2, replace=False))
+        template.add((min(a, b), max(a, b)))
+    ends = [tuple(int(x) for x in rng.choice(size, 2, replace=False)) for _ in range(cut_edges)]
+    boundary = sorted({e for pair in ends for e in pair})
+    inner = [a for a in range(size) if a not in boundary]
+    mons = sorted(int(x) for x in rng.choice(inner or list(range(size)), size=min(monitors_per_cluster, len(inner) or size), replace=False))
+    edges = []
+    for c in range(clusters):
+        off = c * size + 1
+        edges += [[off + a, off + b, 1] for a, b in sorted(template)]
+    if clusters > 1:
+        for c in range(clusters if clusters > 2 else 1):
+            nxt = (c + 1) % clusters
+            edges += [[c * size + 1 + a, nxt * size + 1 + b, 1] for a, b in ends]
+    free = [a for a in inner if a not in mons]
+    if len(free) < 2:
+        free = [a for a in range(size) if a not in mons]
+    if len(free) < 2:
+        raise SpecError("n", f"a cluster of {size} agents leaves {len(free)} interior unmonitored agent(s); a ZDA needs two")
+    attacked = [1 + int(a) for a in rng.choice(free, 2, replace=False)]
+    data: dict[str, Any] = {
+        "format": 1,
+        "name": f"symmetric-{n}-{clusters}-s{seed}",
+        "graph": {"nodes": n, "edges": edges},
+        "clusters": [{"name": f"P{c + 1}", "nodes": list(range(c * size + 1, (c + 1) * size + 1)), "observers": [{"center": c * size + 1 + boundary[0]}]}
+                     for c in range(clusters)],
+        "monitor": {"positions": [], "velocities": [c * size + 1 + a for c in range(clusters) for a in mons]},
+        "attack": {"kind": "zda", "actuators": sorted(attacked)},
+        "simulation": {"horizon": horizon, "step": step, "seed": seed},
+    }
+    return spec_from_dict(data)

@@ -41,10 +41,9 @@ from glocal_verify.model import System
 from glocal_verify.numerics import exact as ex
 from glocal_verify.spec.types import Label, MonitorSpec, ModeSpec
 
-__all__ = ["MonitorDesign", "design_monitors", "EXACT_MAX_AGENTS"]
+__all__ = ["MonitorDesign", "design_monitors"]
 
 #: exhaustive search up to this many agents in the union of the switching components
-EXACT_MAX_AGENTS = config.get("monitors_exact_max_agents")
 PRIVACY_IDS = ("privacy.connected", "privacy.kernel", "privacy.unobservable", "privacy.initial-state", "privacy.consensus-value")
 CHECK_IDS = PRIVACY_IDS + ("switching.image-kernel", "switching.coverage")
 
@@ -113,7 +112,7 @@ def design_monitors(
     modes: Iterable[ModeSpec] | Sequence[str] | None = None,
     *,
     required: Iterable[Label] = (),
-    exact_limit: int = EXACT_MAX_AGENTS,
+    exact_limit: int | None = None,
     verify_design: bool = True,
 ) -> MonitorDesign:
     """The fewest velocity-only monitors meeting Theorem III.3 (i) (and Lemma A.2) for the safe modes.
@@ -125,8 +124,9 @@ def design_monitors(
         The safe modes; default the spec's. ModeSpec objects replace the spec's modes.
     required : iterable of labels
         Agents that must be monitored anyway.
-    exact_limit : int
-        Exhaustive search when the union of the switching components has at most this many agents.
+    exact_limit : int, optional
+        Exhaustive search when the union of the switching components has at most this many
+        agents (default: the tunable ``monitors_exact_max_agents`` of :mod:`glocal_verify.config` in force).
     verify_design : bool
         Re-verify the design with the checkers (privacy.*, switching.image-kernel, switching.coverage).
 
@@ -161,7 +161,7 @@ def design_monitors(
     base = set(system.idx(req))
     chosen: set[int] | None = None
     method, bound = "greedy", 1.0
-    if len(D) <= exact_limit:
+    if len(D) <= config.resolve("monitors_exact_max_agents", exact_limit):
         free = [i for i in D if i not in base]
         for size in range(0, len(free) + 1):
             for extra in itertools.combinations(free, size):

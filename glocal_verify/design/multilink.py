@@ -16,7 +16,8 @@ D = diag(delta). Everything here works on agent indices, so it needs no spec obj
 
 The screen is not a proof: the search re-verifies every proposal with the checkers. Its
 thresholds: eigenvalues positive and apart by more than ``SCREEN_MARGIN`` times the
-largest, eigenvector differences (unit eigenvectors) above ``SCREEN_MARGIN``.
+largest, eigenvector differences (unit eigenvectors) above ``SCREEN_MARGIN`` (the tunable
+``multilink_screen_margin``).
 """
 
 from __future__ import annotations
@@ -28,13 +29,12 @@ import numpy as np
 
 from glocal_verify import config
 
-__all__ = ["BISECTION_STEPS", "SCREEN_MARGIN", "image_kernel_holds", "link_forest", "rank_one_update", "screen_changes", "touch_cover"]
+__all__ = ["image_kernel_holds", "link_forest", "rank_one_update", "screen_changes", "touch_cover"]
 
-#: a change is proposed only when its screened gaps and eigenvector differences exceed this
-SCREEN_MARGIN = config.get("multilink_screen_margin")
-#: bisection steps of the secular equation (each halves the interlacing bracket; plain
-#: Newton steps from either side converge badly next to a pole, so none are taken)
-BISECTION_STEPS = config.get("multilink_bisection_steps")
+#: the screen's margin and the bisection steps of the secular equation are the tunables
+#: ``multilink_screen_margin`` and ``multilink_bisection_steps`` (:mod:`glocal_verify.config`),
+#: read when used (each step halves the interlacing bracket; plain Newton steps from either
+#: side converge badly next to a pole, so none are taken)
 
 Pair = tuple[int, int]
 
@@ -117,7 +117,7 @@ def _secular(d: np.ndarray, z: np.ndarray, rho: np.ndarray) -> tuple[np.ndarray,
     r = rho[..., None]
     lo, hi = np.minimum(0.0, width), np.maximum(0.0, width)
     with np.errstate(divide="ignore", invalid="ignore"):
-        for _ in range(BISECTION_STEPS):
+        for _ in range(config.get("multilink_bisection_steps")):
             tau = 0.5 * (lo + hi)
             f = 1.0 + r * np.sum(z2 / (rel - tau[..., None]), axis=-1)
             right = r * f < 0  # the root lies above tau
@@ -131,7 +131,7 @@ def rank_one_update(d: np.ndarray, T: np.ndarray, col: int, rho: float) -> tuple
 
     Golub's secular equation 1 + rho sum_k z_k^2 / (d_k - x) = 0 on the non-deflated poles
     (|z_k| > 1e-13 ||z||; a deflated (d_k, e_k) stays an eigenpair), solved by
-    ``BISECTION_STEPS`` bisection steps in the interlacing brackets, each root measured from
+    ``multilink_bisection_steps`` bisection steps in the interlacing brackets, each root measured from
     its origin pole (so d_k - x keeps its relative accuracy next to it); eigenvectors
     (diag(d) - x)^{-1} z, normalised.
 
@@ -177,9 +177,10 @@ def rank_one_update(d: np.ndarray, T: np.ndarray, col: int, rho: float) -> tuple
 def _accept(d: np.ndarray, T: np.ndarray, s: int) -> np.ndarray:
     """(ii) and (iii) at the screen margin for a batch of final spectra d (B, n) and tracked T (B, n, c)."""
     scale = np.maximum(1.0, np.max(np.abs(d), axis=-1))
-    ok = d[..., 0] > SCREEN_MARGIN * scale
-    ok &= np.all(np.diff(d, axis=-1) > SCREEN_MARGIN * scale[..., None], axis=-1)
-    return ok & np.all(np.abs(T[..., s:]) > SCREEN_MARGIN, axis=(-2, -1))
+    margin = config.get("multilink_screen_margin")
+    ok = d[..., 0] > margin * scale
+    ok &= np.all(np.diff(d, axis=-1) > margin * scale[..., None], axis=-1)
+    return ok & np.all(np.abs(T[..., s:]) > margin, axis=(-2, -1))
 
 
 def screen_changes(U: np.ndarray, values: np.ndarray, changes: Sequence[tuple[Sequence[Pair], Sequence[float]]]) -> np.ndarray:

@@ -40,39 +40,39 @@ obstacle, one line each, with the sets it concerns.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from fractions import Fraction
 from typing import Any
 
+from glocal_verify import config
 from glocal_verify.conditions.cost import CostEstimate, SpecSizes
 from glocal_verify.conditions.design_cost import estimate_monitor_step, estimate_safe_modes
 from glocal_verify.design.audit import AuditResult, audit
 from glocal_verify.design.monitors import MonitorDesign, design_monitors
 from glocal_verify.design.placement import ObserverProposal, place_cluster
+from glocal_verify.design.pruning import Blueprint, Edit, audit_sets, prune
+from glocal_verify.design.symmetry import split_normal_weights, with_monitors
 from glocal_verify.design.safe_modes import (
     DEFAULT_WEIGHTS,
-    EXACT_MAX_AGENTS as SAFE_MODES_EXACT_MAX_AGENTS,
     SafeModeDesign,
     design_safe_modes,
     with_modes,
 )
-from glocal_verify.errors import GlocalVerifyError
+from glocal_verify.errors import GlocalVerifyError, NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.spec.types import (
-    NORMAL_MODE,
-    ClusterSpec,
     Label,
     MonitorSpec,
     ObserverSpec,
-    SwitchingSpec,
-    SwitchStep,
     SystemSpec,
 )
 
-__all__ = ["SCHEDULE_DWELL", "DesignChange", "NetworkDesign", "before_table", "design_comments", "design_network"]
+__all__ = ["CONFIRM_LIMIT", "DesignChange", "NetworkDesign", "before_table", "design_comments", "design_network"]
 
-#: dwell time of each mode of a designed ``[switching]`` schedule
-SCHEDULE_DWELL = 10.0
+#: claims of each proposed safe mode re-verified before the whole design is audited (the audit
+#: decides the others: every set it reports detected is checked by the rules of ``verify``)
+CONFIRM_LIMIT = 64
 
 
 @dataclass(frozen=True, slots=True)
@@ -81,26 +81,31 @@ class DesignChange:
 
     Attributes
     ----------
-    kind : {"monitor", "observer", "mode", "schedule"}
+    kind : {"monitor", "observer", "mode", "schedule", "weight"}
     action : str
-        ``added``, ``replaced``, ``moved``.
+        ``added``, ``replaced``, ``moved``, ``changed``.
     subject : str
         What changed, e.g. ``velocity monitor at 8`` or ``mode designed-1 (add 4-7 (w=1))``.
     achieves : str
         Why, in one sentence (which condition or attack it serves).
+    moved : tuple of attack sets
+        The sets the audit shows it moves toward detected: without it they fall back (empty
+        for the move of position monitors, which serves privacy).
     """
 
     kind: str
     action: str
     subject: str
     achieves: str
+    moved: tuple[tuple[Label, ...], ...] = ()
 
     def text(self) -> str:
-        """``"added velocity monitor at 8: ..."``."""
-        return f"{self.action} {self.subject}: {self.achieves}"
+        """``"added velocity monitor at 8: ...; moves 3 attack set(s) toward detected: {1, 2}, ..."``."""
+        moved = f"; moves {len(self.moved)} attack set(s) toward detected: {_sets_text(self.moved)}" if self.moved else ""
+        return f"{self.action} {self.subject}: {self.achieves}{moved}"
 
-    def to_json(self) -> dict[str, str]:
-        return {"kind": self.kind, "action": self.action, "subject": self.subject, "achieves": self.achieves}
+    def to_json(self) -> dict[str, Any]:
+        return {"kind": self.kind, "action": self.action, "subject": self.subject, "achieves": self.achieves, "moved": [list(F) for F in self.moved]}
 
 
 @dataclass(frozen=True)
@@ -128,6 +133,12 @@ class NetworkDesign:
     changes : tuple of DesignChange
         Every change to the spec (monitors, observers, modes, schedule) with what it achieves.
     notes : tuple of str
+    blueprint : Blueprint, optional
+        The base spec and every edit the design considered (:mod:`glocal_verify.design.pruning`).
+    kept : frozenset of Edit
+        The edits of :attr:`spec`.
+    change_edits : tuple of tuples of Edit
+        Per change, the edits it stands for (:meth:`without`).
     """
 
     spec: SystemSpec
@@ -141,6 +152,22 @@ class NetworkDesign:
     added_monitors: tuple[tuple[Label, tuple[Label, ...]], ...] = ()
     changes: tuple[DesignChange, ...] = ()
     notes: tuple[str, ...] = field(default_factory=tuple)
+    blueprint: Blueprint | None = None
+    kept: frozenset[Edit] = frozenset()
+    change_edits: tuple[tuple[Edit, ...], ...] = ()
+
+    def without(self, k: int) -> SystemSpec:
+        """The designed spec without change ``k`` of :attr:`changes` (its edits removed).
+
+        Raises
+        ------
+        NotApplicableError
+            For a change that stands for no edit (the move of position monitors).
+        """
+        es = self.change_edits[k] if k < len(self.change_edits) else ()
+        if self.blueprint is None or not es:
+            raise NotApplicableError(f"change {k} ({self.changes[k].subject}) cannot be removed on its own")
+        return self.blueprint.build(self.kept - set(es))
 
     @property
     def complete(self) -> bool:
@@ -151,11 +178,15 @@ class NetworkDesign:
         """The before/after counts, every change and every unmet requirement, one line each."""
         b, a = self.before.summary()["counts"], self.after.summary()["counts"]
         n = len(self.after.rows)
+        head = f"undetected {b['undetected']} -> {a['undetected']}"
+        if b["undecided"] or a["undecided"]:
+            head += f", undecided {b['undecided']} -> {a['undecided']}"
         lines = [
+            f"{head} of {n} attack sets",
             f"audit before: {b['detected']} detected, {b['undetected']} undetected, {b['undecided']} undecided of {n} attack sets",
             f"audit after:  {a['detected']} detected, {a['undetected']} undetected, {a['undecided']} undecided",
         ]
-        lines += [f"- {c.text()}" for c in self.changes] or ["- no change was needed"]
+        lines += [f"- {c.text()}" for c in self.changes] or (["- no change moves an attack set toward detected"] if b["undetected"] or b["undecided"] else ["- no change was needed"])
         lines += [f"NOT MET: {u}" for u in self.unmet]
         return lines
 
@@ -164,8 +195,8 @@ class NetworkDesign:
 
         lines = self.summary()
         head = "incomplete design" if self.unmet else "design"
-        items = "".join(f"<li>{escape(x)}</li>" for x in lines[2:])
-        return f"<div><p><b>{escape(head)}</b>: {escape(lines[1].replace('audit after:', 'after:').strip())}</p><p>{escape(lines[0])}</p><ul>{items}</ul></div>"
+        items = "".join(f"<li>{escape(x)}</li>" for x in lines[3:])
+        return f"<div><p><b>{escape(head)}</b>: {escape(lines[0])}</p><p>{escape(lines[1])}<br>{escape(lines[2])}</p><ul>{items}</ul></div>"
 
     def __repr__(self) -> str:
         a = self.after.summary()["counts"]
@@ -183,11 +214,16 @@ def _velocity_only(spec: SystemSpec) -> SystemSpec:
     return dataclasses.replace(spec, monitor=new, attack=attack)
 
 
-def _observers(system: System, exact_limit: int) -> tuple[SystemSpec, list[ObserverProposal], list[str]]:
-    """Step 2: one more (or a wider) observer per cluster for its interior agents (or the spec's attack)."""
+def _observers(system: System, exact_limit: int | None) -> tuple[dict[tuple[str, Label], ObserverSpec], list[ObserverProposal], list[str]]:
+    """Step 2: one more (or a wider) observer per cluster for its interior agents (or the spec's attack).
+
+    At a centre that already has an observer the new one measures what both measure: more
+    measured agents keep Proposition III.2 (ii) and (iii) (more output rows keep the pencil's
+    column rank), so no set the old observer catches is lost.
+    """
     props: list[ObserverProposal] = []
     notes: list[str] = []
-    clusters: list[ClusterSpec] = []
+    out: dict[tuple[str, Label], ObserverSpec] = {}
     for c in system.clusters:
         prop: ObserverProposal | None = None
         for suspected in ("interior", "attack"):
@@ -196,13 +232,20 @@ def _observers(system: System, exact_limit: int) -> tuple[SystemSpec, list[Obser
                 break
             except GlocalVerifyError as exc:
                 notes.append(f"{c.name}: no observer for the {suspected} agents ({exc})")
-        if prop is None or any(o.center == prop.center and o.positions == prop.measured for o in c.observers):
-            clusters.append(c)
+        if prop is None:
             continue
-        props.append(prop)
-        obs = ObserverSpec(prop.center, prop.measured, prop.measured)
-        clusters.append(dataclasses.replace(c, observers=tuple(o for o in c.observers if o.center != prop.center) + (obs,)))
-    return dataclasses.replace(system.spec, clusters=tuple(clusters)), props, notes
+        measured = set(prop.measured)
+        for o in c.observers:
+            if o.center == prop.center:
+                lo = system.resolve_observer(c, o)
+                measured |= set(lo.positions) & set(lo.velocities)
+        order = {a: k for k, a in enumerate(c.nodes)}
+        meas = tuple(sorted(measured, key=lambda a: order.get(a, len(order))))
+        if any(o.center == prop.center and o.positions == meas and o.velocities == meas for o in c.observers):
+            continue
+        props.append(dataclasses.replace(prop, measured=meas))
+        out[(c.name, prop.center)] = ObserverSpec(prop.center, meas, meas)
+    return out, props, notes
 
 
 def before_table(
@@ -229,10 +272,12 @@ def design_network(
     candidates: Sequence[Label] | None = None,
     weights: Sequence[Any] = DEFAULT_WEIGHTS,
     place: bool = True,
-    exact_limit: int = 2000,
-    max_links: int = 2,
+    exact_limit: int | None = None,
+    max_links: int | None = None,
     monitor_budget: int = 3,
-    schedule_dwell: float = SCHEDULE_DWELL,
+    schedule_dwell: float | None = None,
+    normal_weights: bool = False,
+    prune_changes: bool = True,
     progress: Callable[[str], None] | None = None,
     tick: Callable[[int, int], None] | None = None,
     admit: Callable[[CostEstimate], None] | None = None,
@@ -244,28 +289,35 @@ def design_network(
     system : System
     budget : int
         Largest number of designed safe modes.
-    max_links : int
+    max_links : int, optional
         Largest number of link changes in one safe mode (one-link modes are tried first).
+        None: two for the combinatorial search, as many as the interlacing bound asks for a
+        mode that breaks a symmetry of L_1 (:mod:`glocal_verify.design.symmetry`).
     max_attackers : int
         k of the audits.
     candidates : sequence of labels, optional
         Actuators the audits consider (default all).
     weights : sequence of Fraction
-        Weights of added links.
+        Weights of added links of one-link modes.
     place : bool
         Add local observers (step 2).
-    exact_limit : int
-        Exhaustive-search limit of the observer placement.
+    exact_limit : int, optional
+        Exhaustive-search limit of the observer placement (default: the tunable
+        ``placement_exact_limit`` of :mod:`glocal_verify.config` in force).
     monitor_budget : int
-        Largest number of velocity monitors the design adds in all (steps 5 and 6).
-    schedule_dwell : float
-        Dwell time of each mode of a designed ``[switching]`` schedule (step 7).
+        Largest number of velocity monitors the design adds in all.
+    schedule_dwell : float, optional
+        Largest stay in each mode of a designed ``[switching]`` schedule (default: the
+        horizon shared equally, so the schedule fits it).
+    normal_weights : bool
+        Where L_1 has repeated eigenvalues, change weights of the normal graph's links so that
+        they split (off by default: the normal graph is the user's); the change is listed.
+    prune_changes : bool
+        Remove every change the audit does not need (:mod:`glocal_verify.design.pruning`).
     progress : callable, optional
-        Called with one line as each step starts (the audits, the placement, the safe modes,
-        the monitors, the schedule) and as each proposed safe mode is checked.
+        Called with one line as each step starts, with the attack sets left.
     tick : callable, optional
-        Called with (attack sets done, total) within the long steps: each audit, and each
-        check of a proposed safe mode against the attack sets it should expose.
+        Called with (attack sets done, total) within the long steps.
     admit : callable, optional
         Called with the estimate of the safe-mode phase
         (:func:`glocal_verify.conditions.design_cost.estimate_safe_modes`) once the audit with the
@@ -283,88 +335,95 @@ def design_network(
     say = progress if progress is not None else (lambda line: None)
     say("auditing the spec as given")
     before = before_table(system, max_attackers, candidates, tick)
-    spec = _velocity_only(system.spec)
-    props: list[ObserverProposal] = []
+    base = _velocity_only(system.spec)
+    base_rows = {r.actuators: r for r in before.rows}
+    if base != system.spec:
+        say("auditing the spec with its position monitors moved to velocities (privacy)")
+        base_rows = {r.actuators: r for r in audit(System(base), max_attackers, candidates, None, tick).rows}
+    movable = [F for F, r in base_rows.items() if r.verdict != "detected"]
+    say(f"{len(movable)} of {len(base_rows)} attack sets not detected: the design works on them")
     notes: list[str] = []
-    if place and spec.clusters:
+    normal: dict[tuple[Label, Label], Fraction] = {}
+    spec = base
+    if normal_weights and movable:
+        normal, why = split_normal_weights(System(base))
+        if why:
+            notes.append(why)
+        spec = Blueprint(base, weights=normal).build([Edit("weight", k) for k in normal])
+    props: list[ObserverProposal] = []
+    obs: dict[tuple[str, Label], ObserverSpec] = {}
+    if place and spec.clusters and movable:
         say("placing local observers")
-        spec, props, notes = _observers(System(spec), exact_limit)
+        obs, props, more = _observers(System(spec), exact_limit)
+        notes += more
+        spec = Blueprint(spec, observers=obs).build([Edit("observer", k) for k in obs])
     mid_sys = System(spec)
-    say("auditing with the observers")
-    mid = audit(mid_sys, max_attackers, candidates, None, tick)
-    targets = tuple(r.actuators for r in mid.rows if r.verdict != "detected" and r.stealthy is True and not r.exposed_by_modes)
-    lambdas = {r.actuators: r.lambda0 for r in mid.rows if r.lambda0 is not None}
+    if spec != base:
+        say(f"auditing the {len(movable)} attack sets not detected, with the observers")
+        mid = audit_sets(spec, movable, tick)
+    else:
+        mid = {F: base_rows[F] for F in movable}
+    targets = tuple(F for F in movable if mid[F].verdict != "detected" and mid[F].stealthy is True and not mid[F].exposed_by_modes)
+    lambdas = {F: r.lambda0 for F, r in mid.items() if r.lambda0 is not None}
     if targets:
         if admit is not None:
-            admit(estimate_safe_modes(SpecSizes.from_spec(spec), len(targets), exact=mid_sys.n <= SAFE_MODES_EXACT_MAX_AGENTS))
+            admit(estimate_safe_modes(SpecSizes.from_spec(spec), len(targets), exact=mid_sys.n <= config.get("safe_modes_exact_max_agents")))
         say(f"designing safe modes for {len(targets)} undetected attack sets")
-        safe = design_safe_modes(mid_sys, targets, None, budget, weights=weights, lambdas=lambdas, max_links=max_links, progress=say, tick=tick)
+        safe = design_safe_modes(mid_sys, targets, None, budget, weights=weights, lambdas=lambdas, max_links=max_links,
+                                 monitor_room=monitor_budget, confirm_limit=CONFIRM_LIMIT, progress=say, tick=tick)
     else:
         safe = SafeModeDesign((), (), {}, 0, 0.0, 0)
-    spec = with_modes(spec, [m.mode_spec() for m in safe.modes], keep=True)
+
+    def blueprint(safe: SafeModeDesign, monitors: Sequence[Label]) -> Blueprint:
+        # the schedule is always proposed with the modes: pruning keeps it only where no local alarm would switch
+        return Blueprint(base, monitors=tuple(dict.fromkeys(monitors)), observers=obs,
+                         modes={m.name: tuple((c.u, c.v, c.weight, c.remove, c.was) for c in m.links) for m in safe.modes},
+                         descriptions={m.name: m.mode_spec().description for m in safe.modes}, schedule=bool(safe.modes), weights=normal, dwell=schedule_dwell)
+
+    bp = blueprint(safe, safe.monitors)
+    say(f"auditing the {len(movable)} attack sets the design can move, with its {len(safe.modes)} safe mode(s)")
+    rows = audit_sets(bp.build(bp.edits()), movable, tick)
     added: list[tuple[Label, tuple[Label, ...]]] = []
-    if safe.unexposed and monitor_budget > 0:
-        pending = [F for F in targets if ",".join(map(str, F)) in safe.unexposed]
+    room = monitor_budget - len(safe.monitors)
+    pending = [F for F in targets if rows[F].verdict != "detected"]
+    if pending and room > 0:
         if admit is not None:
-            admit(estimate_monitor_step(SpecSizes.from_spec(spec), len(pending), monitor_budget, exact=mid_sys.n <= SAFE_MODES_EXACT_MAX_AGENTS))
-        spec, added, safe = _monitor_unexposed(spec, pending, monitor_budget, safe, budget, weights, max_links, say, tick)
-    final = System(spec)
+            admit(estimate_monitor_step(SpecSizes.from_spec(spec), len(pending), room, exact=mid_sys.n <= config.get("safe_modes_exact_max_agents")))
+        spec = with_modes(with_monitors(spec, safe.monitors), [m.mode_spec() for m in safe.modes], keep=True)
+        spec, added, safe = _monitor_unexposed(spec, pending, room, safe, budget, weights, max_links, say, tick)
     say("choosing the global monitors")
-    mon = design_monitors(final, required=spec.monitor.velocities)
+    bp = blueprint(safe, [*safe.monitors, *(a for a, _ in added)])
+    spec = bp.build(bp.edits())
+    mon = design_monitors(System(spec), required=spec.monitor.velocities, verify_design=False)
     extra = [a for a in mon.velocities if a not in spec.monitor.velocities]
-    room = monitor_budget - len(added)
-    if extra and len(extra) <= room:
-        spec = dataclasses.replace(spec, monitor=MonitorSpec((), mon.velocities))
-        final = System(spec)
-    elif extra:
+    room = monitor_budget - len(safe.monitors) - len(added)
+    if extra and len(extra) > room:
         notes.append(
             f"Theorem III.3 (i) and Lemma A.2 in every mode (the spec's own included) would need {len(extra)} more velocity monitor(s) "
             f"({', '.join(map(str, extra))}); the monitor budget leaves {max(room, 0)}, so none was added"
         )
         extra = []
+    bp = blueprint(safe, [*safe.monitors, *(a for a, _ in added), *extra])
+    if added or extra:
+        say(f"auditing the {len(movable)} attack sets the design can move")
+        rows = audit_sets(bp.build(bp.edits()), movable, tick)
+    kept = frozenset(bp.edits())
+    moved: dict[Edit, tuple[tuple[Label, ...], ...]] = {}
+    if prune_changes and kept:
+        say(f"checking that each of the {len(kept)} changes earns its place")
+        kept, moved, rows = prune(bp, movable, known=rows, say=say, tick=tick)
+    spec = bp.build(kept)
+    final = System(spec)
     say("auditing the design")
     after = audit(final, max_attackers, candidates, None, tick)
-    spec, after, schedule = _schedule_if_needed(spec, after, system, max_attackers, candidates, schedule_dwell, tick)
-    final = System(spec)
+    mon = design_monitors(final, required=spec.monitor.velocities)
     unmet = [f"{cid}: {mon.verification[cid]} on the designed spec" for cid, st in mon.verification.items() if st != "holds" and cid.startswith("privacy.")]
-    unmet += _obstacles(after, safe, added)
-    changes = _changes(system.spec, spec, props, safe, added, extra, schedule)
-    return NetworkDesign(spec, mon, tuple(props), safe, before, after, targets, tuple(unmet), tuple(added), tuple(changes), tuple(notes))
-
-
-def _schedule_if_needed(
-    spec: SystemSpec,
-    after: AuditResult,
-    original: System,
-    max_attackers: int,
-    candidates: Sequence[Label] | None,
-    dwell: float,
-    tick: Callable[[int, int], None] | None = None,
-) -> tuple[SystemSpec, AuditResult, tuple[str, ...]]:
-    """Step 7: a ``[switching]`` schedule through the safe modes that expose sets no local alarm can trigger.
-
-    Under Algorithm 1 a switch needs a local alarm; an attack on a boundary agent raises none
-    (Proposition III.2 (iii) fails at every lambda for a suspected boundary agent). A schedule
-    switches whatever the observers see, so every set an exposing mode of the schedule
-    touches is detected. The schedule keeps the spec's own visits first.
-    """
-    need = [r for r in after.rows if r.verdict != "detected" and r.exposed_by_modes and r.answer is not None and r.answer.caught_locally is not True]
-    if not need:
-        return spec, after, ()
-    order = [m.name for m in spec.modes]
-    wanted = sorted({q for r in need for q in r.exposed_by_modes}, key=order.index)
-    old = spec.switching
-    steps: list[SwitchStep] = []
-    if old is not None and old.sequence:
-        steps = list(old.sequence)
-    elif old is not None and old.mode is not None:
-        steps = [SwitchStep(NORMAL_MODE, float(old.time or dwell)), SwitchStep(old.mode, dwell)]
-    visited = {st.mode for st in steps}
-    if not steps:
-        steps = [SwitchStep(NORMAL_MODE, dwell)]
-    steps += [SwitchStep(q, dwell) for q in wanted if q not in visited]
-    new = dataclasses.replace(spec, switching=SwitchingSpec(sequence=tuple(steps)))
-    return new, audit(System(new), max_attackers, candidates, None, tick), tuple(q for q in wanted if q not in visited)
+    unmet += _obstacles(after, safe, [(a, F) for a, F in added if Edit("monitor", (a,)) in kept])
+    changes, edits = _changes(system.spec, bp, kept, moved, props, safe, added, extra)
+    if spec.simulation.horizon != system.spec.simulation.horizon:
+        notes.append(f"the horizon was extended from {system.spec.simulation.horizon:g} s to {spec.simulation.horizon:g} s so that the designed schedule fits")
+    return NetworkDesign(spec, mon, tuple(p for p in props if Edit("observer", (p.cluster, p.center)) in kept), safe, before, after, targets,
+                         tuple(unmet), tuple((a, F) for a, F in added if Edit("monitor", (a,)) in kept), tuple(changes), tuple(notes), bp, kept, tuple(edits))
 
 
 def _obstacles(after: AuditResult, safe: SafeModeDesign, added: Sequence[tuple[Label, tuple[Label, ...]]]) -> list[str]:
@@ -389,40 +448,74 @@ def _obstacles(after: AuditResult, safe: SafeModeDesign, added: Sequence[tuple[L
     return out
 
 
+def _sets_text(sets: Sequence[tuple[Label, ...]], shown: int = 4) -> str:
+    out = ", ".join("{" + ", ".join(map(str, F)) + "}" for F in sets[:shown])
+    return out + (f" and {len(sets) - shown} more" if len(sets) > shown else "")
+
+
 def _changes(
     old: SystemSpec,
-    new: SystemSpec,
+    bp: Blueprint,
+    kept: frozenset[Edit],
+    moved: Mapping[Edit, tuple[tuple[Label, ...], ...]],
     props: Sequence[ObserverProposal],
     safe: SafeModeDesign,
     added: Sequence[tuple[Label, tuple[Label, ...]]],
     extra: Sequence[Label],
-    schedule: Sequence[str],
-) -> list[DesignChange]:
+) -> tuple[list[DesignChange], list[tuple[Edit, ...]]]:
+    """Every kept change with what it achieves and the sets it moves, and the edits each stands for."""
     out: list[DesignChange] = []
+    edits: list[tuple[Edit, ...]] = []
+
+    def put(kind: str, action: str, subject: str, achieves: str, es: Sequence[Edit], sets: Sequence[tuple[Label, ...]] | None = None) -> None:
+        if sets is None:
+            sets = tuple(dict.fromkeys(F for e in es for F in moved.get(e, ())))
+        out.append(DesignChange(kind, action, subject, achieves, tuple(sets)))
+        edits.append(tuple(es))
+
     for a in old.monitor.positions:
-        out.append(DesignChange("monitor", "moved", f"position monitor at {a} to its velocity", "no position is measured, so [1; 0] stays unobservable: x(t0) and x* stay private (Lemma III.1)"))
-    for a, F in added:
-        out.append(DesignChange("monitor", "added", f"velocity monitor at {a}", f"the stealthy direction of the attack on {{{', '.join(map(str, F))}}}, which no safe mode within the budget touched, is largest there"))
+        put("monitor", "moved", f"position monitor at {a} to its velocity", "no position is measured, so [1; 0] stays unobservable: x(t0) and x* stay private (Lemma III.1)", (), ())
+    for (u, v), w in bp.weights.items():
+        e = Edit("weight", (u, v))
+        if e in kept:
+            put("weight", "changed", f"weight of the normal graph's link {u}-{v} to {w}", "splits a repeated eigenvalue of L_1, so that safe modes can meet Theorem III.3 (ii)-(iii)", (e,))
+    why_monitor = {a: f"the stealthy direction of the attack on {{{', '.join(map(str, F))}}}, which no safe mode within the budget touched, is largest there" for a, F in added}
+    for m in safe.modes:
+        for a in m.monitors:
+            why_monitor.setdefault(a, f"Theorem III.3 (i) of {m.name}: each of its tree components of c changed links needs c monitored agents")
     for a in extra:
-        out.append(DesignChange("monitor", "added", f"velocity monitor at {a}", "Theorem III.3 (i) for the designed modes (every switching component meets a monitor)"))
+        why_monitor.setdefault(a, "Theorem III.3 (i) for the designed modes (every switching component meets a monitor)")
+    for a in bp.monitors:
+        e = Edit("monitor", (a,))
+        if e in kept:
+            put("monitor", "added", f"velocity monitor at {a}", why_monitor.get(a, "Theorem III.3 (i)"), (e,))
     before_obs = {(c.name, o.center): o for c in old.clusters for o in c.observers}
     for p in props:
+        e = Edit("observer", (p.cluster, p.center))
+        if e not in kept:
+            continue
         what = f"Proposition III.2 (ii), (iii) and its UIO hold for suspected {list(p.suspected)}, so a local alarm is raised for every attack on them"
         if (p.cluster, p.center) in before_obs:
             o = before_obs[(p.cluster, p.center)]
             was = "its neighbours" if o.positions is None else f"{list(o.positions)}"
-            out.append(DesignChange("observer", "replaced", f"observer at {p.center} of {p.cluster}: now measures {list(p.measured)} (was {was})", what))
+            put("observer", "replaced", f"observer at {p.center} of {p.cluster}: now measures {list(p.measured)} (was {was})", what, (e,))
         else:
-            out.append(DesignChange("observer", "added", f"observer at {p.center} of {p.cluster} measuring {list(p.measured)}", what))
+            put("observer", "added", f"observer at {p.center} of {p.cluster} measuring {list(p.measured)}", what, (e,))
     for m in safe.modes:
-        ex = [list(F) for F in m.exposes[:4]]
-        out.append(DesignChange("mode", "added", f"mode {m.name} ({m.describe()})", f"Theorem III.3 (i)-(iii) hold ({m.method}) and it touches every stealthy direction of {len(m.exposes)} audited attack set(s), e.g. {ex}"))
-    if schedule:
-        sw = new.switching
+        es = tuple(Edit("link", (m.name, k)) for k in range(len(m.links)) if Edit("link", (m.name, k)) in kept)
+        if not es:
+            continue
+        links = [c for k, c in enumerate(m.links) if Edit("link", (m.name, k)) in kept]
+        desc = " + ".join(c.describe() for c in links)
+        each = f"; each of its {len(links)} links is needed (without any one, Theorem III.3 fails or fewer sets are exposed)" if len(links) > 1 else ""
+        put("mode", "added", f"mode {m.name} ({desc})",
+            f"Theorem III.3 (i)-(iii) hold ({m.method}) and the switch touches every stealthy direction of the attack sets it exposes{each}", es)
+    if Edit("schedule") in kept:
+        sw = bp.build(kept).switching
         text = " -> ".join(f"{st.mode}({st.duration:g})" for st in sw.sequence) if sw is not None else ""
-        out.append(DesignChange("schedule", "added", f"[switching] schedule {text}",
-                                f"switches to {', '.join(schedule)} whatever the local observers see: exposes attacks no local observer can raise an alarm for (e.g. on boundary agents)"))
-    return out
+        put("schedule", "added", f"[switching] schedule {text}",
+            "switches to the designed modes whatever the local observers see, within the horizon: exposes attacks no local observer can raise an alarm for (e.g. on boundary agents)", (Edit("schedule"),))
+    return out, edits
 
 
 def _monitor_unexposed(
@@ -432,7 +525,7 @@ def _monitor_unexposed(
     safe: SafeModeDesign,
     mode_budget: int,
     weights: Sequence[Any],
-    max_links: int,
+    max_links: int | None,
     say: Callable[[str], None] | None = None,
     tick: Callable[[int, int], None] | None = None,
 ) -> tuple[SystemSpec, list[tuple[Label, tuple[Label, ...]]], SafeModeDesign]:

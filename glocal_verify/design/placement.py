@@ -65,6 +65,7 @@ from glocal_verify.analysis.local.cluster_pencil import (
     zero_forcing_closure,
 )
 from glocal_verify.errors import ModelError, NotApplicableError
+from glocal_verify.words import counted
 from glocal_verify.model import ClusterModel, LocalObserver, System
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
 from glocal_verify.observers.uio_existence import uio_existence
@@ -119,6 +120,14 @@ class ObserverProposal:
     method: str
     verification: dict[str, str] = field(default_factory=dict)
 
+    def size_words(self) -> str:
+        """Why the measured set has its size, without a bound that reads as a contradiction."""
+        if self.optimal and len(self.measured) <= self.lower_bound:
+            return f"the fewest possible: every suspected and boundary agent must be measured ({self.lower_bound})"
+        if self.optimal:
+            return f"the fewest possible, proven by exhaustive search: measuring only the {counted(self.lower_bound, 'suspected or boundary agent')} does not suffice"
+        return f"found greedily, not proven the fewest; no valid set has fewer than {self.lower_bound}"
+
     def to_json(self) -> dict[str, Any]:
         return {
             "cluster": self.cluster,
@@ -161,12 +170,7 @@ class Placement:
         """``[[clusters]]`` tables (name, nodes, one observer each) to replace the spec's."""
         lines = [f"# glocal-verify place-observers: {self.system} (suspected = {self.suspected})"]
         for p in self.proposals:
-            opt = "minimum, proven" if p.optimal else "greedy, not proven minimal"
-            lines += [
-                "",
-                f"# {p.cluster}: suspected {_toml_list(p.suspected)}, boundary {_toml_list(p.boundary)}; "
-                f"{len(p.measured)} measured agents ({opt}; lower bound {p.lower_bound})",
-            ]
+            lines += ["", f"# {p.cluster}: suspected {_toml_list(p.suspected)}, boundary {_toml_list(p.boundary)}; {len(p.measured)} measured agents ({p.size_words()})"]
             if p.extra_links:
                 lines.append(f"# agents measured beyond the centre's neighbours (extra links): {_toml_list(p.extra_links)}")
             lines += [

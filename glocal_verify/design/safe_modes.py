@@ -28,10 +28,11 @@ Theorem III.3 for one link, from the rank-one structure (proof)
 
     So a one-link mode meets (i)-(iii) iff an endpoint is monitored, z_k != 0 for k >= 2 (and,
     for a removal, w R_eff < 1): O(N) per candidate once U is known, whatever the weight. The
-    numeric test certifies z_k != 0 with the bound |z_k - z_k^*| <= 2 s_k + sqrt(2) eta + 4 eps,
-    s_k the Davis-Kahan bound on the angle of u_k (:meth:`Spectrum.subspace_sine`, vectorised
-    here with the same constants) and eta the loss of orthonormality; a candidate that cannot be
-    certified is skipped (never claimed).
+    screen lets a candidate through when |z_k| exceeds its bound 2 s_k + sqrt(2) eta + 4 eps
+    (s_k the Davis-Kahan bound on the angle of u_k, :meth:`Spectrum.subspace_sine`, vectorised
+    here with the same constants; eta the loss of orthonormality). It is a filter that states
+    no verdict: a candidate is admitted only when the rule functions of (i)-(iii) hold for it
+    (:class:`_OneLinkRules`, decided when the greedy cover picks it).
 
 Exposure (Remark III.3.1, ``switching.avoids-attack``)
     For an attack set F with exponent lambda0 (the audit's), the stealthy kernel Z at lambda0
@@ -60,10 +61,16 @@ Multi-link modes (attacks no one-link mode exposes)
       eigendecomposition. The screen is not a proof; it only orders the proposals
       (:mod:`glocal_verify.design.multilink` holds this machinery and its thresholds).
 
-    Changes are scored against the remaining attacks (at most ``MAX_COMBINATIONS`` per size,
+    Changes are scored against the remaining attacks (at most ``safe_modes_max_combinations`` per size,
     size 2 first, then up to ``max_links``), and the best-scoring ones are screened (at most
-    ``MAX_SCREENS`` per chosen mode, fewer for large N: ``MAX_SCREEN_WORK``) and re-verified as below: so a multi-link mode is
+    ``safe_modes_max_screens`` per chosen mode, fewer for large N: ``safe_modes_max_screen_work``) and re-verified as below: so a multi-link mode is
     proposed only for attacks no one-link mode exposes, with as few links as the search finds.
+
+Modes that break a symmetry (attacks no one- or two-link mode exposes)
+    A repeated eigenvalue of L_1 of multiplicity m needs a change of rank >= m - 1 for (ii),
+    and m links with monitored agents for (iii): :mod:`glocal_verify.design.symmetry` chooses
+    them by the eigenvectors of the repeated eigenvalues, with generic weights and the
+    velocity monitors (i) asks for (``monitor_room``), or proves that none can exist.
 
 Search and verification
     Greedy set cover over the admissible candidates (each covers the attacks it exposes),
@@ -93,7 +100,10 @@ from glocal_verify import config
 from glocal_verify.analysis.switching.avoidance import avoiding_subspace, decide_avoidance, split_basis, stealthy_bases
 from glocal_verify.analysis.stealthy.zda import ModalPencil
 from glocal_verify.analysis.stealthy.zda_verdict import ZdaOptions, decide_zda
+from glocal_verify.conditions.catalogue import THEOREM_III3_IDS as THEOREM_IDS
 from glocal_verify.conditions.registry import check_conditions
+from glocal_verify.design.symmetry import SymmetryTarget, blocking_reason, break_symmetry, symmetry_obstacle, theorem_verdicts, with_monitors
+from glocal_verify.design.one_link import eigenvector_error, one_link_screen
 from glocal_verify.design.multilink import (
     image_kernel_holds,
     link_forest,
@@ -102,7 +112,6 @@ from glocal_verify.design.multilink import (
 )
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
-from glocal_verify.numerics.rounding import EPS
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
 from glocal_verify.results import Status
 from glocal_verify.spec.types import AttackSpec, EdgeSpec, Label, ModeSpec, SystemSpec
@@ -119,8 +128,6 @@ __all__ = [
 ]
 
 DEFAULT_WEIGHTS = (Fraction(1), Fraction(2), Fraction(3))
-EXACT_MAX_AGENTS = config.get("safe_modes_exact_max_agents")
-THEOREM_IDS = ("switching.image-kernel", "switching.distinct-eigenvalues", "switching.eigenvector-differences")
 #: attack sets between two progress reports of a mode's confirmation
 CONFIRM_CHUNK = 50
 #: a proposed mode none of whose first this many claimed sets is confirmed is dropped (the
@@ -130,16 +137,22 @@ CONFIRM_GIVE_UP = 200
 
 @dataclass(frozen=True, slots=True)
 class LinkCandidate:
-    """One admissible link change: add {u, v} with ``weight`` (``remove=False``) or remove it."""
+    """One admissible link change: add {u, v} with ``weight`` (``remove=False``), remove it, or
+    (``was`` set) raise the weight of the normal graph's link {u, v} from ``was`` to ``weight``."""
 
     u: Label
     v: Label
     weight: Fraction
     remove: bool = False
+    was: Fraction | None = None
 
     def describe(self) -> str:
-        """``add 4-7 (w=1)`` or ``remove 4-7``."""
-        return f"remove {self.u}-{self.v}" if self.remove else f"add {self.u}-{self.v} (w={self.weight})"
+        """``add 4-7 (w=1)``, ``remove 4-7`` or ``reweight 4-7 (1 -> 5/2)``."""
+        if self.remove:
+            return f"remove {self.u}-{self.v}"
+        if self.was is not None:
+            return f"reweight {self.u}-{self.v} ({self.was} -> {self.weight})"
+        return f"add {self.u}-{self.v} (w={self.weight})"
 
 
 @dataclass(frozen=True, slots=True)
@@ -159,6 +172,8 @@ class ProposedMode:
         ``exact`` or ``numeric``.
     also : tuple of LinkCandidate
         Further link changes of a multi-link mode (empty for one link).
+    monitors : tuple of labels
+        Velocity monitors the mode added for Theorem III.3 (i) (a symmetry-breaking mode).
     """
 
     name: str
@@ -167,6 +182,7 @@ class ProposedMode:
     verification: Mapping[str, str] = field(default_factory=dict)
     method: str = "exact"
     also: tuple[LinkCandidate, ...] = ()
+    monitors: tuple[Label, ...] = ()
 
     @property
     def links(self) -> tuple[LinkCandidate, ...]:
@@ -181,7 +197,7 @@ class ProposedMode:
         """The mode as a spec table entry."""
         desc = f"{self.describe()}: Theorem III.3 (i)-(iii) hold and the switch touches {len(self.exposes)} audited attack(s)"
         add = tuple(EdgeSpec(c.u, c.v, c.weight) for c in self.links if not c.remove)
-        remove = tuple((c.u, c.v) for c in self.links if c.remove)
+        remove = tuple((c.u, c.v) for c in self.links if c.remove or c.was is not None)
         return ModeSpec(self.name, add=add, remove=remove, description=desc)
 
 
@@ -209,6 +225,9 @@ class SafeModeDesign:
         Multi-link changes scored per second (the touch test against every remaining target).
     screened : int
         Multi-link changes whose (i)-(iii) were screened with the low-rank update.
+    monitors : tuple of labels
+        Velocity monitors the modes added (Theorem III.3 (i) of symmetry-breaking modes).
+    notes : tuple of str
     """
 
     modes: tuple[ProposedMode, ...]
@@ -220,6 +239,8 @@ class SafeModeDesign:
     combinations: int = 0
     combinations_per_second: float = 0.0
     screened: int = 0
+    monitors: tuple[Label, ...] = ()
+    notes: tuple[str, ...] = ()
 
     @property
     def complete(self) -> bool:
@@ -248,6 +269,7 @@ class SafeModeDesign:
             "combinations": self.combinations,
             "combinations_per_second": self.combinations_per_second,
             "screened": self.screened,
+            "monitors": list(self.monitors),
         }
 
 
@@ -314,60 +336,22 @@ def default_candidates(system: System, weights: Sequence[Fraction] = DEFAULT_WEI
     return out
 
 
-def eigenvector_error(system: System) -> np.ndarray | None:
-    """Certified bounds e_k >= |(u_k(i) - u_k(j)) - (u_k^*(i) - u_k^*(j))| for every pair (module docstring).
-
-    Parameters
-    ----------
-    system : System
-
-    Returns
-    -------
-    ndarray or None
-        None when the eigenvalues of L_1 are not certified distinct (the one-link theorem then
-        does not apply).
-    """
-    sp = system.spectrum()
-    if any(len(c) > 1 for c in sp.clusters):
-        return None
-    n = sp.size
-    w = np.asarray(sp.values)
-    rho = sp.error_radius
-    gaps = np.diff(w)
-    left = np.concatenate([[math.inf], gaps])
-    right = np.concatenate([gaps, [math.inf]])
-    delta = np.minimum(left, right) - rho
-    k = sp.row_nonzeros
-    fro = sp.frobenius
-    r = np.asarray(sp.residuals) + (k + 2) * EPS * math.sqrt(n) * (fro + np.abs(w)) + sp.input_error
-    r = r * (1.0 + 4.0 * n * EPS)
-    s = np.where(delta > 0, np.minimum(1.0, r / np.where(delta > 0, delta, 1.0)), 1.0)
-    return 2.0 * s + math.sqrt(2.0) * sp.orthogonality_error + 4.0 * EPS
-
-
 # ------------------------------------------------------------------------------------------
 # the search
 
 
-@dataclass(frozen=True)
-class _Target:
-    F: tuple[Label, ...]
-    X: np.ndarray  # xi-orthonormal basis of the possible stealthy kernel (N x r)
-    B: np.ndarray  # its input part (m x r)
-
-
-def _targets(system: System, attacks: Sequence[Sequence[Label]], lambdas: Mapping[tuple[Label, ...], complex], tol: Tolerance) -> list[_Target]:
+def _targets(system: System, attacks: Sequence[Sequence[Label]], lambdas: Mapping[tuple[Label, ...], complex], tol: Tolerance) -> list[SymmetryTarget]:
     out = []
     for F in attacks:
         Ft = tuple(F)
         md = ModalPencil(system, Ft, tol)
         _, zp = stealthy_bases(md, complex(lambdas[Ft]))
         sp = split_basis(zp.x, zp.u, None, [], np.zeros((0, 0)), 0.0)
-        out.append(_Target(Ft, sp.Xo, sp.B))
+        out.append(SymmetryTarget(Ft, sp.Xo, sp.B))
     return out
 
 
-def _exposes(t: _Target, i: int, j: int, thr: float) -> bool:
+def _exposes(t: SymmetryTarget, i: int, j: int, thr: float) -> bool:
     """Every stealthy direction with an input has xi_i != xi_j (the switch cannot be avoided):
     the touch test of ``switching.avoids-attack`` (:func:`~glocal_verify.analysis.switching.avoidance.avoiding_subspace`)
     for the one-link change i-j, with the screen's threshold."""
@@ -378,89 +362,43 @@ def _exposes(t: _Target, i: int, j: int, thr: float) -> bool:
     return bool(su.size == 0 or su[0] <= thr)
 
 
-def _admissible(system: System, cands: Sequence[LinkCandidate], err: np.ndarray | None, chunk: int = 2048) -> np.ndarray:
-    """Boolean mask: (i)-(iii) certified by the one-link theorem (in chunks of ``chunk`` rows)."""
-    if err is None or len(cands) == 0:
-        return np.zeros(len(cands), dtype=bool)
-    U = np.asarray(system.spectrum().vectors)
-    w = np.asarray(system.spectrum().values)
-    M = set(system.monitored)
-    I = np.array([system.index[c.u] for c in cands], dtype=int)
-    J = np.array([system.index[c.v] for c in cands], dtype=int)
-    ok = np.array([(c.u in M) or (c.v in M) for c in cands], dtype=bool)
-    rem = np.array([c.remove for c in cands], dtype=bool)
-    wts = np.array([float(c.weight) for c in cands])
-    U1, e1, w1 = U[:, 1:], err[None, 1:], w[None, 1:]
-    for a in range(0, len(cands), chunk):
-        sl = slice(a, a + chunk)
-        Z = U1[I[sl]] - U1[J[sl]]
-        good = np.all(np.abs(Z) > e1, axis=1)
-        r = rem[sl]
-        if r.any():
-            reff = np.sum(Z[r] ** 2 / w1, axis=1)
-            g = good[r]
-            g &= 1.0 - wts[sl][r] * reff > 1e-6
-            good[r] = g
-        ok[sl] &= good
-    return ok
+class _OneLinkRules:
+    """Theorem III.3 (i)-(iii) of one-link candidates by the rule functions, decided once each.
 
-
-def _repeated_obstacle(system: System) -> str:
-    """Why the one-link search cannot start on a repeated spectrum of L_1, and which weight change would break the symmetry.
-
-    A repeated eigenvalue of L_1 comes from a symmetry of the weighted graph (a rotation of a
-    ring, twin leaves of a hub ...). Changing the weight of a link i-j adds a multiple of
-    (e_i - e_j)(e_i - e_j)^T, which on the eigenspace U_g is the rank-one (U_g[i] - U_g[j])
-    outer product: it splits the eigenvalue iff U_g[i] != U_g[j]. The link named is one of the
-    normal graph that splits the most repeated eigenvalues (floating point: a suggestion to try,
-    not a verdict).
+    Candidates are decided in batches on one system holding them as modes, so the
+    eigendecomposition of L_1 is shared and each mode's spectrum is one rank-one update of it.
     """
-    sp = system.spectrum()
-    groups = [g for g in sp.clusters if len(g) > 1]
-    U = np.asarray(sp.vectors)
-    w = np.asarray(sp.values)
-    shown = ", ".join(f"{float(w[g[0]]):.4g} (multiplicity {len(g)})" for g in groups[:4]) + (f" and {len(groups) - 4} more" if len(groups) > 4 else "")
-    best, count = None, -1
-    for key in system.edges():
-        i, j = (system.index[a] for a in key)
-        c = sum(1 for g in groups if float(np.linalg.norm(U[i, list(g)] - U[j, list(g)])) > 1e-6)
-        if c > count:
-            best, count = tuple(sorted(key, key=system.index.__getitem__)), c
-    hint = ""
-    if best is not None and count > 0:
-        hint = (f"; changing the weight of the normal graph's link {best[0]}-{best[1]} would split {count} of these {len(groups)} "
-                "(a weight change of link i-j splits an eigenvalue whose eigenvectors differ at i and j), after which the design can run")
-    return (
-        f"L_1 has repeated eigenvalues ({shown}), the mark of a symmetry of the weighted graph (e.g. a rotation of a ring with equal "
-        "weights): the one-link search needs a simple spectrum, and Theorem III.3 (ii) asks every safe mode for distinct eigenvalues" + hint
-    )
+
+    def __init__(self, system: System, cands: Sequence[LinkCandidate]) -> None:
+        self.system = system
+        self.cands = cands
+        self.known: dict[int, bool] = {}
+
+    def decide(self, ks: Iterable[int], batch: int = 64) -> None:
+        """Decide the candidates ``ks`` not decided yet."""
+        todo = [k for k in dict.fromkeys(ks) if k not in self.known]
+        for a in range(0, len(todo), batch):
+            part = todo[a : a + batch]
+            modes = [ProposedMode(f"c{k}", self.cands[k], ()).mode_spec() for k in part]
+            T = System(with_modes(self.system.spec, modes, keep=False))
+            for k, m in zip(part, modes):
+                self.known[k] = all(st is Status.HOLDS for cid, st in theorem_verdicts(T, m.name).items() if cid != "pair")
+
+    def holds(self, k: int) -> bool:
+        """(i)-(iii) hold for candidate ``k`` by the rule functions."""
+        self.decide([k])
+        return self.known[k]
 
 
-def _blocking(system: System, cands: Sequence[LinkCandidate], err: np.ndarray | None) -> str:
-    """Why no candidate meets (i)-(iii): the reason met most often, with its eigenvector."""
-    if err is None:
-        return _repeated_obstacle(system)
-    M = set(system.monitored)
-    near = [c for c in cands if c.u in M or c.v in M]
-    if not near:
-        return "no candidate link has a monitored endpoint, so Theorem III.3 (i) fails for every one-link mode"
-    U = np.asarray(system.spectrum().vectors)
-    counts = np.zeros(system.n, dtype=int)
-    for c in near[:4096]:
-        z = np.abs(U[system.index[c.u], 1:] - U[system.index[c.v], 1:])
-        counts[1:] += z <= err[1:]
-    k = int(np.argmax(counts))
-    if counts[k] == 0:
-        return "every candidate with a monitored endpoint is a bridge removal"
-    supp = [system.labels[i] for i in np.flatnonzero(np.abs(U[:, k]) > 1e-8)]
-    return (
-        f"Theorem III.3 (iii): eigenvector {k + 1} of L_1 (eigenvalue {float(system.spectrum().values[k]):.6g}) has equal entries at "
-        f"{counts[k]} of the {min(len(near), 4096)} candidate pairs with a monitored endpoint (it lives on agents {supp[:12]}); a one-link "
-        "mode keeps it, so only links touching its support can meet (iii)"
-    )
+def _admissible(system: System, cands: Sequence[LinkCandidate], err: np.ndarray | None, chunk: int = 2048) -> np.ndarray:
+    """Boolean mask: (i)-(iii) hold by the rule functions, decided for the candidates the one-link screen lets through."""
+    ok = one_link_screen(system, cands, err, chunk)
+    rules = _OneLinkRules(system, cands)
+    rules.decide(np.flatnonzero(ok).tolist())
+    return np.array([bool(ok[k]) and rules.known[k] for k in range(len(cands))], dtype=bool)
 
 
-def _cover(system: System, cands: Sequence[LinkCandidate], ok: np.ndarray, tg: Sequence[_Target], thr: float) -> list[set[int]]:
+def _cover(system: System, cands: Sequence[LinkCandidate], ok: np.ndarray, tg: Sequence[SymmetryTarget], thr: float) -> list[set[int]]:
     """For every candidate, the targets it exposes (vectorised for one-dimensional kernels)."""
     cover: list[set[int]] = [set() for _ in cands]
     idx = [int(k) for k in np.flatnonzero(ok)]
@@ -494,30 +432,39 @@ class _Confirmations:
     fastest zero found) could not be and went to an exact re-decision of up to 30 s per set.
     One system with the mode serves every set (its spectra computed once, where a checker run
     per set built a fresh one). An attack left undecided is not claimed; a mode none of whose
-    first ``CONFIRM_GIVE_UP`` claims is confirmed is dropped unchecked beyond them.
+    first ``CONFIRM_GIVE_UP`` claims is confirmed is dropped unchecked beyond them. With a
+    ``limit``, only the first ``limit`` claims of a mode are checked: a mode with a confirmed
+    claim is kept, its unchecked claims are ``deferred`` (never counted as exposed: the caller
+    audits them, as ``design`` does with the whole design).
     """
 
-    def __init__(self, system: System, exact: bool, lambdas: Mapping[tuple[Label, ...], complex], tol: Tolerance, tick: Callable[[int, int], None] | None) -> None:
+    def __init__(self, system: System, exact: bool, lambdas: Mapping[tuple[Label, ...], complex], tol: Tolerance, tick: Callable[[int, int], None] | None,
+                 limit: int | None = None) -> None:
         self.system = system
         self.exact = exact
         self.lambdas = lambdas
         self.tol = tol
         self.tick = tick
+        self.limit = limit
         #: attack set -> why its exposure by a proposed mode was left undecided
         self.undecided: dict[tuple[Label, ...], str] = {}
+        #: claims of kept modes left for the caller's audit
+        self.deferred: set[tuple[Label, ...]] = set()
 
-    def __call__(self, links: Sequence[LinkCandidate], name: str, attacks: Sequence[tuple[Label, ...]]) -> tuple[list[tuple[Label, ...]], dict[str, str]]:
-        """The attacks the mode changing ``links`` is confirmed to expose, and its Theorem III.3 statuses."""
+    def __call__(self, links: Sequence[LinkCandidate], name: str, attacks: Sequence[tuple[Label, ...]], monitors: Sequence[Label] = ()) -> tuple[list[tuple[Label, ...]], dict[str, str]]:
+        """The attacks the mode changing ``links`` (with velocity monitors added at ``monitors``) is confirmed to expose, and its Theorem III.3 statuses."""
         if not attacks:
             return [], {}
         mode = ProposedMode(name, links[0], (), also=tuple(links[1:])).mode_spec()
-        base = with_modes(self.system.spec, [mode], keep=False)
+        base = with_modes(with_monitors(self.system.spec, monitors), [mode], keep=False)
         th = check_conditions(System(with_attack(base, attacks[0])), list(THEOREM_IDS), exact=self.exact).conditions
         statuses = {r.id: r.status.value for r in th}
         if not all(r.status is Status.HOLDS for r in th):
             return [], statuses
         msys = System(base)
         confirmed: list[tuple[Label, ...]] = []
+        rest = list(attacks[self.limit:]) if self.limit is not None else []
+        attacks = attacks[: self.limit] if self.limit is not None else attacks
         for c, F in enumerate(attacks):
             z = decide_zda(msys, F, ZdaOptions(lambda0=self.lambdas.get(F), tol=self.tol, exact=self.exact))
             v = decide_avoidance(msys, name, z, tol=self.tol)
@@ -531,28 +478,30 @@ class _Confirmations:
                 self.tick(c + 1, len(attacks))
             if not confirmed and c + 1 >= CONFIRM_GIVE_UP < len(attacks):
                 break  # the touch test misjudged this mode: drop it without checking thousands more
+        if confirmed:
+            self.deferred.update(rest)
         return confirmed, statuses
+
+    def settled(self, got: Iterable[tuple[Label, ...]]) -> set[tuple[Label, ...]]:
+        """The sets a kept mode takes off the search: its confirmed claims and the deferred ones."""
+        return set(got) | self.deferred
 
 
 # ------------------------------------------------------------------------------------------
 # multi-link changes (module docstring, "Multi-link modes")
 
-#: at most this many multi-link changes are scored, and this many screened per chosen mode
-MAX_COMBINATIONS = config.get("safe_modes_max_combinations")
-MAX_SCREENS = config.get("safe_modes_max_screens")
-#: and at most about this many entry operations of the screen per chosen mode (64 s N^2 each)
-MAX_SCREEN_WORK = config.get("safe_modes_max_screen_work")
-#: changes screened together (one batched secular solve), at most about this many array
-#: entries (B (N - 1)^2) per temporary
-SCREEN_BATCH = config.get("safe_modes_screen_batch")
-SCREEN_BATCH_ENTRIES = config.get("safe_modes_screen_batch_entries")
+#: the multi-link changes scored (``safe_modes_max_combinations``) and screened per chosen mode
+#: (``safe_modes_max_screens``, ``safe_modes_max_screen_work`` entry operations of 64 s N^2 each),
+#: and the batches of the screen (``safe_modes_screen_batch`` changes, about
+#: ``safe_modes_screen_batch_entries`` array entries B (N - 1)^2 per temporary) are tunables of
+#: :mod:`glocal_verify.config`, read when used
 
 
 def _pairs(system: System, links: Sequence[LinkCandidate]) -> list[tuple[int, int]]:
     return [(system.index[c.u], system.index[c.v]) for c in links]
 
 
-def _multi_combinations(system: System, cands: Sequence[LinkCandidate], tg: Sequence[_Target], todo: Sequence[int], size: int, thr: float) -> list[tuple[int, ...]]:
+def _multi_combinations(system: System, cands: Sequence[LinkCandidate], tg: Sequence[SymmetryTarget], todo: Sequence[int], size: int, thr: float) -> list[tuple[int, ...]]:
     """Forests of ``size`` candidates, each with a monitored endpoint, at least one touching a target in ``todo``."""
     import itertools
 
@@ -571,7 +520,7 @@ def _multi_combinations(system: System, cands: Sequence[LinkCandidate], tg: Sequ
             if link_forest(_pairs(system, [cands[k] for k in combo])) is None:
                 continue
             out.append(combo)
-            if len(out) >= MAX_COMBINATIONS:
+            if len(out) >= config.get("safe_modes_max_combinations"):
                 return out
     return out
 
@@ -579,7 +528,7 @@ def _multi_combinations(system: System, cands: Sequence[LinkCandidate], tg: Sequ
 def _multi_search(
     system: System,
     cands: Sequence[LinkCandidate],
-    tg: Sequence[_Target],
+    tg: Sequence[SymmetryTarget],
     todo: set[int],
     slots: int,
     max_links: int,
@@ -614,7 +563,7 @@ def _multi_search(
             counts = C[:, remaining].sum(axis=1)
             order = iter([int(p) for p in np.argsort(-counts, kind="stable") if counts[p] > 0 and int(p) not in tried])
             chosen = None
-            budget = int(min(MAX_SCREENS, max(8, MAX_SCREEN_WORK / (64 * size * system.n**2))))
+            budget = int(min(config.get("safe_modes_max_screens"), max(8, config.get("safe_modes_max_screen_work") / (64 * size * system.n**2))))
             while budget > 0 and chosen is None:
                 batch: list[int] = []
                 for p in order:
@@ -622,7 +571,7 @@ def _multi_search(
                         batch.append(p)
                     else:
                         tried.add(p)
-                    if len(batch) >= min(SCREEN_BATCH, budget, max(1, int(SCREEN_BATCH_ENTRIES // system.n**2))):
+                    if len(batch) >= min(config.get("safe_modes_screen_batch"), budget, max(1, int(config.get("safe_modes_screen_batch_entries") // system.n**2))):
                         break
                 if not batch:
                     break
@@ -643,7 +592,7 @@ def _multi_search(
             if chosen is None:
                 break
             modes.append(chosen)
-            hit = set(chosen.exposes)
+            hit = confirm.settled(chosen.exposes) if confirm is not None else set(chosen.exposes)
             for c, t in enumerate(left):
                 if tg[t].F in hit:
                     remaining[c] = False
@@ -662,7 +611,9 @@ def design_safe_modes(
     tol: Tolerance = DEFAULT_TOLERANCE,
     exact: bool | None = None,
     verify_designs: bool = True,
-    max_links: int = 2,
+    max_links: int | None = None,
+    monitor_room: int = 0,
+    confirm_limit: int | None = None,
     progress: Callable[[str], None] | None = None,
     tick: Callable[[int, int], None] | None = None,
 ) -> SafeModeDesign:
@@ -691,8 +642,16 @@ def design_safe_modes(
         Re-verify over Q (default: N <= 40).
     verify_designs : bool
         Re-verify every proposal with the checkers (turn off only for benchmarks).
-    max_links : int
-        Largest number of link changes in one mode (1: one-link modes only).
+    max_links : int, optional
+        Largest number of link changes in one mode (1: one-link modes only). None: changes of
+        two links for the combinatorial search, and as many as the interlacing bound asks
+        (up to the tunable ``symmetry_max_links``) for symmetry-breaking modes.
+    monitor_room : int
+        Velocity monitors the symmetry-breaking modes may add for Theorem III.3 (i)
+        (:mod:`glocal_verify.design.symmetry`); the result lists them in ``monitors``.
+    confirm_limit : int, optional
+        Re-verify at most this many claims of each proposed mode; the rest are neither exposed
+        nor unexposed in the result (``design`` audits them with the whole design).
     progress : callable, optional
         Called with one line as each proposed mode is checked against the attacks it should
         expose.
@@ -713,7 +672,7 @@ def design_safe_modes(
 
     if budget < 1:
         raise NotApplicableError(f"budget: must be at least 1 safe mode, not {budget}")
-    if max_links < 1:
+    if max_links is not None and max_links < 1:
         raise NotApplicableError(f"max_links: must be at least 1 link change, not {max_links}")
     cands = list(candidate_links) if candidate_links is not None else default_candidates(system, weights)
     if not cands:
@@ -733,17 +692,18 @@ def design_safe_modes(
             attacks = [F for F, r in rows.items() if r.verdict == "undetected"]
         lambdas = {F: r.lambda0 for F, r in rows.items() if r.lambda0 is not None}
     targets_F = [tuple(sorted(F, key=system.index.__getitem__)) for F in attacks]
-    exact = system.n <= EXACT_MAX_AGENTS if exact is None else exact
+    exact = system.n <= config.get("safe_modes_exact_max_agents") if exact is None else exact
     t0 = time.perf_counter()
     err = eigenvector_error(system)
-    ok = _admissible(system, cands, err)
+    ok = one_link_screen(system, cands, err)
+    rules = _OneLinkRules(system, cands)
     stealthy = [F for F in targets_F if F in lambdas]
     tg = _targets(system, stealthy, lambdas, tol)
     thr = math.sqrt(tol.rtol) * 1e-2
     cover = _cover(system, cands, ok, tg, thr)
     rate = len(cands) / max(time.perf_counter() - t0, 1e-9)
     say = progress if progress is not None else (lambda line: None)
-    confirm = _Confirmations(system, exact, lambdas, tol, tick) if verify_designs else None
+    confirm = _Confirmations(system, exact, lambdas, tol, tick, confirm_limit) if verify_designs else None
     uncovered = set(range(len(tg)))
     modes: list[ProposedMode] = []
     rejected: set[int] = set()
@@ -751,6 +711,9 @@ def design_safe_modes(
         best = max((k for k in range(len(cands)) if k not in rejected), key=lambda k: len(cover[k] & uncovered), default=None)
         if best is None or not (cover[best] & uncovered):
             break
+        rejected.add(best)
+        if not rules.holds(best):  # the screen only filters: the rule functions decide (i)-(iii)
+            continue
         claim = [tg[k].F for k in sorted(cover[best] & uncovered)]
         name = f"designed-{len(modes) + 1}"
         if confirm is not None:
@@ -759,38 +722,63 @@ def design_safe_modes(
         else:
             got, statuses = claim, {}
         if not got:
-            rejected.add(best)
             continue
         modes.append(ProposedMode(name, cands[best], tuple(got), statuses, "exact" if exact else "numeric"))
-        uncovered -= {k for k in range(len(tg)) if tg[k].F in set(got)}
-        rejected.add(best)
+        settled = confirm.settled(got) if confirm is not None else set(got)
+        uncovered -= {k for k in range(len(tg)) if tg[k].F in settled}
+    combo_links = 2 if max_links is None else max_links
     scored, multi_rate, screened = 0, 0.0, 0
-    if uncovered and len(modes) < budget and max_links >= 2 and err is not None:
+    if uncovered and len(modes) < budget and combo_links >= 2 and err is not None:
         more, done, scored, multi_rate, screened = _multi_search(
-            system, cands, tg, uncovered, budget - len(modes), max_links, thr, exact, confirm, len(modes) + 1
+            system, cands, tg, uncovered, budget - len(modes), combo_links, thr, exact, confirm, len(modes) + 1
         )
         modes += more
         uncovered -= done
+    notes: list[str] = []
+    added: list[Label] = []
+    obstacle = ""
+    if uncovered and len(modes) < budget and confirm is not None:
+        obstacle = symmetry_obstacle(system, monitor_room, max_links)
+        if not obstacle:
+            def sym_confirm(links: Sequence[tuple[Label, Label, Fraction, Fraction | None]], name: str, claim: Sequence[tuple[Label, ...]],
+                            mons: Sequence[Label]) -> tuple[list[tuple[Label, ...]], dict[str, str]]:
+                got, statuses = confirm([LinkCandidate(u, v, w, False, old) for u, v, w, old in links], name, claim, mons)
+                return (got + [F for F in claim if F in confirm.deferred and F not in got] if got else got), statuses  # deferred: off the search
+
+            found, done, notes = break_symmetry(system, tg, uncovered, slots=budget - len(modes), max_links=max_links, room=monitor_room,
+                                                confirm=sym_confirm, thr=thr, first=len(modes) + 1, say=say)
+            for b in found:
+                links = [LinkCandidate(u, v, w, False, old) for u, v, w, old in b.links]
+                exposes = tuple(F for F in b.exposes if F not in confirm.deferred)
+                modes.append(ProposedMode(f"designed-{len(modes) + 1}", links[0], exposes, b.verification, "exact" if exact else "numeric", tuple(links[1:]), b.monitors))
+                added += [a for a in b.monitors if a not in added]
+            uncovered -= done
+            uncovered -= {k for k in range(len(tg)) if tg[k].F in confirm.deferred}
     unexposed: dict[str, str] = {}
     for F in targets_F:
         if F not in lambdas:
             unexposed[",".join(map(str, F))] = "no stealthy ZDA exponent known for this set (not stealthy, or undecided)"
-    blocking = _blocking(system, cands, err) if not ok.any() else ""
+    blocking = ""
+    if uncovered and not any(rules.known.values()) and not modes:
+        blocking = "; ".join(x for x in (obstacle, blocking_reason(system, cands, err) if err is None or not obstacle else "") if x)
     for k in sorted(uncovered):
         key = ",".join(map(str, tg[k].F))
         if blocking:
             unexposed[key] = "no candidate meets Theorem III.3 (i)-(iii): " + blocking
-        elif not any(k in cv for cv in cover):
+        elif not any(k in cv for cv in cover) and not notes:
             why = "no admissible one-link change touches every stealthy direction"
-            if max_links >= 2:
-                why += f", and the search found no admissible change of 2..{max_links} links that does"
+            if combo_links >= 2:
+                why += f", and the search found no admissible change of 2..{combo_links} links that does"
             if tg[k].X.shape[1] > 1:
                 why += f" (the stealthy kernel at lambda0 has dimension {tg[k].X.shape[1]})"
             unexposed[key] = why
+        elif notes:
+            unexposed[key] = "; ".join(dict.fromkeys(notes))
         elif confirm is not None and tg[k].F in confirm.undecided:
             # one text for every such set (the notes name each set's lambda0), so that the design's
             # summary groups them on one line
             unexposed[key] = "whether a proposed mode exposes it stays undecided at its lambda0 (switching.avoids-attack), so no mode claims it"
         else:
             unexposed[key] = f"the budget of {budget} safe mode(s) is exhausted"
-    return SafeModeDesign(tuple(modes), tuple(targets_F), unexposed, len(cands), rate, int(ok.sum()), scored, multi_rate, screened)
+    admitted = sum(rules.known.values())
+    return SafeModeDesign(tuple(modes), tuple(targets_F), unexposed, len(cands), rate, admitted, scored, multi_rate, screened, tuple(added), tuple(notes))

@@ -607,9 +607,12 @@ def compute_sweep(
             write_bytes_atomic(parts / f"{key}.json", json.dumps(member_rows, allow_nan=True).encode("utf-8"))
             finished += 1
         if progress:
-            rate = finished / max(time.perf_counter() - t0, 1e-9)
-            eta = (len(todo) - finished) / rate if rate > 0 else float("inf")
-            progress(f"{finished}/{len(todo)} members ({resumed} resumed), ETA {eta:.0f} s")
+            took = time.perf_counter() - t0
+            if finished >= len(todo):  # done: no time left to announce
+                progress(f"{finished}/{len(todo)} members ({resumed} resumed) in {took:.0f} s")
+                return
+            eta = (len(todo) - finished) * took / max(finished, 1)
+            progress(f"{finished}/{len(todo)} members ({resumed} resumed), {took:.0f} s elapsed, about {eta:.0f} s left")
 
     try:
         if chunks and (scheduler or workers > 0):

@@ -16,20 +16,20 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from glocal_verify import config
 from glocal_verify.design.sweep import GENERATORS, SweepPlan
 from glocal_verify.errors import GlocalVerifyError
 
-__all__ = ["MEMBER_OVERHEAD_SECONDS", "MEMBER_EXACT_BUDGET", "ESCALATION_AGENTS", "ESTIMATE_SAMPLE", "SweepEstimate", "estimate_sweep"]
+__all__ = ["MEMBER_OVERHEAD_SECONDS", "ESCALATION_AGENTS", "ESTIMATE_SAMPLE", "SweepEstimate", "estimate_sweep"]
 
 #: seconds a member costs beyond its checkers' estimate (building the network, writing its part)
 MEMBER_OVERHEAD_SECONDS = 0.05
 #: a member's numeric verify re-decides its undecided results exactly within a budget of
-#: MEMBER_EXACT_BUDGET seconds; the share of that budget it spends is taken as
+#: ``exact_budget`` seconds (:mod:`glocal_verify.config`, the value in force); the share of that budget it spends is taken as
 #: min(1, (N / ESCALATION_AGENTS)^2): measured on 8 random clustered networks each (3 clusters,
 #: seeds 100-107) at N = 20 / 50 / 80 / 120, the mean member spent 0.5 % / 1 % / 20 % / 50 %
 #: of the budget (the model: 2 % / 11 % / 28 % / 64 %), its members 0.1-0.6 s / 0.3-1.1 s /
 #: 0.8-31 s / 2.8-32 s
-MEMBER_EXACT_BUDGET = 30.0
 ESCALATION_AGENTS = 150.0
 #: members whose spec file is read for the estimate of a sweep over a folder (spread evenly)
 ESTIMATE_SAMPLE = 50
@@ -105,7 +105,7 @@ def estimate_sweep(plan: SweepPlan, *, workers: int = 2, scheduler: str | None =
     Each member costs :func:`~glocal_verify.conditions.cost.estimate_verify` of its sizes
     (without the command's start-up), plus :data:`MEMBER_OVERHEAD_SECONDS`, plus the expected
     exact re-decisions of a numeric run: :math:`30\\,\\min(1, (N / 150)^2)` seconds
-    (:data:`MEMBER_EXACT_BUDGET`, :data:`ESCALATION_AGENTS`). A generated member's sizes come
+    (the tunable ``exact_budget``, :data:`ESCALATION_AGENTS`). A generated member's sizes come
     from its parameters; a spec member's from its file (:data:`ESTIMATE_SAMPLE` files, spread
     evenly, stand for a large folder; a file that does not load counts nothing, it will be a
     failed row). The work is shared by ``workers`` processes when they pay off
@@ -161,7 +161,7 @@ def estimate_sweep(plan: SweepPlan, *, workers: int = 2, scheduler: str | None =
         if key not in by_params:
             sizes = sizes if sizes is not None else _generated_sizes(m.params, m.generator or "")
             est = estimate_verify(sizes, conditions, exact=plan.exact, exact_budget=None)
-            escalation = 0.0 if plan.exact or plan.escalate == "never" else MEMBER_EXACT_BUDGET * min(1.0, (sizes.n / ESCALATION_AGENTS) ** 2)
+            escalation = 0.0 if plan.exact or plan.escalate == "never" else config.get("exact_budget") * min(1.0, (sizes.n / ESCALATION_AGENTS) ** 2)
             by_params[key] = (max(0.0, est.seconds - C_START) + escalation + MEMBER_OVERHEAD_SECONDS, est.bytes, sizes.n)
         secs, nbytes, n = by_params[key]
         total += weight * secs

@@ -316,7 +316,8 @@ class DaskExecutor:
     workers : int
         Worker processes of the embedded cluster.
     progress : callable, optional
-        ``progress(done, total)`` after each finished chunk.
+        ``progress(0, total)`` when a list of tasks starts, then ``progress(done, total)``
+        after each finished chunk.
     dashboard, notice :
         As for :func:`dask_client`.
     """
@@ -345,6 +346,8 @@ class DaskExecutor:
 
     def _run(self, client: Any, tasks: Sequence[Callable[[], T]]) -> list[T]:
         out: list[Any] = [None] * len(tasks)
+        if self.progress is not None:
+            self.progress(0, len(tasks))
         for done, (i, res) in enumerate(run_on_dask(client, tasks), start=1):
             receive = getattr(tasks[i], "receive", None)
             out[i] = receive(res) if receive is not None else res  # e.g. an audit chunk's rows, stored compactly

@@ -20,6 +20,7 @@ import scipy.sparse.csgraph
 import scipy.sparse.linalg
 
 from glocal_verify import config
+from glocal_verify.numerics.rounding import EPS
 from glocal_verify.numerics.threads import ThreadSwitch
 from glocal_verify.numerics.tolerance import Tolerance
 
@@ -42,7 +43,6 @@ def _rosenbrock(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, lam:
 _ROUNDING = 8.0
 #: unitary operations per deflation step (SVD of D, SVD of the output rows, reflectors on A)
 _OPS_PER_STEP = 3
-_EPS = float(np.finfo(np.float64).eps)
 #: balancing exponents are clipped to +-this, so every scaling and its inverse stays normal
 _MAX_EXPONENT = 400
 
@@ -77,7 +77,7 @@ def _rounding(d: int, norm: float) -> float:
     """Stated backward-error bound ``c d eps ||M||`` (c = ``_ROUNDING``) of one SVD or one
     application of Householder reflectors to a matrix with d = rows + columns (LAPACK Users'
     Guide section 4.9; Higham, Accuracy and Stability of Numerical Algorithms, ch. 19)."""
-    return _ROUNDING * max(int(d), 1) * _EPS * float(norm)
+    return _ROUNDING * max(int(d), 1) * EPS * float(norm)
 
 
 # ------------------------------------------------------------------------------------------

@@ -37,14 +37,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Iterator
 
 import flint
 import numpy as np
 
 from glocal_verify.numerics.rounding import EPS, gamma_bound
 
-__all__ = ["PowerCertificate", "power_certificate", "certified_orbit", "RowSequence", "certified_rows", "abs_row_sums", "exact_to_float", "upper", "MAX_WINDOW_LOG2"]
+__all__ = ["PowerCertificate", "power_certificate", "certified_orbit", "RowSequence", "certified_rows", "certified_row_chunks", "abs_row_sums", "exact_to_float", "upper", "MAX_WINDOW_LOG2"]
 
 #: largest exponent i tried for the window 2^i of the tail certificate
 MAX_WINDOW_LOG2 = 16
@@ -200,6 +200,36 @@ def certified_rows(M: Any, C: Any, horizon: int, certificate: PowerCertificate |
     if not math.isfinite(kappa):
         err[:] = math.inf
     return RowSequence(mid, err, horizon, window, theta, kappa)
+
+
+def certified_row_chunks(M: Any, C: Any, horizon: int, certificate: PowerCertificate | None = None, chunk: int = 256) -> Iterator[tuple[int, np.ndarray, np.ndarray]]:
+    """The rows ``C M^k`` for ``k < horizon`` in chunks, with the errors of :func:`certified_rows`
+    (the same recursion), without holding every row at once.
+
+    Yields
+    ------
+    (k0, mid, err)
+        ``mid`` (c, q, n) the rows ``k0 .. k0 + c - 1``, ``err`` (c, q) bounds of their 1-norm errors.
+    """
+    Mf, Me = exact_to_float(M)
+    Cf, Ce = exact_to_float(C)
+    n = Mf.shape[0]
+    W = Me + gamma_bound(n + 2) * np.abs(Mf)
+    kappa = (certificate if certificate is not None else power_certificate(M)).kappa
+    q = Cf.shape[0]
+    eta_sum = np.zeros(q)
+    e0 = upper(Ce.sum(axis=1), n + 2)
+    R = Cf.copy()
+    for k0 in range(0, horizon, chunk):
+        c = min(chunk, horizon - k0)
+        mid = np.empty((c, q, n))
+        err = np.empty((c, q))
+        for k in range(c):
+            mid[k] = R
+            err[k] = upper(kappa * (e0 + eta_sum), 4) if math.isfinite(kappa) else math.inf
+            eta_sum = upper(eta_sum + (np.abs(R) @ W).sum(axis=1), n + 3)
+            R = R @ Mf
+        yield k0, mid, err
 
 
 def exact_to_float(X: Any) -> tuple[np.ndarray, np.ndarray]:

@@ -44,7 +44,7 @@ import flint
 import numpy as np
 
 from glocal_verify.numerics.exact import coefficient_bits
-from glocal_verify.numerics.pencil_exact import RootEnclosures
+from glocal_verify.numerics.pencil_exact import RootEnclosures, echelon_mod
 
 
 __all__ = ["ClusterTransfer", "TransferKernel", "adjugate_columns", "cluster_transfer", "eval_normalized", "fraction_free_kernel", "transfer_kernel"]
@@ -214,10 +214,9 @@ def transfer_kernel(tr: ClusterTransfer, f: Any, measured: Sequence[int], cols: 
 def fraction_free_kernel(M: Sequence[Sequence[Any]], f: Any, ncols: int) -> tuple[int, tuple[Any, ...] | None]:
     """dim ker M and one nonzero kernel vector over Q[s]/(f), without inverting in the field.
 
-    Fraction-free Gauss-Jordan elimination: with the pivot p of row r (nonzero in the field,
-    the test being exact on residues mod f), every other row i becomes p row_i - c row_r
-    (c its entry in the pivot column), a multiplication by the unit p and a row operation,
-    so the row space and the rank stay those of M. In the final form each pivot row r reads
+    Fraction-free Gauss-Jordan elimination (:func:`~glocal_verify.numerics.pencil_exact.echelon_mod`
+    with ``fraction_free``: every other row i becomes p row_i - c row_r, so the row space and
+    the rank stay those of M). In the final form each pivot row r reads
     p_r x_{piv_r} + sum_{j free} a_{rj} x_j = 0; for the first free column j the vector
     x_j = prod_t p_t, x_{piv_r} = -a_{rj} prod_{t != r} p_t, other free entries 0, is a nonzero
     kernel vector. No xgcd (the field inverse, whose cofactors have huge coefficients) is needed.
@@ -235,23 +234,8 @@ def fraction_free_kernel(M: Sequence[Sequence[Any]], f: Any, ncols: int) -> tupl
     (dim, vector)
         ncols - rank and a kernel vector (residues mod f), or None when the kernel is 0.
     """
-    rows = [[e % f for e in row] for row in M]
-    piv: list[int] = []
-    r = 0
-    for col in range(ncols):
-        k = next((i for i in range(r, len(rows)) if not rows[i][col].is_zero()), None)
-        if k is None:
-            continue
-        rows[r], rows[k] = rows[k], rows[r]
-        p = rows[r][col]
-        for i in range(len(rows)):
-            if i != r and not rows[i][col].is_zero():
-                c = rows[i][col]
-                rows[i] = [(p * a - c * b) % f for a, b in zip(rows[i], rows[r])]
-        piv.append(col)
-        r += 1
-        if r == len(rows):
-            break
+    rows, piv = echelon_mod(M, f, ncols, fraction_free=True)
+    r = len(piv)
     free = [j for j in range(ncols) if j not in piv]
     if not free:
         return 0, None

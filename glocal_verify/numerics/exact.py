@@ -29,6 +29,8 @@ __all__ = [
     "matvec",
     "at_rational_root",
     "coefficient_bits",
+    "observable_rows",
+    "row_basis",
 ]
 
 Rows = Sequence[Sequence[Fraction | int]]
@@ -167,3 +169,25 @@ def columns(M: flint.fmpq_mat, idx: Sequence[int]) -> flint.fmpq_mat:
         for c, j in enumerate(idx):
             out[i, c] = M[i, j]
     return out
+
+
+def row_basis(M: flint.fmpq_mat) -> flint.fmpq_mat:
+    """The nonzero rows of the reduced row echelon form of ``M``: a basis of its row space."""
+    R, r = M.rref()
+    n = M.ncols()
+    return flint.fmpq_mat(r, n, [R[i, j] for i in range(r) for j in range(n)])
+
+
+def observable_rows(A: flint.fmpq_mat, C: flint.fmpq_mat) -> flint.fmpq_mat:
+    """A basis of the observable rows of the rational pair (A, C): the Krylov closure of the
+    rows of C under A, ``span{C, C A, C A^2, ...}``, grown until its dimension stops rising.
+    Its kernel is the unobservable subspace of (A, C) (dimension n minus its rows)."""
+    n = A.ncols()
+    R = row_basis(C)
+    while True:
+        X = R * A
+        S = flint.fmpq_mat(R.nrows() + X.nrows(), n, [R[i, j] for i in range(R.nrows()) for j in range(n)] + [X[i, j] for i in range(X.nrows()) for j in range(n)])
+        B = row_basis(S)
+        if B.nrows() == R.nrows():
+            return R
+        R = B

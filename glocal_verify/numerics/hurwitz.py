@@ -1,32 +1,53 @@
-"""Certified Hurwitz tests of a real matrix F from its eigenvalues and their condition numbers.
+"""Stability tests, in one place: certified Hurwitz tests of a float matrix, exact Hurwitz and Schur tests over Q.
 
-F is certified Hurwitz when every eigenvalue lies left of the imaginary axis by more than
-``band`` times its uncertainty ``rho_i = kappa_i * delta`` (``kappa_i`` the eigenvalue
-condition number, ``delta = rtol ||F||_2`` the backward error): :func:`hurwitz_certificate`
-(one dense eigen-decomposition with left and right vectors), and :func:`hurwitz_reduced`
-from a known block triangularisation (triangular back substitution for the condition
-numbers). Used by the observer designs of :mod:`glocal_verify.observers`.
+Floating point. F is certified Hurwitz when every eigenvalue lies left of the imaginary axis
+by more than ``band`` times its uncertainty ``rho_i = kappa_i * delta`` (``kappa_i`` the
+eigenvalue condition number, ``delta = rtol ||F||_2`` the backward error):
+:func:`hurwitz_certificate` (one dense eigen-decomposition with left and right vectors), and
+:func:`hurwitz_reduced` from a known block triangularisation (triangular back substitution for
+the condition numbers). :func:`hurwitz_enclosure` encloses every eigenvalue of the exact
+matrix a float one stands for (Bauer-Fike). Used by the observer designs of
+:mod:`glocal_verify.observers`.
+
+Exact (python-flint). :func:`routh_hurwitz` (coefficients) and :func:`routh_hurwitz_poly`
+(an ``fmpq_poly``): every root in the open left half-plane, by the Routh array;
+:func:`schur_cohn`: every root in the open unit disc; :func:`unobservable_schur_stable`: the
+unobservable part of a rational pair (A, C) is Schur stable (discrete detectability). These
+are the only exact stability tests of the package: the central observer, the UIO existence
+test and the sampled checkers call them.
 """
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from fractions import Fraction
 from typing import Any
 
+import flint
 import numpy as np
 
 from glocal_verify import config
-from glocal_verify.numerics.subspace import EPS
+from glocal_verify.numerics.exact import observable_rows
+from glocal_verify.numerics.pencil_exact import rational_kernel
+from glocal_verify.numerics.rounding import EPS, gamma_bound, svd_error
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
 from glocal_verify.results import Status
 
 __all__ = [
     "HurwitzCertificate",
+    "HurwitzEnclosure",
     "hurwitz_certificate",
     "hurwitz_eigenvalues",
+    "hurwitz_enclosure",
     "hurwitz_reduced",
     "matrix_operator",
     "norm2",
+    "routh_hurwitz",
+    "routh_hurwitz_poly",
+    "schur_cohn",
+    "unobservable_schur_stable",
 ]
 
 
@@ -225,3 +246,237 @@ def _decide_ratios(ratio: np.ndarray, tol: Tolerance) -> Status:
     if np.any(ratio < -tol.band):
         return Status.FAILS
     return Status.UNDECIDED
+
+
+@dataclass(frozen=True, slots=True)
+class HurwitzEnclosure:
+    """Eigenvalue enclosure of an exact matrix from a computed eigen-decomposition.
+
+    Attributes
+    ----------
+    certified : bool or None
+        True: every eigenvalue of the exact matrix has Re < 0; False: some has Re > 0 (an
+        isolated disc right of the axis); None: the enclosure cannot tell.
+    max_real_upper : float
+        max_i Re(lambda_i) + radius: an upper bound of the spectral abscissa.
+    radius : float
+        Every eigenvalue of the exact matrix lies within ``radius`` of a computed one.
+    eigenvalues : ndarray
+        The computed eigenvalues.
+    """
+
+    certified: bool | None
+    max_real_upper: float
+    radius: float
+    eigenvalues: np.ndarray
+
+
+def hurwitz_enclosure(F: np.ndarray, input_error: float = 0.0) -> HurwitzEnclosure:
+    """Certify that the exact matrix F_exact (||F - F_exact||_2 <= ``input_error``) is Hurwitz.
+
+    With the computed eigen-decomposition F V ~ V D, the residual R = F V - V D (bounded
+    including the rounding of its own evaluation, gamma_{n+2} (|F||V| + |V||D|)) gives
+    V^{-1} F_exact V = D + V^{-1}(R + (F_exact - F) V), so by Bauer-Fike every eigenvalue of
+    F_exact lies within
+
+    .. math:: r = \\frac{\\lVert R \\rVert_F + \\delta_R + \\varepsilon_{in}\\,\\sigma_{max}(V)}{\\sigma_{min}(V)}
+
+    of an entry of D, with sigma_min(V) bounded below by its computed value minus
+    :func:`svd_error`. Hurwitz is certified when max Re d_i + r < 0; a failure when some disc
+    lies right of the axis and meets no other disc (a component of one disc holds exactly
+    one eigenvalue).
+
+    Parameters
+    ----------
+    F : ndarray
+        Square float matrix.
+    input_error : float
+        Upper bound of ``||F - F_exact||_2``.
+    """
+    F = np.asarray(F)
+    n = F.shape[0]
+    if n == 0:
+        return HurwitzEnclosure(True, -math.inf, 0.0, np.zeros(0, dtype=complex))
+    w, V = np.linalg.eig(F)
+    R = F @ V - V * w
+    g = gamma_bound(2 * (n + 2))  # (n + 2) eps / (1 - (n + 2) eps)
+    dR = g * float(np.linalg.norm(np.abs(F) @ np.abs(V) + np.abs(V) * np.abs(w)))
+    sv = np.linalg.svd(V, compute_uv=False)
+    e = svd_error(V)
+    smin = float(sv[-1]) - e
+    if smin <= 0.0:
+        return HurwitzEnclosure(None, math.inf, math.inf, w)
+    r = (float(np.linalg.norm(R)) * (1.0 + 4 * n * EPS) + dR + float(input_error) * (float(sv[0]) + e)) / smin
+    r *= 1.0 + 8 * EPS
+    top = float(np.max(w.real)) + r
+    if top < 0.0:
+        return HurwitzEnclosure(True, top, r, w)
+    for k in range(n):
+        if w[k].real - r > 0.0 and all(abs(w[k] - w[j]) > 2 * r for j in range(n) if j != k):
+            return HurwitzEnclosure(False, top, r, w)
+    return HurwitzEnclosure(None, top, r, w)
+
+
+# --------------------------------------------------------------------------------------------
+# exact tests over Q
+
+
+def routh_hurwitz(coeffs: Sequence[Fraction]) -> bool:
+    """Exact Routh-Hurwitz test: are all roots of the real polynomial in the open left half-plane?
+
+    ``coeffs`` are rational, highest degree first. A polynomial is Hurwitz iff every entry of
+    the first column of its Routh array is nonzero and has the sign of the leading coefficient;
+    a zero entry already implies a root with ``Re >= 0``, so no epsilon trick is needed.
+    Computed by :func:`routh_hurwitz_poly`.
+
+    Parameters
+    ----------
+    coeffs : sequence of Fraction
+        Coefficients ``a_n, ..., a_0`` with ``a_n != 0``.
+    """
+    c = [Fraction(x) for x in coeffs]
+    while c and c[0] == 0:
+        c.pop(0)
+    return routh_hurwitz_poly(flint.fmpq_poly([flint.fmpq(x.numerator, x.denominator) for x in reversed(c)]))
+
+
+def routh_hurwitz_poly(q: Any) -> bool:
+    r"""The Routh-Hurwitz test of :func:`routh_hurwitz` on a python-flint ``fmpq_poly``, fraction-free.
+
+    A row r_k is the polynomial sum_j r_k[j] t^j. The Routh recurrence
+    R_{k+1} = (R_k[0] R_{k-1} - R_{k-1}[0] R_k) / (t R_k[0]) is run on the integer rows
+    F_k = Delta_{k-1} R_k (Delta_k the Hurwitz determinants, F_k[0] = Delta_k for k >= 1,
+    F_0 = R_0, F_1 = R_1 for the integer coefficients):
+
+    .. math:: F_{k+1} = \frac{F_k[0] F_{k-1} - F_{k-1}[0] F_k}{t\, c_{k-1}},\qquad
+              c_0 = c_1 = 1,\ c_j = F_{j-1}[0]\ (j \ge 2),
+
+    an exact integer division (Bareiss-like; a division that is not exact sends the
+    polynomial to the rational reference, :func:`_routh_hurwitz_rational`). The test stops at
+    the first F_k[0] <= 0; before that every c_k is positive, so the signs of the first
+    column and which rows vanish are those of the rational Routh array, without a gcd per
+    rational entry (the cost that dominated at degree 400).
+
+    Parameters
+    ----------
+    q : flint.fmpq_poly
+    """
+    if q.is_zero():
+        return False
+    c = [flint.fmpz(int(x.p)) for x in reversed((q * q.denom()).coeffs())]
+    if len(c) == 1:
+        return True
+    if (rows := _first_rows(c, flint.fmpz_poly)) is None:
+        return False
+    r0, n0, r1, n1 = rows
+    lead = [flint.fmpz(1), flint.fmpz(1), r1[0]]  # c_0, c_1 (= Delta_0), Delta_1, Delta_2, ...
+    while n1:
+        if r1[0] <= 0:
+            return False
+        nxt, nn = (r0 * r1[0] - r1 * r0[0]).truncate(n0).right_shift(1), n0 - 1
+        div = lead[-3]
+        if div != 1:
+            quo = [x // div for x in nxt.coeffs()]
+            if any(a * div != x for a, x in zip(quo, nxt.coeffs())):  # pragma: no cover - Sylvester's identity
+                return _routh_hurwitz_rational(q)
+            nxt = flint.fmpz_poly(quo)
+        while nn > 1 and nxt[nn - 1] == 0:
+            nn -= 1
+        if nn and nxt.is_zero():
+            return False
+        r0, n0, r1, n1 = r1, n1, nxt, nn
+        lead.append(r1[0] if n1 else flint.fmpz(0))
+    return bool(r0[0] > 0)
+
+
+def _first_rows(c: list[Any], poly: Any) -> tuple[Any, int, Any, int] | None:
+    """The first two rows of the Routh array of the coefficients ``c`` (highest degree first,
+    as polynomials ``poly``, with their lengths), the leading sign made positive; None when a
+    coefficient is not of the leading sign (then the polynomial is not Hurwitz)."""
+    sign = 1 if c[0] > 0 else -1
+    c = [sign * x for x in c]
+    if any(x <= 0 for x in c):
+        return None
+    return poly(c[0::2]), len(c[0::2]), poly(c[1::2]), len(c[1::2])
+
+
+def _routh_hurwitz_rational(q: Any) -> bool:
+    """The Routh array in exact rationals, row by row (the reference of :func:`routh_hurwitz_poly`).
+
+    r_{k+1} = (r_{k-1} - (r_{k-1}[0] / r_k[0]) r_k) / t, of length len(r_{k-1}) - 1 with
+    trailing zeros dropped.
+
+    Parameters
+    ----------
+    q : flint.fmpq_poly
+    """
+    c = list(reversed(q.coeffs()))
+    if not c:
+        return False
+    if len(c) == 1:
+        return True
+    if (rows := _first_rows(c, flint.fmpq_poly)) is None:
+        return False
+    r0, n0, r1, n1 = rows
+    while n1:
+        if r1[0] <= 0:
+            return False
+        nxt, nn = (r0 - r1 * (r0[0] / r1[0])).truncate(n0).right_shift(1), n0 - 1
+        while nn > 1 and nxt[nn - 1] == 0:
+            nn -= 1
+        if nn and nxt.is_zero():
+            return False
+        r0, n0, r1, n1 = r1, n1, nxt, nn
+    return bool(r0[0] > 0)
+
+
+def schur_cohn(p: Any) -> bool:
+    """Exact Schur-Cohn test over Q: every root of the rational polynomial ``p`` has modulus < 1.
+
+    Recursion: with ``a_0, a_n`` the constant and leading coefficients and ``p*`` the
+    reversed polynomial, ``p`` is Schur-stable iff ``|a_0| < |a_n|`` and
+    ``(a_n p - a_0 p*) / z`` is (Schur-Cohn, real coefficients). Each step is made primitive
+    over Z (a positive scaling changes no root), so the coefficients grow slowly.
+
+    Parameters
+    ----------
+    p : flint.fmpq_poly or fmpz_poly
+    """
+    c = [Fraction(int(x.p), int(x.q)) if hasattr(x, "p") else Fraction(x) for x in (p[k] for k in range(p.degree() + 1))]
+    ints = _primitive(c)
+    while len(ints) > 1:
+        a0, an = ints[0], ints[-1]
+        if abs(a0) >= abs(an):
+            return False
+        rev = ints[::-1]
+        ints = _primitive([Fraction(an * ints[k] - a0 * rev[k]) for k in range(1, len(ints))])
+    return True
+
+
+def _primitive(c: list[Fraction]) -> list[int]:
+    """The coefficients times their common denominator, divided by their gcd (sign kept)."""
+    den = math.lcm(*(x.denominator for x in c)) if c else 1
+    ints = [int(x * den) for x in c]
+    g = math.gcd(*ints) if any(ints) else 1
+    return [x // g for x in ints]
+
+
+def unobservable_schur_stable(A: Any, C: Any) -> bool:
+    """Exactly: the unobservable part of the rational pair ``(A, C)`` is Schur stable.
+
+    R spans the observable rows (the Krylov closure of the rows of C under A,
+    :func:`~glocal_verify.numerics.exact.observable_rows`); with X a basis of its kernel
+    (the unobservable subspace, A-invariant), the restriction of A to it is
+    ``(X^T X)^-1 X^T A X``, whose characteristic polynomial is tested by :func:`schur_cohn`.
+
+    Parameters
+    ----------
+    A, C : flint.fmpq_mat
+        n x n and p x n.
+    """
+    R = observable_rows(A, C)
+    if R.nrows() == A.ncols():
+        return True
+    X = rational_kernel(R)
+    XT = X.transpose()
+    return schur_cohn(((XT * X).inv() * (XT * A * X)).charpoly())

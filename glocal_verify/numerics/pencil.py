@@ -622,8 +622,8 @@ def input_directions(
 
     .. math::
 
-        \exists\, [x; u] \in \ker P(\lambda_0),\ u \ne 0 \iff
-        \dim\ker P(\lambda_0) > \dim\ker \begin{bmatrix} \lambda_0 I - A \\ C \end{bmatrix}
+        \\exists\\, [x; u] \\in \\ker P(\\lambda_0),\\ u \\ne 0 \\iff
+        \\dim\\ker P(\\lambda_0) > \\dim\\ker \\begin{bmatrix} \\lambda_0 I - A \\\\ C \\end{bmatrix}
 
     (for ``D = 0``; with ``D`` the state columns are ``[lambda0 I - A; C]`` all the same). Both
     nullities are bounded on the balanced pencil by its singular values against the SVD's

@@ -18,6 +18,7 @@ import numpy as np
 from glocal_verify.errors import ModelError, NotApplicableError
 from glocal_verify.numerics import exact as ex
 from glocal_verify.numerics.pencil import _normalize_phase
+from glocal_verify.numerics.rounding import EPS, svd_error
 
 __all__ = [
     "ExactZero",
@@ -29,15 +30,11 @@ __all__ = [
     "rank_over_field",
     "poly_pencil",
     "classify_real_parts",
-    "eval_at_root", "inv_mod", "rational_kernel",
-    "SVD_BACKWARD_CONSTANT",
+    "echelon_mod", "eval_at_root", "inv_mod", "rational_kernel",
     "RankBounds",
     "rounding_error",
-    "svd_error",
     "structural_rank",
     "rank_bounds",
-    "HurwitzEnclosure",
-    "hurwitz_enclosure",
 ]
 
 # ------------------------------------------------------------------------------------------
@@ -193,7 +190,34 @@ def inv_mod(a: Any, f: Any) -> Any:
     return s / g[0]
 
 
-def _echelon_mod(M: Sequence[Sequence[Any]], f: Any, ncols: int) -> tuple[list[list[Any]], list[int]]:
+def echelon_mod(M: Sequence[Sequence[Any]], f: Any, ncols: int, *, fraction_free: bool = False) -> tuple[list[list[Any]], list[int]]:
+    """Gauss-Jordan elimination of a polynomial matrix over the field Q[x]/(f) (f irreducible).
+
+    The one elimination modulo f of the package: :func:`rank_over_field`,
+    :func:`kernel_over_field` and :func:`~glocal_verify.numerics.cluster_transfer.fraction_free_kernel`
+    read its result. Each pivot (the first entry of its column that is nonzero modulo f, an
+    exact test on residues) clears its column in every other row. With ``fraction_free`` False
+    the pivot row is first scaled by the pivot's inverse (:func:`inv_mod`; the reduced row
+    echelon form, unique); with ``fraction_free`` True every other row i becomes
+    ``p row_i - c row_r`` (p the pivot, c the entry of row i in its column): a multiplication
+    by the unit p and a row operation, so the row space and the rank are those of M without
+    the field inverse (whose cofactors have huge coefficients).
+
+    Parameters
+    ----------
+    M : rows of fmpq_poly
+        The polynomial matrix; its entries need not be reduced modulo f.
+    f : fmpq_poly
+        The modulus, irreducible over Q.
+    ncols : int
+        Columns of M (it may have no rows).
+    fraction_free : bool
+
+    Returns
+    -------
+    (rows, pivots)
+        The first ``rank`` rows of the eliminated matrix (residues mod f) and the pivot column of each.
+    """
     rows = [[e % f for e in row] for row in M]
     piv: list[int] = []
     r = 0
@@ -202,12 +226,14 @@ def _echelon_mod(M: Sequence[Sequence[Any]], f: Any, ncols: int) -> tuple[list[l
         if k is None:
             continue
         rows[r], rows[k] = rows[k], rows[r]
-        inv = inv_mod(rows[r][col], f)
-        rows[r] = [(e * inv) % f for e in rows[r]]
+        p = rows[r][col]
+        if not fraction_free:
+            inv = inv_mod(p, f)
+            rows[r] = [(e * inv) % f for e in rows[r]]
         for i in range(len(rows)):
             if i != r and not rows[i][col].is_zero():
                 c = rows[i][col]
-                rows[i] = [(a - c * b) % f for a, b in zip(rows[i], rows[r])]
+                rows[i] = [(p * a - c * b) % f for a, b in zip(rows[i], rows[r])] if fraction_free else [(a - c * b) % f for a, b in zip(rows[i], rows[r])]
         piv.append(col)
         r += 1
         if r == len(rows):
@@ -234,7 +260,7 @@ def rank_over_field(M: Sequence[Sequence[Any]], f: Any, ncols: int) -> int:
         return 0
     if f.degree() == 1:
         return int(ex.at_rational_root(M, f, ncols).rank())
-    _, piv = _echelon_mod(M, f, ncols)
+    _, piv = echelon_mod(M, f, ncols)
     return len(piv)
 
 
@@ -363,7 +389,7 @@ def kernel_over_field(M: Sequence[Sequence[Any]], f: Any, ncols: int) -> FieldKe
     if f.degree() == 1:  # Q[x]/(f) = Q: flint's RREF over Q (the RREF is unique, so the same basis)
         Kq = rational_kernel(ex.at_rational_root(M, f, ncols))
         return FieldKernel(f, tuple(tuple(flint.fmpq_poly(Kq[i, c]) for i in range(ncols)) for c in range(Kq.ncols())))
-    R, piv = _echelon_mod(M, f, ncols)
+    R, piv = echelon_mod(M, f, ncols)
     free = [j for j in range(ncols) if j not in piv]
     basis = []
     for fr in free:
@@ -635,15 +661,6 @@ def analyze_pencil_exact(
 
 # ------------------------------------------------------------------------------------------
 # floating-point certificates (rigorous bounds that make a numeric verdict exact-sound)
-_EPS = float(np.finfo(float).eps)
-
-#: the stated constant c of the SVD backward error used by every rank certificate: the
-#: singular values LAPACK computes for M are the exact singular values of M + Delta with
-#: ||Delta||_2 <= c * max(m, n) * eps * ||M||_F (Demmel-Kahan / Golub-Van Loan 8.6; LAPACK's
-#: p(m, n) eps ||M||_2 with a modest p, taken generously).
-SVD_BACKWARD_CONSTANT = 8.0
-
-
 def rounding_error(M: np.ndarray, exact: Sequence[Sequence[Any]], support: np.ndarray | None = None) -> float:
     """Rigorous upper bound of ``||M - M_exact||_2`` for a float matrix and its exact rows.
 
@@ -669,21 +686,7 @@ def rounding_error(M: np.ndarray, exact: Sequence[Sequence[Any]], support: np.nd
             d[i, j] = abs(float(Fraction(float(M[i, j])) - Fraction(exact[i][j])))
     k = d.size
     # float(Fraction) rounds to nearest: at most a relative eps / 2 per entry
-    return float(np.linalg.norm(d)) * (1.0 + (k + 4) * _EPS) + 1e-300 if np.any(d) else 0.0
-
-
-def svd_error(M: np.ndarray) -> float:
-    """Bound on the backward error of LAPACK's SVD of ``M``:
-    ``SVD_BACKWARD_CONSTANT * max(m, n) * eps * ||M||_F`` (:data:`SVD_BACKWARD_CONSTANT`).
-
-    Parameters
-    ----------
-    M : ndarray
-    """
-    M = np.asarray(M)
-    if M.size == 0:
-        return 0.0
-    return SVD_BACKWARD_CONSTANT * max(M.shape) * _EPS * float(np.linalg.norm(M)) * (1.0 + M.size * _EPS)
+    return float(np.linalg.norm(d)) * (1.0 + (k + 4) * EPS) + 1e-300 if np.any(d) else 0.0
 
 
 def structural_rank(pattern: np.ndarray) -> int:
@@ -779,72 +782,3 @@ def rank_bounds(
         up = min(up, int(upper))
     up = min(up, r_max)
     return RankBounds(min(lo, up), up, err, s)
-
-
-@dataclass(frozen=True, slots=True)
-class HurwitzEnclosure:
-    """Eigenvalue enclosure of an exact matrix from a computed eigen-decomposition.
-
-    Attributes
-    ----------
-    certified : bool or None
-        True: every eigenvalue of the exact matrix has Re < 0; False: some has Re > 0 (an
-        isolated disc right of the axis); None: the enclosure cannot tell.
-    max_real_upper : float
-        max_i Re(lambda_i) + radius: an upper bound of the spectral abscissa.
-    radius : float
-        Every eigenvalue of the exact matrix lies within ``radius`` of a computed one.
-    eigenvalues : ndarray
-        The computed eigenvalues.
-    """
-
-    certified: bool | None
-    max_real_upper: float
-    radius: float
-    eigenvalues: np.ndarray
-
-
-def hurwitz_enclosure(F: np.ndarray, input_error: float = 0.0) -> HurwitzEnclosure:
-    """Certify that the exact matrix F_exact (||F - F_exact||_2 <= ``input_error``) is Hurwitz.
-
-    With the computed eigen-decomposition F V ~ V D, the residual R = F V - V D (bounded
-    including the rounding of its own evaluation, gamma_{n+2} (|F||V| + |V||D|)) gives
-    V^{-1} F_exact V = D + V^{-1}(R + (F_exact - F) V), so by Bauer-Fike every eigenvalue of
-    F_exact lies within
-
-    .. math:: r = \\frac{\\lVert R \\rVert_F + \\delta_R + \\varepsilon_{in}\\,\\sigma_{max}(V)}{\\sigma_{min}(V)}
-
-    of an entry of D, with sigma_min(V) bounded below by its computed value minus
-    :func:`svd_error`. Hurwitz is certified when max Re d_i + r < 0; a failure when some disc
-    lies right of the axis and meets no other disc (a component of one disc holds exactly
-    one eigenvalue).
-
-    Parameters
-    ----------
-    F : ndarray
-        Square float matrix.
-    input_error : float
-        Upper bound of ``||F - F_exact||_2``.
-    """
-    F = np.asarray(F)
-    n = F.shape[0]
-    if n == 0:
-        return HurwitzEnclosure(True, -math.inf, 0.0, np.zeros(0, dtype=complex))
-    w, V = np.linalg.eig(F)
-    R = F @ V - V * w
-    g = (n + 2) * _EPS / (1.0 - (n + 2) * _EPS)
-    dR = g * float(np.linalg.norm(np.abs(F) @ np.abs(V) + np.abs(V) * np.abs(w)))
-    sv = np.linalg.svd(V, compute_uv=False)
-    e = svd_error(V)
-    smin = float(sv[-1]) - e
-    if smin <= 0.0:
-        return HurwitzEnclosure(None, math.inf, math.inf, w)
-    r = (float(np.linalg.norm(R)) * (1.0 + 4 * n * _EPS) + dR + float(input_error) * (float(sv[0]) + e)) / smin
-    r *= 1.0 + 8 * _EPS
-    top = float(np.max(w.real)) + r
-    if top < 0.0:
-        return HurwitzEnclosure(True, top, r, w)
-    for k in range(n):
-        if w[k].real - r > 0.0 and all(abs(w[k] - w[j]) > 2 * r for j in range(n) if j != k):
-            return HurwitzEnclosure(False, top, r, w)
-    return HurwitzEnclosure(None, top, r, w)

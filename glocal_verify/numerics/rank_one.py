@@ -61,12 +61,12 @@ from typing import Sequence
 import numpy as np
 import scipy.linalg.lapack
 
+from glocal_verify.numerics.rounding import EPS as _EPS
+from glocal_verify.numerics.rounding import UNIT_ROUNDOFF as _U
 from glocal_verify.numerics.rounding import gamma_bound as gamma
 
 __all__ = ["CauchyBlock", "RankOneFactor", "cauchy_certificate", "eigh_rank_one_update", "eigh_updated", "rank_one_factor", "tree_rowsum"]
 
-_EPS = float(np.finfo(float).eps)
-_U = _EPS / 2.0
 #: rows per block of the Loewner products and of the certificate
 _BLOCK = 256
 

@@ -1,10 +1,11 @@
 """Bounds on floating-point rounding error shared by the certified computations.
 
-The unit roundoff ``u = eps / 2`` of IEEE doubles, Higham's ``gamma_k = k u / (1 - k u)`` (the
-relative error of a sum or product chain of k rounded operations), and the rigorous rounding
-bound of a matrix product ``A^T B`` (Higham, Accuracy and Stability of Numerical Algorithms,
-Thm 3.5). The spectra (:mod:`.spectrum`, :mod:`.rank_one`, :mod:`.updated_spectrum`,
-:mod:`.block_spectrum`) and every certified threshold read them here.
+The machine epsilon ``EPS`` and unit roundoff ``UNIT_ROUNDOFF = eps / 2`` of IEEE doubles,
+Higham's ``gamma_k = k u / (1 - k u)`` (the relative error of a sum or product chain of k
+rounded operations), the rigorous rounding bound of a matrix product ``A^T B`` (Higham,
+Accuracy and Stability of Numerical Algorithms, Thm 3.5), and the backward error of an SVD
+(:data:`SVD_BACKWARD_CONSTANT`, :func:`svd_error`). Every certified computation of the
+package reads these constants here; no module keeps a copy.
 """
 
 from __future__ import annotations
@@ -13,10 +14,17 @@ import math
 
 import numpy as np
 
-__all__ = ["EPS", "gamma_bound", "product_rounding"]
+__all__ = ["EPS", "SVD_BACKWARD_CONSTANT", "UNIT_ROUNDOFF", "gamma_bound", "product_rounding", "svd_error"]
 
 #: unit roundoff doubled: the spacing of doubles at 1 (2^-52)
 EPS = float(np.finfo(float).eps)
+#: unit roundoff u = eps / 2: a correctly rounded operation has relative error at most u
+UNIT_ROUNDOFF = EPS / 2.0
+#: the stated constant c of the SVD backward error used by every rank certificate: the
+#: singular values LAPACK computes for M are the exact singular values of M + Delta with
+#: ||Delta||_2 <= c * max(m, n) * eps * ||M|| (Demmel-Kahan / Golub-Van Loan 8.6; LAPACK's
+#: p(m, n) eps ||M||_2 with a modest p, taken generously)
+SVD_BACKWARD_CONSTANT = 10.0
 
 
 def gamma_bound(k: float) -> float:
@@ -27,7 +35,7 @@ def gamma_bound(k: float) -> float:
     k : int or float
         Number of floating-point operations in the longest chain (infinite bound when k u >= 1/2).
     """
-    u = EPS / 2.0
+    u = UNIT_ROUNDOFF
     return k * u / (1.0 - k * u) if k * u < 0.5 else math.inf
 
 
@@ -54,3 +62,17 @@ def product_rounding(A: np.ndarray, B: np.ndarray, shifted: bool = False) -> flo
     norm_abs = math.sqrt(float(absA.sum(axis=0).max()) * float(absA.sum(axis=1).max()))
     # (1 + 2 gamma_n): the sums of n nonnegative terms and the 2-norm are computed in floating point too
     return gamma_bound(n + (1 if shifted else 0)) * norm_abs * float(np.linalg.norm(B)) * (1.0 + 2.0 * gamma_bound(max(n, B.size)))
+
+
+def svd_error(M: np.ndarray) -> float:
+    """Bound on the backward error of LAPACK's SVD of ``M``:
+    ``SVD_BACKWARD_CONSTANT * max(m, n) * eps * ||M||_F`` (:data:`SVD_BACKWARD_CONSTANT`).
+
+    Parameters
+    ----------
+    M : ndarray
+    """
+    M = np.asarray(M)
+    if M.size == 0:
+        return 0.0
+    return SVD_BACKWARD_CONSTANT * max(M.shape) * EPS * float(np.linalg.norm(M)) * (1.0 + M.size * EPS)

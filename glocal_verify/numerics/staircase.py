@@ -10,7 +10,8 @@ import math
 
 import numpy as np
 
-from glocal_verify.numerics.subspace import EPS, Subspace, decide_with_error
+from glocal_verify.numerics.rounding import EPS
+from glocal_verify.numerics.subspace import Subspace, decide_with_error
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
 
 __all__ = [

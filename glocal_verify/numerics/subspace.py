@@ -14,19 +14,15 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from glocal_verify.numerics.rounding import EPS, SVD_BACKWARD_CONSTANT, UNIT_ROUNDOFF
 from glocal_verify.numerics.tolerance import Decision, Tolerance
 
 __all__ = [
-    "SVD_BACKWARD_CONSTANT",
     "Subspace",
     "decide_with_error",
     "svd_rank_bound",
 ]
 
-EPS = float(np.finfo(float).eps)
-_U = EPS / 2.0
-#: constant c of the SVD backward-error bound c * max(m, n) * eps * ||M||_2 used for ranks
-SVD_BACKWARD_CONSTANT = 10.0
 
 
 # --------------------------------------------------------------------------------------------
@@ -59,7 +55,7 @@ def svd_rank_bound(M: np.ndarray) -> tuple[np.ndarray, float]:
     if M.size == 0:
         return np.zeros(0), 0.0
     sv = np.linalg.svd(M, compute_uv=False)
-    beta = SVD_BACKWARD_CONSTANT * max(M.shape) * EPS * float(sv[0]) * (1 + 2 * EPS) + _U * float(np.linalg.norm(M, "fro"))
+    beta = SVD_BACKWARD_CONSTANT * max(M.shape) * EPS * float(sv[0]) * (1 + 2 * EPS) + UNIT_ROUNDOFF * float(np.linalg.norm(M, "fro"))
     return sv, beta
 
 

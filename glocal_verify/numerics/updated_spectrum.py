@@ -50,6 +50,7 @@ import scipy.sparse
 from glocal_verify import config
 from glocal_verify.numerics.rank_one import RankOneFactor, rank_one_factor
 from glocal_verify.numerics.rounding import EPS
+from glocal_verify.numerics.rounding import UNIT_ROUNDOFF as _U
 from glocal_verify.numerics.rounding import gamma_bound as gamma
 from glocal_verify.numerics.spectrum import Spectrum
 
@@ -59,7 +60,6 @@ __all__ = ["UpdatedSpectrum", "update_spectrum"]
 #: are many, since each rotation costs a call per block
 _COLS = 256
 _COLS_ROTATED = 1024
-_U = EPS / 2.0
 
 
 @dataclass(frozen=True)

@@ -68,7 +68,6 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from fractions import Fraction
 from typing import Any
 
 import numpy as np
@@ -95,8 +94,6 @@ __all__ = [
     "certify_observable_stability",
     "design_central_observer",
     "observer_charpoly_exact",
-    "routh_hurwitz",
-    "routh_hurwitz_poly",
 ]
 
 
@@ -410,116 +407,6 @@ def _injection_design(
 
 # --------------------------------------------------------------------------------------------
 # exact verification of a designed gain
-
-
-def routh_hurwitz(coeffs: Sequence[Fraction]) -> bool:
-    """Exact Routh-Hurwitz test: are all roots of the real polynomial in the open left half-plane?
-
-    ``coeffs`` are rational, highest degree first. A polynomial is Hurwitz iff every entry of
-    the first column of its Routh array is nonzero and has the sign of the leading coefficient;
-    a zero entry already implies a root with ``Re >= 0``, so no epsilon trick is needed.
-    Computed by :func:`routh_hurwitz_poly`.
-
-    Parameters
-    ----------
-    coeffs : sequence of Fraction
-        Coefficients ``a_n, ..., a_0`` with ``a_n != 0``.
-    """
-    import flint
-
-    c = [Fraction(x) for x in coeffs]
-    while c and c[0] == 0:
-        c.pop(0)
-    return routh_hurwitz_poly(flint.fmpq_poly([flint.fmpq(x.numerator, x.denominator) for x in reversed(c)]))
-
-
-def routh_hurwitz_poly(q: Any) -> bool:
-    r"""The Routh-Hurwitz test of :func:`routh_hurwitz` on a python-flint ``fmpq_poly``, fraction-free.
-
-    A row r_k is the polynomial sum_j r_k[j] t^j. The Routh recurrence
-    R_{k+1} = (R_k[0] R_{k-1} - R_{k-1}[0] R_k) / (t R_k[0]) is run on the integer rows
-    F_k = Delta_{k-1} R_k (Delta_k the Hurwitz determinants, F_k[0] = Delta_k for k >= 1,
-    F_0 = R_0, F_1 = R_1 for the integer coefficients):
-
-    .. math:: F_{k+1} = \frac{F_k[0] F_{k-1} - F_{k-1}[0] F_k}{t\, c_{k-1}},\qquad
-              c_0 = c_1 = 1,\ c_j = F_{j-1}[0]\ (j \ge 2),
-
-    an exact integer division (Bareiss-like; a division that is not exact sends the
-    polynomial to the rational reference, :func:`_routh_hurwitz_rational`). The test stops at
-    the first F_k[0] <= 0; before that every c_k is positive, so the signs of the first
-    column and which rows vanish are those of the rational Routh array, without a gcd per
-    rational entry (the cost that dominated at degree 400).
-
-    Parameters
-    ----------
-    q : flint.fmpq_poly
-    """
-    import flint
-
-    if q.is_zero():
-        return False
-    c = [flint.fmpz(int(x.p)) for x in reversed((q * q.denom()).coeffs())]
-    if len(c) == 1:
-        return True
-    sign = 1 if c[0] > 0 else -1
-    c = [sign * x for x in c]
-    if any(x <= 0 for x in c):
-        return False
-    r0, n0 = flint.fmpz_poly(c[0::2]), len(c[0::2])
-    r1, n1 = flint.fmpz_poly(c[1::2]), len(c[1::2])
-    lead = [flint.fmpz(1), flint.fmpz(1), r1[0]]  # c_0, c_1 (= Delta_0), Delta_1, Delta_2, ...
-    while n1:
-        if r1[0] <= 0:
-            return False
-        nxt, nn = (r0 * r1[0] - r1 * r0[0]).truncate(n0).right_shift(1), n0 - 1
-        div = lead[-3]
-        if div != 1:
-            quo = [x // div for x in nxt.coeffs()]
-            if any(a * div != x for a, x in zip(quo, nxt.coeffs())):  # pragma: no cover - Sylvester's identity
-                return _routh_hurwitz_rational(q)
-            nxt = flint.fmpz_poly(quo)
-        while nn > 1 and nxt[nn - 1] == 0:
-            nn -= 1
-        if nn and nxt.is_zero():
-            return False
-        r0, n0, r1, n1 = r1, n1, nxt, nn
-        lead.append(r1[0] if n1 else flint.fmpz(0))
-    return bool(r0[0] > 0)
-
-
-def _routh_hurwitz_rational(q: Any) -> bool:
-    """The Routh array in exact rationals, row by row (the reference of :func:`routh_hurwitz_poly`).
-
-    r_{k+1} = (r_{k-1} - (r_{k-1}[0] / r_k[0]) r_k) / t, of length len(r_{k-1}) - 1 with
-    trailing zeros dropped.
-
-    Parameters
-    ----------
-    q : flint.fmpq_poly
-    """
-    import flint
-
-    c = list(reversed(q.coeffs()))
-    if not c:
-        return False
-    if len(c) == 1:
-        return True
-    sign = 1 if c[0] > 0 else -1
-    c = [sign * x for x in c]
-    if any(x <= 0 for x in c):
-        return False
-    r0, n0 = flint.fmpq_poly(c[0::2]), len(c[0::2])
-    r1, n1 = flint.fmpq_poly(c[1::2]), len(c[1::2])
-    while n1:
-        if r1[0] <= 0:
-            return False
-        nxt, nn = (r0 - r1 * (r0[0] / r1[0])).truncate(n0).right_shift(1), n0 - 1
-        while nn > 1 and nxt[nn - 1] == 0:
-            nn -= 1
-        if nn and nxt.is_zero():
-            return False
-        r0, n0, r1, n1 = r1, n1, nxt, nn
-    return bool(r0[0] > 0)
 
 
 def observer_charpoly_exact(system: System, H: Any, mode: str = NORMAL_MODE) -> Any:

@@ -25,13 +25,13 @@ from glocal_verify.analysis.unobservable.subspace import (
     exact_N,
 )
 from glocal_verify.model import System
+from glocal_verify.numerics.hurwitz import routh_hurwitz_poly
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Tolerance
 from glocal_verify.observers.central import (
     CentralObserver,
     certify_observable_stability,
     design_central_observer,
     observer_charpoly_exact,
-    routh_hurwitz_poly,
 )
 from glocal_verify.results import Status, Verdict
 

@@ -290,8 +290,13 @@ class DecouplingError(NotApplicableError):
     """``rank(C E_d) < rank(E_d)``: no UIO decouples the neighbours (an exact, combinatorial fact)."""
 
 
-def sampled_cluster_model(system: System, observer: LocalObserver, implementation: ImplementationSpec | None = None) -> SampledClusterModel:
-    """The exact sampled model of a local observer's cluster and its decoupling (module docstring).
+def sampled_cluster_model(
+    system: System, observer: LocalObserver, implementation: ImplementationSpec | None = None, *, mode: str = NORMAL_MODE
+) -> SampledClusterModel:
+    """The exact sampled model of a local observer's cluster in ``mode`` and its decoupling (module docstring).
+
+    In a mode that adds an inter-cluster link at an agent without outside neighbour, ``E_d``
+    has a column more than in the normal mode, and ``H`` differs.
 
     Raises
     ------
@@ -309,10 +314,10 @@ def sampled_cluster_model(system: System, observer: LocalObserver, implementatio
     n = system.n
     gidx = system.idx(nodes)
     rows = gidx + [n + i for i in gidx]
-    Phi, _ = sampled_matrices_exact(system, NORMAL_MODE, impl)
-    # the cluster's block of Phi_1: its rows and columns (the principal block keeps the degrees)
+    Phi, _ = sampled_matrices_exact(system, mode, impl)
+    # the cluster's block of Phi_q: its rows and columns (the principal block keeps the degrees)
     A = exact_columns(_rows(Phi, rows), rows)
-    model = system.cluster_model(observer.cluster, NORMAL_MODE)
+    model = system.cluster_model(observer.cluster, mode)
     bidx = [nodes.index(b) for b in model.boundary]
     h = impl.period
     E = flint.fmpq_mat(2 * k, len(bidx))
@@ -334,8 +339,11 @@ def sampled_cluster_model(system: System, observer: LocalObserver, implementatio
     return SampledClusterModel(name, tuple(rows), A, E, C, H, T, T * A, Cg, ch)
 
 
-def design_sampled_uio(system: System, observer: LocalObserver, implementation: ImplementationSpec | None = None) -> SampledObserver:
-    """The local UIO of the sampled implementation (module docstring), normal mode.
+def design_sampled_uio(
+    system: System, observer: LocalObserver, implementation: ImplementationSpec | None = None, *, mode: str = NORMAL_MODE
+) -> SampledObserver:
+    """The local UIO of the sampled implementation (module docstring), designed for ``mode``
+    (default the normal mode: what runs before any switch).
 
     Raises
     ------
@@ -345,12 +353,12 @@ def design_sampled_uio(system: System, observer: LocalObserver, implementation: 
         ``(T A_d, C)`` is not detectable (no stabilising Riccati solution).
     """
     impl = implementation_of(system, implementation)
-    m = sampled_cluster_model(system, observer, impl)
+    m = sampled_cluster_model(system, observer, impl, mode=mode)
     name, rows, A, C, H, T, Abar, Cg, ch = m.name, list(m.rows), m.A, m.C, m.H, m.T, m.Abar, m.C_global, m.channels
     k = len(rows) // 2
     n = system.n
     p = C.nrows()
-    _, Gam = sampled_matrices_exact(system, NORMAL_MODE, impl)
+    _, Gam = sampled_matrices_exact(system, mode, impl)
     try:
         K1 = to_exact(_kalman(to_float(Abar), to_float(C)))
     except (np.linalg.LinAlgError, ValueError) as exc:

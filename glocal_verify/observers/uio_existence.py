@@ -20,7 +20,7 @@ import flint
 
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.numerics import exact as ex
-from glocal_verify.numerics.hurwitz import matrix_operator
+from glocal_verify.numerics.hurwitz import matrix_operator, routh_hurwitz
 from glocal_verify.numerics.threads import single_threaded
 from glocal_verify.numerics.tolerance import (
     DEFAULT_TOLERANCE,
@@ -38,7 +38,6 @@ __all__ = [
     "cluster_detectability",
     "decoupling",
     "default_poles",
-    "is_hurwitz_exact",
     "observable_split",
     "uio_existence",
     "uio_existence_exact",
@@ -506,33 +505,6 @@ def cluster_detectability(
 # exact existence
 
 
-def is_hurwitz_exact(coeffs: Sequence[Fraction]) -> bool:
-    """Routh-Hurwitz test over Q: all roots of sum c_k s^k (``coeffs`` lowest degree first)
-    have negative real part. A zero in the first column means a root with Re >= 0."""
-    c = [Fraction(x) for x in coeffs]
-    while c and c[-1] == 0:
-        c.pop()
-    if not c:
-        return False
-    deg = len(c) - 1
-    if deg == 0:
-        return True
-    hi = list(reversed(c))  # a_n, a_{n-1}, ..., a_0
-    r0 = hi[0::2]
-    r1 = hi[1::2]
-    rows = [r0, r1 + [Fraction(0)] * (len(r0) - len(r1))]
-    for _ in range(deg - 1):
-        a, b = rows[-2], rows[-1]
-        if b[0] == 0:
-            return False
-        new = [(b[0] * a[k + 1] - a[0] * b[k + 1]) / b[0] for k in range(len(a) - 1)] + [Fraction(0)]
-        rows.append(new)
-    first = [r[0] for r in rows[: deg + 1]]
-    if any(x == 0 for x in first):
-        return False
-    return all(x > 0 for x in first) or all(x < 0 for x in first)
-
-
 @dataclass(frozen=True, slots=True)
 class _ExactExistence:
     status: Status
@@ -575,7 +547,7 @@ def uio_existence_exact(A: ex.Rows, E: ex.Rows, C: ex.Rows, *, _reference: bool 
     hq = [[ex.to_fraction(x) for x in h.entries()[i * h.ncols() : (i + 1) * h.ncols()]] for i in range(h.nrows())]
     if k == 0:
         return _ExactExistence(Status.HOLDS, Status.HOLDS, rE, rCE, 0, [Fraction(1)], hq)
-    st = Status.HOLDS if is_hurwitz_exact(coeffs) else Status.FAILS
+    st = Status.HOLDS if routh_hurwitz(coeffs[::-1]) else Status.FAILS
     return _ExactExistence(st, Status.HOLDS, rE, rCE, k, coeffs, hq)
 
 
@@ -636,5 +608,5 @@ def _uio_existence_exact_reference(A: ex.Rows, E: ex.Rows, C: ex.Rows) -> _Exact
     X = (Nb.transpose() * Nb).inv() * (Nb.transpose() * (A1 * Nb))
     p = X.charpoly()
     coeffs = [ex.to_fraction(p[k]) for k in range(p.degree() + 1)]
-    st = Status.HOLDS if is_hurwitz_exact(coeffs) else Status.FAILS
+    st = Status.HOLDS if routh_hurwitz(coeffs[::-1]) else Status.FAILS
     return _ExactExistence(st, Status.HOLDS, rE, rCE, len(N), coeffs, hq)

@@ -46,9 +46,9 @@ import numpy as np
 import scipy.sparse
 
 from glocal_verify import config
-from glocal_verify.analysis.local.cluster_modal import EPS, InteriorModes, gamma_bound
+from glocal_verify.analysis.local.cluster_modal import InteriorModes
+from glocal_verify.numerics.rounding import EPS, gamma_bound, svd_error
 from glocal_verify.errors import NotApplicableError
-from glocal_verify.numerics.pencil_exact import svd_error
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
 from glocal_verify.observers.uio_existence import (
     _observable_split,
@@ -390,7 +390,7 @@ def _coefficient_sigma_min(B: _Basis) -> float:
     (kept, S-kept, moved), M~ = [[I, X], [0, M_s]] with X = the boundary columns' kept-plane
     coefficients and M_s small (2 |S| + 2 |dP_i|). Then
     ||M~^{-1}||_2 <= 1 + sqrt(1 + ||X||_F^2) / sigma_min(M_s), with sigma_min(M_s) from its SVD
-    minus :func:`~glocal_verify.numerics.pencil_exact.svd_error`.
+    minus :func:`~glocal_verify.numerics.rounding.svd_error`.
     """
     nS, nb = len(B.S), B.nb
     k = 2 * nS + 2 * nb

@@ -34,11 +34,9 @@ from glocal_verify.analysis.local.cases import (
 from glocal_verify.analysis.local.pencil import witness_number
 from glocal_verify.derived import Kind
 from glocal_verify.model import ClusterModel, LocalObserver, System
-from glocal_verify.numerics.pencil_exact import (
-    hurwitz_enclosure,
-    rank_bounds,
-    rounding_error,
-)
+from glocal_verify.numerics.hurwitz import hurwitz_enclosure
+from glocal_verify.numerics.pencil_exact import rank_bounds, rounding_error
+from glocal_verify.numerics.rounding import EPS, gamma_bound
 from glocal_verify.numerics.threads import single_threaded
 from glocal_verify.numerics.tolerance import (
     DEFAULT_TOLERANCE,
@@ -146,7 +144,7 @@ def _uio_certificate(system: System, case: LocalCase, cm: ClusterModel, C: np.nd
     K1 itself: F_exact = (I - h C) A_exact - K1 C Hurwitz (a certificate that the unobservable
     modes are stable), with ||fl(F) - F_exact||_2 bounded by the rounding of A^i (rational
     differences), the rounding of the products (gamma_n bounds) and of the subtraction, and the
-    eigenvalues enclosed by :func:`~glocal_verify.numerics.pencil_exact.hurwitz_enclosure`.
+    eigenvalues enclosed by :func:`~glocal_verify.numerics.hurwitz.hurwitz_enclosure`.
     """
     E = cm.E
     n = E.shape[0]
@@ -164,14 +162,13 @@ def _uio_certificate(system: System, case: LocalCase, cm: ClusterModel, C: np.nd
     P = np.eye(n) - h @ C
     sub = LocalCase(cm, case.observer, case.kind, case.suspected, mode)
     A_ex, A, support = exact_A_float(system, sub)
-    eps = float(np.finfo(float).eps)
-    g = n * eps / (1.0 - n * eps)
+    g = gamma_bound(2 * n)  # n eps / (1 - n eps)
     A1 = P @ A
     K1C = K1 @ C
     Fm = A1 - K1C
     dA = rounding_error(A, A_ex, support=support)
-    delta = float(np.linalg.norm(P, 2)) * dA * (1 + 4 * eps) + g * float(np.linalg.norm(np.abs(P) @ np.abs(A))) + g * float(np.linalg.norm(np.abs(K1) @ np.abs(C)))
-    delta = (delta + eps * float(np.linalg.norm(Fm))) * (1.0 + 8 * eps)
+    delta = float(np.linalg.norm(P, 2)) * dA * (1 + 4 * EPS) + g * float(np.linalg.norm(np.abs(P) @ np.abs(A))) + g * float(np.linalg.norm(np.abs(K1) @ np.abs(C)))
+    delta = (delta + EPS * float(np.linalg.norm(Fm))) * (1.0 + 8 * EPS)
     enc = hurwitz_enclosure(Fm, delta)
     out["error_bound"] = enc.radius
     out["spectral_abscissa_upper"] = enc.max_real_upper

@@ -38,7 +38,9 @@ import numpy as np
 from glocal_verify.errors import ArgumentError, GlocalVerifyError, shorten
 from glocal_verify.extra.matlab import mat_bytes, read_mat
 from glocal_verify.reporting.output import check_output_file, write_bytes_atomic
+from glocal_verify.simulation.certified_thresholds import ROUNDING
 from glocal_verify.simulation.deployment import CentralDesign, Deployment, LocalDesign
+from glocal_verify.simulation.sampled_deployment import ALGORITHM1, SampledDeployment
 from glocal_verify.spec.arguments import instance_arg
 from glocal_verify.spec.types import NORMAL_MODE, Label
 from glocal_verify.version import __version__
@@ -47,6 +49,7 @@ __all__ = [
     "EXPORT_FORMATS",
     "SCHEMA",
     "SCHEMA_VERSION",
+    "READABLE_VERSIONS",
     "ExportError",
     "deployment_tree",
     "export_observers",
@@ -56,16 +59,30 @@ __all__ = [
 #: the schema's name, stored in every file (``schema``)
 SCHEMA = "glocal-verify.observers"
 #: the schema's version (``schema_version``); docs/export.md says what each version holds
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+#: the versions :func:`read_deployment` reads (1: no per-mode decoupling matrices, no sampled section)
+READABLE_VERSIONS = (1, 2)
 #: the file formats, by the name ``--format`` takes (and the file suffix it implies)
 EXPORT_FORMATS = ("mat", "json", "npz")
 
 # the kinds of the schema's leaves, by field name (what read_deployment restores)
-_TEXT = frozenset({"schema", "generator", "name", "label_type", "state", "mode", "method", "note", "cluster", "center", "hurwitz", "kind", "description", "equations"})
-_TEXTS = frozenset({"labels", "positions", "velocities", "channels", "nodes", "notes", "u", "v"})
-_NUMBER = frozenset({"schema_version", "n", "alpha", "gamma", "present", "stability_margin", "hurwitz_margin", "box", "rounding", "time", "horizon", "step"})
-_VECTOR = frozenset({"eigenvalues_re", "eigenvalues_im", "t", "delta"})
-_RECORDS = frozenset({"modes", "local", "designs", "segments", "observers", "switches"})
+_TEXT = frozenset(
+    {
+        "schema", "generator", "name", "label_type", "state", "mode", "method", "note", "cluster", "center", "hurwitz", "kind", "description",
+        "equations", "controller", "start_state", "algorithm1", "safe_mode", "initial", "status", "detected_by", "channel", "observer", "assumes",
+        "attack_kind",
+    }
+)  # fmt: skip
+_TEXTS = frozenset({"labels", "positions", "velocities", "channels", "nodes", "notes", "u", "v", "not_decoupled", "noise_channels", "attack_actuators"})
+_NUMBER = frozenset(
+    {
+        "schema_version", "n", "alpha", "gamma", "present", "stability_margin", "hurwitz_margin", "box", "rounding", "time", "horizon", "step",
+        "period", "switch_delay", "disturbance", "within", "global_within", "global_detection", "min_size", "size_horizon", "size", "sample",
+        "guaranteed_sample", "attack_start", "samples",
+    }
+)  # fmt: skip
+_VECTOR = frozenset({"eigenvalues_re", "eigenvalues_im", "t", "delta", "tail", "noise", "noise_std", "switch_window", "covered"})
+_RECORDS = frozenset({"modes", "local", "designs", "segments", "observers", "switches", "detectors", "blocks"})
 
 
 class ExportError(GlocalVerifyError, ValueError):
@@ -108,13 +125,32 @@ def _central(co: CentralDesign | None, note: str) -> dict[str, Any]:
     }
 
 
+def _uio_fields(u: Any) -> dict[str, Any]:
+    """The design matrices of one UIO (eqs. uio_conds_1-uio_conds_3) and its certified spectrum."""
+    return {
+        "A": u.A,
+        "E": u.E,
+        "h": u.h,
+        "T": u.T,
+        "A1": u.A1,
+        "K1": u.K1,
+        "F": u.F,
+        "K": u.K,
+        **_complex(np.asarray(u.eigenvalues, dtype=complex)),
+        "hurwitz_margin": float(u.hurwitz_margin),
+        "hurwitz": u.hurwitz.value,
+    }
+
+
 def _local(d: LocalDesign) -> dict[str, Any]:
     u = d.uio
     return {
         "name": d.name,
         "cluster": u.cluster,
         "center": _text(u.center),
-        "equations": "dz/dt = F z + K y, x_hat = z + h y, r = y - C_loc x_hat = Ry y - Rz z, z(0) = -h y(0), y = C_loc S x",
+        "equations": "in mode q (designs[.].mode, else the normal-mode fields): dz/dt = F_q z + K_q y, x_hat = z + h_q y, "
+        "r = y - C_loc x_hat = Ry_q y - Rz z, y = C_loc S x; z(0) = -h y(0) (x_hat(0) = 0); "
+        "at a switch from mode p to mode q: z <- z + (h_p - h_q) y (x_hat stays continuous)",
         "nodes": _texts(u.nodes),
         "positions": _texts(u.positions),
         "velocities": _texts(u.velocities),
@@ -131,12 +167,106 @@ def _local(d: LocalDesign) -> dict[str, Any]:
         "K": d.K,
         "Ry": d.Ry,
         "Rz": d.Rz,
-        "designs": [{"mode": g.mode, "F": g.F, "K": g.K} for g in d.designs],
+        "designs": [{"mode": g.mode, **_uio_fields(g.uio), "Ry": g.Ry, "reset": g.reset} for g in d.designs],
+        "not_decoupled": [m for m, _ in d.not_decoupled],
         **_complex(np.asarray(u.eigenvalues, dtype=complex)),
         "hurwitz_margin": float(u.hurwitz_margin),
         "hurwitz": u.hurwitz.value,
         "notes": list(d.notes),
     }
+
+
+def _finite_or(x: Any, default: float = math.nan) -> float:
+    return float(x) if x is not None else default
+
+
+def _sampled(d: SampledDeployment | None, note: str) -> dict[str, Any]:
+    """The sampled deployment: detectors per mode, certified thresholds over the schedule,
+    Algorithm 1 and the guarantee (docs/export.md, "The sampled deployment")."""
+    if d is None:
+        return {"present": 0, "note": note}
+    th = d.thresholds
+    model = th.model
+    spec = model.spec
+    noise_channels = sorted({c for det in d.detectors for c in det.channels})
+    tree: dict[str, Any] = {
+        "present": 1,
+        "note": "",
+        "period": th.period,
+        "switch_delay": int(d.implementation.switch_delay),
+        "controller": d.implementation.controller,
+        "start_state": "z(0) = 0 for every detector (the certified thresholds assume it)",
+        "equations": "z[k+1] = Fo z[k] + Go y[k], r[k] = Ry y[k] - Rz z[k], y[k] = C x(k h) + n[k] (rows: channels), with the matrices of the "
+        "mode active at sample k; when the mode changes from p to q at sample s: z[s] <- z[s] + (H_p - H_q) y[s] before r[s] and the update",
+        "algorithm1": ALGORITHM1,
+        "safe_mode": d.safe_mode or "",
+        "uncertainty": {
+            "initial": model.initial,
+            "box": model.box,
+            "disturbance": model.disturbance,
+            "noise_channels": noise_channels,
+            "noise": model.noise(tuple(noise_channels)) if noise_channels else np.zeros(0),
+            "noise_std": model.sigma(tuple(noise_channels)) if noise_channels else np.zeros(0),
+        },
+        "detectors": [
+            {"name": det.name, "kind": det.kind, "channels": list(det.channels), "C": det.C, "modes": [{"mode": m.mode, "Fo": m.Fo, "Go": m.Go, "Ry": m.Ry, "Rz": m.Rz, "H": m.H} for m in det.modes]}
+            for det in d.detectors
+        ],
+        "thresholds": {
+            "rule": {
+                "kind": "certified",
+                "description": "theta[k, j] is a certified upper bound of |r[k, j]| over every admissible attack-free run: |x(0)|_inf <= box "
+                "(initial = state; or the box of initial estimation errors), |n| <= noise per channel and sample, |d(t)| <= disturbance, "
+                "detectors from z(0) = 0 running the equations above (rounding allowance 1e-9 of the uncertainty scale), the "
+                "defender's schedule; a residual above it is an alarm",
+                "rounding": ROUNDING,
+                "assumes": "the spec's [uncertainty] (box, noise, disturbance); z(0) = 0; the switches of schedule.segments at the samples "
+                "ceil(time / period); a non-finite theta (null in JSON) promises nothing there",
+            },
+            "samples": th.samples,
+            "t": np.arange(th.samples) * th.period,
+            "segments": [{"sample": s, "time": s * th.period, "mode": m} for s, m in th.segments],
+            "observers": [
+                {"name": ds.name, "channels": list(ds.channels), "theta": ds.theta, "tail": ds.tail, "covered": np.array([1.0 if c else 0.0 for _, _, c in ds.segments])}
+                for ds in th.detectors.values()
+            ],
+        },
+        "after_switch": {"present": 0, "mode": d.safe_mode or ""},
+        "guarantee": {"present": 0},
+        "notes": list(d.notes),
+    }
+    a = th.after_switch
+    if a is not None:
+        tree["after_switch"] = {
+            "present": 1,
+            "mode": a.mode,
+            "description": "the control centre's threshold m = k - s samples after Algorithm 1's switch at sample s: the block whose sample is "
+            "the largest at or below s, theta[m] for m < rows, tail after",
+            "blocks": [{"sample": s0, "theta": t, "tail": tl} for s0, t, tl in zip(a.starts, a.theta, a.tail)],
+        }
+    g = d.guarantee
+    if g is not None:
+        tree["guarantee"] = {
+            "present": 1,
+            "status": g.status.value,
+            "attack_kind": str(g.attack.get("kind", "")),
+            "attack_actuators": [str(x) for x in g.attack.get("actuators", [])],
+            "attack_start": g.attack.get("start_sample", 0),
+            "size": g.size,
+            "detected_by": g.detected_by or "",
+            "within": _finite_or(g.within),
+            "switch_window": np.array(g.switch_window if g.switch_window else [math.nan, math.nan], dtype=float),
+            "global_within": _finite_or(g.global_within),
+            "global_detection": _finite_or(g.global_detection),
+            "min_size": _finite_or(g.min_size),
+            "size_horizon": g.size_horizon,
+            "local": [
+                {"observer": st.observer, "guaranteed_sample": _finite_or(st.guaranteed), "within": _finite_or(st.within), "channel": st.channel or "", "min_size": _finite_or(st.min_size)}
+                for st in g.local
+            ],
+            "notes": list(g.notes),
+        }
+    return tree
 
 
 def deployment_tree(deployment: Deployment) -> dict[str, Any]:
@@ -201,6 +331,7 @@ def deployment_tree(deployment: Deployment) -> dict[str, Any]:
             "segments": [{"time": float(t), "mode": m} for t, m in d.schedule.segments],
             "switches": switches,
         },
+        "sampled": _sampled(d.sampled, "the spec has no [implementation] with a sampled controller" if d.sampled is None else ""),
         "notes": list(d.notes),
     }
 
@@ -378,7 +509,7 @@ def _restore(key: str, x: Any) -> Any:
     if key in _NUMBER:
         flat = np.asarray(np.nan if x is None else x, dtype=float).reshape(-1)
         v = float(flat[0]) if flat.size else math.nan
-        return int(v) if key in ("schema_version", "n", "present") else v
+        return int(v) if key in ("schema_version", "n", "present", "sample", "samples", "switch_delay") and math.isfinite(v) else v
     if key in _VECTOR:
         return np.asarray(x, dtype=float).reshape(-1)
     return np.atleast_2d(np.asarray(x, dtype=float))
@@ -456,6 +587,9 @@ def read_deployment(path: str | Path) -> dict[str, Any]:
         # JSONDecodeError, zlib.error, zipfile.BadZipFile, scipy's MatReadError, EOFError,
         # RecursionError, KeyError, OverflowError ...): one line naming the file and the cause
         raise ExportError(f"{shorten(str(p), 120)}: not a readable {fmt} deployment file ({type(exc).__name__}: {shorten(str(exc), 120)})") from None
-    if tree.get("schema") != SCHEMA or not _small_int(tree.get("schema_version")) or int(tree["schema_version"]) > SCHEMA_VERSION:
-        raise ExportError(f"{shorten(str(p), 120)}: not a {SCHEMA} file of version <= {SCHEMA_VERSION} (schema {shorten(repr(tree.get('schema')), 60)}, version {shorten(repr(tree.get('schema_version')), 30)})")
+    if tree.get("schema") != SCHEMA or not _small_int(tree.get("schema_version")) or int(tree["schema_version"]) not in READABLE_VERSIONS:
+        raise ExportError(
+            f"{shorten(str(p), 120)}: not a {SCHEMA} file of version {' or '.join(map(str, READABLE_VERSIONS))} "
+            f"(schema {shorten(repr(tree.get('schema')), 60)}, version {shorten(repr(tree.get('schema_version')), 30)}); export it again with glocal-verify {__version__}"
+        )
     return tree

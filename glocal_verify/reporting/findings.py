@@ -6,6 +6,8 @@ The specs are verified by :func:`glocal_verify.design.findings.verify_findings`;
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
 from typing import Any, Sequence
 
 from glocal_verify.design.findings import PROOFS_INSTALL, TEXTUAL_FINDINGS, FindingsCheck
@@ -15,8 +17,33 @@ from glocal_verify.results import json_preview
 __all__ = ["findings_markdown"]
 
 
+#: significant digits of a float in a witness preview, and the magnitude below which it is
+#: rounding noise (an eigenvalue that is zero over Q comes out as +-1e-15): the report is
+#: then the same byte for byte whatever BLAS computed the last digits
+PREVIEW_DIGITS = 4
+PREVIEW_NOISE = 1e-12
+
+
+def _rounded(obj: Any) -> Any:
+    """``obj`` with every float rounded to :data:`PREVIEW_DIGITS` significant digits (0 below :data:`PREVIEW_NOISE`)."""
+    if isinstance(obj, bool) or obj is None or isinstance(obj, (int, str)):
+        return obj
+    if isinstance(obj, float) or hasattr(obj, "dtype") and getattr(obj, "ndim", 1) == 0:
+        x = float(obj)
+        if not math.isfinite(x):
+            return x
+        return 0.0 if abs(x) < PREVIEW_NOISE else float(f"{x:.{PREVIEW_DIGITS}g}")
+    if isinstance(obj, Mapping):
+        return {k: _rounded(v) for k, v in obj.items()}
+    if hasattr(obj, "tolist"):
+        return _rounded(obj.tolist())
+    if isinstance(obj, (list, tuple)):
+        return [_rounded(v) for v in obj]
+    return obj
+
+
 def _short(obj: Any, limit: int = 140) -> str:
-    return json_preview(obj, limit)
+    return json_preview(_rounded(obj), limit)
 
 
 def findings_markdown(check: FindingsCheck, extra: Sequence[tuple[str, str, str]] = ()) -> str:

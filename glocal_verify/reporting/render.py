@@ -19,7 +19,7 @@ from glocal_verify.errors import GlocalVerifyError
 from glocal_verify.answer.assessment import Assessment
 from glocal_verify.reporting.assessment import assessment_of
 from glocal_verify.results import ConditionResult, Method, Polarity, Report, json_preview
-from glocal_verify.words import format_labels, format_lambda
+from glocal_verify.words import format_labels, format_lambda, sentence
 
 __all__ = [
     "LEGEND",
@@ -127,7 +127,7 @@ def attack_lines(a: Assessment) -> list[str]:
     """The attack's answer as Markdown lines (shared by the report and the notebook displays)."""
     at = a.attack
     if not at.present:
-        return [f"**Attack (Problem 2).** {at.reason[0].upper() + at.reason[1:] if at.reason else 'not assessed'}"]
+        return [f"**Attack (Problem 2).** {sentence(at.reason or 'not assessed')}"]
     kind = {"zda": "ZDA", "covert": "covert attack"}.get(at.kind or "", "attack")
     lam = ""
     if at.lambda0 is not None:
@@ -135,7 +135,7 @@ def attack_lines(a: Assessment) -> list[str]:
         lam = f" at lambda0 = {format_lambda(at.lambda0)} ({src})"
     who = f"agent{'s' if len(at.actuators) != 1 else ''} {format_labels(at.actuators)}"
     stealth = {True: "yes", False: "**no**: the control centre sees it before any switch", None: "*undecided*"}[at.stealthy]
-    lines = [f"**Attack (Problem 2): {at.verdict}.** The {kind} on {who}{lam}.", "", f"- stealthy to the control centre: {stealth}"]
+    lines = [f"**Attack (Problem 2): {at.verdict_words()}.** The {kind} on {who}{lam}.", "", f"- stealthy to the control centre: {stealth}"]
     if at.stealthy is not False:
         caught = {True: "yes", False: "**no**", None: "*undecided*"}[at.caught_locally]
         lines.append(f"- caught locally: {caught}" + "".join(f"; {c.cluster or 'no cluster'}: {c.reason}" for c in at.clusters))
@@ -185,6 +185,12 @@ def to_markdown(report: Report) -> str:
         lines.append(f"- clusters: {', '.join(s.clusters)}")
     opts = report.options
     lines.append(f"- method: {'exact (rational arithmetic)' if opts.get('exact') else 'numeric'}; rtol = {opts.get('rtol')}, band = {opts.get('band')}")
+    by_reason: dict[str, list[str]] = {}
+    for cid, why in (opts.get("skipped") or {}).items():
+        if cid not in a.not_evaluated:  # those have their row in the summary
+            by_reason.setdefault(why, []).append(f"`{cid}`")
+    for why, ids in by_reason.items():
+        lines.append(f"- not evaluated, {why}: {', '.join(ids)}")
     lines += [
         "",
         "## Summary",

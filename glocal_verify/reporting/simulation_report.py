@@ -40,12 +40,13 @@ def _say(phase: PhaseHook, text: str) -> None:
         phase(text)
 
 
-def _put_run(folder: OutputFolder, system: System, res: Algorithm1Result, stem: str, verdicts: Any, figures: bool) -> list[Path]:
+def _put_run(folder: OutputFolder, system: System, res: Algorithm1Result, stem: str, verdicts: Any, figures: bool, phase: PhaseHook = None) -> list[Path]:
     data = res.to_json()
     if verdicts is not None:
         data["verdicts"] = jsonable(verdicts)
     paths = [folder.write_text(f"{stem}.json", json.dumps(data, indent=2) + "\n")]
     if figures:
+        _say(phase, f"drawing {stem}.png and {stem}.svg (states, residuals and thresholds of the run)")
         from glocal_verify.reporting.figures.canvas import figure_bytes
         from glocal_verify.reporting.figures.simulation import plot_run
 
@@ -155,6 +156,7 @@ def write_cases(
     sections: Sequence[tuple[str, str]] = (),
     figures: bool = True,
     inputs: Sequence[str] = (),
+    phase: PhaseHook = None,
 ) -> list[Path]:
     """Write ``cases.md`` (outcome table and verdicts), ``cases.json``, ``figure2.{png,svg}`` and
     one ``<case>.{json,png,svg}`` per case (``<case>`` is the
@@ -174,9 +176,11 @@ def write_cases(
         Also draw the figures (False: matplotlib is not imported).
     inputs : sequence of str
         Files the command read: none of them may be replaced.
+    phase : callable, optional
+        Told each figure as its drawing starts (drawing is most of the time spent here).
     """
     with OutputFolder(out_dir, inputs=inputs) as folder:
-        _put_cases(folder, outcomes, preamble, findings, sections, figures)
+        _put_cases(folder, outcomes, preamble, findings, sections, figures, phase)
     return folder.written
 
 
@@ -187,10 +191,12 @@ def _put_cases(
     findings: Sequence[str],
     sections: Sequence[tuple[str, str]],
     figures: bool,
+    phase: PhaseHook = None,
 ) -> None:
     for oc in outcomes:
-        _put_run(folder, oc.case.system, oc.result, safe_component(oc.case.name), {"case": oc.to_json() | {"run": None}}, figures)
+        _put_run(folder, oc.case.system, oc.result, safe_component(oc.case.name), {"case": oc.to_json() | {"run": None}}, figures, phase)
     if figures:
+        _say(phase, "drawing figure2.png and figure2.svg (Figure 2: every case side by side)")
         from glocal_verify.reporting.figures.canvas import figure_bytes
         from glocal_verify.reporting.figures.simulation import plot_cases
 
@@ -319,6 +325,6 @@ def write_case_study(
     sections: list[tuple[str, str]] = []
     if study.local_run is not None:
         sections.append(("Algorithm 1 with the local trigger", _local_trigger_section(study.system, study.local_run)))
-    _say(phase, "writing the outcome table" + (" and the figures" if figures else ""))
+    _say(phase, "writing the outcome table (cases.md, cases.json)" + (f" and {2 * len(study.outcomes) + 2} figures" if figures else ""))
     check_output_dir(out_dir, inputs=inputs)
-    return write_cases(study.outcomes, out_dir, preamble=pre, findings=study.findings, sections=sections, figures=figures, inputs=inputs)
+    return write_cases(study.outcomes, out_dir, preamble=pre, findings=study.findings, sections=sections, figures=figures, inputs=inputs, phase=phase)

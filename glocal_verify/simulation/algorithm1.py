@@ -47,6 +47,7 @@ import numpy as np
 
 from glocal_verify.errors import ModelError
 from glocal_verify.model import System
+from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE
 from glocal_verify.results import Status, jsonable
 from glocal_verify.simulation.attacks import AttackModel, attack_from_spec
 from glocal_verify.simulation.engine import simulate, simulate_runs
@@ -178,7 +179,7 @@ def classify_post_switch(
     switch_time: float,
     *,
     observer: str = "central",
-    rounding: float = 1e-9,
+    rounding: float = DEFAULT_TOLERANCE.rtol,
     box: float = 1.0,
 ) -> PostSwitch:
     """Classify the global residual after ``switch_time`` (see :class:`PostSwitch`).

@@ -14,6 +14,7 @@ import numpy as np
 import scipy.linalg
 
 from glocal_verify.analysis.stealthy.covert import channel_label
+from glocal_verify.analysis.stealthy.zda_verdict import zda_direction
 from glocal_verify.errors import ModelError, NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.spec.types import NORMAL_MODE, Label
@@ -236,7 +237,7 @@ def zda_attack(
     ----------
     system : System
     lambda0 : complex, optional
-        Chosen zero; default the one :func:`glocal_verify.analysis.stealthy.zda.zda_direction` picks.
+        Chosen zero; default the one :func:`glocal_verify.analysis.stealthy.zda_verdict.zda_direction` picks (the witness of ``stealthy.zda``'s rule).
     amplitude : float
         Scale of the direction (:func:`zda_attack_from_direction`).
     start : float
@@ -247,10 +248,6 @@ def zda_attack(
     NotApplicableError
         When no ZDA exists at ``lambda0`` (or ``stealthy`` is not available).
     """
-    try:
-        from glocal_verify.analysis.stealthy.zda import zda_direction  # type: ignore[attr-defined]
-    except ImportError as exc:  # pragma: no cover - depends on the other module landing
-        raise NotApplicableError(f"glocal_verify.conditions.stealthy is not available ({exc})") from None
     d = zda_direction(system, lambda0)
     if d is None:
         where = f" at lambda0 = {lambda0}" if lambda0 is not None else ""

@@ -77,6 +77,7 @@ __all__ = [
     "CertifiedThresholds",
     "certified_thresholds",
     "disturbance_support",
+    "disturbance_rows",
 ]
 
 #: the detectors' rounding allowance, relative to the uncertainty scale (the project's rtol)
@@ -143,6 +144,22 @@ def disturbance_support(a: np.ndarray, b: np.ndarray, h: float) -> np.ndarray:
         cross = (t0 > 0) & (t0 < h)
         split = (b * b + (a * h + b) ** 2) / (2 * np.abs(np.where(a != 0, a, 1.0)))
     return np.where(cross, split, out)
+
+
+def disturbance_rows(rows: RowSequence, Gw: Any, dbar: float, h: float, K: int) -> np.ndarray:
+    """Certified upper bounds of the disturbance's worst effect through each row, (K, q):
+    ``dbar sum_a int_0^h |(ell_m Gw)_a t + (ell_m Gw)_{N+a}| dt`` for m < K (module docstring),
+    with the rows' errors and the product's rounding through the Lipschitz bound
+    ``|da| h^2/2 + |db| h``."""
+    Gf, Gwe = exact_to_float(Gw)
+    n = Gf.shape[1] // 2
+    mid = rows.mid[:K]
+    G = mid @ Gf  # (K, q, 2N)
+    sup = disturbance_support(G[..., :n], G[..., n:], h).sum(axis=2)
+    lip = max(h * h / 2, h)
+    colmax = (np.abs(Gf) + Gwe).max(axis=0).sum() if Gf.size else 0.0
+    dev = gamma_bound(Gf.shape[0] + 1) * (np.abs(mid) @ np.abs(Gf)).sum(axis=2) + (np.abs(mid) @ Gwe).sum(axis=2) + rows.err[:K] * colmax
+    return upper(dbar * (sup * (1 + 16 * gamma_bound(8)) + lip * dev), 2 * n + 8)  # type: ignore[no-any-return]
 
 
 @dataclass(frozen=True, slots=True)
@@ -302,13 +319,7 @@ def _threshold_of(obs: SampledObserver, model: UncertaintyModel, h: float, K: in
     Gw, Gwe = exact_to_float(obs.Gw)
     n = Gw.shape[1] // 2
     if model.disturbance > 0 and n:
-        G = rows.mid[:K] @ Gw  # (K, q, 2N)
-        sup = disturbance_support(G[..., :n], G[..., n:], h).sum(axis=2)
-        # the rows' errors and the product's rounding, through the Lipschitz bound |da| h^2/2 + |db| h
-        lip = max(h * h / 2, h)
-        colmax = (np.abs(Gw) + Gwe).max(axis=0).sum() if Gw.size else 0.0
-        dev = gamma_bound(Gw.shape[0] + 1) * (np.abs(rows.mid[:K]) @ np.abs(Gw)).sum(axis=2) + (np.abs(rows.mid[:K]) @ Gwe).sum(axis=2) + rows.err[:K] * colmax
-        per = upper(model.disturbance * (sup * (1 + 16 * gamma_bound(8)) + lip * dev), 2 * n + 8)
+        per = disturbance_rows(rows, obs.Gw, model.disturbance, h, K)
         dist[1:] = upper(np.cumsum(per[: K - 1], axis=0), K + 2)
     bound = init + noise + dist
     # tails

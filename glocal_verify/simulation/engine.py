@@ -63,9 +63,11 @@ Conventions (documented choices the paper leaves open):
   (Proposition II.4 (ii)) this is the paper's :math:`x_0 = \\bar x_0 + \\tilde x_0`; for
   :math:`t_a > 0` it is a jump of the unknown part of the state, the only way to keep
   :math:`C \\tilde x \\equiv 0`;
-* after a switch the local observers run the design for the mode-matched cluster matrix
-  :math:`A^i_q` (the local centre triggered the switch and knows it; eq. ``obs_decent`` has
-  :math:`F_\\sigma`), while the centralized observer keeps the normal-mode model
+* after a switch the local observers run the design for the mode-matched cluster matrices
+  :math:`A^i_q`, :math:`E^i_q` (the local centre triggered the switch and knows it; eq.
+  ``obs_decent`` has :math:`F_\\sigma`); where the decoupling matrix changes, the observer state
+  is reset at the switch, :math:`z \\leftarrow z + (h_p - h_q) y`, so the estimate stays
+  continuous (:meth:`ObserverModel.reset`), while the centralized observer keeps the normal-mode model
   (eq. ``obs_cent``; the attacker likewise keeps :math:`A_1`, Assumption II.1 (iii));
 * a covert attacker's copy starts from :math:`\\tilde x(t_a) = 0` (Assumption II.1 (ii)).
 
@@ -206,17 +208,37 @@ class _DenseEngine:
         self.key: tuple[str, bool] | None = None
         self.cache: dict[tuple[str, bool, float], np.ndarray] = {}
         self.R: dict[str, np.ndarray] = {}
-        for o in st.bank:
-            R = np.zeros((o.Ry.shape[0], off))
-            RyC = o.Ry @ o.C
-            R[:, self.ox : self.ox + n2] = RyC
-            if st.copy:
-                R[:, self.oc : self.oc + n2] = -o.Ry @ st.spoof[o.name] @ o.C
-            z = self.oz[o.name]
-            R[:, z : z + o.order] = -o.Rz
-            self.R[o.name] = R
+        self._R_modes: dict[str, dict[str, np.ndarray]] = {}
+        self.R = self._residual_rows(NORMAL_MODE)
         # the rows whose 2-norm is the state scale (everything but the exosystem)
         self.scale_rows = slice(st.m, off)
+
+    def _residual_rows(self, mode: str) -> dict[str, np.ndarray]:
+        """Per observer, the rows of the augmented state giving its residual in ``mode``."""
+        got = self._R_modes.get(mode)
+        if got is not None:
+            return got
+        st, n2, off = self.st, 2 * self.st.n, self.dim
+        out: dict[str, np.ndarray] = {}
+        for o in st.bank:
+            Ry = o.output_map(mode)
+            R = np.zeros((Ry.shape[0], off))
+            R[:, self.ox : self.ox + n2] = Ry @ o.C
+            if st.copy:
+                R[:, self.oc : self.oc + n2] = -Ry @ st.spoof[o.name] @ o.C
+            z = self.oz[o.name]
+            R[:, z : z + o.order] = -o.Rz
+            out[o.name] = R
+        self._R_modes[mode] = out
+        return out
+
+    def _measured(self, o: ObserverModel) -> np.ndarray:
+        """The observer's measurement y (p x batch) at the current state (spoofed channels included)."""
+        st, n2 = self.st, 2 * self.st.n
+        y = o.C @ self.s[self.ox : self.ox + n2]
+        if st.copy:
+            y = y - st.spoof[o.name] @ o.C @ self.s[self.oc : self.oc + n2]
+        return y
 
     def start(self, x0: np.ndarray) -> None:
         st, n2 = self.st, 2 * self.st.n
@@ -251,8 +273,15 @@ class _DenseEngine:
         return M
 
     def enter(self, mode: str, active: bool) -> None:
+        if self.key is not None and self.key[0] != mode:
+            for o in self.st.bank:
+                D = o.reset(self.key[0], mode)
+                if D is not None:  # z <- z + (h_p - h_q) y: the estimate stays continuous
+                    z = self.oz[o.name]
+                    self.s[z : z + o.order] += D @ self._measured(o)
         self.key = (mode, active)
         self.M = self.matrix(mode, active)
+        self.R = self._residual_rows(mode)
 
     def jump(self, offset: np.ndarray) -> None:
         n2 = 2 * self.st.n
@@ -361,6 +390,14 @@ class _ModalEngine:
         self.deriv = None
 
     def enter(self, mode: str, active: bool) -> None:
+        if self.mode is not None and self.mode != mode:
+            resets = [(o, o.reset(self.mode, mode)) for o in self.st.bank]
+            if any(D is not None for _, D in resets):
+                (Y,) = self._derivatives()
+                rows = dict(self.rows)
+                for o, D in resets:
+                    if D is not None:  # z <- z + (h_p - h_q) y: the estimate stays continuous
+                        self.z[o.name] = self.z[o.name] + D @ Y[0][rows[o.name]]
         self._set_basis(mode)
         self.mode, self.active = mode, active
         self.mu = self.st.system.spectrum(mode).values
@@ -498,7 +535,7 @@ class _ModalEngine:
         r: dict[str, np.ndarray] = {}
         rows = dict(self.rows)
         for o in self.st.bank:
-            r[o.name] = o.Ry @ y0[rows[o.name]] - o.Rz @ self.z[o.name]
+            r[o.name] = o.output_map(self.mode or NORMAL_MODE) @ y0[rows[o.name]] - o.Rz @ self.z[o.name]
         sq = np.sum(self.p**2, axis=0) + np.sum(self.v**2, axis=0)
         if self.st.copy:
             sq += np.sum(self.pt**2, axis=0) + np.sum(self.vt**2, axis=0)

@@ -453,7 +453,7 @@ def envelope_by_rows(
         with blas_threads(1):
             m1 = len(seg_k[0])
             if len(starts) == 2 and m1 and seg_k[1] == list(range(m1, K + 1)) and abs(t_grid[m1] - stops[0]) <= tol:
-                if _same_observer_step(steps.step(modes[0], h), steps.step(modes[1], h)):
+                if o.reset(modes[0], modes[1]) is None and _same_observer_step(steps.step(modes[0], h), steps.step(modes[1], h)):
                     report(f"{label}: rows continued across the switch at t = {stops[0]:g} s ({modes[0]} -> {modes[1]})", 0)
                     _across_the_switch(steps, (modes[0], modes[1]), m1, K, box, env, plant, report)
                     continue
@@ -489,7 +489,8 @@ def _segments(
         last = j == len(starts) - 1
         report(f"{label}, segment {j + 1}/{len(starts)} ({mode})", 0)
         cp, cv = steps.output_rows(mode)
-        start = (o.Ry @ cp, o.Ry @ cv, -np.array(o.Rz, dtype=float))
+        Ry = o.output_map(mode)
+        start = (Ry @ cp, Ry @ cv, -np.array(o.Rz, dtype=float))
         d0 = (t_grid[ks[0]] - a) if ks else 0.0
         if ks and d0 > tol:
             start = _rows_after(steps.step(mode, d0), *start)
@@ -534,6 +535,10 @@ def _segments(
             if rest > tol and abs(rest - h) > tol:
                 P = _cols_after(steps.step(mode, rest), P)
         P = _to_dense(plant, j, P, o.order, mode, modes[j + 1])
+        D = o.reset(mode, modes[j + 1])
+        if D is not None:  # z <- z + (h_p - h_q) y at the switch (ObserverModel.reset)
+            cq, vq = steps.output_rows(modes[j + 1])
+            P = _Dense(P.Pp, P.Pv, P.Pz + D @ (cq @ P.Pp + vq @ P.Pv))
 
 
 def _same_observer_step(a: _Step, b: _Step) -> bool:
@@ -644,7 +649,8 @@ def _across_the_switch(
     C = np.empty((nz * q, r))
     G = np.empty((nz * q, len(z0c)))
     cp, cv = steps.output_rows(mode0)
-    Qa, Qb = o.Ry @ cp, o.Ry @ cv
+    Ry0 = o.output_map(mode0)
+    Qa, Qb = Ry0 @ cp, Ry0 @ cv
     s = _doublings(steps, mode0, nz, q, 0)
     done = 0
     for Zc in _z_rows(steps, mode0, -np.array(o.Rz, dtype=float), nz, s):
@@ -677,7 +683,8 @@ def _across_the_switch(
             base = np.matmul(base, base)
     Tb = plant.basis_change(mode0, mode1)
     cp, cv = steps.output_rows(mode1)
-    Qa, Qb = o.Ry @ cp, o.Ry @ cv
+    Ry1 = o.output_map(mode1)
+    Qa, Qb = Ry1 @ cp, Ry1 @ cv
     M2 = K - m + 1
     j0 = 0
     while j0 < M2:

@@ -46,6 +46,7 @@ from typing import Any, Mapping, Sequence
 import flint
 import numpy as np
 
+from glocal_verify import config
 from glocal_verify.analysis.sampled.loop import implementation_of
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
@@ -59,7 +60,6 @@ from glocal_verify.spec.arguments import real_arg
 from glocal_verify.spec.types import NORMAL_MODE, ImplementationSpec, UncertaintySpec
 
 __all__ = [
-    "GUARANTEE_MAX_AGENTS",
     "AttackResponse",
     "attack_response",
     "StageGuarantee",
@@ -67,8 +67,6 @@ __all__ = [
     "detection_guarantee",
 ]
 
-#: largest network for which the dense composites are built
-GUARANTEE_MAX_AGENTS = 150
 #: bits of the complex ball arithmetic of the particular solutions
 _PREC = 128
 
@@ -377,6 +375,8 @@ def detection_guarantee(
     implementation: ImplementationSpec | None = None,
     uncertainty: UncertaintySpec | None = None,
     thresholds: CertifiedThresholds | None = None,
+    after_switch: Any = None,
+    before: int | None = None,
 ) -> DetectionGuarantee:
     """The certified detection guarantee of an attack (module docstring).
 
@@ -397,12 +397,21 @@ def detection_guarantee(
     implementation, uncertainty : optional
     thresholds : CertifiedThresholds, optional
         Reused when already computed for the same system, implementation, uncertainty and horizon.
+    after_switch : AfterSwitchThreshold, optional
+        The control centre's thresholds after Algorithm 1's switch as deployed
+        (:class:`~glocal_verify.simulation.schedule_thresholds.AfterSwitchThreshold`: one per block
+        of switch samples); default the tighter thresholds of each switch sample
+        (:func:`~glocal_verify.simulation.switch_thresholds.post_switch_thresholds`). The
+        guarantee is then about the thresholds the deployment ships.
+    before : int, optional
+        The first sample of the defender's next scheduled switch: alarms before the Algorithm-1
+        switch are guaranteed only before it (the attack's response assumes the normal mode).
 
     Raises
     ------
     NotApplicableError
         Without a sampled implementation or an attack, or on more than
-        :data:`GUARANTEE_MAX_AGENTS` agents.
+        ``guarantee_max_agents`` (:mod:`glocal_verify.config`) agents.
     """
     impl = implementation_of(system, implementation)
     if size is not None:
@@ -411,8 +420,8 @@ def detection_guarantee(
         real_arg("horizon", horizon, 0.0)
     if size_horizon is not None:
         real_arg("size_horizon", size_horizon, 0.0)
-    if system.n > GUARANTEE_MAX_AGENTS:
-        raise NotApplicableError(f"{system.n} agents > {GUARANTEE_MAX_AGENTS}: the dense composites are not built")
+    if system.n > (most := config.get("guarantee_max_agents")):
+        raise NotApplicableError(f"{system.n} agents > {most}: the dense composites are not built")
     th = thresholds if thresholds is not None else certified_thresholds(system, implementation=impl, uncertainty=uncertainty, horizon=horizon)
     atk = attack if attack is not None else sampled_attack_from_spec(system, impl)
     a = float(atk.amplitude if size is None else size)
@@ -432,7 +441,7 @@ def detection_guarantee(
             continue
         r = attack_response(local_composite(system, o, atk), atk, K, name)
         responses[name] = r
-        local.append(_stage(name, o.channels, r, t.theta, a, h, ssz))
+        local.append(_stage(name, o.channels, r, t.theta[:before], a, h, ssz))
     central_before = None
     pre = None
     if "central" in th.observers:
@@ -440,7 +449,7 @@ def detection_guarantee(
             pre = central_composite(system, dets["central"], atk, NORMAL_MODE, impl)
             r0 = attack_response(pre, atk, K, "central")
             responses["central"] = r0
-            central_before = _stage("central", dets["central"].channels, r0, th.observers["central"].theta, a, h, ssz)
+            central_before = _stage("central", dets["central"].channels, r0, th.observers["central"].theta[:before], a, h, ssz)
         except NotApplicableError as exc:
             notes.append(f"central: {exc}")
     stages = [s for s in local + ([central_before] if central_before else []) if s.guaranteed is not None]
@@ -470,7 +479,9 @@ def detection_guarantee(
         guaranteed_local = [s.guaranteed for s in local if s.guaranteed is not None]
         known_zero = [z for z in zero_local if z is not None and z >= 0]
         hi_alarm = min(guaranteed_local) if guaranteed_local else (min(known_zero) if known_zero else None)
-        if hi_alarm is not None:
+        if hi_alarm is not None and before is not None and hi_alarm + d >= before:
+            notes.append(f"the latest Algorithm-1 switch (sample {hi_alarm + d}) may come after the scheduled switch at sample {before}: the control centre's alarm is not analysed")
+        elif hi_alarm is not None:
             S = list(range(ka + d, min(hi_alarm + d, K - 1) + 1))
             zero_switch = (min(known_zero) + d) if (known_zero and all(z is not None and z != -1 for z in zero_local if z is not None)) else None
             if zero_switch is not None and zero_switch < K and zero_switch not in S:
@@ -483,7 +494,11 @@ def detection_guarantee(
                 for s in S:
                     val, err = post_resp[s]
                     lo = np.maximum(np.abs(val) - err, 0.0)
-                    ok = a * lo > (st.theta[s] + st.bound[s]) * (1 + 4 * gamma_bound(2))
+                    if after_switch is not None:
+                        m = np.arange(K - s)
+                        ok = a * lo > (after_switch.at(s, m) + after_switch.bound_at(s, m)) * (1 + 4 * gamma_bound(2))
+                    else:
+                        ok = a * lo > (st.theta[s] + st.bound[s]) * (1 + 4 * gamma_bound(2))
                     k = (s + int(np.argmax(np.any(ok, axis=1)))) if np.any(ok) else None
                     if s <= (hi_alarm + d):
                         per.append((s, k))
@@ -497,7 +512,8 @@ def detection_guarantee(
                 # the zero run: its switch and whether the centre ever crosses
                 if status is not Status.HOLDS and zero_switch is not None and zero_switch in post_resp:
                     val, err = post_resp[zero_switch]
-                    if not np.any(a * (np.abs(val) + err) > st.theta[zero_switch]):
+                    thz = after_switch.at(zero_switch, np.arange(K - zero_switch)) if after_switch is not None else st.theta[zero_switch]
+                    if not np.any(a * (np.abs(val) + err) > thz):
                         status = Status.FAILS
                         notes.append(f"the run with zero initial state, noise and disturbance switches at t = {zero_switch * h:g} s and the control centre's residual stays below its threshold up to the horizon")
     elif pre is not None:

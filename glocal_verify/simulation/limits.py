@@ -4,6 +4,11 @@ The estimates come from the spec alone (horizon, step, sizes, the largest eigenv
 Laplacian), so a run that would exhaust memory or take hours is refused at once with one line
 giving the estimate; :func:`allow_large` lifts the limits for the runs inside it (the CLI's
 ``--allow-large``).
+
+:func:`refuse` is the one refusal of the package: every run refused for its size (a
+simulation, certified thresholds, a command over its time and memory limits in
+:func:`glocal_verify.conditions.cost.check_limits`, a sweep) raises :class:`SizeLimitError`
+there, unless large runs are allowed.
 """
 
 from __future__ import annotations
@@ -12,7 +17,7 @@ import contextlib
 import math
 from contextvars import ContextVar
 from dataclasses import dataclass
-from typing import Iterator
+from typing import Any, Iterator
 
 import numpy as np
 
@@ -24,6 +29,8 @@ from glocal_verify.spec.types import SystemSpec
 
 __all__ = [
     "RHO_MAX",
+    "SizeLimitError",
+    "refuse",
     "THRESHOLD_ARRAYS",
     "SizeEstimate",
     "estimate_size",
@@ -46,6 +53,45 @@ RHO_MAX = 2.0
 
 #: set by :func:`allow_large` for the simulations run inside its ``with`` block
 _ALLOW_LARGE: ContextVar[bool] = ContextVar("glocal_verify_allow_large", default=False)
+
+
+class SizeLimitError(ModelError):
+    """A run whose estimate exceeds a size limit (:func:`refuse`): one line with the estimate.
+
+    Attributes
+    ----------
+    estimate : object or None
+        The estimate refused (a :class:`SizeEstimate`, a ``CostEstimate`` of :mod:`glocal_verify.conditions.cost`).
+    limits : object or None
+        The limits it exceeds (``Limits`` of :mod:`glocal_verify.conditions.cost`), when they are a value.
+    """
+
+    def __init__(self, message: str, estimate: Any = None, limits: Any = None) -> None:
+        super().__init__(message)
+        self.estimate = estimate
+        self.limits = limits
+
+
+def refuse(message: str, *, allow: bool | None = None, estimate: Any = None, limits: Any = None) -> None:
+    """Refuse a run found above a size limit, unless large runs are allowed: the one refusal path.
+
+    Parameters
+    ----------
+    message : str
+        The one line: what, the estimate, the limits and the ways out.
+    allow : bool, optional
+        Allow it anyway (``--allow-large``); default: whether :func:`allow_large` is in force.
+    estimate, limits : object, optional
+        Kept on the error.
+
+    Raises
+    ------
+    SizeLimitError
+        Unless allowed.
+    """
+    if _ALLOW_LARGE.get() if allow is None else allow:
+        return
+    raise SizeLimitError(message, estimate, limits)
 
 
 # --------------------------------------------------------------------------------------------
@@ -175,7 +221,7 @@ THRESHOLD_KNOBS = "shorten simulation.horizon, lengthen implementation.period"
 
 
 def check_size(est: SizeEstimate, *, allow: bool | None = None, what: str = "simulation", knobs: str = SIMULATION_KNOBS) -> None:
-    """Raise :class:`~glocal_verify.errors.ModelError` (one line with the estimate) above
+    """Raise :class:`SizeLimitError` (one line with the estimate, :func:`refuse`) above
     ``simulation_max_samples`` (:mod:`glocal_verify.config`) samples or ``simulation_max_bytes`` (:mod:`glocal_verify.config`) bytes, unless ``allow`` (default: inside
     :func:`allow_large`).
 
@@ -188,12 +234,11 @@ def check_size(est: SizeEstimate, *, allow: bool | None = None, what: str = "sim
     knobs : str
         The spec fields that make it smaller, for the message.
     """
-    if _ALLOW_LARGE.get() if allow is None else allow:
-        return
     if est.samples > config.get("simulation_max_samples") or est.bytes > config.get("simulation_max_bytes"):
-        raise ModelError(
+        refuse(
             f"{what} too large: {est.describe()} (limits {config.get('simulation_max_samples'):.0e} samples, {config.get('simulation_max_bytes') / 1024**3:g} GiB); "
-            f"{knobs} or allow large runs (--allow-large)"
+            f"{knobs} or allow large runs (--allow-large)",
+            allow=allow, estimate=est,
         )
 
 
@@ -218,8 +263,8 @@ def check_stiffness(system: System, horizon: float, step: float, *, allow: bool 
 
     Raises
     ------
-    ModelError
-        Above ``simulation_max_internal_steps`` (:mod:`glocal_verify.config`), one line with the estimate.
+    SizeLimitError
+        Above ``simulation_max_internal_steps`` (:mod:`glocal_verify.config`), one line with the estimate (:func:`refuse`).
     """
     nu = 0.0
     for q in system.modes:
@@ -228,10 +273,11 @@ def check_stiffness(system: System, horizon: float, step: float, *, allow: bool 
         nu = max(nu, math.sqrt(1.0 + (system.alpha * mu) ** 2 + system.gamma**2))
     samples = max(1.0, float(horizon) / float(step))
     steps = samples * max(1.0, math.ceil(nu * float(step) / RHO_MAX))
-    if steps > config.get("simulation_max_internal_steps") and not (_ALLOW_LARGE.get() if allow is None else allow):
-        raise ModelError(
+    if steps > config.get("simulation_max_internal_steps"):
+        refuse(
             f"simulation too stiff: about {steps:.3g} internal steps (||A|| ~ {nu:.3g} against step {step:g}; "
-            f"limit {config.get('simulation_max_internal_steps'):.0e}); shorten the horizon, lower the gains or allow large runs (--allow-large)"
+            f"limit {config.get('simulation_max_internal_steps'):.0e}); shorten the horizon, lower the gains or allow large runs (--allow-large)",
+            allow=allow,
         )
     return int(min(steps, 2**62))
 

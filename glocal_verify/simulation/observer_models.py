@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Iterator, Mapping, Sequence
 
 import numpy as np
 
@@ -12,13 +12,22 @@ from glocal_verify.model import System
 from glocal_verify.simulation.schedule import ANY_MODE
 from glocal_verify.spec.types import NORMAL_MODE, Label
 
+if TYPE_CHECKING:
+    from glocal_verify.observers.uio_modes import ModeDesigns
+
 __all__ = [
+    "NOT_DECOUPLED",
     "cluster_embedding",
+    "local_designs",
+    "local_observer_model",
     "ObserverModel",
     "ObserverBank",
     "central_observer_model",
     "local_observer_models",
 ]
+
+#: the note of a mode in which a local observer keeps its normal-mode design (no UIO for the mode)
+NOT_DECOUPLED = "no UIO for A^i_q, E^i_q: the normal-mode design keeps running and is not decoupled in this mode"
 
 # --------------------------------------------------------------------------------------------
 # observers
@@ -26,7 +35,14 @@ __all__ = [
 
 @dataclass(frozen=True, slots=True)
 class ObserverModel:
-    """An observer as plain matrices: :math:`\\dot z = F_q z + G_q y`, :math:`r = R_y y - R_z z`.
+    """An observer as plain matrices: :math:`\\dot z = F_q z + G_q y`, :math:`r = R_{y,q} y - R_z z`.
+
+    A local UIO estimates :math:`\\hat x = z + h_q y`; its decoupling matrix :math:`h_q` changes
+    in a mode that adds an inter-cluster link at an agent without outside neighbour (a new
+    column of :math:`E^i_q`). Its state is then reset at the switch,
+    :math:`z \\leftarrow z + (h_p - h_q) y`, so that the estimate :math:`\\hat x`, the error
+    :math:`e = x - \\hat x` and the residual stay continuous (:meth:`reset`), and
+    :math:`R_{y,q} = I - R_z h_q` (:meth:`output_map`).
 
     Attributes
     ----------
@@ -50,6 +66,9 @@ class ObserverModel:
     cluster : str or None
     center : label or None
     notes : tuple of str
+    Hy : mapping of str to ndarray
+        Per key of :attr:`F`: the decoupling matrix :math:`h_q` of the estimate
+        :math:`\\hat x = z + h_q y` (empty: ``Ry`` in every mode, no reset).
     """
 
     name: str
@@ -65,6 +84,7 @@ class ObserverModel:
     cluster: str | None = None
     center: Label | None = None
     notes: tuple[str, ...] = ()
+    Hy: Mapping[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def order(self) -> int:
@@ -83,6 +103,25 @@ class ObserverModel:
         """(F, G) in ``mode``."""
         k = self.dynamics_key(mode)
         return self.F[k], self.G[k]
+
+    def output_map(self, mode: str) -> np.ndarray:
+        """``R_y`` in ``mode``: :math:`I - R_z h_q` with the mode's decoupling matrix (``Ry`` without one)."""
+        k = self.dynamics_key(mode)
+        if k == ANY_MODE or k not in self.Hy:
+            return self.Ry
+        return np.eye(self.Ry.shape[0]) - self.Rz @ self.Hy[k]
+
+    def reset(self, before: str, after: str) -> np.ndarray | None:
+        """The reset :math:`z \\leftarrow z + (h_p - h_q) y` at a switch from ``before`` to ``after``
+        (None when the decoupling matrix does not change): it keeps :math:`\\hat x = z + h y`
+        continuous, so the error and the residual do not jump."""
+        if not self.Hy:
+            return None
+        a, b = self.dynamics_key(before), self.dynamics_key(after)
+        if a == b:
+            return None
+        D = self.Hy[a] - self.Hy[b]
+        return D if np.any(D) else None
 
 
 @dataclass(frozen=True, slots=True)
@@ -203,13 +242,55 @@ def cluster_embedding(system: System, nodes: Sequence[Label]) -> np.ndarray:
     return S
 
 
+def local_observer_model(system: System, designs: "ModeDesigns") -> ObserverModel:
+    """The simulated model of one local observer from its designs in every mode
+    (:func:`~glocal_verify.observers.uio_modes.local_uio_modes`).
+
+    The normal-mode design runs in every mode without its own (key :data:`ANY_MODE`); a mode
+    whose decoupling matrix differs carries it in :attr:`ObserverModel.Hy` (reset at the
+    switch, :meth:`ObserverModel.reset`).
+    """
+    base = designs.normal
+    S = cluster_embedding(system, base.nodes)
+    Cg = base.C @ S
+    Fs: dict[str, np.ndarray] = {ANY_MODE: base.F}
+    Gs: dict[str, np.ndarray] = {ANY_MODE: base.K}
+    Hs: dict[str, np.ndarray] = {ANY_MODE: base.h}
+    for mode, d in designs.modes:
+        Fs[mode], Gs[mode], Hs[mode] = d.F, d.K, d.h
+    mnotes = [f"mode {mode}: {NOT_DECOUPLED} ({why})" for mode, why in designs.missing]
+    p = base.C.shape[0]
+    inputs = tuple(f"x:{a}" for a in base.positions) + tuple(f"v:{a}" for a in base.velocities)
+    lo = designs.observer
+    return ObserverModel(
+        designs.name,
+        "local",
+        Cg,
+        Fs,
+        Gs,
+        np.eye(p) - base.C @ base.h,
+        base.C.copy(),
+        -base.h @ Cg,
+        inputs,
+        inputs,
+        lo.cluster,
+        lo.center,
+        tuple(list(base.notes) + mnotes),
+        Hs if any(not np.array_equal(H, base.h) for H in Hs.values()) else {},
+    )
+
+
 def local_observer_models(system: System, *, modes: Sequence[str] | None = None) -> tuple[list[ObserverModel], list[str]]:
-    """One UIO model per local observer of the spec (``uio.local_uio``).
+    """One UIO model per local observer of the spec (:func:`local_observer_model`).
 
     The design for the normal mode is used before the switch; for every other mode whose
-    cluster matrix :math:`A^i_q` differs, the observer is redesigned for :math:`A^i_q` (kept
-    continuous: z and h do not change, since E^i and C_loc do not). If no UIO exists in a safe
-    mode, the normal-mode design keeps running there (noted).
+    cluster matrices :math:`A^i_q`, :math:`E^i_q` differ, the observer is redesigned for them
+    (:func:`~glocal_verify.observers.uio_modes.local_uio_modes`). A mode that adds an
+    inter-cluster link at an agent without outside neighbour adds a column to :math:`E^i_q`, so
+    its decoupling matrix :math:`h_q` differs from the normal mode's: the model carries
+    :math:`h_q` (:attr:`ObserverModel.Hy`) and its state is reset at the switch,
+    :math:`z \\leftarrow z + (h_p - h_q) y`. If no UIO exists in a safe mode, the normal-mode
+    design keeps running there (noted: that observer is not decoupled in that mode).
 
     Parameters
     ----------
@@ -221,52 +302,23 @@ def local_observer_models(system: System, *, modes: Sequence[str] | None = None)
     -------
     (models, notes)
     """
-    from glocal_verify.observers.uio import local_uio
-
     out: list[ObserverModel] = []
     notes: list[str] = []
+    for designs in local_designs(system, modes=modes, notes=notes):
+        out.append(local_observer_model(system, designs))
+    return out, notes
+
+
+def local_designs(system: System, *, modes: Sequence[str] | None = None, notes: list[str] | None = None) -> list["ModeDesigns"]:
+    """:func:`~glocal_verify.observers.uio_modes.local_uio_modes` of every local observer of the
+    spec that has a normal-mode UIO; the others are appended to ``notes``."""
+    from glocal_verify.observers.uio_modes import local_uio_modes
+
+    out = []
     for lo in system.observers():
         try:
-            base = local_uio(system, lo, mode=NORMAL_MODE)
+            out.append(local_uio_modes(system, lo, modes=modes))
         except NotApplicableError as exc:
-            notes.append(f"local observer {lo.cluster}@{lo.center}: {exc}")
-            continue
-        S = cluster_embedding(system, base.nodes)
-        Cg = base.C @ S
-        Fs: dict[str, np.ndarray] = {ANY_MODE: base.F}
-        Gs: dict[str, np.ndarray] = {ANY_MODE: base.K}
-        mnotes: list[str] = []
-        for mode in modes if modes is not None else system.modes:
-            if mode == NORMAL_MODE:
-                continue
-            cm = system.cluster_model(lo.cluster, mode)
-            if np.array_equal(cm.A, base.A):
-                continue
-            try:
-                d = local_uio(system, lo, mode=mode)
-            except NotApplicableError as exc:
-                mnotes.append(f"mode {mode}: no UIO for A^i_q ({exc}); the normal-mode design keeps running")
-                continue
-            if not np.allclose(d.h, base.h, rtol=0, atol=1e-12 * max(1.0, float(np.abs(base.h).max(initial=0.0)))):
-                mnotes.append(f"mode {mode}: h differs from the normal-mode design")
-            Fs[mode], Gs[mode] = d.F, d.K
-        p = base.C.shape[0]
-        inputs = tuple(f"x:{a}" for a in base.positions) + tuple(f"v:{a}" for a in base.velocities)
-        out.append(
-            ObserverModel(
-                f"{lo.cluster}@{lo.center}",
-                "local",
-                Cg,
-                Fs,
-                Gs,
-                np.eye(p) - base.C @ base.h,
-                base.C.copy(),
-                -base.h @ Cg,
-                inputs,
-                inputs,
-                lo.cluster,
-                lo.center,
-                tuple(list(base.notes) + mnotes),
-            )
-        )
-    return out, notes
+            if notes is not None:
+                notes.append(f"local observer {lo.cluster}@{lo.center}: {exc}")
+    return out

@@ -44,6 +44,7 @@ from glocal_verify.results import jsonable
 from glocal_verify.runtime.lines import write_line
 from glocal_verify.simulation.engine import simulate
 from glocal_verify.simulation.envelope import Reporter, envelope_by_rows
+from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE
 from glocal_verify.simulation.observer_models import ObserverBank
 from glocal_verify.simulation.schedule import Schedule, SimulationResult
 from glocal_verify.simulation.step_operators import StepOperators
@@ -80,7 +81,7 @@ class ThresholdRule:
 
     kind: str = "envelope"
     box: float = 1.0
-    rounding: float = 1e-9
+    rounding: float = DEFAULT_TOLERANCE.rtol
     runs: int = 16
     factor: float = 2.0
     seed: int = 12345
@@ -222,6 +223,10 @@ def envelope_by_columns(
 
 
 
+#: at most one progress line per this many seconds off a terminal (as the command's counts)
+LINE_SECONDS = 10.0
+
+
 def _reporter(progress: bool) -> Reporter:
     """``report(phase, samples_done)``: nothing, phase lines (not a terminal) or a tqdm bar."""
     if not progress:
@@ -241,16 +246,29 @@ def _reporter(progress: bool) -> Reporter:
             if phase == "done":
                 bar.close()
                 return
-            if phase:
-                bar.set_description(f"thresholds: {phase}")
+            if phase:  # the detector, not the internal step ("P1@6: the 2N unit states ...")
+                bar.set_description(f"thresholds: {phase.split(':')[0].split(',')[0]}")
             bar.update(n)
 
         return report
     t0 = time.perf_counter()
+    count = {"total": 0, "done": 0, "last": t0}
 
     def line(phase: str, n: int) -> None:
-        if phase and not phase.startswith("total:"):
-            write_line(f"glocal-verify: thresholds: {phase} ({time.perf_counter() - t0:.1f} s)")
+        # off a terminal: a line when the phase starts, at most one per LINE_SECONDS, one at
+        # its end; the internal steps (segments, the unit states, window sums) are not news
+        now = time.perf_counter()
+        if phase.startswith("total:"):
+            count.update(total=int(phase[6:]), done=0, last=now)
+            write_line("glocal-verify: thresholds: bounding every detector's attack-free residual over the horizon ...")
+            return
+        count["done"] += n
+        if phase == "done":
+            write_line(f"glocal-verify: thresholds: done in {now - t0:.1f} s")
+        elif count["total"] and now - count["last"] >= LINE_SECONDS:
+            count["last"] = now
+            share = min(count["done"] / count["total"], 1.0)
+            write_line(f"glocal-verify: thresholds: {100 * share:.0f}% of the samples, {now - t0:.0f} s elapsed")
 
     return line
 

@@ -18,7 +18,8 @@ from hypothesis import strategies as st
 from strategies import assert_numeric_matches_exact
 
 from glocal_verify import System, config
-from glocal_verify.analysis.local.cases import local_cases, zero_count_certificate
+from glocal_verify.analysis.local.cases import local_cases
+from glocal_verify.analysis.local.pencil_rank_certificates import zero_count_certificate
 from glocal_verify.analysis.local.pencil import pencil_verdict_exact
 from glocal_verify.design.generators import ADVERSE_LINKS, ADVERSE_MEASURES, adverse_clustered_spec
 from glocal_verify.errors import SpecError

@@ -8,6 +8,7 @@ zero there with the same growth class, and the reported direction must satisfy t
 
 from __future__ import annotations
 
+import pytest
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -96,6 +97,7 @@ def test_no_zero_is_claimed_when_the_attacked_cluster_has_none() -> None:
     assert pr is None or ea.exists
 
 
+@pytest.mark.slow
 @settings(max_examples=25, deadline=None)
 @given(st.integers(0, 10_000), st.sampled_from([(24, 2), (36, 3), (48, 4)]))
 def test_every_zero_proved_inside_the_attacked_clusters_is_an_exact_zero_of_the_whole_pencil(seed: int, shape: tuple[int, int]) -> None:

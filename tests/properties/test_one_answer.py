@@ -9,6 +9,7 @@ before-table lists; and ``--require`` passes exactly when every required id is f
 
 from __future__ import annotations
 
+import pytest
 import dataclasses
 from typing import Any
 
@@ -85,6 +86,7 @@ def _verify_with(system: System, F: tuple[int, ...]) -> Report:
     return verify(System(dataclasses.replace(spec, attack=attack)), ANSWER_IDS, simulate="never", exact_budget=None)
 
 
+@pytest.mark.slow
 @settings(max_examples=12)
 @given(glocal_specs())
 def test_the_audit_verify_and_designs_before_table_give_one_answer_for_every_small_attacker(data: dict[str, Any]) -> None:

@@ -17,6 +17,7 @@ import numpy as np
 import scipy.sparse
 
 from glocal_verify import config
+from glocal_verify.analysis.local.pencil_rank_certificates import measured_inputs_unknown, observability_certificate, zero_count_certificate
 from glocal_verify.derived import Kind
 from glocal_verify.model import ClusterModel, LocalObserver, System
 from glocal_verify.numerics.minors import RATIONAL_ZERO
@@ -25,6 +26,7 @@ from glocal_verify.spec.types import NORMAL_MODE, Label
 
 __all__ = [
     "LocalCase",
+    "PencilScreen",
     "certificate_verdict",
     "certify_pencil_verdict",
     "exact_int",
@@ -34,10 +36,9 @@ __all__ = [
     "full_pencil_sparse",
     "local_cases",
     "input_output_matrices",
-    "observability_certificate",
-    "zero_count_certificate",
     "pencil_matrices",
     "pencil_matrices_exact",
+    "screened_pencil_verdict",
 ]
 
 #: derived results this module keeps on the system (glocal_verify.derived)
@@ -370,16 +371,6 @@ def _krawczyk_zero(system: System, case: LocalCase, witness: dict[str, Any]) -> 
     return None
 
 
-def _measured_inputs_unknown(case: LocalCase) -> tuple[set[int], set[int], list[int]]:
-    """(M, I, U) in cluster indices: the agents the observer measures (positions or
-    velocities: lam != 0), the input agents (suspected and boundary) and the unmeasured ones."""
-    cm, obs = case.model, case.observer
-    idx = {a: k for k, a in enumerate(cm.nodes)}
-    measured = {idx[a] for a in obs.positions} | {idx[a] for a in obs.velocities}
-    inputs = {idx[a] for a in case.suspected} | {idx[a] for a in cm.boundary}
-    return measured, inputs, [i for i in range(len(cm.nodes)) if i not in measured]
-
-
 def _rational_s_zero(system: System, case: LocalCase, witness: Mapping[str, Any]) -> str | None:
     """An exact rank loss of the reduced pencil at a rational s near a reported zero, or None.
 
@@ -395,7 +386,7 @@ def _rational_s_zero(system: System, case: LocalCase, witness: Mapping[str, Any]
     import flint
 
     cm = case.model
-    measured, inputs, U = _measured_inputs_unknown(case)
+    measured, inputs, U = measured_inputs_unknown(case)
     if not U or len(U) > config.get("exact_rank_max_columns"):
         return None
     rows = [i for i in U if i not in inputs] + sorted(measured - inputs)
@@ -517,102 +508,6 @@ def _alpha_rows(system: System, case: LocalCase, alpha: Fraction) -> list[list[F
     return rows
 
 
-def observability_certificate(system: System, case: LocalCase) -> str | None:
-    """Prove Proposition III.2 (iii) at every lam != 0 by a block Krylov rank modulo a prime, or return None.
-
-    When every input agent (suspected or boundary) is measured, I' = I ∩ U is empty and the
-    reduced pencil of :mod:`glocal_verify.numerics.minors` is
-    ``T(s) = [s I + alpha L[U, U]; alpha L[M', U]]`` (M' = M \\ I): it has full column rank
-    for every complex s iff ``(-alpha L[U, U], L[M', U])`` is observable (Hautus), which the
-    rank n_U of ``[C; C A; ...]`` modulo a prime proves over Q
-    (:func:`~glocal_verify.numerics.krylov.krylov_rank_mod`: reduction never raises a rank).
-    Unlike maximal minors it needs no choice of rows, so factors of parts of G[U] shared by
-    the structured minors cannot hide the proof. lam = 0 is left to the caller.
-
-    Parameters
-    ----------
-    system : System
-    case : LocalCase
-
-    Returns
-    -------
-    str or None
-        The certificate, one line; None proves nothing (an unmeasured input agent, or a rank
-        below n_U modulo the prime).
-    """
-    from glocal_verify.numerics.krylov import krylov_rank_mod
-
-    cm = case.model
-    measured, inputs, U = _measured_inputs_unknown(case)
-    if not inputs <= measured:
-        return None
-    if not U:
-        return "every agent of the cluster is measured: T(s) has no column"
-    pos = {i: k for k, i in enumerate(U)}
-    out = sorted(measured - inputs)
-    alpha = Fraction(system.alpha_q)
-    A: dict[tuple[int, int], Fraction] = {}
-    C: list[dict[int, Fraction]] = [{} for _ in out]
-    orow = {m: k for k, m in enumerate(out)}
-    for (i, j), v in system.cluster_laplacian_entries(cm.name, case.mode).items():
-        if j not in pos:
-            continue
-        if i in pos:
-            A[(pos[i], pos[j])] = -alpha * v
-        elif i in orow:
-            C[orow[i]][pos[j]] = v
-    kr = krylov_rank_mod(len(U), A, C, denominators=(alpha, 1 / alpha) if alpha else ())
-    if not kr.observable:
-        return None
-    return (
-        f"the observability matrix of (alpha L[U, U], L[M', U]) ({len(U)} unmeasured agents, {len(out)} measured rows, "
-        f"{kr.blocks} blocks) has rank {kr.states} modulo the prime {kr.prime}: full column rank for every lambda != 0"
-    )
-
-
-def zero_count_certificate(system: System, case: LocalCase) -> str | None:
-    """Prove Proposition III.2 (iii) at every lam != 0 by the modular zero count of the cluster's pencil in s, or return None.
-
-    With s = lam^2 + gamma lam, a kernel vector of the pencil of eq. ``pencil_uio`` at lam != 0
-    is [xi; lam xi; u] with (s I + alpha L[P_i, P_i]) xi = S_I^T u and S_M xi = 0 (I the
-    suspected and boundary agents, M the agents measured in position or velocity;
-    :mod:`glocal_verify.numerics.minors`), i.e. a kernel vector of the Rosenbrock pencil of
-    (-alpha L[P_i, P_i], S_I^T, S_M, 0) at s. That pencil has full column rank for every complex
-    s iff it is left-invertible and has no finite invariant zero, which
-    :func:`~glocal_verify.numerics.zero_count.zero_count_bound_mod_p` proves by squarings-down
-    modulo a prime (a bound 0 on the number of zeros and a nonzero det(R_1 P(s))). Unlike the
-    maximal minors of :func:`minor_certificate` it needs no choice of rows and no limit on the
-    unmeasured inputs: it serves observers that measure only their neighbours in clusters of
-    hundreds of agents (2 n_c sparse products and O(n_c^2) operations modulo p per case).
-    lam = 0 is left to the caller.
-
-    Parameters
-    ----------
-    system : System
-    case : LocalCase
-
-    Returns
-    -------
-    str or None
-        The certificate, one line; None proves nothing.
-    """
-    from glocal_verify.numerics.zero_count import zero_count_bound_mod_p
-
-    measured, inputs, _ = _measured_inputs_unknown(case)
-    if not inputs or len(inputs) > len(measured):
-        return None
-    alpha = Fraction(system.alpha_q)
-    A = {k: -alpha * v for k, v in system.cluster_laplacian_entries(case.model.name, case.mode).items()}
-    cb = zero_count_bound_mod_p(len(case.model.nodes), A, sorted(inputs), sorted(measured))
-    if cb.bound != 0 or not cb.left_invertible:
-        return None
-    return (
-        f"the pencil in s of (-alpha L[P_i, P_i], S_I^T, S_M) ({len(inputs)} inputs, {len(measured)} measured agents) is left-invertible "
-        f"with no finite zero: two squarings-down det(R P(s)) have gcd 1 modulo the prime {cb.prime} (leading term of proved order "
-        f"{cb.order_at_infinity}): full column rank for every lambda != 0"
-    )
-
-
 def twin_failure(system: System, case: LocalCase) -> str | None:
     """An exact proof that Proposition III.2 (iii) fails: a twin mode the observer cannot see.
 
@@ -671,6 +566,62 @@ def certificate_verdict(status: Status, margin: float | None, witness: Mapping[s
         return Verdict(status, margin=margin, witness=witness, exact=exact)
     eb = cert.get("error_bound")
     return Verdict(status, margin=margin, error_bound=None if eb is None else float(eb), witness=witness, exact=exact, note=str(cert.get("note", "")))
+
+
+@dataclass(frozen=True, eq=False)
+class PencilScreen:
+    """The exact screens the rule of ``local.pencil`` may try before its pencil analysis (an audit's options).
+
+    They choose how a verdict is proved, never how a status follows from a proof
+    (:func:`screened_pencil_verdict`).
+
+    Attributes
+    ----------
+    member : (label, Verdict) or None
+        A suspected agent and the rule's verdict of its single set (the caller's earlier call):
+        when that verdict fails, so does every set containing the agent.
+    minors : bool
+        Try the exact maximal minors (:func:`minor_certificate`).
+    cache : dict or None
+        The per-run store of the minors' polynomials.
+    """
+
+    member: tuple[Label, Verdict] | None = None
+    minors: bool = True
+    cache: dict[Any, Any] | None = None
+
+
+def screened_pencil_verdict(system: System, case: LocalCase, screen: PencilScreen, method: str, *, exact: bool = False) -> Verdict | None:
+    """The verdict of Proposition III.2 (iii) an exact screen proves, or None (then the pencil analysis decides).
+
+    In this order: a member a of the suspected set S whose pencil loses column rank at some
+    lam makes S's lose it too (its kernel vector padded with zero inputs on S minus {a}); a
+    twin mode the observer cannot see is an exact kernel vector (:func:`twin_failure`); exact
+    maximal minors prove full column rank for every lam (:func:`minor_certificate`). Called by
+    the rule (``pencil_verdict(..., screen=)``), which states the verdict.
+
+    Parameters
+    ----------
+    system : System
+    case : LocalCase
+    screen : PencilScreen
+    method : str
+        The method the witness records.
+    exact : bool
+        The verdict is one of the exact path.
+    """
+    a, single = screen.member if screen.member is not None else (None, None)
+    if single is not None and single.status is Status.FAILS and a in case.suspected and len(case.suspected) > 1:
+        proof = single.witness.get("certificate", {}).get("by") if isinstance(single.witness.get("certificate"), Mapping) else None
+        by = f"the suspected agent {a} alone fails ({proof or 'its verdict'}): its kernel vector, padded with zero inputs, is one of this suspected set"
+        status = Status.FAILS
+    elif (by := twin_failure(system, case)) is not None:  # type: ignore[assignment]
+        status = Status.FAILS
+    elif screen.minors and (by := minor_certificate(system, case, screen.cache)) is not None:  # type: ignore[assignment]
+        status = Status.HOLDS
+    else:
+        return None
+    return Verdict(status, margin=0.0 if status is Status.FAILS else math.nan, witness={"method": method, "certificate": {"by": by, "error_bound": None}}, exact=exact)
 
 
 def certify_pencil_verdict(system: System, case: LocalCase, numeric: Verdict) -> Verdict:

@@ -43,7 +43,7 @@ import scipy.sparse
 from glocal_verify import config
 from glocal_verify.derived import Kind
 from glocal_verify.model import System
-from glocal_verify.numerics.rounding import gamma_bound
+from glocal_verify.numerics.rounding import EPS, gamma_bound
 from glocal_verify.numerics.threads import blas_threads
 
 __all__ = [
@@ -57,9 +57,6 @@ __all__ = [
 #: derived results this module keeps on the system (glocal_verify.derived)
 _INTERIOR_MODES_KIND: Kind[InteriorModes] = Kind("interior-modes", __name__, "InteriorModes")
 _STATE_ROUNDING_KIND: Kind[float] = Kind("state-rounding", __name__, "float")
-
-EPS = float(np.finfo(float).eps)
-
 
 @dataclass(frozen=True, slots=True)
 class InteriorModes:

@@ -86,6 +86,7 @@ import scipy.sparse
 
 from glocal_verify.model import ClusterModel
 from glocal_verify.numerics.minors import RATIONAL_ZERO
+from glocal_verify.numerics.rounding import EPS
 from glocal_verify.numerics.tolerance import (
     DEFAULT_TOLERANCE,
     Decision,
@@ -583,8 +584,8 @@ def near_null_vector(Q: np.ndarray, iterations: int = 4) -> np.ndarray:
     if big == 0.0:  # Q = 0 (up to its zero rows): every vector is a null vector
         return x
     R = R.copy()
-    small = np.flatnonzero(d < np.finfo(float).eps * big)
-    R[small, small] = np.finfo(float).eps * big
+    small = np.flatnonzero(d < EPS * big)
+    R[small, small] = EPS * big
     for _ in range(iterations):
         y = scipy.linalg.solve_triangular(R, x, trans="C", check_finite=False)
         z = scipy.linalg.solve_triangular(R, y, check_finite=False)

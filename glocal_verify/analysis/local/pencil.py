@@ -36,7 +36,9 @@ from glocal_verify.analysis.local.cluster_pencil import (
 )
 from glocal_verify.analysis.local.cases import (
     LocalCase,
+    PencilScreen,
     certify_pencil_verdict,
+    screened_pencil_verdict,
     full_pencil,
     full_pencil_sparse,
     pencil_matrices,
@@ -46,7 +48,7 @@ from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.numerics import exact as ex
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
-from glocal_verify.results import Status, Verdict
+from glocal_verify.results import GROWTH_PERSISTENT, Status, Verdict, growth_of_sign
 from glocal_verify.spec.types import Label
 
 __all__ = [
@@ -273,7 +275,7 @@ def _origin_zero(system: System, case: LocalCase, st: _Structure, tol: Tolerance
     vec, eta = _lifted(system, case, st, 0.0, cols, v)
     n = st.n
     w = _direction_witness(case, 0.0, vec[: 2 * n], vec[2 * n :], residual=eta)
-    w.update({"s": 0.0, "growth": "persistent", "verified": tol.decide(eta, 1.0) is Decision.ZERO})
+    w.update({"s": 0.0, "growth": GROWTH_PERSISTENT, "verified": tol.decide(eta, 1.0) is Decision.ZERO})
     return d, w
 
 
@@ -429,7 +431,7 @@ def _pencil_structured(system: System, case: LocalCase, tol: Tolerance, margin: 
         vec, eta = _lifted(system, case, st, lam, cols, v)
         w = _direction_witness(case, lam, vec[: 2 * n], vec[2 * n :], residual=eta)
         w["s"] = witness_number(groups[g][0])
-        w["growth"] = "unbounded" if lam.real > 0 else ("persistent" if lam.real == 0 else "decaying")
+        w["growth"] = growth_of_sign((lam.real > 0) - (lam.real < 0))
         w["verified"] = tol.decide(eta, 1.0) is Decision.ZERO
         if not w["verified"]:
             undecided = True
@@ -475,7 +477,7 @@ def _pencil_dense(system: System, case: LocalCase, tol: Tolerance, margin: bool)
         w = _direction_witness(case, z.value, z.x, z.u)
         sm = _relative_sigma_min(case, z.value)
         w["sigma_min"] = sm
-        w["growth"] = "unbounded" if z.value.real > 0 else ("persistent" if z.value.real == 0 else "decaying")
+        w["growth"] = growth_of_sign((z.value.real > 0) - (z.value.real < 0))
         if tol.decide(sm, 1.0) is Decision.NONZERO or not z.verified:
             w["verified"] = False
             undecided = True
@@ -494,7 +496,7 @@ def _pencil_dense(system: System, case: LocalCase, tol: Tolerance, margin: bool)
 
 
 def pencil_verdict(
-    system: System, case: LocalCase, tol: Tolerance = DEFAULT_TOLERANCE, *, margin: bool = True, method: str = "auto"
+    system: System, case: LocalCase, tol: Tolerance = DEFAULT_TOLERANCE, *, margin: bool = True, method: str = "auto", screen: PencilScreen | None = None
 ) -> Verdict:
     """Numeric verdict of (iii) for one case, certified for the exact pencil (else undecided).
 
@@ -509,6 +511,8 @@ def pencil_verdict(
     method : str
         ``"structured"``, ``"dense"`` or ``"auto"`` (dense for clusters of at most
         ``dense_max_agents`` (:mod:`glocal_verify.config`) agents, structured otherwise). The witness records it.
+    screen : PencilScreen, optional
+        Exact proofs tried first (:func:`~glocal_verify.analysis.local.cases.screened_pencil_verdict`; the audit's).
 
     Notes
     -----
@@ -551,6 +555,8 @@ def pencil_verdict(
     """
     if case.structural:
         return Verdict(Status.FAILS, margin=0.0, witness={"method": _resolve_method(case, method), **_structural_witness(case)})
+    if screen is not None and (sv := screened_pencil_verdict(system, case, screen, _resolve_method(case, method))) is not None:
+        return sv
     if _resolve_method(case, method) == "dense":
         numeric = _pencil_dense(system, case, tol, margin)
     else:
@@ -597,7 +603,7 @@ def _pencil_exact(system: System, case: LocalCase) -> Verdict:
             {
                 "factor": z.factor,
                 "multiplicity": z.multiplicity,
-                "growth": {1: "unbounded", 0: "persistent", -1: "decaying"}[z.real_sign],
+                "growth": growth_of_sign(z.real_sign),
                 "input_direction": z.input_direction,
                 "sigma_min": _relative_sigma_min(case, z.value),
             }
@@ -687,7 +693,7 @@ def _pencil_exact_structured(system: System, case: LocalCase, *, fast: bool = Tr
         kern = ex.nullspace(M0, len(U0))
         vec, eta = _lifted(system, case, st, 0.0, U0, np.array([float(x) for x in kern[0]]))
         w0 = _direction_witness(case, 0.0, vec[: 2 * n], vec[2 * n :], residual=eta)
-        w0.update({"lambda": Fraction(0), "growth": "persistent", "kernel_dim": len(kern)})
+        w0.update({"lambda": Fraction(0), "growth": GROWTH_PERSISTENT, "kernel_dim": len(kern)})
         witness["zeros"] = [w0]
         witness["note"] = "lam = 0 is a zero: only the positions constrain xi there"
         return Verdict(Status.FAILS, witness=witness, exact=True)
@@ -779,7 +785,7 @@ def _pencil_exact_structured(system: System, case: LocalCase, *, fast: bool = Tr
                 "factor": hstr,
                 "factor_s": fstr,
                 "multiplicity": mult,
-                "growth": {1: "unbounded", 0: "persistent", -1: "decaying"}[sign],
+                "growth": growth_of_sign(sign),
                 "input_direction": bool(has_u),
             }
         )
@@ -796,7 +802,7 @@ def _fq(x: Fraction) -> Any:
     return flint.fmpq(x.numerator, x.denominator)
 
 
-def pencil_verdict_exact(system: System, case: LocalCase, *, margin: bool = True, method: str = "auto") -> Verdict:
+def pencil_verdict_exact(system: System, case: LocalCase, *, margin: bool = True, method: str = "auto", screen: PencilScreen | None = None) -> Verdict:
     """Exact verdict of (iii) for one case; never undecided.
 
     Parameters
@@ -807,6 +813,8 @@ def pencil_verdict_exact(system: System, case: LocalCase, *, margin: bool = True
         Compute the (numeric) sampled margin on success; NaN otherwise.
     method : str
         ``"structured"``, ``"dense"`` or ``"auto"`` (as :func:`pencil_verdict`).
+    screen : PencilScreen, optional
+        Exact proofs tried first, as :func:`pencil_verdict` (the minors only when ``screen.minors``).
 
     Notes
     -----
@@ -826,6 +834,8 @@ def pencil_verdict_exact(system: System, case: LocalCase, *, margin: bool = True
     m = _resolve_method(case, method)
     if case.structural:
         return Verdict(Status.FAILS, margin=0.0, witness={"method": m, **_structural_witness(case)}, exact=True)
+    if screen is not None and (sv := screened_pencil_verdict(system, case, screen, m, exact=True)) is not None:
+        return sv
     out = _pencil_exact_structured(system, case) if m == "structured" else None
     if out is None:
         out = _pencil_exact(system, case)

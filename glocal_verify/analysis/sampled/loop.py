@@ -60,6 +60,7 @@ import scipy.spatial
 from glocal_verify.derived import Kind
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
+from glocal_verify.numerics.exact import observable_rows
 from glocal_verify.numerics.rounding import EPS
 from glocal_verify.results import Status
 from glocal_verify.spec.types import NORMAL_MODE, ImplementationSpec
@@ -652,24 +653,11 @@ class SampledObservability:
     aliasing: Aliasing
 
 
-def _row_basis(M: flint.fmpq_mat) -> flint.fmpq_mat:
-    R, r = M.rref()
-    n = M.ncols()
-    return flint.fmpq_mat(r, n, [R[i, j] for i in range(r) for j in range(n)])
-
-
 def exact_unobservable_dimension(A: flint.fmpq_mat, C: flint.fmpq_mat) -> int:
     """``dim`` of the unobservable subspace of a rational pair: n minus the rank of the Krylov
-    closure of the rows of C under A over Q (the exact path, for small systems)."""
-    n = A.ncols()
-    R = _row_basis(C)
-    while True:
-        X = R * A
-        S = flint.fmpq_mat(R.nrows() + X.nrows(), n, [R[i, j] for i in range(R.nrows()) for j in range(n)] + [X[i, j] for i in range(X.nrows()) for j in range(n)])
-        B = _row_basis(S)
-        if B.nrows() == R.nrows():
-            return n - R.nrows()
-        R = B
+    closure of the rows of C under A over Q (:func:`~glocal_verify.numerics.exact.observable_rows`;
+    the exact path, for small systems)."""
+    return A.ncols() - observable_rows(A, C).nrows()
 
 
 def sampled_observability(system: System, mode: str = NORMAL_MODE, implementation: ImplementationSpec | None = None, *, exact: bool = False) -> SampledObservability:

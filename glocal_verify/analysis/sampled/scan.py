@@ -46,6 +46,7 @@ import numpy as np
 from glocal_verify.analysis.sampled.loop import arb_precision
 from glocal_verify.analysis.sampled.zda import nyquist_zero
 from glocal_verify.model import System
+from glocal_verify.numerics.rounding import EPS
 from glocal_verify.results import jsonable
 
 __all__ = ["PathologicalPeriod", "PeriodScan", "scan_periods"]
@@ -152,7 +153,7 @@ def _rank_bounds(M: np.ndarray, err: float) -> tuple[int, int]:
     if M.size == 0:
         return 0, 0
     s = np.linalg.svd(M, compute_uv=False)
-    lo = int(np.sum(s > err * (1 + 1e-12) + 4 * np.finfo(float).eps * max(1.0, s.max(initial=0.0))))
+    lo = int(np.sum(s > err * (1 + 1e-12) + 4 * EPS * max(1.0, s.max(initial=0.0))))
     return lo, int(min(M.shape))
 
 

@@ -40,7 +40,7 @@ from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.numerics.pencil import analyze_pencil, direction_at, input_directions
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
-from glocal_verify.results import Status
+from glocal_verify.results import Status, growth_of_sign
 from glocal_verify.spec.types import NORMAL_MODE, ImplementationSpec, Label
 
 __all__ = [
@@ -114,9 +114,8 @@ class SampledZda:
 
 
 def _growth(mod: float) -> str:
-    if abs(mod - 1.0) <= 1e-12:
-        return "persistent"
-    return "unbounded" if mod > 1.0 else "decaying"
+    """The growth class of a sampled zero of modulus ``mod``: |z| = 1 within 1e-12 is persistent."""
+    return growth_of_sign(0 if abs(mod - 1.0) <= 1e-12 else 1 if mod > 1.0 else -1)
 
 
 def nyquist_zero(system: System, actuators: Sequence[Label]) -> tuple[Label, ...]:

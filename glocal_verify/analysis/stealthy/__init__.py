@@ -22,9 +22,9 @@ from typing import Mapping, TYPE_CHECKING
 from glocal_verify._lazy import lazy_getattr
 
 if TYPE_CHECKING:  # loaded on first use (PEP 562): importing one module of this folder loads no other
-    from glocal_verify.analysis.stealthy.zda import ZdaZero, ZdaDirection, ZdaAnalysis, zda_analysis, zda_direction
+    from glocal_verify.analysis.stealthy.zda import ZdaZero, ZdaDirection, ZdaAnalysis, zda_analysis
     from glocal_verify.analysis.stealthy.zda_exact import ExactZdaAnalysis, zda_analysis_exact
-    from glocal_verify.analysis.stealthy.zda_verdict import ZdaVerdict, decide_zda
+    from glocal_verify.analysis.stealthy.zda_verdict import ZdaOptions, ZdaVerdict, decide_zda, zda_direction
     from glocal_verify.analysis.stealthy.zda_certificate import ZdaCertificate
     from glocal_verify.analysis.stealthy.zda_completeness import ZeroSetCompleteness, zero_set_completeness
     from glocal_verify.analysis.stealthy.covert import covert_required_channels, reachable_agents
@@ -35,7 +35,8 @@ _LAZY: Mapping[str, str] = MappingProxyType({
     "ZdaDirection": "glocal_verify.analysis.stealthy.zda",
     "ZdaAnalysis": "glocal_verify.analysis.stealthy.zda",
     "zda_analysis": "glocal_verify.analysis.stealthy.zda",
-    "zda_direction": "glocal_verify.analysis.stealthy.zda",
+    "zda_direction": "glocal_verify.analysis.stealthy.zda_verdict",
+    "ZdaOptions": "glocal_verify.analysis.stealthy.zda_verdict",
     "ExactZdaAnalysis": "glocal_verify.analysis.stealthy.zda_exact",
     "zda_analysis_exact": "glocal_verify.analysis.stealthy.zda_exact",
     "ZdaVerdict": "glocal_verify.analysis.stealthy.zda_verdict",
@@ -58,6 +59,7 @@ __all__ = [
     "zda_direction",
     "ExactZdaAnalysis",
     "zda_analysis_exact",
+    "ZdaOptions",
     "ZdaVerdict",
     "decide_zda",
     "ZdaCertificate",

@@ -2,8 +2,8 @@
 
 The 2N-sized pencil of eq. ``zda_cond`` reduces in the eigenbasis of L_1 to an N-sized pencil
 in ``s = lambda^2 + gamma lambda`` (:class:`ModalPencil`); :func:`zda_analysis` returns every zero
-with its direction (xi, u0), growth class and verification, and :func:`zda_direction` the
-witness direction at the spec's lambda0. The generic dense path on (A_1, B, C) is kept for
+with its direction (xi, u0), growth class and verification; the witness direction the rule
+picks is :func:`~glocal_verify.analysis.stealthy.zda_verdict.zda_direction`. The generic dense path on (A_1, B, C) is kept for
 small systems and tests. Results are kept on ``system.analysis``.
 
 The reduction (Definition II.2, eq. ``zda_cond``)
@@ -83,6 +83,7 @@ from glocal_verify.numerics.pencil import (
     pencil_matrix,
 )
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
+from glocal_verify.results import GROWTH_DECAYING, GROWTH_PERSISTENT, GROWTH_UNBOUNDED, GROWTH_UNDECIDED, growth_of_sign
 from glocal_verify.spec.types import Label
 
 __all__ = [
@@ -90,7 +91,6 @@ __all__ = [
     "ZdaDirection",
     "ZdaAnalysis",
     "zda_analysis",
-    "zda_direction",
     "ModalPencil",
     "normalize_direction",
     "growth_class",
@@ -103,11 +103,8 @@ __all__ = [
 #: derived results this module keeps on the system (glocal_verify.derived)
 _ZDA_KIND: Kind[ZdaAnalysis] = Kind("zda", __name__, "ZdaAnalysis")
 
-#: growth classes of a zero-dynamics attack by Re(lambda0)
-GROWTH_UNBOUNDED = "unbounded"
-GROWTH_PERSISTENT = "persistent"
-GROWTH_DECAYING = "decaying"
-GROWTH_UNDECIDED = "undecided"
+#: the growth classes of a zero-dynamics attack by Re(lambda0) are those of
+#: :mod:`glocal_verify.results` (``GROWTH_*``, :func:`~glocal_verify.results.growth_of_sign`), named here too
 
 # ------------------------------------------------------------------------------------------
 # records
@@ -252,12 +249,11 @@ def requested_lambda0(system: System, lambda0: complex | float | Sequence[float]
 
 
 def growth_class(lam: complex, scale: float, tol: Tolerance) -> str:
+    """The growth class of a computed zero: Re lambda decided against ``scale`` at ``tol`` (undecided in the band)."""
     d = tol.decide(lam.real, scale)
-    if d is Decision.ZERO:
-        return GROWTH_PERSISTENT
     if d is Decision.UNDECIDED:
         return GROWTH_UNDECIDED
-    return GROWTH_UNBOUNDED if lam.real > 0 else GROWTH_DECAYING
+    return growth_of_sign(0 if d is Decision.ZERO else 1 if lam.real > 0 else -1)
 
 
 def normalize_direction(xi: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -742,34 +738,3 @@ def _dense(system: System, F: tuple[Label, ...], tol: Tolerance, lam_req: comple
     return ZdaAnalysis(
         F, pa.full_normal_column_rank, pa.normal_rank, k0, tuple(attack), tuple(unobs), direction, source, decided, tol.rtol, "dense", tuple(notes)
     )
-
-
-def zda_direction(system: System, lambda0: complex | None = None, tol: Tolerance = DEFAULT_TOLERANCE) -> ZdaDirection | None:
-    """The stealthy ZDA direction used as witness of ``stealthy.zda`` (structured numeric path).
-
-    Parameters
-    ----------
-    system : System
-        The system; its ``attack.actuators`` are F.
-    lambda0 : complex, optional
-        If given, the direction at exactly this exponent (None when no stealthy ZDA exists
-        there). If omitted: the spec's ``attack.lambda0`` when a ZDA exists there, else the
-        fastest-growing zero, else (not left-invertible) lambda0 = 1.
-    tol : Tolerance
-        Numeric tolerance.
-
-    Returns
-    -------
-    ZdaDirection or None
-        None when the system has no stealthy ZDA (at ``lambda0`` when given).
-    """
-    if lambda0 is not None:
-        md = ModalPencil(system, _actuators(system, None), tol)
-        lam = complex(lambda0)
-        found, _, _, _ = md.direction(lam)
-        if found is None or found[4] is not Decision.NONZERO:
-            return None
-        xi_n, u_n = normalize_direction(found[0], found[1])
-        return ZdaDirection(lam, xi_n, u_n, np.concatenate([xi_n, lam * xi_n]), found[2])
-    za = zda_analysis(system, tol)
-    return za.direction.direction() if za.direction is not None else None

@@ -10,9 +10,6 @@ import flint
 import numpy as np
 
 from glocal_verify.analysis.stealthy.zda import (
-    GROWTH_DECAYING,
-    GROWTH_PERSISTENT,
-    GROWTH_UNBOUNDED,
     ZdaDirection,
     _actuators,
     requested_lambda0,
@@ -34,6 +31,7 @@ from glocal_verify.numerics.pencil_exact import (
     kernel_over_field,
 )
 from glocal_verify.numerics.zero_polynomial import left_invertible_zero_polynomial
+from glocal_verify.results import growth_of_sign
 from glocal_verify.spec.types import NORMAL_MODE, Label
 
 __all__ = [
@@ -99,7 +97,7 @@ class ExactZdaZero:
     @property
     def growth(self) -> str:
         """``unbounded`` / ``persistent`` / ``decaying`` from the exact sign of Re lambda0."""
-        return {1: GROWTH_UNBOUNDED, 0: GROWTH_PERSISTENT, -1: GROWTH_DECAYING}[self.real_sign]
+        return growth_of_sign(self.real_sign)
 
     def direction(self) -> ZdaDirection:
         """This zero as a :class:`ZdaDirection` (numeric values of the exact vectors)."""

@@ -40,7 +40,6 @@ import random
 from collections.abc import Sequence
 from dataclasses import dataclass
 from fractions import Fraction
-from types import MappingProxyType
 from typing import Any
 
 import flint
@@ -48,13 +47,14 @@ import numpy as np
 
 from glocal_verify import config
 from glocal_verify.analysis.laplacian.twins import laplacian_entries
-from glocal_verify.analysis.stealthy.zda import GROWTH_DECAYING, GROWTH_PERSISTENT, GROWTH_UNBOUNDED, ModalPencil, ZdaZero, normalize_direction
+from glocal_verify.analysis.stealthy.zda import GROWTH_PERSISTENT, GROWTH_UNBOUNDED, ModalPencil, ZdaZero, normalize_direction
 from glocal_verify.derived import Kind
 from glocal_verify.errors import ModelError
 from glocal_verify.model import System
 from glocal_verify.numerics.symmetry import twin_modes
 from glocal_verify.numerics.pencil_exact import classify_real_parts, eval_at_root, kernel_over_field, rational_kernel
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
+from glocal_verify.results import growth_of_sign
 from glocal_verify.spec.types import NORMAL_MODE, Label
 
 __all__ = ["LocalZeroProof", "prove_local_zero"]
@@ -62,7 +62,6 @@ __all__ = ["LocalZeroProof", "prove_local_zero"]
 #: the rational s0 of :func:`_rational_candidates` (one list per system: every set tries them)
 _LOCAL_ZERO_CANDIDATES_KIND: Kind[tuple[Fraction, ...]] = Kind("local-zero-candidates", __name__, "tuple[Fraction, ...]")
 
-_GROWTH_BY_SIGN = MappingProxyType({1: GROWTH_UNBOUNDED, 0: GROWTH_PERSISTENT, -1: GROWTH_DECAYING})
 #: seed of the random combinations W (fixed: the same network gets the same proof)
 _SEED = 20261206
 
@@ -313,7 +312,7 @@ def _proof_at(system: System, Fi: Sequence[int], S: Sequence[int], Q: _LocalPenc
     xi = np.zeros(system.n, dtype=complex)
     xi[list(S)] = v[: len(S)]
     xi_n, u_n = normalize_direction(xi, np.asarray(v[len(S):]))
-    z = ZdaZero(lam, s_val, xi_n, u_n, 0.0, _GROWTH_BY_SIGN[sign])
+    z = ZdaZero(lam, s_val, xi_n, u_n, 0.0, growth_of_sign(sign))
     return LocalZeroProof(z, str(psi), tuple(system.labels[k] for k in S), where)
 
 

@@ -74,6 +74,7 @@ from glocal_verify.analysis.stealthy.zda import (
     GROWTH_UNBOUNDED,
     ModalPencil,
     ZdaAnalysis,
+    ZdaDirection,
     ZdaZero,
     _actuators,
     requested_lambda0,
@@ -91,7 +92,7 @@ from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.numerics.minors import GroundedTables, full_rank_certificate
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
-from glocal_verify.results import Status
+from glocal_verify.results import GROWTH_NULL, Status, growth_rank
 from glocal_verify.spec.types import Label
 
 __all__ = [
@@ -100,18 +101,12 @@ __all__ = [
     "ZdaVerdict",
     "decide_zda",
     "growth_rank",
+    "zda_direction",
     "inherited_zda",
     "prepare_witnesses",
     "proven_single",
 ]
 
-#: growth class of an actuator set without a stealthy ZDA
-GROWTH_NULL = "null"
-
-
-def growth_rank(g: str) -> int:
-    """Order of the growth classes: null < decaying < persistent < undecided < unbounded."""
-    return {"null": 0, "decaying": 1, "persistent": 2, "undecided": 3, "unbounded": 4}.get(g, 3)
 
 
 @dataclass(frozen=True, slots=True)
@@ -648,3 +643,36 @@ def _decide(system: System, F: tuple[Label, ...], opt: ZdaOptions, memo: Mutable
     if v.growth == "undecided" and v.status is Status.HOLDS and opt.fallback:
         return _exact(system, F, opt)  # proven, but its growth class (the witness rule) needs Q
     return v
+
+
+def zda_direction(
+    system: System, lambda0: complex | None = None, tol: Tolerance = DEFAULT_TOLERANCE, actuators: Iterable[Label] | None = None
+) -> ZdaDirection | None:
+    """The stealthy ZDA direction the rule picks: the witness of :func:`decide_zda`.
+
+    The one choice of the package (module docstring): the simulations of ``simulate`` and
+    every interface that shows a direction read it here. The switch's touch test
+    (``switching.avoids-attack``) starts from the same verdict.
+
+    Parameters
+    ----------
+    system : System
+        The system; its ``attack.actuators`` are F unless ``actuators`` is given.
+    lambda0 : complex, optional
+        If given, the direction at exactly this exponent (None when no stealthy ZDA exists
+        there). If omitted: the spec's ``attack.lambda0`` when a ZDA exists there, else the
+        fastest-growing zero, else (not left-invertible) lambda0 = 1.
+    tol : Tolerance
+        Numeric tolerance.
+    actuators : iterable of labels, optional
+        F.
+
+    Returns
+    -------
+    ZdaDirection or None
+        None when the rule gives no direction (no stealthy ZDA, at ``lambda0`` when given).
+    """
+    v = decide_zda(system, actuators, ZdaOptions(lambda0=requested_lambda0(system, lambda0), tol=tol))
+    if v.direction is None or (lambda0 is not None and v.direction_source != "requested lambda0"):
+        return None
+    return v.direction.direction()

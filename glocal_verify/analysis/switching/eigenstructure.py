@@ -21,7 +21,7 @@ import numpy as np
 from glocal_verify.analysis.laplacian.twins import distinct_eigenvalues_modular, eigenvector_differences_modular
 from glocal_verify.model import System
 from glocal_verify.numerics import exact as ex
-from glocal_verify.numerics.subspace import EPS
+from glocal_verify.numerics.rounding import EPS
 from glocal_verify.results import Status, Verdict
 from glocal_verify.spec.types import Label
 

@@ -135,8 +135,8 @@ def _grounded(system: System) -> Any:
 
 
 #: the modular screen inverts the grounded Laplacian modulo a prime (O(N^3) once per system) up
-#: to this many agents; above, every set takes the exact solve
-MODULAR_MAX_AGENTS = config.get("zero_touch_modular_max_agents")
+#: to ``zero_touch_modular_max_agents`` agents (:mod:`glocal_verify.config`, read when used);
+#: above, every set takes the exact solve
 
 
 def _inverse_mod(system: System) -> tuple[int, np.ndarray] | None:
@@ -170,7 +170,7 @@ def _inverse_mod(system: System) -> tuple[int, np.ndarray] | None:
             return q, np.array([int(x) for x in inv.entries()], dtype=np.int64).reshape(n, n)
         return None
 
-    if system.n - 1 > MODULAR_MAX_AGENTS:
+    if system.n - 1 > config.get("zero_touch_modular_max_agents"):
         return None
     return _GROUNDED_LAPLACIAN_INVERSE_MOD_KIND.get(system, (NORMAL_MODE,), build)  # type: ignore[no-any-return]
 

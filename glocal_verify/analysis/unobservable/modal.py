@@ -60,7 +60,8 @@ import numpy as np
 from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.numerics.spectrum import Spectrum
-from glocal_verify.numerics.subspace import EPS, decide_with_error
+from glocal_verify.numerics.rounding import EPS
+from glocal_verify.numerics.subspace import decide_with_error
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
 from glocal_verify.spec.types import NORMAL_MODE
 

@@ -35,7 +35,8 @@ from glocal_verify.numerics.exact_subspace import (
     to_fraction_cols,
     stack_rows,
 )
-from glocal_verify.numerics.subspace import EPS, Subspace, decide_with_error
+from glocal_verify.numerics.rounding import EPS
+from glocal_verify.numerics.subspace import Subspace, decide_with_error
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
 from glocal_verify.spec.types import NORMAL_MODE
 

@@ -7,6 +7,7 @@
 - :mod:`.guarantees` -- certified thresholds, simulated residuals, detection times and period
   scans of the sampled guarantees;
 - :mod:`.audit` -- an attack audit per agent or pair of agents;
+- :mod:`.replay` -- a replayed log: residuals over their thresholds, alarms and the switch;
 - :mod:`.sweep` -- a sweep's rate of ``holds`` against one swept parameter.
 
 Matplotlib is imported by these modules only, and they are imported only when a figure is
