@@ -55,6 +55,7 @@ __all__ = [
 _CLUSTER_LAPLACIAN_ENTRIES_KIND: Kind[dict[tuple[int, int], Fraction]] = Kind("cluster-laplacian-entries", __name__, "dict[tuple[int, int], Fraction]")
 _CLUSTER_LAPLACIAN_EXACT_KIND: Kind[list[list[Fraction]]] = Kind("cluster-laplacian-exact", __name__, "list[list[Fraction]]")
 _MONITORED_KIND: Kind[tuple[Label, ...]] = Kind("monitored", __name__, "tuple[Label, ...]")
+_COMPONENTS_KIND: Kind[tuple[tuple[Label, ...], ...]] = Kind("components", __name__, "tuple[tuple[Label, ...], ...]")
 _OBSERVERS_KIND: Kind[tuple[LocalObserver, ...]] = Kind("observers", __name__, "tuple[LocalObserver, ...]")
 _SWITCHING_LINKS_KIND: Kind[list[tuple[Label, Label, Fraction]]] = Kind("switching-links", __name__, "list[tuple[Label, Label, Fraction]]")
 _DELTA_LAPLACIAN_KIND: Kind[scipy.sparse.csr_matrix] = Kind("delta-laplacian", __name__, "scipy.sparse.csr_matrix")
@@ -482,10 +483,14 @@ class System:
 
     # -- connectivity -----------------------------------------------------------------------
     def components(self, mode: str = NORMAL_MODE) -> list[list[Label]]:
-        """Connected components of the mode's graph, each in label order."""
-        G = self.graph(mode)
-        comps = [sorted(c, key=self.index.__getitem__) for c in nx.connected_components(G)]
-        return sorted(comps, key=lambda c: self.index[c[0]])
+        """Connected components of the mode's graph, each in label order (computed once per mode, a fresh list each call)."""
+
+        def compute() -> tuple[tuple[Label, ...], ...]:
+            G = self.graph(mode)
+            comps = [sorted(c, key=self.index.__getitem__) for c in nx.connected_components(G)]
+            return tuple(tuple(c) for c in sorted(comps, key=lambda c: self.index[c[0]]))
+
+        return [list(c) for c in _COMPONENTS_KIND.get(self, (self.check_mode(mode),), compute)]
 
     def require_connected(self, purpose: str) -> None:
         """Raise :class:`SpecError` if some mode's graph is disconnected.
@@ -651,13 +656,11 @@ class System:
             ent: dict[tuple[int, int], Fraction] = {}
             for a in nodes:
                 i = loc[a]
-                deg = Fraction(0)
-                for b in adj[a]:
-                    w = edges[frozenset((a, b))]
-                    deg += w
+                ws = [(b, edges[frozenset((a, b))]) for b in adj[a]]
+                for b, w in ws:
                     if b in loc:
-                        ent[(i, loc[b])] = ent.get((i, loc[b]), Fraction(0)) - w
-                ent[(i, i)] = deg
+                        ent[(i, loc[b])] = -w  # one link per pair of agents
+                ent[(i, i)] = sum((w for _, w in ws), Fraction(0))
             return {k: v for k, v in ent.items() if v}
 
         return _CLUSTER_LAPLACIAN_ENTRIES_KIND.get(self, (name, mode), build)

@@ -164,7 +164,7 @@ def _exact_gcd_and_kernel(n: int, L: dict[tuple[int, int], Fraction], alpha: Fra
 
 @pytest.mark.slow
 def test_a_certificate_modulo_twin_modes_leaves_only_twin_modes_in_the_kernel() -> None:
-    from glocal_verify.numerics.minors import twin_modes
+    from glocal_verify.numerics.symmetry import twin_modes
 
     rng = random.Random(11)
     issued = 0

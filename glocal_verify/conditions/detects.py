@@ -48,6 +48,7 @@ __all__ = [
     "check_detects",
     "algorithm1",
     "zda_touch",
+    "zda_touched",
 ]
 
 #: the switching.detects results per (tolerance, size limit), kept on the system
@@ -103,11 +104,34 @@ def rank_safe_modes(system: System, modes: Sequence[str] | None = None) -> tuple
 
 
 def zda_touch(system: System, mode: str, attack: AttackModel) -> float | None:
-    """||dL_q xi|| / ||xi|| (complex xi allowed): does the switch touch the ZDA (Remark III.3.1)? None without xi."""
+    """||dL_q xi|| / ||xi|| (complex xi allowed): how strongly the switch touches the ZDA (Remark III.3.1), a magnitude; None without xi.
+
+    Whether it touches it is :func:`zda_touched`, the rule's decision."""
     if attack.xi is None:
         return None
     xi = np.asarray(attack.xi)
     return float(np.linalg.norm(system.delta_laplacian_sparse(mode) @ xi) / max(float(np.linalg.norm(xi)), 1e-300))
+
+
+def zda_touched(system: System, mode: str, attack: AttackModel, tol: Any = None) -> bool | None:
+    """Does the switch to ``mode`` touch the simulated ZDA's direction? The touch test of
+    ``switching.avoids-attack`` (:func:`~glocal_verify.analysis.switching.avoidance.direction_touch`):
+    True, False, or None when undecided or without xi.
+
+    Parameters
+    ----------
+    system : System
+    mode : str
+    attack : AttackModel
+    tol : Tolerance, optional
+        Default: the project's default tolerance.
+    """
+    from glocal_verify.analysis.switching.avoidance import direction_touch
+
+    if attack.xi is None:
+        return None
+    t = direction_touch(system, mode, np.asarray(attack.xi)) if tol is None else direction_touch(system, mode, np.asarray(attack.xi), tol)
+    return t.touched
 
 
 @checker("switching.detects")
@@ -226,16 +250,23 @@ def _attacker_choice(system: System, mode: str, atk: AttackModel | None, ctx: Ch
     """The ZDA an informed attacker would run against the switch to ``mode``.
 
     When some stealthy direction at lambda0 is not touched by the switch (``switching.avoids-attack``
-    holds through :func:`glocal_verify.analysis.switching.avoidance.avoidance`), the attacker uses it: a
+    holds, or is undecided with an avoiding direction found, through its rule
+    :func:`glocal_verify.analysis.switching.avoidance.decide_avoidance`), the attacker uses it: a
     detection verdict must hold against every stealthy direction, not only the one
     ``stealthy.zda`` happens to report.
     """
     if atk is None or atk.kind != "zda":
         return atk, "spec"
-    from glocal_verify.analysis.switching.avoidance import avoidance
+    from glocal_verify.analysis.stealthy.zda import requested_lambda0
+    from glocal_verify.analysis.stealthy.zda_verdict import ZdaOptions, decide_zda
+    from glocal_verify.analysis.switching.avoidance import decide_avoidance
 
-    av = avoidance(system, mode, ctx.tol)
-    if av is None or av.status is not Status.HOLDS or av.direction is None or av.direction_source == "stealthy.zda":
+    # the rule of switching.avoids-attack; an undecided verdict keeps the numeric analysis'
+    # avoiding direction, which an informed attacker would try (the simulation is the evidence)
+    zda = decide_zda(system, system.attacked, ZdaOptions(lambda0=requested_lambda0(system, ctx.options.get("lambda0")), tol=ctx.tol))
+    v = decide_avoidance(system, mode, zda, tol=ctx.tol)
+    av = v.avoidance
+    if v.status is Status.FAILS or av is None or av.direction is None or av.direction_source == "stealthy.zda":
         return atk, "stealthy.zda"
     a = system.spec.attack
     assert a is not None

@@ -355,7 +355,8 @@ def exact_estimate(system: System, cid: str) -> float | None:
 
     From the one exact-cost model, :func:`glocal_verify.conditions.exact_cost.exact_seconds`, for the
     checkers whose exact cost is one dense rational computation of known size:
-    ``central.observer``, and ``stealthy.zda`` / ``switching.avoids-attack``, whose path is
+    ``central.observer``, ``local.pencil`` and ``local.uio`` (every case of every cluster over
+    Q, the local terms of ``verify --exact``'s estimate), and ``stealthy.zda`` / ``switching.avoids-attack``, whose path is
     learnt from the minor certificate (:func:`~glocal_verify.analysis.stealthy.zda_exact.has_fast_exact_path`)
     while that certificate costs at most ``zda_certificate_max_seconds``
     (:mod:`glocal_verify.config`; N <~ 1700); beyond, the path is unknown and the estimate is
@@ -371,6 +372,13 @@ def exact_estimate(system: System, cid: str) -> float | None:
 
     if cid == "central.observer":
         return exact_seconds(cid, system.n)
+    if cid in ("local.pencil", "local.uio"):
+        # the re-decision runs the checker over Q on every case of every cluster: the local
+        # terms of the same model (``verify --exact``'s estimate)
+        from glocal_verify.conditions.cost import SpecSizes, estimate_verify
+
+        phases = dict(estimate_verify(SpecSizes.from_spec(system.spec), [cid], exact=True, exact_budget=None).phases)
+        return phases.get(f"exact {cid}")
     if cid not in ("stealthy.zda", "switching.avoids-attack"):
         return None
     certificate = zda_certificate_seconds(system.n)

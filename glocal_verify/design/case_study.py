@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, Callable, Mapping, Sequence
 
-from glocal_verify.conditions.detects import THEOREM_III3_IDS, algorithm1, zda_touch
+from glocal_verify.conditions.detects import THEOREM_III3_IDS, algorithm1, zda_touch, zda_touched
 from glocal_verify.conditions.registry import implemented_ids, check_conditions
 from glocal_verify.model import System
 from glocal_verify.results import jsonable
@@ -279,8 +279,9 @@ def case_findings(outcomes: Sequence[CaseOutcome]) -> list[str]:
                 f"(Section IV) cannot hold for such a switch on any graph: there is no detection, slow or fast. "
                 f"Minimal counterexample (3 agents): the bundled example findings/theorem3-sufficiency-switch-avoids-zda."
             )
-    touch = {oc.case.name: zda_touch(oc.case.system, oc.case.mode, oc.result.attack) for oc in outcomes if oc.result.attack is not None and oc.result.attack.xi is not None}
-    bounded = [nm for nm, d in touch.items() if d is not None and d <= 1e-9 and any(o.case.name == nm and o.observed == "vanishing" for o in outcomes)]
+    # the touch test of switching.avoids-attack decides which switch avoids the simulated direction
+    untouched = {oc.case.name: zda_touched(oc.case.system, oc.case.mode, oc.result.attack) is False for oc in outcomes if oc.result.attack is not None and oc.result.attack.xi is not None}
+    bounded = [nm for nm, free in untouched.items() if free and any(o.case.name == nm and o.observed == "vanishing" for o in outcomes)]
     unbounded = [oc.case.name for oc in outcomes if oc.observed == "unbounded"]
     if any(oc.case.expect == "unbounded" for oc in outcomes) and unbounded:
         out.append(

@@ -1,5 +1,16 @@
 """Random clustered networks for benchmarks, property tests and design studies.
 
+Three generators:
+
+- :func:`random_clustered_spec`, the friendly family (below);
+- :func:`adverse_clustered_spec`, networks built the way people draw them: stochastic-block-model
+  clusters of 30-300 agents with mean degree 3-10, links between consecutive or random pairs of
+  clusters, observers that measure only their neighbours (the spec's default), their
+  neighbours and the cluster's boundary, or the whole cluster; :func:`adverse_family` draws its
+  members across that range (the benchmarks report the worst of them);
+- :func:`symmetric_clusters_spec`, copies of one random cluster joined in a ring (a symmetry of
+  the weighted graph: repeated eigenvalues of L_1).
+
 :func:`random_clustered_spec` builds a validated :class:`~glocal_verify.spec.types.SystemSpec`:
 clusters are sparse connected random graphs (a random spanning tree plus a few chords, integer
 weights), consecutive clusters are joined by a few inter-cluster edges, a handful of agents
@@ -11,6 +22,7 @@ agents of the first cluster.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from types import MappingProxyType
 
 import inspect
@@ -24,7 +36,12 @@ from glocal_verify.spec import spec_from_dict
 from glocal_verify.spec.types import MAX_EDGES, MAX_MODES, MAX_NODES, TIME_MAX, TIME_MIN, WEIGHT_MAX, SystemSpec
 
 __all__ = [
+    "ADVERSE_LINKS",
+    "ADVERSE_MEASURES",
+    "AdverseMember",
     "GENERATOR_DEFAULTS",
+    "adverse_clustered_spec",
+    "adverse_family",
     "check_generator_arguments",
     "random_clustered_spec",
     "symmetric_clusters_spec",
@@ -186,6 +203,242 @@ def random_clustered_spec(
 GENERATOR_DEFAULTS: Mapping[str, Any] = MappingProxyType({
     k: p.default for k, p in inspect.signature(random_clustered_spec).parameters.items() if p.default is not inspect.Parameter.empty and k != "attack"
 })
+
+
+# -- the adverse family -----------------------------------------------------------------------
+
+#: how the clusters of :func:`adverse_clustered_spec` are linked
+ADVERSE_LINKS = ("consecutive", "random")
+#: what the observers of :func:`adverse_clustered_spec` measure
+ADVERSE_MEASURES = ("neighbours", "boundary", "cluster")
+
+
+def _sbm_cluster(rng: np.random.Generator, nodes: list[int], degree: float, add: Any) -> None:
+    """A connected random graph on ``nodes`` of mean degree about ``degree``: a random recursive
+    tree (every agent attaches to an earlier one) plus uniform random pairs (the block of a
+    stochastic block model, conditioned on being connected)."""
+    order = [int(x) for x in rng.permutation(nodes)]
+    for k in range(1, len(order)):
+        add(order[k], order[int(rng.integers(0, k))])
+    n = len(nodes)
+    target = min(n * (n - 1) // 2, max(n - 1, int(round(degree * n / 2))))
+    have = n - 1
+    tries = 0
+    while have < target and tries < 20 * target:
+        tries += 1
+        u, v = rng.choice(n, 2, replace=False)
+        if add(order[int(u)], order[int(v)]):
+            have += 1
+
+
+def adverse_clustered_spec(
+    n: int,
+    *,
+    seed: int = 0,
+    cluster_size: int = 100,
+    degree: float = 8.0,
+    links: str = "random",
+    cut_edges: int = 2,
+    measure: str = "neighbours",
+    modes: int = 1,
+    attack: bool = True,
+    monitors: int | None = None,
+    max_weight: int = 3,
+    horizon: float = 30.0,
+    step: float = 0.05,
+) -> SystemSpec:
+    """A clustered network of ``n`` agents drawn the way people draw them.
+
+    Each cluster (``round(n / cluster_size)`` of them, sizes within 30 % of each other) is a
+    connected random graph of mean degree ``degree`` (stochastic block model); every linked
+    pair of clusters shares ``cut_edges`` links between random agents; one observer per cluster
+    sits at a random agent; ``monitors`` velocity-monitored agents; each safe mode adds one
+    link inside a cluster at a monitored agent; the ZDA attacks two agents of the first cluster
+    that are neither monitored nor on its boundary.
+
+    Parameters
+    ----------
+    n : int
+        Number of agents (labels 1..n).
+    seed : int
+        Seed of the random generator (same arguments, same network).
+    cluster_size : int
+        Mean cluster size (30-300 in the family).
+    degree : float
+        Mean degree inside a cluster (3-10 in the family).
+    links : {"consecutive", "random"}
+        Clusters linked in a chain, or along a random tree of clusters plus one random pair per
+        two clusters.
+    cut_edges : int
+        Links per linked pair of clusters.
+    measure : {"neighbours", "boundary", "cluster"}
+        The observer measures the positions and velocities of its centre and neighbours (the
+        spec's default set, left implicit), also of its cluster's boundary agents, or of every
+        agent of its cluster.
+    modes : int
+        Safe modes.
+    attack : bool
+        Add a two-agent ZDA in the first cluster (and a switch to the first safe mode).
+    monitors : int, optional
+        Velocity-monitored agents (default ``max(3, n // 100)``).
+    max_weight : int
+        Weights are drawn uniformly from 1..max_weight.
+    horizon, step : float
+        The ``[simulation]`` table.
+
+    Raises
+    ------
+    SpecError
+        For arguments outside their domain (one line naming the argument).
+    """
+    clusters = max(1, int(round(n / max(int(cluster_size), 1)))) if isinstance(cluster_size, (int, np.integer)) and not isinstance(cluster_size, bool) else 0
+    check_generator_arguments(n, max(clusters, 1), seed, 0.0, cut_edges, monitors, modes, max_weight, 1, horizon, step)
+    _count(cluster_size, "cluster_size", 4, MAX_NODES)
+    if isinstance(degree, bool) or not isinstance(degree, (int, float, np.integer, np.floating)) or not 1.0 <= float(degree) <= 100.0:
+        raise SpecError("degree", f"expected a number in [1, 100], got {degree!r}"[:120])
+    if links not in ADVERSE_LINKS:
+        raise SpecError("links", f"must be one of {', '.join(ADVERSE_LINKS)}, got {links!r}"[:120])
+    if measure not in ADVERSE_MEASURES:
+        raise SpecError("measure", f"must be one of {', '.join(ADVERSE_MEASURES)}, got {measure!r}"[:120])
+    rng = np.random.default_rng(seed)
+    # cluster sizes within 30 % of each other, summing to n, each at least 4
+    weights = rng.uniform(0.85, 1.15, clusters)
+    bounds = np.concatenate([[0], np.cumsum(weights) / weights.sum() * n]).round().astype(int)
+    members = [list(range(bounds[k] + 1, bounds[k + 1] + 1)) for k in range(clusters)]
+    members = [m for m in members if m]
+    edges: dict[tuple[int, int], int] = {}
+
+    def add(u: int, v: int) -> bool:
+        a, b = (u, v) if u < v else (v, u)
+        if a == b or (a, b) in edges:
+            return False
+        edges[(a, b)] = int(rng.integers(1, max_weight + 1))
+        return True
+
+    for nodes in members:
+        _sbm_cluster(rng, nodes, float(degree), add)
+    k = len(members)
+    if links == "consecutive":
+        pairs = [(c, c + 1) for c in range(k - 1)]
+    else:
+        perm = [int(x) for x in rng.permutation(k)]
+        pairs = [(perm[c], perm[int(rng.integers(0, c))]) for c in range(1, k)]
+        seen = {tuple(sorted(p)) for p in pairs}
+        for _ in range(k // 2 if k > 2 else 0):
+            a, b = (int(x) for x in rng.choice(k, 2, replace=False))
+            if tuple(sorted((a, b))) not in seen:
+                seen.add(tuple(sorted((a, b))))
+                pairs.append((a, b))
+    for a, b in pairs:
+        for _ in range(cut_edges):
+            add(int(rng.choice(members[a])), int(rng.choice(members[b])))
+    n_mon = monitors if monitors is not None else max(3, n // 100)
+    mon = sorted(int(x) for x in rng.choice(np.arange(1, n + 1), size=min(n_mon, n), replace=False))
+    where = {a: c for c, nodes in enumerate(members) for a in nodes}
+    mode_list: list[dict[str, Any]] = []
+    for q in range(modes):
+        for _ in range(100):
+            m = int(rng.choice(mon))
+            other = int(rng.choice(members[where[m]]))
+            key = (min(m, other), max(m, other))
+            if other != m and key not in edges and all(key != tuple(md["add"][0][:2]) for md in mode_list):
+                mode_list.append({"name": f"safe-{q + 1}", "add": [[key[0], key[1], 1]]})
+                break
+    boundary = {a for (u, v) in edges for a in (u, v) if where[u] != where[v]}
+    cluster_tables = []
+    for c, nodes in enumerate(members):
+        centre = int(rng.choice(nodes))
+        obs: dict[str, Any] = {"center": centre}
+        if measure != "neighbours":
+            if measure == "cluster":
+                meas = list(nodes)
+            else:
+                nb = {b for (u, v) in edges for b in (u, v) if centre in (u, v) and where[u] == where[v]}
+                meas = sorted(nb | {a for a in nodes if a in boundary} | {centre})
+            obs.update({"positions": meas, "velocities": meas})
+        cluster_tables.append({"name": f"P{c + 1}", "nodes": nodes, "observers": [obs]})
+    data: dict[str, Any] = {
+        "format": 1,
+        "name": f"adverse-{n}-c{cluster_size}-d{float(degree):g}-{links}-{measure}-m{modes}{'' if attack else '-noattack'}-s{seed}",
+        "graph": {"nodes": n, "edges": [[u, v, w] for (u, v), w in sorted(edges.items())]},
+        "modes": mode_list,
+        "clusters": cluster_tables,
+        "monitor": {"positions": [], "velocities": mon},
+        "simulation": {"horizon": horizon, "step": step, "seed": seed},
+    }
+    if attack:
+        first = [a for a in members[0] if a not in mon and a not in boundary]
+        if len(first) < 2:
+            raise SpecError("attack", f"the first cluster has {len(first)} interior unmonitored agent(s); a ZDA needs two (use attack=False or more agents)")
+        data["attack"] = {"kind": "zda", "actuators": [int(a) for a in rng.choice(first, size=2, replace=False)]}
+        if mode_list:
+            data["switching"] = {"mode": mode_list[0]["name"], "time": horizon / 3}
+    return spec_from_dict(data)
+
+
+@dataclass(frozen=True, slots=True)
+class AdverseMember:
+    """One member of the adverse family: the arguments of :func:`adverse_clustered_spec`.
+
+    Attributes
+    ----------
+    n, seed, cluster_size, degree, links, cut_edges, measure, modes, attack
+        As for :func:`adverse_clustered_spec`.
+    """
+
+    n: int
+    seed: int
+    cluster_size: int
+    degree: float
+    links: str
+    cut_edges: int
+    measure: str
+    modes: int
+    attack: bool
+
+    @property
+    def label(self) -> str:
+        """A short description for tables: ``c100 d8 random neighbours m1 zda s0``."""
+        return f"c{self.cluster_size} d{self.degree:g} {self.links} {self.measure} m{self.modes} {'zda' if self.attack else 'no attack'} s{self.seed}"
+
+    def spec(self) -> SystemSpec:
+        """The member's network."""
+        return adverse_clustered_spec(
+            self.n, seed=self.seed, cluster_size=self.cluster_size, degree=self.degree, links=self.links,
+            cut_edges=self.cut_edges, measure=self.measure, modes=self.modes, attack=self.attack,
+        )
+
+
+def adverse_family(n: int, members: int = 6, *, seed: int = 0) -> list[AdverseMember]:
+    """``members`` members of the adverse family at ``n`` agents, spread across its range.
+
+    The first member is the network users bring most often (clusters of about 100 agents of
+    mean degree 8, random links between clusters, observers measuring their neighbours only,
+    one safe mode, a ZDA); the others draw the cluster size log-uniformly in [30, 300] (at most
+    ``n / 2``), the mean degree in [3, 10], the links, the measured set (neighbours only half
+    of the time), 0-3 safe modes and the attack (present three times in four).
+
+    Parameters
+    ----------
+    n : int
+        Agents of every member.
+    members : int
+        How many members.
+    seed : int
+        Seed of the draw (member i's network has seed ``seed + i``).
+    """
+    _count(members, "members", 0, 10_000)
+    rng = np.random.default_rng([seed, int(n)])
+    out = [AdverseMember(n, seed, min(100, max(4, n // 2)), 8.0, "random", 2, "neighbours", 1, True)][:members]
+    top = max(30, min(300, n // 2))
+    while len(out) < members:
+        size = int(round(math.exp(rng.uniform(math.log(min(30, top)), math.log(top)))))
+        measure = "neighbours" if rng.random() < 0.5 else str(rng.choice(["boundary", "cluster"]))
+        out.append(AdverseMember(
+            n, seed + len(out), size, round(float(rng.uniform(3.0, 10.0)), 1), str(rng.choice(ADVERSE_LINKS)), int(rng.integers(1, 4)),
+            measure, int(rng.integers(0, 4)), bool(rng.random() < 0.75),
+        ))
+    return out
 
 
 def symmetric_clusters_spec(

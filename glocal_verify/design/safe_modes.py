@@ -97,7 +97,7 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 import numpy as np
 
 from glocal_verify import config
-from glocal_verify.analysis.switching.avoidance import decide_avoidance, split_basis, stealthy_bases
+from glocal_verify.analysis.switching.avoidance import avoiding_subspace, decide_avoidance, split_basis, stealthy_bases
 from glocal_verify.analysis.stealthy.zda import ModalPencil
 from glocal_verify.analysis.stealthy.zda_verdict import ZdaOptions, decide_zda
 from glocal_verify.conditions.catalogue import THEOREM_III3_IDS as THEOREM_IDS
@@ -352,19 +352,14 @@ def _targets(system: System, attacks: Sequence[Sequence[Label]], lambdas: Mappin
 
 
 def _exposes(t: SymmetryTarget, i: int, j: int, thr: float) -> bool:
-    """Every stealthy direction with an input has xi_i != xi_j (the switch cannot be avoided)."""
+    """Every stealthy direction with an input has xi_i != xi_j (the switch cannot be avoided):
+    the touch test of ``switching.avoids-attack`` (:func:`~glocal_verify.analysis.switching.avoidance.avoiding_subspace`)
+    for the one-link change i-j, with the screen's threshold."""
     a = t.X[i, :] - t.X[j, :]
-    r = a.shape[0]
-    if r == 0:
+    if a.shape[0] == 0 or float(np.linalg.norm(t.B)) <= thr:
         return False
-    if r == 1:
-        return bool(abs(a[0]) > thr and np.linalg.norm(t.B) > thr)
-    na = float(np.linalg.norm(a))
-    if na <= thr:
-        return False
-    _, _, Vh = np.linalg.svd(a.reshape(1, -1))
-    K = Vh[1:].conj().T  # directions with a . c = 0
-    return bool(np.linalg.norm(t.B @ K, 2) <= thr)
+    _, su, _ = avoiding_subspace(a.reshape(1, -1), t.B, thr)
+    return bool(su.size == 0 or su[0] <= thr)
 
 
 class _OneLinkRules:

@@ -62,6 +62,8 @@ import numpy as np
 import scipy.linalg
 import scipy.sparse
 
+from glocal_verify.numerics.symmetry import twin_modes
+
 __all__ = [
     "GroundedTables",
     "MinorCertificate",
@@ -73,7 +75,6 @@ __all__ = [
     "prime_for",
     "residues_mod_p",
     "submatrix_full_rank_mod_p",
-    "twin_modes",
 ]
 
 _UNREACHABLE = 1 << 30
@@ -108,7 +109,7 @@ class GroundedTables:
         Positions in U used as extra replaced rows: the row nearest to an output in every
         component of G[U] (largest first), then the neighbours of the outputs.
     twins : tuple
-        :func:`twin_modes` of (L, M): ``((mu, pairs), ...)``.
+        :func:`~glocal_verify.numerics.symmetry.twin_modes` of (L, M): ``((mu, pairs), ...)``.
     twin_roots : tuple of (int, int)
         Their roots s0 = -alpha mu modulo p with multiplicities.
     unobservable_factor : tuple of int
@@ -231,7 +232,8 @@ def grounded_tables(
     pos = [-1] * size
     for j, i in enumerate(U):
         pos[i] = j
-    dens = {abs(int(v.denominator)) for v in laplacian.values()} | {abs(int(alpha.denominator)), abs(int(alpha.numerator))}
+    # a prime dividing no denominator (the proof) and no numerator (so no nonzero entry vanishes modulo p)
+    dens = _data_factors([*laplacian.values(), alpha])
     limit = int(min(2**24, math.isqrt(2**52 // max(n, 1))))
     p = next((q for q in _primes_below(limit) if all(d % q for d in dens)), None)
     if p is None:
@@ -386,7 +388,7 @@ def full_rank_certificate(
     """Prove that T(s) of the module docstring has full column rank for every s, or return None.
 
     With ``modulo_twins`` the claim is weaker and is what a stealthy ZDA needs: at every s the
-    kernel of T(s) is spanned by exact twin modes (:func:`twin_modes`, kernel vectors with
+    kernel of T(s) is spanned by exact twin modes (:func:`~glocal_verify.numerics.symmetry.twin_modes`, kernel vectors with
     u = 0), so no kernel vector has an input part. Proof: each twin mode family of dimension t
     at s0 lies in ker T(s0) for every input set (it is supported on U and an eigenvector of L),
     so every maximal minor is divisible by (s - s0)^t; if dim ker T(s0) exceeded the twin
@@ -701,73 +703,6 @@ def verified_invariant_subspace(
     return W, B
 
 
-def twin_modes(size: int, laplacian: Mapping[tuple[int, int], Fraction], measured: Sequence[int]) -> tuple[tuple[Fraction, tuple[tuple[int, int], ...]], ...]:
-    """Exact eigenvectors e_a - e_r of L that vanish on M (twin agents), grouped by eigenvalue.
-
-    Agents a != r are twins when their rows of L agree off {a, r} and L_aa = L_rr; then
-    L (e_a - e_r) = (L_aa - L_ar)(e_a - e_r) exactly. A class of twins C (one representative r)
-    gives |C| - 1 independent modes; classes are disjoint, so their modes are independent.
-    Only agents outside M count (the mode must vanish on M).
-
-    Parameters
-    ----------
-    size : int
-    laplacian : mapping
-        Nonzero entries of the symmetric matrix (exact).
-    measured : sequence of int
-        M.
-
-    Returns
-    -------
-    tuple
-        ``((mu, ((a, r), ...)), ...)``: the eigenvalue and the pairs of each family.
-    """
-    M = set(measured)
-    rows: list[dict[int, Fraction]] = [{} for _ in range(size)]
-    for (i, j), v in laplacian.items():
-        if v != 0:
-            rows[i][j] = v
-
-    def twins(a: int, r: int) -> bool:
-        if rows[a].get(a, 0) != rows[r].get(r, 0):
-            return False
-        ka = {j: v for j, v in rows[a].items() if j not in (a, r)}
-        kr = {j: v for j, v in rows[r].items() if j not in (a, r)}
-        return ka == kr
-
-    groups: dict[Any, list[int]] = {}
-    for a in range(size):
-        if a in M:
-            continue
-        groups.setdefault(("open", rows[a].get(a, 0), frozenset((j, v) for j, v in rows[a].items() if j != a)), []).append(a)
-    parent = list(range(size))
-
-    def find(x: int) -> int:
-        while parent[x] != x:
-            parent[x] = parent[parent[x]]
-            x = parent[x]
-        return x
-
-    for a in range(size):
-        for b in rows[a]:
-            if b > a and a not in M and b not in M and twins(a, b):
-                parent[find(b)] = find(a)
-    for a in range(size):
-        if a not in M and find(a) != a:
-            groups.setdefault(("closed", find(a)), []).append(a)
-    out: dict[Fraction, list[tuple[int, int]]] = {}
-    for key, members in groups.items():
-        r = key[1] if key[0] == "closed" else members[0]
-        if r not in members:
-            members = [r] + members
-        pairs = [(a, r) for a in members if a != r and twins(a, r)]
-        mus = {rows[r].get(r, Fraction(0)) - rows[r].get(a, Fraction(0)) for a, _ in pairs}
-        if len(mus) != 1:
-            continue  # a class whose pairs disagree is not used
-        out.setdefault(mus.pop(), []).extend(pairs)
-    return tuple((mu, tuple(sorted(pairs))) for mu, pairs in sorted(out.items()))
-
-
 def constant_full_rank_mod_p(rows: Sequence[Sequence[Fraction]], prime: int | None = None) -> bool:
     """True when the rational matrix has full column rank, proved by its rank modulo a prime.
 
@@ -790,8 +725,7 @@ def constant_full_rank_mod_p(rows: Sequence[Sequence[Fraction]], prime: int | No
         return True
     if len(rows) < ncols:
         return False
-    dens = {abs(int(Fraction(x).denominator)) for r in rows for x in r}
-    p = prime if prime is not None else next(q for q in _primes_below(2**30) if all(d % q for d in dens))
+    p = prime if prime is not None else prime_for([x for r in rows for x in r if x])
     ent = [_mod(Fraction(x), p) for r in rows for x in r]
     return int(nmod_mat(len(rows), ncols, ent, p).rank()) == ncols
 
@@ -818,15 +752,31 @@ def submatrix_full_rank_mod_p(residues: Sequence[Sequence[int]], rows: Sequence[
     return int(nmod_mat(len(rows), len(cols), ent, prime).rank()) == len(cols)
 
 
+def _data_factors(values: Sequence[Any]) -> set[int]:
+    """The denominators and nonzero numerators (absolute values above 1) of rational data: a
+    prime dividing none keeps every entry defined and every nonzero entry nonzero modulo p."""
+    out: set[int] = set()
+    for v in values:
+        q = v if isinstance(v, Fraction) else Fraction(v)
+        out.add(abs(int(q.denominator)))
+        out.add(abs(int(q.numerator)))
+    return out - {0, 1}
+
+
 def prime_for(values: Sequence[Fraction], limit: int = 2**30) -> int:
-    """The largest prime below ``limit`` that divides no denominator of ``values``.
+    """The largest prime below ``limit`` that divides no denominator and no nonzero numerator of ``values``.
+
+    Only the denominators matter for the proofs (reduction modulo p is then a ring
+    homomorphism); a prime that divides a numerator would turn a nonzero entry into zero
+    modulo p and make a certificate fail for nothing (weights such as p^2 / 10^6 chosen
+    against the first primes tried), so it is passed over too.
 
     Parameters
     ----------
     values : sequence of Fraction
     limit : int
     """
-    dens = {abs(int(Fraction(v).denominator)) for v in values}
+    dens = _data_factors(values)
     return next(q for q in _primes_below(limit) if all(d % q for d in dens))
 
 

@@ -35,15 +35,28 @@ The bound (each step an exact statement)
        [[sI - A, -B], [RC, 0]] [[I, 0], [-K, I]], so z_R is unchanged, and only the
        uncontrollable eigenvalues of A stay fixed.
     4. *The leading coefficient.* chi is monic, so lc(z_R) = c_rho with rho the first index
-       with c_rho != 0 over Q. Modulo p the first nonzero index rho_p is >= rho; the terms
+       with c_rho != 0 over Q. Modulo p the first nonzero index rho_p is >= rho. A lower bound
+       of rho comes from the graph of A: (C A^j B)[t, c] = (A^j)[M_t, F_c] is zero for j below
+       the length d(F_c, M_t) of the shortest walk, so by Cauchy-Binet every term of
+       det(R G(w)), G(w) = sum_j C A^j B w^(j+1), has order at least m + sum_c d(F_c, M_sigma(c))
+       for an injective sigma: rho >= m + (the least such sum, a linear assignment). When
+       rho_p meets that bound, rho = rho_p and c_rho is a p-adic unit. Otherwise the terms
        c_k, k < rho_p, are recomputed over Z (integer Markov parameters of D A, D the common
-       denominator, for the first rho_p - m powers only) and must all vanish: then rho =
-       rho_p and c_rho is a p-adic unit. Otherwise p divides lc(z_1) and another prime is
-       taken.
+       denominator, for the first rho_p - m powers only; the determinant of their series
+       from its values at integers) and must all vanish; if one does not, p divides lc(z_1)
+       and another prime is taken.
+    5. *Two ways to z_R modulo p.* With few inputs (at most three), as the polynomial part
+       of chi times the series det(R G(w)), expanded by permutations. With more, by values:
+       z_R(x) = det(R N(x)) / chi(x)^(m-1) at n + 1 consecutive points x where chi(x) != 0,
+       N(x) = C adj(xI - A) B = sum_i H_i q_i(x) with q_(n-1) = 1, q_(i-1) = x q_i + a_i
+       (adj(xI - A) = sum_k x^k sum_(i<n-k) a_(k+i+1) A^i), then Newton interpolation (deg
+       z_R <= n); both give the same polynomial modulo p.
 
-The random choices (u, v, R, K, the prime) decide only whether a sharp bound is found, never
-whether the bound holds. Cost at n = 4000, m = 2: 2n sparse products, one Berlekamp-Massey
-of length 2n and a few truncated products of degree n modulo p, about a second.
+The random choices (u, v, R, K, the prime, the points) decide only whether a sharp bound is
+found, never whether the bound holds. Cost at n = 4000, m = 2: 2n sparse products, one
+Berlekamp-Massey of length 2n and a few truncated products of degree n modulo p, about a
+second; at n = 300, m = 10 (a cluster's pencil): the same products and O(n^2 (q m + m^3))
+vectorised operations modulo p for the values, a few tens of milliseconds.
 """
 
 from __future__ import annotations
@@ -118,10 +131,19 @@ def _exact_leading_terms(
 ) -> int | None:
     """The first k < ``upto`` with c_k != 0 over Q (c the series of det(R C (sI - A)^{-1} B)), or None if all vanish.
 
-    Integer Markov parameters of D A (D the common denominator): c_k = D^{-(k - m)} times
-    the same Leibniz sum over them, so c_k = 0 iff the integer sum is 0.
+    Integer Markov parameters G_j = R C (D A)^j B (D the common denominator) give
+    c_k = D^{-(k - m)} c'_k with c'_k the coefficient of w^k in det(sum_j G_j w^(j+1)); only
+    j < ``upto`` - m reach the orders below ``upto`` (every entry has order >= 1). That
+    determinant is a polynomial of degree at most m (upto - m) in w, computed exactly from its
+    values at as many integers plus one (python-flint ``fmpz_mat`` determinants) and Newton's
+    interpolation over Q.
     """
+    from flint import fmpz_mat
+
     m = len(F)
+    J = max(upto - m, 0)
+    if J == 0:
+        return None
     D = 1
     for v in entries.values():
         D = D * v.denominator // math.gcd(D, v.denominator)
@@ -130,10 +152,9 @@ def _exact_leading_terms(
         if v != 0:
             rows[j].append((i, int(v * D)))  # by column: y_new[i] += A_ij y[j]
     Rint = [[int(x) for x in r] for r in R]
-    # G_j = R (D A)^j B restricted to M: m x m integer matrices, j = 0 .. upto - m - 1
     G: list[list[list[int]]] = []
     vecs = [{f: 1} for f in F]
-    for _ in range(max(upto - m, 0)):
+    for _ in range(J):
         H = [[vec.get(o, 0) for vec in vecs] for o in M]  # q x m
         G.append([[sum(Rint[i][t] * H[t][j] for t in range(len(M)) if H[t][j]) for j in range(m)] for i in range(m)])
         nxt = []
@@ -144,30 +165,161 @@ def _exact_leading_terms(
                     out[i] = out.get(i, 0) + a * y
             nxt.append({i: y for i, y in out.items() if y})
         vecs = nxt
-    for k in range(m, upto):
-        total = 0
-        for perm, sign in _signed_permutations(m):
-            # exponents j_1 + ... + j_m = k - m, entry i from G_{j_i}[i][perm[i]]
-            for js in _compositions(k - m, m):
-                prod = 1
-                for i, j in enumerate(js):
-                    prod *= G[j][i][perm[i]]
-                    if not prod:
-                        break
-                total += sign * prod
-        if total:
+    degree = m * J  # the entries have degree <= J
+    values = []
+    for x in range(degree + 1):
+        P = [[sum(G[j][a][b] * x ** (j + 1) for j in range(J)) for b in range(m)] for a in range(m)]
+        values.append(Fraction(int(fmpz_mat(P).det())))
+    # Newton's divided differences on the points 0, 1, ..., degree, then the monomial coefficients
+    d = list(values)
+    for j in range(1, degree + 1):
+        for i in range(degree, j - 1, -1):
+            d[i] = (d[i] - d[i - 1]) / j
+    poly = [d[degree]]
+    for j in range(degree - 1, -1, -1):  # poly * (w - j) + d[j]
+        poly = [(poly[0] * -j) + d[j]] + [poly[i - 1] - j * poly[i] for i in range(1, len(poly))] + [poly[-1]]
+    for k in range(m, min(upto, len(poly))):
+        if poly[k] != 0:
             return k
     return None
 
 
-def _compositions(total: int, parts: int) -> Any:
-    """Tuples of ``parts`` non-negative integers summing to ``total``."""
-    if parts == 1:
-        yield (total,)
-        return
-    for first in range(total + 1):
-        for rest in _compositions(total - first, parts - 1):
-            yield (first, *rest)
+#: up to this many inputs z_R comes from the series expanded by permutations (m! products), above from values
+_SERIES_MAX_INPUTS = 3
+
+
+def _z_by_series(chi: Sequence[int], H: np.ndarray, Rs: Sequence[np.ndarray], p: int) -> list[Any]:
+    """z_R modulo p for each R of ``Rs``: the polynomial part of chi times det(R G(w)) (module docstring, step 3)."""
+    from flint import nmod_poly
+
+    n, q, m = len(chi) - 1, H.shape[1], H.shape[2]
+    length = n + 1
+    chirev = nmod_poly(list(chi)[::-1], p)  # w^n chi(1/w)
+    out = []
+    for R in Rs:
+        GR = np.zeros((n + 1, m, m), dtype=np.int64)
+        for t in range(q):
+            for i in range(m):
+                GR[:, i, :] = (GR[:, i, :] + int(R[i, t]) * H[:, t, :] % p) % p
+        series = [[nmod_poly([0] + [int(x) for x in GR[:n, i, j]], p) for j in range(m)] for i in range(m)]
+        f = _leibniz_det(series, m, length)
+        P = [int(c) for c in chirev.mul_low(f, length).coeffs()]
+        P += [0] * (length - len(P))
+        out.append(nmod_poly(P[::-1], p))
+    return out
+
+
+def _inv_mod(a: np.ndarray, p: int) -> np.ndarray:
+    """a^(p-2) modulo the prime p elementwise (the inverse of every nonzero entry; p < 2^31)."""
+    out = np.ones_like(a)
+    base = a % p
+    e = p - 2
+    while e:
+        if e & 1:
+            out = out * base % p
+        base = base * base % p
+        e >>= 1
+    return out
+
+
+def _det_mod(mats: np.ndarray, p: int) -> np.ndarray:
+    """Determinants modulo the prime p (< 2^31) of a stack of square int64 matrices (Gaussian elimination, vectorised over the stack)."""
+    A = mats % p
+    b, m, _ = A.shape
+    det = np.ones(b, dtype=np.int64)
+    rows = np.arange(b)
+    for c in range(m):
+        nz = A[:, c:, c] != 0
+        has = nz.any(axis=1)
+        det = np.where(has, det, 0)
+        piv = c + np.argmax(nz, axis=1)
+        swap = has & (piv != c)
+        if swap.any():
+            r = rows[swap]
+            top, other = A[r, c, :].copy(), A[r, piv[swap], :].copy()
+            A[r, c, :], A[r, piv[swap], :] = other, top
+            det[swap] = (p - det[swap]) % p
+        pv = np.where(has, A[:, c, c], 1)
+        det = det * pv % p
+        if c + 1 < m:
+            f = A[:, c + 1 :, c] * _inv_mod(pv, p)[:, None] % p
+            for k in range(c, m):  # column by column: products < p^2 < 2^62
+                A[:, c + 1 :, k] = (A[:, c + 1 :, k] - f * A[:, c, k][:, None] % p) % p
+    return det
+
+
+def _z_by_values(chi: Sequence[int], H: np.ndarray, Rs: Sequence[np.ndarray], p: int, rng: np.random.Generator) -> list[Any] | None:
+    """z_R modulo p for each R of ``Rs`` from its values (module docstring, step 5), or None when no run of points avoids the roots of chi."""
+    from flint import nmod_poly
+
+    n = len(chi) - 1
+    m = H.shape[2]
+    a = np.asarray(chi, dtype=np.int64)
+    for _ in range(4):
+        start = int(rng.integers(1, p - n - 2))
+        x = np.arange(start, start + n + 1, dtype=np.int64)
+        q = np.ones(n + 1, dtype=np.int64)
+        N = np.zeros((n + 1, H.shape[1], m), dtype=np.int64)
+        for i in range(n - 1, -1, -1):
+            N = (N + H[i][None, :, :] * q[:, None, None]) % p
+            q = (x * q + a[i]) % p  # q_(i-1); after i = 0 it is chi(x)
+        if np.all(q != 0):
+            break
+    else:
+        return None
+    scale = _inv_mod(q, p)
+    scale_m = np.ones_like(scale)
+    for _ in range(m - 1):
+        scale_m = scale_m * scale % p
+    out = []
+    for R in Rs:
+        RN = np.zeros((n + 1, m, m), dtype=np.int64)
+        for t in range(H.shape[1]):
+            RN = (RN + (R[:, t][None, :, None] % p) * N[:, t, :][:, None, :] % p) % p
+        vals = _det_mod(RN, p) * scale_m % p
+        # Newton's divided differences on the consecutive points start, start + 1, ...
+        d = vals.copy()
+        for j in range(1, n + 1):
+            d[j:] = (d[j:] - d[j - 1 : -1]) % p * pow(j, p - 2, p) % p
+        poly = np.array([d[n]], dtype=np.int64)
+        for j in range(n - 1, -1, -1):
+            nxt = np.zeros(len(poly) + 1, dtype=np.int64)
+            nxt[1:] = poly
+            nxt[:-1] = (nxt[:-1] - poly * int(x[j]) % p) % p
+            nxt[0] = (nxt[0] + d[j]) % p
+            poly = nxt
+        out.append(nmod_poly([int(c) for c in poly], p))
+    return out
+
+
+def _structural_order(n: int, keys: Sequence[tuple[int, int]], F: Sequence[int], M: Sequence[int]) -> int | None:
+    """m + the least sum of walk lengths d(F_c, M_sigma(c)) over injective sigma (module docstring, step 4), or None if no such sigma."""
+    from scipy.optimize import linear_sum_assignment
+
+    nbrs: list[list[int]] = [[] for _ in range(n)]
+    for i, j in keys:
+        if i != j:
+            nbrs[j].append(i)  # a walk F_c -> ... -> M_t reads A[next, current]
+    far = n + 1
+    cost = np.full((len(F), len(M)), far, dtype=np.int64)
+    where = {o: t for t, o in enumerate(M)}
+    for c, f in enumerate(F):
+        seen = {f}
+        frontier, d = [f], 0
+        while frontier:
+            for v in frontier:
+                if v in where:
+                    cost[c, where[v]] = d
+            nxt = []
+            for v in frontier:
+                for w in nbrs[v]:
+                    if w not in seen:
+                        seen.add(w)
+                        nxt.append(w)
+            frontier, d = nxt, d + 1
+    r, c_ = linear_sum_assignment(cost)
+    total = int(cost[r, c_].sum())
+    return None if np.any(cost[r, c_] >= far) else len(F) + total
 
 
 def zero_count_bound_mod_p(
@@ -205,7 +357,7 @@ def zero_count_bound_mod_p(
     -------
     ZeroCountBound
         ``bound`` None (with a ``note``) when nothing was proven: more inputs than
-        ``zero_count_max_inputs``, fewer outputs than inputs, a characteristic polynomial
+        ``zero_count_values_max_inputs``, fewer outputs than inputs, a characteristic polynomial
         not read exactly, an unlucky prime every time, or a leading term too deep to check
         over Z (``zero_count_exact_terms``).
     """
@@ -215,8 +367,8 @@ def zero_count_bound_mod_p(
         return ZeroCountBound(None, False, 0, note="the inputs must be distinct and at least one")
     if q < m:
         return ZeroCountBound(None, False, 0, note=f"{q} outputs for {m} inputs: never left-invertible")
-    if m > config.get("zero_count_max_inputs"):
-        return ZeroCountBound(None, False, 0, note=f"{m} inputs, more than zero_count_max_inputs = {config.get('zero_count_max_inputs')}")
+    if m > config.get("zero_count_values_max_inputs"):
+        return ZeroCountBound(None, False, 0, note=f"{m} inputs, more than zero_count_values_max_inputs = {config.get('zero_count_values_max_inputs')}")
     if n > config.get("zero_count_max_states"):
         return ZeroCountBound(None, False, 0, note=f"{n} states, more than zero_count_max_states = {config.get('zero_count_max_states')}")
     from flint import fmpz_mod_poly_ctx, nmod_poly
@@ -230,6 +382,7 @@ def zero_count_bound_mod_p(
     keys = [k for k, v in entries.items() if v != 0]
     rng = np.random.default_rng(seed)
     notes: list[str] = []
+    structural: int | None = None
     for attempt in range(config.get("zero_count_primes")):
         p = prime_for(list(entries.values()), limit=limit)
         limit = p - 1  # the next attempt takes the prime below
@@ -269,37 +422,24 @@ def zero_count_bound_mod_p(
         if chi is None or H is None:
             notes.append(f"the characteristic polynomial was not read modulo {p} (A and A - B K derogatory: a repeated uncontrollable eigenvalue)")
             continue
-        length = n + 1
-        chirev = nmod_poly(chi[::-1], p)  # w^n chi(1/w)
-        zs = []
-        rho = 0
-        R1: np.ndarray | None = None
-        for r_idx in range(config.get("zero_count_squarings")):
-            R = rng.integers(0, p, size=(m, q), dtype=np.int64)
-            GR = np.zeros((n + 1, m, m), dtype=np.int64)
-            for t in range(q):
-                for i in range(m):
-                    GR[:, i, :] = (GR[:, i, :] + int(R[i, t]) * H[:, t, :] % p) % p
-            series = [[nmod_poly([0] + [int(x) for x in GR[:n, i, j]], p) for j in range(m)] for i in range(m)]
-            f = _leibniz_det(series, m, length)
-            fc = [int(c) for c in f.coeffs()]
-            if r_idx == 0:
-                nz = next((k for k, c in enumerate(fc) if c), None)
-                if nz is None or nz > n:
-                    notes.append(f"det(R_1 P(s)) vanishes modulo {p}")
-                    break
-                rho, R1 = nz, R
-            P = [int(c) for c in chirev.mul_low(f, length).coeffs()]
-            P += [0] * (length - len(P))
-            zs.append(nmod_poly(P[::-1], p))
-        if R1 is None or len(zs) < 2:
+        Rs = [rng.integers(0, p, size=(m, q), dtype=np.int64) for _ in range(config.get("zero_count_squarings"))]
+        zs = _z_by_series(chi, H, Rs, p) if m <= _SERIES_MAX_INPUTS else _z_by_values(chi, H, Rs, p, rng)
+        if zs is None:
+            notes.append(f"no run of {n + 1} points avoids the roots of chi modulo {p}")
             continue
-        if rho - m > config.get("zero_count_exact_terms"):
-            return ZeroCountBound(None, True, p, rho, feedback, f"the leading term of det(R_1 P(s)) lies {rho} terms deep, more than zero_count_exact_terms to check over Z")
-        first = _exact_leading_terms(n, entries, F, M, R1, rho)
-        if first is not None:
-            notes.append(f"{p} divides the leading coefficient of det(R_1 P(s)) (order {first} over Q, {rho} modulo p)")
+        if zs[0].is_zero():
+            notes.append(f"det(R_1 P(s)) vanishes modulo {p}")
             continue
+        rho = n - int(zs[0].degree())
+        if structural is None:
+            structural = _structural_order(n, keys, F, M) or -1
+        if rho != structural:
+            if rho - m > config.get("zero_count_exact_terms"):
+                return ZeroCountBound(None, True, p, rho, feedback, f"the leading term of det(R_1 P(s)) lies {rho} terms deep, more than zero_count_exact_terms to check over Z")
+            first = _exact_leading_terms(n, entries, F, M, Rs[0], rho)
+            if first is not None:
+                notes.append(f"{p} divides the leading coefficient of det(R_1 P(s)) (order {first} over Q, {rho} modulo p)")
+                continue
         g = zs[0]
         for z in zs[1:]:
             g = g.gcd(z)

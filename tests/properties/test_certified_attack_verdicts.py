@@ -19,7 +19,7 @@ import numpy as np
 from hypothesis import example, given, settings
 from near_degenerate_attacks import attacked_near_degenerate_specs, near_twin_spec, system_of
 
-from glocal_verify import System, verify
+from glocal_verify import System, config, verify
 from glocal_verify.results import ConditionResult, Status
 
 IDS = ["stealthy.zda", "stealthy.covert", "switching.avoids-attack", "local.rank", "local.pencil", "local.uio"]
@@ -104,10 +104,14 @@ def test_escalation_settles_the_undecided_results_of_the_near_twins() -> None:
 
 
 def test_an_undecided_numeric_result_names_the_bound_that_failed() -> None:
-    s = system_of(near_twin_spec(12))
-    rs = [r for r in verify(s, IDS, escalate="never").conditions if r.status is Status.UNDECIDED]
-    assert rs
-    for r in rs:
+    # near twins at 1e-12: stealthy.zda is undecided numerically when the maximal minors are
+    # not affordable (they decide it otherwise); with M_v = {6} the touch test is undecided
+    with config.override(zda_certificate_max_seconds=0.0):
+        zda = [r for r in verify(system_of(near_twin_spec(12)), IDS, escalate="never").conditions if r.status is Status.UNDECIDED]
+    assert "stealthy.zda" in {r.id for r in zda}
+    touch = [r for r in verify(system_of(near_twin_spec(12, velocities=(6,))), IDS, escalate="never").conditions if r.status is Status.UNDECIDED]
+    assert "switching.avoids-attack" in {r.id for r in touch}
+    for r in zda + touch:
         assert r.note
 
 

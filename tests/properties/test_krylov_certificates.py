@@ -147,7 +147,8 @@ def test_a_block_krylov_rank_modulo_a_prime_never_exceeds_the_observability_rank
 
 
 def test_the_observability_certificate_decides_a_cluster_of_a_hundred_agents_that_zero_forcing_leaves_open() -> None:
-    from glocal_verify.analysis.local.cases import certify_pencil_verdict, local_cases, observability_certificate
+    from glocal_verify.analysis.local.cases import certify_pencil_verdict, local_cases
+    from glocal_verify.analysis.local.pencil_rank_certificates import observability_certificate
     from glocal_verify.analysis.local.pencil import pencil_verdict
     from glocal_verify.design.generators import random_clustered_spec
 
@@ -164,7 +165,8 @@ def test_the_observability_certificate_decides_a_cluster_of_a_hundred_agents_tha
 @settings(max_examples=25, deadline=None)
 @given(st.integers(0, 10_000), st.integers(18, 30), st.integers(2, 3), st.booleans())
 def test_what_the_observability_certificate_proves_exact_arithmetic_confirms(seed: int, n: int, clusters: int, attack: bool) -> None:
-    from glocal_verify.analysis.local.cases import local_cases, minor_certificate, observability_certificate
+    from glocal_verify.analysis.local.cases import local_cases, minor_certificate
+    from glocal_verify.analysis.local.pencil_rank_certificates import observability_certificate
     from glocal_verify.analysis.local.pencil import pencil_verdict_exact
     from glocal_verify.design.generators import random_clustered_spec
 

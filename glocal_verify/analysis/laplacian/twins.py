@@ -1,7 +1,7 @@
 """Twin agents: exact eigenvectors e_a - e_r of a Laplacian, and the decisions they settle.
 
 Agents a != r with equal rows of L off {a, r} and equal diagonal entries are *twins*:
-L (e_a - e_r) = (L_aa - L_ar)(e_a - e_r) exactly (:func:`glocal_verify.numerics.minors.twin_modes`).
+L (e_a - e_r) = (L_aa - L_ar)(e_a - e_r) exactly (:func:`glocal_verify.numerics.symmetry.twin_modes`).
 Pendant agents hanging on the same neighbour with equal weights are the common case in
 generated networks. They settle, in exact arithmetic and at the cost of a hash per agent,
 questions whose floating-point answers sit on a rounding-level difference:
@@ -25,7 +25,8 @@ from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.numerics.exact import nullspace
 from glocal_verify.numerics.krylov import krylov_degree_mod
-from glocal_verify.numerics.minors import charpoly_mod, prime_for, twin_modes
+from glocal_verify.numerics.minors import charpoly_mod, prime_for
+from glocal_verify.numerics.symmetry import twin_modes
 from glocal_verify.results import Status, Verdict
 
 __all__ = ["distinct_eigenvalues_modular", "eigenvector_differences_modular", "laplacian_entries"]
@@ -49,12 +50,16 @@ def laplacian_entries(system: System, mode: str) -> Mapping[tuple[int, int], Fra
 
     def build() -> Mapping[tuple[int, int], Fraction]:
         ent: dict[tuple[int, int], Fraction] = {}
-        for key, w in system.edges(mode).items():
-            u, v = (system.index[a] for a in key)
-            ent[(u, v)] = ent.get((u, v), Fraction(0)) - w
-            ent[(v, u)] = ent.get((v, u), Fraction(0)) - w
-            ent[(u, u)] = ent.get((u, u), Fraction(0)) + w
-            ent[(v, v)] = ent.get((v, v), Fraction(0)) + w
+        diag: list[list[Fraction]] = [[] for _ in range(system.n)]
+        index = system.index
+        for key, w in system.edges(mode).items():  # one weight per pair of agents
+            u, v = (index[a] for a in key)
+            ent[(u, v)] = ent[(v, u)] = -w
+            diag[u].append(w)
+            diag[v].append(w)
+        for i, ws in enumerate(diag):
+            if ws:
+                ent[(i, i)] = sum(ws, Fraction(0))
         return ent
 
     return _LAPLACIAN_ENTRIES_KIND.get(system, (system.check_mode(mode),), build)  # type: ignore[no-any-return]
@@ -63,7 +68,7 @@ def laplacian_entries(system: System, mode: str) -> Mapping[tuple[int, int], Fra
 def eigenvector_differences_modular(system: System, mode: str) -> Verdict | None:
     """Decide Theorem III.3 (iii) for ``mode`` exactly and cheaply, or return None.
 
-    * fails: an exact twin mode e_a - e_r of L_q (:func:`glocal_verify.numerics.minors.twin_modes`)
+    * fails: an exact twin mode e_a - e_r of L_q (:func:`glocal_verify.numerics.symmetry.twin_modes`)
       with {a, r} disjoint from a pair {i, j} of a switching component is an eigenvector with
       u(i) = u(j) = 0 (for a repeated eigenvalue (iii) fails anyway);
     * holds, by Krylov degrees (:func:`glocal_verify.numerics.krylov.krylov_degree_mod`, about
@@ -222,7 +227,7 @@ def distinct_eigenvalues_modular(system: System, mode: str) -> Verdict | None:
     """Decide Theorem III.3 (ii) for ``mode`` exactly and cheaply, or return None.
 
     * fails: two independent exact twin modes e_a - e_r of L_q with the same eigenvalue mu
-      (:func:`glocal_verify.numerics.minors.twin_modes`): mu is repeated; the witness gives
+      (:func:`glocal_verify.numerics.symmetry.twin_modes`): mu is repeated; the witness gives
       them orthogonalised in exact arithmetic (their number is a lower bound on the
       multiplicity);
     * holds: dim span{L_q^k b} = N for a random b, proven modulo a prime

@@ -17,6 +17,7 @@ import numpy as np
 import scipy.sparse
 
 from glocal_verify import config
+from glocal_verify.analysis.local.pencil_rank_certificates import measured_inputs_unknown, observability_certificate, zero_count_certificate
 from glocal_verify.derived import Kind
 from glocal_verify.model import ClusterModel, LocalObserver, System
 from glocal_verify.numerics.minors import RATIONAL_ZERO
@@ -35,7 +36,6 @@ __all__ = [
     "full_pencil_sparse",
     "local_cases",
     "input_output_matrices",
-    "observability_certificate",
     "pencil_matrices",
     "pencil_matrices_exact",
     "screened_pencil_verdict",
@@ -371,16 +371,6 @@ def _krawczyk_zero(system: System, case: LocalCase, witness: dict[str, Any]) -> 
     return None
 
 
-def _measured_inputs_unknown(case: LocalCase) -> tuple[set[int], set[int], list[int]]:
-    """(M, I, U) in cluster indices: the agents the observer measures (positions or
-    velocities: lam != 0), the input agents (suspected and boundary) and the unmeasured ones."""
-    cm, obs = case.model, case.observer
-    idx = {a: k for k, a in enumerate(cm.nodes)}
-    measured = {idx[a] for a in obs.positions} | {idx[a] for a in obs.velocities}
-    inputs = {idx[a] for a in case.suspected} | {idx[a] for a in cm.boundary}
-    return measured, inputs, [i for i in range(len(cm.nodes)) if i not in measured]
-
-
 def _rational_s_zero(system: System, case: LocalCase, witness: Mapping[str, Any]) -> str | None:
     """An exact rank loss of the reduced pencil at a rational s near a reported zero, or None.
 
@@ -396,7 +386,7 @@ def _rational_s_zero(system: System, case: LocalCase, witness: Mapping[str, Any]
     import flint
 
     cm = case.model
-    measured, inputs, U = _measured_inputs_unknown(case)
+    measured, inputs, U = measured_inputs_unknown(case)
     if not U or len(U) > config.get("exact_rank_max_columns"):
         return None
     rows = [i for i in U if i not in inputs] + sorted(measured - inputs)
@@ -467,92 +457,62 @@ def minor_certificate(system: System, case: LocalCase, cache: dict[Any, Any] | N
     def build() -> Any:
         return grounded_tables(len(nodes), system.cluster_laplacian_entries(cm.name, case.mode), alpha, measured)
 
-    tables = _GROUNDED_TABLES_KIND.get(system, (cm.name, case.mode, tuple(measured)), build)
-    if tables is None:
-        return None
     inputs = [idx[a] for a in case.suspected] + [idx[a] for a in cm.boundary]
+    mset = set(measured)
+    unmeasured_inputs = sum(1 for i in set(inputs) if i not in mset)
+    # the maximal minors apply to at most minor_max_inputs unmeasured inputs (and as many other
+    # measured rows): their tables (a characteristic polynomial and a Krylov sequence) are
+    # built only then
+    minors_apply = unmeasured_inputs <= config.get("minor_max_inputs") and len(mset - set(inputs)) >= unmeasured_inputs
 
     def prove() -> str | None:
+        tables = _GROUNDED_TABLES_KIND.get(system, (cm.name, case.mode, tuple(measured)), build) if minors_apply else None
         kr = observability_certificate(system, case)
+        cert = None
         if kr is not None:
             text = kr
-        else:
-            cert = full_rank_certificate(tables, inputs, cache if cache is not None else {})
-            if cert is None:
-                return None
+        elif tables is not None and (cert := full_rank_certificate(tables, inputs, cache if cache is not None else {})) is not None:
             text = cert.text()
-        mx = {idx[a] for a in obs.positions}
-        # alpha L[P_i \ I, P_i \ M_x] modulo the tables' prime (which divides no denominator of
-        # alpha L): the residues of alpha L are kept per cluster and mode
-        res = _ALPHA_LAPLACIAN_MOD_KIND.get(system, (cm.name, case.mode, tables.prime), lambda: residues_mod_p([[alpha * x for x in row] for row in system.cluster_laplacian_exact(cm.name, case.mode)], tables.prime))
-        inset = set(inputs)
-        if not submatrix_full_rank_mod_p(res, [i for i in range(len(nodes)) if i not in inset], [j for j in range(len(nodes)) if j not in mx], tables.prime):
+        elif (zc := zero_count_certificate(system, case)) is not None:
+            text = zc
+        else:
             return None
-        return text + f"; lam = 0: alpha L[P_i \\ I, P_i \\ M_x] has full column rank modulo the prime {tables.prime}"
+        mx = {idx[a] for a in obs.positions}
+        # alpha L[P_i \ I, P_i \ M_x] modulo a prime which divides no denominator of alpha L
+        # (the tables', when they were built): the residues of alpha L are kept per cluster and mode
+        p = tables.prime if tables is not None else _prime_of(system, case, alpha)
+        res = _ALPHA_LAPLACIAN_MOD_KIND.get(system, (cm.name, case.mode, p), lambda: residues_mod_p(_alpha_rows(system, case, alpha), p))
+        inset = set(inputs)
+        if not submatrix_full_rank_mod_p(res, [i for i in range(len(nodes)) if i not in inset], [j for j in range(len(nodes)) if j not in mx], p):
+            return None
+        return text + f"; lam = 0: alpha L[P_i \\ I, P_i \\ M_x] has full column rank modulo the prime {p}"
 
     # the outcome (a proof or None) depends only on the exact tables and the input rows: the
     # audit's screen and the certification of a numeric verdict ask for the same one
     return _LOCAL_MINOR_CERTIFICATE_KIND.get(system, (cm.name, case.mode, tuple(measured), tuple(obs.positions), tuple(sorted(inputs))), prove)
 
 
-def observability_certificate(system: System, case: LocalCase) -> str | None:
-    """Prove Proposition III.2 (iii) at every lam != 0 by a block Krylov rank modulo a prime, or return None.
+def _prime_of(system: System, case: LocalCase, alpha: Fraction) -> int:
+    """A prime below 2^30 that divides no denominator of alpha L[P_i, P_i]."""
+    from glocal_verify.numerics.minors import prime_for
 
-    When every input agent (suspected or boundary) is measured, I' = I ∩ U is empty and the
-    reduced pencil of :mod:`glocal_verify.numerics.minors` is
-    ``T(s) = [s I + alpha L[U, U]; alpha L[M', U]]`` (M' = M \\ I): it has full column rank
-    for every complex s iff ``(-alpha L[U, U], L[M', U])`` is observable (Hautus), which the
-    rank n_U of ``[C; C A; ...]`` modulo a prime proves over Q
-    (:func:`~glocal_verify.numerics.krylov.krylov_rank_mod`: reduction never raises a rank).
-    Unlike maximal minors it needs no choice of rows, so factors of parts of G[U] shared by
-    the structured minors cannot hide the proof. lam = 0 is left to the caller.
+    return prime_for([alpha, *system.cluster_laplacian_entries(case.model.name, case.mode).values()])
 
-    Parameters
-    ----------
-    system : System
-    case : LocalCase
 
-    Returns
-    -------
-    str or None
-        The certificate, one line; None proves nothing (an unmeasured input agent, or a rank
-        below n_U modulo the prime).
-    """
-    from glocal_verify.numerics.krylov import krylov_rank_mod
-
-    cm = case.model
-    measured, inputs, U = _measured_inputs_unknown(case)
-    if not inputs <= measured:
-        return None
-    if not U:
-        return "every agent of the cluster is measured: T(s) has no column"
-    pos = {i: k for k, i in enumerate(U)}
-    out = sorted(measured - inputs)
-    alpha = Fraction(system.alpha_q)
-    A: dict[tuple[int, int], Fraction] = {}
-    C: list[dict[int, Fraction]] = [{} for _ in out]
-    orow = {m: k for k, m in enumerate(out)}
-    for (i, j), v in system.cluster_laplacian_entries(cm.name, case.mode).items():
-        if j not in pos:
-            continue
-        if i in pos:
-            A[(pos[i], pos[j])] = -alpha * v
-        elif i in orow:
-            C[orow[i]][pos[j]] = v
-    kr = krylov_rank_mod(len(U), A, C, denominators=(alpha, 1 / alpha) if alpha else ())
-    if not kr.observable:
-        return None
-    return (
-        f"the observability matrix of (alpha L[U, U], L[M', U]) ({len(U)} unmeasured agents, {len(out)} measured rows, "
-        f"{kr.blocks} blocks) has rank {kr.states} modulo the prime {kr.prime}: full column rank for every lambda != 0"
-    )
+def _alpha_rows(system: System, case: LocalCase, alpha: Fraction) -> list[list[Fraction]]:
+    """alpha L[P_i, P_i] as rational rows, from the nonzero entries only (the zeros share one object)."""
+    n = len(case.model.nodes)
+    rows = [[RATIONAL_ZERO] * n for _ in range(n)]
+    for (i, j), v in system.cluster_laplacian_entries(case.model.name, case.mode).items():
+        rows[i][j] = alpha * v
+    return rows
 
 
 def twin_failure(system: System, case: LocalCase) -> str | None:
     """An exact proof that Proposition III.2 (iii) fails: a twin mode the observer cannot see.
 
     If agents a, r of the cluster are twins of L[P_i, P_i] (equal rows off {a, r}, equal
-    diagonal; :func:`glocal_verify.numerics.minors.twin_modes`) and the observer measures
+    diagonal; :func:`glocal_verify.numerics.symmetry.twin_modes`) and the observer measures
     neither, z = e_a - e_r satisfies L[P_i, P_i] z = mu z exactly, so [z; lam z; 0] is a kernel
     vector of the pencil of eq. ``pencil_uio`` at both roots of lam^2 + gamma lam + alpha mu:
     the pencil loses column rank there, whatever the suspected set.
@@ -567,7 +527,7 @@ def twin_failure(system: System, case: LocalCase) -> str | None:
     str or None
         The proof, one line; None proves nothing.
     """
-    from glocal_verify.numerics.minors import twin_modes
+    from glocal_verify.numerics.symmetry import twin_modes
 
     cm, obs = case.model, case.observer
     nodes = cm.nodes

@@ -173,6 +173,19 @@ def state_rounding_bound(system: System, name: str, mode: str) -> float:
         block = scipy.sparse.csr_matrix(cm.A_sparse[n:, :n])  # every float nonzero of the block, row by row
         block.sort_indices()
         vel = cm.A_sparse.diagonal()[n:]
+        zero = Fraction(0)
+        # |fl - exact| depends only on the pair (the double, the exact entry): each distinct
+        # pair is formed exactly once (a network has few distinct weights and degrees)
+        seen: dict[tuple[float, Fraction, Fraction], float] = {}
+
+        def gap(x: float, v: Fraction, scale: Fraction) -> float:
+            """|x + scale v| (x the double, scale v the exact entry it stands for)."""
+            key = (x, v, scale)
+            d = seen.get(key)
+            if d is None:
+                d = seen[key] = abs(float(Fraction(x) + scale * v))
+            return d
+
         for i, lab in enumerate(cm.nodes):
             lo, hi = block.indptr[i], block.indptr[i + 1]
             Ai = dict(zip(block.indices[lo:hi].tolist(), block.data[lo:hi].tolist()))
@@ -180,10 +193,10 @@ def state_rounding_bound(system: System, name: str, mode: str) -> float:
             # (read from the graph, not from rounded floats), and every float nonzero
             cols = {i} | {loc[b] for b in adj[lab] if b in loc} | set(Ai)
             for j in cols:
-                d = abs(float(Fraction(Ai.get(j, 0.0)) + a * Lq.get((i, j), 0)))
+                d = gap(Ai.get(j, 0.0), Lq.get((i, j), zero), a)
                 total += d * d
                 k += 1
-            d = abs(float(Fraction(float(vel[i])) + g))
+            d = gap(float(vel[i]), Fraction(1), g)
             total += d * d
             k += 1
         return math.sqrt(total) * (1.0 + (k + 4) * EPS) + 1e-300 if total > 0 else 0.0

@@ -55,12 +55,16 @@ class ZdaCertificate:
         The floating-point error bound of the decided quantity (Weyl bounds), when one was used.
     note : str
         Which bound failed and how far, when ``status`` is None.
+    lambda0 : complex or None
+        For ``HOLDS`` at lambda0 = 0 (a persistent ZDA, from the graph or the rank bounds): 0.
     """
 
     status: Status | None
     by: str = ""
     error_bound: float | None = None
     note: str = ""
+    #: the exponent at which a ``HOLDS`` certificate proves a stealthy direction, when it proves one at a known exponent
+    lambda0: complex | None = None
 
 
 def exact_q_pattern(system: System, F: Sequence[int], rows_out: Sequence[int]) -> np.ndarray:
@@ -75,9 +79,9 @@ def exact_q_pattern(system: System, F: Sequence[int], rows_out: Sequence[int]) -
     N, m = system.n, len(F)
     a = Fraction(system.alpha_q)
     pat = np.zeros((N + len(rows_out), N + m), dtype=bool)
-    for (i, j), v in laplacian_entries(system, NORMAL_MODE).items():
-        if i != j and a * v != 0:
-            pat[i, j] = True
+    if a != 0:  # alpha L_ij is zero exactly when L_ij is
+        ij = np.array([k for k, v in laplacian_entries(system, NORMAL_MODE).items() if v != 0], dtype=np.int64).reshape(-1, 2)
+        pat[ij[:, 0], ij[:, 1]] = True
     pat[np.arange(N), np.arange(N)] = True
     for k, f in enumerate(F):
         pat[f, N + k] = True  # -1 (an agent listed twice adds -1 in another column)
@@ -281,14 +285,14 @@ def zda_certificate(
         c_f = len({comp[f] for f in F})
         at0, bound = c_f < m, None
         if at0:
-            return ZdaCertificate(Status.HOLDS, f"at lambda0 = 0 with no monitored position, {m} attacked agents lie in {c_f} component(s) of G_1: rank [alpha L_1, -S_F^T] = N - c + {c_f} < N - c + {m} (a persistent ZDA; exact, from the graph)")
+            return ZdaCertificate(Status.HOLDS, f"at lambda0 = 0 with no monitored position, {m} attacked agents lie in {c_f} component(s) of G_1: rank [alpha L_1, -S_F^T] = N - c + {c_f} < N - c + {m} (a persistent ZDA; exact, from the graph)", lambda0=0j)
     else:
         rows0, pat0 = exact_q_rows(system, F, Mx, Fraction(0))
         mx = set(Mx)
         free = sum(1 for c in system.components() if not any(system.index[a] in mx for a in c))
         at0, bound = u_direction_certificate(rows0, pat0, N, m, xi_upper=N - free)
         if at0 is True:
-            return ZdaCertificate(Status.HOLDS, "Weyl/structural rank bounds at lambda0 = 0: rank Q_{M_x}(0) < rank [alpha L; S_{M_x}] + m (a persistent ZDA)", bound)
+            return ZdaCertificate(Status.HOLDS, "Weyl/structural rank bounds at lambda0 = 0: rank Q_{M_x}(0) < rank [alpha L; S_{M_x}] + m (a persistent ZDA)", bound, lambda0=0j)
     if candidate is not None and candidate[0].imag == 0:
         lq = Fraction(candidate[0].real)
         rows_c, _ = exact_q_rows(system, F, Mx if lq == 0 else M, lq * lq + system.gamma_q * lq)

@@ -23,7 +23,7 @@ The reduction (Modal structure of the condition contract)
     zero, alone on the imaginary axis.
 
 Twin classes (exact)
-    Classes of twin agents (:func:`~glocal_verify.numerics.minors.twin_modes`) outside
+    Classes of twin agents (:func:`~glocal_verify.numerics.symmetry.twin_modes`) outside
     F and M whose partition is verified equitable here (every member of a class has the same
     row sums of L_1 over every class) give W = {x constant on each class}, invariant under
     L_1, with Im S_F^T in W and S_M W^perp = 0. W^perp is invariant too (L_1 symmetric), so
@@ -72,7 +72,7 @@ from glocal_verify.derived import Kind
 from glocal_verify.errors import ModelError
 from glocal_verify.model import System
 from glocal_verify.numerics.cluster_transfer import adjugate_columns
-from glocal_verify.numerics.minors import twin_modes
+from glocal_verify.numerics.symmetry import equitable_cells, twin_modes
 from glocal_verify.numerics.zero_polynomial import poly_det
 from glocal_verify.numerics.zero_count import ZeroCountBound, zero_count_bound_mod_p
 from glocal_verify.spec.types import NORMAL_MODE, Label
@@ -122,15 +122,7 @@ def _quotient(n: int, lap: Mapping[tuple[int, int], Fraction], alpha: Fraction, 
     for (i, j), v in lap.items():
         if v != 0:
             rows[i][j] = v
-    colour = [(-1 - a) if a in special else 0 for a in range(n)]
-    cells = len(set(colour))
-    for _ in range(n):
-        sig = [(colour[a], rows[a].get(a, Fraction(0)), tuple(sorted((colour[b], v) for b, v in rows[a].items() if b != a))) for a in range(n)]
-        ids: dict[object, int] = {}
-        colour = [ids.setdefault(x, len(ids)) for x in sig]
-        if len(ids) == cells:
-            break
-        cells = len(ids)
+    colour = equitable_cells(n, lap, special)
     rep: dict[int, int] = {}
     cls = [rep.setdefault(colour[a], a) for a in range(n)]  # the first member of each cell represents it
     reps = sorted(set(cls))

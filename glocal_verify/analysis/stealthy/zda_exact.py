@@ -19,7 +19,8 @@ from glocal_verify.analysis.laplacian.transfer import laplacian_transfer as _tra
 from glocal_verify.analysis.laplacian.twins import laplacian_entries
 from glocal_verify.derived import Kind
 from glocal_verify.model import System
-from glocal_verify.numerics.minors import GroundedTables, MinorCertificate, full_rank_certificate, grounded_tables, twin_modes
+from glocal_verify.numerics.minors import GroundedTables, MinorCertificate, full_rank_certificate, grounded_tables
+from glocal_verify.numerics.symmetry import twin_modes
 from glocal_verify.numerics.pencil_exact import (
     RootEnclosures,
     analyze_pencil_exact,
@@ -286,7 +287,7 @@ def _order(z: Any, g: Any) -> int:
 
 
 def _twins(system: System) -> tuple[tuple[Fraction, tuple[tuple[int, int], ...]], ...]:
-    """The twin modes of (L_1, M) (:func:`~glocal_verify.numerics.minors.twin_modes`), each family re-checked exactly."""
+    """The twin modes of (L_1, M) (:func:`~glocal_verify.numerics.symmetry.twin_modes`), each family re-checked exactly."""
 
     def build() -> tuple[tuple[Fraction, tuple[tuple[int, int], ...]], ...]:
         M = system.idx(system.monitored)

@@ -51,7 +51,7 @@ from glocal_verify.analysis.stealthy.zda import GROWTH_PERSISTENT, GROWTH_UNBOUN
 from glocal_verify.derived import Kind
 from glocal_verify.errors import ModelError
 from glocal_verify.model import System
-from glocal_verify.numerics.minors import twin_modes
+from glocal_verify.numerics.symmetry import twin_modes
 from glocal_verify.numerics.pencil_exact import classify_real_parts, eval_at_root, kernel_over_field, rational_kernel
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
 from glocal_verify.results import growth_of_sign

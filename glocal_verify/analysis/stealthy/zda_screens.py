@@ -25,7 +25,9 @@ lambda0 = 0 (:func:`zero_exponent_status`)
     the c_F components that hold an attacked agent: rank Q_0 = N - c + c_F, so a stealthy ZDA at
     0 exists iff c_F < |F| (exact, from the graph). With monitored positions, zero forcing from
     M_x on the exact graph (rows of attacked agents never force) that reaches every agent
-    proves there is none; otherwise the certified rank bounds of
+    proves there is none, as does the rank of Q_0 modulo a prime reaching N - (components
+    without a monitored position) + |F| (up to ``zero_exponent_modular_max_agents``); otherwise
+    the certified rank bounds of
     :func:`~glocal_verify.analysis.stealthy.zda_certificate.u_direction_certificate` decide, up to
     ``config.get("zero_exponent_dense_max_agents")`` agents.
 """
@@ -43,6 +45,7 @@ from glocal_verify.analysis.laplacian.twins import laplacian_entries
 from glocal_verify.analysis.unobservable.subspace import rational_unobservable_candidates
 from glocal_verify.derived import Kind
 from glocal_verify.model import System
+from glocal_verify.numerics.symmetry import equitable_differences
 from glocal_verify.numerics.minors import (
     GroundedTables,
     grounded_tables,
@@ -198,13 +201,72 @@ def global_tables(system: System) -> GroundedTables | None:
 
 
 def _unobservable_candidates(system: System, M: Sequence[int], grouped: bool = False) -> Any:
-    """Rationalised reduced-echelon bases of E_mu ∩ ker S_M per eigenvalue group (floating point)."""
+    """Rationalised reduced-echelon bases of E_mu ∩ ker S_M per eigenvalue group (floating point), and one group of
+    exact differences of the equitable partition with M kept apart (identical clusters, twins:
+    :func:`~glocal_verify.numerics.symmetry.equitable_differences`), whose eigenvectors are irrational."""
     sp = system.spectrum()
     U = np.asarray(sp.vectors)
     out = [rows for g in sp.clusters if (rows := rational_unobservable_candidates(U[:, list(g)], M))]
+    sym = equitable_differences(system.n, laplacian_entries(system, NORMAL_MODE), M)
+    if sym:
+        out.append(sym)
     if grouped:
         return out
     return [r for grp in out for r in grp]
+
+
+def _full_rank_at_zero_mod_p(system: System, F: Sequence[int], Mx: Sequence[int], free: int) -> int | None:
+    """The prime p when the rank of Q_0 modulo p proves that no stealthy ZDA exists at lambda0 = 0, else None.
+
+    .. math::
+
+        Q_0 = \\begin{bmatrix} \\alpha L_1 & -S_F^T \\\\ S_{M_x} & 0 \\end{bmatrix},
+        \\qquad
+        \\operatorname{rank} Q_0 \\ge N - \\text{free} + m
+        \\;\\Rightarrow\\; \\text{no kernel vector } (\\xi, u_0) \\text{ with } u_0 \\ne 0 .
+
+    The kernel of [alpha L_1; S_Mx] is spanned by the indicators of the ``free`` components of
+    G_1 without a monitored position, so its rank is N - free, and a kernel vector of Q_0 with
+    an input part exists iff rank Q_0 < (N - free) + m. Reduction modulo a prime p that divides
+    no denominator is a ring homomorphism, so every minor nonzero modulo p is nonzero over Q:
+    rank_p Q_0 <= rank_Q Q_0, and a modular rank reaching N - free + m proves the absence
+    exactly, with no rounding (where the Weyl bounds fail on weights of very different
+    scales). The prime also divides no numerator (:func:`~glocal_verify.numerics.minors.prime_for`),
+    which only avoids needless failures. An unlucky prime proves nothing (None); it never
+    proves a false absence. Cost: one dense rank modulo p of an (N + |M_x|) x (N + m) matrix.
+
+    Parameters
+    ----------
+    system : System
+    F : sequence of int
+        Indices of the attacked agents (m = len(F)).
+    Mx : sequence of int
+        Indices of the monitored positions.
+    free : int
+        Components of G_1 without a monitored position.
+
+    Returns
+    -------
+    int or None
+        The prime of the proof, or None.
+    """
+    from flint import nmod_mat
+
+    from glocal_verify.numerics.minors import prime_for
+
+    N, m = system.n, len(F)
+    a = Fraction(system.alpha_q)
+    ent = {k: a * v for k, v in laplacian_entries(system, NORMAL_MODE).items() if v != 0}
+    p = prime_for(list(ent.values()))
+    rows, cols = N + len(Mx), N + m
+    flat = [0] * (rows * cols)
+    for (i, j), v in ent.items():
+        flat[i * cols + j] = (v.numerator % p) * pow(v.denominator % p, -1, p) % p
+    for k, f in enumerate(F):
+        flat[f * cols + N + k] = (flat[f * cols + N + k] - 1) % p
+    for t, r in enumerate(Mx):
+        flat[(N + t) * cols + r] = 1
+    return p if int(nmod_mat(rows, cols, flat, p).rank()) >= N - free + m else None
 
 
 def zero_exponent_status(system: System, F: Sequence[Label], memo: MutableMapping[Any, Any] | None = None) -> tuple[Status, str]:
@@ -240,13 +302,16 @@ def zero_exponent_status(system: System, F: Sequence[Label], memo: MutableMappin
     Fi, Mx = system.idx(F), system.idx(system.monitored_positions)
     if len(zero_forcing_closure(store["exact-neighbours"], Mx, Fi)) == system.n:
         return Status.FAILS, "zero forcing from M_x on the exact graph reaches every agent: ker Q_0 = {0}"
+    mx = set(Mx)
+    free = sum(1 for c in system.components() if not any(system.index[a] in mx for a in c))
+    if system.n <= config.get("zero_exponent_modular_max_agents") and (p := _full_rank_at_zero_mod_p(system, Fi, Mx, free)) is not None:
+        return Status.FAILS, (f"rank Q_0 = N - {free} + {m} modulo the prime {p}, the most rank [alpha L; S_Mx] + m can be "
+                              "(the indicators of the components without a monitored position span its kernel): no kernel vector of Q_0 with an input part")
     if system.n > (limit := config.get("zero_exponent_dense_max_agents")):
         return Status.UNDECIDED, f"zero forcing from M_x leaves agents unforced, and certified rank bounds are not tried above {limit} agents"
     from glocal_verify.analysis.stealthy.zda_certificate import exact_q_rows, u_direction_certificate
 
     rows0, pat0 = exact_q_rows(system, Fi, Mx, Fraction(0))
-    mx = set(Mx)
-    free = sum(1 for c in system.components() if not any(system.index[a] in mx for a in c))
     at0, bound = u_direction_certificate(rows0, pat0, system.n, m, xi_upper=system.n - free)
     if at0 is True:
         return Status.HOLDS, f"Weyl/structural rank bounds at lambda0 = 0 (error bound {bound:.3g}): rank Q_0 < rank [alpha L; S_Mx] + m (a persistent ZDA)"

@@ -38,12 +38,18 @@ What proves a status (tried in this order; each is a proof about the exact syste
        its fastest-growing zero, :func:`~glocal_verify.analysis.stealthy.zda_completeness.zero_set_completeness`
        decides whether that choice is proven (no zero lambda != 0 with Re lambda >= 0, by a
        modular count of the zeros of the N-sized pencil in s); only then is lambda0 exact.
+       A persistent ZDA at lambda0 = 0 that the certificate proves and the numeric zero set
+       missed (badly scaled weights) is ``holds`` (:func:`_proved_at_zero`): the growth class and
+       left-invertibility only as that completeness proof gives them, the witness only verified.
        When the separator screen proves the system not left-invertible, the zero set does
        not choose: the witness is lambda0 = 1 and the growth ``unbounded``, whatever
        ``screen`` says (the deflation's rank decisions may have missed it). ``growth="full"``
        without ``fallback`` (``verify``'s numeric pass): an undecided status is proven by
        :func:`~glocal_verify.analysis.stealthy.zda_local.prove_local_zero` when it finds a zero the
        numeric zero set missed (the growth then a lower bound; the escalation decides the rest).
+       An undecided status of step 5 then gets step 4 when its tables are affordable
+       (``zda_certificate_max_seconds``), the unobservable modes of identical clusters and
+       twins divided out exactly (their basis from the equitable partition).
     6. ``fallback=True``: an undecided status is re-decided over Q (step 1).
 
 The witness direction is the spec's lambda0 when a stealthy ZDA exists there, else the
@@ -258,6 +264,8 @@ def _numeric(system: System, F: tuple[Label, ...], opt: ZdaOptions) -> ZdaVerdic
     d0 = za.direction
     cand = None if d0 is None or za.direction_source != "requested lambda0" else (d0.value, d0.xi, d0.u0)
     cert = zda_certificate(system, F, cand, [(z.s, z.xi, z.u0) for z in za.zeros if z.value != 0])
+    if cert.status is Status.HOLDS and status is not Status.HOLDS and cert.lambda0 == 0 and (opt.lambda0 is None or complex(opt.lambda0) == 0):
+        return _proved_at_zero(system, F, opt, za, cert)
     note = ""
     if cert.status is not status:
         if status is not Status.UNDECIDED and cert.status is not None:
@@ -285,6 +293,46 @@ def _numeric(system: System, F: tuple[Label, ...], opt: ZdaOptions) -> ZdaVerdic
         F, status, growth, za.left_invertible if za.decided else None, za.direction, za.direction_source, "numeric",
         cert.by if status is not Status.UNDECIDED else "", error_bound=cert.error_bound, note=note, numeric_analysis=za, certificate=cert,
         zeros_exact=completeness is not None and completeness.complete, completeness=completeness,
+    )
+
+
+def _proved_at_zero(system: System, F: tuple[Label, ...], opt: ZdaOptions, za: ZdaAnalysis, cert: ZdaCertificate) -> ZdaVerdict:
+    """Step 5 when the certificate proves a persistent ZDA at lambda0 = 0 that the numeric zero set missed.
+
+    Badly scaled weights (p^2 / 10^6 beside 1) can push the deflation's rank decisions the wrong
+    way. The certificate is a proof about the exact system (lambda0 = 0 with no monitored
+    position: the attacked agents lie in fewer components of G_1 than there are of them, exact
+    from the graph; else certified rank bounds rank Q_0 < rank [alpha L_1; S_{M_x}] + m), so it
+    decides the status: ``holds``. Nothing the numeric analysis decided is kept:
+
+    * the witness is the direction at lambda0 = 0 of the modal pencil, given only when its
+      residual is certified zero and its input part certified nonzero, else none;
+    * the growth class and left-invertibility are proven only when
+      :func:`~glocal_verify.analysis.stealthy.zda_completeness.zero_set_completeness` proves
+      Q(s) left-invertible with every zero lambda != 0 in Re lambda < 0: then lambda0 = 0 is
+      the fastest-growing zero (``persistent``, the zero set exact); otherwise the growth is
+      ``undecided`` with ``persistent`` as its lower bound and left-invertibility unknown. A
+      requested lambda0 = 0 is the witness's exponent whatever the zero set is.
+    """
+    found = ModalPencil(system, F, opt.tol).direction(0j)[0]
+    z = None
+    if found is not None and found[3] is Decision.ZERO and found[4] is Decision.NONZERO:
+        xi, u = normalize_direction(found[0], found[1])
+        z = ZdaZero(0j, 0j, xi, u, found[2], GROWTH_PERSISTENT)
+    requested = opt.lambda0 is not None
+    completeness = zero_set_completeness(system, F, cluster_search=opt.completeness == "full")
+    complete = completeness.complete
+    if z is None:
+        source = "none (no verified direction at lambda0 = 0)"
+    elif requested:
+        source = "requested lambda0"
+    else:
+        source = "fastest-growing zero" if complete else "lambda0 = 0 (a proven persistent ZDA; the zero set is not proven complete)"
+    note = f"the numeric zero set missed it ({'; '.join(za.notes) or 'its rank decisions on badly scaled data'})"
+    return ZdaVerdict(
+        F, Status.HOLDS, GROWTH_PERSISTENT if complete else "undecided", True if complete else None, z, source, "numeric",
+        cert.by, complete=complete, growth_at_least="" if complete else GROWTH_PERSISTENT, error_bound=cert.error_bound, note=note,
+        numeric_analysis=za, certificate=cert, zeros_exact=complete, completeness=completeness,
     )
 
 
@@ -436,6 +484,11 @@ def _by_minors(
     return ZdaVerdict(F, Status.HOLDS, GROWTH_PERSISTENT, True, z, source, "numeric", proof, zeros_exact=True)
 
 
+def _minors_affordable(system: System) -> bool:
+    """The minor certificate's tables (a characteristic polynomial modulo p of the N-sized pencil) fit its time share."""
+    return float(config.get("zda_certificate_seconds_n3")) * float(system.n) ** 3 <= float(config.get("zda_certificate_max_seconds"))
+
+
 def _by_local_zero(system: System, F: tuple[Label, ...], numeric: ZdaVerdict | None = None) -> ZdaVerdict | None:
     """Step 4b: a stealthy ZDA inside the clusters of F, found and proved exactly there.
 
@@ -572,6 +625,16 @@ def _decide(system: System, F: tuple[Label, ...], opt: ZdaOptions, memo: Mutable
     if (zs := _screened(system, F, opt)) is not None:
         return zs
     v = _numeric(system, F, opt)
+    if v.status is Status.UNDECIDED and opt.minors is None and _minors_affordable(system):
+        # the numeric zero set is not certified (e.g. the repeated unobservable modes of identical
+        # clusters, weights of very different scales): the maximal minors, modulo the exactly
+        # verified unobservable modes, may prove that no zero has an input direction
+        from glocal_verify.analysis.stealthy.zda_screens import global_tables
+
+        zc = _by_minors(system, F, dataclasses.replace(opt, minors=global_tables(system)), memo)
+        if zc is not None:
+            return dataclasses.replace(zc, numeric_analysis=v.numeric_analysis, certificate=v.certificate,
+                                       note=f"the numeric zero set was not certified ({v.note}); the maximal minors decide")
     if v.status is Status.UNDECIDED and opt.growth == "full" and not opt.fallback and (zl := _by_local_zero(system, F, v)) is not None:
         return zl  # verify's numeric pass: the status is proven, the zero set (growth, fastest zero) is left to its escalation
     if v.status is Status.UNDECIDED and opt.fallback:

@@ -36,6 +36,7 @@ from glocal_verify.analysis.stealthy.zda_exact import (
     transfer_kernel,
     zda_analysis_exact,
 )
+from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.numerics import exact as ex
 from glocal_verify.numerics.exact_subspace import rational_kernel_vector
@@ -47,7 +48,7 @@ from glocal_verify.numerics.pencil_exact import (
 )
 from glocal_verify.numerics.tolerance import DEFAULT_TOLERANCE, Decision, Tolerance
 from glocal_verify.results import Status
-from glocal_verify.spec.types import Label
+from glocal_verify.spec.types import NORMAL_MODE, Label
 
 __all__ = [
     "AvoidanceVerdict",
@@ -56,6 +57,10 @@ __all__ = [
     "avoidance",
     "avoidance_exact",
     "avoidance_certificate",
+    "avoiding_subspace",
+    "direction_touch",
+    "DirectionTouch",
+    "separator_avoidance",
     "exact_mode_avoidance",
     "numeric_mode_avoidance",
     "stealthy_bases",
@@ -63,6 +68,9 @@ __all__ = [
     "StealthyBasis",
     "SplitBasis",
 ]
+
+#: derived results this module keeps on the system (glocal_verify.derived)
+_ENCLOSED_KIND: Kind[Any] = Kind("separator-enclosure", __name__, "Any")
 
 #: modes with |s + alpha mu_k| above this are eliminated in the numeric reduction (see the module docstring)
 _NEAR = 1.0
@@ -158,17 +166,44 @@ def _input_decisions(sv: np.ndarray, lam: complex, tol: Tolerance) -> list[Decis
     return [tol.decide(float(v), math.sqrt(x2 + float(v) ** 2)) for v in sv]
 
 
+def avoiding_subspace(A: np.ndarray, B: np.ndarray, cut: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The touch test of ``switching.avoids-attack`` on a basis of the stealthy kernel (its one home).
+
+    With xi = X c (X xi-orthonormal), u0 = B c and A c = dL_q xi / ||dL_q|| (a
+    :class:`SplitBasis`), the directions that avoid the switch are those c whose touch
+    ||A c|| is at most ``cut``: K spans the right singular vectors of A with singular values
+    <= ``cut`` (the exact avoiding subspace when ``cut`` is 0 and A exact). Returns K and the
+    singular values and right singular vectors (rows) of B K, the inputs an avoiding attacker
+    has: every direction with an input is touched iff they vanish. The rule
+    (:func:`numeric_mode_avoidance`, through :func:`decide_avoidance`) decides them with its
+    tolerance; the safe-mode design's screen calls this function with its own threshold.
+
+    Parameters
+    ----------
+    A : ndarray (rows x r)
+    B : ndarray (m x r)
+    cut : float
+    """
+    r = A.shape[1] if A.ndim == 2 else 0
+    r = max(r, B.shape[1] if B.ndim == 2 else 0)
+    if r == 0:
+        return np.zeros((0, 0)), np.zeros(0), np.zeros((0, 0))
+    sa, Va = _right_svd(A, r)
+    K = Va[:, sa <= cut]
+    if K.shape[1] == 0 or B.shape[0] == 0:
+        return K, np.zeros(0), np.zeros((0, K.shape[1]))
+    _, su, Vuh = np.linalg.svd(B @ K, full_matrices=False)
+    return K, su, Vuh
+
+
 def _avoiding(sp: SplitBasis, lam: complex, tol: Tolerance, cut: float) -> tuple[np.ndarray | None, int, bool]:
     """(best coefficient vector, certain u0-rank, some input not certainly zero) of the
-    avoiding subspace {c : singular values of A <= cut} of ``sp``."""
-    r = sp.Xo.shape[1]
-    if r == 0:
+    avoiding subspace {c : singular values of A <= cut} of ``sp`` (:func:`avoiding_subspace`)."""
+    if sp.Xo.shape[1] == 0:
         return None, 0, False
-    sa, Va = _right_svd(sp.A, r)
-    K = Va[:, sa <= cut]
+    K, su, Vuh = avoiding_subspace(sp.A, sp.B, cut)
     if K.shape[1] == 0 or sp.B.shape[0] == 0:
         return None, 0, False
-    _, su, Vuh = np.linalg.svd(sp.B @ K, full_matrices=False)
     dec = _input_decisions(su, lam, tol)
     dim = sum(1 for x in dec if x is Decision.NONZERO)
     some = any(x is not Decision.ZERO for x in dec)
@@ -194,6 +229,51 @@ def _fails_margin(sp: SplitBasis, lam: complex, tol: Tolerance) -> float | None:
         AV = AV - Q0 @ (Q0.conj().T @ AV)
     sp_, _ = _right_svd(AV, Vr.shape[1])
     return float(sp_[-1])
+
+
+@dataclass(frozen=True, slots=True)
+class DirectionTouch:
+    """Does the switch to a mode touch one given direction xi? (:func:`direction_touch`)
+
+    Attributes
+    ----------
+    decision : Decision
+        ``NONZERO``: dL_q xi != 0 (touched); ``ZERO``: untouched; ``UNDECIDED`` within the tolerance band.
+    ratio : float
+        ||dL_q xi|| / (||dL_q||_2 ||xi||).
+    agents : tuple of labels
+        The rows of dL_q xi decided nonzero.
+    """
+
+    decision: Decision
+    ratio: float
+    agents: tuple[Label, ...]
+
+    @property
+    def touched(self) -> bool | None:
+        """True: touched; False: untouched; None: undecided."""
+        return None if self.decision is Decision.UNDECIDED else self.decision is Decision.NONZERO
+
+
+def direction_touch(system: System, mode: str, xi: np.ndarray, tol: Tolerance = DEFAULT_TOLERANCE) -> DirectionTouch:
+    """The rule's touch test of one direction: ||dL_q xi|| against ||dL_q||_2 ||xi|| with the tolerance.
+
+    What :func:`numeric_mode_avoidance` decides for the chosen direction of ``stealthy.zda``;
+    a simulated attack's direction (``switching.detects``, the case study) is judged by the
+    same function.
+
+    Parameters
+    ----------
+    system : System
+    mode : str
+        A safe mode q.
+    xi : ndarray
+        A direction (N entries, complex allowed).
+    tol : Tolerance
+    """
+    dl_idx, dl_blk = delta_block(system, mode)
+    d, ratio, rows = _touched(system, dl_idx, dl_blk, block_norm(dl_blk), np.asarray(xi), tol)
+    return DirectionTouch(d, ratio, tuple(rows))
 
 
 def _touched(system: System, dl_idx: Sequence[int], dl_blk: np.ndarray, dl_norm: float, xi: np.ndarray, tol: Tolerance) -> tuple[Decision, float, list[Label]]:
@@ -424,6 +504,96 @@ def avoidance_exact(system: System, mode: str, *, lambda0: complex | float | Seq
     return exact_mode_avoidance(system, mode, ea.direction, ea.direction_source, system.idx(ea.actuators), tol)
 
 
+def separator_avoidance(system: System, mode: str, F: Sequence[int], lam: complex) -> str | None:
+    """Prove that a stealthy direction at lambda0 avoids the switch to ``mode``, from a separator of F and the monitors, or return None.
+
+    Let X (|X| < |F|) separate F from M = M_x ∪ M_v in G_1 and R be the agents reached from
+    F \\ X without meeting X. A vector xi supported on R is a stealthy direction at s =
+    lambda0^2 + gamma lambda0 when the rows (R ∪ X) \\ F of (s I + alpha L_1) xi vanish (the
+    other rows do, R having no neighbour outside R ∪ X) and S_M xi = 0 (M meets R nowhere):
+    |R| unknowns, at most |R| - |F| + |X| < |R| equations, so such a nonzero xi exists. Its
+    input u0 = S_F (s I + alpha L_1) xi is nonzero: u0 = 0 would make (s I + alpha L_1[R, R]) xi_R
+    = 0, impossible for s not real and <= 0 (L_1[R, R] is positive semidefinite; s = 0 needs
+    every part of G_1[R] to have a link leaving R, which makes it definite). When no switching
+    link of the mode has an end in R, dL_q xi = 0: the switch is avoided (exact, combinatorial;
+    a unit-capacity maximum flow for X).
+
+    Parameters
+    ----------
+    system : System
+    mode : str
+    F : sequence of int
+        The attacked agents (indices).
+    lam : complex
+        lambda0.
+
+    Returns
+    -------
+    str or None
+        The proof, one line.
+    """
+    s0 = lam * lam + system.gamma * lam
+    M = system.idx(system.monitored)
+    if len(set(F)) < 2 or not M or (s0.imag == 0 and s0.real < 0):
+        return None
+    def enclosed() -> tuple[frozenset[int], frozenset[int], bool] | None:
+        """(X, R, every part of G_1[R] has a link to X), or None when no separator smaller than |F| exists.
+
+        X is a minimum vertex cut (a unit-capacity maximum flow on the vertex-split graph, the
+        agents left of the saturated arcs v_in -> v_out reached in the residual graph)."""
+        import scipy.sparse
+        from scipy.sparse.csgraph import breadth_first_order, connected_components, maximum_flow
+
+        n = system.n
+        L = system.laplacian_sparse(NORMAL_MODE).tocoo()
+        off = L.row != L.col
+        u, v = L.row[off].astype(np.int64), L.col[off].astype(np.int64)
+        src, snk = 2 * n, 2 * n + 1
+        Fs, Ms = sorted(set(F)), sorted(set(M))
+        big = n + 1
+        rows = np.concatenate([np.arange(n), n + u, np.full(len(Fs), src), n + np.asarray(Ms, dtype=np.int64)])
+        cols = np.concatenate([n + np.arange(n), v, np.asarray(Fs, dtype=np.int64), np.full(len(Ms), snk)])
+        caps = np.concatenate([np.ones(n), np.full(len(u), big), np.full(len(Fs), big), np.full(len(Ms), big)]).astype(np.int32)
+        cap = scipy.sparse.csr_matrix((caps, (rows, cols)), shape=(2 * n + 2, 2 * n + 2))
+        cap.sum_duplicates()
+        res = maximum_flow(cap, src, snk)
+        if res.flow_value >= len(Fs):
+            return None
+        resid = (cap - res.flow).tocsr()
+        resid.data = (resid.data > 0).astype(np.int8)
+        resid.eliminate_zeros()
+        reached = np.zeros(2 * n + 2, dtype=bool)
+        reached[breadth_first_order(resid, src, directed=True, return_predecessors=False)] = True
+        X = {int(x) for x in np.flatnonzero(reached[:n] & ~reached[n : 2 * n])}
+        keep = np.array([i not in X for i in range(n)])
+        A = scipy.sparse.csr_matrix((np.ones(len(u)), (u, v)), shape=(n, n))
+        sub = A[keep][:, keep]
+        ids = np.flatnonzero(keep)
+        _, lab = connected_components(sub, directed=False)
+        comp_of = dict(zip(ids.tolist(), lab.tolist()))
+        mine = {comp_of[f] for f in Fs if f not in X}
+        R = {int(i) for i, c in comp_of.items() if c in mine}
+        if R & set(Ms):  # pragma: no cover - X separates F from M
+            return None
+        # every part of G_1[R] (one per component reached from F) has a link to X
+        tied = all(any(int(w) in X for i in R if comp_of[i] == c for w in A.indices[A.indptr[i] : A.indptr[i + 1]]) for c in mine)
+        return frozenset(X), frozenset(R), tied
+
+    sep = _ENCLOSED_KIND.get(system, (tuple(sorted(set(F))),), enclosed)
+    if sep is None:
+        return None
+    X, R, tied = sep
+    if s0 == 0 and not tied:
+        return None
+    links = system.switching_links(mode)
+    if any(system.index[u] in R or system.index[v] in R for u, v, _ in links):
+        return None
+    return (
+        f"{len(X)} agent(s) {sorted(system.labels[x] for x in X)} separate the {len(set(F))} attacked agents from the monitors: a stealthy "
+        f"direction with an input lives on the {len(R)} agents they enclose, where no switching link of {mode} ends, so dL_q xi = 0 (exact, from the graph)"
+    )
+
+
 def avoidance_certificate(
     system: System,
     mode: str,
@@ -446,7 +616,9 @@ def avoidance_certificate(
     can be certified this way; the exponent of an irrational zero cannot. A ``holds`` is also
     proved by the avoiding direction ``candidate`` = (xi, u0) when it rationalises to an exact
     kernel vector of K with u0 != 0 (:func:`~glocal_verify.numerics.exact_subspace.rational_kernel_vector`).
-    Returns (certified, error bound, note saying which bound failed).
+    A ``holds`` is first tried by :func:`separator_avoidance` (combinatorial, at every N).
+    Returns (certified, error bound, note saying which bound failed or, when certified by the
+    separator, the proof).
 
     Parameters
     ----------
@@ -479,6 +651,13 @@ def avoidance_certificate(
         return False, None, (
             f"lambda0 = {lam:.6g} is a computed (irrational or complex) zero chosen as the fastest-growing one: "
             "neither its kernel nor the completeness of the zero set has a floating-point certificate"
+        )
+    if status is Status.HOLDS and (sep := separator_avoidance(system, mode, F, lam)) is not None:
+        return True, None, sep
+    if system.n > config.get("avoidance_dense_max_agents"):
+        return False, None, (
+            f"the certified rank bounds of [Q; dL_q] at lambda0 need SVDs of {system.n}-sized exact matrices, "
+            f"not run above avoidance_dense_max_agents = {config.get('avoidance_dense_max_agents')} agents"
         )
     q = Fraction(lam.real)
     s0 = q * q + system.gamma_q * q
@@ -560,7 +739,7 @@ def _certify_numeric(system: System, F: Sequence[Label], av: Avoidance, exact_la
     ok, bound, note = avoidance_certificate(system, av.mode, system.idx(F), av.lambda0, av.status, exact_lambda, cand, why_not_exact)
     cert: dict[str, Any] = {"certified": ok, "error_bound": bound, "note": "" if ok else f"numeric {av.status.value} not certified: {note}"}
     if ok:
-        cert["by"] = (
+        cert["by"] = note or (
             "the avoiding direction rationalises to an exact kernel vector (checked over Q)"
             if bound is None
             else "Weyl lower bounds (SVD backward error and data rounding) against structural rank upper bounds at lambda0"
@@ -593,8 +772,10 @@ def decide_avoidance(
        completeness proof of :func:`~glocal_verify.analysis.stealthy.zda_completeness.zero_set_completeness`
        --, or lambda0 = 1 of a system proved not left-invertible);
     3. at an exact lambda0 = 0 (no monitored position, G_1 connected, |F| >= 2), the touch
-       test over Q from the attack's potentials (:func:`~glocal_verify.analysis.switching.zero_touch.touch_at_zero`);
-       at a computed lambda0 = 0 its answer is only a note;
+       test over Q from the attack's potentials (:func:`~glocal_verify.analysis.switching.zero_touch.touch_at_zero`:
+       a sparse modular solve, no N-sized dense work; above ``avoidance_dense_max_agents``
+       step 2 is not certified and this step decides); at a computed lambda0 = 0 its answer
+       is only a note;
     4. ``fallback``: an undecided verdict is re-decided from the exact ZDA analysis.
 
     Parameters
@@ -610,9 +791,9 @@ def decide_avoidance(
     memo : mutable mapping, optional
         Shares the modal pencil and the stealthy bases between the modes of one attack set.
     zero_first : bool
-        Try step 3 before step 2 (cheaper per set in an audit; the same status either way,
-        since both are proofs; the numeric analysis also reports whether the witness is
-        touched).
+        Many attack sets share the system (an audit): step 3 comes before step 2 (cheaper per
+        set; the same status, both being proofs) and solves for the potentials with one
+        inverse of the grounded Laplacian modulo a prime shared by every set.
 
     Returns
     -------
@@ -634,7 +815,10 @@ def decide_avoidance(
     exact_lambda = bool(zda.lambda0_exact)
 
     def at_zero() -> AvoidanceVerdict | None:
-        if exact_lambda and complex(d.value) == 0 and (av0 := touch_at_zero(system, mode, d, zda.direction_source, Fi)) is not None:
+        if exact_lambda and complex(d.value) == 0 and (av0 := touch_at_zero(system, mode, d, zda.direction_source, Fi, many=zero_first)) is not None:
+            if av0.chosen_touched is None:  # several inputs: whether the chosen direction itself is touched, by the rule's direction test
+                dt = direction_touch(system, mode, d.xi, tol)
+                av0 = dataclasses.replace(av0, chosen_touched=dt.touched, chosen_touched_agents=dt.agents)
             return AvoidanceVerdict(mode, av0.status, av0, exact=True, certificate={"certified": True, "error_bound": None, "by": av0.notes[-1], "note": ""})
         return None
 

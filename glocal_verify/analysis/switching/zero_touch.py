@@ -26,6 +26,25 @@ otherwise every stealthy direction at lambda0 = 0 is touched. Everything is deci
 the modes. Physically: a link change between i and j is invisible to the attack iff the
 attack's potential field takes the same value at i and j.
 
+How it is decided, cheapest proof first (every step exact):
+
+1. *A cut vertex* (above ``zero_touch_exact_max_agents`` agents, where the exact solve of
+   step 4 that gives an exact avoiding direction is not affordable). The current between attacked agents flows only through the blocks
+   (biconnected components) of G_1 on the block-cut tree between them; a part of the graph
+   hanging off that subtree at a cut vertex c carries no current, so every potential there
+   equals y_k[c]. A switching link whose two ends hang off the same vertex sees no potential
+   difference for any k: when every link does, dL_q y_k = 0 for all k and the switch is
+   avoided (:func:`_attach_points`).
+2. *Too few links* (the same sizes). rank [dL_q y_k] <= rank dL_q: a mode whose change has rank below m - 1
+   (one link and three attacked agents) is avoided whatever the potentials.
+3. *Potentials modulo a prime* prove a touch: rank m - 1 of [dL_q y_k] modulo p is rank
+   m - 1 over Q. The potentials modulo p come, for one attack set, from a sparse solve of the
+   grounded Laplacian L_g by Wiedemann's method (:func:`_potentials_mod`: 3N sparse products
+   and one Berlekamp-Massey, O(N nnz), no N x N array); an audit of many sets inverts L_g
+   modulo p once instead (:func:`_inverse_mod`, O(N^3) shared by every set).
+4. Otherwise the exact solve over Q (``fmpq_mat``), when its estimated cost is within
+   ``zero_touch_exact_max_agents``; beyond, no verdict (the caller stays undecided and says so).
+
 The potential differences can be tiny (a link far from the attack, behind a two-vertex cut)
 while nonzero: the numeric test, which compares ||dL_q xi|| with ||dL_q|| ||xi|| against the
 tolerance, is then undecided, and this exact test settles it. The margin it reports is that
@@ -36,10 +55,12 @@ only by a small signal, and the result is marked fragile).
 from __future__ import annotations
 
 import dataclasses
+import math
 from fractions import Fraction
 from typing import Any, Sequence
 
 import numpy as np
+import scipy.sparse
 
 from glocal_verify import config
 from glocal_verify.analysis.switching.touch import Avoidance, block_norm, delta_block
@@ -56,6 +77,8 @@ __all__ = ["ZeroTouch", "zero_touch", "touch_at_zero"]
 _DELTA_NORM_KIND: Kind[float] = Kind("delta-norm", __name__, "float")
 _GROUNDED_LAPLACIAN_INVERSE_MOD_KIND: Kind[Any] = Kind("grounded-laplacian-inverse-mod", __name__, "Any")
 _NORMAL_GRAPH_CONNECTED_KIND: Kind[bool] = Kind("normal-graph-connected", __name__, "bool")
+_POTENTIALS_MOD_KIND: Kind[Any] = Kind("attack-potentials-mod", __name__, "Any")
+_ATTACH_KIND: Kind[Any] = Kind("attach-points", __name__, "Any")
 
 
 @dataclasses.dataclass(frozen=True, slots=True)
@@ -68,17 +91,21 @@ class ZeroTouch:
     avoids : bool
         Some stealthy direction with an input at lambda0 = 0 has dL_q xi = 0 exactly.
     rank : int
-        rank over Q of [dL_q y_2, ..., dL_q y_m].
+        rank over Q of [dL_q y_2, ..., dL_q y_m]; when the avoidance is proved by the rank of
+        dL_q alone (step 2 of the module docstring), that rank, an upper bound.
     inputs : int
         m - 1, the dimension of the inputs of Z_0.
     touched_agents : tuple of labels
-        Rows of dL_q y_2 that are nonzero (the agents whose links see the potential of the
-        first attacked pair).
+        Rows of dL_q y_2 proved nonzero (the agents whose links see the potential of the
+        first attacked pair); empty when the avoidance is proved without the exact potentials.
     ratio : float
         ||dL_q y|| / (||dL_q||_2 ||y - mean(y)||) for y = y_2 (a magnitude, not a decision).
     xi, u0 : tuple of Fraction, optional
         When ``avoids``: an avoiding direction over Q (xi = sum c_k y_k / alpha with
         [dL_q y_k] c = 0, u0 on F), scaled to max |xi_i| = 1.
+    xi_float, u0_float : tuple of float, optional
+        When ``avoids`` was proved by a cut vertex or by the rank of dL_q: the avoiding
+        direction from the floating-point potentials (the proof needs no exact one).
     """
 
     mode: str
@@ -89,6 +116,9 @@ class ZeroTouch:
     ratio: float
     xi: tuple[Fraction, ...] | None = None
     u0: tuple[Fraction, ...] | None = None
+    #: the avoiding direction in floating point when the avoidance is proved without the exact potentials (a cut vertex, too few links)
+    xi_float: tuple[float, ...] | None = None
+    u0_float: tuple[float, ...] | None = None
 
 
 def _grounded(system: System) -> Any:
@@ -145,6 +175,125 @@ def _inverse_mod(system: System) -> tuple[int, np.ndarray] | None:
     return _GROUNDED_LAPLACIAN_INVERSE_MOD_KIND.get(system, (NORMAL_MODE,), build)  # type: ignore[no-any-return]
 
 
+def _potentials_mod(system: System, F: Sequence[int]) -> tuple[int, np.ndarray] | None:
+    """(p, Y) with Y[:, k - 1] = L_g^{-1} (e_f1 - e_fk) modulo a prime p (Y[r] = 0 at the grounded agent r = N - 1), or None.
+
+    Wiedemann's method on A = L_g D (D a random nonsingular diagonal modulo p): the minimal
+    polynomial f of the sequence u^T A^i v (Berlekamp-Massey on 2(N - 1) terms, python-flint)
+    divides the minimal polynomial of A, which divides its characteristic polynomial; so a
+    degree N - 1 makes f the characteristic polynomial, and f(0) = +-det(L_g) det(D) != 0
+    proves L_g nonsingular modulo p. Then A^{-1} = -(f_1 I + f_2 A + ... + f_(N-1) A^(N-2)) / f_0
+    (Cayley-Hamilton) gives z = A^{-1} b in N - 2 more products, y = D z, and the solution is
+    checked: L_g y = b modulo p. With L_g nonsingular modulo p (p divides no denominator of
+    L_g), y is the reduction of the exact rational potential. The random choices (u, v, D, the
+    prime) decide only whether the proof is found. Entries stay below p < 2^31 and every row's
+    sum of products below 2^63.
+    """
+    from flint import fmpz_mod_poly_ctx
+
+    from glocal_verify.numerics.minors import prime_for
+
+    n = system.n - 1
+    m = len(F)
+    if n < 1 or m < 2:
+        return None
+    ent = {(i, j): Fraction(v) for (i, j), v in laplacian_entries(system, NORMAL_MODE).items() if i < n and j < n and v != 0}
+    width = np.bincount(np.array([i for i, _ in ent], dtype=np.int64), minlength=n).max(initial=1)
+    limit = min(2**31, math.isqrt((2**62) // int(width + 1)))
+    rng = np.random.default_rng((n, *F))
+    B = np.zeros((n, m - 1), dtype=np.int64)
+    rows = np.array([i for i, _ in ent], dtype=np.int64)
+    cols = np.array([j for _, j in ent], dtype=np.int64)
+    for _ in range(config.get("zero_touch_primes")):
+        p = prime_for(list(ent.values()), limit=limit)
+        limit = p - 1
+        vals = np.array([(v.numerator % p) * pow(v.denominator % p, -1, p) % p for v in ent.values()], dtype=np.int64)
+        Lg = scipy.sparse.csr_matrix((vals, (rows, cols)), shape=(n, n), dtype=np.int64)
+        d = rng.integers(1, p, size=n, dtype=np.int64)
+        A = scipy.sparse.csr_matrix((vals * d[cols] % p, (rows, cols)), shape=(n, n), dtype=np.int64)
+        u = rng.integers(0, p, size=n, dtype=np.int64)
+        x = rng.integers(0, p, size=n, dtype=np.int64)
+        seq = [0] * (2 * n)
+        for k in range(2 * n):
+            seq[k] = int(((u * x) % p).sum() % p)
+            x = (A @ x) % p
+        f = [int(c) for c in fmpz_mod_poly_ctx(p).minpoly(seq).coeffs()]
+        if len(f) != n + 1 or f[0] == 0:
+            continue  # A derogatory modulo p (or p divides det L_g): another prime and diagonal
+        B[:] = 0
+        for k in range(1, m):
+            for idx, sign in ((F[0], 1), (F[k], -1)):
+                if idx != n:
+                    B[idx, k - 1] = (B[idx, k - 1] + sign) % p
+        acc = (f[n] * B) % p
+        for i in range(n - 1, 0, -1):  # Horner: acc = f_1 B + A (f_2 B + A (...))
+            acc = ((A @ acc) % p + f[i] * B) % p
+        z = acc * ((-pow(f[0], -1, p)) % p) % p
+        Y = (z * d[:, None]) % p
+        if np.any((Lg @ Y) % p != B):  # pragma: no cover - Cayley-Hamilton makes it exact
+            raise ArithmeticError("the modular potentials do not solve the grounded Laplacian: please report")
+        return p, np.vstack([Y, np.zeros((1, m - 1), dtype=np.int64)])
+    return None
+
+
+def _attach_points(system: System, F: Sequence[int]) -> list[int]:
+    """For every agent, the agent whose potential it shares for every current between attacked agents.
+
+    Agents in the blocks of G_1 on the block-cut tree between the attacked agents attach to
+    themselves; an agent in a part hanging off that subtree attaches to the cut vertex where
+    the part hangs (no current enters it, so the potential is constant there).
+    """
+    import networkx as nx
+
+    G = nx.Graph()
+    G.add_nodes_from(range(system.n))
+    G.add_edges_from((system.index[u], system.index[v]) for u, v in (tuple(k) for k in system.edges(NORMAL_MODE)))
+    blocks = [set(b) for b in nx.biconnected_components(G)]
+    cuts = set(nx.articulation_points(G))
+    T = nx.Graph()
+    for k, b in enumerate(blocks):
+        T.add_node(("b", k))
+        for v in b & cuts:
+            T.add_edge(("b", k), ("c", v))
+    home = {v: ("c", v) if v in cuts else ("b", k) for k, b in enumerate(blocks) for v in b}
+    terminals = {home[f] for f in F}
+    keep = set(T.nodes)
+    leaves = [t for t in keep if T.degree(t) <= 1 and t not in terminals]
+    while leaves:  # prune to the subtree spanning the terminals
+        t = leaves.pop()
+        if t not in keep:
+            continue
+        keep.discard(t)
+        for nb in T.neighbors(t):
+            if nb in keep and nb not in terminals and sum(1 for x in T.neighbors(nb) if x in keep) <= 1:
+                leaves.append(nb)
+    inside = {v for t in keep if t[0] == "b" for v in blocks[t[1]]} | {t[1] for t in keep if t[0] == "c"}
+    attach = list(range(system.n))
+    for c in inside & cuts:
+        stack = [x for x in T.neighbors(("c", c)) if x not in keep]
+        seen = set(stack)
+        while stack:
+            t = stack.pop()
+            if t[0] == "b":
+                for v in blocks[t[1]]:
+                    if v != c:
+                        attach[v] = c
+            for x in T.neighbors(t):
+                if x not in keep and x not in seen and x != ("c", c):
+                    seen.add(x)
+                    stack.append(x)
+    return attach
+
+
+def _float_potentials(system: System, F: Sequence[int]) -> np.ndarray:
+    """y_k = L_1^+ (e_f1 - e_fk) in floating point from the normal mode's eigen-decomposition (columns k = 2..m; a direction, not a proof)."""
+    w, U = system.eigh()
+    scale = max(1.0, float(np.max(np.abs(w))))
+    inv = np.where(np.abs(w) > 1e-12 * scale, 1.0 / np.where(w == 0, 1.0, w), 0.0)
+    C = np.column_stack([(U[F[0], :] - U[F[k], :]) * inv for k in range(1, len(F))])
+    return np.asarray(U @ C)
+
+
 def _applies(system: System, F: Sequence[int]) -> bool:
     return (
         system.n >= 2
@@ -159,6 +308,41 @@ def _links(system: System, mode: str) -> tuple[list[tuple[int, int, Fraction]], 
     """The switching links (i, j, dw) of ``mode`` as agent indices, and the agents they touch (sorted)."""
     links = [(system.index[u], system.index[v], Fraction(dw)) for u, v, dw in system.switching_links(mode)]
     return links, sorted({a for i, j, _ in links for a in (i, j)})
+
+
+def _structural(system: System, F: Sequence[int], mode: str) -> ZeroTouch | None:
+    """Steps 1 and 2 of the module docstring: the switch avoided by a cut vertex or by too few links, with a float direction, or None."""
+    links, rows = _links(system, mode)
+    m = len(F)
+    if not rows:
+        return None
+    attach = _ATTACH_KIND.get(system, (NORMAL_MODE, tuple(sorted(F))), lambda: _attach_points(system, F))
+    if all(attach[i] == attach[j] for i, j, _ in links):
+        rank = 0
+    else:
+        from flint import fmpq, fmpq_mat
+
+        pos = {i: k for k, i in enumerate(rows)}
+        D = fmpq_mat(len(rows), len(rows))
+        for i, j, dw in links:
+            w = fmpq(dw.numerator, dw.denominator)
+            D[pos[i], pos[i]] += w
+            D[pos[j], pos[j]] += w
+            D[pos[i], pos[j]] -= w
+            D[pos[j], pos[i]] -= w
+        rank = int(D.rank())
+        if rank >= m - 1:
+            return None  # rank [dL_q y_k] <= rank dL_q: an upper bound, kept as the rank
+    Y = _float_potentials(system, F)
+    dL = system.delta_laplacian_sparse(mode)
+    Wf = np.asarray(dL @ Y)
+    c = np.linalg.svd(Wf)[2][-1] if Wf.size and rank != 0 else np.eye(m - 1)[0]
+    xi = Y @ c / float(system.alpha)
+    u0 = np.concatenate([[float(np.sum(c))], -c])
+    top = float(np.max(np.abs(xi))) if xi.size else 0.0
+    if top == 0.0:
+        xi, top = xi + 1.0, 1.0
+    return ZeroTouch(mode, True, rank, m - 1, (), _ratio(system, mode, F, rows, links), None, None, tuple(xi / top), tuple(u0 / top))
 
 
 def _ratio(system: System, mode: str, F: Sequence[int], rows: Sequence[int], links: Sequence[tuple[int, int, Fraction]]) -> float:
@@ -181,26 +365,37 @@ def _ratio(system: System, mode: str, F: Sequence[int], rows: Sequence[int], lin
     return float(np.linalg.norm(col)) / (dl_norm * ny) if dl_norm > 0 and ny > 0 else 0.0
 
 
-def _modular(system: System, F: Sequence[int], mode: str) -> ZeroTouch | None:
-    """The proof that every direction is touched, modulo a prime (rank m - 1 modulo p), or None."""
+def _modular(system: System, F: Sequence[int], mode: str, many: bool) -> ZeroTouch | None:
+    """The proof that every direction is touched, modulo a prime (rank m - 1 modulo p), or None.
+
+    The potentials modulo p come from the grounded inverse (``many``: an audit of many attack
+    sets, up to :data:`MODULAR_MAX_AGENTS` agents) or from the sparse solve of this set."""
     from flint import nmod_mat
 
-    inv = _inverse_mod(system)
-    if inv is None:
-        return None
-    q, X = inv
     r, m = system.n - 1, len(F)
     links, rows = _links(system, mode)
     if not rows:
         return None
-    pos = {i: k for k, i in enumerate(rows)}
+    inv = _inverse_mod(system) if many else None
+    if inv is not None:
+        q, X = inv
 
-    def y(i: int, k: int) -> int:  # (L_g^{-1} (e_f1 - e_fk))_i modulo q, y[r] = 0
-        if i == r:
-            return 0
-        a = int(X[i, F[0]]) if F[0] != r else 0
-        b = int(X[i, F[k]]) if F[k] != r else 0
-        return (a - b) % q
+        def y(i: int, k: int) -> int:  # (L_g^{-1} (e_f1 - e_fk))_i modulo q, y[r] = 0
+            if i == r:
+                return 0
+            a = int(X[i, F[0]]) if F[0] != r else 0
+            b = int(X[i, F[k]]) if F[k] != r else 0
+            return (a - b) % q
+    else:
+        pot = _POTENTIALS_MOD_KIND.get(system, (NORMAL_MODE, tuple(F)), lambda: _potentials_mod(system, F))
+        if pot is None:
+            return None
+        q, Y = pot
+
+        def y(i: int, k: int) -> int:
+            return int(Y[i, k - 1])
+
+    pos = {i: k for k, i in enumerate(rows)}
 
     W = [[0] * (m - 1) for _ in rows]
     for i, j, dw in links:
@@ -216,14 +411,14 @@ def _modular(system: System, F: Sequence[int], mode: str) -> ZeroTouch | None:
     return ZeroTouch(mode, False, rank, m - 1, touched, _ratio(system, mode, F, rows, links))
 
 
-def zero_touch(system: System, F: Sequence[int], modes: Sequence[str]) -> list[ZeroTouch] | None:
+def zero_touch(system: System, F: Sequence[int], modes: Sequence[str], *, many: bool = False) -> list[ZeroTouch | None] | None:
     """The exact touch test at lambda0 = 0 of each mode for actuators F, or None where it does not apply.
 
     Applies when G_1 is connected, no position is monitored and |F| >= 2 (with |F| = 1 the
-    kernel Z_0 has no input: u_0 = 0). First modulo a prime p (the inverse of the grounded
-    Laplacian modulo p, once per system, up to ``zero_touch_modular_max_agents`` agents): rank m - 1
-    of [dL_q y_k] modulo p proves rank m - 1 over Q (a nonzero minor modulo p is nonzero), so
-    every direction is touched. Otherwise one exact solve over Q (``fmpq_mat``) decides.
+    kernel Z_0 has no input: u_0 = 0). The steps of the module docstring, in order: a cut
+    vertex or too few links prove the switch avoided; rank m - 1 of [dL_q y_k] modulo a
+    prime proves every direction touched (a nonzero minor modulo p is nonzero); otherwise one
+    exact solve over Q (``fmpq_mat``) decides, up to ``zero_touch_exact_max_agents`` agents.
 
     Parameters
     ----------
@@ -232,11 +427,16 @@ def zero_touch(system: System, F: Sequence[int], modes: Sequence[str]) -> list[Z
         Agent indices of the attacked actuators.
     modes : sequence of str
         Safe modes.
+    many : bool
+        Many attack sets share this system (an audit): the potentials modulo p come from one
+        inverse of the grounded Laplacian (up to :data:`MODULAR_MAX_AGENTS` agents) instead of
+        a sparse solve per set.
 
     Returns
     -------
-    list of ZeroTouch or None
-        ``touched_agents`` are the rows of dL_q y_2 proved nonzero (modulo p, or over Q).
+    list of (ZeroTouch or None), or None
+        ``touched_agents`` are the rows of dL_q y_2 proved nonzero (modulo p, or over Q); an
+        entry is None where no step decided (the exact solve was beyond its limit).
     """
     from flint import fmpq, fmpq_mat
 
@@ -245,12 +445,20 @@ def zero_touch(system: System, F: Sequence[int], modes: Sequence[str]) -> list[Z
     n = system.n
     r = n - 1  # the grounded agent: y_k[r] = 0
     m = len(F)
-    found: dict[str, ZeroTouch] = {}
+    found: dict[str, ZeroTouch | None] = {}
+    small = n <= config.get("zero_touch_exact_max_agents")  # the exact solve is affordable: it gives an exact avoiding direction
     for mode in modes:
-        mt = _modular(system, F, mode)
+        st = None if small else _structural(system, F, mode)
+        if st is not None:
+            found[mode] = st
+            continue
+        mt = _modular(system, F, mode, many)
         if mt is not None:
             found[mode] = mt
     rest = [mode for mode in modes if mode not in found]
+    if rest and not small:
+        found.update({mode: None for mode in rest})
+        rest = []
     if rest:
         rhs = fmpq_mat(n - 1, m - 1)
         for k in range(1, m):
@@ -300,7 +508,7 @@ def _avoiding(system: System, F: Sequence[int], Y: Any, W: Any, r: int) -> tuple
     return tuple(x / top for x in xi), tuple(v / top for v in u0)
 
 
-def touch_at_zero(system: System, mode: str, z: ZdaZero, source: str, F: Sequence[int]) -> Avoidance | None:
+def touch_at_zero(system: System, mode: str, z: ZdaZero, source: str, F: Sequence[int], *, many: bool = False) -> Avoidance | None:
     """``switching.avoids-attack`` for mode q at the witness z (lambda0 = 0) over Q, or None where :func:`zero_touch` does not apply.
 
     ``holds`` when some stealthy direction with an input at lambda0 = 0 has dL_q xi = 0
@@ -318,23 +526,32 @@ def touch_at_zero(system: System, mode: str, z: ZdaZero, source: str, F: Sequenc
         Why ``stealthy.zda`` chose it.
     F : sequence of int
         Agent indices of the attacked actuators.
+    many : bool
+        As for :func:`zero_touch`.
     """
     if complex(z.value) != 0:
         return None
-    zt = zero_touch(system, F, [mode])
-    if zt is None:
+    zt = zero_touch(system, F, [mode], many=many)
+    t = None if zt is None else zt[0]
+    if t is None:
         return None
-    (t,) = zt
-    how = (
-        f"decided over Q at lambda0 = 0: rank [dL_q y_2 .. dL_q y_m] = {t.rank} of {t.inputs} for the attack's potentials "
-        "y_k (L_1 y_k = e_f1 - e_fk; grounded Laplacian modulo a prime for a touch, solved over Q otherwise)"
-    )
+    if t.avoids and t.xi is None:
+        how = (
+            f"decided over Q at lambda0 = 0: the attack's potentials y_k (L_1 y_k = e_f1 - e_fk) agree across every switching link "
+            "(its ends hang off the current's blocks at one cut vertex), or dL_q has rank below the m - 1 inputs"
+        )
+    else:
+        how = (
+            f"decided over Q at lambda0 = 0: rank [dL_q y_2 .. dL_q y_m] = {t.rank} of {t.inputs} for the attack's potentials "
+            "y_k (L_1 y_k = e_f1 - e_fk; modulo a prime for a touch, solved over Q otherwise)"
+        )
     chosen = z.direction()
     direction: ZdaDirection | None = None
     if t.avoids:
-        assert t.xi is not None and t.u0 is not None
-        xi = np.array([float(x) for x in t.xi])
-        direction = ZdaDirection(0j, xi, np.array([float(x) for x in t.u0]), np.concatenate([xi, 0.0 * xi]), 0.0)
+        xs, us = (t.xi, t.u0) if t.xi is not None and t.u0 is not None else (t.xi_float, t.u0_float)
+        assert xs is not None and us is not None
+        xi = np.array([float(x) for x in xs])
+        direction = ZdaDirection(0j, xi, np.array([float(x) for x in us]), np.concatenate([xi, 0.0 * xi]), 0.0)
     # Z_0 has one direction with an input (up to the constant) when m = 2: the chosen one
     one = t.inputs == 1
     return Avoidance(
@@ -347,7 +564,8 @@ def touch_at_zero(system: System, mode: str, z: ZdaZero, source: str, F: Sequenc
         chosen_touched=(not t.avoids) if one else None,
         chosen_touched_agents=t.touched_agents if one else (),
         direction=direction,
-        direction_source="exact potentials of the attack (L_1 xi = S_F^T u0 / alpha over Q)" if t.avoids else "",
+        direction_source=("exact potentials of the attack (L_1 xi = S_F^T u0 / alpha over Q)" if t.xi is not None else
+                          "floating-point potentials of the attack (the avoidance itself is proved exactly)") if t.avoids else "",
         dimension=t.inputs - t.rank,
         margin=t.ratio,
         dl_residual=0.0 if t.avoids else float("nan"),

@@ -1,0 +1,133 @@
+"""A stealthy ZDA at lambda0 = 0: the modular rank of Q_0 that proves there is none, and the
+persistent ZDA the numeric zero set misses on badly scaled weights, decided as over Q.
+
+Q_0 = [[alpha L_1, -S_F^T], [S_Mx, 0]]; a stealthy ZDA at 0 exists iff some kernel vector has
+an input part, i.e. rank Q_0 < rank [alpha L_1; S_Mx] + |F|. The reference is that criterion
+computed over Q (python-flint), and the exact decider of ``stealthy.zda``.
+"""
+
+from __future__ import annotations
+
+import random
+from fractions import Fraction
+from pathlib import Path
+
+import flint
+import networkx as nx
+import numpy as np
+from certificate_support import certify
+
+from glocal_verify import System, config, spec_from_graph
+from glocal_verify.analysis.laplacian.twins import laplacian_entries
+from glocal_verify.analysis.stealthy.zda_screens import zero_exponent_status
+from glocal_verify.analysis.stealthy.zda_verdict import ZdaOptions, decide_zda, growth_rank
+from glocal_verify.numerics.minors import prime_for
+from glocal_verify.results import Status
+from glocal_verify.spec.types import NORMAL_MODE
+from glocal_verify.spec.writer import dump_spec
+
+#: the largest primes below 2^24 and 2^30: those a modular certificate tries first
+P24, P30 = 16777213, 1073741789
+
+
+def _exists_at_zero_over_q(system: System, F: list[int]) -> bool:
+    """rank Q_0 < rank [alpha L_1; S_Mx] + m, over Q."""
+    n, m = system.n, len(F)
+    Fi, Mx = system.idx(F), system.idx(system.monitored_positions)
+    a = Fraction(system.alpha_q)
+    top = flint.fmpq_mat(n + len(Mx), n + m)
+    for (i, j), v in laplacian_entries(system, NORMAL_MODE).items():
+        q = a * v
+        top[i, j] = flint.fmpq(q.numerator, q.denominator)
+    for k, f in enumerate(Fi):
+        top[f, n + k] = -1
+    for t, r in enumerate(Mx):
+        top[n + t, r] = 1
+    left = flint.fmpq_mat(n + len(Mx), n, [top[i, j] for i in range(n + len(Mx)) for j in range(n)])
+    return int(top.rank()) < int(left.rank()) + m
+
+
+def _random_system(rng: random.Random) -> tuple[System, list[int]]:
+    n = rng.randint(5, 9)
+    G = nx.gnm_random_graph(n, rng.randint(n - 1, 2 * n), seed=rng.randrange(10**6))
+    G = nx.relabel_nodes(G, {v: v + 1 for v in G})
+    scale = [Fraction(1), Fraction(2), Fraction(1, 3), Fraction(P24**2, 10**6), Fraction(P30**2, 10**7)]
+    for u, v in G.edges:
+        G[u][v]["weight"] = rng.choice(scale)
+    labels = list(G.nodes)
+    rng.shuffle(labels)
+    mx, F = labels[: rng.randint(1, 3)], labels[3 : 3 + rng.randint(1, 3)]
+    spec = spec_from_graph(G, monitor_positions=sorted(mx), attack={"kind": "zda", "actuators": sorted(F)})
+    return System(spec), sorted(F)
+
+
+def test_the_rank_of_q0_modulo_a_prime_proves_no_zda_at_zero_only_when_the_exact_criterion_agrees() -> None:
+    rng = random.Random(47)
+    by_prime = 0
+    with config.override(zero_exponent_dense_max_agents=0):  # the certified dense bounds decide nothing here
+        for _ in range(150):
+            system, F = _random_system(rng)
+            st, how = zero_exponent_status(system, F)
+            exists = _exists_at_zero_over_q(system, F)
+            assert st is not (Status.FAILS if exists else Status.HOLDS), (how, exists)
+            if "modulo the prime" in how:
+                by_prime += 1
+                assert st is Status.FAILS
+            if st is Status.UNDECIDED:
+                assert exists, how  # rank [alpha L_1; S_Mx] = N - free exactly: only a ZDA at 0 is left to the dense bounds
+    assert by_prime >= 10  # the modular rank decides where zero forcing stops
+
+
+def test_the_modular_rank_at_zero_is_not_tried_above_its_tunable() -> None:
+    rng = random.Random(48)
+    with config.override(zero_exponent_dense_max_agents=0, zero_exponent_modular_max_agents=0):
+        for _ in range(40):
+            system, F = _random_system(rng)
+            assert "modulo the prime" not in zero_exponent_status(system, F)[1]
+
+
+def test_the_prime_of_a_modular_certificate_divides_no_weight_numerator() -> None:
+    values = [Fraction(P30**2, 10**7), Fraction(P24**2, 10**6), Fraction(3, 7)]
+    p = prime_for(values)
+    assert p not in (P30, 7) and all(v.numerator % p and v.denominator % p for v in values)
+    assert prime_for([Fraction(P24**2, 10**6)], limit=2**24) != P24
+
+
+def _badly_scaled_network() -> System:
+    """Seven agents with weights p^2 / 10^6 and p^2 / 10^7 beside 1-2; velocities of 2 and 4 monitored, 5 and 6 attacked."""
+    big, huge = Fraction(P24**2, 10**6), Fraction(P30**2, 10**7)
+    G = nx.Graph()
+    G.add_weighted_edges_from([(2, 3, huge), (3, 4, 2), (2, 5, huge), (2, 6, 1), (2, 7, big), (5, 6, 2), (5, 7, big), (4, 5, 1), (1, 7, 1)])
+    return System(spec_from_graph(G, monitor_velocities=[2, 4], attack={"kind": "zda", "actuators": [5, 6]}))
+
+
+def test_a_persistent_zda_at_zero_the_numeric_zero_set_misses_on_badly_scaled_weights_holds_as_over_q() -> None:
+    system = _badly_scaled_network()
+    v = decide_zda(system)
+    exact = decide_zda(system, options=ZdaOptions(exact=True))
+    at0 = decide_zda(system, options=ZdaOptions(exact=True, lambda0=0))
+    assert exact.status is Status.HOLDS and at0.direction_source == "requested lambda0"  # a ZDA at 0 over Q
+    assert v.numeric_analysis is not None and not v.numeric_analysis.exists  # the point of the example: the numeric zero set misses it
+    assert v.status is Status.HOLDS and v.note.startswith("the numeric zero set missed it")
+    assert v.certificate is not None and v.certificate.lambda0 == 0 and "exact, from the graph" in v.proof
+    # nothing the numeric analysis decided is kept: growth and left-invertibility as proven, or unknown
+    assert v.left_invertible in (None, exact.left_invertible)
+    if v.growth == "undecided":
+        assert not v.complete and growth_rank(v.growth_at_least) <= growth_rank(exact.growth)
+    else:
+        assert v.growth == exact.growth
+    if v.direction is not None:  # a witness is checked against the definition: alpha L_1 xi = S_F^T u0, u0 != 0
+        L = np.asarray(system.laplacian(), dtype=float)
+        Fi = system.idx((5, 6))
+        rhs = np.zeros(system.n, dtype=complex)
+        rhs[Fi] = v.direction.u0
+        assert np.linalg.norm(float(system.alpha) * L @ v.direction.xi - rhs) <= 1e-6 * np.linalg.norm(L, 2) * np.linalg.norm(v.direction.xi)
+        assert np.linalg.norm(v.direction.u0) > 0 and complex(v.direction.value) == 0
+
+
+def test_the_zda_at_zero_the_numeric_zero_set_misses_gets_an_exact_witness_the_checker_accepts(tmp_path: Path) -> None:
+    system = _badly_scaled_network()
+    _, doc, out = certify(dump_spec(system.spec), tmp_path)
+    zda = next(e for e in doc["verdicts"] if e["id"] == "stealthy.zda")
+    assert zda["status"] == "holds" and zda["certificate"]["kind"] == "zda"
+    assert out.rejected == []
