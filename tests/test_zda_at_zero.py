@@ -24,6 +24,7 @@ from glocal_verify.analysis.stealthy.zda_verdict import ZdaOptions, decide_zda, 
 from glocal_verify.numerics.minors import prime_for
 from glocal_verify.results import Status
 from glocal_verify.spec.types import NORMAL_MODE
+from glocal_verify.spec.load import load_spec
 from glocal_verify.spec.writer import dump_spec
 
 #: the largest primes below 2^24 and 2^30: those a modular certificate tries first
@@ -131,3 +132,70 @@ def test_the_zda_at_zero_the_numeric_zero_set_misses_gets_an_exact_witness_the_c
     zda = next(e for e in doc["verdicts"] if e["id"] == "stealthy.zda")
     assert zda["status"] == "holds" and zda["certificate"]["kind"] == "zda"
     assert out.rejected == []
+
+
+def _agrees_with_exact_where_it_decides(system: System) -> None:
+    """What the numeric verdict claims beyond its status (left-invertibility, growth class, the witness's exponent) is exact arithmetic's."""
+    v = decide_zda(system)
+    exact = decide_zda(system, options=ZdaOptions(exact=True))
+    if v.status is not Status.UNDECIDED:
+        assert v.status is exact.status
+    if v.left_invertible is not None:
+        assert v.left_invertible == exact.left_invertible, (v.left_invertible, v.proof)
+    if v.growth != "undecided":
+        assert v.growth == exact.growth, (v.growth, exact.growth)
+    elif v.growth_at_least:
+        assert growth_rank(v.growth_at_least) <= growth_rank(exact.growth)
+    if v.status is Status.UNDECIDED and v.direction is not None:  # a numeric candidate is said to be one
+        assert v.direction_source == "requested lambda0" or v.direction_source.startswith("not proven"), v.direction_source
+    elif v.direction is not None:  # a stealthy ZDA exists at the witness's exponent, over Q
+        lam = complex(v.direction.value)
+        if lam.imag == 0 and lam.real == round(lam.real):
+            there = decide_zda(system, options=ZdaOptions(exact=True, lambda0=int(lam.real)))
+            assert there.direction_source == "requested lambda0", v.direction_source
+        elif exact.left_invertible is not False:  # an irrational exponent: one of the exact zeros (not left-invertible: any)
+            assert exact.exact_analysis is not None
+            assert any(abs(complex(z.value) - lam) <= 1e-6 * max(1.0, abs(lam)) for z in exact.exact_analysis.zeros), (lam, v.direction_source)
+
+
+def test_a_numeric_rank_drop_of_the_whole_pencil_that_exact_arithmetic_refutes_claims_neither_unbounded_growth_nor_a_witness_at_one() -> None:
+    system = System(load_spec(Path(__file__).parent / "data" / "identical-clusters-badly-scaled.toml"))
+    v = decide_zda(system)
+    assert v.numeric_analysis is not None and not v.numeric_analysis.left_invertible  # the point of the example
+    assert decide_zda(system, options=ZdaOptions(exact=True)).left_invertible  # ... which exact arithmetic refutes
+    assert v.status is Status.HOLDS and v.left_invertible is None and v.growth == "undecided"
+    assert v.direction is None or complex(v.direction.value) == 0
+    _agrees_with_exact_where_it_decides(system)
+
+
+def test_on_badly_scaled_random_networks_the_numeric_verdict_claims_only_what_exact_arithmetic_confirms() -> None:
+    rng = random.Random(4701)
+    for _ in range(60):
+        system, _ = _random_system(rng)
+        _agrees_with_exact_where_it_decides(system)
+
+
+def test_a_direction_inside_f_that_no_outside_link_sees_proves_not_left_invertible_only_when_exact_arithmetic_agrees() -> None:
+    from glocal_verify.analysis.stealthy.zda_screens import invisible_inside_f
+
+    rng = random.Random(4702)
+    proved = 0
+    for k in range(120):
+        system, F = _random_system(rng)
+        if k % 3 == 0:  # twin attacked agents: the same links, so e_a - e_r is seen by no outside agent
+            a, r = F[0], system.n + 1
+            G = nx.Graph()
+            G.add_nodes_from(system.labels)
+            for (i, j), w in laplacian_entries(system, NORMAL_MODE).items():
+                if i < j and w != 0:
+                    G.add_edge(system.labels[i], system.labels[j], weight=-w)
+            G.add_node(r)
+            for b in list(G.neighbors(a)):
+                G.add_edge(r, b, weight=G[a][b]["weight"])
+            mx = [m for m in system.monitored_positions if m not in (a, r)]
+            system = System(spec_from_graph(G, monitor_positions=mx or [next(b for b in G if b not in (a, r))], attack={"kind": "zda", "actuators": sorted({*F, r})}))
+            F = sorted({*F, r})
+        if invisible_inside_f(system, F) is not None:
+            proved += 1
+            assert decide_zda(system, options=ZdaOptions(exact=True)).left_invertible is False
+    assert proved >= 20

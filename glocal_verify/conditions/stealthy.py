@@ -84,8 +84,8 @@ def _zero_json(system: System, F: Sequence[Label], z: ZdaZero | ExactZdaZero, to
     return d
 
 
-def _margin(left_inv: bool, zeros: Sequence[ZdaZero | ExactZdaZero]) -> float:
-    if not left_inv:
+def _margin(left_inv: bool | None, zeros: Sequence[ZdaZero | ExactZdaZero]) -> float:
+    if left_inv is False:
         return math.inf
     if zeros:
         return max(z.value.real for z in zeros)
@@ -171,6 +171,10 @@ def check_zda(system: System, ctx: CheckContext) -> list[ConditionResult]:
             # the separator screen proved what the deflation's rank decisions missed (decide_zda)
             left_inv, nrank, k0 = False, None, None
             notes = (*notes, f"{v.proof}; the deflation's full normal rank is a floating-point decision, wrong here")
+        elif v.left_invertible is None and za.left_invertible is not None:
+            # the rule did not take the deflation's left-invertibility (decide_zda): not shown as a fact
+            left_inv, nrank, k0 = None, None, None
+            notes = (*notes, v.note or "left-invertibility is not proven: the numeric rank decision is not certified")
     direction, source = v.direction, v.direction_source
     N, m = system.n, len(F)
     p = len(system.output_channels())

@@ -54,7 +54,7 @@ from glocal_verify.numerics.minors import (
 from glocal_verify.results import Status
 from glocal_verify.spec.types import NORMAL_MODE, Label
 
-__all__ = ["disjoint_paths", "global_tables", "zero_exponent_status"]
+__all__ = ["disjoint_paths", "global_tables", "invisible_inside_f", "zero_exponent_status"]
 
 
 #: derived results this module keeps on the system (glocal_verify.derived)
@@ -95,6 +95,54 @@ def disjoint_paths(system: System, F: Sequence[Label]) -> int:
         shape=(2 * n + 2, 2 * n + 2),
     )
     return int(maximum_flow(cap, 2 * n + 1, 2 * n).flow_value)
+
+
+def invisible_inside_f(system: System, F: Sequence[Label]) -> str | None:
+    """An exact proof that the system is not left-invertible by a direction inside F, or None.
+
+    A nonzero xi supported on the unmonitored attacked agents F' = F minus M with L_1 xi
+    supported on F, i.e. xi in ker L_1[V minus F, F'] over Q, gives for every s = lambda^2 +
+    gamma lambda the input u = ((s I + alpha L_1) xi)_F with (s I + alpha L_1) xi = S_F^T u and
+    S_M xi = 0: a stealthy ZDA at every lambda0 where u != 0 (every lambda0 but at most two),
+    so the pencil loses column rank for every lambda. This is the rank drop that exact
+    weights make and the graph does not (twin attacked agents with equal links: e_a - e_r),
+    which :func:`disjoint_paths` cannot see. Only the rows of the neighbours of F' are nonzero;
+    the rank is computed over Q (python-flint).
+
+    Parameters
+    ----------
+    system : System
+    F : sequence of labels
+        The actuators.
+
+    Returns
+    -------
+    str or None
+        The proof, one line (the dimension of the kernel); None proves nothing.
+    """
+    import flint
+
+    Fset = set(system.idx(F))
+    free = sorted(Fset - set(system.idx(system.monitored)))
+    if not free:
+        return None
+    col = {j: k for k, j in enumerate(free)}
+    rows: dict[int, dict[int, Fraction]] = {}
+    for (i, j), v in laplacian_entries(system, NORMAL_MODE).items():
+        if j in col and i not in Fset and v != 0:
+            rows.setdefault(i, {})[col[j]] = v
+    if not rows:
+        dim = len(free)
+    else:
+        mat = flint.fmpq_mat(len(rows), len(free))
+        for r, (_, entries) in enumerate(sorted(rows.items())):
+            for c, v in entries.items():
+                mat[r, c] = flint.fmpq(v.numerator, v.denominator)
+        dim = len(free) - int(mat.rank())
+    if dim <= 0:
+        return None
+    return (f"ker L_1[V \\ F, F \\ M] has dimension {dim} over Q: a direction on the unmonitored attacked agents that "
+            "the links out of F do not see is a stealthy ZDA at every lambda0 (not left-invertible; exact)")
 
 
 def _few_disjoint_paths(system: System, F: Sequence[Label]) -> int:

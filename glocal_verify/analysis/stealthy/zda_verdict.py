@@ -43,7 +43,10 @@ What proves a status (tried in this order; each is a proof about the exact syste
        left-invertibility only as that completeness proof gives them, the witness only verified.
        When the separator screen proves the system not left-invertible, the zero set does
        not choose: the witness is lambda0 = 1 and the growth ``unbounded``, whatever
-       ``screen`` says (the deflation's rank decisions may have missed it). ``growth="full"``
+       ``screen`` says (the deflation's rank decisions may have missed it); with as many
+       disjoint paths as |F|, a numeric "not left-invertible" is proven only by an exact direction
+       inside F (:func:`~glocal_verify.analysis.stealthy.zda_screens.invisible_inside_f`); else neither the
+       growth ``unbounded`` nor the witness at lambda0 = 1 is taken from it (:func:`_unproven_rank_drop`). ``growth="full"``
        without ``fallback`` (``verify``'s numeric pass): an undecided status is proven by
        :func:`~glocal_verify.analysis.stealthy.zda_local.prove_local_zero` when it finds a zero the
        numeric zero set missed (the growth then a lower bound; the escalation decides the rest).
@@ -87,7 +90,7 @@ from glocal_verify.analysis.stealthy.zda_certificate import ZdaCertificate, spar
 from glocal_verify.analysis.stealthy.zda_local import prove_local_zero
 from glocal_verify.analysis.stealthy.zda_completeness import ZeroSetCompleteness, zero_set_completeness
 from glocal_verify.analysis.stealthy.zda_exact import ExactZdaAnalysis, ExactZdaZero, zda_analysis_exact
-from glocal_verify.analysis.stealthy.zda_screens import disjoint_paths, zero_exponent_status
+from glocal_verify.analysis.stealthy.zda_screens import disjoint_paths, invisible_inside_f, zero_exponent_status
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.numerics.minors import GroundedTables, full_rank_certificate
@@ -283,14 +286,22 @@ def _numeric(system: System, F: tuple[Label, ...], opt: ZdaOptions) -> ZdaVerdic
         growth = GROWTH_UNBOUNDED
     else:
         growth = max((z.growth for z in za.zeros), key=growth_rank, default="undecided")
-    if status is Status.HOLDS and za.direction_source != "requested lambda0" and (paths := disjoint_paths(system, F)) < len(F):
+    paths = disjoint_paths(system, F) if status is Status.HOLDS else len(F)
+    if status is Status.HOLDS and za.direction_source != "requested lambda0" and paths < len(F):
         return _separated(system, F, opt, za, cert, paths)
+    if status is Status.HOLDS and za.decided and not za.left_invertible and invisible_inside_f(system, F) is None:
+        # as many vertex-disjoint paths from F to M as |F| and no exact direction inside F: a numeric
+        # rank drop of the whole pencil is a claim about rounding, not a proof (badly scaled weights)
+        return _unproven_rank_drop(system, F, opt, za, cert)
+    source = za.direction_source
+    if status is Status.UNDECIDED and d0 is not None and source != "requested lambda0":
+        source = f"not proven (the numeric zero set's choice: {source})"  # a candidate, not a witness
     completeness = None
     if status is Status.HOLDS and d0 is not None and complex(d0.value) == 0 and za.direction_source == "fastest-growing zero":
         # the rule chose 0 from a computed zero set: proven only if no zero lambda != 0 has Re lambda >= 0
         completeness = zero_set_completeness(system, F, cluster_search=opt.completeness == "full")
     return ZdaVerdict(
-        F, status, growth, za.left_invertible if za.decided else None, za.direction, za.direction_source, "numeric",
+        F, status, growth, za.left_invertible if za.decided and status is not Status.UNDECIDED else None, za.direction, source, "numeric",
         cert.by if status is not Status.UNDECIDED else "", error_bound=cert.error_bound, note=note, numeric_analysis=za, certificate=cert,
         zeros_exact=completeness is not None and completeness.complete, completeness=completeness,
     )
@@ -333,6 +344,35 @@ def _proved_at_zero(system: System, F: tuple[Label, ...], opt: ZdaOptions, za: Z
         F, Status.HOLDS, GROWTH_PERSISTENT if complete else "undecided", True if complete else None, z, source, "numeric",
         cert.by, complete=complete, growth_at_least="" if complete else GROWTH_PERSISTENT, error_bound=cert.error_bound, note=note,
         numeric_analysis=za, certificate=cert, zeros_exact=complete, completeness=completeness,
+    )
+
+
+def _unproven_rank_drop(system: System, F: tuple[Label, ...], opt: ZdaOptions, za: ZdaAnalysis, cert: ZdaCertificate) -> ZdaVerdict:
+    """Step 5 when the certificate proves ``holds`` but the numeric claim "not left-invertible" is unproven.
+
+    With as many vertex-disjoint paths from F to M as |F| the pencil has full generic column
+    rank; it loses rank for every lambda only through an exact cancellation of the weights,
+    which a floating-point rank decision cannot tell from rounding (weights of very different
+    scales make the deflation see a rank drop that exact arithmetic refutes). The status stays
+    the certificate's; the growth class ``unbounded`` and the witness at lambda0 = 1 that the
+    rule would take from that claim are not given:
+
+    * a certificate at lambda0 = 0 (:func:`_proved_at_zero`) gives the verified direction there,
+      the growth as :func:`~glocal_verify.analysis.stealthy.zda_completeness.zero_set_completeness`
+      proves it, else ``undecided`` with ``persistent`` as its lower bound;
+    * a requested lambda0 keeps its direction (the certificate checked that candidate), its growth
+      class the lower bound;
+    * otherwise no witness: the growth is ``undecided`` (the escalation decides it over Q).
+    """
+    why = "the numeric rank of the whole pencil dropped (not left-invertible) with as many disjoint paths from F to M as |F|: not proven"
+    if cert.lambda0 == 0 and (opt.lambda0 is None or complex(opt.lambda0) == 0):
+        return dataclasses.replace(_proved_at_zero(system, F, opt, za, cert), note=why)
+    requested = za.direction is not None and za.direction_source == "requested lambda0"
+    d = za.direction if requested else None
+    return ZdaVerdict(
+        F, Status.HOLDS, "undecided", None, d, "requested lambda0" if requested else "none (" + why + ")", "numeric",
+        cert.by, complete=False, growth_at_least=d.growth if d is not None else "", error_bound=cert.error_bound, note=why,
+        numeric_analysis=za, certificate=cert,
     )
 
 
