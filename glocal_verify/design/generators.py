@@ -179,24 +179,36 @@ def random_clustered_spec(
             meas = sorted(nb | set(bnd) | {c})
             observers.append({"center": c, "positions": meas, "velocities": meas})
         cluster_tables.append({"name": f"P{k + 1}", "nodes": nodes, "observers": observers})
-    data: dict[str, Any] = {
-        "format": 1,
-        "name": f"random-{n}-{clusters}-s{seed}",
-        "graph": {"nodes": n, "edges": [[u, v, w] for (u, v), w in sorted(edges.items())]},
-        "modes": mode_list,
-        "clusters": cluster_tables,
-        "monitor": {"positions": [], "velocities": mon},
-        "simulation": {"horizon": horizon, "step": step, "seed": seed},
-    }
+    data = _clustered_data(f"random-{n}-{clusters}-s{seed}", n, edges, mode_list, cluster_tables, mon, (horizon, step, seed))
     if attack:
         boundary = {a for key in edges for a in key if (a in members[0]) != (next(b for b in key if b != a) in members[0])}
-        first = [a for a in members[0] if a not in mon and a not in boundary]
-        if len(first) < 2:
-            raise SpecError("attack", f"the first cluster has {len(first)} interior unmonitored agent(s); a ZDA needs two (use attack=False or more agents)")
-        data["attack"] = {"kind": "zda", "actuators": [int(a) for a in rng.choice(first, size=2, replace=False)]}
-        if mode_list:
-            data["switching"] = {"mode": mode_list[0]["name"], "time": horizon / 3}
+        _attach_zda(data, rng, members[0], set(mon) | boundary)
     return spec_from_dict(data)
+
+
+def _clustered_data(name: str, n: int, edges: Mapping[tuple[int, int], Any], modes: list[dict[str, Any]], clusters: list[dict[str, Any]],
+                    monitored: list[int], simulation: tuple[float, float, int]) -> dict[str, Any]:
+    """The spec table of a generated clustered network (velocity monitors only)."""
+    horizon, step, seed = simulation
+    return {
+        "format": 1,
+        "name": name,
+        "graph": {"nodes": n, "edges": [[u, v, w] for (u, v), w in sorted(edges.items())]},
+        "modes": modes,
+        "clusters": clusters,
+        "monitor": {"positions": [], "velocities": monitored},
+        "simulation": {"horizon": horizon, "step": step, "seed": seed},
+    }
+
+
+def _attach_zda(data: dict[str, Any], rng: np.random.Generator, first_cluster: list[int], excluded: set[int]) -> None:
+    """A two-agent ZDA on interior unmonitored agents of the first cluster, and the switch to the first mode at a third of the horizon."""
+    first = [a for a in first_cluster if a not in excluded]
+    if len(first) < 2:
+        raise SpecError("attack", f"the first cluster has {len(first)} interior unmonitored agent(s); a ZDA needs two (use attack=False or more agents)")
+    data["attack"] = {"kind": "zda", "actuators": [int(a) for a in rng.choice(first, size=2, replace=False)]}
+    if data["modes"]:
+        data["switching"] = {"mode": data["modes"][0]["name"], "time": data["simulation"]["horizon"] / 3}
 
 
 #: the default arguments of :func:`random_clustered_spec` (all but ``n``, ``attack``)
@@ -357,22 +369,10 @@ def adverse_clustered_spec(
                 meas = sorted(nb | {a for a in nodes if a in boundary} | {centre})
             obs.update({"positions": meas, "velocities": meas})
         cluster_tables.append({"name": f"P{c + 1}", "nodes": nodes, "observers": [obs]})
-    data: dict[str, Any] = {
-        "format": 1,
-        "name": f"adverse-{n}-c{cluster_size}-d{float(degree):g}-{links}-{measure}-m{modes}{'' if attack else '-noattack'}-s{seed}",
-        "graph": {"nodes": n, "edges": [[u, v, w] for (u, v), w in sorted(edges.items())]},
-        "modes": mode_list,
-        "clusters": cluster_tables,
-        "monitor": {"positions": [], "velocities": mon},
-        "simulation": {"horizon": horizon, "step": step, "seed": seed},
-    }
+    name = f"adverse-{n}-c{cluster_size}-d{float(degree):g}-{links}-{measure}-m{modes}{'' if attack else '-noattack'}-s{seed}"
+    data = _clustered_data(name, n, edges, mode_list, cluster_tables, mon, (horizon, step, seed))
     if attack:
-        first = [a for a in members[0] if a not in mon and a not in boundary]
-        if len(first) < 2:
-            raise SpecError("attack", f"the first cluster has {len(first)} interior unmonitored agent(s); a ZDA needs two (use attack=False or more agents)")
-        data["attack"] = {"kind": "zda", "actuators": [int(a) for a in rng.choice(first, size=2, replace=False)]}
-        if mode_list:
-            data["switching"] = {"mode": mode_list[0]["name"], "time": horizon / 3}
+        _attach_zda(data, rng, members[0], set(mon) | set(boundary))
     return spec_from_dict(data)
 
 
