@@ -27,7 +27,9 @@ def zda_certificate_seconds(n: int) -> float:
     n : int
         Agents.
     """
-    return float(config.get("zda_certificate_seconds_n3")) * float(n) ** 3
+    from glocal_verify.analysis.stealthy.zda_screens import minor_tables_seconds
+
+    return minor_tables_seconds(n)
 
 
 def exact_seconds(condition: str, n: int, *, zda_path: str | None = None) -> float:

@@ -381,8 +381,10 @@ def exact_estimate(system: System, cid: str) -> float | None:
         return phases.get(f"exact {cid}")
     if cid not in ("stealthy.zda", "switching.avoids-attack"):
         return None
+    from glocal_verify.analysis.stealthy.zda_screens import minor_tables_affordable
+
     certificate = zda_certificate_seconds(system.n)
-    if certificate > config.get("zda_certificate_max_seconds"):
+    if not minor_tables_affordable(system.n):
         # the path is unknown: the cheaper one (the fast path) bounds the cost from below
         return max(certificate, exact_seconds(cid, system.n, zda_path="fast"))
     from glocal_verify.analysis.stealthy.zda_exact import has_fast_exact_path

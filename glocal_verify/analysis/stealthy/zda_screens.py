@@ -54,7 +54,7 @@ from glocal_verify.numerics.minors import (
 from glocal_verify.results import Status
 from glocal_verify.spec.types import NORMAL_MODE, Label
 
-__all__ = ["disjoint_paths", "global_tables", "invisible_inside_f", "zero_exponent_status"]
+__all__ = ["disjoint_paths", "global_tables", "invisible_inside_f", "minor_tables_affordable", "minor_tables_seconds", "zero_exponent_status"]
 
 
 #: derived results this module keeps on the system (glocal_verify.derived)
@@ -225,6 +225,32 @@ def _split_graph(system: System) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     g.sort_indices()
     g.data[:] = 1
     return g.data.astype(np.int32), g.indices.astype(np.int32), g.indptr.astype(np.int32)
+
+
+def minor_tables_seconds(n: int) -> float:
+    """Seconds of the minor certificate's tables on N agents (a characteristic polynomial modulo a
+    prime of the N-sized pencil): ``zda_certificate_seconds_n3`` N^3 (:mod:`glocal_verify.config`).
+
+    Parameters
+    ----------
+    n : int
+        Agents.
+    """
+    return float(config.get("zda_certificate_seconds_n3")) * float(n) ** 3
+
+
+def minor_tables_affordable(n: int) -> bool:
+    """Whether the minor certificate's tables fit their time share, ``zda_certificate_max_seconds``.
+
+    The one answer for ``decide_zda`` (which tries them after an uncertified numeric zero set)
+    and for ``verify``'s escalation scheduler (which learns the exact ZDA path from them).
+
+    Parameters
+    ----------
+    n : int
+        Agents.
+    """
+    return minor_tables_seconds(n) <= float(config.get("zda_certificate_max_seconds"))
 
 
 def global_tables(system: System) -> GroundedTables | None:

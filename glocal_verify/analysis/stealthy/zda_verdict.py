@@ -90,7 +90,7 @@ from glocal_verify.analysis.stealthy.zda_certificate import ZdaCertificate, spar
 from glocal_verify.analysis.stealthy.zda_local import prove_local_zero
 from glocal_verify.analysis.stealthy.zda_completeness import ZeroSetCompleteness, zero_set_completeness
 from glocal_verify.analysis.stealthy.zda_exact import ExactZdaAnalysis, ExactZdaZero, zda_analysis_exact
-from glocal_verify.analysis.stealthy.zda_screens import disjoint_paths, invisible_inside_f, zero_exponent_status
+from glocal_verify.analysis.stealthy.zda_screens import disjoint_paths, invisible_inside_f, minor_tables_affordable, zero_exponent_status
 from glocal_verify.errors import NotApplicableError
 from glocal_verify.model import System
 from glocal_verify.numerics.minors import GroundedTables, full_rank_certificate
@@ -524,11 +524,6 @@ def _by_minors(
     return ZdaVerdict(F, Status.HOLDS, GROWTH_PERSISTENT, True, z, source, "numeric", proof, zeros_exact=True)
 
 
-def _minors_affordable(system: System) -> bool:
-    """The minor certificate's tables (a characteristic polynomial modulo p of the N-sized pencil) fit its time share."""
-    return float(config.get("zda_certificate_seconds_n3")) * float(system.n) ** 3 <= float(config.get("zda_certificate_max_seconds"))
-
-
 def _by_local_zero(system: System, F: tuple[Label, ...], numeric: ZdaVerdict | None = None) -> ZdaVerdict | None:
     """Step 4b: a stealthy ZDA inside the clusters of F, found and proved exactly there.
 
@@ -665,7 +660,7 @@ def _decide(system: System, F: tuple[Label, ...], opt: ZdaOptions, memo: Mutable
     if (zs := _screened(system, F, opt)) is not None:
         return zs
     v = _numeric(system, F, opt)
-    if v.status is Status.UNDECIDED and opt.minors is None and _minors_affordable(system):
+    if v.status is Status.UNDECIDED and opt.minors is None and minor_tables_affordable(system.n):
         # the numeric zero set is not certified (e.g. the repeated unobservable modes of identical
         # clusters, weights of very different scales): the maximal minors, modulo the exactly
         # verified unobservable modes, may prove that no zero has an input direction
