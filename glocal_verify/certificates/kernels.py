@@ -6,12 +6,12 @@ from __future__ import annotations
 from fractions import Fraction
 from typing import Sequence
 
-from flint import fmpq, fmpq_mat
+from flint import fmpq, fmpq_mat, fmpq_poly
 
 from glocal_verify.certificates.encode import mod_residues, pivots_mod
 from glocal_verify.model import System
 
-__all__ = ["SparseRows", "apply", "fq", "kernel_vectors", "laplacian_rows"]
+__all__ = ["SparseRows", "apply", "eigenvector_in_field", "fq", "kernel_vectors", "laplacian_rows"]
 
 #: a sparse rational matrix: one ``{column: value}`` per row
 SparseRows = Sequence[dict[int, fmpq]]
@@ -64,6 +64,42 @@ def kernel_vectors(rows: SparseRows, ncols: int, p: int, limit: int | None = Non
         if all(x == 0 for x in apply(rows, v)):
             out.append(v)
     return out
+
+
+def eigenvector_in_field(rows: SparseRows, g: fmpq_poly, extra: SparseRows, p: int) -> list[fmpq_poly] | None:
+    """A nonzero v over K = Q[t]/(g) with ``M v = t v`` and ``E v = 0`` (M = ``rows``, square,
+    and E = ``extra``, both rational), or None when none is found.
+
+    The equations are written over Q in the coordinates ``v_a = sum_{k<d} v_{a,k} t^k``
+    (d = deg g, g = c_0 + ... + c_d t^d). Multiplication by t maps t^k to t^(k+1) for k < d - 1
+    and t^(d-1) to -(c_0 + ... + c_{d-1} t^(d-1)) / c_d, so coefficient k of ``(M v - t v)_a`` is
+
+        sum_b M_ab v_{b,k} - v_{a,k-1} + (c_k / c_d) v_{a,d-1}        (v_{a,-1} = 0)
+
+    and coefficient k of ``E v`` is ``sum_b E_b v_{b,k}``. An exact kernel vector of this
+    rational system of N d columns (:func:`kernel_vectors`, verified exactly) is such a v,
+    nonzero in K; when g is irreducible K is a field and each nonzero entry is prime to g.
+    For d = 1 (g = t - mu) it is the kernel of ``[M - mu I; E]`` over Q.
+    """
+    n = len(rows)
+    d = g.degree()
+    c = g.coeffs()
+    shift = [x / c[d] for x in c[:d]]
+    big: list[dict[int, fmpq]] = []
+    for a, r in enumerate(rows):
+        for k in range(d):
+            row = {b * d + k: x for b, x in r.items() if x != 0}
+            if k:
+                row[a * d + k - 1] = row.get(a * d + k - 1, fmpq(0)) - 1
+            if shift[k] != 0:
+                row[a * d + d - 1] = row.get(a * d + d - 1, fmpq(0)) + shift[k]
+            big.append(row)
+    for e in extra:
+        for k in range(d):
+            big.append({b * d + k: x for b, x in e.items() if x != 0})
+    for z in kernel_vectors(big, n * d, p, limit=d):
+        return [fmpq_poly([z[a * d + k] for k in range(d)]) for a in range(n)]
+    return None
 
 
 def fq(x: Fraction) -> fmpq:
