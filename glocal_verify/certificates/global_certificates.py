@@ -367,7 +367,7 @@ def differences_certificate(system: System, r: ConditionResult) -> dict[str, Any
         g = _minimal_polynomial(mu)
         if g is None or g.degree() < 1 or g(0) == 0:
             raise NoCertificate("the witness has no exact nonzero eigenvalue (an irrational repeated eigenvalue is not certified yet)")
-        most = config.get("certificate_dense_max_agents")
+        most = config.get("certificate_field_unknowns")
         if system.n * g.degree() > most:
             raise NoCertificate(f"the eigenvector over Q[t]/(g) has N deg g = {system.n * g.degree()} rational unknowns (at most {most} are solved)")
         i, j = (system.index[x] for x in w["pair"])
