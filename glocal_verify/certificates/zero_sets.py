@@ -30,7 +30,7 @@ from flint import fmpq, fmpq_mat, fmpq_poly, nmod_mat, nmod_poly
 
 from glocal_verify import config
 from glocal_verify.certificates.encode import mod_residues, pivots_mod, q, system_prime, vector
-from glocal_verify.certificates.kernels import fq, kernel_vectors, laplacian_rows
+from glocal_verify.certificates.kernels import fq, kernel_vectors, laplacian_rows, regular_rows
 from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.numerics.minors import prime_for
@@ -226,27 +226,9 @@ class Pencil:
     def _regular_kernel(self, g: fmpq_poly, count: int, p: int) -> list[list[fmpq_poly]]:
         """The kernel over Q[s]/(g) from the rational kernel of the regular representation."""
         d = g.degree()
-        comp = [[fmpq(0)] * d for _ in range(d)]  # multiplication by s on the basis 1, s, .., s^(d-1)
-        mono = g / g.leading_coefficient()
-        c = mono.coeffs()
-        for i in range(d - 1):
-            comp[i + 1][i] = fmpq(1)
-        for i in range(d):
-            comp[i][d - 1] = -c[i]
         col = {a: k for k, a in enumerate(self.U)}
-        rows: list[dict[int, fmpq]] = []
-        for a in self.rows:
-            for i in range(d):  # coefficient i of row a of T(s) xi
-                r: dict[int, fmpq] = {}
-                for j, x in self.K[a].items():
-                    if j in col:
-                        r[col[j] * d + i] = x
-                if a in col:
-                    for k in range(d):
-                        if comp[i][k] != 0:
-                            key = col[a] * d + k
-                            r[key] = r.get(key, fmpq(0)) + comp[i][k]
-                rows.append(r)
+        T = [{col[j]: x for j, x in self.K[a].items() if j in col} for a in self.rows]
+        rows = regular_rows(T, [col.get(a) for a in self.rows], g)
         basis = kernel_vectors(rows, d * len(self.U), p)
         out: list[list[fmpq_poly]] = []
         span: list[list[fmpq]] = []
