@@ -403,7 +403,7 @@ _ALL = (
     _t("certificate_max_states", 100, "states", "glocal_verify.certificates.encode",
        "Hurwitz certificates (local.uio per mode, central.observer's quotient) state the characteristic polynomial up to this many states, a Lyapunov matrix above",
        "the checker's exact characteristic polynomial and root enclosures: 0.4 s at 100 states, 45 s at 240, growing like n^4; a Lyapunov matrix costs one floating-point Cholesky and exact integer products: 2 s at 240 states"),
-    _t("certificate_field_unknowns", 1000, "unknowns", "glocal_verify.certificates.kernels",
+    _t("certificate_field_unknowns", 1000, "unknowns", "glocal_verify.certificates.zero_sets",
        "a kernel vector over a number field Q[t]/(g) is solved over Q in its N deg g coefficients (eigenvector_in_field, the regular representation of a pencil's kernel when the minors' route fails) up to this many unknowns",
        "a dense rational solve of that size: 0.3 s for 84 unknowns, a few seconds near 1000"),
     _t("certificate_minor_tries", 40, "row sets", "glocal_verify.certificates.local_certificates",
