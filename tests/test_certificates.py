@@ -174,3 +174,64 @@ def test_the_sampled_implementation_s_verdicts_are_certified(implementation: str
     missing = {e["id"] for e in doc["verdicts"] if e["certificate"] is None}
     assert missing <= {"detection.local-alarm", "detection.guarantee", "sampled.zda"}, missing
     assert any(e["id"] == "sampled.stability" for e in doc["verdicts"])
+
+
+# a cycle whose safe mode cuts the link {1, 5}: the path 1-...-5 is symmetric under i -> 6 - i,
+# so its eigenvectors for the eigenvalues (5 -+ sqrt 5) / 2 (roots of t^2 - 5 t + 5) have
+# u(1) = u(5): Theorem III.3 (iii) fails at an irrational eigenvalue
+_PATH5 = """format = 1
+name = "path5"
+
+[dynamics]
+alpha = 1
+gamma = 1
+
+[graph]
+nodes = 5
+edges = [[1, 2], [2, 3], [3, 4], [4, 5], [5, 1]]
+
+[[modes]]
+name = "safe-1"
+remove = [[5, 1]]
+
+[monitor]
+positions = [1]
+velocities = [1]
+"""
+
+
+def test_equal_eigenvector_entries_at_an_irrational_eigenvalue_are_certified_and_a_changed_entry_is_rejected(tmp_path: Path) -> None:
+    spec_path, doc, out = certify(_PATH5, tmp_path)
+    entry = next(e for e in doc["verdicts"] if e["id"] == "switching.eigenvector-differences")
+    cert = entry["certificate"]
+    assert entry["status"] == "fails" and cert["kind"] == "eigenvector"
+    assert len(cert["field"]["modulus"]) == 3 and sorted(cert["pair"]) == ["1", "5"]  # t^2 - 5 t + 5
+    assert not any("eigenvector-differences" in line for line in out.rejected)
+    for agent in ("3", "5"):
+        bad = json.loads(json.dumps(doc))
+        got = next(e for e in bad["verdicts"] if e["id"] == "switching.eigenvector-differences")["certificate"]["vector"]
+        got[agent] = got[agent] + ["1"]  # one more power of t in one entry
+        path = tmp_path / f"bad{agent}.json"
+        path.write_text(json.dumps(bad), encoding="utf-8")
+        res = glocal_check.check_files(str(spec_path), str(path), report=lambda _: None)
+        assert [line for line in res.rejected if "eigenvector-differences" in line], res.rejected
+
+
+@pytest.mark.parametrize("n, seed, clusters", [(45, 48, 1), (90, 50, 3)])
+def test_a_failing_local_pencil_is_certified_at_an_irrational_or_repeated_zero(n: int, seed: int, clusters: int, tmp_path: Path) -> None:
+    # seed 48: the only zeros without a rational s are roots of s^2 + 6 s + 4, where the minors'
+    # route finds no kernel vector; seed 50: the zero s = -1 has multiplicity 2 in the minors'
+    # gcd and one kernel vector (the zero set cannot be closed, the kernel vector suffices)
+    from glocal_verify import System, verify
+    from glocal_verify.certificates import certificate_document
+    from glocal_verify.spec import loads_spec
+
+    text = dump_spec(random_clustered_spec(n, clusters=clusters, seed=seed, modes=1 + seed % 3, attack=True, monitors=3 + seed % 4, observers_per_cluster=1))
+    system = System(loads_spec(text))
+    doc = certificate_document(system, verify(system, only=["local.*"]))
+    pencils = [e for e in doc["verdicts"] if e["id"] == "local.pencil" and e["status"] == "fails"]
+    assert pencils and all(e["certificate"] is not None for e in pencils), [e.get("reason") for e in pencils]
+    (tmp_path / "s.toml").write_text(text, encoding="utf-8")
+    (tmp_path / "c.json").write_text(json.dumps(doc), encoding="utf-8")
+    out = glocal_check.check_files(str(tmp_path / "s.toml"), str(tmp_path / "c.json"), report=lambda _: None)
+    assert out.rejected == [] and out.without == 0, out.rejected

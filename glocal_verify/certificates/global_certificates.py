@@ -16,7 +16,7 @@ from flint import fmpq, fmpq_poly, nmod_mat
 
 from glocal_verify.certificates.encode import charpoly_claim, field, krylov_residue, laplacian_mod, lyapunov_claim, mod_residues, pivots_mod, q, state_matrix_exact, system_prime, unit, vector
 from glocal_verify.certificates.facts import schedule_modes
-from glocal_verify.certificates.kernels import fq, kernel_vectors, laplacian_rows
+from glocal_verify.certificates.kernels import eigenvector_in_field, fq, kernel_vectors, laplacian_rows
 from glocal_verify.certificates.zero_sets import NoZeroSet, zda_zero_set
 from glocal_verify import config
 from glocal_verify.model import System
@@ -343,21 +343,38 @@ def distinct_certificate(system: System, r: ConditionResult) -> dict[str, Any]:
 
 
 def differences_certificate(system: System, r: ConditionResult) -> dict[str, Any]:
-    """``krylov-pairs`` (holds) or ``eigenvector`` (an exact rational eigenvector with equal
-    entries on a pair, fails)."""
+    """``krylov-pairs`` (holds) or ``eigenvector`` (fails: an exact eigenvector with equal
+    entries on the witness's pair, over Q[t]/(g) for the minimal polynomial g of its eigenvalue).
+
+    The witness's rational eigenvector is used when it has one; otherwise a nonzero v over
+    Q[t]/(g) with ``L_q v = t v`` and ``v(i) = v(j)`` is solved for
+    (:func:`~glocal_verify.certificates.kernels.eigenvector_in_field`), g the minimal
+    polynomial of the witness's exact eigenvalue (irreducible: every nonzero entry of v is
+    prime to g)."""
     mode = r.scope["mode"]
     if r.status.value == "fails":
         w = r.witness
         mu, v = w.get("eigenvalue_exact"), w.get("eigenvector_exact")
-        if mu is None or not v or Fraction(mu) == 0:
-            raise NoCertificate("the witness has no exact eigenvector with a nonzero rational eigenvalue")
-        return {
-            "kind": "eigenvector",
-            "field": field(fmpq_poly([-fq(Fraction(mu)), 1])),
-            "mu": ["0", "1"],
-            "vector": {str(k): q(Fraction(x)) for k, x in v.items() if x != 0},
-            "pair": [str(x) for x in w["pair"]],
-        }
+        pair = [str(x) for x in w["pair"]]
+        if isinstance(mu, (int, Fraction)) and v and mu != 0:
+            return {
+                "kind": "eigenvector",
+                "field": field(fmpq_poly([-fq(Fraction(mu)), 1])),
+                "mu": ["0", "1"],
+                "vector": {str(k): q(Fraction(x)) for k, x in v.items() if x != 0},
+                "pair": pair,
+            }
+        g = _minimal_polynomial(mu)
+        if g is None or g.degree() < 1 or g(0) == 0:
+            raise NoCertificate("the witness has no exact nonzero eigenvalue (an irrational repeated eigenvalue is not certified yet)")
+        most = config.get("certificate_field_unknowns")
+        if system.n * g.degree() > most:
+            raise NoCertificate(f"the eigenvector over Q[t]/(g) has N deg g = {system.n * g.degree()} rational unknowns (at most {most} are solved)")
+        i, j = (system.index[x] for x in w["pair"])
+        u = eigenvector_in_field(laplacian_rows(system, mode), g, [{i: fmpq(1), j: fmpq(-1)}], system_prime(system))
+        if u is None:
+            raise NoCertificate("no exact eigenvector with equal entries on the pair over Q[t]/(g), g the eigenvalue's minimal polynomial")
+        return {"kind": "eigenvector", "field": field(g), "mu": ["0", "1"], "vector": vector(system, u), "pair": pair}
     if len(system.components(mode)) != 1:
         raise NoCertificate("the safe mode's graph is disconnected")
     comps = system.switching_components(mode)
@@ -375,6 +392,19 @@ def differences_certificate(system: System, r: ConditionResult) -> dict[str, Any
                 x[2] = unit(x[2], p)
             return {"kind": "krylov-pairs", "prime": p, "pairs": got}
     raise NoCertificate("a Krylov minor vanished modulo two primes")
+
+
+def _minimal_polynomial(mu: Any) -> fmpq_poly | None:
+    """The minimal polynomial of an exact eigenvalue as a witness states it (a rational, or
+    :func:`~glocal_verify.analysis.switching.eigenstructure.algebraic_root_witness`'s mapping
+    with its integer ``coefficients``, lowest degree first), or None."""
+    if isinstance(mu, (int, Fraction)):
+        return fmpq_poly([-fq(Fraction(mu)), 1])
+    coeffs = mu.get("coefficients") if isinstance(mu, Mapping) else None
+    if not coeffs:
+        return None
+    g = fmpq_poly([int(c) for c in coeffs])
+    return g / g.leading_coefficient()
 
 
 # -------------------------------------------------------------------------------------------

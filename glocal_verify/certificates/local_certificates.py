@@ -14,7 +14,7 @@ from glocal_verify.certificates.encode import field, stability_claim, mod_residu
 from glocal_verify import config
 from glocal_verify.certificates.global_certificates import NoCertificate
 from glocal_verify.certificates.kernels import fq, kernel_vectors, laplacian_rows
-from glocal_verify.certificates.zero_sets import NoZeroSet, Pencil, zero_set
+from glocal_verify.certificates.zero_sets import NoZeroSet, Pencil, zero_set, zero_with_kernel
 from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.results import ConditionResult
@@ -135,7 +135,8 @@ def _bezout(polys: list[nmod_poly], p: int) -> list[list[int]]:
 
 def _pencil_fails(case: _Case, r: ConditionResult) -> dict[str, Any]:
     """A kernel vector at lam = 0, or at the roots of lam^2 + gamma lam = s for a rational s
-    (the witness's zeros rounded, 0, 1)."""
+    (the witness's zeros rounded, 0, 1), or for the roots s of an irreducible factor of the
+    pencil's zero polynomial (:func:`~glocal_verify.certificates.zero_sets.zero_with_kernel`)."""
     sys_ = case.system
     p = system_prime(sys_)
     gamma = fq(sys_.gamma_q)
@@ -165,19 +166,16 @@ def _pencil_fails(case: _Case, r: ConditionResult) -> dict[str, Any]:
             x = {a: z[colU[a]] for a in case.U}
             return _kernel_cert(case, x, sq, fmpq_poly([-sq, gamma, 1]))
     try:
-        _, factors = zero_set(sys_, case.pencil())
+        g, vec = zero_with_kernel(sys_, case.pencil())
     except NoZeroSet as exc:
-        raise NoCertificate(f"no exact kernel vector at lam = 0 or at a rational s = lam^2 + gamma lam, and no zero set: {exc}") from None
-    if not factors:  # pragma: no cover - a verdict bug
-        raise NoCertificate("the zero set of T(s) is empty: the pencil has full column rank for every lam != 0")
-    g, vecs = factors[0]
+        raise NoCertificate(f"no exact kernel vector at lam = 0 or at a rational s = lam^2 + gamma lam, nor at a zero of T(s): {exc}") from None
     sub = fmpq_poly([0, gamma, 1])  # s = lam^2 + gamma lam
     G = g(sub)
     while G(0) == 0:  # lam = 0 is the pencil T_0, not T(s)
         G = G // fmpq_poly([0, 1])
     G = G / G.leading_coefficient()
     labels = sys_.labels
-    xg: dict[Any, Any] = {labels[a]: v(sub) % G for a, v in zip(case.pencil().U, vecs[0])}
+    xg: dict[Any, Any] = {labels[a]: v(sub) % G for a, v in zip(case.pencil().U, vec)}
     return _kernel_cert(case, xg, sub, G)
 
 

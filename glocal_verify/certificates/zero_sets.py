@@ -30,12 +30,12 @@ from flint import fmpq, fmpq_mat, fmpq_poly, nmod_mat, nmod_poly
 
 from glocal_verify import config
 from glocal_verify.certificates.encode import mod_residues, pivots_mod, q, system_prime, vector
-from glocal_verify.certificates.kernels import fq, kernel_vectors, laplacian_rows
+from glocal_verify.certificates.kernels import fq, kernel_vectors, laplacian_rows, regular_rows
 from glocal_verify.derived import Kind
 from glocal_verify.model import System
 from glocal_verify.numerics.minors import prime_for
 
-__all__ = ["NoZeroSet", "Pencil", "zda_pencil", "zda_zero_set", "zero_set"]
+__all__ = ["NoZeroSet", "Pencil", "zda_pencil", "zda_zero_set", "zero_set", "zero_with_kernel"]
 
 
 class NoZeroSet(Exception):
@@ -150,12 +150,20 @@ class Pencil:
     def kernel(self, g: fmpq_poly, count: int, p: int) -> list[list[fmpq_poly]]:
         """``count`` vectors over Q[s]/(g) in the kernel of T (supported on U), independent over
         that field (g irreducible): the rational kernel at a rational root, else (one vector)
-        the maximal minors of |U| - 1 rows (:meth:`_minors_kernel`)."""
+        the maximal minors of |U| - 1 rows (:meth:`_minors_kernel`) or, when those rows lose
+        rank at the roots of g, the rational kernel of the regular representation
+        (:meth:`_regular_kernel`, d |U| unknowns, at most
+        ``config.get("certificate_field_unknowns")``)."""
         if g.degree() == 1:
             return self._regular_kernel(g, count, p)
         if count != 1:
             raise NoZeroSet(f"a factor of degree {g.degree()} with {count} kernel vectors (one is certified)")
-        return [self._minors_kernel(g, p)]
+        try:
+            return [self._minors_kernel(g, p)]
+        except NoZeroSet:
+            if g.degree() * len(self.U) > config.get("certificate_field_unknowns"):
+                raise
+        return self._regular_kernel(g, 1, p)
 
     def _minors_kernel(self, g: fmpq_poly, p: int) -> list[fmpq_poly]:
         """A kernel vector of T over Q[s]/(g) when its kernel there is a line: for rows R' of
@@ -218,27 +226,9 @@ class Pencil:
     def _regular_kernel(self, g: fmpq_poly, count: int, p: int) -> list[list[fmpq_poly]]:
         """The kernel over Q[s]/(g) from the rational kernel of the regular representation."""
         d = g.degree()
-        comp = [[fmpq(0)] * d for _ in range(d)]  # multiplication by s on the basis 1, s, .., s^(d-1)
-        mono = g / g.leading_coefficient()
-        c = mono.coeffs()
-        for i in range(d - 1):
-            comp[i + 1][i] = fmpq(1)
-        for i in range(d):
-            comp[i][d - 1] = -c[i]
         col = {a: k for k, a in enumerate(self.U)}
-        rows: list[dict[int, fmpq]] = []
-        for a in self.rows:
-            for i in range(d):  # coefficient i of row a of T(s) xi
-                r: dict[int, fmpq] = {}
-                for j, x in self.K[a].items():
-                    if j in col:
-                        r[col[j] * d + i] = x
-                if a in col:
-                    for k in range(d):
-                        if comp[i][k] != 0:
-                            key = col[a] * d + k
-                            r[key] = r.get(key, fmpq(0)) + comp[i][k]
-                rows.append(r)
+        T = [{col[j]: x for j, x in self.K[a].items() if j in col} for a in self.rows]
+        rows = regular_rows(T, [col.get(a) for a in self.rows], g)
         basis = kernel_vectors(rows, d * len(self.U), p)
         out: list[list[fmpq_poly]] = []
         span: list[list[fmpq]] = []
@@ -346,7 +336,49 @@ class _Short(NoZeroSet):
     """Fewer kernel vectors than the gcd of the minors tried counts."""
 
 
+def zero_with_kernel(system: System, pencil: Pencil) -> tuple[fmpq_poly, list[fmpq_poly]]:
+    """An irreducible factor g of the zero polynomial of the minors tried and a kernel vector of
+    T over Q[s]/(g) (supported on U), the factors of lowest degree first; raises
+    :class:`NoZeroSet`.
+
+    The count of :func:`zero_set` is not closed: one kernel vector shows that T loses column
+    rank at the roots of g, which is all a failing ``local.pencil`` needs (a zero set that
+    cannot be closed, e.g. a factor of multiplicity 2 with one kernel vector, still has it).
+    """
+    p = system_prime(system)
+    _, z = _zero_polynomial(system, pencil, 6)
+    if z is None:
+        raise NoZeroSet("the minors tried are coprime modulo the prime: T(s) has no zero")
+    for g, _ in sorted(z.factor()[1], key=lambda f: f[0].degree()):
+        g = g / g.leading_coefficient()
+        try:
+            return g, pencil.kernel(g, 1, p)[0]
+        except NoZeroSet:
+            continue
+    raise NoZeroSet("no factor of the zero polynomial of the minors tried has a kernel vector")
+
+
 def _zero_set(system: System, pencil: Pencil, patience: int) -> tuple[dict[str, Any], list[tuple[fmpq_poly, list[list[fmpq_poly]]]]]:
+    cert, z = _zero_polynomial(system, pencil, patience)
+    if z is None:
+        return cert, []
+    p, labels = cert["prime"], system.labels
+    factors: list[tuple[fmpq_poly, list[list[fmpq_poly]]]] = []
+    for g, e in z.factor()[1]:
+        g = g / g.leading_coefficient()
+        vecs = pencil.kernel(g, int(e), p)
+        factors.append((g, vecs))
+        cert["factors"].append({
+            "field": {"modulus": [q(c) for c in g.coeffs()]},
+            "kernel": [vector(system, {labels[a]: x for a, x in zip(pencil.U, v)}) for v in vecs],
+            "rows": [str(labels[a]) for a in _independent_rows(pencil, vecs, g, p)],
+        })
+    return cert, factors
+
+
+def _zero_polynomial(system: System, pencil: Pencil, patience: int) -> tuple[dict[str, Any], fmpq_poly | None]:
+    """The ``zero-set`` certificate without its factors, and the zero polynomial of the minors
+    tried over Q (None when they are coprime modulo the prime)."""
     p = system_prime(system)
     g_p, first, used = pencil.gcd_mod(p, patience)
     labels = system.labels
@@ -357,7 +389,7 @@ def _zero_set(system: System, pencil: Pencil, patience: int) -> tuple[dict[str, 
         "factors": [],
     }
     if g_p.degree() == 0:
-        return cert, []
+        return cert, None
     # z over Q: the same gcd modulo more primes, lifted (the checker needs only the factors)
     values = [system.alpha_q] + list(system.edges("normal").values())
     lift = _Lift(g_p.degree())
@@ -375,17 +407,7 @@ def _zero_set(system: System, pencil: Pencil, patience: int) -> tuple[dict[str, 
         z = cand
     if z is None:
         raise NoZeroSet(f"the zero polynomial (degree {g_p.degree()} modulo {p}) could not be lifted to Q")
-    factors: list[tuple[fmpq_poly, list[list[fmpq_poly]]]] = []
-    for g, e in z.factor()[1]:
-        g = g / g.leading_coefficient()
-        vecs = pencil.kernel(g, int(e), p)
-        factors.append((g, vecs))
-        cert["factors"].append({
-            "field": {"modulus": [q(c) for c in g.coeffs()]},
-            "kernel": [vector(system, {labels[a]: x for a, x in zip(pencil.U, v)}) for v in vecs],
-            "rows": [str(labels[a]) for a in _independent_rows(pencil, vecs, g, p)],
-        })
-    return cert, factors
+    return cert, z
 
 
 def _independent_rows(zs: Pencil, vecs: Sequence[Sequence[fmpq_poly]], g: fmpq_poly, p: int) -> list[int]:
