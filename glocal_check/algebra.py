@@ -11,7 +11,6 @@ the rank over Q.
 from __future__ import annotations
 
 from itertools import permutations
-from math import lcm
 from typing import Any, Iterable, Sequence
 
 from flint import fmpq, fmpq_mat, fmpq_poly, fmpz, fmpz_mat, nmod_mat, nmod_poly
@@ -380,7 +379,10 @@ def lyapunov(F: Sequence[Sequence[fmpq]], cert: Any, discrete: bool = False) -> 
     require(isinstance(cert, dict), "a Lyapunov certificate is a mapping")
     n = len(F)
     Pu, bP = _dyadic_upper(cert.get("P"), n, "P")
-    Pi = fmpz_mat(n, n, [Pu[min(i, j)][max(i, j)] for i in range(n) for j in range(n)])
+    U = fmpz_mat(n, n, [v for r in Pu for v in r])
+    Pi = U + U.transpose()  # the symmetric P from its upper triangle: the diagonal counted once
+    for i in range(n):
+        Pi[i, i] = U[i, i]
     Fi, dF = integer_matrix(F)
     dP = 1 << bP
     if discrete:
@@ -394,17 +396,16 @@ def lyapunov(F: Sequence[Sequence[fmpq]], cert: Any, discrete: bool = False) -> 
 def _dyadic_upper(x: Any, n: int, what: str) -> tuple[list[list[int]], int]:
     """An n x n upper triangle of integers and its scale exponent: (rows padded with zeros, b)."""
     ok = isinstance(x, dict) and isinstance(x.get("scale"), int) and 0 <= x["scale"] <= 4096 and isinstance(x.get("upper"), list) and len(x["upper"]) == n
-    require(ok and all(isinstance(r, list) and len(r) == n - i and all(isinstance(v, int) and not isinstance(v, bool) for v in r) for i, r in enumerate(x["upper"])), f"{what} is not {{scale, upper}} of an {n} x {n} matrix")
+    require(ok and all(isinstance(r, list) and len(r) == n - i and all(type(v) is int for v in r) for i, r in enumerate(x["upper"])), f"{what} is not {{scale, upper}} of an {n} x {n} matrix")
     return [[0] * i + list(r) for i, r in enumerate(x["upper"])], x["scale"]
 
 
 def integer_matrix(M: Sequence[Sequence[fmpq]]) -> tuple[fmpz_mat, int]:
     """(d M as an integer matrix, d) with d the lcm of the denominators."""
-    d = 1
-    for r in M:
-        for x in r:
-            d = lcm(d, int(x.q))
-    return fmpz_mat(len(M), len(M[0]) if M else 0, [int(x.p) * (d // int(x.q)) for r in M for x in r]), d
+    if not M or not M[0]:
+        return fmpz_mat(len(M), 0, []), 1
+    Z, d = fmpq_mat(len(M), len(M[0]), [x for r in M for x in r]).numer_denom()  # python-flint: Z / d == M, d the lcm
+    return Z, int(d)
 
 
 def positive_definite(Z: fmpz_mat, scale: int, c: fmpq, R: Any, what: str) -> None:
@@ -417,8 +418,11 @@ def positive_definite(Z: fmpz_mat, scale: int, c: fmpq, R: Any, what: str) -> No
     Ru, b = _dyadic_upper(R, n, f"the factor of {what}")
     Ri = fmpz_mat(n, n, [v for r in Ru for v in r])
     cn, cd = int(c.p), int(c.q)
-    E = (Z * (cd << 2 * b)) - fmpz_mat(n, n, [(cn * scale << 2 * b) if i == j else 0 for i in range(n) for j in range(n)]) - (Ri.transpose() * Ri) * (scale * cd)
-    require(sum(int(x) ** 2 for x in E.entries()) < (cn * scale << 2 * b) ** 2, f"{what}: the residual of its factor is not below the shift")
+    E = (Z * (cd << 2 * b)) - (Ri.transpose() * Ri) * (scale * cd)
+    shift = cn * scale << 2 * b
+    for i in range(n):  # - c I, scaled
+        E[i, i] -= shift
+    require(sum(x * x for x in E.entries()) < shift * shift, f"{what}: the residual of its factor is not below the shift")
 
 
 def hurwitz_poly(p: fmpq_poly) -> float:

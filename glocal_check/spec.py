@@ -26,14 +26,38 @@ class CheckError(ValueError):
     """A spec or certificate file the checker cannot read (exit code 2)."""
 
 
+def _digits(text: str) -> bool:
+    return text.isascii() and text.isdigit()
+
+
+def _decimal(text: str, where: str) -> fmpq:
+    """The decimal ``text`` of a float (``repr``: digits, one point, an exponent) as the exact
+    rational it writes, e.g. ``1.25e-3`` -> 1/800; what ``Fraction(text)`` gives, without its
+    regular expression (the certificates hold hundreds of thousands of them)."""
+    mant, _, exp = text.lower().partition("e")
+    whole, _, frac = mant.partition(".")
+    try:
+        num = int(whole + frac)
+        e = int(exp or "0") - len(frac)
+    except ValueError:
+        raise CheckError(f"{where}: not a rational number: {text[:60]!r}") from None
+    return fmpq(num * 10**e) if e >= 0 else fmpq(num, 10**-e)
+
+
 def rational(x: Any, where: str = "number") -> fmpq:
     """``x`` (an int, a float read from TOML, or a rational string) as an exact ``fmpq``."""
     if isinstance(x, bool):
         raise CheckError(f"{where}: expected a number, got {x!r}")
     if isinstance(x, int):
         return fmpq(x)
+    if isinstance(x, float):
+        return _decimal(repr(x), where)
+    if isinstance(x, str):  # the certificates' "p/q": two integers, without Fraction's regular expression
+        num, slash, den = x.strip().partition("/")
+        if _digits(num.removeprefix("-")) and (not slash or _digits(den)) and (not slash or int(den) != 0):
+            return fmpq(int(num), int(den) if slash else 1)
     try:
-        q = Fraction(repr(x)) if isinstance(x, float) else Fraction(str(x).strip())
+        q = Fraction(str(x).strip())
     except (ValueError, ZeroDivisionError):
         raise CheckError(f"{where}: not a rational number: {str(x)[:60]!r}") from None
     return fmpq(q.numerator, q.denominator)
