@@ -182,9 +182,14 @@ def mutation_run(spec_text: str, folder: Path, count: int, seed: int) -> dict[st
     rng = random.Random(seed)
     main: dict[str, Any] = {"mutants": 0, "rejected": 0, "accepted": []}
     refreshed: dict[str, Any] = {"mutants": 0, "rejected": 0, "accepted": []}
+    dead: set[str] = set()  # kinds no certificate of this spec has a number for: left out, never looped on
+    misses = dict.fromkeys(MUTATIONS, 0)
     while main["mutants"] < count:
+        live = [k for k in MUTATIONS if k not in dead]
+        if not live:
+            break
         entry = rng.choice(certified)
-        how = MUTATIONS[main["mutants"] % len(MUTATIONS)]
+        how = live[main["mutants"] % len(live)]
         runs = []
         if how == "weight":
             text = mutate_weight(spec_text, rng)
@@ -194,7 +199,11 @@ def mutation_run(spec_text: str, folder: Path, count: int, seed: int) -> dict[st
         else:
             mutant = mutate(entry, how, rng)
             if mutant is None:
+                misses[how] += 1
+                if misses[how] > 20 * len(certified):
+                    dead.add(how)
                 continue
+            misses[how] = 0
             entry = mutant
             runs = [(main, check_entry(spec_path, doc, mutant, folder), spec_text)]
         for tally, ok, truth in runs:
