@@ -199,3 +199,17 @@ def test_a_direction_inside_f_that_no_outside_link_sees_proves_not_left_invertib
             proved += 1
             assert decide_zda(system, options=ZdaOptions(exact=True)).left_invertible is False
     assert proved >= 20
+
+
+def test_a_separator_keeps_its_proof_of_unbounded_growth_when_the_spec_requests_lambda0() -> None:
+    # path 1-2-3-4-5, position of 5 measured, agents 1 and 3 attacked: one path from F to M < |F| = 2,
+    # and no direction inside F that no outside link sees (the separator proves it, the kernel test cannot)
+    from glocal_verify.analysis.stealthy.zda_screens import invisible_inside_f
+
+    system = System(spec_from_graph(nx.path_graph(range(1, 6)), monitor_positions=[5], attack={"kind": "zda", "actuators": [1, 3]}))
+    assert invisible_inside_f(system, [1, 3]) is None
+    for lam in (None, 1):
+        v = decide_zda(system, options=ZdaOptions(lambda0=lam))
+        exact = decide_zda(system, options=ZdaOptions(exact=True, lambda0=lam))
+        assert exact.left_invertible is False and exact.growth == "unbounded"
+        assert v.status is Status.HOLDS and v.left_invertible is False and v.growth == "unbounded", (lam, v.growth)

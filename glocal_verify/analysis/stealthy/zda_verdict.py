@@ -286,13 +286,14 @@ def _numeric(system: System, F: tuple[Label, ...], opt: ZdaOptions) -> ZdaVerdic
         growth = GROWTH_UNBOUNDED
     else:
         growth = max((z.growth for z in za.zeros), key=growth_rank, default="undecided")
-    paths = disjoint_paths(system, F) if status is Status.HOLDS else len(F)
-    if status is Status.HOLDS and za.direction_source != "requested lambda0" and paths < len(F):
-        return _separated(system, F, opt, za, cert, paths)
-    if status is Status.HOLDS and za.decided and not za.left_invertible and invisible_inside_f(system, F) is None:
-        # as many vertex-disjoint paths from F to M as |F| and no exact direction inside F: a numeric
-        # rank drop of the whole pencil is a claim about rounding, not a proof (badly scaled weights)
-        return _unproven_rank_drop(system, F, opt, za, cert)
+    if status is Status.HOLDS:
+        paths = disjoint_paths(system, F)
+        if za.direction_source != "requested lambda0" and paths < len(F):
+            return _separated(system, F, opt, za, cert, paths)
+        if za.decided and not za.left_invertible and paths >= len(F) and invisible_inside_f(system, F) is None:
+            # as many vertex-disjoint paths from F to M as |F| and no exact direction inside F: a numeric
+            # rank drop of the whole pencil is a claim about rounding, not a proof (badly scaled weights)
+            return _unproven_rank_drop(system, F, opt, za, cert)
     source = za.direction_source
     if status is Status.UNDECIDED and d0 is not None and source != "requested lambda0":
         source = f"not proven (the numeric zero set's choice: {source})"  # a candidate, not a witness
