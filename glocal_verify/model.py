@@ -357,7 +357,8 @@ class System:
         def build() -> list[tuple[Label, Label, Fraction]]:
             a, b = self._edges[mode], self._edges[NORMAL_MODE]
             out = []
-            for key in sorted(set(a) | set(b), key=lambda k: sorted(self.index[x] for x in k)):
+            changed = [k for k, w in a.items() if b.get(k) != w] + [k for k in b if k not in a]  # O(|E|); only the changes are sorted
+            for key in sorted(changed, key=lambda k: sorted(self.index[x] for x in k)):
                 d = a.get(key, Fraction(0)) - b.get(key, Fraction(0))
                 if d != 0:
                     u, v = sorted(key, key=lambda x: self.index[x])
