@@ -1,6 +1,6 @@
 """Random clustered networks for benchmarks, property tests and design studies.
 
-Three generators:
+Four generators:
 
 - :func:`random_clustered_spec`, the friendly family (below);
 - :func:`adverse_clustered_spec`, networks built the way people draw them: stochastic-block-model
@@ -9,7 +9,10 @@ Three generators:
   neighbours and the cluster's boundary, or the whole cluster; :func:`adverse_family` draws its
   members across that range (the benchmarks report the worst of them);
 - :func:`symmetric_clusters_spec`, copies of one random cluster joined in a ring (a symmetry of
-  the weighted graph: repeated eigenvalues of L_1).
+  the weighted graph: repeated eigenvalues of L_1);
+- :func:`structured_clustered_spec`, identical copies of one cluster, a class of twin leaves,
+  weights p^2 / 10^6 or p^2 / 10^7 for large primes p, symmetries broken by 10^-9..10^-15 and
+  position or velocity monitors; :func:`structured_family` draws its members across that range.
 
 :func:`random_clustered_spec` builds a validated :class:`~glocal_verify.spec.types.SystemSpec`:
 clusters are sparse connected random graphs (a random spanning tree plus a few chords, integer
@@ -23,6 +26,7 @@ agents of the first cluster.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from fractions import Fraction
 from types import MappingProxyType
 
 import inspect
@@ -40,10 +44,17 @@ __all__ = [
     "ADVERSE_MEASURES",
     "AdverseMember",
     "GENERATOR_DEFAULTS",
+    "STRUCTURED_ATTACKS",
+    "STRUCTURED_JOINS",
+    "STRUCTURED_MONITORS",
+    "STRUCTURED_WEIGHTS",
+    "StructuredMember",
     "adverse_clustered_spec",
     "adverse_family",
     "check_generator_arguments",
     "random_clustered_spec",
+    "structured_clustered_spec",
+    "structured_family",
     "symmetric_clusters_spec",
 ]
 
@@ -530,3 +541,290 @@ def symmetric_clusters_spec(
         "simulation": {"horizon": horizon, "step": step, "seed": seed},
     }
     return spec_from_dict(data)
+
+
+# -- the structured family ----------------------------------------------------------------------
+
+#: how the identical clusters of :func:`structured_clustered_spec` are joined to the rest
+STRUCTURED_JOINS = ("hub", "ring", "asymmetric")
+#: the weight palettes of :func:`structured_clustered_spec`: small integers, or p^2 / 10^6 and
+#: p^2 / 10^7 for the largest primes below 2^24 and 2^30 (those a modular certificate tries first)
+STRUCTURED_WEIGHTS = ("small", "prime24", "prime30")
+#: which agents the ZDA of :func:`structured_clustered_spec` attacks
+STRUCTURED_ATTACKS = ("inside", "across", "twins")
+#: which states the monitors of :func:`structured_clustered_spec` measure
+STRUCTURED_MONITORS = ("velocities", "positions", "both")
+
+_PRIME_WEIGHTS = {"prime24": Fraction(16777213**2, 10**6), "prime30": Fraction(1073741789**2, 10**7)}
+
+
+def _rational(q: Fraction) -> str | int:
+    return int(q) if q.denominator == 1 else f"{q.numerator}/{q.denominator}"
+
+
+def structured_clustered_spec(
+    n: int,
+    *,
+    seed: int = 0,
+    clusters: int = 2,
+    cluster_size: int = 15,
+    twins: int = 10,
+    weights: str = "small",
+    join: str = "hub",
+    breaking: int = 0,
+    monitors: str = "velocities",
+    monitored: int = 2,
+    attack: str = "across",
+    attacked: int = 2,
+    modes: int = 0,
+    horizon: float = 30.0,
+    step: float = 0.05,
+) -> SystemSpec:
+    """A network of identical clusters, a class of twin leaves and a random rest around a hub.
+
+    Agent 1 is the hub; ``clusters`` copies of one random cluster of ``cluster_size`` agents
+    (a random recursive tree plus chords, mean degree about 3, the same weights in every copy);
+    ``twins`` leaves hanging from one agent of the rest with the same weight (a twin class); the
+    rest (the other agents, with the hub) is a random connected graph. Every copy is joined to
+    the hub at the same template agent (``join="hub"``), also to the next copy in a ring
+    (``"ring"``; both a symmetry of the weighted graph), or at a random template agent to a
+    random agent of the rest with a random weight (``"asymmetric"``: the copies stay identical
+    blocks of L_1, the graph has no symmetry). ``breaking`` = k > 0 multiplies one weight by
+    1 + 10^-k (k = 9..15): a twin leaf's link when twins are attacked, else a link of the
+    second copy at the copy of an attacked agent, so the zeros the symmetry makes (at lambda0 =
+    0 and elsewhere) exist only up to that perturbation. Monitors sit at the hub, at agents of
+    the rest and at the same template agents of every copy (symmetric), measuring velocities,
+    positions or both. The ZDA attacks ``attacked`` agents of the first copy (``"inside"``),
+    the same template agent of ``attacked`` copies (``"across"``), or ``attacked`` twin leaves.
+    Each safe mode adds a link of weight 1 at a monitored agent.
+
+    Parameters
+    ----------
+    n : int
+        Number of agents (labels 1..n); ``clusters * cluster_size + twins + 2 <= n``.
+    seed : int
+        Seed of the random generator (same arguments, same network).
+    clusters : int
+        Identical copies (1-8; 2-4 in the family).
+    cluster_size : int
+        Agents per copy (at least 3; 15-50 in the family).
+    twins : int
+        Twin leaves (at least 2; 10-40 in the family).
+    weights : {"small", "prime24", "prime30"}
+        Weights drawn from 1..3, or from {1, 2, p^2 / 10^6} (p = 2^24 - 3) or {1, 2, p^2 / 10^7}
+        (p = 2^30 - 35): exact rationals.
+    join : {"hub", "ring", "asymmetric"}
+    breaking : int
+        0 (exact symmetry) or k in 9..15: one weight times 1 + 10^-k.
+    monitors : {"velocities", "positions", "both"}
+    monitored : int
+        Monitored agents (at least 1).
+    attack : {"inside", "across", "twins"}
+    attacked : int
+        Attacked agents (2-3).
+    modes : int
+        Safe modes (0-2 in the family).
+    horizon, step : float
+        The ``[simulation]`` table.
+
+    Raises
+    ------
+    SpecError
+        For arguments outside their domain (one line naming the argument).
+    """
+    _count(clusters, "clusters", 1, 8)
+    _count(cluster_size, "cluster_size", 3, MAX_NODES)
+    _count(twins, "twins", 2, MAX_NODES)
+    _count(n, "n", int(clusters) * int(cluster_size) + int(twins) + 2, MAX_NODES)
+    _count(breaking, "breaking", 0, 15)
+    _count(monitored, "monitored", 1, int(n))
+    _count(attacked, "attacked", 1, 3)
+    check_generator_arguments(n, 1, seed, 0.0, 0, None, modes, 1, 1, horizon, step)
+    for name, value, allowed in (("weights", weights, STRUCTURED_WEIGHTS), ("join", join, STRUCTURED_JOINS),
+                                 ("monitors", monitors, STRUCTURED_MONITORS), ("attack", attack, STRUCTURED_ATTACKS)):
+        if value not in allowed:
+            raise SpecError(name, f"must be one of {', '.join(allowed)}, got {value!r}"[:120])
+    if 0 < breaking < 9:
+        raise SpecError("breaking", f"must be 0 or in [9, 15], got {breaking}")
+    if attack == "across" and attacked > clusters:
+        raise SpecError("attacked", f"an attack across copies needs as many copies as attacked agents ({attacked} > {clusters})")
+    if attacked > (twins if attack == "twins" else cluster_size):
+        raise SpecError("attacked", f"{attacked} attacked agents do not fit in {twins if attack == 'twins' else cluster_size} {'twins' if attack == 'twins' else 'agents of a copy'}")
+    rng = np.random.default_rng(seed)
+    big = _PRIME_WEIGHTS.get(weights)
+
+    def weight() -> Fraction:
+        if big is None:
+            return Fraction(int(rng.integers(1, 4)))
+        return (Fraction(1), Fraction(2), big)[int(rng.integers(0, 3))]
+
+    # the template copy, on 0..cluster_size-1
+    template: dict[tuple[int, int], Fraction] = {}
+
+    def add_template(u: int, v: int) -> bool:
+        a, b = (u, v) if u < v else (v, u)
+        if a == b or (a, b) in template:
+            return False
+        template[(a, b)] = weight()
+        return True
+
+    _sbm_cluster(rng, list(range(cluster_size)), 3.0, add_template)
+    offsets = [2 + c * cluster_size for c in range(clusters)]
+    first_twin = offsets[-1] + cluster_size
+    rest = [1] + list(range(first_twin + twins, n + 1))
+    edges: dict[tuple[int, int], Fraction] = {}
+
+    def add(u: int, v: int, w: Fraction | None = None) -> bool:
+        a, b = (u, v) if u < v else (v, u)
+        if a == b or (a, b) in edges:
+            return False
+        edges[(a, b)] = weight() if w is None else w
+        return True
+
+    for off in offsets:
+        for (a, b), w in template.items():
+            add(off + a, off + b, w)
+    _sbm_cluster(rng, rest, 3.0, add)
+    port = int(rng.integers(0, cluster_size))
+    for c, off in enumerate(offsets):
+        if join == "asymmetric":
+            add(off + int(rng.integers(0, cluster_size)), int(rng.choice(rest)))
+        else:
+            add(1, off + port, Fraction(1))
+    if join == "ring" and clusters > 1:
+        a, b = (int(x) for x in rng.choice(cluster_size, 2, replace=False))
+        for c in range(clusters if clusters > 2 else 1):
+            add(offsets[c] + a, offsets[(c + 1) % clusters] + b, Fraction(1))
+    parent, w_twin = int(rng.choice(rest)), weight()
+    leaves = list(range(first_twin, first_twin + twins))
+    for t in leaves:
+        add(parent, t, w_twin)
+    # the attack, then the monitors (never an attacked agent), then the broken weight
+    if attack == "twins":
+        F = [int(x) for x in rng.choice(leaves, attacked, replace=False)]
+    elif attack == "across":
+        a = int(rng.integers(0, cluster_size))
+        F = [offsets[c] + a for c in range(attacked)]
+    else:
+        F = [offsets[0] + int(x) for x in rng.choice(cluster_size, attacked, replace=False)]
+    spots: list[list[int]] = [[1]] + [[r] for r in rest[1:]] + [[off + a for off in offsets] for a in range(cluster_size)] + [[t] for t in leaves]
+    spots = [s for s in spots if not set(s) & set(F)]
+    mon: list[int] = []
+    for k in rng.permutation(len(spots)):
+        if len(mon) >= monitored:
+            break
+        if not mon or len(mon) + len(spots[int(k)]) <= monitored:
+            mon += spots[int(k)]
+    mon = sorted(set(mon))
+    if breaking:
+        if attack == "twins":
+            key = (min(parent, F[0]), max(parent, F[0]))
+        else:
+            a = F[0] - offsets[0] if attack == "inside" else F[1] - offsets[1]
+            touching = sorted(e for e in template if a in e)
+            e = touching[int(rng.integers(0, len(touching)))]
+            key = (offsets[1 % clusters] + e[0], offsets[1 % clusters] + e[1])
+        edges[key] = edges[key] * (1 + Fraction(1, 10**breaking))
+    mode_list: list[dict[str, Any]] = []
+    for q in range(modes):
+        for _ in range(100):
+            m, other = int(rng.choice(mon)), int(rng.integers(1, n + 1))
+            key = (min(m, other), max(m, other))
+            if other != m and key not in edges and all(key != tuple(md["add"][0][:2]) for md in mode_list):
+                mode_list.append({"name": f"safe-{q + 1}", "add": [[key[0], key[1], 1]]})
+                break
+    parts = [(f"C{c + 1}", list(range(off, off + cluster_size))) for c, off in enumerate(offsets)] + [("rest", sorted(rest + leaves))]
+    cluster_tables = [{"name": name, "nodes": nodes, "observers": [{"center": nodes[0]}]} for name, nodes in parts]
+    name = (f"structured-{n}-c{clusters}x{cluster_size}-t{twins}-{weights}-{join}-b{breaking}-{monitors}{monitored}"
+            f"-{attack}{attacked}-m{modes}-s{seed}")
+    data = _clustered_data(name, n, {k: _rational(w) for k, w in edges.items()}, mode_list, cluster_tables, [], (horizon, step, seed))
+    # both: every monitored velocity, the positions of about half of those agents
+    positions = {"velocities": [], "positions": mon, "both": mon[: max(1, len(mon) // 2)]}[monitors]
+    data["monitor"] = {"positions": positions, "velocities": mon if monitors != "positions" else []}
+    data["attack"] = {"kind": "zda", "actuators": sorted(F)}
+    if mode_list:
+        data["switching"] = {"mode": mode_list[0]["name"], "time": horizon / 3}
+    return spec_from_dict(data)
+
+
+@dataclass(frozen=True, slots=True)
+class StructuredMember:
+    """One member of the structured family: the arguments of :func:`structured_clustered_spec`.
+
+    Attributes
+    ----------
+    n, seed, clusters, cluster_size, twins, weights, join, breaking, monitors, monitored, attack, attacked, modes
+        As for :func:`structured_clustered_spec`.
+    """
+
+    n: int
+    seed: int
+    clusters: int
+    cluster_size: int
+    twins: int
+    weights: str
+    join: str
+    breaking: int
+    monitors: str
+    monitored: int
+    attack: str
+    attacked: int
+    modes: int
+
+    @property
+    def label(self) -> str:
+        """A short description for tables: ``3x20 t12 prime30 hub b12 positions2 across2 m1 s4``."""
+        return (f"{self.clusters}x{self.cluster_size} t{self.twins} {self.weights} {self.join} b{self.breaking} "
+                f"{self.monitors}{self.monitored} {self.attack}{self.attacked} m{self.modes} s{self.seed}")
+
+    def spec(self) -> SystemSpec:
+        """The member's network."""
+        return structured_clustered_spec(
+            self.n, seed=self.seed, clusters=self.clusters, cluster_size=self.cluster_size, twins=self.twins, weights=self.weights,
+            join=self.join, breaking=self.breaking, monitors=self.monitors, monitored=self.monitored, attack=self.attack,
+            attacked=self.attacked, modes=self.modes,
+        )
+
+
+def structured_family(n: int, members: int = 6, *, seed: int = 0) -> list[StructuredMember]:
+    """``members`` members of the structured family at ``n`` agents, spread across its adverse end.
+
+    Each member draws 2-4 identical copies of 15-50 agents and 10-40 twin leaves (scaled down
+    below n = 60: copies of at least 3 agents, at least 2 twins), so that they fit in ``n``
+    with at least two agents of rest; the weights (small integers a third of the time, else
+    p^2 / 10^6 or p^2 / 10^7 for large primes p), the join (hub, ring, asymmetric), the broken
+    symmetry (none a quarter of the time, else one weight times 1 + 10^-k, k = 9..15), the
+    monitors (velocities, positions only, both; 1 to 3 + n / 15 monitored agents), the attack
+    (2-3 agents inside one copy, across copies, on twins) and 0-2 safe modes.
+
+    Parameters
+    ----------
+    n : int
+        Agents of every member (at least 12).
+    members : int
+        How many members.
+    seed : int
+        Seed of the draw (member i's network has seed ``seed + i``).
+    """
+    _count(members, "members", 0, 10_000)
+    _count(n, "n", 12, MAX_NODES)
+    rng = np.random.default_rng([seed, int(n), 47])
+    lo_size, hi_size = (15, 50) if n >= 60 else (3, max(3, n // 5))
+    lo_twins, hi_twins = (10, 40) if n >= 60 else (2, max(2, n // 6))
+    out: list[StructuredMember] = []
+    while len(out) < members:
+        k = int(rng.integers(2, 5))
+        size = int(round(math.exp(rng.uniform(math.log(lo_size), math.log(hi_size + 0.5)))))
+        twins = int(rng.integers(lo_twins, hi_twins + 1))
+        size = min(size, (n - 2 - twins) // k)
+        if size < lo_size:
+            continue
+        attack = str(rng.choice(STRUCTURED_ATTACKS))
+        attacked = int(rng.integers(2, 4))
+        attacked = min(attacked, k if attack == "across" else twins if attack == "twins" else size)
+        breaking = 0 if rng.random() < 0.25 else int(rng.integers(9, 16))
+        out.append(StructuredMember(
+            n, seed + len(out), k, size, twins, str(rng.choice(STRUCTURED_WEIGHTS)), str(rng.choice(STRUCTURED_JOINS)), breaking,
+            str(rng.choice(STRUCTURED_MONITORS)), int(rng.integers(1, 4 + n // 15)), attack, attacked, int(rng.integers(0, 3)),
+        ))
+    return out

@@ -267,6 +267,11 @@ def _numeric(system: System, F: tuple[Label, ...], opt: ZdaOptions) -> ZdaVerdic
     d0 = za.direction
     cand = None if d0 is None or za.direction_source != "requested lambda0" else (d0.value, d0.xi, d0.u0)
     cert = zda_certificate(system, F, cand, [(z.s, z.xi, z.u0) for z in za.zeros if z.value != 0])
+    if status is not Status.HOLDS and (paths := disjoint_paths(system, F)) < len(F):
+        # the separator proves the pencil not left-invertible for every choice of the weights:
+        # the deflation's rank decisions (badly scaled weights, repeated modes) missed it
+        missed = f"the numeric zero set missed it ({'; '.join(za.notes) or f'the deflation decided {status.value}'})"
+        return dataclasses.replace(_separated(system, F, opt, za, cert, paths), note=missed)
     if cert.status is Status.HOLDS and status is not Status.HOLDS and cert.lambda0 == 0 and (opt.lambda0 is None or complex(opt.lambda0) == 0):
         return _proved_at_zero(system, F, opt, za, cert)
     note = ""
@@ -384,15 +389,21 @@ def _separated(system: System, F: tuple[Label, ...], opt: ZdaOptions, za: ZdaAna
     every choice of the weights (:func:`~glocal_verify.analysis.stealthy.zda_screens.disjoint_paths`):
     a stealthy ZDA exists at every lambda0, so the growth class is ``unbounded`` and the
     witness is the direction at lambda0 = 1, as the rule asks of a system that is not
-    left-invertible. Without a verified direction there, no witness is given.
+    left-invertible (at the requested lambda0 when the spec gives one: a ZDA exists there).
+    Without a verified direction there, no witness is given.
     """
     proof = f"at most {paths} vertex-disjoint path(s) from F to M < |F| = {len(F)}: not left-invertible for every choice of the weights (a ZDA at every lambda0)"
-    found = ModalPencil(system, F, opt.tol).direction(1.0 + 0j)[0]
+    lam = complex(opt.lambda0) if opt.lambda0 is not None else 1.0 + 0j
+    found = ModalPencil(system, F, opt.tol).direction(lam)[0]
     z = None
     if found is not None and found[3] is Decision.ZERO and found[4] is Decision.NONZERO:
         xi, u = normalize_direction(found[0], found[1])
-        z = ZdaZero(1.0 + 0j, 1.0 + system.gamma, xi, u, found[2], GROWTH_UNBOUNDED)
-    source = "lambda0 = 1 (not left-invertible: a ZDA exists at every lambda0)" if z is not None else "none (no verified direction at lambda0 = 1)"
+        z = ZdaZero(lam, lam * lam + system.gamma * lam, xi, u, found[2], GROWTH_UNBOUNDED)
+    at = "the requested lambda0" if opt.lambda0 is not None else "lambda0 = 1"
+    if z is None:
+        source = f"none (no verified direction at {at})"
+    else:
+        source = "requested lambda0" if opt.lambda0 is not None else "lambda0 = 1 (not left-invertible: a ZDA exists at every lambda0)"
     return ZdaVerdict(
         F, Status.HOLDS, GROWTH_UNBOUNDED, False, z, source, "numeric",
         proof, screened=True, numeric_analysis=za, certificate=cert,
