@@ -653,11 +653,16 @@ class PencilScreen:
         Try the exact maximal minors (:func:`minor_certificate`).
     cache : dict or None
         The per-run store of the minors' polynomials.
+    locate_zeros : bool
+        Prove a failure by an enclosed zero (the Krawczyk test) before the cheaper proof that
+        some zero exists (:func:`_square_zero_mod_p`); False: the existence proof first (an
+        audit reads the status only; both prove the same status).
     """
 
     member: tuple[Label, Verdict] | None = None
     minors: bool = True
     cache: dict[Any, Any] | None = None
+    locate_zeros: bool = True
 
 
 def screened_pencil_verdict(system: System, case: LocalCase, screen: PencilScreen, method: str, *, exact: bool = False) -> Verdict | None:
@@ -693,7 +698,7 @@ def screened_pencil_verdict(system: System, case: LocalCase, screen: PencilScree
     return Verdict(status, margin=0.0 if status is Status.FAILS else math.nan, witness={"method": method, "certificate": {"by": by, "error_bound": None}}, exact=exact)
 
 
-def certify_pencil_verdict(system: System, case: LocalCase, numeric: Verdict) -> Verdict:
+def certify_pencil_verdict(system: System, case: LocalCase, numeric: Verdict, *, locate_zeros: bool = True) -> Verdict:
     """Certify a numeric verdict of Proposition III.2 (iii) for the exact pencil, or make it undecided.
 
     (Zero forcing first, then the exact maximal-minor certificate of :func:`minor_certificate`,
@@ -714,12 +719,12 @@ def certify_pencil_verdict(system: System, case: LocalCase, numeric: Verdict) ->
       rounding level): undecided.
     * ``fails`` is proved by the structural rank of the exact support: below the column count
       for the generic pattern (normal-rank deficiency, every lam) or at a rational zero lam in
-      {0, -gamma} whose exact pattern loses structural rank, by a square restriction of the
+      {0, -gamma} whose exact pattern loses structural rank, by the Krawczyk test in ball
+      arithmetic on a reported zero (:func:`~glocal_verify.analysis.local.cluster_pencil.krawczyk_kernel`:
+      an exact kernel vector inside certified enclosures), or by a square restriction of the
       pencil to a reported zero's support whose determinant is not constant modulo a prime
-      (:func:`_square_zero_mod_p`: a root exists, its location not certified), or by the
-      Krawczyk test in ball arithmetic on a reported zero
-      (:func:`~glocal_verify.analysis.local.cluster_pencil.krawczyk_kernel`: an exact kernel
-      vector inside certified enclosures). A zero verified only by a small
+      (:func:`_square_zero_mod_p`: a root exists, its location not certified); with
+      ``locate_zeros=False`` (an audit's :class:`PencilScreen`) the last one is tried first. A zero verified only by a small
       backward error is a robustness statement, not a proof of rank loss: undecided.
 
     Parameters
@@ -791,13 +796,13 @@ def certify_pencil_verdict(system: System, case: LocalCase, numeric: Verdict) ->
         rz = _rational_s_zero(system, case, witness)
         if rz is not None:
             return rz
-        sq = _square_zero_mod_p(system, case, witness)
-        if sq is not None:
-            return sq
-        enc = _krawczyk_zero(system, case, witness)
-        if enc is not None:
-            cert["lambda_enclosure"] = str(enc.lam)
-            return f"Krawczyk test: an exact kernel vector of P(lam) at lam in {enc.lam} (ball arithmetic)"
+        # an enclosed zero (Krawczyk) says where; a nonconstant determinant only that one exists
+        for located in (True, False) if locate_zeros else (False, True):
+            if not located and (sq := _square_zero_mod_p(system, case, witness)) is not None:
+                return sq
+            if located and (enc := _krawczyk_zero(system, case, witness)) is not None:
+                cert["lambda_enclosure"] = str(enc.lam)
+                return f"Krawczyk test: an exact kernel vector of P(lam) at lam in {enc.lam} (ball arithmetic)"
         return None
 
     # a proof of holds and a proof of fails exclude each other, so the order only decides the
