@@ -385,10 +385,11 @@ def lyapunov(F: Sequence[Sequence[fmpq]], cert: Any, discrete: bool = False) -> 
         Pi[i, i] = U[i, i]
     Fi, dF = integer_matrix(F)
     dP = 1 << bP
+    G = Pi * Fi  # F^T P = (P F)^T, P symmetric: one product
     if discrete:
-        Qi, dQ = Pi * (dF * dF) - Fi.transpose() * Pi * Fi, dF * dF * dP
+        Qi, dQ = Pi * (dF * dF) - Fi.transpose() * G, dF * dF * dP
     else:
-        Qi, dQ = -(Fi.transpose() * Pi + Pi * Fi), dF * dP
+        Qi, dQ = -(G + G.transpose()), dF * dP
     positive_definite(Pi, dP, rational(cert.get("shift_P"), "shift_P"), cert.get("R_P"), "P")
     positive_definite(Qi, dQ, rational(cert.get("shift_Q"), "shift_Q"), cert.get("R_Q"), "Q")
 
