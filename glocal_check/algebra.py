@@ -11,6 +11,7 @@ the rank over Q.
 from __future__ import annotations
 
 from itertools import permutations
+from operator import mul
 from typing import Any, Iterable, Sequence
 
 from flint import fmpq, fmpq_mat, fmpq_poly, fmpz, fmpz_mat, nmod_mat, nmod_poly
@@ -423,7 +424,8 @@ def positive_definite(Z: fmpz_mat, scale: int, c: fmpq, R: Any, what: str) -> No
     shift = cn * scale << 2 * b
     for i in range(n):  # - c I, scaled
         E[i, i] -= shift
-    require(sum(x * x for x in E.entries()) < shift * shift, f"{what}: the residual of its factor is not below the shift")
+    entries = E.entries()
+    require(sum(map(mul, entries, entries)) < shift * shift, f"{what}: the residual of its factor is not below the shift")
 
 
 def hurwitz_poly(p: fmpq_poly) -> float:
