@@ -11,6 +11,7 @@ the rank over Q.
 from __future__ import annotations
 
 from itertools import permutations
+from operator import mul
 from typing import Any, Iterable, Sequence
 
 from flint import fmpq, fmpq_mat, fmpq_poly, fmpz, fmpz_mat, nmod_mat, nmod_poly
@@ -385,10 +386,11 @@ def lyapunov(F: Sequence[Sequence[fmpq]], cert: Any, discrete: bool = False) -> 
         Pi[i, i] = U[i, i]
     Fi, dF = integer_matrix(F)
     dP = 1 << bP
+    G = Pi * Fi  # F^T P = (P F)^T, P symmetric: one product
     if discrete:
-        Qi, dQ = Pi * (dF * dF) - Fi.transpose() * Pi * Fi, dF * dF * dP
+        Qi, dQ = Pi * (dF * dF) - Fi.transpose() * G, dF * dF * dP
     else:
-        Qi, dQ = -(Fi.transpose() * Pi + Pi * Fi), dF * dP
+        Qi, dQ = -(G + G.transpose()), dF * dP
     positive_definite(Pi, dP, rational(cert.get("shift_P"), "shift_P"), cert.get("R_P"), "P")
     positive_definite(Qi, dQ, rational(cert.get("shift_Q"), "shift_Q"), cert.get("R_Q"), "Q")
 
@@ -422,7 +424,8 @@ def positive_definite(Z: fmpz_mat, scale: int, c: fmpq, R: Any, what: str) -> No
     shift = cn * scale << 2 * b
     for i in range(n):  # - c I, scaled
         E[i, i] -= shift
-    require(sum(x * x for x in E.entries()) < shift * shift, f"{what}: the residual of its factor is not below the shift")
+    entries = E.entries()
+    require(sum(map(mul, entries, entries)) < shift * shift, f"{what}: the residual of its factor is not below the shift")
 
 
 def hurwitz_poly(p: fmpq_poly) -> float:

@@ -128,35 +128,53 @@ def _pencil_kernel(ctx: Context, ls: LocalScope, cert: dict[str, Any]) -> None:
 def uio(ctx: Context, scope: dict[str, Any], cert: dict[str, Any]) -> None:
     sp = ctx.spec
     ls = LocalScope(sp, scope)
-    vel = ls.observer.velocities
-    require(all(b in set(vel) for b in ls.boundary), "a boundary velocity is not measured: rank(C E) < rank(E)")
-    nodes = ls.cluster.nodes
-    n = len(nodes)
-    at = {a: k for k, a in enumerate(nodes)}
-    chans = [("x", a) for a in ls.observer.positions] + [("v", a) for a in vel]
-    # h C: the rows of the measured boundary velocities pass through (h = E (C E)^T)
-    passthrough = {n + at[b] for b in ls.boundary}
-    C_cols = [at[a] if kind == "x" else n + at[a] for kind, a in chans]
+    require(all(b in set(ls.observer.velocities) for b in ls.boundary), "a boundary velocity is not measured: rank(C E) < rank(E)")
+    n, channels = len(ls.cluster.nodes), len(ls.observer.positions) + len(ls.observer.velocities)
     modes = cert.get("modes", {})
     require(isinstance(modes, dict) and set(modes) == set(sp.modes), "the certificate must cover every mode")
     for m in sp.modes:
         K1 = modes[m].get("K1")
-        require(isinstance(K1, list) and len(K1) == 2 * n and all(isinstance(r, list) and len(r) == len(chans) for r in K1), f"K1 of mode {m} is not 2n x m")
-        K1q = [[rational(x, "K1") for x in r] for r in K1]
-        block = _block(ctx, ls, m)
-        A = [[fmpq(0)] * (2 * n) for _ in range(2 * n)]
-        for i in range(n):
-            A[i][n + i] = fmpq(1)
-            for j, x in block[i].items():
-                A[n + i][at[j]] = -sp.alpha * x
-            A[n + i][n + i] = -sp.gamma
-        Fm = [[(fmpq(0) if i in passthrough else A[i][j]) for j in range(2 * n)] for i in range(2 * n)]
-        for i in range(2 * n):
-            for k, c in enumerate(C_cols):
-                Fm[i][c] -= K1q[i][k]
-        key = ("uio", ls.cluster.name, ls.observer.center, m, repr(modes[m]))
-        if key not in ctx.memo:
-            ctx.memo[key] = lyapunov(Fm, modes[m]["lyapunov"]) or -1.0 if "lyapunov" in modes[m] else hurwitz(Fm, modes[m])
-        top = ctx.memo[key]
+        require(isinstance(K1, list) and len(K1) == 2 * n and all(isinstance(r, list) and len(r) == channels for r in K1), f"K1 of mode {m} is not 2n x m")
+        top = _stability(ctx, ls, _block(ctx, ls, m), modes[m])
         require(top < 0, f"F of mode {m} is not shown Hurwitz (max Re <= {top:.3g})")
 
+
+def _observer_matrix(ctx: Context, ls: LocalScope, block: list[dict[int, fmpq]], K1: list[list[Any]]) -> list[list[fmpq]]:
+    """F = (I - h C) A - K1 C for the cluster block ``block`` = L_q[P, P] of a mode (exact)."""
+    sp = ctx.spec
+    nodes = ls.cluster.nodes
+    n = len(nodes)
+    at = {a: k for k, a in enumerate(nodes)}
+    # h C: the rows of the measured boundary velocities pass through (h = E (C E)^T)
+    passthrough = {n + at[b] for b in ls.boundary}
+    C_cols = [at[a] for a in ls.observer.positions] + [n + at[a] for a in ls.observer.velocities]
+    A = [[fmpq(0)] * (2 * n) for _ in range(2 * n)]
+    for i in range(n):
+        A[i][n + i] = fmpq(1)
+        for j, x in block[i].items():
+            A[n + i][at[j]] = -sp.alpha * x
+        A[n + i][n + i] = -sp.gamma
+    F = [[(fmpq(0) if i in passthrough else A[i][j]) for j in range(2 * n)] for i in range(2 * n)]
+    for i in range(2 * n):
+        for k, c in enumerate(C_cols):
+            F[i][c] -= rational(K1[i][k], "K1")
+    return F
+
+
+def _stability(ctx: Context, ls: LocalScope, block: list[dict[int, fmpq]], claim: dict[str, Any]) -> float:
+    """The bound on max Re of the eigenvalues of F (:func:`_observer_matrix`) that ``claim``
+    proves (its Lyapunov matrix, or its characteristic polynomial).
+
+    F is a function of the cluster and observer, the mode's block and the claim's K1 (alpha
+    and gamma are the spec's): a claim equal to one already checked (the certificate's JSON
+    values, compared whole) for an equal block (exact rationals) of the same cluster and
+    observer is the same proof, checked once (a mode whose block is the normal one, an
+    observer serving two suspected sets)."""
+    proven = ctx.memo.setdefault(("stability", ls.cluster.name, ls.observer.center), [])
+    for seen_block, seen_claim, top in proven:
+        if seen_block == block and seen_claim == claim:
+            return top
+    F = _observer_matrix(ctx, ls, block, claim["K1"])
+    top = lyapunov(F, claim["lyapunov"]) or -1.0 if "lyapunov" in claim else hurwitz(F, claim)
+    proven.append((block, claim, top))
+    return top

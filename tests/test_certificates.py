@@ -167,6 +167,40 @@ def test_large_observers_are_proven_stable_by_a_lyapunov_matrix(tmp_path: Path) 
     assert out.rejected == [] and out.without == 0
 
 
+def _paper19_with_lyapunov_observers(folder: Path) -> tuple[Path, dict]:
+    from glocal_verify import config
+
+    with config.override(certificate_max_states=10):
+        spec_path, doc, out = certify(example_text("paper19"), folder)
+    assert out.rejected == [] and out.without == 0
+    return spec_path, doc
+
+
+def test_an_observer_s_stability_proof_shared_by_modes_and_suspected_sets_is_checked_once(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import glocal_check.local
+
+    spec_path, doc = _paper19_with_lyapunov_observers(tmp_path)
+    calls: list[int] = []
+    real = glocal_check.local.lyapunov
+    monkeypatch.setattr(glocal_check.local, "lyapunov", lambda F, claim: calls.append(len(F)) or real(F, claim))
+    out = glocal_check.check_files(str(spec_path), str(tmp_path / "spec.cert.json"), report=lambda _: None)
+    claims = [(e["scope"]["cluster"], e["scope"]["observer"], json.dumps(c, sort_keys=True)) for e in doc["verdicts"] if e["id"] == "local.uio" for c in e["certificate"]["modes"].values() if "lyapunov" in c]
+    assert out.rejected == [] and len(calls) == len(set(claims)) < len(claims)
+
+
+def test_a_broken_copy_of_a_stability_proof_already_checked_is_rejected_on_its_own(tmp_path: Path) -> None:
+    spec_path, doc = _paper19_with_lyapunov_observers(tmp_path)
+    entry = next(e for e in doc["verdicts"] if e["id"] == "local.uio" and e["scope"]["suspected"] == "all" and "lyapunov" in e["certificate"]["modes"]["normal"])
+    entry["certificate"] = json.loads(json.dumps(entry["certificate"]))  # the writer shares it with the other suspected set
+    modes = entry["certificate"]["modes"]
+    copy = next(m for m in modes if m != "normal" and modes[m] == modes["normal"])  # checked already, for the normal mode
+    modes[copy]["lyapunov"]["R_P"]["upper"][0][0] = 0  # |R^T R - (P - c I)| is then about P[0, 0]
+    path = tmp_path / "broken.json"
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    out = glocal_check.check_files(str(spec_path), str(path), report=lambda _: None)
+    assert len(out.rejected) == 1 and "local.uio" in out.rejected[0] and "residual" in out.rejected[0], out.rejected
+
+
 @pytest.mark.parametrize("implementation", ['period = 0.01', 'period = 0.2', 'period = 0.05\ncontroller = "continuous"'])
 def test_the_sampled_implementation_s_verdicts_are_certified(implementation: str, tmp_path: Path) -> None:
     _, doc, out = certify(example_text("paper19") + f"\n[implementation]\n{implementation}\n", tmp_path)

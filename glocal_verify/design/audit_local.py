@@ -43,7 +43,7 @@ def pencil_status(sh: Any, cm: Any, obs: Any, sus: tuple[Label, ...], memo: dict
     member = None
     if not case.structural and len(sus) > 1:
         member = next(((a, memo[("pencil-verdict", cm.name, obs.center, (a,))]) for a in sus if pencil_status(sh, cm, obs, (a,), memo) is Status.FAILS), None)
-    screen = PencilScreen(member, minors=not sh.exact, cache=memo.setdefault("minors", {}))
+    screen = PencilScreen(member, minors=not sh.exact, cache=memo.setdefault("minors", {}), locate_zeros=False)
     if sh.exact:
         v = pencil_verdict_exact(sh.system, case, margin=False, screen=screen)
     else:

@@ -561,7 +561,7 @@ def pencil_verdict(
         numeric = _pencil_dense(system, case, tol, margin)
     else:
         numeric = _pencil_structured(system, case, tol, margin)
-    return certify_pencil_verdict(system, case, numeric)
+    return certify_pencil_verdict(system, case, numeric, locate_zeros=screen is None or screen.locate_zeros)
 
 
 # -- exact ------------------------------------------------------------------------------------
