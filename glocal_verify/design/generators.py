@@ -555,7 +555,7 @@ STRUCTURED_ATTACKS = ("inside", "across", "twins")
 #: which states the monitors of :func:`structured_clustered_spec` measure
 STRUCTURED_MONITORS = ("velocities", "positions", "both")
 
-_PRIME_WEIGHTS = {"prime24": Fraction(16777213**2, 10**6), "prime30": Fraction(1073741789**2, 10**7)}
+_PRIME_WEIGHTS: Mapping[str, Fraction] = MappingProxyType({"prime24": Fraction(16777213**2, 10**6), "prime30": Fraction(1073741789**2, 10**7)})
 
 
 def _rational(q: Fraction) -> str | int:
