@@ -358,15 +358,7 @@ def adverse_clustered_spec(
     n_mon = monitors if monitors is not None else max(3, n // 100)
     mon = sorted(int(x) for x in rng.choice(np.arange(1, n + 1), size=min(n_mon, n), replace=False))
     where = {a: c for c, nodes in enumerate(members) for a in nodes}
-    mode_list: list[dict[str, Any]] = []
-    for q in range(modes):
-        for _ in range(100):
-            m = int(rng.choice(mon))
-            other = int(rng.choice(members[where[m]]))
-            key = (min(m, other), max(m, other))
-            if other != m and key not in edges and all(key != tuple(md["add"][0][:2]) for md in mode_list):
-                mode_list.append({"name": f"safe-{q + 1}", "add": [[key[0], key[1], 1]]})
-                break
+    mode_list = _safe_modes(rng, modes, mon, edges, lambda m: int(rng.choice(members[where[m]])))
     boundary = {a for (u, v) in edges for a in (u, v) if where[u] != where[v]}
     cluster_tables = []
     for c, nodes in enumerate(members):
@@ -385,6 +377,20 @@ def adverse_clustered_spec(
     if attack:
         _attach_zda(data, rng, members[0], set(mon) | set(boundary))
     return spec_from_dict(data)
+
+
+def _safe_modes(rng: np.random.Generator, modes: int, monitored: list[int], edges: Mapping[tuple[int, int], Any], partner: Any) -> list[dict[str, Any]]:
+    """``modes`` safe modes, each one new link of weight 1 between a monitored agent m and ``partner(m)`` (up to 100 draws each)."""
+    out: list[dict[str, Any]] = []
+    for q in range(modes):
+        for _ in range(100):
+            m = int(rng.choice(monitored))
+            other = partner(m)
+            key = (min(m, other), max(m, other))
+            if other != m and key not in edges and all(key != tuple(md["add"][0][:2]) for md in out):
+                out.append({"name": f"safe-{q + 1}", "add": [[key[0], key[1], 1]]})
+                break
+    return out
 
 
 @dataclass(frozen=True, slots=True)
@@ -725,14 +731,7 @@ def structured_clustered_spec(
             e = touching[int(rng.integers(0, len(touching)))]
             key = (offsets[1 % clusters] + e[0], offsets[1 % clusters] + e[1])
         edges[key] = edges[key] * (1 + Fraction(1, 10**breaking))
-    mode_list: list[dict[str, Any]] = []
-    for q in range(modes):
-        for _ in range(100):
-            m, other = int(rng.choice(mon)), int(rng.integers(1, n + 1))
-            key = (min(m, other), max(m, other))
-            if other != m and key not in edges and all(key != tuple(md["add"][0][:2]) for md in mode_list):
-                mode_list.append({"name": f"safe-{q + 1}", "add": [[key[0], key[1], 1]]})
-                break
+    mode_list = _safe_modes(rng, modes, mon, edges, lambda m: int(rng.integers(1, n + 1)))
     parts = [(f"C{c + 1}", list(range(off, off + cluster_size))) for c, off in enumerate(offsets)] + [("rest", sorted(rest + leaves))]
     cluster_tables = [{"name": name, "nodes": nodes, "observers": [{"center": nodes[0]}]} for name, nodes in parts]
     name = (f"structured-{n}-c{clusters}x{cluster_size}-t{twins}-{weights}-{join}-b{breaking}-{monitors}{monitored}"
