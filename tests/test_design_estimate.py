@@ -106,3 +106,18 @@ def test_the_design_is_not_refused_at_its_safe_mode_phase_after_the_up_front_est
         whole = estimate_whole_design(sizes, confirm_limit=CONFIRM_LIMIT)
     assert seen and all(e.seconds <= whole.seconds for e in seen)
     assert any("checks of 66 undetected attack sets" in name for name, _ in seen[0].phases)  # 66 targets, below 3 x 64
+
+
+def test_the_monitor_step_estimate_adds_the_audit_with_its_monitors_and_their_pruning_as_new_work() -> None:
+    from glocal_verify.conditions.design_cost import audit_seconds, estimate_monitor_step
+
+    sizes = SpecSizes.from_spec(symmetric_clusters_spec(100, 4, seed=1, degree=8.0))
+    alone = estimate_monitor_step(sizes, 6, 2)
+    both = estimate_monitor_step(sizes, 6, 2, movable=4954, pruned=3)
+    # measured 2026-12-08: the step audited 4,954 movable sets with its 2 monitors, and pruning audited each of 3 monitors on them
+    more = design_work(sizes, movable=4954, monitors=3, from_safe_modes=True)
+    less = design_work(sizes, movable=4954, monitors=0, from_safe_modes=True)
+    assert more.audited - less.audited == 4 * 4954
+    extra = sum(audit_seconds(sizes, 2, more).values()) - sum(audit_seconds(sizes, 2, less).values())
+    assert both.seconds - alone.seconds == pytest.approx(extra)
+    assert "not in the first estimate" in both.describe()

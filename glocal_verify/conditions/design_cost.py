@@ -34,6 +34,7 @@ __all__ = [
     "C_DESIGN_MODE_TEST_N2",
     "PRUNE_AUDITS_PER_MODE",
     "DesignWork",
+    "audit_seconds",
     "audit_seconds_per_set",
     "check_seconds",
     "design_work",
@@ -42,6 +43,23 @@ __all__ = [
     "estimate_whole_design",
     "mode_test_seconds",
 ]
+
+
+#: pruning ("every change earns its place"): audits of the sets the design can move spent on the
+#: links of the designed modes, per mode. A link is audited only on the sets its mode exposes and
+#: another mode also exposes (a set only its mode exposes falls back for certain), and one audit
+#: serves every link whose removal makes the mode fail Theorem III.3. Measured: 131 sets for 82
+#: movable with three one-link modes (paper19), none for one mode of 3 links (N = 60), 5 x 4,950
+#: for three modes of 4-6 links that each expose nearly every set (N = 100)
+PRUNE_AUDITS_PER_MODE = 2.0
+
+#: an audit row's test of one attack set against one designed safe mode (which meets Theorem
+#: III.3 by construction, so every set is tested against it): C_0 + C_2 N^2 seconds. Measured
+#: in design's audits of the movable sets on symmetric clusters: about 2 ms at N = 60 (one mode
+#: of 3 links), 1 ms at N = 100, 4.3 ms at N = 200 (one mode of 8 links: 91 s for 19,908 sets,
+#: 5 s without the mode)
+C_DESIGN_MODE_TEST = 1e-3
+C_DESIGN_MODE_TEST_N2 = 8e-8
 
 
 def estimate_safe_modes(sizes: SpecSizes, targets: int, *, exact: bool = False) -> CostEstimate:
@@ -88,7 +106,9 @@ def check_seconds(n: int, exact: bool = False) -> float:
     return per * float(config.get("safe_mode_check_exact_factor")) if exact else per
 
 
-def estimate_monitor_step(sizes: SpecSizes, targets: int, monitors: int, *, exact: bool = False, movable: int = 0, max_attackers: int = 2) -> CostEstimate:
+def estimate_monitor_step(
+    sizes: SpecSizes, targets: int, monitors: int, *, exact: bool = False, movable: int = 0, pruned: int = 0, max_attackers: int = 2
+) -> CostEstimate:
     """Seconds and peak memory of ``design``'s monitor step: up to ``monitors`` rounds for ``targets`` unexposed sets.
 
     Each round audits the sets left (their witness directions place the monitor), then designs
@@ -99,8 +119,9 @@ def estimate_monitor_step(sizes: SpecSizes, targets: int, monitors: int, *, exac
 
         t = R\\,T\\,\\big(2\\,(C_{hard,0} + C_{hard}\\,g(N)) + t_{check}\\big),\\qquad m = B_{base} + 8 N^2 A_{audit}
 
-    plus :math:`R\\,M\\,t_{set}` for pruning the monitors it adds (each one's removal is audited
-    on the M movable sets, :func:`audit_seconds_per_set`), with R rounds, T targets,
+    plus the work :func:`design_work` leaves out before it (m = 0): the audit of the M movable
+    sets with the added monitors and the pruning of the monitors (each one's removal is audited
+    on the M movable sets), priced as in :func:`estimate_whole_design`; with R rounds, T targets,
     :math:`t_{check}` of :func:`check_seconds`, :math:`g(N) = N^3` up to ``growth_full_max_agents`` (every such set gets its whole zero
     set there) and :math:`N^2` above, and the tunables ``monitor_step_set_seconds``
     (:math:`C_{hard,0}`) and ``monitor_step_set_seconds_g`` (:math:`C_{hard}`). These sets
@@ -119,6 +140,8 @@ def estimate_monitor_step(sizes: SpecSizes, targets: int, monitors: int, *, exac
         The safe-mode checks run over Q.
     movable : int
         The sets the design can move (pruning audits each added monitor on them).
+    pruned : int
+        Monitors pruning will try (default ``monitors``): those the safe modes added and the step's.
     max_attackers : int
 
     Returns
@@ -133,18 +156,17 @@ def estimate_monitor_step(sizes: SpecSizes, targets: int, monitors: int, *, exac
     rounds = max(0, int(monitors))
     phases = {
         f"up to {rounds} monitor round(s) for {t} unexposed attack sets (the safe modes left them: not in the first estimate)": rounds * t * (2.0 * per_audit + check),
-        f"pruning of up to {rounds} added monitor(s), each on the {movable} movable attack sets": rounds * max(0, int(movable)) * audit_seconds_per_set(sizes, max_attackers),
     }
+    if movable and rounds:
+        # the work design_work leaves out with m = 0: the audit with the monitors and their pruning
+        more = design_work(sizes, max_attackers=max_attackers, movable=movable, targets=movable, monitors=pruned or rounds, from_safe_modes=True)
+        less = design_work(sizes, max_attackers=max_attackers, movable=movable, targets=movable, monitors=0, from_safe_modes=True)
+        extra = sum(audit_seconds(sizes, max_attackers, more).values()) - sum(audit_seconds(sizes, max_attackers, less).values())
+        phases[f"the audit with the added monitors and the pruning of {pruned or rounds} monitor(s) on the {movable} movable attack sets "
+               f"(the safe modes left {t} unexposed: not in the first estimate)"] = extra
     return phase_estimate("design", n, phases, B_BASE + A_AUDIT * dense_bytes(n), A_AUDIT)
 
 
-#: pruning ("every change earns its place"): audits of the sets the design can move spent on the
-#: links of the designed modes, per mode. A link is audited only on the sets its mode exposes and
-#: another mode also exposes (a set only its mode exposes falls back for certain), and one audit
-#: serves every link whose removal makes the mode fail Theorem III.3. Measured: 131 sets for 82
-#: movable with three one-link modes (paper19), none for one mode of 3 links (N = 60), 5 x 4,950
-#: for three modes of 4-6 links that each expose nearly every set (N = 100)
-PRUNE_AUDITS_PER_MODE = 2.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -155,7 +177,8 @@ class DesignWork:
     ----------
     audits : tuple of (str, int, int)
         Each audit (or group of audits) the design makes: what it is for, the attack sets it
-        audits in all, and the designed safe modes each set is tested against there.
+        audits in all, and whether each set there is tested against the designed safe modes (1)
+        or not (0).
     checks : int
         Claimed attack sets checked against proposed safe modes (each mode's first
         ``confirm_limit`` claims).
@@ -192,16 +215,18 @@ def design_work(
     modes, L = ``confirm_limit`` and m the velocity monitors the design adds:
 
     - audits: R (the spec as given), R again when position monitors move to velocities, M with
-      the observers (when placed), M with the modes and M with the monitors (each set tested
-      against the modes), pruning ("every change earns its place") m M for the monitors (each one's removal
-      can move any set) and :data:`PRUNE_AUDITS_PER_MODE` M for the links of the modes (a link is
-      audited on the sets its mode exposes and another mode also exposes), and R with the design;
+      the observers (when placed), M with the modes and, when m > 0, M with the monitors (each
+      set tested against the modes), pruning ("every change earns its place") m M for the
+      monitors (each one's removal can move any set) and :data:`PRUNE_AUDITS_PER_MODE` M for the
+      links of the modes (a link is audited on the sets its mode exposes and another mode also
+      exposes), and R with the design;
     - checks: min(T, B L): each kept mode checks at most its first L claims, the audit of the
       design decides the rest (``CONFIRM_LIMIT`` of :mod:`glocal_verify.design.network`).
 
     ``from_safe_modes`` counts only what is left when the safe-mode phase starts (the run has
-    counted M and T). The monitor step's own rounds are not counted here: they run only when the
-    safe modes leave sets unexposed, and :func:`estimate_monitor_step` estimates them then.
+    counted M and T). The monitor step is not counted here (m = 0): it runs only when the safe
+    modes leave sets unexposed, and :func:`estimate_monitor_step` estimates it then, with its
+    audit of the movable sets and the pruning of the monitors it adds.
 
     Parameters
     ----------
@@ -235,20 +260,16 @@ def design_work(
         if place:
             audits.append(("the movable sets with the observers", m, 0))
     if t:
-        audits.append(("the movable sets with the safe modes and with the monitors", 2 * m, 1 if b else 0))
-        prune = int(math.ceil((max(0, int(monitors)) + (PRUNE_AUDITS_PER_MODE if b else 0.0)) * m))
+        mons = max(0, int(monitors))
+        audits.append(("the movable sets with the safe modes", m, 1 if b else 0))
+        if mons:
+            audits.append(("the movable sets with the monitors the design adds", m, 1 if b else 0))
+        prune = int(math.ceil((mons + (PRUNE_AUDITS_PER_MODE if b else 0.0)) * m))
         audits.append(("pruning: the sets each change may move", prune, 0))
     audits.append(("the designed spec", r, 1 if b and t else 0))
     return DesignWork(tuple((what, n, q) for what, n, q in audits if n), min(t, b * max(0, int(confirm_limit))))
 
 
-#: an audit row's test of one attack set against one designed safe mode (which meets Theorem
-#: III.3 by construction, so every set is tested against it): C_0 + C_2 N^2 seconds. Measured
-#: in design's audits of the movable sets on symmetric clusters: about 2 ms at N = 60 (one mode
-#: of 3 links), 1 ms at N = 100, 4.3 ms at N = 200 (one mode of 8 links: 91 s for 19,908 sets,
-#: 5 s without the mode)
-C_DESIGN_MODE_TEST = 1e-3
-C_DESIGN_MODE_TEST_N2 = 8e-8
 
 
 def audit_seconds_per_set(sizes: SpecSizes, max_attackers: int) -> float:
@@ -260,6 +281,16 @@ def audit_seconds_per_set(sizes: SpecSizes, max_attackers: int) -> float:
     one = estimate_audit(sizes, max_attackers)
     r = sum(math.comb(sizes.n, j) for j in range(1, max(1, min(int(max_attackers), sizes.n)) + 1))
     return sum(v for name, v in one.phases if name != "writing the rows") / max(1, r)
+
+
+def audit_seconds(sizes: SpecSizes, max_attackers: int, work: DesignWork) -> dict[str, float]:
+    """Seconds of each audit of ``work``: its sets times :func:`audit_seconds_per_set`, plus :func:`mode_test_seconds` each where tested."""
+    per_set, per_mode = audit_seconds_per_set(sizes, max_attackers), mode_test_seconds(sizes.n)
+    out: dict[str, float] = {}
+    for what, n, q in work.audits:
+        key = f"audits of {n} attack sets: {what}"
+        out[key] = out.get(key, 0.0) + n * (per_set + q * per_mode)
+    return out
 
 
 def mode_test_seconds(n: int) -> float:
@@ -332,12 +363,7 @@ def estimate_whole_design(
     """
     work = design_work(sizes, max_attackers=max_attackers, place=place, budget=budget, monitor_budget=monitor_budget, confirm_limit=confirm_limit,
                        moves_positions=moves_positions, movable=movable, targets=targets, from_safe_modes=from_safe_modes)
-    per_set = audit_seconds_per_set(sizes, max_attackers)
-    per_mode = mode_test_seconds(sizes.n)
-    phases: dict[str, float] = {}
-    for what, n, q in work.audits:
-        key = f"audits of {n} attack sets: {what}"
-        phases[key] = phases.get(key, 0.0) + n * (per_set + q * per_mode)
+    phases = audit_seconds(sizes, max_attackers, work)
     exact = sizes.n <= int(config.get("safe_modes_exact_max_agents"))
     for name, secs in estimate_safe_modes(sizes, work.checks, exact=exact).phases:
         phases[f"design: {name}"] = secs

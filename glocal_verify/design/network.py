@@ -393,7 +393,7 @@ def design_network(
     if pending and room > 0:
         if admit is not None:
             admit(estimate_monitor_step(SpecSizes.from_spec(spec), len(pending), room, exact=mid_sys.n <= config.get("safe_modes_exact_max_agents"), movable=len(movable),
-                                        max_attackers=max_attackers))
+                                        pruned=len(safe.monitors) + room, max_attackers=max_attackers))
         spec = with_modes(with_monitors(spec, safe.monitors), [m.mode_spec() for m in safe.modes], keep=True)
         spec, added, safe = _monitor_unexposed(spec, pending, room, safe, budget, weights, max_links, say, tick)
     say("choosing the global monitors")
