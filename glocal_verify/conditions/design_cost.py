@@ -199,7 +199,6 @@ def design_work(
     max_attackers: int = 2,
     place: bool = True,
     budget: int = 3,
-    monitor_budget: int = 3,
     confirm_limit: int = 64,
     moves_positions: bool = False,
     movable: int | None = None,
@@ -234,7 +233,7 @@ def design_work(
     max_attackers : int
     place : bool
         Observers are placed.
-    budget, monitor_budget, confirm_limit : int
+    budget, confirm_limit : int
     moves_positions : bool
         The spec monitors positions (the design moves them to velocities and audits again).
     movable, targets : int, optional
@@ -305,7 +304,6 @@ def estimate_whole_design(
     place: bool = True,
     exact_assessment: bool | None = None,
     budget: int = 3,
-    monitor_budget: int = 3,
     confirm_limit: int = 64,
     moves_positions: bool = False,
     movable: int | None = None,
@@ -345,8 +343,6 @@ def estimate_whole_design(
         The assessments run over Q (default N <= 60).
     budget : int
         Largest number of designed safe modes.
-    monitor_budget : int
-        Velocity monitors the design may add.
     confirm_limit : int
         Claims of each proposed mode re-verified before the audit of the design.
     moves_positions : bool
@@ -361,7 +357,7 @@ def estimate_whole_design(
     -------
     CostEstimate
     """
-    work = design_work(sizes, max_attackers=max_attackers, place=place, budget=budget, monitor_budget=monitor_budget, confirm_limit=confirm_limit,
+    work = design_work(sizes, max_attackers=max_attackers, place=place, budget=budget, confirm_limit=confirm_limit,
                        moves_positions=moves_positions, movable=movable, targets=targets, from_safe_modes=from_safe_modes)
     phases = audit_seconds(sizes, max_attackers, work)
     exact = sizes.n <= int(config.get("safe_modes_exact_max_agents"))

@@ -370,7 +370,7 @@ def design_network(
     if targets:
         if admit is not None:
             # what is left of the design, by the model of the up-front estimate with the sets now counted (never above it)
-            admit(estimate_whole_design(SpecSizes.from_spec(system.spec), max_attackers=max_attackers, place=place, budget=budget, monitor_budget=monitor_budget,
+            admit(estimate_whole_design(SpecSizes.from_spec(system.spec), max_attackers=max_attackers, place=place, budget=budget,
                                         confirm_limit=CONFIRM_LIMIT, movable=len(movable), targets=len(targets), from_safe_modes=True))
         say(f"designing safe modes for {len(targets)} undetected attack sets")
         safe = design_safe_modes(mid_sys, targets, None, budget, weights=weights, lambdas=lambdas, max_links=max_links,
