@@ -106,6 +106,7 @@ def test_the_design_is_not_refused_at_its_safe_mode_phase_after_the_up_front_est
         whole = estimate_whole_design(sizes, confirm_limit=CONFIRM_LIMIT)
     assert seen and all(e.seconds <= whole.seconds for e in seen)
     assert any("checks of 66 undetected attack sets" in name for name, _ in seen[0].phases)  # 66 targets, below 3 x 64
+    assert seen[0].command == "the rest of design"
 
 
 def test_the_monitor_step_estimate_adds_the_audit_with_its_monitors_and_their_pruning_as_new_work() -> None:

@@ -372,4 +372,5 @@ def estimate_whole_design(
             key = f"{est.command}: {name}"
             phases[key] = phases.get(key, 0.0) + times * secs
     peak = max([p[1] for p in parts] + [estimate_audit(sizes, max_attackers)], key=lambda e: e.bytes)
-    return phase_estimate("design", sizes.n, phases, peak.bytes, peak.dense_arrays)
+    # what is left is announced as such: "the rest of design of 200 agents: estimated ..."
+    return phase_estimate("the rest of design" if from_safe_modes else "design", sizes.n, phases, peak.bytes, peak.dense_arrays)
