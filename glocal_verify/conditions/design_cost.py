@@ -167,8 +167,6 @@ def estimate_monitor_step(
     return phase_estimate("design", n, phases, B_BASE + A_AUDIT * dense_bytes(n), A_AUDIT)
 
 
-
-
 @dataclass(frozen=True, slots=True)
 class DesignWork:
     """The work of ``design`` in its units: attack sets audited and claims checked against proposed modes.
@@ -267,8 +265,6 @@ def design_work(
         audits.append(("pruning: the sets each change may move", prune, 0))
     audits.append(("the designed spec", r, 1 if b and t else 0))
     return DesignWork(tuple((what, n, q) for what, n, q in audits if n), min(t, b * max(0, int(confirm_limit))))
-
-
 
 
 def audit_seconds_per_set(sizes: SpecSizes, max_attackers: int) -> float:
