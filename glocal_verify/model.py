@@ -357,7 +357,8 @@ class System:
         def build() -> list[tuple[Label, Label, Fraction]]:
             a, b = self._edges[mode], self._edges[NORMAL_MODE]
             out = []
-            for key in sorted(set(a) | set(b), key=lambda k: sorted(self.index[x] for x in k)):
+            changed = [k for k, w in a.items() if b.get(k) != w] + [k for k in b if k not in a]  # O(|E|); only the changes are sorted
+            for key in sorted(changed, key=lambda k: sorted(self.index[x] for x in k)):
                 d = a.get(key, Fraction(0)) - b.get(key, Fraction(0))
                 if d != 0:
                     u, v = sorted(key, key=lambda x: self.index[x])
@@ -568,6 +569,17 @@ class System:
             obs.poles,
         )
 
+    def cluster_unchanged(self, name: str, mode: str) -> bool:
+        """Whether ``mode`` is not the normal mode and no link it changes has an end in cluster ``name``.
+
+        The cluster's block L[P_i, P_i], its cut edges and its couplings are then those of the
+        normal mode, and so is everything computed from them alone.
+        """
+        if self.check_mode(mode) == NORMAL_MODE:
+            return False
+        members = set(self.cluster(name).nodes)
+        return not any(a in members or b in members for a, b, _ in self.switching_links(mode))
+
     def cluster_model(self, name: str, mode: str = NORMAL_MODE) -> ClusterModel:
         """The cluster subsystem of eq. ``cluster_dyn2`` for cluster ``name`` in ``mode``.
 
@@ -580,9 +592,9 @@ class System:
             return self._cluster_models[key]
         c = self.cluster(name)
         members = set(c.nodes)
-        if mode != NORMAL_MODE and not any(a in members or b in members for a, b, _ in self.switching_links(mode)):
-            # no changed link has an end in the cluster: its block, cut edges and couplings are
-            # those of the normal mode (shared, read-only arrays: one copy, not one per mode)
+        if self.cluster_unchanged(name, mode):
+            # its block, cut edges and couplings are those of the normal mode (shared, read-only
+            # arrays: one copy, not one per mode)
             model = dataclasses.replace(self.cluster_model(name, NORMAL_MODE), mode=mode)
             self._cluster_models[key] = model
             return model
@@ -647,6 +659,8 @@ class System:
         caller: the returned mapping must not be modified.
         """
         mode = self.check_mode(mode)
+        if self.cluster_unchanged(name, mode):
+            return self.cluster_laplacian_entries(name, NORMAL_MODE)
 
         def build() -> dict[tuple[int, int], Fraction]:
             nodes = self.cluster(name).nodes

@@ -173,3 +173,37 @@ def test_a_normal_mode_of_many_small_clusters_is_kept_from_blocks_and_is_as_shar
     fresh = Spectrum(system.laplacian_sparse())
     assert sp.error_radius <= fresh.error_radius
     assert np.max(np.abs(sp.values - fresh.values)) <= sp.error_radius + fresh.error_radius
+
+
+@pytest.mark.parametrize("seed", range(60))
+def test_every_laplacian_entry_is_the_exact_rational_sum_rounded_once_whatever_the_denominators(seed: int) -> None:
+    import random
+    from fractions import Fraction
+
+    from glocal_verify.numerics.block_spectrum import laplacian_csr
+
+    rnd = random.Random(seed)
+    n = rnd.randint(2, 25)
+    links = []
+    for _ in range(rnd.randint(1, 50)):
+        i, j = sorted(rnd.sample(range(n), 2))
+        kind = rnd.random()
+        if kind < 0.4:
+            w = Fraction(rnd.randint(1, 10 ** rnd.randint(1, 30)), rnd.randint(1, 10 ** rnd.randint(0, 30)))
+        elif kind < 0.8:
+            w = Fraction(rnd.random())  # a double's exact value: denominators up to 2^53
+        else:
+            w = Fraction(rnd.randint(1, 5))
+        links.append((i, j, w))
+    L = laplacian_csr(n, links).toarray()
+    exact = [[Fraction(0)] * n for _ in range(n)]
+    for i, j, w in links:
+        exact[i][j] -= w
+        exact[j][i] -= w
+        exact[i][i] += w
+        exact[j][j] += w
+    for i in range(n):
+        for j in range(n):
+            if i != j and exact[i][j] != 0 and sum(1 for a, b, _ in links if {a, b} == {i, j}) > 1:
+                continue  # repeated links are stored as separate entries of the same link (CSR sums them)
+            assert L[i, j] == float(exact[i][j]), (i, j)

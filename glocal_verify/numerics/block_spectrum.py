@@ -32,6 +32,9 @@ from glocal_verify.numerics.spectrum import Spectrum
 
 __all__ = ["BlockSpectrum", "clustered_spectrum", "laplacian_csr"]
 
+#: above this size of the weights' common denominator the degrees are summed as Fractions
+_COMMON_DENOMINATOR_BITS = 2048
+
 
 def laplacian_csr(n: int, links: Iterable[tuple[int, int, Fraction]]) -> scipy.sparse.csr_matrix:
     """The Laplacian of weighted links ``(i, j, w)`` in CSR form, each entry formed exactly and rounded once (read-only data).
@@ -40,22 +43,32 @@ def laplacian_csr(n: int, links: Iterable[tuple[int, int, Fraction]]) -> scipy.s
     ``|fl(L)_ij - L_ij| <= u |L_ij|``; exactly zero degrees are not stored, and no entry is a
     floating-point sum of duplicates.
     """
+    links = list(links)
     rows: list[int] = []
     cols: list[int] = []
     vals: list[float] = []
-    deg = [Fraction(0)] * n
+    den = 1  # the degrees as integers over one common denominator: exact sums without Fraction arithmetic
+    for _, _, w in links:
+        q = w.denominator
+        if den % q:
+            den = den * q // math.gcd(den, q)
+            if den.bit_length() > _COMMON_DENOMINATOR_BITS:
+                break
+    common = den.bit_length() <= _COMMON_DENOMINATOR_BITS
+    exact: list[int] | list[Fraction] = [0] * n if common else [Fraction(0)] * n
     for u, v, w in links:
         fw = -float(w)
         rows += [u, v]
         cols += [v, u]
         vals += [fw, fw]
-        deg[u] += w
-        deg[v] += w
-    for i, d in enumerate(deg):
+        x = w.numerator * (den // w.denominator) if common else w
+        exact[u] += x  # type: ignore[operator]
+        exact[v] += x  # type: ignore[operator]
+    for i, d in enumerate(exact):
         if d != 0:
             rows.append(i)
             cols.append(i)
-            vals.append(float(d))
+            vals.append(d / den if common else float(d))  # int / int is correctly rounded
     L = scipy.sparse.csr_matrix((vals, (rows, cols)), shape=(n, n))
     L.sort_indices()
     for arr in (L.data, L.indices, L.indptr):

@@ -27,6 +27,7 @@ from glocal_verify.numerics.exact import nullspace
 from glocal_verify.numerics.krylov import krylov_degree_mod
 from glocal_verify.numerics.minors import charpoly_mod, prime_for
 from glocal_verify.numerics.symmetry import twin_modes
+from glocal_verify.spec.types import NORMAL_MODE
 from glocal_verify.results import Status, Verdict
 
 __all__ = ["distinct_eigenvalues_modular", "eigenvector_differences_modular", "laplacian_entries"]
@@ -48,7 +49,24 @@ def laplacian_entries(system: System, mode: str) -> Mapping[tuple[int, int], Fra
     mode : str
     """
 
+    mode = system.check_mode(mode)
+
+    def update() -> Mapping[tuple[int, int], Fraction]:  # a safe mode: the normal entries and its few changed links
+        ent = dict(laplacian_entries(system, NORMAL_MODE))
+        adj = system.adjacency(mode)
+        for a, b, d in system.switching_links(mode):
+            u, v = system.index[a], system.index[b]
+            for key, delta in (((u, v), -d), ((v, u), -d), ((u, u), d), ((v, v), d)):
+                x = ent.get(key, Fraction(0)) + delta
+                if x != 0 or (key[0] == key[1] and adj[system.labels[key[0]]]):
+                    ent[key] = x
+                else:
+                    ent.pop(key, None)
+        return ent
+
     def build() -> Mapping[tuple[int, int], Fraction]:
+        if mode != NORMAL_MODE:
+            return update()
         ent: dict[tuple[int, int], Fraction] = {}
         diag: list[list[Fraction]] = [[] for _ in range(system.n)]
         index = system.index
@@ -62,7 +80,7 @@ def laplacian_entries(system: System, mode: str) -> Mapping[tuple[int, int], Fra
                 ent[(i, i)] = sum(ws, Fraction(0))
         return ent
 
-    return _LAPLACIAN_ENTRIES_KIND.get(system, (system.check_mode(mode),), build)  # type: ignore[no-any-return]
+    return _LAPLACIAN_ENTRIES_KIND.get(system, (mode,), build)  # type: ignore[no-any-return]
 
 
 def eigenvector_differences_modular(system: System, mode: str) -> Verdict | None:

@@ -341,10 +341,12 @@ class _LazyRow:
         return self.rows.entry(self.i, j)  # type: ignore[no-any-return]
 
 
-def _krawczyk_zero(system: System, case: LocalCase, witness: dict[str, Any]) -> Any:
-    """The first reported zero (or normal-rank direction) that the Krawczyk test proves, or None."""
-    from glocal_verify.analysis.local.cluster_pencil import krawczyk_kernel
+def _support_pencil(system: System, case: LocalCase) -> tuple[_LazyRows, _LazyRows, np.ndarray]:
+    """The exact pencil P(lam) = P0 + lam P1 of the case as lazy rows, and the support of P0 or P1.
 
+    The rows are evaluated on access: the zero proofs below read only the rows and columns of a
+    candidate's support (G and C_loc hold integers, read as pencil_matrices_exact reads them).
+    """
     A, _, support = exact_A_float(system, case)
     G, C = input_output_matrices(case)
     n, m = len(A), G.shape[1]
@@ -357,14 +359,81 @@ def _krawczyk_zero(system: System, case: LocalCase, witness: dict[str, Any]) -> 
             return -Fraction(round(float(G[i, j - n])))
         return Fraction(round(float(C[i - n, j]))) if j < n else RATIONAL_ZERO
 
-    # the Krawczyk test reads only the rows and columns of the candidate's support: the exact
-    # rows are evaluated on access (G and C_loc hold integers, read as pencil_matrices_exact reads them)
     P0 = _LazyRows(n + C.shape[0], n + m, p0)
     P1 = _LazyRows(n + C.shape[0], n + m, lambda i, j: _ONE if i == j and i < n else RATIONAL_ZERO)
+    return P0, P1, nonzero
+
+
+def _zero_candidates(witness: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """The reported zeros (at most 12) and the direction witness: the candidates a zero proof tries."""
     cands = list(witness.get("zeros", []))[:12]
     if isinstance(witness.get("direction"), dict) and "lambda" in witness["direction"]:
         cands.append(witness["direction"])
-    for d in cands:
+    return cands
+
+
+def _square_zero_mod_p(system: System, case: LocalCase, witness: Mapping[str, Any]) -> str | None:
+    """A zero of the exact pencil proven by a square restriction whose determinant is not constant, or None.
+
+    A candidate (lam, v) proposes the support S of v (entries above 1e-13 of the largest) and
+    the rows R with an exact nonzero of P0 or P1 in the columns S; every other row vanishes on
+    the vectors supported on S, exactly. When ``|R| = |S|``, ``d(lam) = det P[R, S](lam)`` is a
+    polynomial over Q. Two different values of d modulo a prime p that divides no
+    denominator of the block (at two points drawn modulo p) prove a coefficient of positive
+    degree nonzero modulo p, so nonzero over Q: d has a complex root lam*, where P[R, S](lam*)
+    has a kernel vector w, and w extended by zeros is a kernel vector of P(lam*): the pencil
+    loses column rank. The float candidate only proposes S; the location of lam* is not
+    certified. Cost: two |S| x |S| determinants modulo p (python-flint ``nmod_mat``), against
+    the Krawczyk test's |S| x |S| ball products at 128 bits.
+    """
+    import flint
+
+    from glocal_verify.numerics.minors import prime_for
+
+    P0, P1, nonzero = _support_pencil(system, case)
+    rng = np.random.default_rng(len(nonzero))
+    for d in _zero_candidates(witness):
+        v = _witness_vector(case, d)
+        if v.size != nonzero.shape[1] or not np.all(np.isfinite(v)) or not np.any(v):
+            continue
+        top = float(np.max(np.abs(v)))
+        S = np.flatnonzero(np.abs(v) > 1e-13 * top).tolist()
+        R = np.flatnonzero(np.any(nonzero[:, S], axis=1)).tolist()
+        if len(R) != len(S):
+            continue
+        # only the exact support's entries of the block are read (a few per row), not |S|^2
+        rr, cc = np.nonzero(nonzero[np.ix_(R, S)])
+        ent = [(int(a), int(b), P0.entry(R[a], S[b]), P1.entry(R[a], S[b])) for a, b in zip(rr, cc)]
+        values = {x for _, _, e0, e1 in ent for x in (e0, e1) if x is not RATIONAL_ZERO and x != 0}
+        q = prime_for(sorted(values) or [Fraction(1)])
+
+        def red(x: Fraction) -> int:
+            return 0 if x is RATIONAL_ZERO or x == 0 else x.numerator % q * pow(x.denominator % q, -1, q) % q
+
+        red_ent = [(a * len(S) + b, red(e0), red(e1)) for a, b, e0, e1 in ent]
+        k = len(S)
+        x1, x2 = (int(t) for t in rng.integers(1, q, size=2))
+        dets = []
+        for t in (x1, x2):
+            flat = [0] * (k * k)
+            for pos, a0, a1 in red_ent:
+                flat[pos] = (a0 + t * a1) % q
+            dets.append(int(flint.nmod_mat(k, k, flat, q).det()))
+        d1, d2 = dets
+        if d1 != d2:
+            return (
+                f"det P[R, S](lam) over the candidate's support ({k} rows and columns, every other row zero there) takes two values "
+                f"modulo the prime {q}: a nonconstant polynomial, so P loses column rank at one of its roots (near lam ~ {complex(d['lambda']):.6g}; location not certified)"
+            )
+    return None
+
+
+def _krawczyk_zero(system: System, case: LocalCase, witness: dict[str, Any]) -> Any:
+    """The first reported zero (or normal-rank direction) that the Krawczyk test proves, or None."""
+    from glocal_verify.analysis.local.cluster_pencil import krawczyk_kernel
+
+    P0, P1, nonzero = _support_pencil(system, case)
+    for d in _zero_candidates(witness):
         enc = krawczyk_kernel(P0, P1, complex(d["lambda"]), _witness_vector(case, d), nonzero=nonzero)
         if enc is not None:
             return enc
@@ -645,9 +714,12 @@ def certify_pencil_verdict(system: System, case: LocalCase, numeric: Verdict) ->
       rounding level): undecided.
     * ``fails`` is proved by the structural rank of the exact support: below the column count
       for the generic pattern (normal-rank deficiency, every lam) or at a rational zero lam in
-      {0, -gamma} whose exact pattern loses structural rank, or by the Krawczyk test in ball
-      arithmetic on a reported zero (:func:`~glocal_verify.analysis.local.cluster_pencil.krawczyk_kernel`:
-      an exact kernel vector inside certified enclosures). A zero verified only by a small
+      {0, -gamma} whose exact pattern loses structural rank, by a square restriction of the
+      pencil to a reported zero's support whose determinant is not constant modulo a prime
+      (:func:`_square_zero_mod_p`: a root exists, its location not certified), or by the
+      Krawczyk test in ball arithmetic on a reported zero
+      (:func:`~glocal_verify.analysis.local.cluster_pencil.krawczyk_kernel`: an exact kernel
+      vector inside certified enclosures). A zero verified only by a small
       backward error is a robustness statement, not a proof of rank loss: undecided.
 
     Parameters
@@ -719,6 +791,9 @@ def certify_pencil_verdict(system: System, case: LocalCase, numeric: Verdict) ->
         rz = _rational_s_zero(system, case, witness)
         if rz is not None:
             return rz
+        sq = _square_zero_mod_p(system, case, witness)
+        if sq is not None:
+            return sq
         enc = _krawczyk_zero(system, case, witness)
         if enc is not None:
             cert["lambda_enclosure"] = str(enc.lam)

@@ -43,6 +43,7 @@ import scipy.sparse
 from glocal_verify import config
 from glocal_verify.derived import Kind
 from glocal_verify.model import System
+from glocal_verify.spec.types import NORMAL_MODE
 from glocal_verify.numerics.rounding import EPS, gamma_bound
 from glocal_verify.numerics.threads import blas_threads
 
@@ -201,4 +202,6 @@ def state_rounding_bound(system: System, name: str, mode: str) -> float:
             k += 1
         return math.sqrt(total) * (1.0 + (k + 4) * EPS) + 1e-300 if total > 0 else 0.0
 
+    if system.cluster_unchanged(name, mode):  # the normal mode's block, entries and bound
+        mode = NORMAL_MODE
     return _STATE_ROUNDING_KIND.get(system, (name, mode), compute)  # type: ignore[no-any-return]

@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from glocal_verify import config
+from glocal_verify.analysis.laplacian.blocks import block_cut_tree
 from glocal_verify.analysis.laplacian.twins import laplacian_entries
 from glocal_verify.analysis.unobservable.subspace import rational_unobservable_candidates
 from glocal_verify.derived import Kind
@@ -175,24 +176,17 @@ def _dominators(system: System) -> dict[Label, frozenset[Label]]:
     G.add_edges_from(tuple(k) for k in system.edges())
     G.add_edges_from((m, sink) for m in system.monitored)
     comp = nx.node_connected_component(G, sink)
-    H = G.subgraph(comp)
-    blocks = [frozenset(b) for b in nx.biconnected_components(H)]
-    cuts = set(nx.articulation_points(H))
-    T = nx.Graph()  # block-cut tree: cut vertices ("c", v) and blocks ("b", i)
-    for i, blk in enumerate(blocks):
-        T.add_node(("b", i))
-        for v in blk & cuts:
-            T.add_edge(("b", i), ("c", v))
-    home = {v: ("c", v) if v in cuts else ("b", next(i for i, blk in enumerate(blocks) if v in blk)) for v in H}
-    parent = nx.predecessor(T, home[sink])  # BFS tree rooted at t's node
+    tree = block_cut_tree(comp, G.subgraph(comp).edges(), root=sink)
     out: dict[Label, frozenset[Label]] = {}
-    memo: dict[Any, frozenset[Label]] = {home[sink]: frozenset()}
+    if sink not in tree.home:  # no monitor: nothing reaches t
+        return out
+    memo: dict[Any, frozenset[Label]] = {tree.home[sink]: frozenset()}
 
     def above(node: Any) -> frozenset[Label]:
         chain = []
         while node not in memo:
             chain.append(node)
-            node = parent[node][0]
+            node = tree.parent[node]
         acc = memo[node]
         for nd in reversed(chain):
             acc = acc | ({nd[1]} if nd[0] == "c" and nd[1] != sink else set())
@@ -201,7 +195,7 @@ def _dominators(system: System) -> dict[Label, frozenset[Label]]:
 
     for v in system.labels:
         if v in comp:
-            out[v] = above(home[v]) | {v}
+            out[v] = above(tree.home[v]) | {v}
     return out
 
 

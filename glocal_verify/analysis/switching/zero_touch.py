@@ -34,7 +34,7 @@ How it is decided, cheapest proof first (every step exact):
    hanging off that subtree at a cut vertex c carries no current, so every potential there
    equals y_k[c]. A switching link whose two ends hang off the same vertex sees no potential
    difference for any k: when every link does, dL_q y_k = 0 for all k and the switch is
-   avoided (:func:`_attach_points`).
+   avoided (:meth:`~glocal_verify.analysis.laplacian.blocks.BlockCutTree.attach_points`).
 2. *Too few links* (the same sizes). rank [dL_q y_k] <= rank dL_q: a mode whose change has rank below m - 1
    (one link and three attacked agents) is avoided whatever the potentials.
 3. *Potentials modulo a prime* prove a touch: rank m - 1 of [dL_q y_k] modulo p is rank
@@ -64,6 +64,7 @@ import scipy.sparse
 
 from glocal_verify import config
 from glocal_verify.analysis.switching.touch import Avoidance, block_norm, delta_block
+from glocal_verify.analysis.laplacian.blocks import BlockCutTree, block_cut_tree
 from glocal_verify.analysis.laplacian.twins import laplacian_entries
 from glocal_verify.analysis.stealthy.zda import ZdaDirection, ZdaZero
 from glocal_verify.derived import Kind
@@ -78,7 +79,7 @@ _DELTA_NORM_KIND: Kind[float] = Kind("delta-norm", __name__, "float")
 _GROUNDED_LAPLACIAN_INVERSE_MOD_KIND: Kind[Any] = Kind("grounded-laplacian-inverse-mod", __name__, "Any")
 _NORMAL_GRAPH_CONNECTED_KIND: Kind[bool] = Kind("normal-graph-connected", __name__, "bool")
 _POTENTIALS_MOD_KIND: Kind[Any] = Kind("attack-potentials-mod", __name__, "Any")
-_ATTACH_KIND: Kind[Any] = Kind("attach-points", __name__, "Any")
+_BLOCKS_KIND: Kind[BlockCutTree] = Kind("normal-block-cut-tree", __name__, "BlockCutTree")
 
 
 @dataclasses.dataclass(frozen=True, slots=True)
@@ -236,53 +237,10 @@ def _potentials_mod(system: System, F: Sequence[int]) -> tuple[int, np.ndarray] 
     return None
 
 
-def _attach_points(system: System, F: Sequence[int]) -> list[int]:
-    """For every agent, the agent whose potential it shares for every current between attacked agents.
-
-    Agents in the blocks of G_1 on the block-cut tree between the attacked agents attach to
-    themselves; an agent in a part hanging off that subtree attaches to the cut vertex where
-    the part hangs (no current enters it, so the potential is constant there).
-    """
-    import networkx as nx
-
-    G = nx.Graph()
-    G.add_nodes_from(range(system.n))
-    G.add_edges_from((system.index[u], system.index[v]) for u, v in (tuple(k) for k in system.edges(NORMAL_MODE)))
-    blocks = [set(b) for b in nx.biconnected_components(G)]
-    cuts = set(nx.articulation_points(G))
-    T = nx.Graph()
-    for k, b in enumerate(blocks):
-        T.add_node(("b", k))
-        for v in b & cuts:
-            T.add_edge(("b", k), ("c", v))
-    home = {v: ("c", v) if v in cuts else ("b", k) for k, b in enumerate(blocks) for v in b}
-    terminals = {home[f] for f in F}
-    keep = set(T.nodes)
-    leaves = [t for t in keep if T.degree(t) <= 1 and t not in terminals]
-    while leaves:  # prune to the subtree spanning the terminals
-        t = leaves.pop()
-        if t not in keep:
-            continue
-        keep.discard(t)
-        for nb in T.neighbors(t):
-            if nb in keep and nb not in terminals and sum(1 for x in T.neighbors(nb) if x in keep) <= 1:
-                leaves.append(nb)
-    inside = {v for t in keep if t[0] == "b" for v in blocks[t[1]]} | {t[1] for t in keep if t[0] == "c"}
-    attach = list(range(system.n))
-    for c in inside & cuts:
-        stack = [x for x in T.neighbors(("c", c)) if x not in keep]
-        seen = set(stack)
-        while stack:
-            t = stack.pop()
-            if t[0] == "b":
-                for v in blocks[t[1]]:
-                    if v != c:
-                        attach[v] = c
-            for x in T.neighbors(t):
-                if x not in keep and x not in seen and x != ("c", c):
-                    seen.add(x)
-                    stack.append(x)
-    return attach
+def _normal_blocks(system: System) -> BlockCutTree:
+    """The block-cut tree of G_1 on agent indices (once per system: an audit asks every attack set)."""
+    edges = ((system.index[u], system.index[v]) for u, v in (tuple(k) for k in system.edges(NORMAL_MODE)))
+    return _BLOCKS_KIND.get(system, (NORMAL_MODE,), lambda: block_cut_tree(range(system.n), edges))
 
 
 def _float_potentials(system: System, F: Sequence[int]) -> np.ndarray:
@@ -316,7 +274,7 @@ def _structural(system: System, F: Sequence[int], mode: str) -> ZeroTouch | None
     m = len(F)
     if not rows:
         return None
-    attach = _ATTACH_KIND.get(system, (NORMAL_MODE, tuple(sorted(F))), lambda: _attach_points(system, F))
+    attach = _normal_blocks(system).attach_points(F, rows)
     if all(attach[i] == attach[j] for i, j, _ in links):
         rank = 0
     else:
