@@ -125,3 +125,23 @@ def test_the_cluster_step_locates_the_zeros_the_count_finds_on_the_realistic_fam
     c = zero_set_completeness(system, system.attacked)
     assert c.complete, c.text
     assert "located by the cluster of F" in c.text and "beyond P2" in c.text
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_the_monitors_quotient_reused_for_an_input_set_alone_in_its_cells_gives_the_count_of_the_refined_one(seed: int) -> None:
+    import itertools
+    import random
+
+    from glocal_verify.analysis.stealthy.zda_completeness import _negative_axis_only, _quotient, _Quotient
+    from glocal_verify.design.generators import adverse_clustered_spec
+
+    system = System(adverse_clustered_spec(40, cluster_size=20, degree=3.5, measure="neighbours", modes=0, attack=False, seed=seed))
+    lap, alpha = laplacian_entries(system, NORMAL_MODE), Fraction(system.alpha_q)
+    M = system.idx(system.monitored)
+    base = _Quotient(*_quotient(system.n, lap, alpha, set(M)))
+    pairs = list(itertools.combinations(range(system.n), 2))
+    random.Random(seed).shuffle(pairs)
+    for F in pairs[:12]:
+        with_base = _negative_axis_only(system.n, lap, alpha, list(F), M, "P", base)
+        fresh = _negative_axis_only(system.n, lap, alpha, list(F), M, "P")
+        assert (with_base.proven, with_base.states, with_base.merged, with_base.text) == (fresh.proven, fresh.states, fresh.merged, fresh.text)

@@ -628,7 +628,11 @@ def estimate_audit(sizes: SpecSizes, k: int, candidates: int | None = None, *, e
     on 2 workers took 641 s and 11.9 GiB over its processes (estimate 7.3 min, 8.8 GiB; before
     the singles were decided by minors and local zeros: 29 min and 9.2 GB); N = 200 on 10 clusters 8 s in the
     library, about 20 s with JSON from the command line (estimate 17 s); 27 min at N = 300 on
-    3 clusters, where a fifth of the pairs need the whole zero set (estimate 10 min).
+    3 clusters, where a fifth of the pairs need the whole zero set (estimate 10 min). On the
+    adverse family's first member at N = 1000 (10 clusters of 100, mean degree 8, observers
+    measuring their neighbours only), the 7,875 sets of every eighth agent took about 110 CPU-s
+    in one process (estimate 113 s) and the 2,016 of every sixteenth 33 CPU-s (estimate 56 s);
+    the whole audit extrapolates to about 35 min on 2 workers (estimate 22 min).
 
     Parameters
     ----------

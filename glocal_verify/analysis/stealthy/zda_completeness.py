@@ -80,6 +80,7 @@ from glocal_verify.spec.types import NORMAL_MODE, Label
 __all__ = ["ZeroSetCompleteness", "zero_set_completeness"]
 
 _COMPLETENESS_KIND: Kind["ZeroSetCompleteness"] = Kind("zda-completeness", __name__, "ZeroSetCompleteness")
+_MONITOR_QUOTIENT_KIND: Kind["_Quotient"] = Kind("monitor-quotient", __name__, "_Quotient")
 
 
 @dataclass(frozen=True, slots=True)
@@ -107,6 +108,22 @@ class ZeroSetCompleteness:
     twin_modes: int
     count: ZeroCountBound | None
     text: str
+
+
+@dataclass(frozen=True, slots=True)
+class _Quotient:
+    """The quotient of :func:`_quotient`: its size, the entries of -alpha L_W and the cell of each agent."""
+
+    size: int
+    entries: dict[tuple[int, int], Fraction]
+    cell: list[int]
+
+    def singletons(self) -> set[int]:
+        """The agents alone in their cell."""
+        count: dict[int, int] = {}
+        for c in self.cell:
+            count[c] = count.get(c, 0) + 1
+        return {a for a, c in enumerate(self.cell) if count[c] == 1}
 
 
 def _quotient(n: int, lap: Mapping[tuple[int, int], Fraction], alpha: Fraction, special: set[int]) -> tuple[int, dict[tuple[int, int], Fraction], list[int]]:
@@ -188,9 +205,21 @@ class _AxisProof:
     text: str
 
 
-def _negative_axis_only(n: int, lap: Mapping[tuple[int, int], Fraction], alpha: Fraction, F: list[int], M: list[int], what: str) -> _AxisProof:
-    """The twin reduction and the modular count (module docstring) for one selection pencil."""
-    size, quot, cell = _quotient(n, lap, alpha, set(F) | set(M))
+def _negative_axis_only(
+    n: int, lap: Mapping[tuple[int, int], Fraction], alpha: Fraction, F: list[int], M: list[int], what: str, base: _Quotient | None = None
+) -> _AxisProof:
+    """The twin reduction and the modular count (module docstring) for one selection pencil.
+
+    ``base``: the quotient with the agents of M alone individualised (the coarsest equitable
+    partition in which they are singletons). When every agent of F is already alone in its
+    cell there, it is also the coarsest one with F and M individualised (it is equitable, has
+    them all as singletons, and no partition with F and M individualised is coarser than the
+    one with M alone): the refinement is not run again for this F (an audit asks for every set).
+    """
+    if base is not None and set(F) <= base.singletons():
+        size, quot, cell = base.size, base.entries, base.cell
+    else:
+        size, quot, cell = _quotient(n, lap, alpha, set(F) | set(M))
     merged = n - size
     cb = zero_count_bound_mod_p(size, quot, [cell[f] for f in F], [cell[o] for o in M])
     if cb.bound is None:
@@ -357,7 +386,9 @@ def zero_set_completeness(system: System, actuators: Iterable[Label], *, cluster
                 f"not left-invertible: at most {paths} vertex-disjoint path(s) from F to M < |F| = {len(Fi)} (for every choice of the weights), "
                 "so a stealthy ZDA exists at every lambda0, unstable ones included: lambda0 = 0 is not the fastest-growing zero",
             )
-        whole = _negative_axis_only(system.n, laplacian_entries(system, NORMAL_MODE), Fraction(system.alpha_q), Fi, M, "the pencil in s = lambda^2 + gamma lambda")
+        lap, alpha = laplacian_entries(system, NORMAL_MODE), Fraction(system.alpha_q)
+        base = _MONITOR_QUOTIENT_KIND.get(system, (NORMAL_MODE, tuple(M)), lambda: _Quotient(*_quotient(system.n, lap, alpha, set(M))))
+        whole = _negative_axis_only(system.n, lap, alpha, Fi, M, "the pencil in s = lambda^2 + gamma lambda", base)
         tail = ": Q(s) is left-invertible and loses rank only at real s <= 0, so every zero lambda != 0 has Re lambda < 0"
         if whole.proven:
             return ZeroSetCompleteness(True, whole.states, whole.merged, whole.count, f"zero set complete: {whole.text}{tail}")
