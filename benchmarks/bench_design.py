@@ -121,10 +121,14 @@ DESIGN_GOAL_S = 120.0
 
 def _design_command_row(n: int, clusters: int) -> Row:
     """``glocal-verify design`` (k = 2) on symmetric clusters with neighbour-only observers, from the command line."""
+    from glocal_verify.conditions.cost import SpecSizes, format_seconds
+    from glocal_verify.conditions.design_cost import estimate_whole_design
     from glocal_verify.design.generators import symmetric_clusters_spec
+    from glocal_verify.design.network import CONFIRM_LIMIT
 
     spec = symmetric_clusters_spec(n, clusters, seed=1, degree=8.0 if n >= 40 else 3.0)
     te = eigh_seconds(System(spec).laplacian())
+    est = estimate_whole_design(SpecSizes.from_spec(spec), confirm_limit=CONFIRM_LIMIT, moves_positions=bool(spec.monitor.positions))
     with tempfile.TemporaryDirectory() as tmp:
         path = write_spec(spec, Path(tmp), f"design{n}")
         out = os.path.join(tmp, "designed.toml")
@@ -135,7 +139,7 @@ def _design_command_row(n: int, clusters: int) -> Row:
                 head = next((line[2:].strip() for line in fh if line.startswith("# undetected")), "")
     undecided = head.split("undecided ")[-1].split(" of ")[0].split(" -> ")[-1] if "undecided" in head else "0"
     met = "" if m.seconds <= DESIGN_GOAL_S and not m.timed_out else "; NOT MET"
-    note = f"{m.describe(1200.0)}; {head or 'no design written'}; goal < {DESIGN_GOAL_S:g} s on 2 cores{met}"
+    note = f"{m.describe(1200.0)}; {head or 'no design written'}; estimated {format_seconds(est.seconds)} up front; goal < {DESIGN_GOAL_S:g} s on 2 cores{met}"
     return Row("design", f"design N = {n} ({clusters} symmetric clusters, neighbour-only observers), k = 2, command line", "numpy.linalg.eigh(L)", te,
                "glocal-verify design (whole run)", m.seconds, note, m.peak_mib, f"{undecided} after")
 

@@ -43,7 +43,7 @@ def cmd_design(args: argparse.Namespace) -> int:
 
     exact = not args.numeric and system.n <= 60
     est = estimate_whole_design(SpecSizes.from_spec(system.spec), max_attackers=args.max_attackers, place=not args.keep_observers, exact_assessment=exact,
-                                budget=args.budget, confirm_limit=CONFIRM_LIMIT)
+                                budget=args.budget, confirm_limit=CONFIRM_LIMIT, moves_positions=bool(system.spec.monitor.positions))
     check_cost(est, args, how=("a smaller --max-attackers",))
     say = None if args.quiet else (lambda line: write_line(f"design: {line} ..."))
     tick = count_progress(args.quiet, prefix="design")

@@ -47,7 +47,7 @@ from typing import Any
 
 from glocal_verify import config
 from glocal_verify.conditions.cost import CostEstimate, SpecSizes
-from glocal_verify.conditions.design_cost import estimate_monitor_step, estimate_safe_modes
+from glocal_verify.conditions.design_cost import estimate_monitor_step, estimate_whole_design
 from glocal_verify.design.audit import AuditResult, audit
 from glocal_verify.design.monitors import MonitorDesign, design_monitors
 from glocal_verify.design.placement import ObserverProposal, place_cluster
@@ -319,11 +319,13 @@ def design_network(
     tick : callable, optional
         Called with (attack sets done, total) within the long steps.
     admit : callable, optional
-        Called with the estimate of the safe-mode phase
-        (:func:`glocal_verify.conditions.design_cost.estimate_safe_modes`) once the audit with the
-        observers has counted the undetected sets, before the phase starts, and with that of
-        the monitor step (:func:`glocal_verify.conditions.design_cost.estimate_monitor_step`) once the
-        safe modes leave sets unexposed; it may raise
+        Called with the estimate of what is left of the design
+        (:func:`glocal_verify.conditions.design_cost.estimate_whole_design` with the movable sets
+        and the targets counted: the up-front model, so never above its estimate for the same
+        spec) once the audit with the observers has counted the undetected sets, before the
+        safe-mode phase starts, and with that of the monitor step
+        (:func:`glocal_verify.conditions.design_cost.estimate_monitor_step`, new work: it runs
+        only when the safe modes leave sets unexposed) before that step; it may raise
         (:class:`~glocal_verify.conditions.cost.SizeLimitError`) to refuse the run.
 
     Returns
@@ -367,7 +369,9 @@ def design_network(
     lambdas = {F: r.lambda0 for F, r in mid.items() if r.lambda0 is not None}
     if targets:
         if admit is not None:
-            admit(estimate_safe_modes(SpecSizes.from_spec(spec), len(targets), exact=mid_sys.n <= config.get("safe_modes_exact_max_agents")))
+            # what is left of the design, by the model of the up-front estimate with the sets now counted (never above it)
+            admit(estimate_whole_design(SpecSizes.from_spec(system.spec), max_attackers=max_attackers, place=place, budget=budget,
+                                        confirm_limit=CONFIRM_LIMIT, movable=len(movable), targets=len(targets), from_safe_modes=True))
         say(f"designing safe modes for {len(targets)} undetected attack sets")
         safe = design_safe_modes(mid_sys, targets, None, budget, weights=weights, lambdas=lambdas, max_links=max_links,
                                  monitor_room=monitor_budget, confirm_limit=CONFIRM_LIMIT, progress=say, tick=tick)
@@ -388,7 +392,8 @@ def design_network(
     pending = [F for F in targets if rows[F].verdict != "detected"]
     if pending and room > 0:
         if admit is not None:
-            admit(estimate_monitor_step(SpecSizes.from_spec(spec), len(pending), room, exact=mid_sys.n <= config.get("safe_modes_exact_max_agents")))
+            admit(estimate_monitor_step(SpecSizes.from_spec(spec), len(pending), room, exact=mid_sys.n <= config.get("safe_modes_exact_max_agents"), movable=len(movable),
+                                        pruned=len(safe.monitors) + room, max_attackers=max_attackers))
         spec = with_modes(with_monitors(spec, safe.monitors), [m.mode_spec() for m in safe.modes], keep=True)
         spec, added, safe = _monitor_unexposed(spec, pending, room, safe, budget, weights, max_links, say, tick)
     say("choosing the global monitors")

@@ -286,7 +286,8 @@ def prune(
                 if key not in no_mode:
                     others = frozenset(x for x in current if not (x.kind == "link" and x.key[0] == q))
                     sure = _certain(e, rows, affected)
-                    rest = [F for F in affected if F not in set(sure)]
+                    fallen = set(sure)  # once: a set built per element made this O(|affected| |sure|), minutes at N = 200
+                    rest = [F for F in affected if F not in fallen]
                     no_mode[key] = tuple(sure) + worse(rows, audit_sets(blueprint.build(others), rest, tick))
                 return no_mode[key], {}
         sure = _certain(e, rows, affected)
@@ -297,7 +298,8 @@ def prune(
                        and any(st is not Status.HOLDS for k, st in theorem_verdicts(T, q).items() if k != "pair")}
             sure = tuple(F for F in affected if rows[F].verdict == "detected" and rows[F].stealthy is True and rows[F].exposed_by_modes
                          and set(rows[F].exposed_by_modes) <= failing)
-        rest = [F for F in affected if F not in set(sure)]
+        fallen = set(sure)
+        rest = [F for F in affected if F not in fallen]
         got = audit_sets(spec, rest, tick)
         return tuple(sure) + worse(rows, got), got
 

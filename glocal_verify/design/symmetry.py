@@ -548,7 +548,8 @@ def break_symmetry(
         if made is None:
             break
         out.append(made)
-        covered |= {t for t in left if targets[t].F in set(made.exposes)}
+        exposed = set(made.exposes)  # once: it holds the deferred claims too, thousands at N = 200
+        covered |= {t for t in left if targets[t].F in exposed}
         monitored |= set(system.idx(made.monitors))
         room -= len(made.monitors)
     return out, covered, notes
