@@ -54,21 +54,29 @@ def laplacian_csr(n: int, links: Iterable[tuple[int, int, Fraction]]) -> scipy.s
             den = den * q // math.gcd(den, q)
             if den.bit_length() > _COMMON_DENOMINATOR_BITS:
                 break
-    common = den.bit_length() <= _COMMON_DENOMINATOR_BITS
-    exact: list[int] | list[Fraction] = [0] * n if common else [Fraction(0)] * n
     for u, v, w in links:
         fw = -float(w)
         rows += [u, v]
         cols += [v, u]
         vals += [fw, fw]
-        x = w.numerator * (den // w.denominator) if common else w
-        exact[u] += x  # type: ignore[operator]
-        exact[v] += x  # type: ignore[operator]
-    for i, d in enumerate(exact):
-        if d != 0:
-            rows.append(i)
-            cols.append(i)
-            vals.append(d / den if common else float(d))  # int / int is correctly rounded
+    diagonal: list[tuple[int, float]]
+    if den.bit_length() <= _COMMON_DENOMINATOR_BITS:
+        ideg = [0] * n
+        for u, v, w in links:
+            x = w.numerator * (den // w.denominator)
+            ideg[u] += x
+            ideg[v] += x
+        diagonal = [(i, d / den) for i, d in enumerate(ideg) if d != 0]  # int / int is correctly rounded
+    else:
+        fdeg = [Fraction(0)] * n
+        for u, v, w in links:
+            fdeg[u] += w
+            fdeg[v] += w
+        diagonal = [(i, float(d)) for i, d in enumerate(fdeg) if d != 0]
+    for i, d in diagonal:
+        rows.append(i)
+        cols.append(i)
+        vals.append(d)
     L = scipy.sparse.csr_matrix((vals, (rows, cols)), shape=(n, n))
     L.sort_indices()
     for arr in (L.data, L.indices, L.indptr):

@@ -95,11 +95,11 @@ class BlockCutTree:
             inside.update(p)
         out: dict[Hashable, Hashable] = {}
         for v in vertices:
-            h = self.home.get(v)
-            if h is None or h in inside:
+            node = self.home.get(v)
+            if node is None or node in inside:
                 out[v] = v
                 continue
-            out[v] = self._junction(h, homes[0], inside, v)
+            out[v] = self._junction(node, homes[0], inside, v)
         return out
 
     def _junction(self, h: Node, anchor: Node, inside: set[Node], v: Hashable) -> Hashable:
