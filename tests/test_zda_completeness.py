@@ -132,13 +132,13 @@ def test_the_monitors_quotient_reused_for_an_input_set_alone_in_its_cells_gives_
     import itertools
     import random
 
-    from glocal_verify.analysis.stealthy.zda_completeness import _negative_axis_only, _quotient, _Quotient
+    from glocal_verify.analysis.stealthy.zda_completeness import _negative_axis_only, _quotient
     from glocal_verify.design.generators import adverse_clustered_spec
 
     system = System(adverse_clustered_spec(40, cluster_size=20, degree=3.5, measure="neighbours", modes=0, attack=False, seed=seed))
     lap, alpha = laplacian_entries(system, NORMAL_MODE), Fraction(system.alpha_q)
     M = system.idx(system.monitored)
-    base = _Quotient(*_quotient(system.n, lap, alpha, set(M)))
+    base = _quotient(system.n, lap, alpha, set(M))
     pairs = list(itertools.combinations(range(system.n), 2))
     random.Random(seed).shuffle(pairs)
     for F in pairs[:12]:

@@ -372,7 +372,7 @@ def _zero_candidates(witness: Mapping[str, Any]) -> list[dict[str, Any]]:
     return cands
 
 
-def _square_zero_mod_p(system: System, case: LocalCase, witness: Mapping[str, Any]) -> str | None:
+def _square_zero_mod_p(system: System, case: LocalCase, witness: Mapping[str, Any], pencil: tuple[_LazyRows, _LazyRows, np.ndarray] | None = None) -> str | None:
     """A zero of the exact pencil proven by a square restriction whose determinant is not constant, or None.
 
     A candidate (lam, v) proposes the support S of v (entries above 1e-13 of the largest) and
@@ -390,7 +390,7 @@ def _square_zero_mod_p(system: System, case: LocalCase, witness: Mapping[str, An
 
     from glocal_verify.numerics.minors import prime_for
 
-    P0, P1, nonzero = _support_pencil(system, case)
+    P0, P1, nonzero = pencil if pencil is not None else _support_pencil(system, case)
     rng = np.random.default_rng(len(nonzero))
     for d in _zero_candidates(witness):
         v = _witness_vector(case, d)
@@ -428,11 +428,11 @@ def _square_zero_mod_p(system: System, case: LocalCase, witness: Mapping[str, An
     return None
 
 
-def _krawczyk_zero(system: System, case: LocalCase, witness: dict[str, Any]) -> Any:
+def _krawczyk_zero(system: System, case: LocalCase, witness: dict[str, Any], pencil: tuple[_LazyRows, _LazyRows, np.ndarray] | None = None) -> Any:
     """The first reported zero (or normal-rank direction) that the Krawczyk test proves, or None."""
     from glocal_verify.analysis.local.cluster_pencil import krawczyk_kernel
 
-    P0, P1, nonzero = _support_pencil(system, case)
+    P0, P1, nonzero = pencil if pencil is not None else _support_pencil(system, case)
     for d in _zero_candidates(witness):
         enc = krawczyk_kernel(P0, P1, complex(d["lambda"]), _witness_vector(case, d), nonzero=nonzero)
         if enc is not None:
@@ -797,10 +797,11 @@ def certify_pencil_verdict(system: System, case: LocalCase, numeric: Verdict, *,
         if rz is not None:
             return rz
         # an enclosed zero (Krawczyk) says where; a nonconstant determinant only that one exists
+        pencil = _support_pencil(system, case)  # the exact rows both proofs read
         for located in (True, False) if locate_zeros else (False, True):
-            if not located and (sq := _square_zero_mod_p(system, case, witness)) is not None:
+            if not located and (sq := _square_zero_mod_p(system, case, witness, pencil)) is not None:
                 return sq
-            if located and (enc := _krawczyk_zero(system, case, witness)) is not None:
+            if located and (enc := _krawczyk_zero(system, case, witness, pencil)) is not None:
                 cert["lambda_enclosure"] = str(enc.lam)
                 return f"Krawczyk test: an exact kernel vector of P(lam) at lam in {enc.lam} (ball arithmetic)"
         return None

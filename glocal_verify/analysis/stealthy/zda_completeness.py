@@ -112,22 +112,28 @@ class ZeroSetCompleteness:
 
 @dataclass(frozen=True, slots=True)
 class _Quotient:
-    """The quotient of :func:`_quotient`: its size, the entries of -alpha L_W and the cell of each agent."""
+    """The quotient of :func:`_quotient`.
+
+    Attributes
+    ----------
+    size : int
+        Its cells.
+    entries : dict
+        The nonzero entries of -alpha L_W.
+    cell : list of int
+        The cell of each agent.
+    alone : frozenset of int
+        The agents alone in their cell.
+    """
 
     size: int
     entries: dict[tuple[int, int], Fraction]
     cell: list[int]
-
-    def singletons(self) -> set[int]:
-        """The agents alone in their cell."""
-        count: dict[int, int] = {}
-        for c in self.cell:
-            count[c] = count.get(c, 0) + 1
-        return {a for a, c in enumerate(self.cell) if count[c] == 1}
+    alone: frozenset[int]
 
 
-def _quotient(n: int, lap: Mapping[tuple[int, int], Fraction], alpha: Fraction, special: set[int]) -> tuple[int, dict[tuple[int, int], Fraction], list[int]]:
-    """The quotient by an equitable partition with ``special`` agents in singleton cells: (size, entries of -alpha L_W, cell of each agent).
+def _quotient(n: int, lap: Mapping[tuple[int, int], Fraction], alpha: Fraction, special: set[int]) -> _Quotient:
+    """The quotient by an equitable partition with ``special`` agents in singleton cells.
 
     ``lap`` is a symmetric matrix with nonnegative eigenvalues (L_1 or a principal block). The
     partition is the colour refinement started from the special agents individualised (each
@@ -157,7 +163,11 @@ def _quotient(n: int, lap: Mapping[tuple[int, int], Fraction], alpha: Fraction, 
     for r in reps:
         for k, v in sums(r).items():
             quot[(pos[r], k)] = -alpha * v
-    return len(reps), quot, [pos[cls[a]] for a in range(n)]
+    cell = [pos[cls[a]] for a in range(n)]
+    count: dict[int, int] = {}
+    for c in cell:
+        count[c] = count.get(c, 0) + 1
+    return _Quotient(len(reps), quot, cell, frozenset(a for a, c in enumerate(cell) if count[c] == 1))
 
 
 def _known_zeros(n: int, lap: Mapping[tuple[int, int], Fraction], alpha: Fraction, F: list[int], M: list[int], cell: list[int]) -> dict[Fraction, int]:
@@ -216,10 +226,8 @@ def _negative_axis_only(
     them all as singletons, and no partition with F and M individualised is coarser than the
     one with M alone): the refinement is not run again for this F (an audit asks for every set).
     """
-    if base is not None and set(F) <= base.singletons():
-        size, quot, cell = base.size, base.entries, base.cell
-    else:
-        size, quot, cell = _quotient(n, lap, alpha, set(F) | set(M))
+    q = base if base is not None and base.alone.issuperset(F) else _quotient(n, lap, alpha, set(F) | set(M))
+    size, quot, cell = q.size, q.entries, q.cell
     merged = n - size
     cb = zero_count_bound_mod_p(size, quot, [cell[f] for f in F], [cell[o] for o in M])
     if cb.bound is None:
@@ -253,7 +261,8 @@ def _cluster_zeros_decay(system: System, name: str, X: list[int], inputs: list[i
     xpos = {a: k for k, a in enumerate(X)}
     lap_x = {(xpos[i], xpos[j]): v for (i, j), v in lap.items() if i in xpos and j in xpos and v != 0}
     # the merged modes of the equitable quotient are eigenvalues of -alpha L_XX (real, <= 0)
-    nx_, ent_x, cell = _quotient(len(X), lap_x, alpha, {xpos[a] for a in (*inputs, *outputs)})
+    qx = _quotient(len(X), lap_x, alpha, {xpos[a] for a in (*inputs, *outputs)})
+    nx_, ent_x, cell = qx.size, qx.entries, qx.cell
     A = flint.fmpq_mat(nx_, nx_, [0] * (nx_ * nx_))
     for (i, j), v in ent_x.items():
         A[i, j] = flint.fmpq(v.numerator, v.denominator)
@@ -387,7 +396,7 @@ def zero_set_completeness(system: System, actuators: Iterable[Label], *, cluster
                 "so a stealthy ZDA exists at every lambda0, unstable ones included: lambda0 = 0 is not the fastest-growing zero",
             )
         lap, alpha = laplacian_entries(system, NORMAL_MODE), Fraction(system.alpha_q)
-        base = _MONITOR_QUOTIENT_KIND.get(system, (NORMAL_MODE, tuple(M)), lambda: _Quotient(*_quotient(system.n, lap, alpha, set(M))))
+        base = _MONITOR_QUOTIENT_KIND.get(system, (NORMAL_MODE, tuple(M)), lambda: _quotient(system.n, lap, alpha, set(M)))
         whole = _negative_axis_only(system.n, lap, alpha, Fi, M, "the pencil in s = lambda^2 + gamma lambda", base)
         tail = ": Q(s) is left-invertible and loses rank only at real s <= 0, so every zero lambda != 0 has Re lambda < 0"
         if whole.proven:

@@ -239,8 +239,10 @@ def _potentials_mod(system: System, F: Sequence[int]) -> tuple[int, np.ndarray] 
 
 def _normal_blocks(system: System) -> BlockCutTree:
     """The block-cut tree of G_1 on agent indices (once per system: an audit asks every attack set)."""
-    edges = ((system.index[u], system.index[v]) for u, v in (tuple(k) for k in system.edges(NORMAL_MODE)))
-    return _BLOCKS_KIND.get(system, (NORMAL_MODE,), lambda: block_cut_tree(range(system.n), edges))
+    def build() -> BlockCutTree:
+        return block_cut_tree(range(system.n), ((system.index[u], system.index[v]) for u, v in (tuple(k) for k in system.edges(NORMAL_MODE))))
+
+    return _BLOCKS_KIND.get(system, (NORMAL_MODE,), build)
 
 
 def _float_potentials(system: System, F: Sequence[int]) -> np.ndarray:
